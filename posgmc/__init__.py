@@ -1,0 +1,10 @@
+"""posgmc: model checking and strategy synthesis for partially observable stochastic games."""
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("posgmc")
+except PackageNotFoundError:  # running from a source tree that was not installed
+    __version__ = "0.0.0+unknown"
+
+__all__ = ["__version__"]

@@ -1,0 +1,1 @@
+"""The compiler: vectorized exploration of a FlatModel into an ExplicitModel."""

@@ -1,0 +1,1 @@
+"""Numerical engines on explicit models: graph precomputation, value/interval iteration, products."""

@@ -1,0 +1,1 @@
+"""The frozen compiled game (numpy/scipy only)."""

@@ -1,0 +1,294 @@
+"""The compiled game: one frozen array record for every model type (dtmc, mdp, pomdp, smg, posg).
+
+This module needs nothing but numpy and scipy, so engines can be tested on hand-built models.
+The layout follows Storm's sparse models and PRISM's explicit engine: the choices of all states
+are the rows of one matrix, grouped by state.
+
+Notation: ``S`` = ``num_states``, ``C`` = ``num_choices``, ``V`` = number of state variables.
+
+==================  ===========================  ==================================================
+field               shape, dtype                 invariant
+==================  ===========================  ==================================================
+model_type          ModelType                    dtmc: one choice per state
+initial_states      int64[k], k >= 1             sorted, distinct, each in [0, S)
+row_groups          int64[S + 1]                 row_groups[0] = 0, row_groups[S] = C, strictly
+                                                 increasing (every state has >= 1 choice); the
+                                                 choices of state s are rows row_groups[s]:row_groups[s+1]
+transitions         csr_matrix float64 [C, S]    every row sums to 1 (within 1e-9), entries > 0,
+                                                 sorted column indices, no duplicates
+choice_actions      int32[C]                     index into ``action_names``
+action_names        tuple[str, ...]              action_names[0] == "" (unlabelled choice)
+state_players       int32[S]                     games: index into ``player_names`` of the owner;
+                                                 other types: all 0
+player_names        tuple[str, ...]              games: declared players in order; else ()
+observations        tuple[Observation, ...]      one per partially observing player (pomdp: the
+                                                 single agent, player index 0)
+labels              Mapping[str, bool[S]]        includes "init" and "deadlock"
+reward_models       tuple[RewardModel, ...]      in declaration order
+variable_names      tuple[str, ...]              length V
+state_values        int64[S, V]                  the valuation of each state; bools as 0/1
+deadlocks           int64[d]                     states that had no choice and got a self-loop
+==================  ===========================  ==================================================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from posgmc.errors import PosgmcError
+from posgmc.syntax.ast import ModelType
+
+__all__ = ["ExplicitModel", "Observation", "RewardModel", "ModelInvariantError"]
+
+
+class ModelInvariantError(PosgmcError):
+    """A hand-built or imported model violates an invariant of :class:`ExplicitModel`."""
+
+
+@dataclass(frozen=True, eq=False)
+class Observation:
+    """What one player observes.
+
+    ``player``: index into ``player_names`` (0 for a pomdp's agent).
+    ``state_ids``: int32[S], the observation id of every state, in [0, num_observations).
+    ``names``: the observables (one per column of ``values``).
+    ``values``: int64[num_observations, len(names)], the observed values of each id.
+    """
+
+    player: int
+    state_ids: np.ndarray
+    names: tuple[str, ...]
+    values: np.ndarray
+
+    @property
+    def num_observations(self) -> int:
+        return int(self.values.shape[0])
+
+
+@dataclass(frozen=True, eq=False)
+class RewardModel:
+    """``state``: float64[S] or None; ``choice``: float64[C] or None (action rewards and, folded in,
+    transition rewards). A reward model with both None is all zeros."""
+
+    name: str | None
+    state: np.ndarray | None = None
+    choice: np.ndarray | None = None
+
+    def choice_rewards(self, row_groups: np.ndarray) -> np.ndarray:
+        """Reward collected when choice c is taken in its state: state reward + action reward."""
+        num_choices = int(row_groups[-1])
+        total = np.zeros(num_choices)
+        if self.state is not None:
+            total += np.repeat(self.state, np.diff(row_groups))
+        if self.choice is not None:
+            total += self.choice
+        return total
+
+
+@dataclass(frozen=True, eq=False)
+class ExplicitModel:
+    """See the module docstring for every field's shape, dtype and invariant."""
+
+    model_type: ModelType
+    initial_states: np.ndarray
+    row_groups: np.ndarray
+    transitions: sp.csr_matrix
+    choice_actions: np.ndarray
+    action_names: tuple[str, ...]
+    state_players: np.ndarray
+    player_names: tuple[str, ...] = ()
+    observations: tuple[Observation, ...] = ()
+    labels: Mapping[str, np.ndarray] = field(default_factory=lambda: MappingProxyType({}))
+    reward_models: tuple[RewardModel, ...] = ()
+    variable_names: tuple[str, ...] = ()
+    state_values: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.int64))
+    deadlocks: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+    # -- sizes, counted as Storm counts them ----------------------------------------------------
+
+    @property
+    def num_states(self) -> int:
+        return int(self.row_groups.shape[0] - 1)
+
+    @property
+    def num_choices(self) -> int:
+        return int(self.row_groups[-1])
+
+    @property
+    def num_transitions(self) -> int:
+        return int(self.transitions.nnz)
+
+    @property
+    def choice_states(self) -> np.ndarray:
+        """int64[C]: the state each choice belongs to."""
+        return np.repeat(np.arange(self.num_states, dtype=np.int64), np.diff(self.row_groups))
+
+    def label(self, name: str) -> np.ndarray:
+        try:
+            return self.labels[name]
+        except KeyError:
+            raise PosgmcError(f'the model has no label "{name}"') from None
+
+    def reward_model(self, name: str | int | None) -> RewardModel:
+        """By name, by 1-based index, or the first one for None."""
+        if not self.reward_models:
+            raise PosgmcError("the model has no reward structure")
+        if name is None:
+            return self.reward_models[0]
+        if isinstance(name, int):
+            if not 1 <= name <= len(self.reward_models):
+                raise PosgmcError(f"the model has no reward structure number {name}")
+            return self.reward_models[name - 1]
+        for rm in self.reward_models:
+            if rm.name == name:
+                return rm
+        raise PosgmcError(f'the model has no reward structure "{name}"')
+
+    def observation_of(self, player: int) -> Observation | None:
+        """The observation function of ``player``, or None if that player sees the whole state."""
+        for obs in self.observations:
+            if obs.player == player:
+                return obs
+        return None
+
+    def statistics(self) -> dict[str, Any]:
+        """Sizes for reports (``posgmc build``)."""
+        stats: dict[str, Any] = {
+            "type": self.model_type.value,
+            "states": self.num_states,
+            "choices": self.num_choices,
+            "transitions": self.num_transitions,
+            "initial_states": int(self.initial_states.size),
+            "deadlocks": int(self.deadlocks.size),
+            "labels": sorted(self.labels),
+            "reward_models": [rm.name for rm in self.reward_models],
+        }
+        if self.player_names:
+            counts = np.bincount(self.state_players, minlength=len(self.player_names))
+            stats["players"] = {n: int(c) for n, c in zip(self.player_names, counts)}
+        if self.observations:
+            names = self.player_names or ("agent",)
+            stats["observations"] = {names[o.player]: o.num_observations for o in self.observations}
+        return stats
+
+    # -- validation ----------------------------------------------------------------------------
+
+    def validate(self, *, tolerance: float = 1e-9) -> "ExplicitModel":
+        """Check every invariant of the module docstring; raise :class:`ModelInvariantError`."""
+        S = self.num_states
+        rg = self.row_groups
+        if S < 1:
+            raise ModelInvariantError("a model needs at least one state")
+        if rg[0] != 0 or np.any(np.diff(rg) < 1):
+            raise ModelInvariantError("row_groups must start at 0 and give every state >= 1 choice")
+        C = self.num_choices
+        T = self.transitions
+        if T.shape != (C, S):
+            raise ModelInvariantError(f"transitions has shape {T.shape}, expected {(C, S)}")
+        sums = np.asarray(T.sum(axis=1)).ravel()
+        bad = np.flatnonzero(np.abs(sums - 1.0) > tolerance)
+        if bad.size:
+            raise ModelInvariantError(f"choice {int(bad[0])} has probabilities summing to {sums[bad[0]]}")
+        if T.nnz and T.data.min() <= 0:
+            raise ModelInvariantError("transition probabilities must be positive")
+        init = self.initial_states
+        if init.size < 1 or init.min() < 0 or init.max() >= S:
+            raise ModelInvariantError("initial states must be non-empty and within [0, num_states)")
+        if self.choice_actions.shape != (C,):
+            raise ModelInvariantError("choice_actions must have one entry per choice")
+        if self.state_players.shape != (S,):
+            raise ModelInvariantError("state_players must have one entry per state")
+        if self.model_type is ModelType.DTMC and C != S:
+            raise ModelInvariantError("a dtmc has exactly one choice per state")
+        if self.model_type.is_game and self.player_names:
+            if self.state_players.min() < 0 or self.state_players.max() >= len(self.player_names):
+                raise ModelInvariantError("state_players must index player_names")
+        for obs in self.observations:
+            if obs.state_ids.shape != (S,):
+                raise ModelInvariantError("an observation needs one id per state")
+        for name, lab in self.labels.items():
+            if lab.shape != (S,) or lab.dtype != np.bool_:
+                raise ModelInvariantError(f'label "{name}" must be bool[num_states]')
+        for rm in self.reward_models:
+            if rm.state is not None and rm.state.shape != (S,):
+                raise ModelInvariantError(f"reward model {rm.name!r}: state rewards need shape ({S},)")
+            if rm.choice is not None and rm.choice.shape != (C,):
+                raise ModelInvariantError(f"reward model {rm.name!r}: choice rewards need shape ({C},)")
+        return self
+
+
+def make_model(
+    model_type: ModelType,
+    row_groups: Any,
+    transitions: Any,
+    *,
+    initial_states: Any = (0,),
+    choice_actions: Any | None = None,
+    action_names: tuple[str, ...] = ("",),
+    state_players: Any | None = None,
+    player_names: tuple[str, ...] = (),
+    observations: tuple[Observation, ...] = (),
+    labels: Mapping[str, Any] | None = None,
+    reward_models: tuple[RewardModel, ...] = (),
+    variable_names: tuple[str, ...] = (),
+    state_values: Any | None = None,
+    deadlocks: Any | None = None,
+) -> ExplicitModel:
+    """The validating constructor for hand-built models (tests, imports).
+
+    ``transitions`` may be a dense array-like or any scipy sparse matrix of shape [C, S].
+    Labels "init" and "deadlock" are added when missing.
+    """
+    rg = np.asarray(row_groups, dtype=np.int64)
+    S = rg.size - 1
+    T = sp.csr_matrix(transitions, dtype=np.float64)
+    T.sum_duplicates()
+    T.eliminate_zeros()
+    T.sort_indices()
+    C = int(rg[-1])
+    init = np.unique(np.asarray(initial_states, dtype=np.int64))
+    labs = {k: np.asarray(v, dtype=bool) for k, v in (labels or {}).items()}
+    if "init" not in labs:
+        lab = np.zeros(S, dtype=bool)
+        lab[init] = True
+        labs["init"] = lab
+    dl = np.zeros(0, dtype=np.int64) if deadlocks is None else np.asarray(deadlocks, dtype=np.int64)
+    if "deadlock" not in labs:
+        lab = np.zeros(S, dtype=bool)
+        lab[dl] = True
+        labs["deadlock"] = lab
+    model = ExplicitModel(
+        model_type=model_type,
+        initial_states=init,
+        row_groups=rg,
+        transitions=T,
+        choice_actions=(
+            np.zeros(C, dtype=np.int32)
+            if choice_actions is None
+            else np.asarray(choice_actions, dtype=np.int32)
+        ),
+        action_names=action_names,
+        state_players=(
+            np.zeros(S, dtype=np.int32)
+            if state_players is None
+            else np.asarray(state_players, dtype=np.int32)
+        ),
+        player_names=player_names,
+        observations=observations,
+        labels=MappingProxyType(labs),
+        reward_models=reward_models,
+        variable_names=variable_names,
+        state_values=(
+            np.zeros((S, 0), dtype=np.int64)
+            if state_values is None
+            else np.asarray(state_values, dtype=np.int64)
+        ),
+        deadlocks=dl,
+    )
+    return model.validate()

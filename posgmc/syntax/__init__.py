@@ -1,0 +1,1 @@
+"""Front end, first stage: grammar loading, parsing, and the immutable syntax trees (no meaning yet)."""

@@ -1,0 +1,1 @@
+"""Strategy synthesis for partially observable games (finite-state strategies)."""
