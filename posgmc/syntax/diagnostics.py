@@ -1,0 +1,309 @@
+"""Turn lark's syntax errors into :class:`~posgmc.errors.ParseError` messages a person can act on.
+
+lark reports an unexpected token together with the set of terminal names the parser could have
+accepted. This module words that set in human terms ("expected ';' but found '['", "expected an
+expression"), points the span at the offending token (or just past the last token when the text
+ends early), and adds a hint for the common mistakes: a block that is never closed (a missing
+``endmodule``), a call of something that is not a function, a primed variable outside an update,
+an update without a prime, a time bound with ``+``/``-`` that needs parentheses.
+"""
+
+from __future__ import annotations
+
+from copy import copy
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+from lark import Token, Tree
+from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
+from lark.lexer import PatternStr, TerminalDef
+from lark.parsers.lalr_parser_state import ParserState
+
+from posgmc.errors import ParseError, SourceSpan
+
+_FUNCTIONS = "min, max, floor, ceil, round, pow, mod and log"
+
+# Regular-expression terminals, in words.
+_REGEX_NAMES: dict[str, str] = {
+    "IDENT": "a name",
+    "PIDENT": "a name",
+    "IDENTPRIME": "a primed variable (x')",
+    "CALLNAME": "a function name",
+    "INT": "an integer",
+    "DOUBLE": "a number",
+    "STRING": 'a quoted name ("...")',
+}
+
+# Terminals that may start an expression; when the parser would accept an expression, these are
+# summarised as "an expression" instead of being listed one by one.
+_EXPRESSION_STARTS = frozenset(
+    {
+        "INT", "DOUBLE", "IDENT", "PIDENT", "TRUE", "FALSE", "LPAR", "MINUS", "BANG", "MIN", "MAX",
+        "CALLNAME", "FUNC", "STRING", "P", "PMIN", "PMAX", "R", "RMIN", "RMAX", "LSQB", "F", "G",
+        "X",
+    }
+)  # fmt: skip
+
+# Binary operators (by their text): listed only when nothing else would do.
+_OPERATOR_TEXTS = frozenset(
+    {"+", "-", "*", "/", "&", "|", "=", "!=", "<", "<=", ">", ">=", "=>", "<=>", "?", "U", "W", "R"}
+)
+
+# Top-level keywords of a model file (a model type, or the start of a declaration).
+_MODEL_TOP = frozenset(
+    {
+        "DTMC", "PROBABILISTIC", "MDP", "NONDETERMINISTIC", "POMDP", "SMG", "POSG", "CTMC",
+        "STOCHASTIC", "CTMDP", "PTA", "POPTA", "CSG", "STPG", "TPTG", "CONST", "FORMULA", "LABEL",
+        "GLOBAL", "MODULE", "REWARDS", "INIT", "OBSERVABLES", "OBSERVABLE", "PLAYER",
+    }
+)  # fmt: skip
+
+# Blocks that need a closing keyword: closing terminal -> (opening terminal, what the block is).
+_BLOCKS: dict[str, tuple[str, str]] = {
+    "ENDMODULE": ("MODULE", "module"),
+    "ENDREWARDS": ("REWARDS", "reward structure"),
+    "ENDPLAYER": ("PLAYER", "player"),
+    "ENDOBSERVABLES": ("OBSERVABLES", "observables list"),
+    "ENDINIT": ("INIT", "init block"),
+}
+
+
+@dataclass(frozen=True)
+class _Context:
+    """What the parser was in the middle of when it failed, read off its value stack."""
+
+    stack: tuple[object, ...]
+
+    def opener(self, terminal: str) -> Token | None:
+        """The innermost unclosed token of type ``terminal`` (the ``module`` of an open module)."""
+        for item in reversed(self.stack):
+            if isinstance(item, Token) and item.type == terminal:
+                return item
+        return None
+
+    def in_time_bound(self, token: Token) -> bool:
+        """True when the error looks like a time bound that swallowed less than intended:
+        ``F<=T+1 x`` fails at '+', and ``F<=T-1 x`` parses ``-1 x`` as the operand."""
+        for i in range(len(self.stack) - 1, -1, -1):
+            item = self.stack[i]
+            if isinstance(item, Token) and item.type in ("F", "G", "X", "U", "W", "R"):
+                rest = self.stack[i + 1 :]
+                if rest and isinstance(rest[0], Token) and rest[0].value in _BOUND_OPS:
+                    return token.type in ("PLUS", "MINUS")
+                first = rest[0] if rest else None
+                if len(rest) > 1 and isinstance(first, Tree) and first.data.startswith("bound_"):
+                    after = rest[1]
+                    return (isinstance(after, Tree) and after.data == "neg") or (
+                        isinstance(after, Token) and after.type == "MINUS"
+                    )
+                break
+        return any(_bound_then_minus(item) for item in self.stack if isinstance(item, Tree))
+
+
+_BOUND_OPS = frozenset({"<=", "<", ">=", ">", "="})
+_TEMPORAL_TREES = frozenset({"next", "eventually", "globally", "until", "weak_until", "release"})
+
+
+def _bound_then_minus(tree: Tree) -> bool:
+    """True if ``tree`` (or its last descendant chain) is a bounded temporal operator whose
+    operand right after the bound is a negation."""
+    node: object = tree
+    while isinstance(node, Tree):
+        children = node.children
+        if node.data in _TEMPORAL_TREES:
+            for a, b in zip(children, children[1:]):
+                if (
+                    isinstance(a, Tree)
+                    and str(a.data).startswith("bound_")
+                    and isinstance(b, Tree)
+                    and b.data == "neg"
+                ):
+                    return True
+        node = children[-1] if children else None
+    return False
+
+
+def _join(phrases: Sequence[str]) -> str:
+    if len(phrases) <= 1:
+        return "".join(phrases)
+    return ", ".join(phrases[:-1]) + " or " + phrases[-1]
+
+
+def _describe_terminal(name: str, terminals: dict[str, TerminalDef]) -> str:
+    if name == "$END":
+        return "the end of the text"
+    if name in _REGEX_NAMES:
+        return _REGEX_NAMES[name]
+    term = terminals.get(name)
+    if term is not None and isinstance(term.pattern, PatternStr):
+        return f"'{term.pattern.value}'"
+    return name.lower()
+
+
+def _terminal_text(name: str, terminals: dict[str, TerminalDef]) -> str | None:
+    term = terminals.get(name)
+    if term is not None and isinstance(term.pattern, PatternStr):
+        return str(term.pattern.value)
+    return None
+
+
+def describe_expected(expected: Iterable[str], terminals: dict[str, TerminalDef]) -> str:
+    """Word a set of acceptable terminals: groups become "an expression" or "a declaration",
+    and binary operators are left out when something more specific is possible."""
+    names = set(expected)
+    phrases: list[str] = []
+    if {"MODULE", "CONST"} <= names:
+        names -= _MODEL_TOP
+        phrases.append("a model type or a declaration (module, const, formula, label, ...)")
+    is_expression = {"INT", "LPAR"} <= names and bool({"IDENT", "PIDENT"} & names)
+    operator_names = {n for n in names if _terminal_text(n, terminals) in _OPERATOR_TEXTS}
+    after_operand = {"PLUS", "STAR"} <= names
+    if is_expression:
+        names -= _EXPRESSION_STARTS
+        names -= {n for n in names if _terminal_text(n, terminals) == "<<"}
+        if "CONST" in names:  # the start of a property file item
+            names -= {"CONST", "FORMULA", "LABEL"}
+            phrases.append("a property or a declaration (const, formula, label)")
+        else:
+            phrases.append("an expression")
+    if after_operand:
+        structural = names - operator_names
+        if structural or phrases:
+            names = structural
+        else:
+            return "an operator"
+    temporal = {n for n in names if _terminal_text(n, terminals) in ("U", "W", "R")}
+    if temporal and (names - temporal or phrases):
+        names -= temporal
+    rest = sorted(names, key=lambda n: (n == "$END", _describe_terminal(n, terminals)))
+    phrases.extend(_describe_terminal(n, terminals) for n in rest)
+    return _join(phrases) if phrases else "something else"
+
+
+def _found(token: Token) -> str:
+    if token.type == "$END":
+        return "the end of the text"
+    value = str(token.value)
+    if token.type == "STRING" or "'" in value:
+        return value if value.startswith('"') else f'"{value}"'
+    return f"'{value}'"
+
+
+def _token_span(token: Token, file: str | None) -> SourceSpan:
+    if token.type == "$END":
+        # lark borrows the position of the last token; point just past it.
+        line = token.end_line if isinstance(token.end_line, int) else 1
+        col = token.end_column if isinstance(token.end_column, int) else 1
+        return SourceSpan(line, col, line, col + 1, file)
+    line = token.line if isinstance(token.line, int) else 1
+    col = token.column if isinstance(token.column, int) else 1
+    end_line = token.end_line if isinstance(token.end_line, int) else line
+    end_col = token.end_column if isinstance(token.end_column, int) else col + 1
+    return SourceSpan(line, col, end_line, end_col, file)
+
+
+def _parser_state(exc: UnexpectedInput) -> ParserState | None:
+    ip = getattr(exc, "interactive_parser", None)
+    if ip is not None and isinstance(ip.parser_state, ParserState):
+        return ip.parser_state
+    state = getattr(exc, "state", None)
+    return state if isinstance(state, ParserState) else None
+
+
+def _exact_accepts(state: ParserState) -> set[str]:
+    """The terminals that can really follow the parser's stack.
+
+    An LALR state's table merges the lookaheads of every context with the same items, so its
+    expected set can list tokens that are wrong here; feeding each candidate to a copy of the
+    parser (without tree-building callbacks) keeps only the ones that would be accepted.
+    """
+    conf = copy(state.parse_conf)
+    conf.callbacks = {}
+    accepted: set[str] = set()
+    for name in state.parse_conf.states[state.position]:
+        if not name.isupper():
+            continue
+        trial = ParserState(conf, state.lexer, list(state.state_stack), list(state.value_stack))
+        try:
+            trial.feed_token(Token(name, ""), is_end=name == "$END")
+        except (UnexpectedToken, AssertionError, KeyError):
+            # lark asserts instead of raising on some impossible moves at the end of input
+            continue
+        accepted.add(name)
+    return accepted
+
+
+def _previous_word(text: str, offset: int) -> str | None:
+    """The identifier that ends just before ``offset`` (skipping blanks), if any."""
+    i = offset
+    while i > 0 and text[i - 1] in " \t":
+        i -= 1
+    j = i
+    while j > 0 and (text[j - 1].isalnum() or text[j - 1] == "_"):
+        j -= 1
+    if j < i and (text[j].isalpha() or text[j] == "_"):
+        return text[j:i]
+    return None
+
+
+def unexpected_token(
+    exc: UnexpectedToken, text: str, file: str | None, terminals: dict[str, TerminalDef]
+) -> ParseError:
+    """The :class:`ParseError` for lark's ``UnexpectedToken``."""
+    token: Token = exc.token
+    state = _parser_state(exc)
+    expected = _exact_accepts(state) if state is not None else set(exc.expected or ())
+    context = _Context(tuple(state.value_stack) if state is not None else ())
+    span = _token_span(token, file)
+    wanted = describe_expected(expected, terminals)
+    found = _found(token)
+    message = f"expected {wanted} but found {found}"
+    hint: str | None = None
+
+    closers = [c for c in _BLOCKS if c in expected]
+    if closers:
+        closer = closers[0]
+        opener_type, what = _BLOCKS[closer]
+        opener = context.opener(opener_type)
+        end_word = _terminal_text(closer, terminals) or closer.lower()
+        if opener is not None and (token.type == "$END" or token.type in _MODEL_TOP):
+            where = f"line {opener.line}"
+            if token.type == "$END":
+                message = f"the text ends inside the {what} opened at {where}: expected {wanted}"
+            else:
+                message = (
+                    f"expected {wanted} but found {found}: "
+                    f"the {what} opened at {where} is not closed"
+                )
+            hint = f"add '{end_word}' to close the {what} that starts at {where}"
+    if hint is None and token.type == "LPAR" and "LPAR" not in expected:
+        name = _previous_word(text, token.start_pos) if token.start_pos is not None else None
+        if name is not None:
+            message = f"'{name}' is not a function: found '(' after it"
+            hint = f"the functions are {_FUNCTIONS}; a call is written name(arg, ...)"
+    temporal_word = token.value in ("F", "G", "X", "U", "W")
+    if hint is None and temporal_word and token.type in ("IDENT", token.value):
+        hint = 'temporal operators belong inside P[...] or R[...], e.g. Pmax=? [ F "goal" ]'
+    if hint is None and token.type == "IDENTPRIME":
+        hint = "a primed variable may only appear on the left of an update, as in (x'=x+1)"
+    if hint is None and context.in_time_bound(token):
+        hint = "a time bound with + or - must be in parentheses, e.g. F<=(T-1) \"goal\""
+    if hint is None and "COLON" in expected and token.type in ("SEMICOLON", "PLUS", "AMPERSAND"):
+        if any(isinstance(item, Token) and item.value == "->" for item in context.stack):
+            hint = "an update assigns primed variables, (x'=e); a probability is followed by ':'"
+    return ParseError(message, span, hint=hint)
+
+
+def unexpected_characters(exc: UnexpectedCharacters, text: str, file: str | None) -> ParseError:
+    """The :class:`ParseError` for lark's ``UnexpectedCharacters``."""
+    line = exc.line if isinstance(exc.line, int) else 1
+    col = exc.column if isinstance(exc.column, int) else 1
+    char = exc.char
+    span = SourceSpan(line, col, line, col + 1, file)
+    hint: str | None = None
+    if char == "'":
+        hint = "a primed variable may only appear on the left of an update, as in (x'=x+1)"
+    elif char == '"':
+        hint = "a quoted name must be closed on the same line"
+    shown = repr(char) if char.isprintable() else f"U+{ord(char):04X}"
+    return ParseError(f"unexpected character {shown}", span, hint=hint)
