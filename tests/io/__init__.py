@@ -1,0 +1,1 @@
+"""Tests of posgmc.io: DRN, PRISM explicit and DOT formats."""

@@ -1,0 +1,1 @@
+"""Tests of posgmc.model: the compiled model record."""
