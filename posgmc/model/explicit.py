@@ -202,6 +202,16 @@ class ExplicitModel:
             raise ModelInvariantError("initial states must be non-empty and within [0, num_states)")
         if self.choice_actions.shape != (C,):
             raise ModelInvariantError("choice_actions must have one entry per choice")
+        if not self.action_names or self.action_names[0] != "":
+            raise ModelInvariantError('action_names[0] must be "" (the unlabelled choice)')
+        if C and (self.choice_actions.min() < 0 or self.choice_actions.max() >= len(self.action_names)):
+            raise ModelInvariantError("choice_actions must index action_names")
+        if self.deadlocks.size and (self.deadlocks.min() < 0 or self.deadlocks.max() >= S):
+            raise ModelInvariantError("deadlock states must be within [0, num_states)")
+        if self.state_values.shape != (S, len(self.variable_names)):
+            raise ModelInvariantError(
+                f"state_values has shape {self.state_values.shape}, expected {(S, len(self.variable_names))}"
+            )
         if self.state_players.shape != (S,):
             raise ModelInvariantError("state_players must have one entry per state")
         if self.model_type is ModelType.DTMC and C != S:
@@ -212,6 +222,8 @@ class ExplicitModel:
         for obs in self.observations:
             if obs.state_ids.shape != (S,):
                 raise ModelInvariantError("an observation needs one id per state")
+            if obs.state_ids.min() < 0 or obs.state_ids.max() >= obs.num_observations:
+                raise ModelInvariantError("observation ids must lie in [0, num_observations)")
         for name, lab in self.labels.items():
             if lab.shape != (S,) or lab.dtype != np.bool_:
                 raise ModelInvariantError(f'label "{name}" must be bool[num_states]')
@@ -253,12 +265,18 @@ def make_model(
     T.sort_indices()
     C = int(rg[-1])
     init = np.unique(np.asarray(initial_states, dtype=np.int64))
+    if S < 1:
+        raise ModelInvariantError("a model needs at least one state")
+    if init.size < 1 or init.min() < 0 or init.max() >= S:
+        raise ModelInvariantError("initial states must be non-empty and within [0, num_states)")
     labs = {k: np.asarray(v, dtype=bool) for k, v in (labels or {}).items()}
     if "init" not in labs:
         lab = np.zeros(S, dtype=bool)
         lab[init] = True
         labs["init"] = lab
     dl = np.zeros(0, dtype=np.int64) if deadlocks is None else np.asarray(deadlocks, dtype=np.int64)
+    if dl.size and (dl.min() < 0 or dl.max() >= S):
+        raise ModelInvariantError("deadlock states must be within [0, num_states)")
     if "deadlock" not in labs:
         lab = np.zeros(S, dtype=bool)
         lab[dl] = True

@@ -177,8 +177,8 @@ def test_validate_tolerance() -> None:
         make_model(ModelType.MDP, ROW_GROUPS, [[0.5, 0.5 + 1e-6], [0, 1], [0, 1]])
 
 
-# Invariants of the module docstring that make_model/validate do not enforce yet (reported to the
-# lead; strict, so that fixing them turns these into failures to be removed).
+# Invariants of the module docstring checked at construction (out-of-range indices must be model
+# errors, never an IndexError from numpy).
 GAPS = [
     ("initial-out-of-range", dict(initial_states=[5])),
     ("deadlock-out-of-range", dict(deadlocks=[7])),
@@ -189,7 +189,6 @@ GAPS = [
 ]
 
 
-@pytest.mark.xfail(strict=True, reason="invariant not checked by make_model/validate")
 @pytest.mark.parametrize("changes", [g[1] for g in GAPS], ids=[g[0] for g in GAPS])
 def test_validate_gaps(changes: dict[str, Any]) -> None:
     with pytest.raises(ModelInvariantError):
