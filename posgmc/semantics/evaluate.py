@@ -1,0 +1,552 @@
+"""Evaluation of expressions on Python scalars with PRISM's semantics, and the tree rewrites built
+on it: substitution of identifiers and constant folding.
+
+Values: ``bool`` for Booleans, ``int`` for ints, and for doubles a :class:`~fractions.Fraction`
+while the computation is exact (``0.1`` is ``1/10``, ``1/3`` is ``1/3``) or a ``float`` once a
+function needs floating point (``log``, ``pow`` with a non-integer exponent). Invariant kept by
+:func:`evaluate`: an expression of type double always evaluates to a Fraction or a float, one of
+type int to an int, so the value alone tells the type.
+
+PRISM's rules (``parser/ast/ExpressionFunc.java``, ``ExpressionBinaryOp.java``):
+
+* ``a / b`` is always a double; ``+ - *`` of two ints is an int.
+* ``floor``, ``ceil``, ``round`` give ints; ``round(x) = floor(x + 1/2)`` (Java ``Math.round``).
+* ``pow(i, j)`` of two ints is an int and needs ``j >= 0``; with a double it is a double.
+* ``mod(i, n)`` needs ``n > 0`` and is never negative: ``mod(-1, 3) = 2`` (PRISM's ``applyMod``
+  adds ``n`` to Java's negative remainder), which is Python's ``%`` for ``n > 0``.
+* ``log(x, b) = ln x / ln b``; ``min``/``max`` are n-ary.
+
+Division by zero is an error here (PRISM's floating-point mode would give an infinity).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Iterator, Mapping
+from fractions import Fraction
+
+from posgmc.errors import PosgmcError, SemanticError, SourceSpan
+from posgmc.semantics.symbols import Symbol, SymbolKind, Type, span_or_none
+from posgmc.semantics.types import TypeChecker
+from posgmc.syntax.ast import (
+    NO_SPAN,
+    Binary,
+    BinaryOp,
+    BoolLit,
+    Call,
+    DoubleLit,
+    Expr,
+    Function,
+    Ident,
+    IntLit,
+    Ite,
+    ProbQuery,
+    RewardObjective,
+    RewardQuery,
+    Temporal,
+    Threshold,
+    TimeBound,
+    Unary,
+    UnaryOp,
+)
+
+__all__ = [
+    "Value",
+    "children",
+    "evaluate",
+    "evaluate_constant",
+    "format_value",
+    "free_names",
+    "is_literal",
+    "iter_nodes",
+    "literal",
+    "literal_value",
+    "map_children",
+    "simplify",
+    "substitute",
+    "to_double",
+    "value_type",
+]
+
+Value = bool | int | Fraction | float
+"""A scalar value (see the module docstring for which Python type stands for which PRISM type)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# values
+# ---------------------------------------------------------------------------------------------
+
+
+def value_type(v: Value) -> Type:
+    """The PRISM type of a value (bool is checked first: Python's bool is an int)."""
+    if isinstance(v, bool):
+        return Type.BOOL
+    if isinstance(v, int):
+        return Type.INT
+    return Type.DOUBLE
+
+
+def to_double(v: Value) -> Fraction | float:
+    """Widen an int (or keep a double); Booleans are not numbers."""
+    if isinstance(v, bool):
+        raise TypeError("a Boolean is not a number")
+    if isinstance(v, int):
+        return Fraction(v)
+    return v
+
+
+def literal(v: Value, *, span: SourceSpan = NO_SPAN) -> Expr:
+    """The literal node for a value.
+
+    Raises:
+        ValueError: for a non-finite float (no literal can hold it).
+    """
+    if isinstance(v, bool):
+        return BoolLit(v, span=span)
+    if isinstance(v, int):
+        return IntLit(v, span=span)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ValueError(f"no literal for the non-finite value {v}")
+        return DoubleLit(Fraction(v), span=span)
+    return DoubleLit(v, span=span)
+
+
+def format_value(v: Value) -> str:
+    """A value as PRISM would print it: ``true``, ``3``, ``0.25``; a Fraction without a finite
+    decimal expansion as ``1/3``."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v)
+    if v.denominator == 1:
+        return str(v.numerator)
+    d = v.denominator
+    for p in (2, 5):
+        while d % p == 0:
+            d //= p
+    if d != 1:
+        return f"{v.numerator}/{v.denominator}"
+    digits = 0
+    scaled = v
+    while scaled.denominator != 1:
+        scaled *= 10
+        digits += 1
+    sign = "-" if v < 0 else ""
+    whole, frac = divmod(abs(scaled.numerator), 10**digits)
+    return f"{sign}{whole}.{frac:0{digits}d}"
+
+
+def is_literal(e: Expr) -> bool:
+    return isinstance(e, (BoolLit, IntLit, DoubleLit))
+
+
+def literal_value(e: Expr) -> Value:
+    """The value of a literal node."""
+    if isinstance(e, (BoolLit, IntLit, DoubleLit)):
+        return e.value
+    raise TypeError(f"{type(e).__name__} is not a literal")
+
+
+# ---------------------------------------------------------------------------------------------
+# tree utilities
+# ---------------------------------------------------------------------------------------------
+
+
+def children(e: Expr) -> tuple[Expr, ...]:
+    """The direct sub-expressions of a node, including bounds and thresholds."""
+    if isinstance(e, Unary):
+        return (e.operand,)
+    if isinstance(e, Binary):
+        return (e.left, e.right)
+    if isinstance(e, Ite):
+        return (e.cond, e.then, e.otherwise)
+    if isinstance(e, Call):
+        return e.args
+    if isinstance(e, Temporal):
+        out = list(e.operands)
+        if e.bound is not None:
+            out += [x for x in (e.bound.lower, e.bound.upper) if x is not None]
+        return tuple(out)
+    if isinstance(e, ProbQuery):
+        return ((e.threshold.value,) if e.threshold else ()) + (e.path,)
+    if isinstance(e, RewardQuery):
+        obj = e.objective
+        parts = [e.threshold.value] if e.threshold else []
+        parts += [x for x in (obj.target, obj.bound, obj.discount) if x is not None]
+        return tuple(parts)
+    return ()
+
+
+def map_children(e: Expr, f: Callable[[Expr], Expr]) -> Expr:
+    """``e`` with ``f`` applied to each direct sub-expression (``e`` itself if nothing changed)."""
+
+    def opt(x: Expr | None) -> Expr | None:
+        return None if x is None else f(x)
+
+    def thr(t: Threshold | None) -> Threshold | None:
+        if t is None:
+            return None
+        v = f(t.value)
+        return t if v is t.value else dataclasses.replace(t, value=v)
+
+    new: Expr
+    if isinstance(e, Unary):
+        new = dataclasses.replace(e, operand=f(e.operand))
+    elif isinstance(e, Binary):
+        new = dataclasses.replace(e, left=f(e.left), right=f(e.right))
+    elif isinstance(e, Ite):
+        new = dataclasses.replace(e, cond=f(e.cond), then=f(e.then), otherwise=f(e.otherwise))
+    elif isinstance(e, Call):
+        new = dataclasses.replace(e, args=tuple(f(a) for a in e.args))
+    elif isinstance(e, Temporal):
+        bound: TimeBound | None = e.bound
+        if bound is not None:
+            bound = dataclasses.replace(bound, lower=opt(bound.lower), upper=opt(bound.upper))
+        new = dataclasses.replace(e, operands=tuple(f(a) for a in e.operands), bound=bound)
+    elif isinstance(e, ProbQuery):
+        new = dataclasses.replace(e, threshold=thr(e.threshold), path=f(e.path))
+    elif isinstance(e, RewardQuery):
+        obj: RewardObjective = e.objective
+        obj = dataclasses.replace(
+            obj, target=opt(obj.target), bound=opt(obj.bound), discount=opt(obj.discount)
+        )
+        new = dataclasses.replace(e, threshold=thr(e.threshold), objective=obj)
+    else:
+        return e
+    return e if _same_children(new, e) else new
+
+
+def _same_children(a: Expr, b: Expr) -> bool:
+    # equality ignores spans; identity tells whether anything was actually replaced
+    return all(x is y for x, y in zip(children(a), children(b)))
+
+
+def iter_nodes(e: Expr) -> Iterator[Expr]:
+    """Every node of the tree, parents before children."""
+    stack = [e]
+    while stack:
+        node = stack.pop()
+        yield node
+        stack.extend(reversed(children(node)))
+
+
+def free_names(e: Expr) -> set[str]:
+    """The identifiers occurring in ``e``."""
+    return {n.name for n in iter_nodes(e) if isinstance(n, Ident)}
+
+
+def substitute(
+    expr: Expr, mapping: Mapping[str, Expr | Value], *, keep_span: bool = True
+) -> Expr:
+    """Replace identifiers by expressions or values.
+
+    Args:
+        expr: the expression.
+        mapping: name -> replacement; a value becomes a literal. Replacements are inserted as
+            they are (not substituted again).
+        keep_span: give the replacement's top node the span of the identifier it replaces, so
+            that an error about the use (e.g. "guard must be Boolean") points at the use, while
+            errors inside an inlined formula still point into its definition.
+
+    Returns:
+        The new expression (``expr`` itself if no identifier was replaced).
+    """
+
+    def go(e: Expr) -> Expr:
+        if isinstance(e, Ident):
+            if e.name not in mapping:
+                return e
+            r = mapping[e.name]
+            if not isinstance(r, Expr):
+                return literal(r, span=e.span)
+            return dataclasses.replace(r, span=e.span) if keep_span else r
+        return map_children(e, go)
+
+    return go(expr)
+
+
+# ---------------------------------------------------------------------------------------------
+# evaluation
+# ---------------------------------------------------------------------------------------------
+
+
+def _error(message: str, e: Expr) -> SemanticError:
+    return SemanticError(message, span_or_none(e.span))
+
+
+def _fdiv(a: float, b: float) -> float:
+    """IEEE division as in Java (x/0 is an infinity or NaN, not an exception)."""
+    try:
+        return a / b
+    except ZeroDivisionError:
+        if a == 0 or math.isnan(a):
+            return math.nan
+        return math.copysign(math.inf, a) * math.copysign(1.0, b)
+
+
+def _ln(x: float) -> float:
+    if math.isnan(x) or x < 0:
+        return math.nan
+    if x == 0:
+        return -math.inf
+    return math.log(x)
+
+
+def _static_type(e: Expr, env: Mapping[str, Value]) -> Type | None:
+    def lookup(name: str) -> Symbol | None:
+        if name in env:
+            return Symbol(name, SymbolKind.CONSTANT, value_type(env[name]))
+        return None
+
+    errors: list[PosgmcError] = []
+    return TypeChecker(lookup=lookup, errors=errors).check(e)
+
+
+def evaluate(expr: Expr, env: Mapping[str, Value]) -> Value:
+    """Evaluate a (type-correct) expression.
+
+    Args:
+        expr: a model expression: no labels, temporal operators or queries.
+        env: values of the identifiers that occur (constants, variables); doubles as Fraction or
+            float, ints as int.
+
+    Returns:
+        The value, typed as described in the module docstring.
+
+    Raises:
+        SemanticError: an identifier without a value, division by zero, ``mod`` by a
+            non-positive number, a negative integer exponent, or a non-finite value where an
+            int is needed.
+    """
+
+    def num(e: Expr) -> int | Fraction | float:
+        v = ev(e)
+        if isinstance(v, bool):
+            raise _error("a Boolean is used as a number", e)
+        return v
+
+    def boolean(e: Expr) -> bool:
+        v = ev(e)
+        if not isinstance(v, bool):
+            raise _error("a number is used as a Boolean", e)
+        return v
+
+    def to_int(x: int | Fraction | float, e: Expr, how: Callable[[Fraction], int]) -> int:
+        if isinstance(x, int):
+            return x
+        if isinstance(x, float):
+            if not math.isfinite(x):
+                raise _error(f"cannot convert {x} to an int", e)
+            x = Fraction(x)
+        return how(x)
+
+    def ev(e: Expr) -> Value:
+        if isinstance(e, (BoolLit, IntLit, DoubleLit)):
+            return e.value
+        if isinstance(e, Ident):
+            if e.name not in env:
+                raise _error(f'"{e.name}" has no value here', e)
+            return env[e.name]
+        if isinstance(e, Unary):
+            if e.op is UnaryOp.NOT:
+                return not boolean(e.operand)
+            return -num(e.operand)
+        if isinstance(e, Binary):
+            return binary(e)
+        if isinstance(e, Ite):
+            chosen, other = (e.then, e.otherwise) if boolean(e.cond) else (e.otherwise, e.then)
+            v = ev(chosen)
+            if isinstance(v, int) and not isinstance(v, bool):
+                # the "? :" is a double if either branch is: keep the typing invariant
+                if _static_type(other, env) is Type.DOUBLE:
+                    return Fraction(v)
+            return v
+        if isinstance(e, Call):
+            return call(e)
+        raise _error(f"{type(e).__name__} cannot be evaluated to a value", e)
+
+    def binary(e: Binary) -> Value:
+        op = e.op
+        if op is BinaryOp.AND:
+            return boolean(e.left) and boolean(e.right)
+        if op is BinaryOp.OR:
+            return boolean(e.left) or boolean(e.right)
+        if op is BinaryOp.IMPLIES:
+            return (not boolean(e.left)) or boolean(e.right)
+        if op is BinaryOp.IFF:
+            return boolean(e.left) == boolean(e.right)
+        if op in (BinaryOp.EQ, BinaryOp.NE):
+            a, b = ev(e.left), ev(e.right)
+            if isinstance(a, bool) != isinstance(b, bool):
+                raise _error(f'"{op.value}" compares a Boolean with a number', e)
+            return (a == b) if op is BinaryOp.EQ else (a != b)
+        a_n, b_n = num(e.left), num(e.right)
+        if op is BinaryOp.LT:
+            return a_n < b_n
+        if op is BinaryOp.LE:
+            return a_n <= b_n
+        if op is BinaryOp.GT:
+            return a_n > b_n
+        if op is BinaryOp.GE:
+            return a_n >= b_n
+        if op is BinaryOp.ADD:
+            return a_n + b_n
+        if op is BinaryOp.SUB:
+            return a_n - b_n
+        if op is BinaryOp.MUL:
+            return a_n * b_n
+        # DIV: always a double
+        if isinstance(a_n, float) or isinstance(b_n, float):
+            return _fdiv(float(a_n), float(b_n))
+        if b_n == 0:
+            raise _error("division by zero", e)
+        return Fraction(a_n) / Fraction(b_n)
+
+    def call(e: Call) -> Value:
+        fn = e.function
+        args = [num(a) for a in e.args]
+        if fn in (Function.MIN, Function.MAX):
+            if not args:
+                raise _error(f"{fn.value}() needs at least one argument", e)
+            r = min(args) if fn is Function.MIN else max(args)
+            is_double = any(not isinstance(x, int) for x in args)
+            return to_double(r) if is_double else r
+        if len(args) == 1 and fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
+            x = args[0]
+            if fn is Function.FLOOR:
+                return to_int(x, e, math.floor)
+            if fn is Function.CEIL:
+                return to_int(x, e, math.ceil)
+            return to_int(x, e, lambda q: math.floor(q + Fraction(1, 2)))
+        if len(args) != 2:
+            raise _error(f"{fn.value}() takes 2 arguments, found {len(args)}", e)
+        a, b = args
+        if fn is Function.MOD:
+            if not (isinstance(a, int) and isinstance(b, int)):
+                raise _error("mod() needs int arguments", e)
+            if b <= 0:
+                raise _error(f"mod() by a non-positive divisor ({b})", e)
+            return a % b
+        if fn is Function.POW:
+            return power(a, b, e)
+        # LOG
+        return _fdiv(_ln(float(a)), _ln(float(b)))
+
+    def power(a: int | Fraction | float, b: int | Fraction | float, e: Expr) -> Value:
+        if isinstance(a, int) and isinstance(b, int):
+            if b < 0:
+                raise _error(
+                    f"negative exponent {b} in pow() of two ints; write pow({a}.0, {b}) "
+                    "for a double result",
+                    e,
+                )
+            return a**b
+        exact_int_exp = isinstance(b, int) or (isinstance(b, Fraction) and b.denominator == 1)
+        if exact_int_exp and not isinstance(a, float):
+            base, exp = Fraction(a), int(b)
+            if base == 0 and exp < 0:
+                return math.inf
+            return base**exp
+        try:
+            return math.pow(float(a), float(b))
+        except ValueError:
+            return math.nan
+        except OverflowError:
+            return math.inf
+
+    return ev(expr)
+
+
+def evaluate_constant(expr: Expr) -> Value:
+    """Evaluate an expression without identifiers (e.g. a folded threshold or step bound).
+
+    Raises:
+        SemanticError: an identifier occurs, or the evaluation fails (see :func:`evaluate`).
+    """
+    return evaluate(expr, {})
+
+
+# ---------------------------------------------------------------------------------------------
+# constant folding
+# ---------------------------------------------------------------------------------------------
+
+
+def simplify(expr: Expr, *, variable_types: Mapping[str, Type] | None = None) -> Expr:
+    """Fold every sub-expression without identifiers into a literal, and the Boolean units
+    (``true & e`` -> ``e``, ``false & e`` -> ``false``, ``c ? a : b`` with a literal ``c``, ...).
+
+    Args:
+        expr: the expression; identifiers left are variables (constants already substituted).
+        variable_types: the variables' types; lets ``c ? a : b`` with a literal ``c`` fold when the
+            kept branch has the type of the whole (an int branch of a double ``? :`` stays put
+            unless it is a literal).
+
+    Returns:
+        An equivalent expression (same type). Sub-expressions whose evaluation fails (e.g. a
+        division by zero) are left unfolded, so that the error surfaces where they are used.
+    """
+    types = dict(variable_types or {})
+
+    def lookup(name: str) -> Symbol | None:
+        t = types.get(name)
+        return None if t is None else Symbol(name, SymbolKind.VARIABLE, t)
+
+    def static(e: Expr) -> Type | None:
+        errors: list[PosgmcError] = []
+        return TypeChecker(lookup=lookup, errors=errors, allow_queries=True).check(e)
+
+    def fold(e: Expr) -> Expr:
+        try:
+            return literal(evaluate(e, {}), span=e.span)
+        except (PosgmcError, ValueError, OverflowError, ZeroDivisionError):
+            return e
+
+    def go(e: Expr) -> Expr:
+        e = map_children(e, go)
+        if isinstance(e, (Unary, Binary, Ite, Call)) and all(is_literal(c) for c in children(e)):
+            return fold(e)
+        if isinstance(e, Binary) and e.op in (BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES):
+            return logic(e)
+        if isinstance(e, Ite) and isinstance(e.cond, BoolLit):
+            chosen, other = (e.then, e.otherwise) if e.cond.value else (e.otherwise, e.then)
+            if isinstance(chosen, IntLit) and isinstance(other, DoubleLit):
+                return DoubleLit(Fraction(chosen.value), span=chosen.span)
+            t_chosen, t_other = static(chosen), static(other)
+            if t_chosen is not None and t_chosen is t_other:
+                return chosen
+            if t_chosen is not None and t_other is not None and t_chosen is Type.DOUBLE:
+                return chosen
+            if isinstance(chosen, IntLit) and t_other is Type.DOUBLE:
+                return DoubleLit(Fraction(chosen.value), span=chosen.span)
+        return e
+
+    def logic(e: Binary) -> Expr:
+        left, right = e.left, e.right
+        lv = left.value if isinstance(left, BoolLit) else None
+        rv = right.value if isinstance(right, BoolLit) else None
+        if e.op is BinaryOp.AND:
+            if lv is False or rv is False:
+                return BoolLit(False, span=e.span)
+            if lv is True:
+                return right
+            if rv is True:
+                return left
+        elif e.op is BinaryOp.OR:
+            if lv is True or rv is True:
+                return BoolLit(True, span=e.span)
+            if lv is False:
+                return right
+            if rv is False:
+                return left
+        else:  # IMPLIES
+            if lv is False or rv is True:
+                return BoolLit(True, span=e.span)
+            if lv is True:
+                return right
+        return e
+
+    return go(expr)
