@@ -1,0 +1,362 @@
+"""The library's front door: load, lint, build and check models, each stage a function.
+
+Typical use::
+
+    from posgmc import api
+    session = api.load("models/robot.posg", constants={"N": 4})
+    report = api.check(session, properties=['<<robot>> Pmax=? [ F "goal" ]'])
+    for r in report.results:
+        print(r.property, r.value, r.lower, r.upper)
+
+Stages are kept apart (parse -> semantic check -> build -> check) with small typed records passed
+between them, so that a caller can stop after any of them. Every input error raised here is a
+:class:`~posgmc.errors.PosgmcError` with the source text attached for rendering.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from fractions import Fraction
+from pathlib import Path
+
+from posgmc.build import BuildOptions, build_model
+from posgmc.checking.dispatch import CheckOptions, PropertyChecker
+from posgmc.checking.results import PropertyResult
+from posgmc.errors import (
+    InputError,
+    MultipleErrors,
+    PosgmcError,
+    SemanticError,
+    SourceText,
+    UnsupportedError,
+)
+from posgmc.model.explicit import ExplicitModel
+from posgmc.semantics import checker as sem
+from posgmc.semantics.evaluate import evaluate_constant
+from posgmc.semantics.flat import FlatModel
+from posgmc.syntax import parser
+from posgmc.syntax.ast import Coalition, ModelFile, Property, PropertiesFile
+from posgmc.syntax.printer import format_expr
+
+ConstantValues = Mapping[str, object]
+
+__all__ = [
+    "Session",
+    "CheckReport",
+    "load",
+    "lint",
+    "build",
+    "check",
+    "parse_properties",
+]
+
+
+def _is_drn(text: str) -> bool:
+    head = "\n".join(text.splitlines()[:40])
+    return "@type:" in head
+
+
+@dataclass(frozen=True, eq=False)
+class Session:
+    """A loaded model: its source, syntax tree (None for explicit DRN input) and constant values."""
+
+    path: str | None
+    source: SourceText
+    syntax: ModelFile | None
+    constants: Mapping[str, object] = field(default_factory=dict)
+    explicit: ExplicitModel | None = None  # set for DRN input
+
+
+def _read(path: str | Path) -> str:
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"no such file: {path}") from None
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path} is not UTF-8 text ({e.reason} at byte {e.start})") from None
+    except OSError as e:
+        raise InputError(f"cannot read {path}: {e.strerror}") from None
+
+
+def _attach(error: PosgmcError, source: SourceText) -> PosgmcError:
+    if isinstance(error, MultipleErrors):
+        for e in error.errors:
+            if e.source is None and (e.span is None or e.span.file in (None, source.file)):
+                e.with_source(source)
+    if error.source is None and (error.span is None or error.span.file in (None, source.file)):
+        error.with_source(source)
+    return error
+
+
+def load(
+    path: str | Path | None = None,
+    *,
+    text: str | None = None,
+    constants: ConstantValues | None = None,
+) -> Session:
+    """Parse a model file (PRISM language, or Storm's explicit DRN) without checking it further.
+
+    Args:
+        path: the model file; or None with ``text``.
+        text: the model text when there is no file.
+        constants: values for the model's undefined constants (names to values or strings).
+
+    Raises:
+        ParseError, InputError: unreadable or unparsable input, with file/line/column.
+    """
+    name = str(path) if path is not None else None
+    content = text if text is not None else _read(path)  # type: ignore[arg-type]
+    source = SourceText(content, name)
+    try:
+        if _is_drn(content):
+            from posgmc.io.drn import parse_drn
+
+            return Session(name, source, None, dict(constants or {}), parse_drn(content, file=name))
+        return Session(name, source, parser.parse_model(content, file=name), dict(constants or {}))
+    except PosgmcError as e:
+        raise _attach(e, source) from None
+
+
+def parse_properties(
+    session: Session, *, files: Sequence[str | Path] = (), texts: Sequence[str] = ()
+) -> tuple[list[tuple[PropertiesFile, SourceText]], list[Property]]:
+    """Parse property files and command-line properties (raises ParseError with position)."""
+    parsed: list[tuple[PropertiesFile, SourceText]] = []
+    for f in files:
+        content = _read(f)
+        src = SourceText(content, str(f))
+        try:
+            parsed.append((parser.parse_properties(content, file=str(f)), src))
+        except PosgmcError as e:
+            raise _attach(e, src) from None
+    props: list[Property] = []
+    for i, t in enumerate(texts):
+        src = SourceText(t, f"<--prop {i + 1}>")
+        try:
+            props.append(parser.parse_property(t, file=src.file))
+        except PosgmcError as e:
+            raise _attach(e, src) from None
+    return parsed, props
+
+
+def lint(
+    path: str | Path,
+    property_files: Sequence[str | Path] = (),
+    *,
+    constants: ConstantValues | None = None,
+    property_texts: Sequence[str] = (),
+    zero_based_players: bool = False,
+) -> list[PosgmcError]:
+    """Every error in a model and its properties, without building anything.
+
+    Constants without a value are not errors here: everything that does not depend on their values
+    is checked, and with ``constants`` everything else too.
+    """
+    errors: list[PosgmcError] = []
+    try:
+        session = load(path, constants=constants)
+    except PosgmcError as e:
+        return [e]
+    src = session.source
+    if session.syntax is not None:
+        extra = bool(property_files or property_texts)  # property-file constants share --const
+        errors += [
+            _attach(e, src)
+            for e in sem.check_model(session.syntax, constants=constants, allow_extra_constants=extra)
+        ]
+    for f in property_files:
+        try:
+            parsed, _ = parse_properties(session, files=[f])
+        except PosgmcError as e:
+            errors.append(e)
+            continue
+        pf, psrc = parsed[0]
+        if session.syntax is not None and not errors:
+            errs = sem.check_properties(
+                pf, session.syntax, constants=constants, zero_based_players=zero_based_players
+            )
+            errors += [_attach(e, psrc) for e in errs]
+    for i, t in enumerate(property_texts):
+        try:
+            _, props = parse_properties(session, texts=[t])
+        except PosgmcError as e:
+            errors.append(e)
+            continue
+        if session.syntax is not None and not errors:
+            errs = sem.check_properties(
+                props, session.syntax, constants=constants, zero_based_players=zero_based_players
+            )
+            errors += [_attach(e, SourceText(t, f"<--prop {i + 1}>")) for e in errs]
+    return errors
+
+
+def instantiate(session: Session, *, allow_extra_constants: bool = False) -> FlatModel:
+    """Semantic checks and constant substitution: the model ready for the compiler.
+
+    ``allow_extra_constants``: values for constants the model does not declare are allowed
+    (they belong to property files checked later)."""
+    if session.syntax is None:
+        raise UnsupportedError("an explicit (DRN) model has no PRISM-language description")
+    try:
+        return sem.instantiate(
+            session.syntax, constants=session.constants, allow_extra_constants=allow_extra_constants
+        )
+    except PosgmcError as e:
+        raise _attach(e, session.source) from None
+
+
+@dataclass(frozen=True, eq=False)
+class BuiltModel:
+    model: ExplicitModel
+    seconds: float
+    warnings: tuple[str, ...] = ()
+    flat: FlatModel | None = None
+
+
+def build(
+    session: Session, *, options: BuildOptions = BuildOptions(), allow_extra_constants: bool = False
+) -> BuiltModel:
+    """Explore the model's reachable state space into an :class:`ExplicitModel`."""
+    if session.explicit is not None:
+        return BuiltModel(session.explicit, 0.0)
+    flat = instantiate(session, allow_extra_constants=allow_extra_constants)
+    try:
+        result = build_model(flat, options=options)
+    except PosgmcError as e:
+        raise _attach(e, session.source) from None
+    return BuiltModel(result.model, result.seconds, tuple(result.warnings), flat)
+
+
+@dataclass(frozen=True, eq=False)
+class CheckReport:
+    """The model's size and one result per property, in order."""
+
+    model: ExplicitModel
+    build_seconds: float
+    results: tuple[PropertyResult, ...]
+    warnings: tuple[str, ...] = ()
+
+
+def _coalition_resolver(model: ExplicitModel, session: Session, zero_based: bool):  # type: ignore[no-untyped-def]
+    names = model.player_names
+
+    def resolve(c: Coalition | None) -> frozenset[int] | None:
+        if c is None:
+            return None
+        if c.all_players:
+            return frozenset(range(len(names)))
+        out: set[int] = set()
+        for p in c.players:
+            if p.name is not None:
+                if p.name not in names:
+                    raise SemanticError(f"no player named '{p.name}'", p.span)
+                out.add(names.index(p.name))
+            else:
+                assert p.number is not None  # noqa: S101 - a PlayerRef is a name or a number
+                index = p.number if zero_based else p.number - 1
+                if not 0 <= index < len(names):
+                    raise SemanticError(f"no player number {p.number}", p.span)
+                out.add(index)
+        return frozenset(out)
+
+    return resolve
+
+
+def _scalar(expr):  # type: ignore[no-untyped-def]
+    value = evaluate_constant(expr)
+    if isinstance(value, Fraction):
+        return value if value.denominator != 1 else int(value)
+    return value
+
+
+def check(
+    session: Session,
+    *,
+    property_files: Sequence[str | Path] = (),
+    properties: Sequence[str] = (),
+    options: CheckOptions = CheckOptions(),
+    build_options: BuildOptions = BuildOptions(),
+    full_observation: bool = False,
+    zero_based_players: bool = False,
+    built: BuiltModel | None = None,
+) -> CheckReport:
+    """Build the model (unless ``built`` is given) and check each property at the initial states.
+
+    Args:
+        session: from :func:`load`.
+        property_files: PRISM property files.
+        properties: property texts (as given with ``--prop``).
+        options: numerical method, precision, what to keep.
+        full_observation: on pomdp/posg models, answer the full-observation value (a bound on the
+            partially observable value, labelled as such); without it such models are refused.
+        zero_based_players: read numeric coalitions ``<<0>>`` as Storm/PAYNT do.
+
+    Raises:
+        InputError: bad model, properties or constants.
+        UnsupportedError: the property or model needs what this build cannot do.
+    """
+    parsed, cli_props = parse_properties(session, files=property_files, texts=properties)
+    built = built or build(session, options=build_options, allow_extra_constants=True)
+    model = built.model
+    partial = model.model_type.is_partially_observable or bool(model.observations)
+    if partial and not full_observation:
+        raise UnsupportedError(
+            f"this is a partially observable model ({model.model_type.value}); partially observable "
+            "synthesis is not available in this build",
+            hint="pass --full-observation (full_observation=True) to get the fully observable value, "
+            "which bounds the partially observable one",
+        )
+    checked: list[tuple[Property, object]] = []
+    groups: list[tuple[Sequence[Property] | PropertiesFile, SourceText | None]] = [
+        (pf, src) for pf, src in parsed
+    ]
+    if cli_props:
+        groups.append((cli_props, None))
+    for group, src in groups:
+        try:
+            if session.syntax is not None and built.flat is not None:
+                cps = sem.instantiate_properties(
+                    group,
+                    built.flat,
+                    model=session.syntax,
+                    constants=session.constants,
+                    zero_based_players=zero_based_players,
+                )
+                checked += [(cp.property, cp.expr) for cp in cps]
+            else:
+                props = group.properties if isinstance(group, PropertiesFile) else group
+                checked += [(p, p.expr) for p in props]
+        except PosgmcError as e:
+            raise (_attach(e, src) if src is not None else e) from None
+    checker = PropertyChecker(
+        model,
+        coalition_of=_coalition_resolver(model, session, zero_based_players),
+        scalar=_scalar,
+        options=options,
+    )
+    results = []
+    note = (
+        "full-observation value: an upper bound for a maximising and a lower bound for a minimising "
+        "partially observing player"
+        if partial
+        else None
+    )
+    for prop, expr in checked:
+        text = prop.text or format_expr(prop.expr)
+        start = time.perf_counter()
+        try:
+            r = checker.check(expr, text=text, name=prop.name)  # type: ignore[arg-type]
+        except PosgmcError as e:
+            if e.source is None and prop.span.file is not None:
+                for pf, src in parsed:
+                    if src.file == prop.span.file:
+                        _attach(e, src)
+            raise
+        if note:
+            from dataclasses import replace
+
+            r = replace(r, note=note, seconds=time.perf_counter() - start)
+        results.append(r)
+    return CheckReport(model, built.seconds, tuple(results), built.warnings)

@@ -1,0 +1,1 @@
+"""Property checking on explicit models: state formulas, query dispatch to engines, results."""

@@ -1,0 +1,469 @@
+"""From a checked property to engine calls: which numerical question each query asks.
+
+This module owns the meaning of queries on fully observable models:
+
+* ``<<C>> Pmax=? [path]``: the states of players in ``C`` maximise, all others minimise; without a
+  coalition on a game every player is in it (PRISM-games); on an MDP the single scheduler optimises.
+* Threshold forms decide the direction from the comparison: ``P>=p`` holds for an MDP when even the
+  minimising scheduler reaches ``p``; for ``<<C>> P>=p`` when ``C`` can ensure it (``C`` maximises).
+* ``G``, ``W``, ``R`` and negated path formulas are answered through the complement,
+  ``P_max(G a) = 1 - P_min(F !a)``, flipping every state's optimisation direction.
+* Any other path formula is co-safe LTL: translated to a DFA, solved as reachability on the product.
+  If the formula is not co-safe but its negation is, the complement is used; otherwise the query
+  is rejected (PRISM-games' ``Error:co-safe``).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from posgmc.checking.results import PropertyResult, ResultKind
+from posgmc.checking.states import evaluate_states
+from posgmc.engines import objectives as obj
+from posgmc.engines.options import SolverOptions
+from posgmc.engines.result import EngineResult
+from posgmc.errors import SemanticError, UnsupportedError
+from posgmc.model.explicit import ExplicitModel
+from posgmc.syntax.ast import (
+    Binary,
+    BinaryOp,
+    Coalition,
+    ComparisonOp,
+    Direction,
+    Expr,
+    ProbQuery,
+    RewardKind,
+    RewardQuery,
+    Temporal,
+    TemporalOp,
+    TimeBound,
+    Unary,
+    UnaryOp,
+)
+
+__all__ = ["CheckOptions", "PropertyChecker", "QueryValue"]
+
+CoalitionResolver = Callable[[Coalition | None], frozenset[int] | None]
+"""Maps a query's coalition to 0-based player indices (None: no coalition written)."""
+
+ScalarEvaluator = Callable[[Expr], object]
+"""Evaluates a constant expression (a bound, a threshold, a discount factor) to a Python value."""
+
+
+@dataclass(frozen=True)
+class CheckOptions:
+    """How to check: the numerical method and precision, and what to keep."""
+
+    solver: SolverOptions = SolverOptions()
+    keep_values: bool = False
+    keep_strategy: bool = False
+
+
+@dataclass(frozen=True, eq=False)
+class QueryValue:
+    """The per-state answer to one query (or sub-expression): values with proven bounds."""
+
+    values: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    engine: EngineResult | None = None
+    iterations: int = 0
+    converged: bool = True
+    sound: bool = True
+    method: str = "exact"
+
+
+def _flip(q: QueryValue) -> QueryValue:
+    """1 - q, with the bounds swapped."""
+    return replace(q, values=1.0 - q.values, lower=1.0 - q.upper, upper=1.0 - q.lower)
+
+
+def _from_engine(r: EngineResult) -> QueryValue:
+    return QueryValue(
+        values=r.values,
+        lower=r.lower,
+        upper=r.upper,
+        engine=r,
+        iterations=r.iterations,
+        converged=r.converged,
+        sound=r.sound,
+        method=r.method.value,
+    )
+
+
+class PropertyChecker:
+    """Checks properties on one explicit model (read as fully observable).
+
+    Args:
+        model: the explicit model.
+        coalition_of: resolves a query's coalition to player indices.
+        scalar: evaluates constant expressions (bounds, thresholds, discount factors).
+        options: solver configuration.
+    """
+
+    def __init__(
+        self,
+        model: ExplicitModel,
+        *,
+        coalition_of: CoalitionResolver,
+        scalar: ScalarEvaluator,
+        options: CheckOptions = CheckOptions(),
+    ) -> None:
+        self.model = model
+        self.coalition_of = coalition_of
+        self.scalar = scalar
+        self.options = options
+
+    # -- entry point -----------------------------------------------------------------------------
+
+    def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
+        """Check one property and report its value at the initial states."""
+        start = time.perf_counter()
+        init = self.model.initial_states
+        if isinstance(expr, (ProbQuery, RewardQuery)) and expr.threshold is None:
+            q = self.query(expr)
+            kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
+        else:
+            q = self.state_value(expr)
+            kind = ResultKind.BOOLEAN if q.values.dtype == np.bool_ else ResultKind.NUMBER
+        seconds = time.perf_counter() - start
+        vals = q.values[init]
+        if kind is ResultKind.BOOLEAN:
+            value: float | bool = bool(np.all(vals))
+            lower = upper = None
+            per_initial: tuple[float | bool, ...] = tuple(bool(v) for v in vals)
+        else:
+            value = float(vals[0])
+            lower, upper = float(q.lower[init[0]]), float(q.upper[init[0]])
+            per_initial = tuple(float(v) for v in vals)
+        eng = q.engine
+        return PropertyResult(
+            property=text,
+            name=name,
+            kind=kind,
+            value=value,
+            lower=lower,
+            upper=upper,
+            seconds=seconds,
+            method=q.method,
+            iterations=q.iterations,
+            converged=q.converged,
+            sound=q.sound,
+            per_initial=per_initial,
+            values=q.values if self.options.keep_values else None,
+            strategy=eng.strategy if (eng is not None and self.options.keep_strategy) else None,
+        )
+
+    # -- state formulas and arithmetic -------------------------------------------------------------
+
+    def state_value(self, expr: Expr) -> QueryValue:
+        """Evaluate a state expression, with interval arithmetic for bounds over nested queries."""
+        if isinstance(expr, (ProbQuery, RewardQuery)):
+            q = self.query(expr)
+            if expr.threshold is None:
+                return q
+            return self._threshold(expr, q)
+        if isinstance(expr, Unary) and expr.op is UnaryOp.NEG:
+            q = self.state_value(expr.operand)
+            return replace(q, values=-q.values, lower=-q.upper, upper=-q.lower)
+        if isinstance(expr, Binary) and expr.op in _ARITH and _contains_query(expr):
+            a, b = self.state_value(expr.left), self.state_value(expr.right)
+            return _interval_arith(expr.op, a, b)
+        collected: list[QueryValue] = []
+
+        def sub(e: Expr) -> np.ndarray:
+            q = self.state_value(e)
+            collected.append(q)
+            return q.values
+
+        values = evaluate_states(self.model, expr, queries=sub)
+        exact = all(q.sound and q.converged for q in collected)
+        method = collected[0].method if collected else "exact"
+        return QueryValue(values, values, values, sound=exact, method=method)
+
+    def _threshold(self, expr: ProbQuery | RewardQuery, q: QueryValue) -> QueryValue:
+        assert expr.threshold is not None  # noqa: S101 - guaranteed by caller
+        bound = float(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+        op = expr.threshold.op
+        cmp = {
+            ComparisonOp.GE: np.greater_equal,
+            ComparisonOp.GT: np.greater,
+            ComparisonOp.LE: np.less_equal,
+            ComparisonOp.LT: np.less,
+        }[op]
+        # Decide on the proven bounds where they agree; where they straddle the threshold the
+        # reported value decides and the answer is marked unsound.
+        by_lower, by_upper = cmp(q.lower, bound), cmp(q.upper, bound)
+        decided = by_lower == by_upper
+        values = np.where(decided, by_lower, cmp(q.values, bound))
+        sound = q.sound and bool(np.all(decided[self.model.initial_states]))
+        return replace(q, values=values, lower=values, upper=values, sound=sound)
+
+    # -- queries -------------------------------------------------------------------------------
+
+    def _maximize(self, expr: ProbQuery | RewardQuery) -> np.ndarray:
+        direction = expr.direction
+        if direction is None:
+            if expr.threshold is not None:
+                upper_bound = expr.threshold.op in (ComparisonOp.LE, ComparisonOp.LT)
+                coalition = expr.coalition is not None or self.model.model_type.is_game
+                # MDP: "for all schedulers"; game: "the coalition can ensure".
+                if coalition:
+                    direction = Direction.MIN if upper_bound else Direction.MAX
+                else:
+                    direction = Direction.MAX if upper_bound else Direction.MIN
+            else:
+                direction = Direction.MAX  # dtmc: irrelevant
+        players = self.coalition_of(expr.coalition)
+        return obj.maximize_mask(self.model, direction=direction, coalition=players)
+
+    def query(self, expr: ProbQuery | RewardQuery) -> QueryValue:
+        maximize = self._maximize(expr)
+        if isinstance(expr, ProbQuery):
+            return self._probability(expr.path, maximize)
+        return self._reward(expr, maximize)
+
+    def _states(self, e: Expr) -> np.ndarray:
+        v = self.state_value(e).values
+        if v.dtype != np.bool_:
+            raise SemanticError("expected a boolean state formula", e.span)
+        return v
+
+    def _steps(self, bound: TimeBound) -> int:
+        if bound.lower is not None:
+            raise UnsupportedError(
+                "lower step bounds on temporal operators are not supported",
+                bound.span,
+                hint="use an upper bound (F<=k) or write the property in co-safe LTL with X",
+            )
+        assert bound.upper is not None  # noqa: S101 - a TimeBound has at least one side
+        k = self.scalar(bound.upper)
+        if not isinstance(k, int) or isinstance(k, bool) or k < 0:
+            raise SemanticError("a step bound must be a non-negative integer", bound.span)
+        return k - 1 if bound.upper_strict else k
+
+    def _probability(self, path: Expr, maximize: np.ndarray) -> QueryValue:
+        m, opts = self.model, self.options.solver
+        if isinstance(path, Unary) and path.op is UnaryOp.NOT and _is_temporal(path.operand):
+            return _flip(self._probability(path.operand, ~maximize))
+        if isinstance(path, Temporal) and all(not _is_temporal(o) for o in path.operands):
+            op = path.op
+            if op is TemporalOp.NEXT:
+                t = self._states(path.operands[0])
+                return _from_engine(obj.next_probability(m, t, maximize=maximize, options=opts))
+            if op in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL):
+                if op is TemporalOp.UNTIL:
+                    remain, target = self._states(path.operands[0]), self._states(path.operands[1])
+                else:
+                    remain, target = None, self._states(path.operands[0])
+                return self._until(remain, target, path.bound, maximize)
+            if op is TemporalOp.GLOBALLY:
+                bad = ~self._states(path.operands[0])
+                return _flip(self._until(None, bad, path.bound, ~maximize))
+            if op is TemporalOp.WEAK_UNTIL:  # a W b = !( !b U (!a & !b) )
+                a, b = self._states(path.operands[0]), self._states(path.operands[1])
+                return _flip(self._until(~b, ~a & ~b, path.bound, ~maximize))
+            if op is TemporalOp.RELEASE:  # a R b = !( !a U !b )
+                a, b = self._states(path.operands[0]), self._states(path.operands[1])
+                return _flip(self._until(~a, ~b, path.bound, ~maximize))
+        return self._ltl_probability(path, maximize)
+
+    def _until(
+        self,
+        remain: np.ndarray | None,
+        target: np.ndarray,
+        bound: TimeBound | None,
+        maximize: np.ndarray,
+    ) -> QueryValue:
+        m, opts = self.model, self.options.solver
+        if bound is None:
+            r = obj.reach_probability(m, target, remain=remain, maximize=maximize, options=opts)
+        else:
+            r = obj.bounded_reach_probability(
+                m, target, remain=remain, steps=self._steps(bound), maximize=maximize, options=opts
+            )
+        return _from_engine(r)
+
+    # -- co-safe LTL -----------------------------------------------------------------------------
+
+    def _ltl_product(self, path: Expr):  # type: ignore[no-untyped-def]
+        from posgmc.engines import ltl
+
+        atoms = ltl.extract_atoms(path)
+        dfa = ltl.to_dfa(path, atoms)
+        if atoms:
+            atom_values = np.stack([self._states(a) for a in atoms])
+        else:
+            atom_values = np.zeros((0, self.model.num_states), dtype=bool)
+        return ltl.product(self.model, dfa, atom_values)
+
+    def _ltl_probability(self, path: Expr, maximize: np.ndarray) -> QueryValue:
+        from posgmc.engines import ltl
+
+        if not ltl.is_cosafe(path):
+            negated = Unary(UnaryOp.NOT, path, span=path.span)
+            if ltl.is_cosafe(negated):
+                return _flip(self._ltl_probability(negated, ~maximize))
+            raise UnsupportedError(
+                "this path formula is not co-safe LTL (nor is its negation)",
+                path.span,
+                hint="use X, F, U, bounded G and boolean connectives (co-safe), or G of a state "
+                "formula (safety)",
+            )
+        prod = self._ltl_product(path)
+        pmax = maximize[prod.state_of]
+        r = obj.reach_probability(prod.model, prod.accepting, maximize=pmax, options=self.options.solver)
+        return self._project(prod, _from_engine(r))
+
+    def _project(self, prod, q: QueryValue) -> QueryValue:  # type: ignore[no-untyped-def]
+        """Values of the original states: those of the product state each starts in.
+
+        Only the initial states' values are meaningful for a product; other states get the value
+        of their own product start state where it exists in the product, else NaN."""
+        S = self.model.num_states
+        start = np.full(S, -1, dtype=np.int64)
+        start[self.model.initial_states] = prod.initial_map
+
+        def pick(a: np.ndarray) -> np.ndarray:
+            out = np.full(S, np.nan)
+            ok = start >= 0
+            out[ok] = a[start[ok]]
+            return out
+
+        return replace(q, values=pick(q.values), lower=pick(q.lower), upper=pick(q.upper), engine=q.engine)
+
+    # -- rewards -------------------------------------------------------------------------------
+
+    def _reward(self, expr: RewardQuery, maximize: np.ndarray) -> QueryValue:
+        m, opts = self.model, self.options.solver
+        rm = m.reward_model(expr.reward)
+        objective = expr.objective
+        kind = objective.kind
+        choice_rewards = rm.choice_rewards(m.row_groups)
+        if kind is RewardKind.INSTANTANEOUS:
+            k = self._int(objective.bound)
+            state_rewards = rm.state if rm.state is not None else np.zeros(m.num_states)
+            return _from_engine(
+                obj.instantaneous_reward(m, state_rewards, steps=k, maximize=maximize, options=opts)
+            )
+        if kind is RewardKind.CUMULATIVE:
+            k = self._int(objective.bound)
+            return _from_engine(obj.cumulative_reward(m, choice_rewards, steps=k, maximize=maximize, options=opts))
+        if kind is RewardKind.TOTAL:
+            return _from_engine(obj.total_reward(m, choice_rewards, maximize=maximize, options=opts))
+        if kind is RewardKind.DISCOUNTED_TOTAL:
+            g = self._discount(objective.discount)
+            return _from_engine(
+                obj.discounted_total_reward(m, choice_rewards, discount=g, maximize=maximize, options=opts)
+            )
+        assert objective.target is not None  # noqa: S101 - the parser gives F/F0/Fc/LTL a target
+        if kind is RewardKind.DISCOUNTED_REACH:
+            g = self._discount(objective.discount)
+            t = self._states(objective.target)
+            return _from_engine(
+                obj.discounted_reach_reward(m, choice_rewards, t, discount=g, maximize=maximize, options=opts)
+            )
+        mode = {
+            RewardKind.REACH: obj.ReachRewardMode.INFINITY,
+            RewardKind.REACH_ZERO: obj.ReachRewardMode.ZERO,
+            RewardKind.REACH_CUMULATIVE: obj.ReachRewardMode.CUMULATIVE,
+            RewardKind.LTL: obj.ReachRewardMode.INFINITY,
+        }[kind]
+        target_expr = objective.target
+        if kind is RewardKind.LTL or _is_temporal(target_expr):
+            return self._ltl_reward(expr, target_expr, maximize, mode)
+        t = self._states(target_expr)
+        return _from_engine(
+            obj.expected_reach_reward(m, choice_rewards, t, maximize=maximize, mode=mode, options=opts)
+        )
+
+    def _ltl_reward(
+        self, expr: RewardQuery, path: Expr, maximize: np.ndarray, mode: "obj.ReachRewardMode"
+    ) -> QueryValue:
+        from posgmc.engines import ltl
+
+        if not ltl.is_cosafe(path):
+            raise UnsupportedError(
+                "expected rewards need a co-safe LTL objective; this formula is not co-safe",
+                path.span,
+                hint="use X, F, U and bounded G (a finite prefix must decide the formula)",
+            )
+        prod = self._ltl_product(path)
+        rm = prod.model.reward_model(expr.reward)
+        rewards = rm.choice_rewards(prod.model.row_groups)
+        pmax = maximize[prod.state_of]
+        r = obj.expected_reach_reward(
+            prod.model, rewards, prod.accepting, maximize=pmax, mode=mode, options=self.options.solver
+        )
+        return self._project(prod, _from_engine(r))
+
+    def _int(self, e: Expr | None) -> int:
+        if e is None:
+            raise SemanticError("a step bound is missing")
+        k = self.scalar(e)
+        if not isinstance(k, int) or isinstance(k, bool) or k < 0:
+            raise SemanticError("a step bound must be a non-negative integer", e.span)
+        return k
+
+    def _discount(self, e: Expr | None) -> float:
+        if e is None:
+            raise SemanticError("a discount factor is missing")
+        g = float(self.scalar(e))  # type: ignore[arg-type]
+        if not 0.0 <= g < 1.0:
+            raise SemanticError(f"a discount factor must lie in [0, 1); got {g}", e.span)
+        return g
+
+
+_ARITH = (BinaryOp.ADD, BinaryOp.SUB, BinaryOp.MUL, BinaryOp.DIV)
+
+
+def _is_temporal(e: Expr) -> bool:
+    """Whether a path formula contains a temporal operator outside nested queries."""
+    if isinstance(e, Temporal):
+        return True
+    if isinstance(e, Unary):
+        return _is_temporal(e.operand)
+    if isinstance(e, Binary):
+        return _is_temporal(e.left) or _is_temporal(e.right)
+    return False
+
+
+def _contains_query(e: Expr) -> bool:
+    if isinstance(e, (ProbQuery, RewardQuery)):
+        return True
+    if isinstance(e, Unary):
+        return _contains_query(e.operand)
+    if isinstance(e, Binary):
+        return _contains_query(e.left) or _contains_query(e.right)
+    return False
+
+
+def _interval_arith(op: BinaryOp, a: QueryValue, b: QueryValue) -> QueryValue:
+    """Sound bounds of a op b from the bounds of a and b (interval arithmetic)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if op is BinaryOp.ADD:
+            lo, hi, v = a.lower + b.lower, a.upper + b.upper, a.values + b.values
+        elif op is BinaryOp.SUB:
+            lo, hi, v = a.lower - b.upper, a.upper - b.lower, a.values - b.values
+        else:
+            if op is BinaryOp.DIV:
+                # 1/[l,u] for intervals not containing 0
+                inv_lo, inv_hi = 1.0 / b.upper, 1.0 / b.lower
+                b = replace(b, values=1.0 / b.values, lower=inv_lo, upper=inv_hi)
+            cands = np.stack([a.lower * b.lower, a.lower * b.upper, a.upper * b.lower, a.upper * b.upper])
+            cands = np.nan_to_num(cands, nan=0.0)  # 0 * inf = 0 (rewards)
+            lo, hi = cands.min(axis=0), cands.max(axis=0)
+            v = np.nan_to_num(a.values * b.values, nan=0.0)
+    return QueryValue(
+        values=v.astype(np.float64),
+        lower=lo,
+        upper=hi,
+        iterations=a.iterations + b.iterations,
+        converged=a.converged and b.converged,
+        sound=a.sound and b.sound,
+        method=a.method,
+    )

@@ -1,0 +1,407 @@
+"""The ``posgmc`` command: options become typed configuration, the work happens in :mod:`posgmc.api`.
+
+Exit status (fixed, documented in docs/cli.md):
+
+* 0 — success; for ``check``, every threshold property holds at the initial state(s);
+* 1 — ``check`` only: some threshold property does not hold;
+* 2 — bad input (model, properties, constants, options) or any other error.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import traceback
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, NoReturn, TypeVar
+
+import click
+
+from posgmc import __version__
+from posgmc.errors import MultipleErrors, PosgmcError
+
+EXIT_OK = 0
+EXIT_PROPERTY_FALSE = 1
+EXIT_ERROR = 2
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _fail(error: PosgmcError | Exception, *, debug: bool) -> NoReturn:
+    if isinstance(error, PosgmcError):
+        click.echo(error.render(), err=True)
+    else:
+        click.echo(f"internal error: {type(error).__name__}: {error}", err=True)
+        click.echo("  hint: this is a bug in posgmc; rerun with --debug for the traceback", err=True)
+    if debug:
+        traceback.print_exception(error, file=sys.stderr)
+    sys.exit(EXIT_ERROR)
+
+
+def _guard(debug: bool, fn: Callable[[], int]) -> NoReturn:
+    try:
+        code = fn()
+    except PosgmcError as e:
+        _fail(e, debug=debug)
+    except (click.exceptions.Exit, click.ClickException):
+        raise
+    except BrokenPipeError:  # output piped into e.g. `head`: stop quietly, as Unix tools do
+        sys.stderr.close()
+        sys.exit(EXIT_OK)
+    except Exception as e:  # noqa: BLE001 - the CLI never shows a bare traceback
+        _fail(e, debug=debug)
+    sys.exit(code)
+
+
+# -- constants: PRISM's --const N=4,p=0.9 and sweeps N=1:1:5 -----------------------------------
+
+
+def expand_constants(values: Sequence[str]) -> tuple[list[str], list[dict[str, Any]]]:
+    """``("N=4,p=0.9", "k=0:5")`` -> (swept names, one name->setting dict per combination).
+
+    Raises:
+        ConstantError: malformed text, a name given twice (with the position in the option's text).
+    """
+    from posgmc.errors import ConstantError
+    from posgmc.semantics.constants import ConstRange, expand_sweep, parse_const_assignments
+
+    merged: dict[str, Any] = {}
+    for i, text in enumerate(values):
+        source = "--const" if len(values) == 1 else f"--const #{i + 1}"
+        for name, setting in parse_const_assignments(text, source=source).items():
+            if name in merged:
+                raise ConstantError(f"constant '{name}' is given twice", setting.span)
+            merged[name] = setting
+    swept = [n for n, v in merged.items() if isinstance(v, ConstRange)]
+    return swept, expand_sweep(merged) if merged else []
+
+
+def _const_text(setting: Any) -> str:
+    from posgmc.semantics.evaluate import format_value
+
+    value = getattr(setting, "value", setting)
+    return value if isinstance(value, str) else format_value(value)
+
+
+# -- shared options --------------------------------------------------------------------------------
+
+
+def _common(f: F) -> F:
+    f = click.option("--debug", is_flag=True, help="Show Python tracebacks for errors.")(f)
+    f = click.option(
+        "--const",
+        "consts",
+        multiple=True,
+        metavar="N=4,p=0.9",
+        help="Values for undefined constants (PRISM syntax); ranges N=1:5 or N=1:1:5 sweep.",
+    )(f)
+    return f
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, "--version", prog_name="posgmc")
+def main() -> None:
+    """posgmc: model checking and strategy synthesis for partially observable stochastic games."""
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("props", nargs=-1, type=click.Path(dir_okay=False))
+@click.option("--prop", "prop_texts", multiple=True, metavar="TEXT", help="A property, as text.")
+@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
+@_common
+def lint(
+    model: str,
+    props: tuple[str, ...],
+    prop_texts: tuple[str, ...],
+    zero_based_players: bool,
+    consts: tuple[str, ...],
+    debug: bool,
+) -> None:
+    """Parse and check MODEL and PROPS files without building; print every error."""
+    from posgmc import api
+
+    def run() -> int:
+        _, combos = expand_constants(consts)
+        errors: list[PosgmcError] = []
+        for constants in combos or [{}]:
+            for e in api.lint(
+                model,
+                props,
+                constants=constants,
+                property_texts=prop_texts,
+                zero_based_players=zero_based_players,
+            ):
+                errors += e.errors if isinstance(e, MultipleErrors) else [e]
+        seen = set()
+        for e in errors:
+            text = e.render()
+            if text not in seen:
+                seen.add(text)
+                click.echo(text, err=True)
+        if errors:
+            click.echo(f"{len(seen)} error(s)", err=True)
+            return EXIT_ERROR
+        click.echo(f"{model}: ok")
+        return EXIT_OK
+
+    _guard(debug, run)
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.option(
+    "--export",
+    nargs=2,
+    type=(click.Choice(["drn", "prism", "dot"]), click.Path(dir_okay=False)),
+    metavar="FORMAT FILE",
+    help="Write the explicit model: drn (Storm), prism (.tra/.sta/.lab...), dot.",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print the statistics as one JSON object.")
+@click.option("--state-limit", type=click.IntRange(min=1), default=None, help="Stop beyond this many states.")
+@click.option("--no-fix-deadlocks", is_flag=True, help="Deadlock states are an error instead of self-loops.")
+@click.option("--progress/--no-progress", default=None, help="Report build progress on stderr.")
+@_common
+def build(
+    model: str,
+    export: tuple[str, str] | None,
+    as_json: bool,
+    state_limit: int | None,
+    no_fix_deadlocks: bool,
+    progress: bool | None,
+    consts: tuple[str, ...],
+    debug: bool,
+) -> None:
+    """Build MODEL's explicit state space and print its statistics."""
+    from posgmc import api
+
+    def run() -> int:
+        _, combos = expand_constants(consts)
+        if len(combos) > 1:
+            raise click.BadParameter("build takes single constant values, not ranges", param_hint="'--const'")
+        session = api.load(model, constants=combos[0] if combos else {})
+        built = api.build(session, options=_build_options(state_limit, no_fix_deadlocks, progress))
+        stats = built.model.statistics()
+        stats["build_seconds"] = round(built.seconds, 6)
+        if export is not None:
+            _export(built.model, export[0], export[1])
+            stats["exported"] = {"format": export[0], "file": export[1]}
+        for w in built.warnings:
+            click.echo(f"warning: {w}", err=True)
+        if as_json:
+            click.echo(json.dumps(stats))
+        else:
+            _print_stats(model, stats)
+        return EXIT_OK
+
+    _guard(debug, run)
+
+
+def _build_options(state_limit: int | None, no_fix_deadlocks: bool, progress: bool | None):  # type: ignore[no-untyped-def]
+    from posgmc.build import BuildOptions, ProgressMode
+
+    kwargs: dict[str, Any] = {"fix_deadlocks": not no_fix_deadlocks}
+    if state_limit is not None:
+        kwargs["state_limit"] = state_limit
+    if progress is not None:
+        kwargs["progress"] = ProgressMode.ALWAYS if progress else ProgressMode.NEVER
+    return BuildOptions(**kwargs)
+
+
+def _export(model: Any, fmt: str, path: str) -> None:
+    if fmt == "drn":
+        from posgmc.io.drn import write_drn
+
+        write_drn(model, path)
+    elif fmt == "prism":
+        from posgmc.io.prism_explicit import write_prism_explicit
+
+        base = path
+        for ext in (".tra", ".sta", ".lab"):
+            if base.endswith(ext):
+                base = base[: -len(ext)]
+        write_prism_explicit(model, base)
+    else:
+        from posgmc.io.dot import write_dot
+
+        write_dot(model, path)
+
+
+def _print_stats(model: str, stats: dict[str, Any]) -> None:
+    click.echo(f"Model:        {model}")
+    click.echo(f"Type:         {stats['type']}")
+    click.echo(f"States:       {stats['states']}  (initial: {stats['initial_states']}, deadlocks fixed: {stats['deadlocks']})")
+    click.echo(f"Choices:      {stats['choices']}")
+    click.echo(f"Transitions:  {stats['transitions']}")
+    if "players" in stats:
+        players = ", ".join(f"{n}: {c} states" for n, c in stats["players"].items())
+        click.echo(f"Players:      {players}")
+    if "observations" in stats:
+        obs = ", ".join(f"{n}: {c}" for n, c in stats["observations"].items())
+        click.echo(f"Observations: {obs}")
+    click.echo(f"Labels:       {', '.join(stats['labels'])}")
+    rewards = ", ".join(str(n) if n is not None else "(unnamed)" for n in stats["reward_models"])
+    click.echo(f"Rewards:      {rewards or '-'}")
+    click.echo(f"Build time:   {stats['build_seconds']:.3f} s")
+    if "exported" in stats:
+        click.echo(f"Exported:     {stats['exported']['format']} -> {stats['exported']['file']}")
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("props", nargs=-1, type=click.Path(dir_okay=False))
+@click.option("--prop", "prop_texts", multiple=True, metavar="TEXT", help="A property, as text (repeatable).")
+@click.option("--precision", type=click.FloatRange(min=0, min_open=True), default=1e-6, show_default=True)
+@click.option("--relative", is_flag=True, help="Precision is relative, not absolute.")
+@click.option(
+    "--method",
+    type=click.Choice(["interval", "value", "policy", "exact"]),
+    default="interval",
+    show_default=True,
+    help="interval: sound bounds; value: plain value iteration; policy/exact: exact solves.",
+)
+@click.option("--full-observation", is_flag=True, help="pomdp/posg: answer the full-observation bound.")
+@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
+@click.option("--export-strategy", type=click.Path(dir_okay=False), default=None,
+              help="Write the optimal memoryless strategy of the (single) property as JSON.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object (see docs/cli.md).")
+@click.option("--state-limit", type=click.IntRange(min=1), default=None)
+@_common
+def check(
+    model: str,
+    props: tuple[str, ...],
+    prop_texts: tuple[str, ...],
+    precision: float,
+    relative: bool,
+    method: str,
+    full_observation: bool,
+    zero_based_players: bool,
+    export_strategy: str | None,
+    as_json: bool,
+    state_limit: int | None,
+    consts: tuple[str, ...],
+    debug: bool,
+) -> None:
+    """Check PROPS (files) and --prop properties on MODEL."""
+    from posgmc import api
+    from posgmc.checking.dispatch import CheckOptions
+    from posgmc.engines.options import Method, SolverOptions
+
+    def run() -> int:
+        if not props and not prop_texts:
+            raise click.UsageError("give a properties file or --prop TEXT")
+        swept, combos = expand_constants(consts)
+        options = CheckOptions(
+            solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
+            keep_strategy=export_strategy is not None,
+        )
+        rows = []
+        code = EXIT_OK
+        for constants in combos or [{}]:
+            session = api.load(model, constants=constants)
+            report = api.check(
+                session,
+                property_files=props,
+                properties=prop_texts,
+                options=options,
+                build_options=_build_options(state_limit, False, None),
+                full_observation=full_observation,
+                zero_based_players=zero_based_players,
+            )
+            if any(r.value is False for r in report.results):
+                code = EXIT_PROPERTY_FALSE
+            rows.append((constants, report))
+            if export_strategy is not None:
+                _write_strategy(export_strategy, report)
+        if as_json:
+            click.echo(json.dumps(_json_report(model, swept, rows)))
+        else:
+            _print_report(model, swept, rows)
+        return code
+
+    _guard(debug, run)
+
+
+def _write_strategy(path: str, report: Any) -> None:
+    import numpy as np
+
+    from posgmc.io.atomic import atomic_write_text
+
+    if len(report.results) != 1 or report.results[0].strategy is None:
+        raise PosgmcError("--export-strategy needs exactly one unbounded P or R query")
+    m = report.model
+    strategy = report.results[0].strategy
+    states = []
+    for s in range(m.num_states):
+        c = int(strategy[s])
+        if c < 0:
+            continue
+        entry: dict[str, Any] = {"state": s, "choice": c - int(m.row_groups[s]),
+                                 "action": m.action_names[int(m.choice_actions[c])]}
+        if m.variable_names:
+            entry["valuation"] = dict(zip(m.variable_names, (int(v) for v in m.state_values[s])))
+        if m.player_names:
+            entry["player"] = m.player_names[int(m.state_players[s])]
+        states.append(entry)
+    doc = {"property": report.results[0].property, "memoryless": True, "states": states}
+    del np
+    atomic_write_text(path, json.dumps(doc, indent=1))
+
+
+def _json_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> dict[str, Any]:
+    def one(constants: dict[str, str], report: Any) -> dict[str, Any]:
+        stats = report.model.statistics()
+        return {
+            "constants": {n: _const_text(v) for n, v in constants.items()},
+            "model": {k: stats[k] for k in ("type", "states", "choices", "transitions")},
+            "build_seconds": round(report.build_seconds, 6),
+            "results": [r.to_json() for r in report.results],
+        }
+
+    if len(rows) == 1:
+        out = {"model_file": model, **one(*rows[0])}
+        return out
+    return {"model_file": model, "swept": swept, "runs": [one(c, r) for c, r in rows]}
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if v is None:
+        return "-"
+    return f"{v:.10g}"
+
+
+def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> None:
+    first = rows[0][1]
+    stats = first.model.statistics()
+    click.echo(
+        f"Model {model}: {stats['type']}, {stats['states']} states, {stats['choices']} choices, "
+        f"{stats['transitions']} transitions (built in {first.build_seconds:.3f} s)"
+    )
+    for w in first.warnings:
+        click.echo(f"warning: {w}", err=True)
+    if len(rows) == 1:
+        for r in first.results:
+            head = f"{r.name}: " if r.name else ""
+            line = f"{head}{r.property}: {_fmt(r.value)}"
+            if r.lower is not None and not isinstance(r.value, bool):
+                line += f"  [{_fmt(r.lower)}, {_fmt(r.upper)}]"
+            line += f"  ({r.method}, {r.iterations} it., {r.seconds:.3f} s)"
+            if not r.sound:
+                line += "  NOT PROVEN: bounds did not separate or the method is unsound"
+            click.echo(line)
+            if r.note:
+                click.echo(f"  note: {r.note}")
+        return
+    for i, r0 in enumerate(first.results):
+        click.echo(f"\n{r0.property}:")
+        click.echo("\t".join(swept + ["Result"]))
+        for constants, report in rows:
+            r = report.results[i]
+            click.echo("\t".join([_const_text(constants[n]) for n in swept] + [_fmt(r.value)]))
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
