@@ -15,8 +15,8 @@ between them, so that a caller can stop after any of them. Every input error rai
 
 from __future__ import annotations
 
-import time
-from collections.abc import Mapping, Sequence
+import dataclasses
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
@@ -49,6 +49,7 @@ __all__ = [
     "lint",
     "build",
     "check",
+    "iter_check",
     "parse_properties",
 ]
 
@@ -237,9 +238,11 @@ class CheckReport:
     build_seconds: float
     results: tuple[PropertyResult, ...]
     warnings: tuple[str, ...] = ()
+    errors: tuple[tuple[str, PosgmcError], ...] = ()
+    outcomes: tuple[PropertyResult | tuple[str, PosgmcError], ...] = ()  # all, in order
 
 
-def _coalition_resolver(model: ExplicitModel, session: Session, zero_based: bool):  # type: ignore[no-untyped-def]
+def _coalition_resolver(model: ExplicitModel, zero_based: bool):  # type: ignore[no-untyped-def]
     names = model.player_names
 
     def resolve(c: Coalition | None) -> frozenset[int] | None:
@@ -271,6 +274,87 @@ def _scalar(expr):  # type: ignore[no-untyped-def]
     return value
 
 
+def iter_check(
+    session: Session,
+    *,
+    property_files: Sequence[str | Path] = (),
+    properties: Sequence[str] = (),
+    options: CheckOptions = CheckOptions(),
+    full_observation: bool = False,
+    zero_based_players: bool = False,
+    built: BuiltModel,
+) -> Iterator[tuple[Property, PropertyResult | PosgmcError]]:
+    """Check each property in turn; a property that fails yields its error and the others go on
+    (as PRISM does). Errors that concern the whole input (unparsable files) are raised."""
+    parsed, cli_props = parse_properties(session, files=property_files, texts=properties)
+    model = built.model
+    partial = model.model_type.is_partially_observable or bool(model.observations)
+    if partial and not full_observation:
+        raise UnsupportedError(
+            f"this is a partially observable model ({model.model_type.value}); partially observable "
+            "synthesis is not available in this build",
+            hint="pass --full-observation (full_observation=True) to get the fully observable value, "
+            "which bounds the partially observable one",
+        )
+    note = (
+        "full-observation value: an upper bound for a maximising and a lower bound for a minimising "
+        "partially observing player"
+        if partial
+        else None
+    )
+    checker = PropertyChecker(
+        model,
+        coalition_of=_coalition_resolver(model, zero_based_players),
+        scalar=_scalar,
+        options=options,
+    )
+    groups: list[tuple[Sequence[Property], SourceText | None]] = [
+        (pf.properties, src) for pf, src in parsed
+    ]
+    files = [pf for pf, _ in parsed]
+    if cli_props:
+        groups.append((cli_props, None))
+        files.append(PropertiesFile(properties=tuple(cli_props)))
+    for (props, src), pf in zip(groups, files):
+        for prop in props:
+            outcome = _check_one(session, built, checker, pf, prop, zero_based_players)
+            if isinstance(outcome, PosgmcError):
+                if src is not None:
+                    _attach(outcome, src)
+            elif note:
+                outcome = dataclasses.replace(outcome, note=note)
+            yield prop, outcome
+
+
+def _check_one(
+    session: Session,
+    built: BuiltModel,
+    checker: PropertyChecker,
+    pf: PropertiesFile,
+    prop: Property,
+    zero_based_players: bool,
+) -> PropertyResult | PosgmcError:
+    try:
+        expr = prop.expr
+        if session.syntax is not None and built.flat is not None:
+            # the file's constants, formulas and labels apply to each of its properties
+            single = dataclasses.replace(pf, properties=(prop,))
+            (cp,) = sem.instantiate_properties(
+                single,
+                built.flat,
+                model=session.syntax,
+                constants=session.constants,
+                zero_based_players=zero_based_players,
+            )
+            expr = cp.expr
+        text = prop.text or format_expr(prop.expr)
+        return checker.check(expr, text=text, name=prop.name)
+    except MultipleErrors as e:
+        return e.errors[0] if len(e.errors) == 1 else e
+    except PosgmcError as e:
+        return e
+
+
 def check(
     session: Session,
     *,
@@ -293,70 +377,33 @@ def check(
             partially observable value, labelled as such); without it such models are refused.
         zero_based_players: read numeric coalitions ``<<0>>`` as Storm/PAYNT do.
 
-    Raises:
-        InputError: bad model, properties or constants.
-        UnsupportedError: the property or model needs what this build cannot do.
-    """
-    parsed, cli_props = parse_properties(session, files=property_files, texts=properties)
-    built = built or build(session, options=build_options, allow_extra_constants=True)
-    model = built.model
-    partial = model.model_type.is_partially_observable or bool(model.observations)
-    if partial and not full_observation:
-        raise UnsupportedError(
-            f"this is a partially observable model ({model.model_type.value}); partially observable "
-            "synthesis is not available in this build",
-            hint="pass --full-observation (full_observation=True) to get the fully observable value, "
-            "which bounds the partially observable one",
-        )
-    checked: list[tuple[Property, object]] = []
-    groups: list[tuple[Sequence[Property] | PropertiesFile, SourceText | None]] = [
-        (pf, src) for pf, src in parsed
-    ]
-    if cli_props:
-        groups.append((cli_props, None))
-    for group, src in groups:
-        try:
-            if session.syntax is not None and built.flat is not None:
-                cps = sem.instantiate_properties(
-                    group,
-                    built.flat,
-                    model=session.syntax,
-                    constants=session.constants,
-                    zero_based_players=zero_based_players,
-                )
-                checked += [(cp.property, cp.expr) for cp in cps]
-            else:
-                props = group.properties if isinstance(group, PropertiesFile) else group
-                checked += [(p, p.expr) for p in props]
-        except PosgmcError as e:
-            raise (_attach(e, src) if src is not None else e) from None
-    checker = PropertyChecker(
-        model,
-        coalition_of=_coalition_resolver(model, session, zero_based_players),
-        scalar=_scalar,
-        options=options,
-    )
-    results = []
-    note = (
-        "full-observation value: an upper bound for a maximising and a lower bound for a minimising "
-        "partially observing player"
-        if partial
-        else None
-    )
-    for prop, expr in checked:
-        text = prop.text or format_expr(prop.expr)
-        start = time.perf_counter()
-        try:
-            r = checker.check(expr, text=text, name=prop.name)  # type: ignore[arg-type]
-        except PosgmcError as e:
-            if e.source is None and prop.span.file is not None:
-                for pf, src in parsed:
-                    if src.file == prop.span.file:
-                        _attach(e, src)
-            raise
-        if note:
-            from dataclasses import replace
+    Returns:
+        The report; ``errors`` holds (property text, error) for properties that could not be
+        checked, ``results`` the others, in order.
 
-            r = replace(r, note=note, seconds=time.perf_counter() - start)
-        results.append(r)
-    return CheckReport(model, built.seconds, tuple(results), built.warnings)
+    Raises:
+        InputError: bad model, unparsable property files or constants.
+        UnsupportedError: a partially observable model without ``full_observation``.
+    """
+    built = built or build(session, options=build_options, allow_extra_constants=True)
+    results: list[PropertyResult] = []
+    errors: list[tuple[str, PosgmcError]] = []
+    outcomes: list[PropertyResult | tuple[str, PosgmcError]] = []
+    for prop, outcome in iter_check(
+        session,
+        property_files=property_files,
+        properties=properties,
+        options=options,
+        full_observation=full_observation,
+        zero_based_players=zero_based_players,
+        built=built,
+    ):
+        if isinstance(outcome, PosgmcError):
+            errors.append((prop.text or format_expr(prop.expr), outcome))
+            outcomes.append(errors[-1])
+        else:
+            results.append(outcome)
+            outcomes.append(outcome)
+    return CheckReport(
+        built.model, built.seconds, tuple(results), built.warnings, tuple(errors), tuple(outcomes)
+    )

@@ -309,7 +309,9 @@ def check(
                 full_observation=full_observation,
                 zero_based_players=zero_based_players,
             )
-            if any(r.value is False for r in report.results):
+            if report.errors:
+                code = EXIT_ERROR
+            elif any(r.value is False for r in report.results) and code == EXIT_OK:
                 code = EXIT_PROPERTY_FALSE
             rows.append((constants, report))
             if export_strategy is not None:
@@ -356,7 +358,10 @@ def _json_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], 
             "constants": {n: _const_text(v) for n, v in constants.items()},
             "model": {k: stats[k] for k in ("type", "states", "choices", "transitions")},
             "build_seconds": round(report.build_seconds, 6),
-            "results": [r.to_json() for r in report.results],
+            "results": [
+                r.to_json() if not isinstance(r, tuple) else {"property": r[0], "error": r[1].render()}
+                for r in report.outcomes
+            ],
         }
 
     if len(rows) == 1:
@@ -383,9 +388,12 @@ def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str],
     for w in first.warnings:
         click.echo(f"warning: {w}", err=True)
     if len(rows) == 1:
-        for r in first.results:
-            head = f"{r.name}: " if r.name else ""
-            line = f"{head}{r.property}: {_fmt(r.value)}"
+        for r in first.outcomes:
+            if isinstance(r, tuple):
+                click.echo(f"{r[0]}: ERROR")
+                click.echo(r[1].render(), err=True)
+                continue
+            line = f"{r.property}: {_fmt(r.value)}"
             if r.lower is not None and not isinstance(r.value, bool):
                 line += f"  [{_fmt(r.lower)}, {_fmt(r.upper)}]"
             line += f"  ({r.method}, {r.iterations} it., {r.seconds:.3f} s)"
@@ -395,12 +403,15 @@ def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str],
             if r.note:
                 click.echo(f"  note: {r.note}")
         return
-    for i, r0 in enumerate(first.results):
-        click.echo(f"\n{r0.property}:")
+    for i, r0 in enumerate(first.outcomes):
+        click.echo(f"\n{r0[0] if isinstance(r0, tuple) else r0.property}:")
         click.echo("\t".join(swept + ["Result"]))
         for constants, report in rows:
-            r = report.results[i]
-            click.echo("\t".join([_const_text(constants[n]) for n in swept] + [_fmt(r.value)]))
+            r = report.outcomes[i]
+            value = "Error" if isinstance(r, tuple) else _fmt(r.value)
+            click.echo("\t".join([_const_text(constants[n]) for n in swept] + [value]))
+            if isinstance(r, tuple):
+                click.echo(r[1].render(), err=True)
 
 
 if __name__ == "__main__":  # pragma: no cover
