@@ -1,1 +1,69 @@
-"""The compiler: vectorized exploration of a FlatModel into an ExplicitModel."""
+"""The compiler: vectorized exploration of a FlatModel into an ExplicitModel.
+
+``build_model(flat)`` compiles every expression once into numpy code
+(:mod:`~posgmc.build.compile_expr`), packs states into integer keys
+(:mod:`~posgmc.build.state_space`), explores breadth-first a batch of states at a time numbering
+states exactly as Storm does (:mod:`~posgmc.build.explore`), and freezes the result
+(:mod:`~posgmc.build.assemble`). State, choice and transition counts equal Storm's.
+
+State numbers, the order of choices within a state and every row equal those of Storm's sparse
+builder (checked against stormpy 2.0 in ``tests/build/test_storm_order.py``). Where posgmc
+deliberately differs from Storm:
+
+* an assignment outside its variable's range is a :class:`~posgmc.errors.BuildError` (PRISM's
+  behaviour; Storm without exploration checks writes a wrapped-around value);
+* in games, unowned choices next to owned ones are accepted (PRISM-games' rule; Storm rejects any
+  enabled unowned choice);
+* several initial states (``init ... endinit``) are numbered in lexicographic order of their
+  valuations (Storm: in the order its SMT solver enumerates them);
+* a merged DTMC choice is labelled with its action only when all merged choices share it.
+
+Cost: array operations per batch of states, so the time is dominated by the number of
+transitions; but each batch has a fixed overhead of about 0.1 ms per command, which dominates for
+models whose breadth-first frontier stays tiny for very many levels (a single counter to 10^5
+takes seconds).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from posgmc.build.assemble import assemble
+from posgmc.build.explore import explore
+from posgmc.build.options import BuildOptions, BuildResult, ProgressMode, ValidationMode
+from posgmc.build.program import compile_program
+from posgmc.semantics.flat import FlatModel
+
+__all__ = ["BuildOptions", "BuildResult", "ProgressMode", "ValidationMode", "build_model"]
+
+
+def build_model(flat: FlatModel, *, options: BuildOptions = BuildOptions()) -> BuildResult:  # noqa: B008
+    """Build the explicit model of an instantiated model.
+
+    Args:
+        flat: the checked, instantiated model (``posgmc.semantics.checker.instantiate``).
+        options: state limit, deadlock handling, progress, observations, validation.
+
+    Returns:
+        The model, the wall-clock seconds the build took, and warnings (fixed deadlocks).
+
+    Raises:
+        BuildError: the model is invalid in a way exploration shows: probabilities of a command
+            not summing to 1 or negative, an assignment out of its variable's range, two
+            synchronising modules assigning one variable, a failing expression (``mod`` by 0,
+            ...), a deadlock with ``fix_deadlocks=False``, a game state with choices of two
+            players or with several unowned choices, two states with one observation but
+            different actions, no initial state.
+        LimitError: more states than ``options.state_limit``, or an ``init`` predicate with too
+            many candidate valuations.
+        UnsupportedError: a double-valued observable.
+    """
+    start = time.perf_counter()
+    # x/0 and the like are IEEE values in PRISM, not warnings
+    with np.errstate(all="ignore"):
+        program = compile_program(flat)
+        exploration = explore(program, options)
+        model, warnings = assemble(program, exploration, options)
+    return BuildResult(model=model, seconds=time.perf_counter() - start, warnings=tuple(warnings))

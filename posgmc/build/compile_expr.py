@@ -1,0 +1,786 @@
+"""Compile a model expression once into a numpy function over whole arrays of states.
+
+An expression of the :class:`~posgmc.semantics.flat.FlatModel` (constants already literals, every
+identifier a state variable) becomes Python source text of numpy operations, compiled with
+:func:`compile` once and then applied to a batch of states at a time: ``f(v)`` where ``v[i]`` is
+the array of values of variable ``i`` in the batch (int64 for ints, bool for Booleans). Constant
+subexpressions are folded exactly first (ints, :class:`~fractions.Fraction` for doubles while
+exact), so a guard like ``x < N-1`` costs one comparison per state.
+
+PRISM's semantics (``parser/ast/ExpressionFunc.java``, ``ExpressionBinaryOp.java``):
+
+* ``a / b`` is always a double (IEEE division: ``x/0`` is an infinity at exploration time);
+  ``+ - *`` of two ints is an int.
+* ``floor``, ``ceil``, ``round`` give ints, ``round(x) = floor(x + 1/2)`` (Java ``Math.round``);
+  a non-finite argument is an error.
+* ``pow(i, j)`` of two ints is an int and needs ``j >= 0``; otherwise a double.
+* ``mod(i, n)`` needs ``n > 0`` and is never negative (Python's ``%`` for ``n > 0``).
+* ``log(x, b) = ln x / ln b``; ``min``/``max`` are n-ary.
+* ``&``, ``|``, ``=>`` and ``? :`` short-circuit as in PRISM: an operand that can fail (``mod``,
+  integer ``pow``, ``floor``/``ceil``/``round`` of a double) is evaluated only on the states where
+  its value is needed, so ``x > 0 & mod(y, x) = 0`` never divides by zero.
+
+Runtime failures raise :class:`EvaluationError` with the offending row; the explorer turns it into
+a :class:`~posgmc.errors.BuildError` naming the state.
+"""
+
+from __future__ import annotations
+
+import enum
+import itertools
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from posgmc.errors import SourceSpan
+from posgmc.syntax.ast import (
+    NO_SPAN,
+    Binary,
+    BinaryOp,
+    BoolLit,
+    Call,
+    DoubleLit,
+    Expr,
+    Function,
+    Ident,
+    IntLit,
+    Ite,
+    Unary,
+    UnaryOp,
+)
+
+__all__ = [
+    "Columns",
+    "CompiledExpr",
+    "EvaluationError",
+    "ExprType",
+    "Scalar",
+    "compile_expr",
+    "infer_type",
+]
+
+Scalar = bool | int | Fraction | float
+"""A folded constant: bool, int, exact double (Fraction) or inexact double (float)."""
+
+
+class ExprType(enum.Enum):
+    """The three value types of the PRISM language."""
+
+    BOOL = "bool"
+    INT = "int"
+    DOUBLE = "double"
+
+
+class EvaluationError(Exception):
+    """An expression failed on one state of a batch (``mod`` by 0, negative int exponent, ...).
+
+    ``row`` indexes the rows of the root :class:`Columns` the evaluation started from.
+    """
+
+    def __init__(self, message: str, span: SourceSpan, row: int) -> None:
+        super().__init__(message)
+        self.message = message
+        self.span = span
+        self.row = row
+
+
+class Columns:
+    """The variable values of a batch of ``n`` states, one array per variable.
+
+    ``take(rows)`` gives the sub-batch of those rows; its columns are gathered lazily on first
+    use, so evaluating a guard of two variables on a subset copies only those two.
+    ``origin`` maps local rows to rows of the root batch (None: identity), for error reports.
+    """
+
+    __slots__ = ("_arrays", "_parent", "_rows", "n", "origin")
+
+    def __init__(
+        self,
+        arrays: Sequence[np.ndarray | None],
+        n: int,
+        *,
+        parent: Columns | None = None,
+        rows: np.ndarray | None = None,
+        origin: np.ndarray | None = None,
+    ) -> None:
+        self._arrays: list[np.ndarray | None] = list(arrays)
+        self._parent = parent
+        self._rows = rows
+        self.n = n
+        self.origin = origin
+
+    def __getitem__(self, i: int) -> np.ndarray:
+        a = self._arrays[i]
+        if a is None:
+            assert self._parent is not None and self._rows is not None
+            a = self._parent[i][self._rows]
+            self._arrays[i] = a
+        return a
+
+    def __len__(self) -> int:
+        return len(self._arrays)
+
+    def take(self, rows: np.ndarray) -> Columns:
+        """The sub-batch of ``rows`` (int indices into this batch)."""
+        origin = rows if self.origin is None else self.origin[rows]
+        return Columns(
+            [None] * len(self._arrays), int(rows.size), parent=self, rows=rows, origin=origin
+        )
+
+    def root_row(self, row: int) -> int:
+        return int(row if self.origin is None else self.origin[row])
+
+
+@dataclass(frozen=True, eq=False)
+class CompiledExpr:
+    """An expression compiled for batches of states.
+
+    ``type``: its value type. ``constant``: its folded value when it does not depend on the state
+    (then ``function`` returns that scalar). ``variables``: indices of the variables it reads.
+    ``source``: the generated numpy source, for debugging.
+    """
+
+    type: ExprType
+    constant: Scalar | None
+    variables: frozenset[int]
+    source: str
+    function: Callable[[Columns], Any] = field(repr=False)
+    span: SourceSpan = NO_SPAN
+
+    @property
+    def is_constant(self) -> bool:
+        return self.constant is not None
+
+    def __call__(self, columns: Columns) -> Any:
+        """The raw result: an array of ``columns.n`` values, or a scalar for a constant.
+
+        IEEE special values (``x/0``) are intended: callers evaluate under
+        ``np.errstate(all="ignore")`` (the builder sets it once per build).
+        """
+        return self.function(columns)
+
+    def evaluate(self, columns: Columns) -> np.ndarray:
+        """The result as an array of length ``columns.n`` (bool, int64 or float64)."""
+        with np.errstate(all="ignore"):
+            out = self.function(columns)
+        dtype = _DTYPES[self.type]
+        if isinstance(out, np.ndarray) and out.shape == (columns.n,):
+            return out if out.dtype == dtype else out.astype(dtype)
+        return np.full(columns.n, _to_numpy_scalar(out, self.type), dtype=dtype)
+
+
+_DTYPES = {ExprType.BOOL: np.bool_, ExprType.INT: np.int64, ExprType.DOUBLE: np.float64}
+
+
+def _to_numpy_scalar(value: Any, type_: ExprType) -> Any:
+    if type_ is ExprType.DOUBLE:
+        return float(value)
+    if type_ is ExprType.INT:
+        return int(value)
+    return bool(value)
+
+
+# ---------------------------------------------------------------------------------------------
+# types
+# ---------------------------------------------------------------------------------------------
+
+
+def infer_type(expr: Expr, variable_types: Mapping[str, ExprType]) -> ExprType:
+    """The PRISM type of a (type-checked) model expression.
+
+    Args:
+        expr: an expression whose identifiers are all in ``variable_types``.
+        variable_types: the type (INT or BOOL) of each state variable.
+
+    Returns:
+        BOOL, INT or DOUBLE.
+
+    Raises:
+        KeyError: an identifier that is not a variable (the semantic stage rules this out).
+    """
+    if isinstance(expr, BoolLit):
+        return ExprType.BOOL
+    if isinstance(expr, IntLit):
+        return ExprType.INT
+    if isinstance(expr, DoubleLit):
+        return ExprType.DOUBLE
+    if isinstance(expr, Ident):
+        return variable_types[expr.name]
+    if isinstance(expr, Unary):
+        return ExprType.BOOL if expr.op is UnaryOp.NOT else infer_type(expr.operand, variable_types)
+    if isinstance(expr, Binary):
+        if expr.op in _BOOL_OPS or expr.op in _COMPARISONS:
+            return ExprType.BOOL
+        if expr.op is BinaryOp.DIV:
+            return ExprType.DOUBLE
+        return _join(infer_type(expr.left, variable_types), infer_type(expr.right, variable_types))
+    if isinstance(expr, Ite):
+        return _join(
+            infer_type(expr.then, variable_types), infer_type(expr.otherwise, variable_types)
+        )
+    if isinstance(expr, Call):
+        fn = expr.function
+        if fn in (Function.FLOOR, Function.CEIL, Function.ROUND, Function.MOD):
+            return ExprType.INT
+        if fn is Function.LOG:
+            return ExprType.DOUBLE
+        types = [infer_type(a, variable_types) for a in expr.args]
+        out = types[0]
+        for t in types[1:]:
+            out = _join(out, t)
+        return out
+    raise TypeError(f"{type(expr).__name__} is not a model expression")
+
+
+def _join(a: ExprType, b: ExprType) -> ExprType:
+    if a is b:
+        return a
+    if ExprType.DOUBLE in (a, b):
+        return ExprType.DOUBLE
+    return a if a is not ExprType.BOOL else b
+
+
+_BOOL_OPS = {BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF}
+_COMPARISONS = {BinaryOp.EQ, BinaryOp.NE, BinaryOp.LT, BinaryOp.LE, BinaryOp.GT, BinaryOp.GE}
+_PY_OPS = {
+    BinaryOp.EQ: "==",
+    BinaryOp.NE: "!=",
+    BinaryOp.LT: "<",
+    BinaryOp.LE: "<=",
+    BinaryOp.GT: ">",
+    BinaryOp.GE: ">=",
+    BinaryOp.ADD: "+",
+    BinaryOp.SUB: "-",
+    BinaryOp.MUL: "*",
+}
+
+
+# ---------------------------------------------------------------------------------------------
+# constant folding (exact, PRISM semantics)
+# ---------------------------------------------------------------------------------------------
+
+
+class _FoldError(Exception):
+    """A constant subexpression fails (``mod(3, 0)``); compiled to a runtime failure instead."""
+
+
+def _fdiv(a: float, b: float) -> float:
+    try:
+        return a / b
+    except ZeroDivisionError:
+        if a == 0 or math.isnan(a):
+            return math.nan
+        return math.copysign(math.inf, a) * math.copysign(1.0, b)
+
+
+def _to_int(x: Fraction | float, how: Callable[[Any], int]) -> int:
+    if isinstance(x, float):
+        if not math.isfinite(x):
+            raise _FoldError(f"cannot convert {x} to an int")
+        x = Fraction(x)
+    return how(x)
+
+
+def _fold_binary(op: BinaryOp, a: Scalar, b: Scalar) -> Scalar:
+    if op is BinaryOp.AND:
+        return bool(a) and bool(b)
+    if op is BinaryOp.OR:
+        return bool(a) or bool(b)
+    if op is BinaryOp.IMPLIES:
+        return (not a) or bool(b)
+    if op is BinaryOp.IFF:
+        return bool(a) == bool(b)
+    if op is BinaryOp.EQ:
+        return a == b
+    if op is BinaryOp.NE:
+        return a != b
+    if op is BinaryOp.LT:
+        return a < b
+    if op is BinaryOp.LE:
+        return a <= b
+    if op is BinaryOp.GT:
+        return a > b
+    if op is BinaryOp.GE:
+        return a >= b
+    if op is BinaryOp.ADD:
+        return a + b
+    if op is BinaryOp.SUB:
+        return a - b
+    if op is BinaryOp.MUL:
+        return a * b
+    # DIV: a double, exact while both are exact and the divisor is not 0
+    if isinstance(a, float) or isinstance(b, float) or b == 0:
+        return _fdiv(float(a), float(b))
+    return Fraction(a) / Fraction(b)
+
+
+def _fold_call(fn: Function, args: list[Scalar], result_type: ExprType) -> Scalar:
+    if fn in (Function.MIN, Function.MAX):
+        r = min(args) if fn is Function.MIN else max(args)
+        if result_type is ExprType.DOUBLE and not isinstance(r, (float, Fraction)):
+            return Fraction(r)
+        return r
+    if fn is Function.FLOOR:
+        return _to_int(args[0], math.floor)
+    if fn is Function.CEIL:
+        return _to_int(args[0], math.ceil)
+    if fn is Function.ROUND:
+        return _to_int(args[0], lambda q: math.floor(q + Fraction(1, 2)))
+    a, b = args
+    if fn is Function.MOD:
+        if b <= 0:
+            raise _FoldError(f"mod() by a non-positive divisor ({b})")
+        return int(a) % int(b)
+    if fn is Function.POW:
+        if result_type is ExprType.INT:
+            if b < 0:
+                raise _FoldError(f"negative exponent {b} in pow() of two ints")
+            return int(int(a) ** int(b))
+        if not isinstance(a, float) and (
+            isinstance(b, int) or (isinstance(b, Fraction) and b.denominator == 1)
+        ):
+            base, exp = Fraction(a), int(b)
+            if base == 0 and exp < 0:
+                return math.inf
+            return base**exp
+        try:
+            return math.pow(float(a), float(b))
+        except (ValueError, OverflowError):
+            return math.nan
+    # LOG
+    return _fdiv(_ln(float(a)), _ln(float(b)))
+
+
+def _ln(x: float) -> float:
+    if math.isnan(x) or x < 0:
+        return math.nan
+    if x == 0:
+        return -math.inf
+    return math.log(x)
+
+
+# ---------------------------------------------------------------------------------------------
+# runtime helpers referenced by the generated code
+# ---------------------------------------------------------------------------------------------
+
+
+def _first_row(v: Columns, bad: Any) -> int:
+    if isinstance(bad, np.ndarray) and bad.ndim:
+        return v.root_row(int(np.flatnonzero(bad)[0]))
+    return v.root_row(0)
+
+
+def _rt_mod(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
+    bad = np.asarray(b) <= 0
+    if np.any(bad):
+        bv = b[np.flatnonzero(bad)[0]] if isinstance(b, np.ndarray) and b.ndim else b
+        raise EvaluationError(
+            f"mod() by a non-positive divisor ({int(bv)})", span, _first_row(v, bad)
+        )
+    return np.mod(a, b)
+
+
+def _rt_ipow(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
+    bad = np.asarray(b) < 0
+    if np.any(bad):
+        raise EvaluationError("negative exponent in pow() of two ints", span, _first_row(v, bad))
+    return np.power(a, b)
+
+
+def _rt_fpow(a: Any, b: Any) -> Any:
+    return np.power(np.asarray(a, dtype=np.float64), b)
+
+
+def _rt_to_int(v: Columns, x: Any, span: SourceSpan, name: str) -> Any:
+    bad = ~np.isfinite(x)
+    if np.any(bad):
+        raise EvaluationError(f"{name}() of a non-finite value", span, _first_row(v, bad))
+    return np.asarray(x).astype(np.int64)
+
+
+def _rt_floor(v: Columns, x: Any, span: SourceSpan) -> Any:
+    return _rt_to_int(v, np.floor(x), span, "floor")
+
+
+def _rt_ceil(v: Columns, x: Any, span: SourceSpan) -> Any:
+    return _rt_to_int(v, np.ceil(x), span, "ceil")
+
+
+def _rt_round(v: Columns, x: Any, span: SourceSpan) -> Any:
+    return _rt_to_int(v, np.floor(np.asarray(x, dtype=np.float64) + 0.5), span, "round")
+
+
+def _rt_log(a: Any, b: Any) -> Any:
+    return np.log(np.asarray(a, dtype=np.float64)) / np.log(np.asarray(b, dtype=np.float64))
+
+
+def _rt_full(v: Columns, value: Any, dtype: Any) -> np.ndarray:
+    return np.full(v.n, value, dtype=dtype)
+
+
+def _rt_lazy_where(
+    v: Columns,
+    cond: Any,
+    f_then: Callable[[Columns], Any],
+    f_else: Callable[[Columns], Any],
+    dtype: Any,
+) -> np.ndarray:
+    """``cond ? then : else`` evaluating each branch only on its own rows."""
+    cond = np.broadcast_to(np.asarray(cond, dtype=bool), (v.n,))
+    out = np.empty(v.n, dtype=dtype)
+    for mask, f in ((cond, f_then), (~cond, f_else)):
+        rows = np.flatnonzero(mask)
+        if rows.size == v.n:
+            out[:] = f(v)
+        elif rows.size:
+            out[rows] = f(v.take(rows))
+    return out
+
+
+def _rt_lazy_and(v: Columns, left: Any, f_right: Callable[[Columns], Any]) -> np.ndarray:
+    left = np.broadcast_to(np.asarray(left, dtype=bool), (v.n,))
+    out = np.zeros(v.n, dtype=bool)
+    rows = np.flatnonzero(left)
+    if rows.size:
+        out[rows] = f_right(v.take(rows))
+    return out
+
+
+def _rt_lazy_or(v: Columns, left: Any, f_right: Callable[[Columns], Any]) -> np.ndarray:
+    left = np.broadcast_to(np.asarray(left, dtype=bool), (v.n,))
+    out = np.ones(v.n, dtype=bool)
+    rows = np.flatnonzero(~left)
+    if rows.size:
+        out[rows] = f_right(v.take(rows))
+    return out
+
+
+_RUNTIME: dict[str, Any] = {
+    "_np": np,
+    "_mod": _rt_mod,
+    "_ipow": _rt_ipow,
+    "_fpow": _rt_fpow,
+    "_floor": _rt_floor,
+    "_ceil": _rt_ceil,
+    "_round": _rt_round,
+    "_log": _rt_log,
+    "_full": _rt_full,
+    "_lazy_where": _rt_lazy_where,
+    "_lazy_and": _rt_lazy_and,
+    "_lazy_or": _rt_lazy_or,
+    "_bool": np.bool_,
+    "_int": np.int64,
+    "_float": np.float64,
+}
+
+
+# ---------------------------------------------------------------------------------------------
+# code generation
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Code:
+    """A generated subexpression: source text, type, folded value, and whether it can fail."""
+
+    text: str
+    type: ExprType
+    constant: Scalar | None = None
+    partial: bool = False
+    fold_error: str | None = None  # a constant that fails to evaluate
+
+
+class _Generator:
+    """Turns one expression tree into source text plus auxiliary functions and span constants."""
+
+    def __init__(self, slots: Mapping[str, tuple[int, ExprType]]) -> None:
+        self.slots = slots
+        self.variables: set[int] = set()
+        self.aux: list[str] = []
+        self.env: dict[str, Any] = {}
+        self._counter = itertools.count()
+
+    def fresh(self, prefix: str) -> str:
+        return f"{prefix}{next(self._counter)}"
+
+    def span_const(self, span: SourceSpan) -> str:
+        name = self.fresh("_span")
+        self.env[name] = span
+        return name
+
+    def function(self, code: _Code) -> str:
+        """Wrap ``code`` into an auxiliary ``def _fN(v)`` and return its name."""
+        name = self.fresh("_f")
+        body = self.materialize(code)
+        self.aux.append(f"def {name}(v):\n    return {body}\n")
+        return name
+
+    def materialize(self, code: _Code) -> str:
+        """Source that yields an array of ``v.n`` rows (constants become ``_full``)."""
+        if code.constant is not None:
+            return f"_full(v, {self.literal(code.constant, code.type)}, {_DTYPE_NAMES[code.type]})"
+        return code.text
+
+    def literal(self, value: Scalar, type_: ExprType) -> str:
+        if type_ is ExprType.BOOL:
+            return "True" if value else "False"
+        if type_ is ExprType.INT:
+            return repr(int(value))
+        f = float(value)
+        if math.isfinite(f):
+            return repr(f)
+        name = self.fresh("_c")
+        self.env[name] = f
+        return name
+
+    def const(self, value: Scalar, type_: ExprType) -> _Code:
+        if type_ is ExprType.DOUBLE and isinstance(value, int):
+            value = Fraction(value)
+        return _Code(self.literal(value, type_), type_, constant=value)
+
+    def gen(self, e: Expr) -> _Code:
+        if isinstance(e, BoolLit):
+            return self.const(bool(e.value), ExprType.BOOL)
+        if isinstance(e, IntLit):
+            return self.const(int(e.value), ExprType.INT)
+        if isinstance(e, DoubleLit):
+            v = e.value
+            return self.const(
+                v if isinstance(v, (Fraction, float)) else Fraction(v), ExprType.DOUBLE
+            )
+        if isinstance(e, Ident):
+            index, type_ = self.slots[e.name]
+            self.variables.add(index)
+            return _Code(f"v[{index}]", type_)
+        if isinstance(e, Unary):
+            return self.unary(e)
+        if isinstance(e, Binary):
+            return self.binary(e)
+        if isinstance(e, Ite):
+            return self.ite(e)
+        if isinstance(e, Call):
+            return self.call(e)
+        raise TypeError(f"{type(e).__name__} cannot be compiled: not a model expression")
+
+    def unary(self, e: Unary) -> _Code:
+        a = self.gen(e.operand)
+        if e.op is UnaryOp.NOT:
+            if a.constant is not None:
+                return self.const(not a.constant, ExprType.BOOL)
+            return _Code(f"(~{a.text})", ExprType.BOOL, partial=a.partial)
+        if a.constant is not None:
+            return self.const(-a.constant, a.type)
+        return _Code(f"(-{a.text})", a.type, partial=a.partial)
+
+    def binary(self, e: Binary) -> _Code:
+        op = e.op
+        a = self.gen(e.left)
+        if op in (BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES):
+            return self.logical(op, a, e.right)
+        b = self.gen(e.right)
+        if a.constant is not None and b.constant is not None:
+            type_ = (
+                ExprType.BOOL
+                if op in _COMPARISONS or op is BinaryOp.IFF
+                else (ExprType.DOUBLE if op is BinaryOp.DIV else _join(a.type, b.type))
+            )
+            return self.const(_fold_binary(op, a.constant, b.constant), type_)
+        partial = a.partial or b.partial
+        if op is BinaryOp.IFF:
+            return _Code(f"({a.text} == {b.text})", ExprType.BOOL, partial=partial)
+        if op is BinaryOp.DIV:
+            return _Code(f"_np.true_divide({a.text}, {b.text})", ExprType.DOUBLE, partial=partial)
+        type_ = ExprType.BOOL if op in _COMPARISONS else _join(a.type, b.type)
+        return _Code(f"({a.text} {_PY_OPS[op]} {b.text})", type_, partial=partial)
+
+    def logical(self, op: BinaryOp, a: _Code, right: Expr) -> _Code:
+        b = self.gen(right)
+        if a.constant is not None:
+            # a constant left operand decides or disappears
+            lv = bool(a.constant)
+            if op is BinaryOp.IMPLIES:
+                lv = not lv
+            if (op is BinaryOp.AND and not lv) or (op is not BinaryOp.AND and lv):
+                return self.const(op is not BinaryOp.AND, ExprType.BOOL)
+            return b
+        left = f"(~{a.text})" if op is BinaryOp.IMPLIES else a.text
+        if b.constant is not None:
+            rv = bool(b.constant)
+            if op is BinaryOp.AND:
+                return (
+                    _Code(left, ExprType.BOOL, partial=a.partial)
+                    if rv
+                    else self.const(False, ExprType.BOOL)
+                )
+            return (
+                self.const(True, ExprType.BOOL)
+                if rv
+                else _Code(left, ExprType.BOOL, partial=a.partial)
+            )
+        if b.partial:
+            # short-circuit: evaluate the right operand only where it decides the result
+            helper = "_lazy_and" if op is BinaryOp.AND else "_lazy_or"
+            return _Code(f"{helper}(v, {left}, {self.function(b)})", ExprType.BOOL, partial=True)
+        sym = "&" if op is BinaryOp.AND else "|"
+        return _Code(f"({left} {sym} {b.text})", ExprType.BOOL, partial=a.partial)
+
+    def ite(self, e: Ite) -> _Code:
+        c = self.gen(e.cond)
+        a = self.gen(e.then)
+        b = self.gen(e.otherwise)
+        type_ = _join(a.type, b.type)
+        if c.constant is not None:
+            chosen = a if c.constant else b
+            if chosen.constant is not None:
+                return self.const(chosen.constant, type_)
+            if chosen.type is not type_:
+                return _Code(
+                    f"({chosen.text}).astype({_DTYPE_NAMES[type_]})", type_, partial=chosen.partial
+                )
+            return chosen
+        if a.partial or b.partial or a.fold_error or b.fold_error:
+            return _Code(
+                f"_lazy_where(v, {c.text}, {self.function(a)}, {self.function(b)}, "
+                f"{_DTYPE_NAMES[type_]})",
+                type_,
+                partial=True,
+            )
+        at = (
+            a.text
+            if a.type is type_ or a.constant is not None
+            else f"({a.text}).astype({_DTYPE_NAMES[type_]})"
+        )
+        bt = (
+            b.text
+            if b.type is type_ or b.constant is not None
+            else f"({b.text}).astype({_DTYPE_NAMES[type_]})"
+        )
+        if type_ is ExprType.DOUBLE:
+            at = self.literal(a.constant, type_) if a.constant is not None else at
+            bt = self.literal(b.constant, type_) if b.constant is not None else bt
+        return _Code(f"_np.where({c.text}, {at}, {bt})", type_, partial=c.partial)
+
+    def call(self, e: Call) -> _Code:
+        fn = e.function
+        args = [self.gen(a) for a in e.args]
+        if fn in (Function.FLOOR, Function.CEIL, Function.ROUND, Function.MOD):
+            type_ = ExprType.INT
+        elif fn is Function.LOG:
+            type_ = ExprType.DOUBLE
+        else:
+            type_ = args[0].type
+            for a in args[1:]:
+                type_ = _join(type_, a.type)
+        if all(a.constant is not None for a in args):
+            try:
+                return self.const(_fold_call(fn, [a.constant for a in args], type_), type_)  # type: ignore[misc]
+            except _FoldError as err:
+                # never fold away a failure: it may sit in a branch that is never taken
+                code = self.failing(str(err), e.span, type_)
+                return code
+        partial = any(a.partial for a in args)
+        texts = [a.text for a in args]
+        if fn in (Function.MIN, Function.MAX):
+            np_fn = "_np.minimum" if fn is Function.MIN else "_np.maximum"
+            acc = texts[0]
+            for t in texts[1:]:
+                acc = f"{np_fn}({acc}, {t})"
+            if type_ is ExprType.DOUBLE:
+                acc = f"_np.asarray({acc}, dtype=_float)"
+            return _Code(acc, type_, partial=partial)
+        if fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
+            a = args[0]
+            if a.type is ExprType.INT:
+                return a
+            helper = {Function.FLOOR: "_floor", Function.CEIL: "_ceil", Function.ROUND: "_round"}[
+                fn
+            ]
+            return _Code(
+                f"{helper}(v, {a.text}, {self.span_const(e.span)})", ExprType.INT, partial=True
+            )
+        if fn is Function.MOD:
+            a, b = args
+            if b.constant is not None and b.constant > 0:
+                return _Code(f"_np.mod({a.text}, {b.text})", ExprType.INT, partial=partial)
+            return _Code(
+                f"_mod(v, {a.text}, {b.text}, {self.span_const(e.span)})",
+                ExprType.INT,
+                partial=True,
+            )
+        if fn is Function.POW:
+            a, b = args
+            if type_ is ExprType.INT:
+                if b.constant is not None and b.constant >= 0:
+                    return _Code(f"_np.power({a.text}, {b.text})", ExprType.INT, partial=partial)
+                return _Code(
+                    f"_ipow(v, {a.text}, {b.text}, {self.span_const(e.span)})",
+                    ExprType.INT,
+                    partial=True,
+                )
+            return _Code(f"_fpow({a.text}, {b.text})", ExprType.DOUBLE, partial=partial)
+        return _Code(f"_log({texts[0]}, {texts[1]})", ExprType.DOUBLE, partial=partial)
+
+    def failing(self, message: str, span: SourceSpan, type_: ExprType) -> _Code:
+        """A constant that fails whenever evaluated (e.g. ``mod(1, 0)`` in a branch)."""
+        name = self.fresh("_fail")
+
+        def fail(v: Columns) -> Any:
+            raise EvaluationError(message, span, v.root_row(0))
+
+        self.env[name] = fail
+        return _Code(f"{name}(v)", type_, partial=True, fold_error=message)
+
+
+_DTYPE_NAMES = {ExprType.BOOL: "_bool", ExprType.INT: "_int", ExprType.DOUBLE: "_float"}
+
+
+def _constant_function(value: Any) -> Callable[[Columns], Any]:
+    def constant(v: Columns) -> Any:
+        return value
+
+    return constant
+
+
+def compile_expr(expr: Expr, slots: Mapping[str, tuple[int, ExprType]]) -> CompiledExpr:
+    """Compile ``expr`` into a function of a :class:`Columns` batch.
+
+    Args:
+        expr: a model expression (literals, variables, operators, functions).
+        slots: for each variable name, its column index and type (INT or BOOL).
+
+    Returns:
+        The compiled expression; for a constant one, ``constant`` holds the folded value.
+
+    Raises:
+        KeyError: an identifier that is not a variable.
+    """
+    gen = _Generator(slots)
+    code = gen.gen(expr)
+    if code.constant is not None:
+        value = code.constant
+        plain = _to_numpy_scalar(value, code.type)  # numpy cannot mix Fractions into arrays
+        return CompiledExpr(
+            type=code.type,
+            constant=value,
+            variables=frozenset(),
+            source=repr(value),
+            function=_constant_function(plain),
+            span=expr.span,
+        )
+    body = code.text
+    source = "".join(gen.aux) + f"def _main(v):\n    return {body}\n"
+    namespace: dict[str, Any] = dict(_RUNTIME)
+    namespace.update(gen.env)
+    exec(compile(source, f"<posgmc expression {expr.span}>", "exec"), namespace)  # noqa: S102
+    return CompiledExpr(
+        type=code.type,
+        constant=None,
+        variables=frozenset(gen.variables),
+        source=source,
+        function=namespace["_main"],
+        span=expr.span,
+    )

@@ -1,0 +1,58 @@
+"""The options of a build and the record it returns."""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+from posgmc.model.explicit import ExplicitModel
+
+__all__ = ["BuildOptions", "BuildResult", "ProgressMode", "ValidationMode"]
+
+
+class ProgressMode(enum.Enum):
+    """When to report exploration progress on stderr."""
+
+    AUTO = "auto"  # only when stderr is a terminal
+    ALWAYS = "always"
+    NEVER = "never"
+
+
+class ValidationMode(enum.Enum):
+    """When to run :meth:`ExplicitModel.validate` on the result (it re-checks every row sum)."""
+
+    AUTO = "auto"  # models with at most ``BuildOptions.validate_limit`` transitions
+    ALWAYS = "always"
+    NEVER = "never"
+
+
+@dataclass(frozen=True, kw_only=True)
+class BuildOptions:
+    """How to build.
+
+    ``state_limit``: stop with a :class:`~posgmc.errors.LimitError` once more states are found.
+    ``fix_deadlocks``: give states without any enabled choice a self-loop (PRISM/Storm default);
+    otherwise such a state is a :class:`~posgmc.errors.BuildError`.
+    ``build_observations``: compute the observation functions (pomdp/posg/smg with observables).
+    ``probability_tolerance``: how far the update probabilities of a command may sum from 1.
+    ``initial_state_limit``: the largest number of candidate valuations enumerated for an
+    ``init ... endinit`` predicate (after fixing the variables it pins to one value).
+    """
+
+    state_limit: int = 50_000_000
+    fix_deadlocks: bool = True
+    progress: ProgressMode = ProgressMode.AUTO
+    build_observations: bool = True
+    validation: ValidationMode = ValidationMode.AUTO
+    validate_limit: int = 1_000_000
+    probability_tolerance: float = 1e-9
+    initial_state_limit: int = 1 << 28
+
+
+@dataclass(frozen=True, eq=False)
+class BuildResult:
+    """The built model, the wall time of the build, and warnings such as fixed deadlocks."""
+
+    model: ExplicitModel
+    seconds: float
+    warnings: tuple[str, ...] = ()
