@@ -10,12 +10,15 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 from posgmc import api
+from posgmc.checking.dispatch import CheckOptions
+from posgmc.engines.options import Method, SolverOptions
 from posgmc.errors import BuildError
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "storm_reference.json"
@@ -27,8 +30,14 @@ BIG = 100_000  # models with more states than this run only with -m slow
 # bounds during exploration by default and writes the out-of-range value; PRISM reports an error.
 OUT_OF_RANGE = {"dodge6-lines", "dodge-6-lines/model.prism", "dodge6-lines-position", "dodge-6-lines-position/model.prism"}
 
-# Storm's value is off by more than the tolerance for a reason that is Storm's (documented):
-STORM_DIFFERS: dict[tuple[str, str], str] = {}
+# Storm 2.0 solves games by value iteration from below that stops when two iterates are 1e-6
+# apart, which is no bound: on slowly converging games its value lies up to 2e-5 below the exact
+# one (attacker-one-defender: Storm 0.13251805, exact 0.13252273; dodge-8: Storm 0.09960647, exact
+# 0.09961614; exact = policy iteration with exact linear solves, --method exact). For games the
+# test therefore allows GAME_TOLERANCE against Storm and checks posgmc's bounds against posgmc's
+# exact solution, which must lie within them.
+GAME_TOLERANCE = 2e-5
+EXACT_LIMIT = 20_000  # states up to which the exact solve runs in the default suite
 
 
 def _entries() -> list[Any]:
@@ -69,29 +78,40 @@ def test_sizes_and_values_match_storm(benchmarks: Path, entry: dict[str, Any]) -
         return
     for p in props:
         constants = dict(entry["constants"])
-        constants.update(p.get("property_constants", {}))
-        if p.get("property_constants"):
-            session = api.load(path, constants=constants)
+        text = p["storm_text"]
+        for name, value in p.get("property_constants", {}).items():
+            # a property-file constant (smg_example's k): the text alone does not declare it
+            text = re.sub(rf"\b{re.escape(name)}\b", str(value), text)
         report = api.check(
             session,
-            properties=[p["storm_text"]],
+            properties=[text],
             built=built,
             full_observation=True,
             zero_based_players=True,
         )
-        where = f"{entry['file']} {p['storm_text']} {constants}"
+        where = f"{entry['file']} {text} {constants}"
         assert not report.errors, f"{where}: {report.errors[0][1].render()}"
         ours = report.results[0]
         expected = _storm_value(p)
         if isinstance(expected, bool):
             assert ours.value is expected, where
             continue
-        if (entry["file"], p["storm_text"]) in STORM_DIFFERS:
-            continue
         if math.isinf(expected):
             assert math.isinf(ours.value) and (ours.value > 0) == (expected > 0), where
             continue
-        tolerance = 1e-6 * max(1.0, abs(expected))
+        game = m.model_type.is_game
+        tolerance = (GAME_TOLERANCE if game else 1e-6) * max(1.0, abs(expected))
         assert abs(ours.value - expected) <= tolerance, f"{where}: posgmc {ours.value}, Storm {expected}"
         # Storm's value lies within the bounds posgmc proved (up to Storm's own precision)
         assert ours.lower - tolerance <= expected <= ours.upper + tolerance, where
+        if game and m.num_states <= EXACT_LIMIT:
+            exact = api.check(
+                session,
+                properties=[text],
+                built=built,
+                options=CheckOptions(solver=SolverOptions(method=Method.EXACT)),
+                full_observation=True,
+                zero_based_players=True,
+            ).results[0]
+            slack = 1e-9 * max(1.0, abs(exact.value))
+            assert ours.lower - slack <= exact.value <= ours.upper + slack, f"{where}: exact {exact.value}"
