@@ -125,6 +125,70 @@ def robots(N: int, s: float = 0.1, f: float = 0.002) -> tuple[ExplicitModel, np.
     return _model(ModelType.MDP, rg, T, init, {"goal": goal}, rewards=rewards), goal
 
 
+def pursuit(N: int, s: float = 0.1, q: float = 0.7) -> tuple[ExplicitModel, np.ndarray]:
+    """The smg of ``/work/shared/benchmarks/scale/pursuit.smg`` (evader vs pursuer on an N x N
+    grid, turn-based); returns the model (player 0 = evader) and the "escaped" label."""
+    S = 2 * N**4
+    idx = np.arange(S, dtype=np.int64)
+    turn = idx % 2
+    rest = idx // 2
+    py = rest % N
+    px = (rest // N) % N
+    ey = (rest // N**2) % N
+    ex = rest // N**3
+    caught = (ex == px) & (ey == py)
+    escaped = (ex == N - 1) & (ey == N - 1) & ~caught
+    over = caught | escaped
+
+    def sid(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndarray) -> np.ndarray:
+        return (((a * N + b) * N + c) * N + d) * 2 + t
+
+    moves = []  # (valid, [(successor, probability), ...])
+    for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        nx, ny = ex + dx, ey + dy
+        valid = (turn == 0) & ~over & (nx >= 0) & (nx < N) & (ny >= 0) & (ny < N)
+        moved = sid(np.clip(nx, 0, N - 1), np.clip(ny, 0, N - 1), px, py, 1 - turn)
+        stay = sid(ex, ey, px, py, 1 - turn)
+        moves.append((valid, [(moved, 1 - s), (stay, s)]))
+    for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        nx, ny = px + dx, py + dy
+        valid = (turn == 1) & ~over & (nx >= 0) & (nx < N) & (ny >= 0) & (ny < N)
+        moved = sid(ex, ey, np.clip(nx, 0, N - 1), np.clip(ny, 0, N - 1), 1 - turn)
+        stay = sid(ex, ey, px, py, 1 - turn)
+        moves.append((valid, [(moved, q), (stay, 1 - q)]))
+    wait = (turn == 1) & ~over
+    moves.append((wait, [(sid(ex, ey, px, py, 1 - turn), 1.0)]))
+    counts = np.zeros(S, dtype=np.int64)
+    for valid, _ in moves:
+        counts += valid
+    counts[over] = 1
+    rg = np.zeros(S + 1, dtype=np.int64)
+    np.cumsum(counts, out=rg[1:])
+    C = int(rg[-1])
+    before = np.zeros(S, dtype=np.int64)
+    rows_l, cols_l, vals_l = [], [], []
+    for valid, succs in moves:
+        st = np.flatnonzero(valid)
+        row = rg[st] + before[st]
+        before[st] += 1
+        for succ, p in succs:
+            rows_l.append(row)
+            cols_l.append(succ[st])
+            vals_l.append(np.full(st.size, p))
+    st = np.flatnonzero(over)
+    rows_l.append(rg[st])
+    cols_l.append(st)
+    vals_l.append(np.ones(st.size))
+    T = sp.csr_matrix(
+        (np.concatenate(vals_l), (np.concatenate(rows_l), np.concatenate(cols_l))), shape=(C, S)
+    )
+    T.sum_duplicates()
+    T.sort_indices()
+    init = int(sid(np.array(0), np.array(0), np.array(N - 1), np.array(0), np.array(0)))
+    players = turn.astype(np.int32)
+    return _model(ModelType.SMG, rg, T, init, {"escaped": escaped}, players=players), escaped
+
+
 def random_model(S: int, *, smg: bool, seed: int = 0) -> tuple[ExplicitModel, np.ndarray]:
     """A random sparse mdp/smg with goal state S-2 and sink S-1 (both absorbing)."""
     rng = np.random.default_rng(seed)
@@ -165,7 +229,7 @@ def random_model(S: int, *, smg: bool, seed: int = 0) -> tuple[ExplicitModel, np
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("family", choices=["robots", "random"])
+    ap.add_argument("family", choices=["robots", "pursuit", "random"])
     ap.add_argument("size", type=int)
     ap.add_argument("--smg", action="store_true", help="random: a two-player game (alternating owners)")
     ap.add_argument("--min", action="store_true", help="minimise instead of maximise")
@@ -178,6 +242,8 @@ def main() -> None:
     t0 = time.perf_counter()
     if args.family == "robots":
         model, goal = robots(args.size)
+    elif args.family == "pursuit":
+        model, goal = pursuit(args.size)
     else:
         model, goal = random_model(args.size, smg=args.smg)
     t1 = time.perf_counter()

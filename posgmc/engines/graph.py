@@ -1,0 +1,449 @@
+"""Graph precomputation on the choice/state structure: attractors, qualitative reachability, MECs.
+
+Everything is vectorized over a :class:`Structure` (the rows of a transition matrix grouped by state,
+the layout of :class:`~posgmc.model.explicit.ExplicitModel`). Backward search works layer by layer:
+each layer gathers the predecessor choices of the frontier from the transposed matrix in one
+fancy-indexing step, so the total work is linear in the transitions and the Python overhead is per
+layer, never per state.
+
+Per-state quantifiers. A state whose entry of ``existential`` is True joins an attractor when *some*
+allowed choice has an edge into the set; any other state joins when *all* its allowed choices do
+(and it has at least one). This is the controllable/uncontrollable predecessor of turn-based games;
+for an mdp or dtmc all states share one quantifier.
+
+Qualitative reachability (``positive_reach``/``almost_sure_reach``) is exact for turn-based stochastic
+games: the value of ``remain U target`` is 0 exactly outside the positive attractor, and 1 exactly on
+the almost-sure winning region, computed by the classical nested fixpoint
+``nu Y. mu X. target | (remain & CPre(Y, X))``.
+
+End components: :func:`end_components` returns the maximal end components of a sub-structure by
+iterated strongly-connected-component decomposition (``scipy.sparse.csgraph``), removing choices that
+leave their component until nothing changes.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from posgmc.model.explicit import ExplicitModel
+
+__all__ = [
+    "Structure",
+    "structure_of",
+    "concat_ranges",
+    "attractor",
+    "positive_reach",
+    "almost_sure_reach",
+    "positive_buchi",
+    "safe_region",
+    "end_components",
+    "row_of_entries",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class Structure:
+    """The choice/state layout of a transition matrix and its transpose.
+
+    ``transitions``: csr float64 [C, S]; ``backward``: csc of the same matrix (for state t, the
+    choices with an edge into t are ``backward.indices[backward.indptr[t]:backward.indptr[t+1]]``);
+    ``row_groups``: int64[S + 1]; ``choice_state``: int64[C]; ``num_choices``: int64[S].
+    """
+
+    transitions: sp.csr_matrix
+    backward: sp.csc_matrix
+    row_groups: np.ndarray
+    choice_state: np.ndarray
+    num_choices: np.ndarray
+
+    @property
+    def num_states(self) -> int:
+        return int(self.row_groups.size - 1)
+
+    @property
+    def num_choices_total(self) -> int:
+        return int(self.row_groups[-1])
+
+    @staticmethod
+    def build(transitions: sp.csr_matrix, row_groups: np.ndarray) -> "Structure":
+        """The structure of a csr matrix whose rows are grouped by ``row_groups``."""
+        counts = np.diff(row_groups)
+        return Structure(
+            transitions=transitions,
+            backward=transitions.tocsc(),
+            row_groups=row_groups,
+            choice_state=np.repeat(np.arange(counts.size, dtype=np.int64), counts),
+            num_choices=counts,
+        )
+
+
+# The transpose of a large model costs about a second; models are frozen, so one structure per
+# model object is kept for as long as the model lives (a cache, not configuration).
+_STRUCTURES: "weakref.WeakKeyDictionary[ExplicitModel, Structure]" = weakref.WeakKeyDictionary()
+
+
+def structure_of(model: ExplicitModel) -> Structure:
+    """The (cached) :class:`Structure` of a model's transition matrix."""
+    found = _STRUCTURES.get(model)
+    if found is None:
+        found = Structure.build(model.transitions, model.row_groups)
+        _STRUCTURES[model] = found
+    return found
+
+
+def concat_ranges(starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """The concatenation of ``arange(starts[i], ends[i])`` over i, as int64, without a Python loop."""
+    lengths = ends - starts
+    total = int(lengths.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    offsets = np.cumsum(lengths) - lengths
+    return np.arange(total, dtype=np.int64) + np.repeat(starts - offsets, lengths)
+
+
+def row_of_entries(matrix: sp.csr_matrix) -> np.ndarray:
+    """int64[nnz]: the row of every stored entry of a csr matrix."""
+    return np.repeat(np.arange(matrix.shape[0], dtype=np.int64), np.diff(matrix.indptr))
+
+
+def attractor(
+    g: Structure,
+    initial: np.ndarray,
+    *,
+    existential: np.ndarray,
+    candidates: np.ndarray,
+    allowed: np.ndarray | None = None,
+    initial_choices: np.ndarray | None = None,
+    preferred: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The states that can be forced (with positive probability per step) into ``initial``.
+
+    Args:
+        g: the structure.
+        initial: bool[S], the set to attract to (always part of the result).
+        existential: bool[S], see the module docstring.
+        candidates: bool[S], the states allowed to join.
+        allowed: bool[C] or None (all): the choices that may be used; for a universal state the
+            quantifier ranges over its allowed choices only.
+        initial_choices: bool[C] or None: choices that count as hitting the set from the start (a
+            target outside the structure, e.g. a choice with probability mass to a goal).
+        preferred: int64[S] or None: a choice to report as witness when it qualifies in the layer
+            where its state joins.
+
+    Returns:
+        ``(inside, witness)``: bool[S] the attractor; int64[S] for each joined state a choice that
+        hit the set when the state joined (a memoryless attractor strategy for existential states),
+        -1 elsewhere.
+    """
+    S = g.num_states
+    C = g.num_choices_total
+    inside = initial.copy()
+    witness = np.full(S, -1, dtype=np.int64)
+    if allowed is None:
+        allowed_count = g.num_choices
+    else:
+        allowed_count = np.add.reduceat(allowed.astype(np.int64), g.row_groups[:-1])
+    all_existential = bool(existential.all())
+    need = np.where(existential, 1, allowed_count)
+    open_ = candidates & ~inside & (allowed_count > 0)
+    count = np.zeros(S, dtype=np.int64) if not all_existential else None
+    hit = np.zeros(C, dtype=bool)
+    # "stamps" deduplicate index arrays in O(k) (no sort): after stamp[a] = arange(len(a)), the
+    # positions i with stamp[a[i]] == i hold each distinct value once
+    stamp_c = np.empty(C, dtype=np.int64)
+    stamp_s = np.empty(S, dtype=np.int64)
+    bw_ptr = g.backward.indptr.astype(np.int64, copy=False)
+    bw_idx = g.backward.indices
+    frontier = np.flatnonzero(initial)
+    extra = None if initial_choices is None else np.flatnonzero(initial_choices)
+    while True:
+        preds = bw_idx[concat_ranges(bw_ptr[frontier], bw_ptr[frontier + 1])]
+        if extra is not None:
+            preds = np.concatenate([preds, extra])
+            extra = None
+        keep = ~hit[preds]
+        if allowed is not None:
+            keep &= allowed[preds]
+        preds = preds[keep]
+        if preds.size == 0:
+            break
+        k = np.arange(preds.size)
+        stamp_c[preds] = k
+        preds = preds[stamp_c[preds] == k]
+        hit[preds] = True
+        st = g.choice_state[preds]
+        if count is None:
+            cond = open_[st]
+        else:
+            np.add.at(count, st, 1)
+            cond = open_[st] & (count[st] >= need[st])
+        cand_st = st[cond]
+        if cand_st.size == 0:
+            break
+        cand_ch = preds[cond]
+        k = np.arange(cand_st.size)
+        stamp_s[cand_st] = k
+        new = cand_st[stamp_s[cand_st] == k]
+        witness[cand_st] = cand_ch
+        if preferred is not None:
+            pm = cand_ch == preferred[cand_st]
+            witness[cand_st[pm]] = cand_ch[pm]
+        open_[new] = False
+        inside[new] = True
+        frontier = new
+    return inside, witness
+
+
+def positive_reach(
+    g: Structure, target: np.ndarray, remain: np.ndarray, *, existential: np.ndarray
+) -> np.ndarray:
+    """bool[S]: states where ``P(remain U target) > 0`` can be forced by the existential states.
+
+    Its complement is exactly the set of states of value 0 (the universal states can make the
+    probability 0 against any choice of the existential ones).
+    """
+    inside, _ = attractor(g, target, existential=existential, candidates=remain & ~target)
+    return inside
+
+
+def _unsafe_choices(g: Structure, region: np.ndarray) -> np.ndarray:
+    """bool[C]: choices with an edge leaving ``region``."""
+    outside = (~region).astype(np.float64)
+    return np.asarray(g.transitions @ outside) > 0
+
+
+def almost_sure_reach(
+    g: Structure,
+    target: np.ndarray,
+    remain: np.ndarray,
+    *,
+    existential: np.ndarray,
+    allowed: np.ndarray | None = None,
+    target_choices: np.ndarray | None = None,
+    start: np.ndarray | None = None,
+    universal_allowed: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The almost-sure region of ``remain U target`` for the existential states, and a strategy.
+
+    Args:
+        g: the structure.
+        target, remain: bool[S].
+        existential: bool[S], the states of the player who wants to reach.
+        allowed: bool[C] or None: restricts the choices of the existential player (the universal
+            player keeps all its choices).
+        target_choices: bool[C] or None: taking one of these choices (from a state of the region,
+            staying in the region) also counts as reaching.
+        start: bool[S] or None: the result of :func:`positive_reach` for the same arguments, if
+            already known (saves one backward search; ignored with ``allowed``/``target_choices``).
+        universal_allowed: bool[C] or None: restricts the universal player's choices (a sub-game);
+            each universal state of the region needs at least one allowed choice.
+
+    Returns:
+        ``(region, witness)``: bool[S] the states where reaching is almost sure; int64[S] an
+        almost-surely winning memoryless choice for the existential states of the region outside
+        ``target`` (the attractor choice of the last round), -1 elsewhere.
+    """
+    exist_choice = existential[g.choice_state]
+    usable = np.ones(g.num_choices_total, dtype=bool)
+    if allowed is not None:
+        usable &= allowed | ~exist_choice
+    if universal_allowed is not None:
+        usable &= universal_allowed | exist_choice
+    goal_choices = None if target_choices is None else target_choices & usable
+    if start is not None and allowed is None and universal_allowed is None and target_choices is None:
+        region = start & (remain | target)
+        # a superset of the answer that saves most rounds in games: the universal player's
+        # positive attractor to the value-0 states cannot be almost-surely winning
+        losing = ~region
+        if (~existential).any():
+            spoil, _ = attractor(g, losing, existential=~existential, candidates=region & ~target)
+            region = region & ~spoil
+    else:
+        region, _ = attractor(
+            g,
+            target,
+            existential=existential,
+            candidates=remain & ~target,
+            allowed=usable,
+            initial_choices=goal_choices,
+        )
+    while True:
+        safe = usable & ~_unsafe_choices(g, region)
+        # a universal state with a choice leaving the region cannot be in it
+        leaks = np.add.reduceat((~safe & usable).astype(np.int64), g.row_groups[:-1]) > 0
+        new, witness = attractor(
+            g,
+            target,
+            existential=existential,
+            candidates=region & remain & ~target & (existential | ~leaks),
+            allowed=safe,
+            initial_choices=None if goal_choices is None else goal_choices & safe,
+        )
+        if int(new.sum()) == int(region.sum()):
+            return new, witness
+        region = new
+
+
+def positive_buchi(
+    g: Structure, good: np.ndarray, region: np.ndarray, *, existential: np.ndarray
+) -> np.ndarray:
+    """bool[S]: states from which the existential player can make the play take ``good`` choices
+    infinitely often with positive probability, never leaving ``region``.
+
+    Computed by sub-games: the almost-sure Büchi region (greatest fixpoint ``Y = almost-sure reach,
+    inside Y, of good choices that stay in Y``) of the current sub-game is added together with its
+    positive attractor; the next sub-game drops these states and the universal player's choices
+    into them (the universal player avoids them where it can), until a sub-game has no almost-sure
+    region. A state where the universal player can only choose between a good cycle and a move
+    into the winning region is thereby found winning in the second round.
+    """
+    winning = np.zeros(g.num_states, dtype=bool)
+    none = np.zeros(g.num_states, dtype=bool)
+    while True:
+        sub = region & ~winning
+        avoid = ~_unsafe_choices(g, ~winning)  # choices with no edge into the winning part
+        current = sub.copy()
+        while True:
+            stay = ~_unsafe_choices(g, current)
+            new, _ = almost_sure_reach(
+                g,
+                none,
+                current,
+                existential=existential,
+                target_choices=good & stay & current[g.choice_state],
+                universal_allowed=avoid,
+            )
+            new &= current
+            if int(new.sum()) == int(current.sum()):
+                break
+            current = new
+        if not current.any():
+            return winning
+        winning, _ = attractor(g, winning | current, existential=existential, candidates=region)
+
+
+def safe_region(
+    g: Structure,
+    region: np.ndarray,
+    *,
+    existential: np.ndarray,
+    good: np.ndarray | None = None,
+    frozen: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The largest subset of ``region`` in which the existential states can keep the play forever
+    (surely) using only ``good`` choices.
+
+    Existential states need one good choice with all successors inside; universal states need every
+    choice good and inside. ``frozen`` states (bool[S]) always stay in the set (absorbing for the
+    question, e.g. a target).
+
+    Returns ``(safe, choice)``: bool[S]; int64[S] for each existential non-frozen state of ``safe`` a
+    qualifying choice (-1 elsewhere).
+    """
+    ok = np.ones(g.num_choices_total, dtype=bool) if good is None else good.copy()
+    keep_always = np.zeros(g.num_states, dtype=bool) if frozen is None else frozen
+    starts = g.row_groups[:-1]
+    current = region | keep_always
+    while True:
+        stays = ok & ~_unsafe_choices(g, current)
+        stays_count = np.add.reduceat(stays.astype(np.int64), starts)
+        keep = current & (keep_always | np.where(existential, stays_count > 0, stays_count == g.num_choices))
+        if int(keep.sum()) == int(current.sum()):
+            break
+        current = keep
+    choice = np.full(g.num_states, -1, dtype=np.int64)
+    stays = ok & ~_unsafe_choices(g, current) & current[g.choice_state]
+    idx = np.flatnonzero(stays)[::-1]
+    choice[g.choice_state[idx]] = idx  # the first qualifying choice wins
+    choice[~(current & existential) | keep_always] = -1
+    return current, choice
+
+
+def end_components(
+    matrix: sp.csr_matrix, state_of_row: np.ndarray, allowed: np.ndarray
+) -> tuple[np.ndarray, int, np.ndarray]:
+    """Maximal end components of the sub-structure made of the ``allowed`` choices.
+
+    Args:
+        matrix: csr [m, n]: row r is a choice of state ``state_of_row[r]`` (rows need not be grouped);
+            a row whose probability mass leaves the n columns must not be allowed (it cannot be part
+            of an end component).
+        state_of_row: int64[m].
+        allowed: bool[m].
+
+    Returns:
+        ``(mec_of, num_mecs, internal)``: int64[n] the component of each state (-1: none);
+        bool[m] the allowed choices that stay inside their state's component.
+    """
+    m, n = matrix.shape
+    rows = np.flatnonzero(allowed)
+    # group the rows by state (timsort: the rows of a slot layout are few sorted runs), so that the
+    # state graph of every round is a csr matrix built without a coo conversion
+    rows = rows[np.argsort(state_of_row[rows], kind="stable")]
+    sub = matrix[rows]
+    k = rows.size
+    entry_row = row_of_entries(sub)  # sub-row of every entry
+    row_owner = state_of_row[rows]
+    sub_src = row_owner[entry_row]
+    sub_dst = sub.indices.astype(np.int64)
+    idx_dtype = np.int32 if n < 2**31 - 1 and sub.nnz < 2**31 - 1 else np.int64
+    dst_small = sub.indices.astype(idx_dtype)
+    back: sp.csc_matrix | None = None  # for a state t, the sub-rows with an edge into t
+    on = np.ones(k, dtype=bool)  # sub-row still active
+    count = np.bincount(row_owner, minlength=n)
+    labels = np.zeros(n, dtype=np.int64)
+    stamp = np.empty(k, dtype=np.int64)
+
+    def deactivate(sub_rows: np.ndarray) -> np.ndarray:
+        """Switch rows off; return the states that lost their last row."""
+        sub_rows = sub_rows[on[sub_rows]]
+        if sub_rows.size == 0:
+            return np.zeros(0, dtype=np.int64)
+        idx = np.arange(sub_rows.size)
+        stamp[sub_rows] = idx
+        sub_rows = sub_rows[stamp[sub_rows] == idx]
+        on[sub_rows] = False
+        owners = row_owner[sub_rows]
+        np.subtract.at(count, owners, 1)
+        owners = np.unique(owners)
+        return owners[count[owners] == 0]
+
+    while True:
+        keep = on[entry_row]
+        indptr = np.zeros(n + 1, dtype=idx_dtype)
+        np.cumsum(np.bincount(sub_src[keep], minlength=n), out=indptr[1:])
+        graph = sp.csr_matrix(
+            (np.ones(int(indptr[-1]), dtype=np.float64), dst_small[keep], indptr), shape=(n, n)
+        )
+        # scipy's strongly-connected-components routine loops forever on duplicate entries
+        graph.sum_duplicates()
+        _, lab = connected_components(graph, directed=True, connection="strong")
+        labels = lab.astype(np.int64)
+        alive = count > 0
+        leaving = keep & ((labels[sub_dst] != labels[sub_src]) | ~alive[sub_dst])
+        if not leaving.any():
+            break
+        dead = deactivate(np.unique(entry_row[leaving]))
+        # states without rows are gone: rows into them leave too (a backward search, so that the
+        # next decomposition only has to handle real splits)
+        if dead.size and back is None:
+            back = sub.tocsc()
+        while dead.size and back is not None:
+            back_ptr = back.indptr.astype(np.int64, copy=False)
+            preds = back.indices[concat_ranges(back_ptr[dead], back_ptr[dead + 1])]
+            dead = deactivate(preds)
+    active = np.zeros(m, dtype=bool)
+    active[rows[on]] = True
+    alive = np.zeros(n, dtype=bool)
+    alive[state_of_row[active]] = True
+    mec_of = np.full(n, -1, dtype=np.int64)
+    if not alive.any():
+        return mec_of, 0, np.zeros(m, dtype=bool)
+    _, compact = np.unique(labels[alive], return_inverse=True)
+    mec_of[alive] = compact
+    return mec_of, int(compact.max()) + 1, active

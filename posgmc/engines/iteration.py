@@ -1,0 +1,743 @@
+"""Sound iterative solution of min/max fixpoint equations on the states whose value is unknown.
+
+A :class:`System` is the part of a model left after graph precomputation: ``n`` unknown states, ``m``
+rows (their usable choices), a sparse matrix ``A`` [m, n] and a constant ``b`` [m] per row, so that the
+Bellman operator is::
+
+    B(x)(s) = opt_{r in rows(s)} ( b[r] + sum_t A[r, t] x[t] ),   opt = max or min per state.
+
+Every objective posgmc solves iteratively is a least fixpoint of such an operator (reachability
+probabilities, total and reach rewards with non-negative rewards), possibly after an end-component
+correction. :func:`solve` returns proven bounds ``lower <= lfp <= upper``:
+
+* **lower bound**: value iteration from 0. Every iterate of a monotone operator started below the
+  least fixpoint stays below it, so the lower bound needs no check.
+* **upper bound**: optimistic value iteration (Hartmanns & Kaminski, CAV 2020). Once the lower
+  iteration stalls, guess ``U = L + eps`` and apply the operator ``F``; if ``F(U) <= U`` then ``U`` is
+  a pre-fixpoint and, by Park induction (Knaster-Tarski), ``U >= lfp F``. From then on ``F^k(U)``
+  decreases and stays above the fixpoint. A failed guess shrinks the stopping threshold of the lower
+  iteration and retries.
+* **end components of the maximiser** (``EndComponents.DEFLATE``): inside an end component of the
+  maximising player the upper iterate cannot decrease (the gfp exceeds the lfp). We deflate
+  (Kelmendi et al., CAV 2018; Eisentraut et al.): for a set T whose minimiser states each keep a
+  choice inside T and whose internal choices have b = 0, the value of every state of T is at most
+  ``max(0, max over maximiser rows r of T that are not internal of b[r] + A[r] value)``, because
+  the minimiser can stay in T until the maximiser leaves. Let ``F = D o B`` with D that cap,
+  computed from the same iterate. F is monotone, the value is a fixpoint of F, and by induction
+  ``F^k(0) >= B^k(0)`` (the k-step value of a state of T never exceeds the cap of the (k-1)-step
+  values), so ``lfp F = lfp B`` and Park induction applies to F, *for every* such family of sets.
+  For an mdp the family is the maximal end components of the zero-``b`` rows (computed once); in a
+  game it is recomputed (when an upper bound is guessed, and every 32 steps after) with the
+  minimiser restricted to its rows optimal for the current lower bound, as in Kelmendi et al.
+* **zero-reward end components of the minimiser** (``EndComponents.INFLATE``, expected reward until
+  a target with "infinite unless reached" semantics): the least fixpoint undercounts (staying in a
+  zero-reward cycle costs nothing but never reaches the target). The lower iterate is inflated: in
+  a set T where the maximiser keeps a zero-reward choice inside, the minimiser must leave through
+  one of its exits, so ``value >= min over minimiser exits r of (b[r] + A_out[r] x) / P_out[r]``
+  (renewal argument). The upper bound is certified by a proper strategy instead of Park induction:
+  the caller's ``certify`` checks that the minimiser, using only rows ``r`` with
+  ``b[r] + A[r] U <= U``, reaches the target almost surely against every maximiser; with
+  ``B(U) <= U`` at maximiser states, ``U`` is above that strategy's value, hence above the value.
+  From then on ``B^k(U)`` stays above the value (a fixpoint of the monotone B).
+* **floating point**: ``F(U) <= U`` is accepted up to a relative 1e-13 (rounding noise of one step;
+  without it a guess sitting exactly on the fixpoint could never be confirmed), and the final
+  bounds are widened outwards by a relative 1e-10, which covers the rounding of all iterations.
+  Bounds are therefore proven up to floating-point error, like every float-based checker's.
+
+Performance: unknown states are renumbered maximisers first, each group by decreasing number of
+rows, and rows are stored by *slot* (slot j holds the j-th row of every state with more than j rows).
+A Bellman step is then one sparse matrix-vector product into a preallocated buffer
+(scipy's ``csr_matvec`` kernel, falling back to ``A @ x``) and, per slot, one contiguous
+``np.maximum``/``np.minimum`` -- no ``reduceat``, no allocation. While only the lower bound is
+iterated, the row values are updated incrementally (``y += A (x_new - x_old)``, recomputed every 64
+steps) and one vector is multiplied; during verification both bounds share one pass over the matrix.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from posgmc.engines.graph import Structure, end_components, row_of_entries
+from posgmc.engines.options import Method, SolverOptions
+
+try:  # the C kernels behind ``A @ x``; they accumulate into a given output buffer
+    from scipy.sparse import _sparsetools as _kernels
+
+    _HAVE_KERNELS = hasattr(_kernels, "csr_matvec") and hasattr(_kernels, "csr_matvecs")
+except ImportError:  # pragma: no cover - depends on the scipy build
+    _kernels = None
+    _HAVE_KERNELS = False
+
+__all__ = [
+    "System",
+    "build_system",
+    "EndComponents",
+    "Bounds",
+    "solve",
+    "solve_discounted",
+    "bellman",
+    "reduce_rows",
+    "argopt_rows",
+    "choice_values",
+    "choose",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class System:
+    """The unknowns of one fixpoint problem in slot layout (see the module docstring).
+
+    ``states``: int64[n], the model state of each unknown; local states ``[0, num_max)`` maximise.
+    ``rows``: int64[m], the model choice of each row; ``row_state``: int64[m], its local state.
+    ``matrix``: csr float64 [m, n]; ``offset``: float64[m] (b); ``stays``: bool[m], no probability
+    leaves the unknowns. ``slots``: int64[k, 3], slot j holds rows
+    ``[slots[j,0], slots[j,0] + slots[j,1] + slots[j,2])``: first one row for each of the local
+    states ``[0, slots[j,1])``, then one for each of ``[num_max, num_max + slots[j,2])``.
+    """
+
+    states: np.ndarray
+    rows: np.ndarray
+    row_state: np.ndarray
+    matrix: sp.csr_matrix
+    offset: np.ndarray
+    stays: np.ndarray
+    num_max: int
+    slots: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return int(self.states.size)
+
+    @property
+    def m(self) -> int:
+        return int(self.rows.size)
+
+    @property
+    def maximize(self) -> np.ndarray:
+        """bool[n]."""
+        out = np.zeros(self.n, dtype=bool)
+        out[: self.num_max] = True
+        return out
+
+    @property
+    def row_maximize(self) -> np.ndarray:
+        """bool[m]: the row belongs to a maximising state."""
+        return self.row_state < self.num_max
+
+
+def build_system(
+    g: Structure,
+    unknown: np.ndarray,
+    *,
+    maximize: np.ndarray,
+    allowed: np.ndarray | None = None,
+    choice_offset: np.ndarray | None = None,
+    fixed: np.ndarray | None = None,
+) -> System:
+    """The fixpoint problem on ``unknown`` states.
+
+    Args:
+        g: the model structure.
+        unknown: bool[S]; every unknown state needs at least one allowed choice.
+        maximize: bool[S].
+        allowed: bool[C] or None: the choices the optimisation ranges over.
+        choice_offset: float64[C] or None: a constant per choice (a reward).
+        fixed: float64[S] or None: the known value of every other state; probability mass into known
+            states adds ``p * fixed`` to the row's offset.
+
+    Returns:
+        The :class:`System`.
+    """
+    S = g.num_states
+    unk = np.flatnonzero(unknown)
+    usable = unknown[g.choice_state]
+    if allowed is not None:
+        usable &= allowed
+    rows_global = np.flatnonzero(usable)
+    counts_all = np.bincount(g.choice_state[rows_global], minlength=S)
+    counts = counts_all[unk]
+    if counts.size and counts.min() < 1:
+        raise ValueError("every unknown state needs at least one allowed choice")
+    is_max = maximize[unk]
+    kmax = int(counts.max()) if counts.size else 0
+    # maximisers first, each group by decreasing number of rows; a stable sort on a small integer
+    # key (numpy uses radix sort for 16-bit keys)
+    key16 = ((~is_max).astype(np.int64) * (kmax + 1) + (kmax - counts)).astype(np.uint16)
+    order = np.argsort(key16, kind="stable") if kmax < 30000 else np.lexsort((-counts, ~is_max))
+    states = unk[order]
+    counts = counts[order]
+    n = int(states.size)
+    num_max = int(is_max.sum())
+    local_of = np.full(S, -1, dtype=np.int64)
+    local_of[states] = np.arange(n, dtype=np.int64)
+    # slot table: slot j holds the j-th row of each state with more than j rows
+    slots = np.zeros((kmax, 3), dtype=np.int64)
+    if kmax:
+        cmax = counts[:num_max]
+        cmin = counts[num_max:]
+        # counts are sorted decreasingly inside each group, so "more than j rows" is a prefix
+        hist_max = np.bincount(cmax, minlength=kmax + 1)
+        hist_min = np.bincount(cmin, minlength=kmax + 1)
+        slots[:, 1] = (cmax.size - np.cumsum(hist_max))[:kmax]
+        slots[:, 2] = (cmin.size - np.cumsum(hist_min))[:kmax]
+        sizes = slots[:, 1] + slots[:, 2]
+        slots[1:, 0] = np.cumsum(sizes)[:-1]
+    # scatter every usable row to its slot position (rows_global is grouped by state)
+    row_st = g.choice_state[rows_global]
+    start_of = np.zeros(S + 1, dtype=np.int64)
+    np.cumsum(counts_all, out=start_of[1:])
+    rank = np.arange(rows_global.size, dtype=np.int64) - start_of[row_st]
+    loc = local_of[row_st]
+    pos = slots[rank, 0] + np.where(loc < num_max, loc, slots[rank, 1] + loc - num_max)
+    rows = np.empty(rows_global.size, dtype=np.int64)
+    rows[pos] = rows_global
+    row_state = np.empty(rows_global.size, dtype=np.int64)
+    row_state[pos] = loc
+    # matrix restricted to the unknown columns; the rest goes into the offset
+    T = g.transitions
+    sub = T[rows]
+    index_dtype = np.int32 if max(n, sub.nnz) < 2**31 - 1 else np.int64
+    local32 = local_of.astype(index_dtype)
+    loc = local32[sub.indices]
+    inside = loc >= 0
+    offset = np.zeros(rows.size) if choice_offset is None else choice_offset[rows].astype(np.float64)
+    if fixed is not None and np.any(fixed != 0):
+        known_fixed = np.where(local_of >= 0, 0.0, fixed)
+        offset += sub @ known_fixed
+    # entries per row leaving the unknowns, by a product with the sparsity pattern (C speed)
+    pattern = sp.csr_matrix((np.ones(sub.nnz), sub.indices, sub.indptr), shape=sub.shape)
+    leaving = np.rint(pattern @ (local_of < 0).astype(np.float64)).astype(np.int64)
+    stays = leaving == 0
+    indptr = np.zeros(rows.size + 1, dtype=np.int64)
+    np.cumsum(np.diff(sub.indptr) - leaving, out=indptr[1:])
+    matrix = sp.csr_matrix(
+        (sub.data[inside], loc[inside], indptr.astype(index_dtype)),
+        shape=(rows.size, n),
+    )
+    return System(
+        states=states,
+        rows=rows,
+        row_state=row_state,
+        matrix=matrix,
+        offset=offset,
+        stays=stays,
+        num_max=num_max,
+        slots=slots,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# kernels
+# ---------------------------------------------------------------------------------------------
+
+
+def _multiply(sys: System, x: np.ndarray, y: np.ndarray) -> None:
+    """y = offset + A x (x: [n] or [n, k] C-contiguous; y preallocated, same trailing shape)."""
+    A = sys.matrix
+    if x.ndim == 1:
+        y[:] = sys.offset
+        if _HAVE_KERNELS:
+            _kernels.csr_matvec(A.shape[0], A.shape[1], A.indptr, A.indices, A.data, x, y)
+        else:  # pragma: no cover
+            y += A @ x
+    else:
+        y[:] = sys.offset[:, None]
+        if _HAVE_KERNELS:
+            _kernels.csr_matvecs(
+                A.shape[0], A.shape[1], x.shape[1], A.indptr, A.indices, A.data, x.ravel(), y.ravel()
+            )
+        else:  # pragma: no cover
+            y += A @ x
+
+
+def _reduce(sys: System, y: np.ndarray, out: np.ndarray) -> None:
+    """out[s] = opt over the rows of s of y[row] (1-D or 2-D along axis 0)."""
+    nm = sys.num_max
+    if sys.slots.shape[0] == 0:
+        return
+    out[:] = y[: sys.n]
+    for j in range(1, sys.slots.shape[0]):
+        start, a, b = (int(v) for v in sys.slots[j])
+        if a:
+            np.maximum(out[:a], y[start : start + a], out=out[:a])
+        if b:
+            np.minimum(out[nm : nm + b], y[start + a : start + a + b], out=out[nm : nm + b])
+
+
+def bellman(sys: System, x: np.ndarray) -> np.ndarray:
+    """B(x) (allocating; for tests and one-off use)."""
+    y = np.empty((sys.m,) + x.shape[1:])
+    _multiply(sys, np.ascontiguousarray(x), y)
+    out = np.empty_like(x, dtype=np.float64)
+    _reduce(sys, y, out)
+    return out
+
+
+def reduce_rows(sys: System, y: np.ndarray) -> np.ndarray:
+    """float64[n]: the optimum over each state's rows of the row values ``y`` (float64[m])."""
+    out = np.empty(sys.n)
+    _reduce(sys, y, out)
+    return out
+
+
+def argopt_rows(sys: System, y: np.ndarray) -> np.ndarray:
+    """int64[n]: the first optimal row (local index) of each state for row values ``y``."""
+    return _argopt(sys, y)
+
+
+def choice_values(sys: System, x: np.ndarray) -> np.ndarray:
+    """float64[m]: b + A x per row."""
+    y = np.empty((sys.m,) + x.shape[1:])
+    _multiply(sys, np.ascontiguousarray(x, dtype=np.float64), y)
+    return y
+
+
+def _argopt(sys: System, y: np.ndarray) -> np.ndarray:
+    """int64[n]: the first optimal row of each state for row values y."""
+    n, nm = sys.n, sys.num_max
+    best = y[:n].copy()
+    arg = np.arange(n, dtype=np.int64)
+    for j in range(1, sys.slots.shape[0]):
+        start, a, b = (int(v) for v in sys.slots[j])
+        if a:
+            seg = y[start : start + a]
+            better = seg > best[:a]
+            best[:a][better] = seg[better]
+            arg[:a][better] = start + np.flatnonzero(better)
+        if b:
+            seg = y[start + a : start + a + b]
+            better = seg < best[nm : nm + b]
+            best[nm : nm + b][better] = seg[better]
+            arg[nm : nm + b][better] = start + a + np.flatnonzero(better)
+    return arg
+
+
+def choose(sys: System, lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A strategy from bounds: the best row of each state for the midpoint, and the rows that are
+    not provably suboptimal (maximiser: ``b + A upper >= lower(s)``; minimiser: ``b + A lower <=
+    upper(s)``).
+
+    Returns:
+        ``(best_row, candidate)``: int64[n] local row indices; bool[m].
+    """
+    lo = np.where(np.isfinite(lower), lower, 0.0)
+    hi = upper.copy()
+    finite = np.isfinite(hi)
+    y = choice_values(sys, np.ascontiguousarray(np.stack([lo, np.where(finite, hi, 0.0)], axis=1)))
+    y_lo, y_hi = y[:, 0], y[:, 1]
+    # rows into states with an infinite upper bound have an infinite upper value
+    if not finite.all():
+        inf_rows = np.asarray(sys.matrix @ (~finite).astype(np.float64)) > 0
+        y_hi = np.where(inf_rows, np.inf, y_hi)
+    mid = np.where(np.isfinite(y_hi), 0.5 * (y_lo + y_hi), y_lo)
+    best = _argopt(sys, mid)
+    rs = sys.row_state
+    rmax = sys.row_maximize
+    tol = 1e-12 * (1.0 + np.abs(lo[rs]))
+    candidate = np.where(rmax, y_hi >= lo[rs] - tol, y_lo <= hi[rs] + tol)
+    candidate[best] = True
+    return best, candidate
+
+
+# ---------------------------------------------------------------------------------------------
+# end components
+# ---------------------------------------------------------------------------------------------
+
+
+class EndComponents(enum.Enum):
+    """How end components are treated (see the module docstring)."""
+
+    NONE = "none"
+    DEFLATE = "deflate"
+    INFLATE = "inflate"
+
+
+@dataclass(frozen=True, eq=False)
+class _Family:
+    """A family of disjoint end components with the exits that bound them."""
+
+    states: np.ndarray  # int64[k]: local states inside some component
+    comp: np.ndarray  # int64[k]: their component
+    num: int
+    exit_rows: np.ndarray  # int64[e]: exit rows sorted by component
+    exit_starts: np.ndarray  # int64[g]: reduceat starts
+    exit_comps: np.ndarray  # int64[g]: the component of each group
+    out_matrix: sp.csr_matrix | None  # inflation: exit rows restricted to columns outside the component
+    p_out: np.ndarray | None  # inflation: probability of leaving the component per exit row
+
+    def deflate(self, y: np.ndarray, x: np.ndarray) -> None:
+        """x[T] = min(x[T], max(0, max over exits of y)) (in place)."""
+        best = np.zeros(self.num)
+        if self.exit_rows.size:
+            best[self.exit_comps] = np.maximum.reduceat(y[self.exit_rows], self.exit_starts)
+        np.maximum(best, 0.0, out=best)
+        x[self.states] = np.minimum(x[self.states], best[self.comp])
+
+    def inflate(self, offset: np.ndarray, x: np.ndarray) -> None:
+        """x[T] = max(x[T], min over exits of the value conditioned on leaving) (in place)."""
+        if self.exit_rows.size == 0 or self.out_matrix is None or self.p_out is None:
+            return
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cond = (offset[self.exit_rows] + self.out_matrix @ x) / self.p_out
+        cond = np.where(self.p_out > 0, cond, np.inf)
+        worst = np.full(self.num, np.inf)
+        worst[self.exit_comps] = np.minimum.reduceat(cond, self.exit_starts)
+        lift = worst[self.comp]
+        ok = np.isfinite(lift)
+        idx = self.states[ok]
+        x[idx] = np.maximum(x[idx], lift[ok])
+
+
+def _family(sys: System, allowed: np.ndarray, mode: EndComponents) -> _Family | None:
+    """The maximal end components of the ``allowed`` rows (those must stay and have offset 0),
+    with the exits of the maximiser (DEFLATE) or the minimiser (INFLATE)."""
+    allowed = allowed & sys.stays & (sys.offset == 0)
+    if not allowed.any():
+        return None
+    mec_of, num, internal = end_components(sys.matrix, sys.row_state, allowed)
+    if num == 0:
+        return None
+    states = np.flatnonzero(mec_of >= 0)
+    rs = sys.row_state
+    in_comp = mec_of[rs] >= 0
+    side = sys.row_maximize if mode is EndComponents.DEFLATE else ~sys.row_maximize
+    exits = np.flatnonzero(in_comp & side & ~internal)
+    comp_of_exit = mec_of[rs[exits]]
+    order = np.argsort(comp_of_exit, kind="stable")
+    exits = exits[order]
+    comp_of_exit = comp_of_exit[order]
+    if exits.size:
+        starts = np.flatnonzero(np.concatenate(([True], comp_of_exit[1:] != comp_of_exit[:-1])))
+        groups = comp_of_exit[starts]
+    else:
+        starts = np.zeros(0, dtype=np.int64)
+        groups = np.zeros(0, dtype=np.int64)
+    out_matrix = None
+    p_out = None
+    if mode is EndComponents.INFLATE and exits.size:
+        sub = sys.matrix[exits].tocsr()
+        er = row_of_entries(sub)
+        same = mec_of[sub.indices] == comp_of_exit[er]
+        p_in = np.bincount(er[same], weights=sub.data[same], minlength=exits.size)
+        p_out = np.maximum(1.0 - p_in, 0.0)
+        data = np.where(same, 0.0, sub.data)
+        out_matrix = sp.csr_matrix((data, sub.indices, sub.indptr), shape=sub.shape)
+        out_matrix.eliminate_zeros()
+    return _Family(
+        states=states,
+        comp=mec_of[states],
+        num=num,
+        exit_rows=exits,
+        exit_starts=starts,
+        exit_comps=groups,
+        out_matrix=out_matrix,
+        p_out=p_out,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# the solver
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Bounds:
+    """``lower``/``upper``: float64[n] (local order); ``iterations``; ``converged``; ``sound``;
+    ``end_components``: the player treated by ``ec`` has end components in the system."""
+
+    lower: np.ndarray
+    upper: np.ndarray
+    iterations: int
+    converged: bool
+    sound: bool
+    end_components: bool = False  # the treated player has end components (strategies need a fix)
+
+
+Certifier = Callable[[np.ndarray, np.ndarray], bool]
+"""``certify(upper, row_values)``: is ``upper`` (with ``row_values = b + A upper``) a proven upper
+bound? Used by ``EndComponents.INFLATE``."""
+
+
+_NOISE = 1e-13
+"""Relative rounding noise tolerated when checking ``F(U) <= U`` (far below any precision)."""
+
+
+def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Outward rounding: the iterates carry floating-point error (a few ulps per step, amplified at
+    most by the inverse contraction rate), far below any requested precision; widening by a
+    relative 1e-10 keeps the reported bounds on the right side of the exact value."""
+    slack_lo = 1e-10 * np.abs(lower)
+    slack_hi = np.where(np.isfinite(upper), 1e-10 * np.abs(upper), 0.0)
+    return np.maximum(lower - slack_lo, 0.0) if np.all(lower >= 0) else lower - slack_lo, upper + slack_hi
+
+
+def _gap_ok(lower: np.ndarray, upper: np.ndarray, precision: float, relative: bool) -> bool:
+    gap = upper - lower
+    if relative:
+        return bool(np.all(gap <= precision * (np.abs(upper) + np.abs(lower))))
+    return bool(np.max(gap, initial=0.0) <= 2.0 * precision)
+
+
+def _diff(new: np.ndarray, old: np.ndarray, relative: bool) -> float:
+    d = np.abs(new - old)
+    if relative:
+        scale = np.abs(new)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = np.where(scale > 0, d / scale, d)
+    return float(np.max(d, initial=0.0))
+
+
+def _lower_phase(
+    sys: System,
+    lower: np.ndarray,
+    tau: float,
+    rel: bool,
+    iters: int,
+    max_it: int,
+    inflation: _Family | None,
+) -> tuple[np.ndarray, int]:
+    """Value iteration from ``lower`` until one step changes it by at most ``tau``.
+
+    The row values are updated incrementally, ``y += A (x_new - x_old)``, which saves rewriting
+    the offsets every step; they are recomputed from scratch every 64 steps so that rounding does
+    not accumulate."""
+    n = sys.n
+    A = sys.matrix
+    y = np.empty(sys.m)
+    x = np.ascontiguousarray(lower, dtype=np.float64).copy()
+    nxt = np.empty(n)
+    delta = np.empty(n)
+    _multiply(sys, x, y)
+    fresh = 0
+    while iters < max_it:
+        _reduce(sys, y, nxt)
+        if inflation is not None:
+            inflation.inflate(sys.offset, nxt)
+        iters += 1
+        np.subtract(nxt, x, out=delta)
+        if rel:
+            d = _diff(nxt, x, rel)
+        else:
+            d = float(max(delta.max(initial=0.0), -delta.min(initial=0.0)))
+        x, nxt = nxt, x
+        if d <= tau:
+            break
+        fresh += 1
+        if fresh >= 64 or not _HAVE_KERNELS:
+            _multiply(sys, x, y)
+            fresh = 0
+        else:
+            _kernels.csr_matvec(A.shape[0], A.shape[1], A.indptr, A.indices, A.data, delta, y)
+    return x, iters
+
+
+def solve(
+    sys: System,
+    options: SolverOptions,
+    *,
+    cap: float,
+    ec: EndComponents = EndComponents.NONE,
+    certify: Certifier | None = None,
+) -> Bounds:
+    """Bounds on the least fixpoint of the system's Bellman operator (see the module docstring).
+
+    Args:
+        sys: the system.
+        options: precision, relative/absolute, iteration cap; ``Method.VALUE`` gives plain value
+            iteration (lower = upper, unsound); every other method gets interval bounds.
+        cap: an a-priori upper bound on every value (1 for probabilities, inf if none is known).
+        ec: the end-component treatment.
+        certify: required for ``EndComponents.INFLATE``.
+
+    Returns:
+        :class:`Bounds` in local order.
+    """
+    n = sys.n
+    if n == 0:
+        empty = np.zeros(0)
+        return Bounds(empty, empty.copy(), 0, True, options.method is not Method.VALUE)
+    prec = options.precision
+    rel = options.relative
+    max_it = options.max_iterations
+    mixed = 0 < sys.num_max < n
+    has_max = sys.num_max > 0
+    has_min = sys.num_max < n
+
+    # end components: fixed for one-player systems; in a game the maximiser's components depend on
+    # the minimiser's optimal choices and are computed (only) when an upper bound is verified
+    family: _Family | None = None
+    refresh = False
+    deflating = False
+    inflating = False
+    if ec is EndComponents.DEFLATE and has_max:
+        if mixed:
+            refresh = deflating = True
+        else:
+            family = _family(sys, np.ones(sys.m, dtype=bool), ec)
+            deflating = family is not None
+    elif ec is EndComponents.INFLATE and has_min:
+        # the lower bound needs the minimiser's components from the first step on
+        family = _family(sys, np.ones(sys.m, dtype=bool), ec)
+        inflating = family is not None
+        refresh = inflating and mixed
+    if inflating and certify is None:
+        raise ValueError("EndComponents.INFLATE needs a certifier")
+    use_certifier = inflating
+
+    y1 = np.empty(sys.m)
+    lower = np.zeros(n)
+    scratch = np.empty(n)
+    iters = 0
+
+    def refresh_family(lo: np.ndarray, hi: np.ndarray) -> _Family | None:
+        y = choice_values(sys, np.ascontiguousarray(np.stack([lo, hi], axis=1)))
+        opt = np.empty((n, 2))
+        _reduce(sys, y, opt)
+        rs = sys.row_state
+        if ec is EndComponents.DEFLATE:
+            # the minimiser restricted to its choices optimal for the lower bound
+            tol = 1e-12 * (1.0 + np.abs(opt[rs, 0]))
+            keep = sys.row_maximize | (y[:, 0] <= opt[rs, 0] + tol)
+        else:
+            # the maximiser restricted to its choices optimal for the upper bound
+            tol = 1e-12 * (1.0 + np.abs(opt[rs, 1]))
+            keep = ~sys.row_maximize | (y[:, 1] >= opt[rs, 1] - tol)
+        return _family(sys, keep, ec)
+
+    # -- plain value iteration -----------------------------------------------------------------
+    if options.method is Method.VALUE:
+        converged = False
+        while iters < max_it:
+            _multiply(sys, lower, y1)
+            _reduce(sys, y1, scratch)
+            if inflating and family is not None:
+                family.inflate(sys.offset, scratch)
+            iters += 1
+            d = _diff(scratch, lower, rel)
+            lower, scratch = scratch, lower
+            if d <= prec:
+                converged = True
+                break
+        return Bounds(lower, lower.copy(), iters, converged, False, family is not None or refresh)
+
+    # -- optimistic interval iteration ---------------------------------------------------------
+    proven_upper = np.full(n, cap, dtype=np.float64)
+    tau = prec
+    X = np.empty((n, 2))
+    Xn = np.empty((n, 2))
+    Y = np.empty((sys.m, 2))
+    converged = False
+    verified = False
+    while iters < max_it and not converged:
+        # 1. lower bound by value iteration until it stalls
+        phase_start = iters
+        lower, iters = _lower_phase(sys, lower, tau, rel, iters, max_it, family if inflating else None)
+        # 2. guess an upper bound
+        if rel:
+            guess = lower + prec * np.abs(lower)
+            guess[lower == 0] += prec
+        else:
+            guess = lower + prec
+        X[:, 0] = lower
+        X[:, 1] = np.minimum(guess, proven_upper)
+        if refresh:
+            family = refresh_family(X[:, 0].copy(), np.where(np.isfinite(X[:, 1]), X[:, 1], 0.0))
+        budget = max(16, iters - phase_start)
+        steps = 0
+        since_refresh = 0
+        while iters < max_it:
+            _multiply(sys, X, Y)
+            _reduce(sys, Y, Xn)
+            if family is not None:
+                if deflating:
+                    family.deflate(Y[:, 1], Xn[:, 1])
+                if inflating:
+                    family.inflate(sys.offset, Xn[:, 0])
+            iters += 1
+            steps += 1
+            since_refresh += 1
+            # the lower bound only grows; keep the best
+            np.maximum(Xn[:, 0], X[:, 0], out=Xn[:, 0])
+            if not verified:
+                # F(U) <= U up to rounding noise (a few ulps; the final widening covers it)
+                slack = _NOISE * np.maximum(1.0, np.abs(X[:, 1]))
+                ok = bool(np.all(Xn[:, 1] <= X[:, 1] + slack))
+                if ok and use_certifier and certify is not None:
+                    ok = certify(X[:, 1] + slack, Y[:, 1].copy())
+                if ok:
+                    verified = True
+                    np.minimum(proven_upper, np.maximum(Xn[:, 1], X[:, 1]), out=proven_upper)
+                elif np.any(Xn[:, 1] < Xn[:, 0] - slack):
+                    X, Xn = Xn, X
+                    break
+            else:
+                # the iterates of F from a pre-fixpoint stay above the value
+                np.minimum(proven_upper, Xn[:, 1], out=proven_upper)
+                Xn[:, 1] = proven_upper
+            X, Xn = Xn, X
+            if verified and _gap_ok(X[:, 0], X[:, 1], prec, rel):
+                converged = True
+                break
+            if not verified and steps >= budget:
+                break
+            if verified and refresh and since_refresh >= 32:
+                family = refresh_family(X[:, 0].copy(), X[:, 1].copy())
+                since_refresh = 0
+        lower = np.ascontiguousarray(X[:, 0])
+        scratch = np.empty(n)
+        if not verified:
+            tau /= 4.0
+            if tau < 1e-15:
+                tau = 1e-15
+    upper = proven_upper if not converged else np.minimum(proven_upper, X[:, 1])
+    lower = np.ascontiguousarray(X[:, 0]) if (verified or converged) else lower
+    lower, upper = _widen(np.minimum(lower, upper), upper)
+    upper = np.minimum(upper, cap)
+    return Bounds(
+        np.ascontiguousarray(lower), np.ascontiguousarray(upper), iters, converged, True, family is not None or refresh
+    )
+
+
+def solve_discounted(sys: System, options: SolverOptions) -> tuple[Bounds, np.ndarray]:
+    """Bounds on the unique fixpoint of a contracting system (its matrix already scaled by the
+    discount factor ``d``, which the caller passes as ``sys`` with every row leaking ``1 - d``).
+
+    Value iteration from 0; after a step that changed the vector by ``delta`` (sup norm) the
+    fixpoint is within ``d / (1 - d) * delta`` of the iterate (Banach), which gives the bounds and
+    the stopping rule. Rewards of any sign are fine.
+
+    Returns:
+        ``(bounds, best_rows)``: :class:`Bounds` in local order and the greedy row per state.
+    """
+    n, m = sys.n, sys.m
+    row_sums = np.asarray(sys.matrix.sum(axis=1)).ravel() if m else np.zeros(0)
+    discount = float(row_sums.max(initial=0.0))
+    factor = discount / (1.0 - discount) if discount < 1.0 else np.inf
+    cur = np.zeros(n)
+    nxt = np.empty(n)
+    y = np.empty(m)
+    iters = 0
+    bound = np.inf if n else 0.0
+    converged = n == 0
+    while n and iters < options.max_iterations:
+        _multiply(sys, cur, y)
+        _reduce(sys, y, nxt)
+        iters += 1
+        d = float(np.max(np.abs(nxt - cur), initial=0.0))
+        cur, nxt = nxt, cur
+        bound = factor * d if discount > 0 else 0.0
+        scale = float(np.max(np.abs(cur), initial=0.0)) if options.relative else 1.0
+        if bound <= options.precision * max(scale, 1e-300):
+            converged = True
+            break
+    _multiply(sys, cur, y)
+    best = _argopt(sys, y) if n else np.zeros(0, dtype=np.int64)
+    if options.method is Method.VALUE:
+        return Bounds(cur, cur.copy(), iters, converged, False), best
+    lo, hi = _widen(cur - bound, cur + bound)
+    return Bounds(lo, hi, iters, converged, True), best

@@ -1,0 +1,39 @@
+"""Solver configuration for the numerical engines: which method, how precise, what to return."""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+__all__ = ["Method", "SolverOptions"]
+
+
+class Method(enum.Enum):
+    """How an unbounded objective is solved.
+
+    ``INTERVAL`` (default) returns proven bounds ``lower <= value <= upper`` whose gap is below the
+    requested precision: the lower bound by value iteration from below, the upper bound guessed and
+    then verified (optimistic value iteration), with end components handled (see
+    :mod:`posgmc.engines.iteration`). ``VALUE`` is plain value iteration from below with the usual
+    unsound stopping rule (``lower = upper = values``, ``sound = False``). ``POLICY`` is policy
+    iteration with an exact linear solve per evaluation (mdp/smg; dtmc as ``EXACT``). ``EXACT`` is a
+    direct sparse LU solve for a dtmc and policy iteration to optimality for an mdp/smg.
+    """
+
+    INTERVAL = "interval"
+    VALUE = "value"
+    POLICY = "policy"
+    EXACT = "exact"
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """``precision``: the half-width of the reported interval (absolute, or relative to the value when
+    ``relative``); ``max_iterations`` caps the iterations of an iterative method (the result then says
+    ``converged=False`` but its bounds stay proven); ``want_strategy``: compute a strategy."""
+
+    method: Method = Method.INTERVAL
+    precision: float = 1e-6
+    relative: bool = False
+    max_iterations: int = 1_000_000
+    want_strategy: bool = True
