@@ -31,6 +31,17 @@ CASES = [
     ("smg/investor/investor.prism", "smg/investor/investor.prism.props", "vmax=5,vinit=2"),
 ]
 
+# Not supported in this build (issue: engines): R[F0 ...] on games needs PRISM-games' reward-counter
+# unfolding. These must raise UnsupportedError naming F0 (never a wrong number); when the support
+# lands they fail here and are to be removed from this set.
+KNOWN_GAPS = {
+    ("smg/coins/coins.prism.props", 38),
+    ("smg/coins/coins.prism.props", 41),
+    ("smg/coins/coins.prism.props", 44),
+    ("smg/coins/coins.prism.props", 47),
+    ("smg/game/game.prism.rewards.props", 2),
+}
+
 # PRISM-games prints 6 significant digits in some RESULT lines (investor: 2.365893)
 TOLERANCE = 1e-6
 
@@ -78,6 +89,9 @@ def test_prism_games_results(benchmarks: Path, model: str, props: str, consts: s
                 if expected == "Error:co-safe":
                     assert isinstance(outcome, UnsupportedError)
                     assert "co-safe" in outcome.message, where
+                continue
+            if (props, prop.span.line) in KNOWN_GAPS:
+                assert isinstance(outcome, UnsupportedError) and "F0" in outcome.message, where
                 continue
             assert not isinstance(outcome, PosgmcError), f"{where}: {outcome.render()}"
             assert _matches(expected, outcome.value), f"{where}: expected {expected}, got {outcome.value}"

@@ -37,7 +37,12 @@ OUT_OF_RANGE = {"dodge6-lines", "dodge-6-lines/model.prism", "dodge6-lines-posit
 # test therefore allows GAME_TOLERANCE against Storm and checks posgmc's bounds against posgmc's
 # exact solution, which must lie within them.
 GAME_TOLERANCE = 2e-5
-EXACT_LIMIT = 20_000  # states up to which the exact solve runs in the default suite
+EXACT_LIMIT = 5_000  # states up to which the exact solve runs in the default suite
+
+# Not supported in this build (issue: engines): expected reach rewards with negative rewards (the
+# PAYNT/Cassandra discounted models encode a penalty as a negative reward). They must raise
+# UnsupportedError (never a wrong number); remove an entry when support lands.
+KNOWN_GAPS = {("pomdp/4x3-95/sketch.templ", 'R{"reward"}max=? [F "discount_sink"]')}
 
 
 def _entries() -> list[Any]:
@@ -90,6 +95,9 @@ def test_sizes_and_values_match_storm(benchmarks: Path, entry: dict[str, Any]) -
             zero_based_players=True,
         )
         where = f"{entry['file']} {text} {constants}"
+        if (entry["file"], text) in KNOWN_GAPS:
+            assert report.errors and "negative rewards" in report.errors[0][1].message, where
+            continue
         assert not report.errors, f"{where}: {report.errors[0][1].render()}"
         ours = report.results[0]
         expected = _storm_value(p)
