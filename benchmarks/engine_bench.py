@@ -6,9 +6,9 @@ Two families, both generated with numpy only (no parser, no builder):
   grid, slip 0.1, fault 0.002; one robot moves per step), every position pair with and without the
   fault flag (2 N^4 states; N=32 gives 2.1M states, 8.4M choices, 23M transitions, close to Storm's
   2,096,127 / 9,167,100 / 25,404,148 which only counts reachable states). Property: ``Pmax F goal``.
-* ``random S``: a random sparse mdp or smg with S states, 1-8 choices per state and 1-5 successors
-  per choice, mostly local (successors near the state index) plus some far jumps and an absorbing
-  goal/sink pair; property ``Pmax/Pmin F goal``.
+* ``random S``: a random sparse mdp or smg with S states, 1-8 choices per state, 1-3 successors
+  per choice (mostly near the state index, some far) plus small leaks to an absorbing goal and
+  sink; property ``Pmax/Pmin F goal``.
 
 Usage::
 
@@ -58,6 +58,7 @@ def _model(
         player_names=("p0", "p1") if players is not None else (),
         labels=labels,
         reward_models=rewards,
+        state_values=np.zeros((S, 0), dtype=np.int64),
     )
 
 
@@ -76,7 +77,9 @@ def robots(N: int, s: float = 0.1, f: float = 0.002) -> tuple[ExplicitModel, np.
     done = goal_pos | collide | (dead == 1)
     goal = goal_pos & ~collide & (dead == 0)
 
-    def sid(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, e: np.ndarray) -> np.ndarray:
+    def sid(
+        a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, e: np.ndarray
+    ) -> np.ndarray:
         return (((a * N + b) * N + c) * N + d) * 2 + e
 
     moves = []  # (valid mask, successor index) for each of the 8 moves
@@ -119,7 +122,9 @@ def robots(N: int, s: float = 0.1, f: float = 0.002) -> tuple[ExplicitModel, np.
     order = np.lexsort((cols, rows))
     indptr = np.zeros(C + 1, dtype=np.int64)
     np.cumsum(np.bincount(rows, minlength=C), out=indptr[1:])
-    T = sp.csr_matrix((vals[order], cols[order].astype(np.int32), indptr.astype(np.int32)), shape=(C, S))
+    T = sp.csr_matrix(
+        (vals[order], cols[order].astype(np.int32), indptr.astype(np.int32)), shape=(C, S)
+    )
     init = int(sid(np.array(0), np.array(0), np.array(N - 1), np.array(N - 1), np.array(0)))
     rewards = (RewardModel(name="moves", choice=np.where(done[np.repeat(idx, counts)], 0.0, 1.0)),)
     return _model(ModelType.MDP, rg, T, init, {"goal": goal}, rewards=rewards), goal
@@ -140,7 +145,9 @@ def pursuit(N: int, s: float = 0.1, q: float = 0.7) -> tuple[ExplicitModel, np.n
     escaped = (ex == N - 1) & (ey == N - 1) & ~caught
     over = caught | escaped
 
-    def sid(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndarray) -> np.ndarray:
+    def sid(
+        a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndarray
+    ) -> np.ndarray:
         return (((a * N + b) * N + c) * N + d) * 2 + t
 
     moves = []  # (valid, [(successor, probability), ...])
@@ -190,7 +197,13 @@ def pursuit(N: int, s: float = 0.1, q: float = 0.7) -> tuple[ExplicitModel, np.n
 
 
 def random_model(S: int, *, smg: bool, seed: int = 0) -> tuple[ExplicitModel, np.ndarray]:
-    """A random sparse mdp/smg with goal state S-2 and sink S-1 (both absorbing)."""
+    """A random sparse mdp/smg with goal state S-2 and sink S-1 (both absorbing).
+
+    Every state has 1-8 choices; every choice has 1-3 random successors near the state (plus a 2%
+    chance of a far one) and, like the faults of two_robots, a small leak: 0-4% to the goal and 2-4%
+    to the sink, so that value iteration contracts (a random game without leaks has huge end
+    components and converges very slowly -- a different benchmark).
+    """
     rng = np.random.default_rng(seed)
     counts = rng.integers(1, 9, size=S)
     counts[-2:] = 1
@@ -198,28 +211,29 @@ def random_model(S: int, *, smg: bool, seed: int = 0) -> tuple[ExplicitModel, np
     np.cumsum(counts, out=rg[1:])
     C = int(rg[-1])
     owner = np.repeat(np.arange(S), counts)
-    k = rng.integers(1, 6, size=C)
-    k[-2:] = 1
-    indptr = np.zeros(C + 1, dtype=np.int64)
-    np.cumsum(k, out=indptr[1:])
-    nnz = int(indptr[-1])
+    k = rng.integers(1, 4, size=C)
     src = np.repeat(owner, k)
+    nnz = int(k.sum())
     local = src + rng.integers(-40, 41, size=nnz)
     far = rng.random(nnz) < 0.02
-    local[far] = rng.integers(0, S, size=int(far.sum()))
-    to_goal = rng.random(nnz) < 0.005
-    local[to_goal] = S - 2
-    to_sink = rng.random(nnz) < 0.005
-    local[to_sink] = S - 1
-    cols = np.clip(local, 0, S - 1)
-    row_of = np.repeat(np.arange(C), k)
-    cols[row_of >= C - 2] = np.array([S - 2, S - 1])[row_of[row_of >= C - 2] - (C - 2)]
+    local[far] = rng.integers(0, S - 2, size=int(far.sum()))
+    cols = np.clip(local, 0, S - 3)
+    rows = np.repeat(np.arange(C), k)
     w = rng.random(nnz) + 0.05
-    T = sp.csr_matrix((w, cols.astype(np.int32), indptr.astype(np.int32)), shape=(C, S))
+    sums = np.bincount(rows, weights=w, minlength=C)
+    to_goal = rng.uniform(0.0, 0.04, size=C)
+    to_sink = rng.uniform(0.02, 0.04, size=C)
+    vals = (1.0 - to_goal - to_sink)[rows] * w / sums[rows]
+    # the leaks, and the absorbing goal and sink
+    body = np.arange(C - 2)
+    rows = np.concatenate([rows, body, body, [C - 2, C - 1]])
+    cols = np.concatenate([cols, np.full(C - 2, S - 2), np.full(C - 2, S - 1), [S - 2, S - 1]])
+    vals = np.concatenate([vals, to_goal[: C - 2], to_sink[: C - 2], [1.0, 1.0]])
+    keep = rows < C - 2
+    keep[-2:] = True
+    keep[nnz : nnz + 2 * (C - 2)] = True
+    T = sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(C, S))
     T.sum_duplicates()
-    sums = np.asarray(T.sum(axis=1)).ravel()
-    T = sp.diags(1.0 / sums) @ T
-    T = T.tocsr()
     players = (np.arange(S) % 2).astype(np.int32) if smg else None
     goal = np.zeros(S, dtype=bool)
     goal[S - 2] = True
@@ -228,10 +242,14 @@ def random_model(S: int, *, smg: bool, seed: int = 0) -> tuple[ExplicitModel, np
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("family", choices=["robots", "pursuit", "random"])
     ap.add_argument("size", type=int)
-    ap.add_argument("--smg", action="store_true", help="random: a two-player game (alternating owners)")
+    ap.add_argument(
+        "--smg", action="store_true", help="random: a two-player game (alternating owners)"
+    )
     ap.add_argument("--min", action="store_true", help="minimise instead of maximise")
     ap.add_argument("--method", default="interval", choices=[m.value for m in Method])
     ap.add_argument("--precision", type=float, default=1e-6)
@@ -266,7 +284,8 @@ def main() -> None:
         t3 = time.perf_counter()
         c3 = time.process_time()
         print(
-            f"  P{'min' if args.min else 'max'} F goal [{round_}]: {t3 - t2:.2f} s wall, {c3 - c2:.2f} s cpu, "
+            f"  P{'min' if args.min else 'max'} F goal [{round_}]: "
+            f"{t3 - t2:.2f} s wall, {c3 - c2:.2f} s cpu, "
             f"{res.iterations} iterations, converged={res.converged}, "
             f"value {res.values[init]:.10f} in [{res.lower[init]:.10f}, {res.upper[init]:.10f}]"
         )
@@ -274,10 +293,16 @@ def main() -> None:
         rm = model.reward_models[0].choice_rewards(model.row_groups)
         t2 = time.perf_counter()
         res = obj.expected_reach_reward(
-            model, rm, goal | model.labels["goal"], maximize=np.zeros(model.num_states, bool), options=options
+            model,
+            rm,
+            goal | model.labels["goal"],
+            maximize=np.zeros(model.num_states, bool),
+            options=options,
         )
         t3 = time.perf_counter()
-        print(f"  Rmin F goal: {t3 - t2:.2f} s, {res.iterations} iterations, value {res.values[init]}")
+        print(
+            f"  Rmin F goal: {t3 - t2:.2f} s, {res.iterations} iterations, value {res.values[init]}"
+        )
 
 
 if __name__ == "__main__":

@@ -37,7 +37,8 @@ __all__ = ["Grouped", "grouped", "evaluate", "policy_iteration", "policy_values_
 class Grouped:
     """A system with rows grouped by state (the layout policy iteration needs).
 
-    ``matrix``: csr [m, n]; ``offset``: float64[m]; ``stays``: bool[m]; ``row_groups``: int64[n + 1];
+    ``matrix``: csr [m, n]; ``offset``: float64[m]; ``stays``: bool[m];
+    ``row_groups``: int64[n + 1];
     ``row_state``: int64[m]; ``maximize``: bool[n]; ``source``: int64[m], the row of the original
     :class:`System` each row comes from.
     """
@@ -106,7 +107,9 @@ def evaluate(gr: Grouped, rows: np.ndarray) -> np.ndarray:
     st = _chain_structure(A)
     everyone = np.ones(n, dtype=bool)
     none = np.zeros(n, dtype=bool)
-    leaving, _ = attractor(st, none, existential=everyone, candidates=everyone, initial_choices=leaks)
+    leaving, _ = attractor(
+        st, none, existential=everyone, candidates=everyone, initial_choices=leaks
+    )
     trapped = ~leaving
     collecting, _ = attractor(
         st, none, existential=everyone, candidates=trapped, initial_choices=trapped & (b > 0)
@@ -134,7 +137,9 @@ def _row_values(gr: Grouped, x: np.ndarray) -> np.ndarray:
     return y
 
 
-def _improve(gr: Grouped, x: np.ndarray, rows: np.ndarray, players: np.ndarray) -> tuple[np.ndarray, bool]:
+def _improve(
+    gr: Grouped, x: np.ndarray, rows: np.ndarray, players: np.ndarray
+) -> tuple[np.ndarray, bool]:
     """Strictly improving switches for the states with ``players`` True."""
     y = _row_values(gr, x)
     st = gr.row_state
@@ -171,7 +176,9 @@ def _augmented(gr: Grouped) -> Structure:
     return Structure.build(rows, rg)
 
 
-def _prepare_min(gr: Grouped, rows: np.ndarray, *, unbounded: bool) -> tuple[np.ndarray, np.ndarray]:
+def _prepare_min(
+    gr: Grouped, rows: np.ndarray, *, unbounded: bool
+) -> tuple[np.ndarray, np.ndarray]:
     """For a least-fixpoint objective (non-negative constants): settle the minimiser's states by
     graph search, because policy iteration cannot discover end components by itself.
 
@@ -190,7 +197,11 @@ def _prepare_min(gr: Grouped, rows: np.ndarray, *, unbounded: bool) -> tuple[np.
     positive_rows = np.append(gr.offset > 0, False)
     none = np.zeros(n + 1, dtype=bool)
     positive, _ = attractor(
-        st, none, existential=maximize, candidates=np.ones(n + 1, dtype=bool), initial_choices=positive_rows
+        st,
+        none,
+        existential=maximize,
+        candidates=np.ones(n + 1, dtype=bool),
+        initial_choices=positive_rows,
     )
     idle = ~positive
     hits = np.asarray(st.transitions @ positive.astype(np.float64)) > 0
@@ -200,7 +211,9 @@ def _prepare_min(gr: Grouped, rows: np.ndarray, *, unbounded: bool) -> tuple[np.
     fixed = (idle & minimisers & (idle_rows >= 0))[:n]
     rows = np.where(fixed, idle_rows[:n], rows)
     if unbounded:
-        infinite = positive_buchi(st, positive_rows, np.ones(n + 1, dtype=bool), existential=maximize)
+        infinite, _ = positive_buchi(
+            st, positive_rows, np.ones(n + 1, dtype=bool), existential=maximize
+        )
         goal = idle.copy()
         goal[n] = True
         reach, witness = almost_sure_reach(st, goal, ~infinite, existential=minimisers)
@@ -257,7 +270,9 @@ def policy_iteration(
     if n == 0:
         return np.zeros(0), np.zeros(0, dtype=np.int64), 0
     if gr.maximize.all() or (~gr.maximize).all():
-        return _mdp_pi(gr, initial.copy(), idle_min=idle_min, unbounded=unbounded, max_rounds=max_rounds)
+        return _mdp_pi(
+            gr, initial.copy(), idle_min=idle_min, unbounded=unbounded, max_rounds=max_rounds
+        )
     outer = gr.maximize if outer_max else ~gr.maximize
     rows = initial.copy()
     total = 0

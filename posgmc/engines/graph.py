@@ -1,24 +1,24 @@
 """Graph precomputation on the choice/state structure: attractors, qualitative reachability, MECs.
 
-Everything is vectorized over a :class:`Structure` (the rows of a transition matrix grouped by state,
-the layout of :class:`~posgmc.model.explicit.ExplicitModel`). Backward search works layer by layer:
-each layer gathers the predecessor choices of the frontier from the transposed matrix in one
-fancy-indexing step, so the total work is linear in the transitions and the Python overhead is per
-layer, never per state.
+Everything is vectorized over a :class:`Structure` (the rows of a transition matrix grouped by
+state, the layout of :class:`~posgmc.model.explicit.ExplicitModel`). Backward search works layer
+by layer: each layer gathers the predecessor choices of the frontier from the transposed matrix in
+one fancy-indexing step, so the total work is linear in the transitions and the Python overhead is
+per layer, never per state.
 
 Per-state quantifiers. A state whose entry of ``existential`` is True joins an attractor when *some*
 allowed choice has an edge into the set; any other state joins when *all* its allowed choices do
 (and it has at least one). This is the controllable/uncontrollable predecessor of turn-based games;
 for an mdp or dtmc all states share one quantifier.
 
-Qualitative reachability (``positive_reach``/``almost_sure_reach``) is exact for turn-based stochastic
-games: the value of ``remain U target`` is 0 exactly outside the positive attractor, and 1 exactly on
-the almost-sure winning region, computed by the classical nested fixpoint
+Qualitative reachability (``positive_reach``/``almost_sure_reach``) is exact for turn-based
+stochastic games: the value of ``remain U target`` is 0 exactly outside the positive attractor,
+and 1 exactly on the almost-sure winning region, computed by the classical nested fixpoint
 ``nu Y. mu X. target | (remain & CPre(Y, X))``.
 
 End components: :func:`end_components` returns the maximal end components of a sub-structure by
-iterated strongly-connected-component decomposition (``scipy.sparse.csgraph``), removing choices that
-leave their component until nothing changes.
+iterated strongly-connected-component decomposition (``scipy.sparse.csgraph``), removing choices
+that leave their component until nothing changes.
 """
 
 from __future__ import annotations
@@ -97,7 +97,7 @@ def structure_of(model: ExplicitModel) -> Structure:
 
 
 def concat_ranges(starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    """The concatenation of ``arange(starts[i], ends[i])`` over i, as int64, without a Python loop."""
+    """The concatenation of ``arange(starts[i], ends[i])`` over i (int64), without a Python loop."""
     lengths = ends - starts
     total = int(lengths.sum())
     if total == 0:
@@ -255,7 +255,12 @@ def almost_sure_reach(
     if universal_allowed is not None:
         usable &= universal_allowed | exist_choice
     goal_choices = None if target_choices is None else target_choices & usable
-    if start is not None and allowed is None and universal_allowed is None and target_choices is None:
+    if (
+        start is not None
+        and allowed is None
+        and universal_allowed is None
+        and target_choices is None
+    ):
         region = start & (remain | target)
         # a superset of the answer that saves most rounds in games: the universal player's
         # positive attractor to the value-0 states cannot be almost-surely winning
@@ -291,9 +296,9 @@ def almost_sure_reach(
 
 def positive_buchi(
     g: Structure, good: np.ndarray, region: np.ndarray, *, existential: np.ndarray
-) -> np.ndarray:
-    """bool[S]: states from which the existential player can make the play take ``good`` choices
-    infinitely often with positive probability, never leaving ``region``.
+) -> tuple[np.ndarray, np.ndarray]:
+    """States from which the existential player can make the play take ``good`` choices infinitely
+    often with positive probability, never leaving ``region``, and a strategy for it.
 
     Computed by sub-games: the almost-sure Büchi region (greatest fixpoint ``Y = almost-sure reach,
     inside Y, of good choices that stay in Y``) of the current sub-game is added together with its
@@ -301,16 +306,23 @@ def positive_buchi(
     into them (the universal player avoids them where it can), until a sub-game has no almost-sure
     region. A state where the universal player can only choose between a good cycle and a move
     into the winning region is thereby found winning in the second round.
+
+    Returns:
+        ``(winning, witness)``: bool[S]; int64[S] for the existential states of ``winning`` a
+        choice that keeps the promise (inside an almost-sure region: a good choice or a step
+        towards one, staying inside; elsewhere: a step towards such a region), -1 elsewhere.
     """
     winning = np.zeros(g.num_states, dtype=bool)
+    witness = np.full(g.num_states, -1, dtype=np.int64)
     none = np.zeros(g.num_states, dtype=bool)
     while True:
         sub = region & ~winning
         avoid = ~_unsafe_choices(g, ~winning)  # choices with no edge into the winning part
         current = sub.copy()
+        core_witness = witness
         while True:
             stay = ~_unsafe_choices(g, current)
-            new, _ = almost_sure_reach(
+            new, core_witness = almost_sure_reach(
                 g,
                 none,
                 current,
@@ -323,8 +335,13 @@ def positive_buchi(
                 break
             current = new
         if not current.any():
-            return winning
-        winning, _ = attractor(g, winning | current, existential=existential, candidates=region)
+            return winning, witness
+        take = current & existential & (core_witness >= 0)
+        witness[take] = core_witness[take]
+        grown, attract = attractor(g, winning | current, existential=existential, candidates=region)
+        added = grown & ~winning & ~current & existential & (attract >= 0)
+        witness[added] = attract[added]
+        winning = grown
 
 
 def safe_region(
@@ -342,8 +359,8 @@ def safe_region(
     choice good and inside. ``frozen`` states (bool[S]) always stay in the set (absorbing for the
     question, e.g. a target).
 
-    Returns ``(safe, choice)``: bool[S]; int64[S] for each existential non-frozen state of ``safe`` a
-    qualifying choice (-1 elsewhere).
+    Returns ``(safe, choice)``: bool[S]; int64[S] for each existential non-frozen state of ``safe``
+    a     qualifying choice (-1 elsewhere).
     """
     ok = np.ones(g.num_choices_total, dtype=bool) if good is None else good.copy()
     keep_always = np.zeros(g.num_states, dtype=bool) if frozen is None else frozen
@@ -352,7 +369,9 @@ def safe_region(
     while True:
         stays = ok & ~_unsafe_choices(g, current)
         stays_count = np.add.reduceat(stays.astype(np.int64), starts)
-        keep = current & (keep_always | np.where(existential, stays_count > 0, stays_count == g.num_choices))
+        keep = current & (
+            keep_always | np.where(existential, stays_count > 0, stays_count == g.num_choices)
+        )
         if int(keep.sum()) == int(current.sum()):
             break
         current = keep
@@ -370,9 +389,9 @@ def end_components(
     """Maximal end components of the sub-structure made of the ``allowed`` choices.
 
     Args:
-        matrix: csr [m, n]: row r is a choice of state ``state_of_row[r]`` (rows need not be grouped);
-            a row whose probability mass leaves the n columns must not be allowed (it cannot be part
-            of an end component).
+        matrix: csr [m, n]: row r is a choice of state ``state_of_row[r]`` (rows need not be
+            grouped); a row whose probability mass leaves the n columns must not be allowed (it
+            cannot be part of an end component).
         state_of_row: int64[m].
         allowed: bool[m].
 

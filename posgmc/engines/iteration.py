@@ -1,8 +1,8 @@
 """Sound iterative solution of min/max fixpoint equations on the states whose value is unknown.
 
-A :class:`System` is the part of a model left after graph precomputation: ``n`` unknown states, ``m``
-rows (their usable choices), a sparse matrix ``A`` [m, n] and a constant ``b`` [m] per row, so that the
-Bellman operator is::
+A :class:`System` is the part of a model left after graph precomputation: ``n`` unknown states,
+``m`` rows (their usable choices), a sparse matrix ``A`` [m, n] and a constant ``b`` [m] per row,
+so that the Bellman operator is::
 
     B(x)(s) = opt_{r in rows(s)} ( b[r] + sum_t A[r, t] x[t] ),   opt = max or min per state.
 
@@ -13,10 +13,10 @@ correction. :func:`solve` returns proven bounds ``lower <= lfp <= upper``:
 * **lower bound**: value iteration from 0. Every iterate of a monotone operator started below the
   least fixpoint stays below it, so the lower bound needs no check.
 * **upper bound**: optimistic value iteration (Hartmanns & Kaminski, CAV 2020). Once the lower
-  iteration stalls, guess ``U = L + eps`` and apply the operator ``F``; if ``F(U) <= U`` then ``U`` is
-  a pre-fixpoint and, by Park induction (Knaster-Tarski), ``U >= lfp F``. From then on ``F^k(U)``
-  decreases and stays above the fixpoint. A failed guess shrinks the stopping threshold of the lower
-  iteration and retries.
+  iteration stalls, guess ``U = L + eps`` and apply the operator ``F``; if ``F(U) <= U`` then ``U``
+  is a pre-fixpoint and, by Park induction (Knaster-Tarski), ``U >= lfp F``. From then on
+  ``F^k(U)`` decreases and stays above the fixpoint. A failed guess shrinks the stopping threshold
+  of the lower iteration and retries.
 * **end components of the maximiser** (``EndComponents.DEFLATE``): inside an end component of the
   maximising player the upper iterate cannot decrease (the gfp exceeds the lfp). We deflate
   (Kelmendi et al., CAV 2018; Eisentraut et al.): for a set T whose minimiser states each keep a
@@ -27,26 +27,28 @@ correction. :func:`solve` returns proven bounds ``lower <= lfp <= upper``:
   ``F^k(0) >= B^k(0)`` (the k-step value of a state of T never exceeds the cap of the (k-1)-step
   values), so ``lfp F = lfp B`` and Park induction applies to F, *for every* such family of sets.
   For an mdp the family is the maximal end components of the zero-``b`` rows (computed once); in a
-  game it is recomputed (when an upper bound is guessed, and every 32 steps after) with the
-  minimiser restricted to its rows optimal for the current lower bound, as in Kelmendi et al.
+  game it is recomputed with the minimiser restricted to its rows optimal for the current lower
+  bound, as in Kelmendi et al.: lazily, once a guessed upper bound has failed to verify without
+  it for half the verification budget, then at every later guess and every 32 steps.
 * **zero-reward end components of the minimiser** (``EndComponents.INFLATE``, expected reward until
   a target with "infinite unless reached" semantics): the least fixpoint undercounts (staying in a
   zero-reward cycle costs nothing but never reaches the target). The lower iterate is inflated: in
   a set T where the maximiser keeps a zero-reward choice inside, the minimiser must leave through
   one of its exits, so ``value >= min over minimiser exits r of (b[r] + A_out[r] x) / P_out[r]``
-  (renewal argument). The upper bound is certified by a proper strategy instead of Park induction:
-  the caller's ``certify`` checks that the minimiser, using only rows ``r`` with
-  ``b[r] + A[r] U <= U``, reaches the target almost surely against every maximiser; with
-  ``B(U) <= U`` at maximiser states, ``U`` is above that strategy's value, hence above the value.
-  From then on ``B^k(U)`` stays above the value (a fixpoint of the monotone B).
+  (renewal argument). Park induction cannot prove an upper bound here, so the upper bound starts
+  from the problem with every zero constant raised to the smallest positive one: that problem
+  has a larger value and no zero-reward end components (a unique fixpoint, which optimistic
+  iteration proves as above); B^k of an upper bound stays above the value (a fixpoint of the
+  monotone B), and iterating B from above converges to the value of the proper strategies
+  (Bertsekas & Yu, 2016), which is the value sought.
 * **floating point**: ``F(U) <= U`` is accepted up to a relative 1e-13 (rounding noise of one step;
   without it a guess sitting exactly on the fixpoint could never be confirmed), and the final
   bounds are widened outwards by a relative 1e-10, which covers the rounding of all iterations.
   Bounds are therefore proven up to floating-point error, like every float-based checker's.
 
 Performance: unknown states are renumbered maximisers first, each group by decreasing number of
-rows, and rows are stored by *slot* (slot j holds the j-th row of every state with more than j rows).
-A Bellman step is then one sparse matrix-vector product into a preallocated buffer
+rows, and rows are stored by *slot* (slot j holds the j-th row of every state with more than j
+rows). A Bellman step is then one sparse matrix-vector product into a preallocated buffer
 (scipy's ``csr_matvec`` kernel, falling back to ``A @ x``) and, per slot, one contiguous
 ``np.maximum``/``np.minimum`` -- no ``reduceat``, no allocation. While only the lower bound is
 iterated, the row values are updated incrementally (``y += A (x_new - x_old)``, recomputed every 64
@@ -56,8 +58,7 @@ steps) and one vector is multiplied; during verification both bounds share one p
 from __future__ import annotations
 
 import enum
-from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -205,7 +206,9 @@ def build_system(
     local32 = local_of.astype(index_dtype)
     loc = local32[sub.indices]
     inside = loc >= 0
-    offset = np.zeros(rows.size) if choice_offset is None else choice_offset[rows].astype(np.float64)
+    offset = (
+        np.zeros(rows.size) if choice_offset is None else choice_offset[rows].astype(np.float64)
+    )
     if fixed is not None and np.any(fixed != 0):
         known_fixed = np.where(local_of >= 0, 0.0, fixed)
         offset += sub @ known_fixed
@@ -249,7 +252,14 @@ def _multiply(sys: System, x: np.ndarray, y: np.ndarray) -> None:
         y[:] = sys.offset[:, None]
         if _HAVE_KERNELS:
             _kernels.csr_matvecs(
-                A.shape[0], A.shape[1], x.shape[1], A.indptr, A.indices, A.data, x.ravel(), y.ravel()
+                A.shape[0],
+                A.shape[1],
+                x.shape[1],
+                A.indptr,
+                A.indices,
+                A.data,
+                x.ravel(),
+                y.ravel(),
             )
         else:  # pragma: no cover
             y += A @ x
@@ -367,7 +377,9 @@ class _Family:
     exit_rows: np.ndarray  # int64[e]: exit rows sorted by component
     exit_starts: np.ndarray  # int64[g]: reduceat starts
     exit_comps: np.ndarray  # int64[g]: the component of each group
-    out_matrix: sp.csr_matrix | None  # inflation: exit rows restricted to columns outside the component
+    out_matrix: (
+        sp.csr_matrix | None
+    )  # inflation: exit rows restricted to columns outside the component
     p_out: np.ndarray | None  # inflation: probability of leaving the component per exit row
 
     def deflate(self, y: np.ndarray, x: np.ndarray) -> None:
@@ -458,11 +470,6 @@ class Bounds:
     end_components: bool = False  # the treated player has end components (strategies need a fix)
 
 
-Certifier = Callable[[np.ndarray, np.ndarray], bool]
-"""``certify(upper, row_values)``: is ``upper`` (with ``row_values = b + A upper``) a proven upper
-bound? Used by ``EndComponents.INFLATE``."""
-
-
 _NOISE = 1e-13
 """Relative rounding noise tolerated when checking ``F(U) <= U`` (far below any precision)."""
 
@@ -473,7 +480,9 @@ def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray
     relative 1e-10 keeps the reported bounds on the right side of the exact value."""
     slack_lo = 1e-10 * np.abs(lower)
     slack_hi = np.where(np.isfinite(upper), 1e-10 * np.abs(upper), 0.0)
-    return np.maximum(lower - slack_lo, 0.0) if np.all(lower >= 0) else lower - slack_lo, upper + slack_hi
+    return (
+        np.maximum(lower - slack_lo, 0.0) if np.all(lower >= 0) else lower - slack_lo
+    ), upper + slack_hi
 
 
 def _gap_ok(lower: np.ndarray, upper: np.ndarray, precision: float, relative: bool) -> bool:
@@ -501,7 +510,13 @@ def _lower_phase(
     max_it: int,
     inflation: _Family | None,
 ) -> tuple[np.ndarray, int]:
-    """Value iteration from ``lower`` until one step changes it by at most ``tau``.
+    """Value iteration from ``lower`` until it looks converged to within ``tau``.
+
+    "Looks converged" (a heuristic deciding when to guess an upper bound; soundness never depends
+    on it): the last step changed the vector by ``d <= tau`` and the geometric-tail estimate of
+    the remaining error, ``d * q / (1 - q)`` with q the recent contraction ratio of the steps
+    (capped at 0.999), is at most ``tau`` too. Slowly contracting systems thus keep iterating in
+    this cheap one-vector phase instead of failing verification in the two-vector one.
 
     The row values are updated incrementally, ``y += A (x_new - x_old)``, which saves rewriting
     the offsets every step; they are recomputed from scratch every 64 steps so that rounding does
@@ -514,6 +529,8 @@ def _lower_phase(
     delta = np.empty(n)
     _multiply(sys, x, y)
     fresh = 0
+    ratios = [0.0, 0.0]
+    previous = np.inf
     while iters < max_it:
         _reduce(sys, y, nxt)
         if inflation is not None:
@@ -525,7 +542,10 @@ def _lower_phase(
         else:
             d = float(max(delta.max(initial=0.0), -delta.min(initial=0.0)))
         x, nxt = nxt, x
-        if d <= tau:
+        ratios = [ratios[1], min(d / previous, 0.999) if previous > 0 else 0.0]
+        previous = d
+        q = max(ratios)
+        if d <= tau and d * q / (1.0 - q) <= tau:
             break
         fresh += 1
         if fresh >= 64 or not _HAVE_KERNELS:
@@ -542,7 +562,6 @@ def solve(
     *,
     cap: float,
     ec: EndComponents = EndComponents.NONE,
-    certify: Certifier | None = None,
 ) -> Bounds:
     """Bounds on the least fixpoint of the system's Bellman operator (see the module docstring).
 
@@ -552,7 +571,6 @@ def solve(
             iteration (lower = upper, unsound); every other method gets interval bounds.
         cap: an a-priori upper bound on every value (1 for probabilities, inf if none is known).
         ec: the end-component treatment.
-        certify: required for ``EndComponents.INFLATE``.
 
     Returns:
         :class:`Bounds` in local order.
@@ -574,6 +592,8 @@ def solve(
     refresh = False
     deflating = False
     inflating = False
+    # in a game the (costly) decomposition is only done once a guess fails to verify without it
+    needed = ec is EndComponents.INFLATE
     if ec is EndComponents.DEFLATE and has_max:
         if mixed:
             refresh = deflating = True
@@ -585,9 +605,6 @@ def solve(
         family = _family(sys, np.ones(sys.m, dtype=bool), ec)
         inflating = family is not None
         refresh = inflating and mixed
-    if inflating and certify is None:
-        raise ValueError("EndComponents.INFLATE needs a certifier")
-    use_certifier = inflating
 
     y1 = np.empty(sys.m)
     lower = np.zeros(n)
@@ -633,10 +650,25 @@ def solve(
     Y = np.empty((sys.m, 2))
     converged = False
     verified = False
-    while iters < max_it and not converged:
+    if inflating:
+        # Park induction does not reach the value here (the least fixpoint undercounts), so the
+        # upper bound starts from the problem with every zero constant raised to eps > 0: its
+        # value is larger, it has no zero-reward end components (unique fixpoint, so optimistic
+        # iteration proves it), and B^k of an upper bound stays an upper bound.
+        positive = sys.offset[sys.offset > 0]
+        eps = float(positive.min()) if positive.size else 1.0
+        raised = replace(sys, offset=np.maximum(sys.offset, eps))
+        first = solve(raised, replace(options, want_strategy=False), cap=cap, ec=EndComponents.NONE)
+        iters += first.iterations
+        proven_upper = first.upper.copy()
+        verified = bool(np.all(np.isfinite(proven_upper)))
+    stalled = False
+    while iters < max_it and not converged and not stalled:
         # 1. lower bound by value iteration until it stalls
         phase_start = iters
-        lower, iters = _lower_phase(sys, lower, tau, rel, iters, max_it, family if inflating else None)
+        lower, iters = _lower_phase(
+            sys, lower, tau, rel, iters, max_it, family if inflating else None
+        )
         # 2. guess an upper bound
         if rel:
             guess = lower + prec * np.abs(lower)
@@ -644,12 +676,13 @@ def solve(
         else:
             guess = lower + prec
         X[:, 0] = lower
-        X[:, 1] = np.minimum(guess, proven_upper)
-        if refresh:
+        X[:, 1] = proven_upper if verified else np.minimum(guess, proven_upper)
+        if refresh and needed:
             family = refresh_family(X[:, 0].copy(), np.where(np.isfinite(X[:, 1]), X[:, 1], 0.0))
         budget = max(16, iters - phase_start)
         steps = 0
         since_refresh = 0
+        last_gap = np.inf
         while iters < max_it:
             _multiply(sys, X, Y)
             _reduce(sys, Y, Xn)
@@ -667,8 +700,6 @@ def solve(
                 # F(U) <= U up to rounding noise (a few ulps; the final widening covers it)
                 slack = _NOISE * np.maximum(1.0, np.abs(X[:, 1]))
                 ok = bool(np.all(Xn[:, 1] <= X[:, 1] + slack))
-                if ok and use_certifier and certify is not None:
-                    ok = certify(X[:, 1] + slack, Y[:, 1].copy())
                 if ok:
                     verified = True
                     np.minimum(proven_upper, np.maximum(Xn[:, 1], X[:, 1]), out=proven_upper)
@@ -685,9 +716,23 @@ def solve(
                 break
             if not verified and steps >= budget:
                 break
-            if verified and refresh and since_refresh >= 32:
+            if not verified and refresh and not needed and steps >= max(8, budget // 2):
+                # the guess does not verify by itself: the maximiser's end components matter
+                needed = True
+                family = refresh_family(
+                    X[:, 0].copy(), np.where(np.isfinite(X[:, 1]), X[:, 1], 0.0)
+                )
+                since_refresh = 0
+            if verified and refresh and needed and since_refresh >= 32:
                 family = refresh_family(X[:, 0].copy(), X[:, 1].copy())
                 since_refresh = 0
+            if verified and steps % 1000 == 0:
+                # give up when the gap no longer shrinks (bounds stay proven; converged = False)
+                gap = float(np.max(X[:, 1] - X[:, 0]))
+                if gap >= last_gap * (1.0 - 1e-9):
+                    stalled = True
+                    break
+                last_gap = gap
         lower = np.ascontiguousarray(X[:, 0])
         scratch = np.empty(n)
         if not verified:
@@ -699,7 +744,12 @@ def solve(
     lower, upper = _widen(np.minimum(lower, upper), upper)
     upper = np.minimum(upper, cap)
     return Bounds(
-        np.ascontiguousarray(lower), np.ascontiguousarray(upper), iters, converged, True, family is not None or refresh
+        np.ascontiguousarray(lower),
+        np.ascontiguousarray(upper),
+        iters,
+        converged,
+        True,
+        family is not None or refresh,
     )
 
 

@@ -15,9 +15,9 @@ state's owner maximises the quantity; see :func:`maximize_mask`) and returns an
 Step-bounded objectives (``U<=k``, ``X``, ``C<=k``, ``I=k``) are exact up to floating point: k
 Bellman steps. Discounted objectives get sound bounds from the contraction factor.
 
-Rewards are per choice (state reward + action reward, :meth:`RewardModel.choice_rewards`) and must be
-non-negative for the undiscounted objectives (PRISM's rule). Reach rewards follow PRISM: the reward
-of a target state is not collected (the target is absorbing for the computation).
+Rewards are per choice (state reward + action reward, :meth:`RewardModel.choice_rewards`) and must
+be non-negative for the undiscounted objectives (PRISM's rule). Reach rewards follow PRISM: the
+reward of a target state is not collected (the target is absorbing for the computation).
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ import enum
 import time
 from dataclasses import dataclass, replace
 import numpy as np
+import scipy.sparse as sp
 from posgmc.engines import exact as ex
 from posgmc.engines.graph import (
     Structure,
@@ -38,7 +39,6 @@ from posgmc.engines.graph import (
 )
 from posgmc.engines.iteration import (
     Bounds,
-    Certifier,
     EndComponents,
     System,
     argopt_rows,
@@ -99,7 +99,9 @@ def maximize_mask(
     want_max = direction is Direction.MAX
     if coalition is None or not model.model_type.is_game:
         return np.full(S, want_max, dtype=bool)
-    members = np.zeros(max(len(model.player_names), int(model.state_players.max(initial=0)) + 1), dtype=bool)
+    members = np.zeros(
+        max(len(model.player_names), int(model.state_players.max(initial=0)) + 1), dtype=bool
+    )
     for p in coalition:
         if 0 <= p < members.size:
             members[p] = True
@@ -124,7 +126,9 @@ def _bool(a: np.ndarray | None, S: int, default: bool) -> np.ndarray:
 def _directions(model: ExplicitModel, maximize: np.ndarray) -> np.ndarray:
     mx = np.asarray(maximize, dtype=bool)
     if mx.shape != (model.num_states,):
-        raise PosgmcError(f"maximize needs one entry per state ({model.num_states}), got {mx.shape}")
+        raise PosgmcError(
+            f"maximize needs one entry per state ({model.num_states}), got {mx.shape}"
+        )
     if model.model_type is ModelType.DTMC:
         return np.ones(model.num_states, dtype=bool)
     return mx
@@ -182,14 +186,15 @@ def _solve_system(
     idle_min: bool,
     unbounded: bool = False,
     initial_rows: np.ndarray | None = None,
-    certify: Certifier | None = None,
     is_chain: bool = False,
 ) -> _Solved:
-    """Dispatch on the method; see :mod:`posgmc.engines.iteration` and :mod:`posgmc.engines.exact`."""
+    """Dispatch on the method (see :mod:`posgmc.engines.iteration`, :mod:`posgmc.engines.exact`)."""
     n = sys.n
     if n == 0:
         z = np.zeros(0)
-        return _Solved(z, z.copy(), 0, True, options.method is not Method.VALUE, np.zeros(0, np.int64), None)
+        return _Solved(
+            z, z.copy(), 0, True, options.method is not Method.VALUE, np.zeros(0, np.int64), None
+        )
     if options.method in (Method.EXACT, Method.POLICY):
         gr = ex.grouped(sys)
         if initial_rows is None:
@@ -216,7 +221,7 @@ def _solve_system(
         cand = np.zeros(num_choices, dtype=bool)
         cand[best] = True
         return _Solved(x, x.copy(), rounds, True, True, best, cand)
-    bounds: Bounds = solve(sys, options, cap=cap, ec=ec, certify=certify)
+    bounds: Bounds = solve(sys, options, cap=cap, ec=ec)
     best_rows = None
     cand = None
     if options.want_strategy:
@@ -263,7 +268,9 @@ def _result(
             values[sys.states] = solved.lower
         else:
             with np.errstate(invalid="ignore"):
-                mid = np.where(np.isfinite(solved.upper), 0.5 * (solved.lower + solved.upper), solved.lower)
+                mid = np.where(
+                    np.isfinite(solved.upper), 0.5 * (solved.lower + solved.upper), solved.lower
+                )
             values[sys.states] = mid
         iterations = solved.iterations
         converged = solved.converged
@@ -384,10 +391,21 @@ def reach_probability(
             strategy[a] = avoid[a]
             if sys is not None and solved is not None and solved.best_rows is not None:
                 strategy[sys.states] = solved.best_rows
-                _reacher_fix(g, strategy, solved, sys, goal=tgt | one, goal_choices=None, reacher=mx)
+                _reacher_fix(
+                    g, strategy, solved, sys, goal=tgt | one, goal_choices=None, reacher=mx
+                )
             # target states and states outside ``remain`` decide nothing
             strategy[tgt | ~rem] = -1
-    return _result(model, ~unknown, known_values, sys, solved, method=options.method, started=started, strategy=strategy)
+    return _result(
+        model,
+        ~unknown,
+        known_values,
+        sys,
+        solved,
+        method=options.method,
+        started=started,
+        strategy=strategy,
+    )
 
 
 def bounded_reach_probability(
@@ -487,19 +505,6 @@ def _exact_result(
 # ---------------------------------------------------------------------------------------------
 
 
-def _spoiler_strategy(
-    g: Structure, strategy: np.ndarray, *, bad: np.ndarray, avoid: np.ndarray, spoiler: np.ndarray
-) -> None:
-    """In place: in the region ``bad`` (infinite value for the spoiler), the spoiler's states move
-    towards and then stay in the part where it can avoid ``avoid`` forever."""
-    safe, stay = safe_region(g, bad & ~avoid, existential=spoiler)
-    s = safe & spoiler & (stay >= 0)
-    strategy[s] = stay[s]
-    inside, witness = attractor(g, safe, existential=spoiler, candidates=bad)
-    w = inside & ~safe & spoiler & (witness >= 0)
-    strategy[w] = witness[w]
-
-
 def _local_rows(sys: System, initial: np.ndarray) -> np.ndarray:
     """int64[n]: local System rows from global choices (first row where not usable)."""
     inv = np.full(int(sys.rows.max(initial=-1)) + 1, -1, dtype=np.int64)
@@ -532,11 +537,12 @@ def expected_reach_reward(
 
     Returns:
         The :class:`EngineResult`; infinite values are exact (graph analysis), finite ones have
-        proven bounds.
+        proven bounds. ``ReachRewardMode.ZERO`` on an mdp or smg returns no strategy (optimal
+        strategies must count the collected reward).
 
     Raises:
-        UnsupportedError: ``ReachRewardMode.ZERO`` on an mdp or smg (PRISM-games needs integer
-            rewards and a reward-counter unfolding; not implemented), or negative rewards.
+        UnsupportedError: negative rewards; ``ReachRewardMode.ZERO`` on an mdp or smg with
+            non-integer rewards (as in PRISM-games) or with unbounded rewards before the target.
     """
     r = _check_rewards(model, rewards, nonnegative=True)
     tgt = _bool(target, model.num_states, False)
@@ -568,17 +574,6 @@ def _reach_reward_infinity(
         sys = build_system(g, unknown, maximize=mx, allowed=allowed, choice_offset=r)
         has_min = sys.num_max < sys.n and not dtmc
 
-        def certify(upper: np.ndarray, row_values: np.ndarray) -> bool:
-            assert sys is not None
-            # the minimiser may only use rows whose value does not exceed its upper bound
-            rs = sys.row_state
-            ok_rows = sys.row_maximize | (row_values <= upper[rs])
-            usable = np.zeros(model.num_choices, dtype=bool)
-            usable[sys.rows[ok_rows]] = True
-            usable |= ~unknown[g.choice_state]
-            region, _ = almost_sure_reach(g, tgt, finite, existential=reacher, allowed=usable)
-            return bool(region[sys.states].all())
-
         solved = _solve_system(
             sys,
             options,
@@ -588,7 +583,6 @@ def _reach_reward_infinity(
             outer_max=False,
             idle_min=False,
             initial_rows=_local_rows(sys, finite_witness),
-            certify=certify if has_min else None,
             is_chain=dtmc,
         )
     strategy = None
@@ -600,9 +594,23 @@ def _reach_reward_infinity(
             if sys is not None and solved is not None and solved.best_rows is not None:
                 strategy[sys.states] = solved.best_rows
                 _reacher_fix(g, strategy, solved, sys, goal=tgt, goal_choices=None, reacher=reacher)
-            _spoiler_strategy(g, strategy, bad=infinite, avoid=tgt, spoiler=mx)
+            if infinite.any():
+                # the maximiser keeps away from the target with positive probability: a positive
+                # Büchi strategy for "any choice outside the target" (target absorbing)
+                _, keep_away = positive_buchi(g, ~tgt[g.choice_state], ~tgt, existential=mx)
+                w = infinite & mx & (keep_away >= 0)
+                strategy[w] = keep_away[w]
         strategy[tgt] = -1
-    return _result(model, ~unknown, known_values, sys, solved, method=options.method, started=started, strategy=strategy)
+    return _result(
+        model,
+        ~unknown,
+        known_values,
+        sys,
+        solved,
+        method=options.method,
+        started=started,
+        strategy=strategy,
+    )
 
 
 def _unsafe(g: Structure, region: np.ndarray) -> np.ndarray:
@@ -619,8 +627,9 @@ def _total(
     dtmc = model.model_type is ModelType.DTMC
     spoiler = mx if not dtmc else np.ones(S, dtype=bool)
     good = (r > 0) & ~tgt[g.choice_state]
-    # infinite exactly where the maximiser collects rewards infinitely often with positive probability
-    infinite = positive_buchi(g, good, ~tgt, existential=spoiler)
+    # infinite exactly where the maximiser collects rewards infinitely often with positive
+    # probability
+    infinite, infinite_witness = positive_buchi(g, good, ~tgt, existential=spoiler)
     finite = ~infinite
     # zero exactly where the minimiser avoids every reward forever
     zero, zero_choice = safe_region(g, finite & ~tgt, existential=~spoiler, good=~good, frozen=tgt)
@@ -653,26 +662,22 @@ def _total(
             if sys is not None and solved is not None and solved.best_rows is not None:
                 strategy[sys.states] = solved.best_rows
                 # the maximiser must not idle in a zero-reward end component it could leave
-                _reacher_fix(g, strategy, solved, sys, goal=zero | tgt, goal_choices=good, reacher=spoiler)
-            _spoiler_strategy_buchi(g, strategy, infinite=infinite, good=good, spoiler=spoiler)
+                _reacher_fix(
+                    g, strategy, solved, sys, goal=zero | tgt, goal_choices=good, reacher=spoiler
+                )
+            w = infinite & spoiler & (infinite_witness >= 0)
+            strategy[w] = infinite_witness[w]
         strategy[tgt] = -1
-    return _result(model, ~unknown, known_values, sys, solved, method=options.method, started=started, strategy=strategy)
-
-
-def _spoiler_strategy_buchi(
-    g: Structure, strategy: np.ndarray, *, infinite: np.ndarray, good: np.ndarray, spoiler: np.ndarray
-) -> None:
-    """In place, best effort: in the infinite region the maximiser heads for rewarding choices."""
-    inside, witness = attractor(
-        g,
-        np.zeros(g.num_states, dtype=bool),
-        existential=spoiler,
-        candidates=infinite,
-        allowed=~_unsafe(g, infinite) | ~spoiler[g.choice_state],
-        initial_choices=good & ~_unsafe(g, infinite),
+    return _result(
+        model,
+        ~unknown,
+        known_values,
+        sys,
+        solved,
+        method=options.method,
+        started=started,
+        strategy=strategy,
     )
-    w = inside & spoiler & (witness >= 0)
-    strategy[w] = witness[w]
 
 
 def total_reward(
@@ -696,7 +701,9 @@ def total_reward(
         avoids every reward forever, bounds elsewhere.
     """
     r = _check_rewards(model, rewards, nonnegative=True)
-    return _total(model, r, np.zeros(model.num_states, dtype=bool), _directions(model, maximize), options)
+    return _total(
+        model, r, np.zeros(model.num_states, dtype=bool), _directions(model, maximize), options
+    )
 
 
 def _reach_reward_zero(
@@ -705,10 +712,7 @@ def _reach_reward_zero(
     """``R[F0 target]`` = E[reward until target * 1(target reached)], for a dtmc:
     ``x = r * p + A x`` on the states with reach probability ``p > 0``."""
     if model.model_type is not ModelType.DTMC:
-        raise UnsupportedError(
-            "expected reward with zero-for-unreaching semantics (F0) is only implemented for dtmcs",
-            hint="use R[F ...] (infinite unless reached) or R[Fc ...] (cumulative) instead",
-        )
+        return _reach_reward_zero_nondet(model, r, tgt, mx, options)
     started = time.perf_counter()
     S = model.num_states
     prob = reach_probability(model, tgt, maximize=mx, options=options)
@@ -720,10 +724,26 @@ def _reach_reward_zero(
     # bounds on r * p give bounds on the (linear, monotone) solution
     sys_lo = build_system(g, unknown, maximize=mx, choice_offset=r * p_lo[g.choice_state])
     sys_hi = build_system(g, unknown, maximize=mx, choice_offset=r * p_hi[g.choice_state])
-    a = _solve_system(sys_lo, options, cap=np.inf, ec=EndComponents.NONE, num_choices=model.num_choices,
-                      outer_max=True, idle_min=True, is_chain=True)
-    b = _solve_system(sys_hi, options, cap=np.inf, ec=EndComponents.NONE, num_choices=model.num_choices,
-                      outer_max=True, idle_min=True, is_chain=True)
+    a = _solve_system(
+        sys_lo,
+        options,
+        cap=np.inf,
+        ec=EndComponents.NONE,
+        num_choices=model.num_choices,
+        outer_max=True,
+        idle_min=True,
+        is_chain=True,
+    )
+    b = _solve_system(
+        sys_hi,
+        options,
+        cap=np.inf,
+        ec=EndComponents.NONE,
+        num_choices=model.num_choices,
+        outer_max=True,
+        idle_min=True,
+        is_chain=True,
+    )
     lower = np.zeros(S)
     upper = np.zeros(S)
     lower[sys_lo.states] = a.lower
@@ -739,6 +759,128 @@ def _reach_reward_zero(
         seconds=time.perf_counter() - started,
         sound=options.method is not Method.VALUE,
         strategy=_first_choices(model) if options.want_strategy else None,
+    )
+
+
+def _reach_reward_zero_nondet(
+    model: ExplicitModel,
+    r: np.ndarray,
+    tgt: np.ndarray,
+    mx: np.ndarray,
+    options: SolverOptions,
+    *,
+    extra_levels: int = 0,
+) -> EngineResult:
+    """``R[F0 target]`` on an mdp or smg, following PRISM-games (Chen et al.): with integer rewards,
+    the value of state s after collecting ``a`` is ``W(s, a) = opt E[(a + R) * 1(reach)]``.
+
+    For large ``a`` probability dominates: the "rich man's" strategies first optimise the reach
+    probability P, then the reward weighted by it, ``Q = opt over P-optimal choices of
+    E[sum_t r_t P(s_t)]``, and ``W(s, a) = a P(s) + Q(s)`` for ``a >= B``, B the largest level at
+    which a one-step deviation from a P-optimal choice still pays. Below B the levels are solved
+    from ``B - 1`` down to 0: a choice with reward k > 0 reads level ``a + k``, a zero-reward choice
+    the level itself (a least-fixpoint problem solved with bounds, the higher levels' bounds giving
+    the row constants). P and Q are computed exactly (policy iteration). The optimal strategies need
+    the collected reward as memory, so no strategy is returned.
+    """
+    started = time.perf_counter()
+    if not np.all(r == np.round(r)):
+        raise UnsupportedError(
+            "R[F0 ...] on an mdp or smg needs integer rewards (as in PRISM-games)",
+            hint="scale the rewards to integers, or use R[F ...] or R[Fc ...]",
+        )
+    S = model.num_states
+    g = structure_of(model)
+    cs = g.choice_state
+    T = model.transitions
+    exact = replace(options, method=Method.EXACT, want_strategy=False)
+    P = reach_probability(model, tgt, maximize=mx, options=exact).values
+    Pc = np.asarray(T @ P).ravel()
+    # the probability-optimal choices ("the rich man's")
+    optimal = (np.abs(Pc - P[cs]) <= 1e-9) | tgt[cs]
+    missing = np.bincount(cs[optimal], minlength=S) == 0
+    optimal |= missing[cs]  # (only by rounding) keep every choice of such a state
+    rows = np.flatnonzero(optimal)
+    counts = np.bincount(cs[rows], minlength=S)
+    sub = make_model(
+        model.model_type,
+        np.concatenate([[0], np.cumsum(counts)]),
+        T[rows],
+        state_players=model.state_players,
+        player_names=model.player_names,
+    )
+    Q = _total(sub, r[rows] * P[cs[rows]], tgt, mx, exact).values
+    live = ~tgt & (P > 0)
+    if np.any(np.isinf(Q[live])):
+        raise UnsupportedError(
+            "R[F0 ...]: the reward collected before reaching the target is unbounded here",
+            hint="use R[Fc ...] (it is infinite as well)",
+        )
+    Q = np.where(live, Q, 0.0)
+    Qc = np.asarray(T @ Q).ravel()
+    # the last level where deviating from the rich man's choice pays, over all one-step deviations
+    dev = live[cs] & ~optimal
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # deviating to c at level a pays iff a P_c + r P_c + Q_c beats a P + Q (max: >, min: <)
+        gain = (r * Pc + Qc - Q[cs]) / (P[cs] - Pc)
+    B = int(np.ceil(np.max(gain[dev], initial=0.0))) + 1 if dev.any() else 0
+    B = max(B, 0) + extra_levels  # extra levels: tests check that B is large enough
+
+    def rich(level: int) -> np.ndarray:
+        return np.where(tgt, float(level), level * P + Q)
+
+    lower = rich(0)
+    upper = lower.copy()
+    iterations = 0
+    converged = True
+    if B > 0 and live.any():
+        base = build_system(g, live, maximize=mx)
+        rew = r[base.rows].astype(np.int64)
+        zero_rows = rew == 0
+        keep = sp.diags(zero_rows.astype(np.float64)) @ base.matrix
+        keep = sp.csr_matrix(keep)
+        keep.eliminate_zeros()
+        level_sys = replace(base, matrix=keep, stays=base.stays & zero_rows)
+        T_rows = T[base.rows]
+        # bounds of the levels a .. a + max reward, newest first
+        kmax = int(rew.max(initial=0))
+        window_lo: dict[int, np.ndarray] = {B + k: rich(B + k) for k in range(kmax + 1)}
+        window_hi = {a: v.copy() for a, v in window_lo.items()}
+        for a in range(B - 1, -1, -1):
+            bounds = []
+            for window in (window_lo, window_hi):
+                known = np.where(tgt, float(a), 0.0)
+                offset = np.asarray(T_rows @ known).ravel()
+                for k in np.unique(rew[~zero_rows]):
+                    sel = rew == k
+                    offset[sel] = np.asarray(
+                        T_rows[np.flatnonzero(sel)] @ window[a + int(k)]
+                    ).ravel()
+                b = solve(
+                    replace(level_sys, offset=offset), options, cap=np.inf, ec=EndComponents.DEFLATE
+                )
+                iterations += b.iterations
+                converged &= b.converged
+                bounds.append(b)
+            lo = np.where(tgt, float(a), 0.0)
+            hi = lo.copy()
+            lo[base.states] = bounds[0].lower
+            hi[base.states] = bounds[1].upper
+            window_lo[a], window_hi[a] = lo, hi
+            window_lo.pop(a + kmax + 1, None)
+            window_hi.pop(a + kmax + 1, None)
+        lower, upper = window_lo[0], window_hi[0]
+    values = lower.copy() if options.method is Method.VALUE else 0.5 * (lower + upper)
+    return EngineResult(
+        values=values,
+        lower=lower,
+        upper=upper,
+        iterations=iterations,
+        converged=converged,
+        method=options.method,
+        seconds=time.perf_counter() - started,
+        sound=options.method is not Method.VALUE,
+        strategy=None,
     )
 
 
@@ -763,7 +905,9 @@ def cumulative_reward(
     S = model.num_states
     x = np.zeros(S)
     if steps > 0:
-        sys = build_system(structure_of(model), np.ones(S, dtype=bool), maximize=mx, choice_offset=r)
+        sys = build_system(
+            structure_of(model), np.ones(S, dtype=bool), maximize=mx, choice_offset=r
+        )
         local = np.zeros(S)
         for _ in range(steps):
             local = bellman(sys, local)
@@ -831,8 +975,16 @@ def _discounted(
     iterations = 0
     converged = True
     if options.method in (Method.EXACT, Method.POLICY) and sys.n:
-        solved = _solve_system(sys, options, cap=np.inf, ec=EndComponents.NONE, num_choices=model.num_choices,
-                               outer_max=True, idle_min=False, is_chain=model.model_type is ModelType.DTMC)
+        solved = _solve_system(
+            sys,
+            options,
+            cap=np.inf,
+            ec=EndComponents.NONE,
+            num_choices=model.num_choices,
+            outer_max=True,
+            idle_min=False,
+            is_chain=model.model_type is ModelType.DTMC,
+        )
         lo = hi = solved.lower
         iterations = solved.iterations
         best = solved.best_rows
@@ -875,7 +1027,9 @@ def discounted_total_reward(
     """
     r = _check_rewards(model, rewards, nonnegative=False)
     S = model.num_states
-    return _discounted(model, r, np.ones(S, dtype=bool), float(discount), _directions(model, maximize), options)
+    return _discounted(
+        model, r, np.ones(S, dtype=bool), float(discount), _directions(model, maximize), options
+    )
 
 
 def discounted_reach_reward(

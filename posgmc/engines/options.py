@@ -28,9 +28,10 @@ class Method(enum.Enum):
 
 @dataclass(frozen=True)
 class SolverOptions:
-    """``precision``: the half-width of the reported interval (absolute, or relative to the value when
-    ``relative``); ``max_iterations`` caps the iterations of an iterative method (the result then says
-    ``converged=False`` but its bounds stay proven); ``want_strategy``: compute a strategy."""
+    """``precision``: the half-width of the reported interval (absolute, or relative to the value
+    when ``relative``); ``max_iterations`` caps the iterations of an iterative method (the result
+    then says ``converged=False`` but its bounds stay proven); ``want_strategy``: compute a
+    strategy."""
 
     method: Method = Method.INTERVAL
     precision: float = 1e-6

@@ -77,7 +77,9 @@ def _value(row: _Row, x: dict[int, Fraction]) -> Fraction:
     return row[0] + sum((p * x[t] for t, p in row[1].items()), Fraction(0))
 
 
-def _min_idle(states: list[int], options: dict[int, list[_Row]], is_max: dict[int, bool]) -> set[int]:
+def _min_idle(
+    states: list[int], options: dict[int, list[_Row]], is_max: dict[int, bool]
+) -> set[int]:
     """States where the minimiser can keep the probability 0 (positive attractor complement)."""
     positive: set[int] = set()
     changed = True
@@ -87,14 +89,17 @@ def _min_idle(states: list[int], options: dict[int, list[_Row]], is_max: dict[in
             if s in positive:
                 continue
             hits = [r[0] > 0 or any(t in positive for t in r[1]) for r in options[s]]
-            if (any(hits) if is_max[s] else all(hits)):
+            if any(hits) if is_max[s] else all(hits):
                 positive.add(s)
                 changed = True
     return {s for s in states if s not in positive}
 
 
 def _best_response(
-    states: list[int], options: dict[int, list[_Row]], is_max: dict[int, bool], choice: dict[int, int]
+    states: list[int],
+    options: dict[int, list[_Row]],
+    is_max: dict[int, bool],
+    choice: dict[int, int],
 ) -> tuple[dict[int, int], dict[int, Fraction]]:
     """The minimiser's optimal reply (policy iteration; the maximiser's rows are fixed)."""
     fixed_opts = {s: (options[s] if not is_max[s] else [options[s][choice[s]]]) for s in states}
@@ -105,7 +110,9 @@ def _best_response(
             # a row keeping out of the positive region
             positive = set(states) - idle
             ch[s] = next(
-                i for i, r in enumerate(options[s]) if r[0] == 0 and not any(t in positive for t in r[1])
+                i
+                for i, r in enumerate(options[s])
+                if r[0] == 0 and not any(t in positive for t in r[1])
             )
     while True:
         x = _evaluate(states, {s: options[s][ch[s]] for s in states})
@@ -145,7 +152,11 @@ def exact_rational_reach(
     S = model.num_states
     tgt = np.asarray(target, dtype=bool)
     rem = np.ones(S, dtype=bool) if remain is None else np.asarray(remain, dtype=bool)
-    mx = np.ones(S, dtype=bool) if model.model_type is ModelType.DTMC else np.asarray(maximize, dtype=bool)
+    mx = (
+        np.ones(S, dtype=bool)
+        if model.model_type is ModelType.DTMC
+        else np.asarray(maximize, dtype=bool)
+    )
     g = structure_of(model)
     pos = positive_reach(g, tgt, rem, existential=mx)
     one, _ = almost_sure_reach(g, tgt, rem, existential=mx)

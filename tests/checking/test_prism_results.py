@@ -31,16 +31,7 @@ CASES = [
     ("smg/investor/investor.prism", "smg/investor/investor.prism.props", "vmax=5,vinit=2"),
 ]
 
-# Not supported in this build (issue: engines): R[F0 ...] on games needs PRISM-games' reward-counter
-# unfolding. These must raise UnsupportedError naming F0 (never a wrong number); when the support
-# lands they fail here and are to be removed from this set.
-KNOWN_GAPS = {
-    ("smg/coins/coins.prism.props", 38),
-    ("smg/coins/coins.prism.props", 41),
-    ("smg/coins/coins.prism.props", 44),
-    ("smg/coins/coins.prism.props", 47),
-    ("smg/game/game.prism.rewards.props", 2),
-}
+KNOWN_GAPS: set[tuple[str, int]] = set()  # none left: F0 on games landed with the engines
 
 # PRISM-games prints 6 significant digits in some RESULT lines (investor: 2.365893)
 TOLERANCE = 1e-6

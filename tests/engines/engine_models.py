@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from fractions import Fraction
 
 import numpy as np
@@ -86,7 +87,9 @@ def game_prism() -> ExplicitModel:
 
 
 @st.composite
-def small_models(draw: st.DrawFn, model_type: ModelType | None = None, max_states: int = 6) -> ExplicitModel:
+def small_models(
+    draw: st.DrawFn, model_type: ModelType | None = None, max_states: int = 6
+) -> ExplicitModel:
     """A random small model whose probabilities are multiples of 1/4 (exact in binary)."""
     mtype = model_type or draw(st.sampled_from([ModelType.DTMC, ModelType.MDP, ModelType.SMG]))
     S = draw(st.integers(1, max_states))
@@ -186,9 +189,14 @@ def chain_reward(
         zero = target
     else:
         recurrent = np.array([all(reach[t, s] for t in range(S) if reach[s, t]) for s in range(S)])
-        positive_rec = recurrent & np.array([any(r[t] > 0 for t in range(S) if reach[s, t] and reach[t, s]) for s in range(S)])
+        positive_rec = recurrent & np.array(
+            [any(r[t] > 0 for t in range(S) if reach[s, t] and reach[t, s]) for s in range(S)]
+        )
         inf = np.array([bool((reach[s] & positive_rec).any()) for s in range(S)])
-        zero = np.array([not any(r[t] > 0 for t in range(S) if reach[s, t]) for s in range(S)]) | target
+        zero = (
+            np.array([not any(r[t] > 0 for t in range(S) if reach[s, t]) for s in range(S)])
+            | target
+        )
     x[inf] = np.inf
     rest = np.flatnonzero(~inf & ~zero)
     if rest.size:
@@ -197,7 +205,9 @@ def chain_reward(
     return x
 
 
-def game_value(model: ExplicitModel, maximize: np.ndarray, evaluate) -> np.ndarray:  # type: ignore[no-untyped-def]
+def game_value(
+    model: ExplicitModel, maximize: np.ndarray, evaluate: Callable[[np.ndarray], np.ndarray]
+) -> np.ndarray:
     """max over maximiser profiles of min over minimiser profiles, per state (brute force)."""
     rg = model.row_groups
     S = model.num_states

@@ -20,7 +20,11 @@ from posgmc.engines.options import Method, SolverOptions
 from posgmc.model.explicit import ExplicitModel
 from posgmc.syntax.ast import ModelType
 
-SETTINGS = settings(max_examples=int(os.environ.get("POSGMC_EXAMPLES", "60")), deadline=None, suppress_health_check=[HealthCheck.too_slow])
+SETTINGS = settings(
+    max_examples=int(os.environ.get("POSGMC_EXAMPLES", "60")),
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
 TOL = 1e-9
 
 
@@ -71,9 +75,13 @@ def test_reach_bounds_enclose_exact_value(problem: tuple, with_remain: bool) -> 
     assert np.all(res.lower <= ref + TOL) and np.all(ref <= res.upper + TOL)
     assert np.all(res.upper - res.lower <= 2e-6 + TOL)
     for method in (Method.POLICY, Method.EXACT):
-        r = obj.reach_probability(model, target, remain=remain, maximize=maximize, options=SolverOptions(method=method))
+        r = obj.reach_probability(
+            model, target, remain=remain, maximize=maximize, options=SolverOptions(method=method)
+        )
         assert np.allclose(r.values, ref, atol=1e-9)
-    r = obj.reach_probability(model, target, remain=remain, maximize=maximize, options=SolverOptions(method=Method.VALUE))
+    r = obj.reach_probability(
+        model, target, remain=remain, maximize=maximize, options=SolverOptions(method=Method.VALUE)
+    )
     assert not r.sound
     assert np.all(r.values <= ref + TOL)  # value iteration from below
 
@@ -84,12 +92,16 @@ def test_reach_strategy_attains_the_value(problem: tuple) -> None:
     model, target, maximize = problem
     ref = as_floats(obj.exact_rational_reach(model, target, maximize=maximize))
     for method, tol in ((Method.INTERVAL, 1e-4), (Method.EXACT, 1e-9)):
-        res = obj.reach_probability(model, target, maximize=maximize, options=SolverOptions(method=method))
+        res = obj.reach_probability(
+            model, target, maximize=maximize, options=SolverOptions(method=method)
+        )
         assert res.strategy is not None
         # the profile's value (exact rational evaluation of the induced chain) is the optimal value
         chain = obj.induced_chain(model, res.strategy)
         assert chain.num_states == model.num_states and chain.model_type is ModelType.DTMC
-        got = as_floats(obj.exact_rational_reach(chain, target, maximize=np.ones(model.num_states, bool)))
+        got = as_floats(
+            obj.exact_rational_reach(chain, target, maximize=np.ones(model.num_states, bool))
+        )
         assert np.allclose(got, ref, atol=tol), (method, got, ref)
         assert np.allclose(got, chain_reach(model, _strategy_rows(model, res.strategy), target))
 
@@ -98,7 +110,13 @@ def test_reach_strategy_attains_the_value(problem: tuple) -> None:
 def reward_problems(draw: st.DrawFn) -> tuple[ExplicitModel, np.ndarray, np.ndarray, np.ndarray]:
     model, target, maximize = draw(problems())
     rewards = np.array(
-        draw(st.lists(st.sampled_from([0.0, 0.0, 1.0, 2.0, 0.5]), min_size=model.num_choices, max_size=model.num_choices))
+        draw(
+            st.lists(
+                st.sampled_from([0.0, 0.0, 1.0, 2.0, 0.5]),
+                min_size=model.num_choices,
+                max_size=model.num_choices,
+            )
+        )
     )
     return model, rewards, target, maximize
 
@@ -110,7 +128,9 @@ def _check_bounds(res, ref: np.ndarray, gap: float = 2e-6) -> None:  # type: ign
     assert np.all(res.lower[fin] <= ref[fin] + 1e-7), (res.lower, ref)
     assert np.all(ref[fin] <= res.upper[fin] + 1e-7), (res.upper, ref)
     if res.converged:
-        assert np.all(res.upper[fin] - res.lower[fin] <= gap * np.maximum(1.0, np.abs(ref[fin])) + 1e-9)
+        assert np.all(
+            res.upper[fin] - res.lower[fin] <= gap * np.maximum(1.0, np.abs(ref[fin])) + 1e-9
+        )
 
 
 @SETTINGS
@@ -119,7 +139,9 @@ def test_reach_reward_bounds_enclose_brute_force(problem: tuple, mode: str) -> N
     model, rewards, target, maximize = problem
     ref = game_value(model, maximize, lambda rows: chain_reward(model, rows, rewards, target, mode))
     # memoryless determinacy: the other order of quantifiers gives the same values
-    neg = game_value(model, ~maximize, lambda rows: -chain_reward(model, rows, rewards, target, mode))
+    neg = game_value(
+        model, ~maximize, lambda rows: -chain_reward(model, rows, rewards, target, mode)
+    )
     if not np.allclose(ref, -neg, atol=1e-9, equal_nan=True):
         pytest.skip("brute force reference not determined")  # pragma: no cover
     rmode = obj.ReachRewardMode.INFINITY if mode == "inf" else obj.ReachRewardMode.CUMULATIVE
@@ -128,7 +150,14 @@ def test_reach_reward_bounds_enclose_brute_force(problem: tuple, mode: str) -> N
     assert res.converged
     _check_bounds(res, ref)
     for method in (Method.EXACT, Method.POLICY):
-        r = obj.expected_reach_reward(model, rewards, target, maximize=maximize, mode=rmode, options=SolverOptions(method=method))
+        r = obj.expected_reach_reward(
+            model,
+            rewards,
+            target,
+            maximize=maximize,
+            mode=rmode,
+            options=SolverOptions(method=method),
+        )
         fin = np.isfinite(ref)
         assert np.array_equal(np.isinf(r.values), ~fin)
         assert np.allclose(r.values[fin], ref[fin], atol=1e-7), (method, r.values, ref)
@@ -138,7 +167,9 @@ def test_reach_reward_bounds_enclose_brute_force(problem: tuple, mode: str) -> N
     got = chain_reward(model, rows, rewards, target, mode)
     assert np.array_equal(np.isinf(got), np.isinf(ref)), (got, ref)
     fin = np.isfinite(ref)
-    assert np.allclose(got[fin], ref[fin], atol=1e-3 * max(1.0, float(np.abs(ref[fin]).max(initial=0.0)))), (got, ref)
+    assert np.allclose(
+        got[fin], ref[fin], atol=1e-3 * max(1.0, float(np.abs(ref[fin]).max(initial=0.0)))
+    ), (got, ref)
 
 
 @SETTINGS
@@ -158,5 +189,11 @@ def test_discounted_bounds_enclose_brute_force(problem: tuple, discount: float) 
     P = model.transitions[res.strategy].toarray()
     got = np.linalg.solve(np.eye(S) - discount * P, rewards[res.strategy])
     assert np.allclose(got, ref, atol=1e-4)
-    exact = obj.discounted_total_reward(model, rewards, discount=discount, maximize=maximize, options=SolverOptions(method=Method.EXACT))
+    exact = obj.discounted_total_reward(
+        model,
+        rewards,
+        discount=discount,
+        maximize=maximize,
+        options=SolverOptions(method=Method.EXACT),
+    )
     assert np.allclose(exact.values, ref, atol=1e-9)

@@ -45,7 +45,9 @@ def test_attractor_existential_versus_universal() -> None:
     assert inside.tolist() == [False, False, True]
     # universal over the allowed choices only
     allowed = np.array([True, False, True, True])
-    inside, _ = attractor(g, goal, existential=np.zeros(3, bool), candidates=everyone, allowed=allowed)
+    inside, _ = attractor(
+        g, goal, existential=np.zeros(3, bool), candidates=everyone, allowed=allowed
+    )
     assert inside.tolist() == [True, False, True]
 
 
@@ -59,21 +61,40 @@ def test_qualitative_reachability_on_smg_example() -> None:
     one, witness = almost_sure_reach(g, c2, everywhere, existential=p1_max)
     assert one.tolist() == [True, True, False, True, True]
     assert witness[0] == 1  # send2
-    assert positive_reach(g, c2, everywhere, existential=p1_max).tolist() == [True, True, False, True, True]
+    assert positive_reach(g, c2, everywhere, existential=p1_max).tolist() == [
+        True,
+        True,
+        False,
+        True,
+        True,
+    ]
     # p1 minimising never sends message 2 (restart forever)
-    assert positive_reach(g, c2, everywhere, existential=~p1_max).tolist() == [False, False, False, False, True]
+    assert positive_reach(g, c2, everywhere, existential=~p1_max).tolist() == [
+        False,
+        False,
+        False,
+        False,
+        True,
+    ]
 
 
 def test_almost_sure_reach_universal_state_with_a_leaving_choice() -> None:
     # s0 (universal): a -> 0.25 goal + 0.75 s2, b -> goal; s2: loop (never reaches)
     m = _mdp([[0, 0.25, 0.75], [0, 1, 0], [0, 1, 0], [0, 0, 1]], [0, 2, 3, 4])
-    one, _ = almost_sure_reach(structure_of(m), np.array([False, True, False]), np.ones(3, bool), existential=np.zeros(3, bool))
+    one, _ = almost_sure_reach(
+        structure_of(m),
+        np.array([False, True, False]),
+        np.ones(3, bool),
+        existential=np.zeros(3, bool),
+    )
     assert one.tolist() == [False, True, False]
 
 
 def test_end_components() -> None:
     # s0 <-> s1 by choices a; s0 also b -> s2; s2 loop; s3 -> s2
-    m = _mdp([[0, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 1, 0]], [0, 2, 3, 4, 5])
+    m = _mdp(
+        [[0, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 1, 0]], [0, 2, 3, 4, 5]
+    )
     T = m.transitions
     state_of_row = m.choice_states
     mec_of, num, internal = end_components(T, state_of_row, np.ones(5, bool))
@@ -98,18 +119,23 @@ def test_safe_region_and_buchi() -> None:
     safe, _ = safe_region(g, everyone, existential=np.zeros(3, bool), good=~good)
     assert safe.tolist() == [False, False, True]
     # Büchi: the existential player loops s0 -a-> s1 -> s0 forever taking "good"
-    assert positive_buchi(g, good, everyone, existential=everyone).tolist() == [True, True, False]
-    assert not positive_buchi(g, good, everyone, existential=np.zeros(3, bool)).any()
+    winning, witness = positive_buchi(g, good, everyone, existential=everyone)
+    assert winning.tolist() == [True, True, False] and witness[0] == 0
+    assert not positive_buchi(g, good, everyone, existential=np.zeros(3, bool))[0].any()
 
 
 @settings(max_examples=60, deadline=None)
 @given(small_models(), st.data())
-def test_slot_layout_bellman_matches_a_direct_computation(model: ExplicitModel, data: st.DataObject) -> None:
+def test_slot_layout_bellman_matches_a_direct_computation(
+    model: ExplicitModel, data: st.DataObject
+) -> None:
     S = model.num_states
     unknown = np.array(data.draw(st.lists(st.booleans(), min_size=S, max_size=S)), bool)
     maximize = np.array(data.draw(st.lists(st.booleans(), min_size=S, max_size=S)), bool)
     fixed = np.array(data.draw(st.lists(st.floats(0, 1), min_size=S, max_size=S)))
-    reward = np.array(data.draw(st.lists(st.floats(0, 3), min_size=model.num_choices, max_size=model.num_choices)))
+    reward = np.array(
+        data.draw(st.lists(st.floats(0, 3), min_size=model.num_choices, max_size=model.num_choices))
+    )
     g = structure_of(model)
     sys = build_system(g, unknown, maximize=maximize, choice_offset=reward, fixed=fixed)
     assert sys.n == int(unknown.sum())
@@ -126,7 +152,9 @@ def test_slot_layout_bellman_matches_a_direct_computation(model: ExplicitModel, 
     assert np.allclose(bellman(sys, x_local), expected)
     assert np.allclose(choice_values(sys, x_local), y[sys.rows])
     # maximisers come first, every state's rows are all there
-    assert np.all(maximize[sys.states[: sys.num_max]]) and not np.any(maximize[sys.states[sys.num_max :]])
+    assert np.all(maximize[sys.states[: sys.num_max]]) and not np.any(
+        maximize[sys.states[sys.num_max :]]
+    )
     assert sorted(sys.rows.tolist()) == np.flatnonzero(unknown[model.choice_states]).tolist()
     best, cand = choose(sys, x_local, x_local)
     assert np.all(sys.row_state[best] == np.arange(sys.n)) and cand[best].all()

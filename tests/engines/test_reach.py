@@ -39,7 +39,9 @@ def test_smg_example_p1_pmax_eventually_c2(method: Method) -> None:
     # RESULT: 1.0  <<1>> Pmax=? [ F c=2 ]  -- p1 sends message 2 until it gets through.
     m = smg_example()
     c2 = m.state_values[:, 1] == 2
-    res = obj.reach_probability(m, c2, maximize=_mask(m, Direction.MAX, P1), options=SolverOptions(method=method))
+    res = obj.reach_probability(
+        m, c2, maximize=_mask(m, Direction.MAX, P1), options=SolverOptions(method=method)
+    )
     assert res.values[0] == pytest.approx(1.0, abs=1e-6)
     assert res.lower[0] == 1.0  # qualitative: exact by graph analysis
     # p1's strategy in (0,0) is send2 (choice 1); p2 waits in (1,1) (choice 5) to block
@@ -52,7 +54,9 @@ def test_smg_example_p2_pmin_reach_h2_c0(method: Method) -> None:
     # probability 0.15 it is lost and (2,0) is reached at once, otherwise p2 waits in (2,2) forever.
     m = smg_example()
     t = (m.state_values[:, 0] == 2) & (m.state_values[:, 1] == 0)
-    res = obj.reach_probability(m, t, maximize=_mask(m, Direction.MIN, P2), options=SolverOptions(method=method))
+    res = obj.reach_probability(
+        m, t, maximize=_mask(m, Direction.MIN, P2), options=SolverOptions(method=method)
+    )
     assert res.values[0] == pytest.approx(0.15, abs=1e-6)
     assert res.lower[0] <= 0.15 <= res.upper[0]
     assert res.strategy is not None
@@ -94,7 +98,12 @@ def test_smg_example_bounded_min_and_globally() -> None:
     m = smg_example()
     c2 = m.state_values[:, 1] == 2
     # RESULT: 0.0  <<1>> Pmin=? [ F<=3 c=2 ]
-    assert obj.bounded_reach_probability(m, c2, steps=3, maximize=_mask(m, Direction.MIN, P1)).values[0] == 0.0
+    assert (
+        obj.bounded_reach_probability(m, c2, steps=3, maximize=_mask(m, Direction.MIN, P1)).values[
+            0
+        ]
+        == 0.0
+    )
     # RESULT: 1.0  <<2>> Pmin=? [ G<=3 c!=2 ] = 1 - <<2>> Pmax [ F<=3 c=2 ] (p1 restarts forever)
     r = obj.bounded_reach_probability(m, c2, steps=3, maximize=_mask(m, Direction.MAX, P2))
     assert 1 - r.values[0] == 1.0
@@ -130,7 +139,9 @@ def test_game_prism() -> None:
         got = obj.bounded_reach_probability(m, t1, steps=k, maximize=p1max).values[0]
         assert got == pytest.approx(expected, abs=1e-12), k
     both = _mask(m, Direction.MAX, frozenset({0, 1}))
-    assert obj.bounded_reach_probability(m, t1, steps=2, maximize=both).values[0] == pytest.approx(0.2)
+    assert obj.bounded_reach_probability(m, t1, steps=2, maximize=both).values[0] == pytest.approx(
+        0.2
+    )
     # RESULT: Infinity  <<p1>> Rmax=? [ F t=1 ]: p1 can stop at once and reach t=2 with 0.9
     rew = m.reward_models[0].choice_rewards(m.row_groups)
     r = obj.expected_reach_reward(m, rew, t1, maximize=p1max)
@@ -171,7 +182,9 @@ def test_naive_upper_iteration_does_not_converge_in_an_end_component() -> None:
 def test_pmax_with_end_component_converges(method: Method) -> None:
     m = _mdp_with_end_component()
     goal = np.array([False, False, True, False])
-    res = obj.reach_probability(m, goal, maximize=np.ones(4, dtype=bool), options=SolverOptions(method=method))
+    res = obj.reach_probability(
+        m, goal, maximize=np.ones(4, dtype=bool), options=SolverOptions(method=method)
+    )
     assert res.converged
     assert np.allclose(res.values[:2], 0.5, atol=1e-6)
     if method is not Method.VALUE:
@@ -187,15 +200,22 @@ def test_game_end_component_with_both_players(method: Method) -> None:
     # s0 (max): a -> s1, b -> 0.5 goal + 0.5 sink;  s1 (min): a -> s0, b -> 0.6 goal + 0.4 sink.
     # The minimiser stays (back to s0) rather than pay 0.6, and the maximiser leaves with 0.5:
     # V(s0) = max(V(s1), 0.5), V(s1) = min(V(s0), 0.6); least fixpoint: 0.5 and 0.5.
-    T = np.array([[0, 1, 0, 0], [0, 0, 0.5, 0.5], [1, 0, 0, 0], [0, 0, 0.6, 0.4], [0, 0, 1, 0], [0, 0, 0, 1]])
-    m = make_model(ModelType.SMG, [0, 2, 4, 5, 6], T, state_players=[0, 1, 0, 0], player_names=("a", "b"))
+    T = np.array(
+        [[0, 1, 0, 0], [0, 0, 0.5, 0.5], [1, 0, 0, 0], [0, 0, 0.6, 0.4], [0, 0, 1, 0], [0, 0, 0, 1]]
+    )
+    m = make_model(
+        ModelType.SMG, [0, 2, 4, 5, 6], T, state_players=[0, 1, 0, 0], player_names=("a", "b")
+    )
     goal = np.array([False, False, True, False])
     maximize = _mask(m, Direction.MAX, frozenset({0}))
     res = obj.reach_probability(m, goal, maximize=maximize, options=SolverOptions(method=method))
     assert res.converged
     assert np.allclose(res.values[:2], 0.5, atol=1e-6)
     assert res.strategy is not None and res.strategy[0] == 1  # the maximiser leaves
-    assert obj.exact_rational_reach(m, goal, maximize=maximize)[:2] == [Fraction(1, 2), Fraction(1, 2)]
+    assert obj.exact_rational_reach(m, goal, maximize=maximize)[:2] == [
+        Fraction(1, 2),
+        Fraction(1, 2),
+    ]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -218,7 +238,9 @@ def test_gamblers_ruin(method: Method) -> None:
     m = _random_walk()
     goal = np.zeros(5, dtype=bool)
     goal[4] = True
-    res = obj.reach_probability(m, goal, maximize=np.ones(5, dtype=bool), options=SolverOptions(method=method))
+    res = obj.reach_probability(
+        m, goal, maximize=np.ones(5, dtype=bool), options=SolverOptions(method=method)
+    )
     assert np.allclose(res.values, [0, 0.25, 0.5, 0.75, 1], atol=1e-6)
     assert obj.exact_rational_reach(m, goal, maximize=np.ones(5, dtype=bool)) == [
         Fraction(i, 4) for i in range(5)
@@ -234,7 +256,9 @@ def test_until_respects_remain() -> None:
     remain = np.array([True, False, True, True, True])
     res = obj.reach_probability(m, goal, remain=remain, maximize=np.ones(5, dtype=bool))
     assert np.allclose(res.values, [0, 0, 1 / 3, 2 / 3, 1], atol=1e-6)
-    assert obj.exact_rational_reach(m, goal, remain=remain, maximize=np.ones(5, dtype=bool))[2] == Fraction(1, 3)
+    assert obj.exact_rational_reach(m, goal, remain=remain, maximize=np.ones(5, dtype=bool))[
+        2
+    ] == Fraction(1, 3)
 
 
 def test_relative_precision() -> None:
@@ -242,8 +266,15 @@ def test_relative_precision() -> None:
     m = _random_walk(8, p=0.1)
     goal = np.zeros(8, dtype=bool)
     goal[7] = True
-    res = obj.reach_probability(m, goal, maximize=np.ones(8, dtype=bool), options=SolverOptions(relative=True, precision=1e-4))
-    exact = np.array([float(v) for v in obj.exact_rational_reach(m, goal, maximize=np.ones(8, dtype=bool))])
+    res = obj.reach_probability(
+        m,
+        goal,
+        maximize=np.ones(8, dtype=bool),
+        options=SolverOptions(relative=True, precision=1e-4),
+    )
+    exact = np.array(
+        [float(v) for v in obj.exact_rational_reach(m, goal, maximize=np.ones(8, dtype=bool))]
+    )
     mid = slice(1, 7)
     assert np.all(res.lower[mid] <= exact[mid]) and np.all(exact[mid] <= res.upper[mid])
     assert np.all(res.upper[mid] - res.lower[mid] <= 2e-4 * exact[mid])
@@ -253,9 +284,13 @@ def test_iteration_cap_keeps_bounds_sound() -> None:
     m = _random_walk(30, p=0.45)
     goal = np.zeros(30, dtype=bool)
     goal[29] = True
-    res = obj.reach_probability(m, goal, maximize=np.ones(30, dtype=bool), options=SolverOptions(max_iterations=5))
+    res = obj.reach_probability(
+        m, goal, maximize=np.ones(30, dtype=bool), options=SolverOptions(max_iterations=5)
+    )
     assert not res.converged and res.iterations <= 6
-    exact = np.array([float(v) for v in obj.exact_rational_reach(m, goal, maximize=np.ones(30, dtype=bool))])
+    exact = np.array(
+        [float(v) for v in obj.exact_rational_reach(m, goal, maximize=np.ones(30, dtype=bool))]
+    )
     assert np.all(res.lower <= exact + 1e-12) and np.all(exact <= res.upper + 1e-12)
 
 
@@ -263,7 +298,9 @@ def test_value_method_is_flagged_unsound() -> None:
     m = _random_walk()
     goal = np.zeros(5, dtype=bool)
     goal[4] = True
-    res = obj.reach_probability(m, goal, maximize=np.ones(5, dtype=bool), options=SolverOptions(method=Method.VALUE))
+    res = obj.reach_probability(
+        m, goal, maximize=np.ones(5, dtype=bool), options=SolverOptions(method=Method.VALUE)
+    )
     assert not res.sound and np.array_equal(res.lower, res.upper)
 
 

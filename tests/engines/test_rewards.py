@@ -48,7 +48,14 @@ def test_expected_steps_of_a_geometric(method: Method) -> None:
     m = _coin_chain()
     goal = np.array([False, True])
     for mode in (INF, CUM):
-        res = obj.expected_reach_reward(m, np.array([1.0, 7.0]), goal, maximize=np.ones(2, bool), mode=mode, options=_opts(method))
+        res = obj.expected_reach_reward(
+            m,
+            np.array([1.0, 7.0]),
+            goal,
+            maximize=np.ones(2, bool),
+            mode=mode,
+            options=_opts(method),
+        )
         _close(res, [2.0, 0.0])
 
 
@@ -69,10 +76,17 @@ def test_dtmc_reward_modes_differ_when_the_target_may_be_missed() -> None:
     _close(obj.expected_reach_reward(m, r0, goal, maximize=mx, mode=CUM), [1.0, 0, 0])
 
 
-def test_zero_mode_is_unsupported_for_nondeterministic_models() -> None:
+def test_zero_mode_on_a_game() -> None:
+    # smg_example, reward 1 for each message sent, F0 (h=2 & c=0): p1 maximises. Sending message 2
+    # reaches (2,0) with 0.15 after one send (reward 1), else p2 waits in (2,2) forever (nothing
+    # collected). Restarting and re-sending from (1,0)... only sending message 2 ever reaches the
+    # target, so the value is 0.15 * 1 = 0.15 (one send, the rest of the paths collect 0).
     m = smg_example()
-    with pytest.raises(UnsupportedError, match="F0"):
-        obj.expected_reach_reward(m, np.ones(9), np.zeros(5, bool), maximize=np.ones(5, bool), mode=ZERO)
+    r = np.zeros(9)
+    r[[0, 1]] = 1.0
+    t = (m.state_values[:, 0] == 2) & (m.state_values[:, 1] == 0)
+    mx = obj.maximize_mask(m, direction=obj.Direction.MAX, coalition=frozenset({0}))
+    _close(obj.expected_reach_reward(m, r, t, maximize=mx, mode=ZERO), [0.15, 0.15, 0.0, 0.0, 0.0])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -94,16 +108,33 @@ def test_rmin_must_leave_a_zero_reward_end_component(method: Method) -> None:
     # PRISM's F), so the minimiser walks to s1 for free and leaves for 2: V = (2, 2).
     # The least fixpoint of the Bellman operator is (0, 0) -- this is what inflation corrects.
     m, r, goal = _zero_loop_mdp()
-    res = obj.expected_reach_reward(m, r, goal, maximize=np.zeros(3, bool), mode=INF, options=_opts(method))
+    res = obj.expected_reach_reward(
+        m, r, goal, maximize=np.zeros(3, bool), mode=INF, options=_opts(method)
+    )
     assert res.converged
     _close(res, [2.0, 2.0, 0.0])
     assert res.strategy is not None
     assert res.strategy[1] == 3 and res.strategy[0] == 0  # s1 leaves, s0 walks to s1
     # Fc: paths that never reach collect what they collect (0 here): staying is optimal, V = 0
-    _close(obj.expected_reach_reward(m, r, goal, maximize=np.zeros(3, bool), mode=CUM, options=_opts(method)), [0, 0, 0])
+    _close(
+        obj.expected_reach_reward(
+            m, r, goal, maximize=np.zeros(3, bool), mode=CUM, options=_opts(method)
+        ),
+        [0, 0, 0],
+    )
     # R max [F goal] = 3 (leave from s0); R max [Fc] = 3 as well
-    _close(obj.expected_reach_reward(m, r, goal, maximize=np.ones(3, bool), mode=INF, options=_opts(method)), [np.inf, np.inf, 0])
-    _close(obj.expected_reach_reward(m, r, goal, maximize=np.ones(3, bool), mode=CUM, options=_opts(method)), [3, 3, 0])
+    _close(
+        obj.expected_reach_reward(
+            m, r, goal, maximize=np.ones(3, bool), mode=INF, options=_opts(method)
+        ),
+        [np.inf, np.inf, 0],
+    )
+    _close(
+        obj.expected_reach_reward(
+            m, r, goal, maximize=np.ones(3, bool), mode=CUM, options=_opts(method)
+        ),
+        [3, 3, 0],
+    )
 
 
 @pytest.mark.parametrize("method", ALL_METHODS)
@@ -113,7 +144,9 @@ def test_game_zero_reward_end_component(method: Method) -> None:
     # The least fixpoint x0 = min(5, x1), x1 = max(2, x0) is (2, 2): inflation lifts it.
     # Fc: looping collects 0, so the maximiser leaves for 2 and the minimiser plays a: V = (2, 2).
     T = np.array([[0, 1, 0], [0, 0, 1], [1, 0, 0], [0, 0, 1], [0, 0, 1]])
-    m = make_model(ModelType.SMG, [0, 2, 4, 5], T, state_players=[0, 1, 0], player_names=("mn", "mx"))
+    m = make_model(
+        ModelType.SMG, [0, 2, 4, 5], T, state_players=[0, 1, 0], player_names=("mn", "mx")
+    )
     r = np.array([0.0, 5.0, 0.0, 2.0, 0.0])
     goal = np.array([False, False, True])
     maximize = np.array([False, True, False])
@@ -121,7 +154,10 @@ def test_game_zero_reward_end_component(method: Method) -> None:
     assert res.converged
     _close(res, [5.0, 5.0, 0.0])
     assert res.strategy is not None and res.strategy[0] == 1
-    _close(obj.expected_reach_reward(m, r, goal, maximize=maximize, mode=CUM, options=_opts(method)), [2.0, 2.0, 0.0])
+    _close(
+        obj.expected_reach_reward(m, r, goal, maximize=maximize, mode=CUM, options=_opts(method)),
+        [2.0, 2.0, 0.0],
+    )
 
 
 def test_total_reward() -> None:
@@ -135,7 +171,10 @@ def test_total_reward() -> None:
     _close(res, [4.0, np.inf, 0])
     assert res.strategy is not None and res.strategy[0] == 1
     for method in ALL_METHODS:
-        _close(obj.total_reward(m, r, maximize=np.zeros(3, bool), options=_opts(method)), [4.0, np.inf, 0])
+        _close(
+            obj.total_reward(m, r, maximize=np.zeros(3, bool), options=_opts(method)),
+            [4.0, np.inf, 0],
+        )
 
 
 def test_total_reward_in_a_game_needs_the_maximiser_to_keep_collecting() -> None:
@@ -152,7 +191,9 @@ def test_total_reward_in_a_game_needs_the_maximiser_to_keep_collecting() -> None
 def test_negative_rewards_are_rejected() -> None:
     m = _coin_chain()
     with pytest.raises(UnsupportedError, match="negative"):
-        obj.expected_reach_reward(m, np.array([-1.0, 0.0]), np.array([False, True]), maximize=np.ones(2, bool))
+        obj.expected_reach_reward(
+            m, np.array([-1.0, 0.0]), np.array([False, True]), maximize=np.ones(2, bool)
+        )
     with pytest.raises(PosgmcError, match="one entry per choice"):
         obj.total_reward(m, np.ones(5), maximize=np.ones(2, bool))
 
@@ -173,8 +214,12 @@ def test_cumulative_and_instantaneous() -> None:
     # every k >= 1 (t never changes again); advancing first gives p2 the choice to keep t = 0.
     t_reward = np.array([0, 0, 0, 0, 0, 0, 1, 2], dtype=float)
     assert obj.instantaneous_reward(m, t_reward, steps=0, maximize=mx).values[0] == 0.0
-    assert obj.instantaneous_reward(m, t_reward, steps=1, maximize=mx).values[0] == pytest.approx(1.9)
-    assert obj.instantaneous_reward(m, t_reward, steps=5, maximize=mx).values[0] == pytest.approx(1.9)
+    assert obj.instantaneous_reward(m, t_reward, steps=1, maximize=mx).values[0] == pytest.approx(
+        1.9
+    )
+    assert obj.instantaneous_reward(m, t_reward, steps=5, maximize=mx).values[0] == pytest.approx(
+        1.9
+    )
 
 
 def test_smg_example_cumulative_minimum() -> None:
@@ -192,16 +237,47 @@ def test_smg_example_cumulative_minimum() -> None:
 def test_discounted(method: Method) -> None:
     # one state looping with reward 1: sum_t 0.9^t = 10
     m = make_model(ModelType.DTMC, [0, 1], np.array([[1.0]]))
-    res = obj.discounted_total_reward(m, np.array([1.0]), discount=0.9, maximize=np.ones(1, bool), options=_opts(method))
+    res = obj.discounted_total_reward(
+        m, np.array([1.0]), discount=0.9, maximize=np.ones(1, bool), options=_opts(method)
+    )
     assert res.values[0] == pytest.approx(10.0, abs=1e-5)
     if method is Method.INTERVAL:
         assert res.lower[0] <= 10.0 <= res.upper[0]
     # until the goal: s0 (reward 1) -> 0.5 goal + 0.5 s0: x = 1 + 0.9 * 0.5 x  =>  x = 1 / 0.55
     c = _coin_chain()
-    res = obj.discounted_reach_reward(c, np.array([1.0, 5.0]), np.array([False, True]), discount=0.9, maximize=np.ones(2, bool), options=_opts(method))
+    res = obj.discounted_reach_reward(
+        c,
+        np.array([1.0, 5.0]),
+        np.array([False, True]),
+        discount=0.9,
+        maximize=np.ones(2, bool),
+        options=_opts(method),
+    )
     assert res.values[0] == pytest.approx(1 / 0.55, abs=1e-5) and res.values[1] == 0.0
 
 
 def test_discount_factor_is_checked() -> None:
     with pytest.raises(PosgmcError, match=r"\[0, 1\)"):
-        obj.discounted_total_reward(_coin_chain(), np.ones(2), discount=1.0, maximize=np.ones(2, bool))
+        obj.discounted_total_reward(
+            _coin_chain(), np.ones(2), discount=1.0, maximize=np.ones(2, bool)
+        )
+
+
+def test_game_spoiler_strategy_for_infinite_values() -> None:
+    # u (max): a -> goal (reward 1), b -> t;  t (min): c1 loop, c2 -> 0.5 goal + 0.5 z;  z loops.
+    # R max [F goal]: the minimiser cannot reach the goal almost surely from t (c1 never reaches,
+    # c2 fails with 0.5), so t and (via b) u are infinite; the maximiser's strategy must pick b.
+    # t is not in the maximiser's attractor of a sure-avoid region (c1 never hits one): the
+    # strategy comes from the positive-Büchi analysis.
+    T = np.array(
+        [[0, 0, 1, 0], [0, 1, 0, 0], [0, 1, 0, 0], [0, 0, 0.5, 0.5], [0, 0, 1, 0], [0, 0, 0, 1]]
+    )
+    m = make_model(
+        ModelType.SMG, [0, 2, 4, 5, 6], T, state_players=[0, 1, 0, 0], player_names=("u", "t")
+    )
+    r = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    goal = np.array([False, False, True, False])
+    maximize = np.array([True, False, True, True])
+    res = obj.expected_reach_reward(m, r, goal, maximize=maximize, mode=INF)
+    _close(res, [np.inf, np.inf, 0.0, np.inf])
+    assert res.strategy is not None and res.strategy[0] == 1
