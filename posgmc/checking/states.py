@@ -111,36 +111,29 @@ def evaluate_states(
     return result
 
 
+_BINARY: dict[BinaryOp, Callable[[np.ndarray, np.ndarray], np.ndarray]] = {
+    BinaryOp.AND: np.logical_and,
+    BinaryOp.OR: np.logical_or,
+    BinaryOp.IMPLIES: lambda a, b: np.logical_or(np.logical_not(a), b),
+    BinaryOp.IFF: np.equal,
+    BinaryOp.EQ: np.equal,
+    BinaryOp.NE: np.not_equal,
+    BinaryOp.LT: np.less,
+    BinaryOp.LE: np.less_equal,
+    BinaryOp.GT: np.greater,
+    BinaryOp.GE: np.greater_equal,
+    BinaryOp.ADD: np.add,
+    BinaryOp.SUB: np.subtract,
+    BinaryOp.MUL: np.multiply,
+}
+
+
 def _binary(op: BinaryOp, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    if op is BinaryOp.AND:
-        return np.logical_and(a, b)
-    if op is BinaryOp.OR:
-        return np.logical_or(a, b)
-    if op is BinaryOp.IMPLIES:
-        return np.logical_or(np.logical_not(a), b)
-    if op is BinaryOp.IFF:
-        return np.equal(a, b)
-    if op is BinaryOp.EQ:
-        return np.equal(a, b)
-    if op is BinaryOp.NE:
-        return np.not_equal(a, b)
-    if op is BinaryOp.LT:
-        return np.less(a, b)
-    if op is BinaryOp.LE:
-        return np.less_equal(a, b)
-    if op is BinaryOp.GT:
-        return np.greater(a, b)
-    if op is BinaryOp.GE:
-        return np.greater_equal(a, b)
-    if op is BinaryOp.ADD:
-        return np.add(a, b)
-    if op is BinaryOp.SUB:
-        return np.subtract(a, b)
-    if op is BinaryOp.MUL:
-        return np.multiply(a, b)
-    # PRISM: '/' is always real division; inf * 0 style corner cases follow IEEE.
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.true_divide(_as_float(a), _as_float(b))
+    if op is BinaryOp.DIV:
+        # PRISM: '/' is always real division; inf * 0 style corner cases follow IEEE.
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.true_divide(_as_float(a), _as_float(b))
+    return _BINARY[op](a, b)
 
 
 def _call(function: Function, args: list[np.ndarray]) -> np.ndarray:
