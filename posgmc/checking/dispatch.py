@@ -26,9 +26,11 @@ from posgmc.checking.states import evaluate_states
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.step_bounds import interval_reach_probability
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.syntax.ast import (
+    NO_SPAN,
     Binary,
     BinaryOp,
     Coalition,
@@ -233,18 +235,32 @@ class PropertyChecker:
             raise SemanticError("expected a boolean state formula", e.span)
         return v
 
-    def _steps(self, bound: TimeBound) -> int:
-        if bound.lower is not None:
-            raise UnsupportedError(
-                "lower step bounds on temporal operators are not supported",
+    def _step_interval(self, bound: TimeBound) -> tuple[int, int | None]:
+        """The inclusive step interval ``[lo, hi]`` of a bound (``hi`` None: unbounded), normalised
+        as PRISM does (``>k`` is ``>=k+1``, ``<k`` is ``<=k-1``); like PRISM (and the co-safe LTL
+        translation) an empty interval is rejected."""
+        lo, hi = 0, None
+        for value, strict, is_lower in (
+            (bound.lower, bound.lower_strict, True),
+            (bound.upper, bound.upper_strict, False),
+        ):
+            if value is None:
+                continue
+            k = self.scalar(value)
+            if not isinstance(k, int) or isinstance(k, bool) or k < 0:
+                span = value.span if value.span != NO_SPAN else bound.span
+                raise SemanticError("a step bound must be a non-negative integer", span)
+            if is_lower:
+                lo = k + 1 if strict else k
+            else:
+                hi = k - 1 if strict else k
+        if hi is not None and lo > hi:
+            raise SemanticError(
+                f"the step bound admits no step (interval [{lo}, {hi}] is empty)",
                 bound.span,
-                hint="use an upper bound (F<=k) or write the property in co-safe LTL with X",
+                hint="use a bound such as <=k with k >= 0, or [a,b] with a <= b",
             )
-        assert bound.upper is not None  # noqa: S101 - a TimeBound has at least one side
-        k = self.scalar(bound.upper)
-        if not isinstance(k, int) or isinstance(k, bool) or k < 0:
-            raise SemanticError("a step bound must be a non-negative integer", bound.span)
-        return k - 1 if bound.upper_strict else k
+        return lo, hi
 
     def _probability(self, path: Expr, maximize: np.ndarray) -> QueryValue:
         m, opts = self.model, self.options.solver
@@ -283,8 +299,15 @@ class PropertyChecker:
         if bound is None:
             r = obj.reach_probability(m, target, remain=remain, maximize=maximize, options=opts)
         else:
-            r = obj.bounded_reach_probability(
-                m, target, remain=remain, steps=self._steps(bound), maximize=maximize, options=opts
+            lo, hi = self._step_interval(bound)
+            r = interval_reach_probability(
+                m,
+                target,
+                remain=remain,
+                lower_steps=lo,
+                upper_steps=hi,
+                maximize=maximize,
+                options=opts,
             )
         return _from_engine(r)
 
