@@ -16,8 +16,9 @@ Step-bounded objectives (``U<=k``, ``X``, ``C<=k``, ``I=k``) are exact up to flo
 Bellman steps. Discounted objectives get sound bounds from the contraction factor.
 
 Rewards are per choice (state reward + action reward, :meth:`RewardModel.choice_rewards`) and must
-be non-negative for the undiscounted objectives (PRISM's rule). Reach rewards follow PRISM: the
-reward of a target state is not collected (the target is absorbing for the computation).
+be non-negative for the undiscounted objectives (PRISM's rule), except ``R[F]``/``R[Fc]`` when
+every strategy profile reaches the target almost surely (see :mod:`posgmc.engines.signed`). Reach
+rewards follow PRISM: the reward of a target state is not collected (the target is absorbing for the computation).
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ from posgmc.engines.iteration import (
 )
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.rational import exact_rational_reach
+from posgmc.engines.signed import proper_region, solve_proper, start_bounds, value_iteration
 from posgmc.engines.result import EngineResult
 from posgmc.errors import PosgmcError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
@@ -134,16 +136,27 @@ def _directions(model: ExplicitModel, maximize: np.ndarray) -> np.ndarray:
     return mx
 
 
-def _check_rewards(model: ExplicitModel, rewards: np.ndarray, *, nonnegative: bool) -> np.ndarray:
+def _check_rewards(
+    model: ExplicitModel,
+    rewards: np.ndarray,
+    *,
+    nonnegative: bool,
+    objective: str = "this objective",
+    hint: str = "PRISM requires non-negative rewards for expected-reward properties",
+) -> np.ndarray:
+    """float64[C]: the rewards, checked (one finite entry per choice; ``nonnegative``: none < 0,
+    else UnsupportedError naming ``objective``, with ``hint``)."""
     r = np.asarray(rewards, dtype=np.float64)
     if r.shape != (model.num_choices,):
         raise PosgmcError(f"rewards need one entry per choice ({model.num_choices}), got {r.shape}")
     if not np.all(np.isfinite(r)):
         raise PosgmcError("rewards must be finite")
     if nonnegative and r.size and r.min() < 0:
+        c = int(np.flatnonzero(r < 0)[0])
+        where = _state_text(model, int(np.searchsorted(model.row_groups, c, side="right") - 1))
         raise UnsupportedError(
-            "negative rewards are not supported for this objective",
-            hint="PRISM requires non-negative rewards for expected-reward properties",
+            f"negative rewards are not supported for {objective} (e.g. {r[c]:g} in {where})",
+            hint=hint,
         )
     return r
 
@@ -527,9 +540,30 @@ def expected_reach_reward(
 ) -> EngineResult:
     """Expected reward collected until ``target`` (``R[F target]`` and its variants).
 
+    Rewards of mixed sign (``ReachRewardMode.INFINITY``, PRISM's ``R[F ...]``):
+
+    * the value is +inf exactly where the player who minimises cannot force reaching the target
+      almost surely (PRISM's rule; graph analysis, independent of the reward signs);
+    * on the other states, if no usable choice there has a negative reward, the non-negative
+      algorithm runs unchanged;
+    * otherwise negative rewards are supported when *every* strategy profile reaches the target
+      almost surely from every state of finite value: the problem is then a stochastic shortest path
+      problem whose policies are all proper, the Bellman operator is monotone and a contraction (in
+      a weighted sup norm) with a unique fixpoint, the value. Interval iteration starts from proven
+      bounds ``-max E[total r-] <= value <= max E[total r+]`` (``r = r+ - r-``, both maxima solved
+      soundly as non-negative problems) and iterates both (see :mod:`posgmc.engines.signed`);
+      ``Method.EXACT``/``POLICY`` use policy iteration, ``Method.VALUE`` value iteration from 0;
+    * if instead some profile can avoid the target with positive probability from a state of finite
+      value (an end component the play can stay in), the value may be -inf or undefined: this is
+      rejected with UnsupportedError.
+
+    ``ReachRewardMode.CUMULATIVE`` (``Fc``) with a negative reward outside the target is supported
+    only when every profile reaches the target almost surely from *every* state (then it equals
+    ``F``); ``ReachRewardMode.ZERO`` (``F0``) needs non-negative rewards (PRISM-games).
+
     Args:
         model: a dtmc, mdp or smg.
-        rewards: float64[C], non-negative reward per choice (state + action reward).
+        rewards: float64[C], reward per choice (state + action reward), any sign (see above).
         target: bool[S]; rewards in target states are not collected.
         maximize: bool[S], True where the state's owner maximises the reward.
         mode: what paths that never reach the target collect, see :class:`ReachRewardMode`.
@@ -538,19 +572,33 @@ def expected_reach_reward(
     Returns:
         The :class:`EngineResult`; infinite values are exact (graph analysis), finite ones have
         proven bounds. ``ReachRewardMode.ZERO`` on an mdp or smg returns no strategy (optimal
-        strategies must count the collected reward).
+        strategies must count the collected reward). With negative rewards the strategy is the
+        optimal choice per state for the converged bounds (every strategy reaches the target).
 
     Raises:
-        UnsupportedError: negative rewards; ``ReachRewardMode.ZERO`` on an mdp or smg with
-            non-integer rewards (as in PRISM-games) or with unbounded rewards before the target.
+        UnsupportedError: negative rewards where some strategy profile may not reach the target
+            almost surely (see above), or with ``ReachRewardMode.ZERO``;
+            ``ReachRewardMode.ZERO`` on an mdp or smg with non-integer rewards (as in PRISM-games)
+            or with unbounded rewards before the target.
     """
-    r = _check_rewards(model, rewards, nonnegative=True)
     tgt = _bool(target, model.num_states, False)
-    if mode is ReachRewardMode.CUMULATIVE:
-        return _total(model, r, tgt, _directions(model, maximize), options)
     if mode is ReachRewardMode.ZERO:
+        r = _check_rewards(
+            model,
+            rewards,
+            nonnegative=True,
+            objective="R[F0 ...] (as in PRISM-games)",
+            hint="use R[F ...]: it accepts negative rewards when every strategy reaches the target "
+            "with probability 1",
+        )
         return _reach_reward_zero(model, r, tgt, _directions(model, maximize), options)
-    return _reach_reward_infinity(model, r, tgt, _directions(model, maximize), options)
+    r = _check_rewards(model, rewards, nonnegative=False)
+    mx = _directions(model, maximize)
+    if mode is ReachRewardMode.CUMULATIVE:
+        if np.any((r < 0) & ~tgt[structure_of(model).choice_state]):
+            return _reach_reward_cumulative_signed(model, r, tgt, mx, options)
+        return _total(model, r, tgt, mx, options)
+    return _reach_reward_infinity(model, r, tgt, mx, options)
 
 
 def _reach_reward_infinity(
@@ -573,18 +621,31 @@ def _reach_reward_infinity(
     if unknown.any():
         sys = build_system(g, unknown, maximize=mx, allowed=allowed, choice_offset=r)
         has_min = sys.num_max < sys.n and not dtmc
-
-        solved = _solve_system(
-            sys,
-            options,
-            cap=np.inf,
-            ec=EndComponents.INFLATE if has_min else EndComponents.NONE,
-            num_choices=model.num_choices,
-            outer_max=False,
-            idle_min=False,
-            initial_rows=_local_rows(sys, finite_witness),
-            is_chain=dtmc,
-        )
+        if sys.offset.min(initial=0.0) < 0:
+            # a usable choice has a negative reward (the offsets are the usable choices' rewards)
+            solved = _solve_signed(
+                model,
+                g,
+                sys,
+                r,
+                tgt,
+                finite=finite,
+                allowed=allowed,
+                options=options,
+                initial_rows=_local_rows(sys, finite_witness),
+            )
+        else:
+            solved = _solve_system(
+                sys,
+                options,
+                cap=np.inf,
+                ec=EndComponents.INFLATE if has_min else EndComponents.NONE,
+                num_choices=model.num_choices,
+                outer_max=False,
+                idle_min=False,
+                initial_rows=_local_rows(sys, finite_witness),
+                is_chain=dtmc,
+            )
     strategy = None
     if options.want_strategy:
         strategy = _first_choices(model)
@@ -611,6 +672,155 @@ def _reach_reward_infinity(
         started=started,
         strategy=strategy,
     )
+
+
+def _solve_signed(
+    model: ExplicitModel,
+    g: Structure,
+    sys: System,
+    r: np.ndarray,
+    tgt: np.ndarray,
+    *,
+    finite: np.ndarray,
+    allowed: np.ndarray,
+    options: SolverOptions,
+    initial_rows: np.ndarray,
+) -> _Solved:
+    """``R[F tgt]`` on ``sys`` (the finite, non-target states) when a usable choice has a negative
+    reward: supported when every strategy profile over the usable choices reaches the target almost
+    surely (a stochastic shortest path problem whose policies are all proper, see
+    :mod:`posgmc.engines.signed`), rejected otherwise."""
+    S = model.num_states
+    unknown = np.zeros(S, dtype=bool)
+    unknown[sys.states] = True
+    improper = unknown & ~proper_region(g, tgt, finite, allowed=allowed)
+    if improper.any():
+        raise _improper_error(
+            model,
+            g,
+            r,
+            improper,
+            negative=(r < 0) & allowed & unknown[g.choice_state],
+            allowed=allowed,
+            objective="R[F ...]",
+            scope="from every state where the value is finite",
+        )
+    if options.method in (Method.EXACT, Method.POLICY):
+        # every policy is proper: policy evaluation is a non-singular linear solve and strict
+        # improvements terminate at the optimum, whatever the reward signs
+        return _solve_system(
+            sys,
+            options,
+            cap=np.inf,
+            ec=EndComponents.NONE,
+            num_choices=model.num_choices,
+            outer_max=False,
+            idle_min=False,
+            initial_rows=initial_rows,
+            is_chain=model.model_type is ModelType.DTMC,
+        )
+    if options.method is Method.VALUE:
+        bounds = value_iteration(sys, options)
+    else:
+        lower0, upper0, aux_iterations = start_bounds(
+            g, unknown, r, allowed=allowed, options=options
+        )
+        bounds = solve_proper(sys, options, lower=lower0[sys.states], upper=upper0[sys.states])
+        bounds = replace(bounds, iterations=bounds.iterations + aux_iterations)
+    best_rows = None
+    candidates = None
+    if options.want_strategy:
+        # all policies are proper, so the greedy choice needs no attractor fix
+        best, cand = choose(sys, bounds.lower, bounds.upper)
+        best_rows = sys.rows[best]
+        candidates = np.zeros(model.num_choices, dtype=bool)
+        candidates[sys.rows[cand]] = True
+    return _Solved(
+        bounds.lower,
+        bounds.upper,
+        bounds.iterations,
+        bounds.converged,
+        bounds.sound,
+        best_rows,
+        candidates,
+        needs_fix=False,
+    )
+
+
+def _reach_reward_cumulative_signed(
+    model: ExplicitModel, r: np.ndarray, tgt: np.ndarray, mx: np.ndarray, options: SolverOptions
+) -> EngineResult:
+    """``R[Fc tgt]`` with a negative reward outside the target: when every strategy profile reaches
+    the target almost surely from every state, nothing is collected after "never reaching", so
+    ``Fc`` equals ``F`` (solved by :func:`_reach_reward_infinity`); otherwise rejected."""
+    g = structure_of(model)
+    S = model.num_states
+    everywhere = np.ones(S, dtype=bool)
+    improper = ~proper_region(g, tgt, everywhere, allowed=None)
+    if improper.any():
+        raise _improper_error(
+            model,
+            g,
+            r,
+            improper,
+            negative=(r < 0) & ~tgt[g.choice_state],
+            allowed=None,
+            objective="R[Fc ...]",
+            scope="from every state (then it equals R[F ...])",
+        )
+    return _reach_reward_infinity(model, r, tgt, mx, options)
+
+
+def _improper_error(
+    model: ExplicitModel,
+    g: Structure,
+    r: np.ndarray,
+    improper: np.ndarray,
+    *,
+    negative: np.ndarray,
+    allowed: np.ndarray | None,
+    objective: str,
+    scope: str,
+) -> UnsupportedError:
+    """The error for negative rewards where some profile avoids the target with positive
+    probability: it names a negative reward and a state where the target can be avoided (one that
+    can also reach a negative reward if there is one)."""
+    S = model.num_states
+    c = int(np.flatnonzero(negative)[0])
+    exposed, _ = attractor(
+        g,
+        np.zeros(S, dtype=bool),
+        existential=np.ones(S, dtype=bool),
+        candidates=improper,
+        allowed=allowed,
+        initial_choices=negative,
+    )
+    culprits = improper & exposed
+    s = int(np.flatnonzero(culprits if culprits.any() else improper)[0])
+    why = (
+        ", where negative rewards can make the expected reward -infinity or undefined"
+        if culprits.any()
+        else ""
+    )
+    return UnsupportedError(
+        f"{objective} with negative rewards (e.g. {r[c]:g} in "
+        f"{_state_text(model, int(g.choice_state[c]))}) is only supported when every strategy "
+        f"profile reaches the target with probability 1 {scope}; from {_state_text(model, s)} "
+        "some profile avoids the target with positive probability (it can stay in an end "
+        f"component forever){why}",
+        hint="make the target reachable with probability 1 under every strategy (no end "
+        "component outside the target), keep the rewards non-negative, or use a discounted "
+        "reward (R[Fdiscount=g ...])",
+    )
+
+
+def _state_text(model: ExplicitModel, s: int) -> str:
+    """``state 3 (x=1, y=0)`` (the valuation when the model has variables)."""
+    names = model.variable_names
+    values = model.state_values
+    if names and values.ndim == 2 and values.shape == (model.num_states, len(names)):
+        return f"state {s} (" + ", ".join(f"{n}={int(v)}" for n, v in zip(names, values[s])) + ")"
+    return f"state {s}"
 
 
 def _unsafe(g: Structure, region: np.ndarray) -> np.ndarray:
@@ -700,7 +910,15 @@ def total_reward(
         infinitely often with positive probability (graph analysis), 0 exactly where the minimiser
         avoids every reward forever, bounds elsewhere.
     """
-    r = _check_rewards(model, rewards, nonnegative=True)
+    r = _check_rewards(
+        model,
+        rewards,
+        nonnegative=True,
+        objective="the expected total reward R[C]",
+        hint="without a target, rewards of mixed sign can sum to -infinity or have no expected "
+        "value; use R[Cdiscount=g], R[C<=k], or R[F target] with a target every strategy "
+        "reaches with probability 1",
+    )
     return _total(
         model, r, np.zeros(model.num_states, dtype=bool), _directions(model, maximize), options
     )

@@ -188,12 +188,12 @@ def test_total_reward_in_a_game_needs_the_maximiser_to_keep_collecting() -> None
     _close(obj.total_reward(m, r, maximize=np.ones(3, bool)), [np.inf, np.inf, 0.0])
 
 
-def test_negative_rewards_are_rejected() -> None:
+def test_negative_rewards_are_rejected_for_total_reward() -> None:
+    # R[C] with a negative reward stays unsupported (R[F] accepts them when every strategy
+    # reaches the target: tests/engines/test_signed_rewards.py)
     m = _coin_chain()
     with pytest.raises(UnsupportedError, match="negative"):
-        obj.expected_reach_reward(
-            m, np.array([-1.0, 0.0]), np.array([False, True]), maximize=np.ones(2, bool)
-        )
+        obj.total_reward(m, np.array([-1.0, 0.0]), maximize=np.ones(2, bool))
     with pytest.raises(PosgmcError, match="one entry per choice"):
         obj.total_reward(m, np.ones(5), maximize=np.ones(2, bool))
 
