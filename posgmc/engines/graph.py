@@ -120,6 +120,7 @@ def attractor(
     allowed: np.ndarray | None = None,
     initial_choices: np.ndarray | None = None,
     preferred: np.ndarray | None = None,
+    layer: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The states that can be forced (with positive probability per step) into ``initial``.
 
@@ -134,6 +135,8 @@ def attractor(
             target outside the structure, e.g. a choice with probability mass to a goal).
         preferred: int64[S] or None: a choice to report as witness when it qualifies in the layer
             where its state joins.
+        layer: int64[S] or None: filled in place with the round where each state joined (0 for
+            ``initial``; others untouched), an order in which values propagate.
 
     Returns:
         ``(inside, witness)``: bool[S] the attractor; int64[S] for each joined state a choice that
@@ -161,7 +164,11 @@ def attractor(
     bw_idx = g.backward.indices
     frontier = np.flatnonzero(initial)
     extra = None if initial_choices is None else np.flatnonzero(initial_choices)
+    if layer is not None:
+        layer[frontier] = 0
+    level = 0
     while True:
+        level += 1
         preds = bw_idx[concat_ranges(bw_ptr[frontier], bw_ptr[frontier + 1])]
         if extra is not None:
             preds = np.concatenate([preds, extra])
@@ -195,19 +202,28 @@ def attractor(
             witness[cand_st[pm]] = cand_ch[pm]
         open_[new] = False
         inside[new] = True
+        if layer is not None:
+            layer[new] = level
         frontier = new
     return inside, witness
 
 
 def positive_reach(
-    g: Structure, target: np.ndarray, remain: np.ndarray, *, existential: np.ndarray
+    g: Structure,
+    target: np.ndarray,
+    remain: np.ndarray,
+    *,
+    existential: np.ndarray,
+    layer: np.ndarray | None = None,
 ) -> np.ndarray:
     """bool[S]: states where ``P(remain U target) > 0`` can be forced by the existential states.
 
     Its complement is exactly the set of states of value 0 (the universal states can make the
-    probability 0 against any choice of the existential ones).
+    probability 0 against any choice of the existential ones). ``layer``: see :func:`attractor`.
     """
-    inside, _ = attractor(g, target, existential=existential, candidates=remain & ~target)
+    inside, _ = attractor(
+        g, target, existential=existential, candidates=remain & ~target, layer=layer
+    )
     return inside
 
 
@@ -248,6 +264,48 @@ def almost_sure_reach(
         almost-surely winning memoryless choice for the existential states of the region outside
         ``target`` (the attractor choice of the last round), -1 elsewhere.
     """
+    one_player = target_choices is None and bool(existential.all())
+    region, witness, done = _almost_sure_reach_nested(
+        g,
+        target,
+        remain,
+        existential=existential,
+        allowed=allowed,
+        target_choices=target_choices,
+        start=start,
+        universal_allowed=universal_allowed,
+        max_rounds=_NESTED_ROUNDS if one_player else None,
+    )
+    if done:
+        return region, witness
+    # many rounds ahead (each a full backward search): finish in one step on the end-component
+    # quotient, from the region left so far (the states removed are losing)
+    return _almost_sure_reach_one_player(g, target, remain, allowed=allowed, superset=region)
+
+
+_NESTED_ROUNDS = 6
+"""Rounds of the nested fixpoint tried before a one-player problem switches to the end-component
+quotient: most models settle in two or three rounds, where the quotient's decomposition would cost
+more; grids where the region shrinks one layer per round need hundreds."""
+
+
+def _almost_sure_reach_nested(
+    g: Structure,
+    target: np.ndarray,
+    remain: np.ndarray,
+    *,
+    existential: np.ndarray,
+    allowed: np.ndarray | None,
+    target_choices: np.ndarray | None,
+    start: np.ndarray | None,
+    universal_allowed: np.ndarray | None,
+    max_rounds: int | None = None,
+) -> tuple[np.ndarray, np.ndarray, bool]:
+    """:func:`almost_sure_reach` by the nested fixpoint (any quantifiers).
+
+    Returns ``(region, witness, done)``; with ``max_rounds`` the search may stop early with
+    ``done`` False, ``region`` then being a superset of the answer (every state removed so far is
+    losing) and ``witness`` meaningless."""
     exist_choice = existential[g.choice_state]
     usable = np.ones(g.num_choices_total, dtype=bool)
     if allowed is not None:
@@ -277,7 +335,11 @@ def almost_sure_reach(
             allowed=usable,
             initial_choices=goal_choices,
         )
+    rounds = 0
     while True:
+        if max_rounds is not None and rounds >= max_rounds:
+            return region, np.full(g.num_states, -1, dtype=np.int64), False
+        rounds += 1
         safe = usable & ~_unsafe_choices(g, region)
         # a universal state with a choice leaving the region cannot be in it
         leaks = np.add.reduceat((~safe & usable).astype(np.int64), g.row_groups[:-1]) > 0
@@ -290,8 +352,103 @@ def almost_sure_reach(
             initial_choices=None if goal_choices is None else goal_choices & safe,
         )
         if int(new.sum()) == int(region.sum()):
-            return new, witness
+            return new, witness, True
         region = new
+
+
+def _almost_sure_reach_one_player(
+    g: Structure,
+    target: np.ndarray,
+    remain: np.ndarray,
+    *,
+    allowed: np.ndarray | None,
+    superset: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`almost_sure_reach` when every state is existential (an mdp's ``Pmax = 1``), without
+    the nested fixpoint, whose number of rounds can reach the hundreds on large grids.
+
+    Under any strategy the play eventually stays in an end component, so with the target made
+    absorbing: collapse every maximal end component of the candidate states (positive reach,
+    outside the target) into one node whose choices are its exits (the choices that leave it). The
+    quotient has no end components, so every strategy reaches the target or a "losing" sink (an
+    exit-free node, or a state outside the candidates) almost surely, and reaching the target
+    almost surely is *surely avoiding* the losing sinks: the complement of the universal attractor
+    of the losing nodes. An end component can be left through any of its exits almost surely, so
+    the original states of a node win exactly when the node does. One attractor towards the target
+    inside the winning region then gives the memoryless witness, as the last round of the nested
+    fixpoint would.
+
+    ``superset``: bool[S], states outside it are known to be losing (e.g. the region left by some
+    rounds of the nested fixpoint, or the positive-reach region).
+    """
+    S = g.num_states
+    usable = np.ones(g.num_choices_total, dtype=bool) if allowed is None else allowed.copy()
+    cand = superset & remain & ~target
+    n = int(cand.sum())
+    local_of = np.full(S, -1, dtype=np.int64)
+    local_of[cand] = np.arange(n, dtype=np.int64)
+    rows = np.flatnonzero(usable & cand[g.choice_state])
+    sub = g.transitions[rows]
+    dest = local_of[sub.indices]
+    inside = dest >= 0
+    kept = np.zeros(sub.nnz + 1, dtype=np.int64)
+    np.cumsum(inside, out=kept[1:])
+    kept_ptr = kept[sub.indptr]
+    stays = np.diff(kept_ptr) == np.diff(sub.indptr)
+    row_owner = local_of[g.choice_state[rows]]
+    inner = sp.csr_matrix((sub.data[inside], dest[inside], kept_ptr), shape=(rows.size, n))
+    mec_of, num_mecs, internal = end_components(inner, row_owner, stays)
+    # nodes: one per end component, one per candidate outside every end component, then LOSE
+    loose = mec_of < 0
+    node_of = mec_of.copy()
+    node_of[loose] = num_mecs + np.arange(int(loose.sum()), dtype=np.int64)
+    num_nodes = num_mecs + int(loose.sum())
+    lose = num_nodes
+    exits = np.flatnonzero(~internal)
+    # an exit hits LOSE when some mass goes to a non-target state outside the candidates; mass
+    # into the target leads to WIN, which cannot be attracted and needs no edge
+    to_lose = np.asarray(
+        sub[exits] @ (~cand & ~target).astype(np.float64)
+    ).ravel() > 0
+    ex_sub = inner[exits]
+    order = np.argsort(node_of[row_owner[exits]], kind="stable")
+    exits_sorted = exits[order]
+    ex_sub = ex_sub[order]
+    to_lose = to_lose[order]
+    counts = np.diff(ex_sub.indptr) + to_lose
+    indptr = np.zeros(exits_sorted.size + 1, dtype=np.int64)
+    np.cumsum(counts, out=indptr[1:])
+    cols = np.empty(int(indptr[-1]), dtype=np.int64)
+    # node successors of every exit, then LOSE last in the row where it applies
+    inner_pos = concat_ranges(indptr[:-1], indptr[:-1] + np.diff(ex_sub.indptr))
+    cols[inner_pos] = node_of[ex_sub.indices]
+    cols[indptr[1:][to_lose] - 1] = lose
+    quotient = sp.csr_matrix(
+        (np.ones(cols.size), cols, indptr), shape=(exits_sorted.size, num_nodes + 1)
+    )
+    exit_counts = np.bincount(
+        node_of[row_owner[exits_sorted]], minlength=num_nodes + 1
+    )
+    row_groups = np.zeros(num_nodes + 2, dtype=np.int64)
+    np.cumsum(exit_counts, out=row_groups[1:])
+    q = Structure.build(quotient, row_groups)
+    initial = exit_counts == 0  # exit-free nodes are traps; LOSE has no rows either
+    losing, _ = attractor(
+        q,
+        initial,
+        existential=np.zeros(num_nodes + 1, dtype=bool),
+        candidates=np.arange(num_nodes + 1) < lose,
+    )
+    region = target.copy()
+    region[np.flatnonzero(cand)[~losing[node_of]]] = True
+    safe = usable & ~_unsafe_choices(g, region)
+    return attractor(
+        g,
+        target,
+        existential=np.ones(S, dtype=bool),
+        candidates=region & ~target,
+        allowed=safe,
+    )
 
 
 def positive_buchi(

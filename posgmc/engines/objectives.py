@@ -655,7 +655,7 @@ def _reach_reward_infinity(
             if sys is not None and solved is not None and solved.best_rows is not None:
                 strategy[sys.states] = solved.best_rows
                 _reacher_fix(g, strategy, solved, sys, goal=tgt, goal_choices=None, reacher=reacher)
-            if infinite.any():
+            if (infinite & mx).any():
                 # the maximiser keeps away from the target with positive probability: a positive
                 # Büchi strategy for "any choice outside the target" (target absorbing)
                 _, keep_away = positive_buchi(g, ~tgt[g.choice_state], ~tgt, existential=mx)

@@ -164,3 +164,88 @@ def test_structure_of_is_cached_per_model() -> None:
     m = smg_example()
     assert structure_of(m) is structure_of(m)
     assert isinstance(structure_of(m), Structure)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    model=small_models(ModelType.MDP, max_states=7),
+    data=st.data(),
+)
+def test_one_player_almost_sure_reach_equals_the_nested_fixpoint(model, data) -> None:
+    """The end-component quotient (one player) agrees with the classical nested fixpoint, and its
+    witness really reaches the target almost surely (checked on the induced chain)."""
+    from posgmc.engines import graph as gr
+
+    S = model.num_states
+    g = structure_of(model)
+    target = np.array(data.draw(st.lists(st.booleans(), min_size=S, max_size=S)))
+    remain = np.array(data.draw(st.lists(st.booleans(), min_size=S, max_size=S)))
+    allowed = None
+    if data.draw(st.booleans()):
+        allowed = np.array(
+            data.draw(st.lists(st.booleans(), min_size=model.num_choices, max_size=model.num_choices))
+        )
+        allowed[model.row_groups[:-1]] = True  # every state keeps a choice
+    everyone = np.ones(S, bool)
+    fast, _ = almost_sure_reach(g, target, remain, existential=everyone, allowed=allowed)
+    slow, _, done = gr._almost_sure_reach_nested(
+        g,
+        target,
+        remain,
+        existential=everyone,
+        allowed=allowed,
+        target_choices=None,
+        start=None,
+        universal_allowed=None,
+    )
+    assert done
+    quotient, witness = gr._almost_sure_reach_one_player(
+        g, target, remain, allowed=allowed, superset=np.ones(S, bool)
+    )
+    assert fast.tolist() == slow.tolist() == quotient.tolist()
+    # the witness: the chain it induces reaches the target with probability 1 from the region
+    inner = quotient & ~target
+    assert np.all(witness[inner] >= 0)
+    P = model.transitions.toarray()
+    chain = np.zeros((S, S))
+    for s in range(S):
+        if inner[s]:
+            chain[s] = P[witness[s]]
+        else:
+            chain[s, s] = 1.0
+    reach = target.astype(float)
+    for _ in range(2000):
+        reach = np.where(target, 1.0, chain @ reach)
+    assert np.all(reach[inner] > 1 - 1e-6)
+
+
+def test_almost_sure_reach_switches_to_the_quotient_on_a_deep_chain() -> None:
+    """s_i -> 1/2 s_(i+1) + 1/2 t for i < k, s_k -> 1/2 z + 1/2 t (z a trap): the nested fixpoint
+    removes one s_i per round (k rounds, more than it is allowed), the quotient finishes. Only t
+    and w (which can go to t directly) reach t almost surely."""
+    k = 20
+    S = k + 3  # s_1..s_k = 0..k-1, t = k, z = k+1, w = k+2
+    t, z, w = k, k + 1, k + 2
+    rows = []
+    for i in range(k):
+        row = np.zeros(S)
+        row[t] = 0.5
+        row[i + 1 if i + 1 < k else z] = 0.5
+        rows.append(row)
+    for loop in (t, z):
+        row = np.zeros(S)
+        row[loop] = 1.0
+        rows.append(row)
+    for succ in (0, t):  # w: a -> s_1, b -> t
+        row = np.zeros(S)
+        row[succ] = 1.0
+        rows.append(row)
+    groups = list(range(k + 3)) + [k + 4]
+    m = _mdp(rows, groups)
+    target = np.zeros(S, bool)
+    target[t] = True
+    region, witness = almost_sure_reach(
+        structure_of(m), target, np.ones(S, bool), existential=np.ones(S, bool)
+    )
+    assert np.flatnonzero(region).tolist() == [t, w]
+    assert witness[w] == k + 3  # w's choice b
