@@ -46,19 +46,30 @@ correction. :func:`solve` returns proven bounds ``lower <= lfp <= upper``:
   bounds are widened outwards by a relative 1e-10, which covers the rounding of all iterations.
   Bounds are therefore proven up to floating-point error, like every float-based checker's.
 
-Performance: unknown states are renumbered maximisers first, each group by decreasing number of
-rows, and rows are stored by *slot* (slot j holds the j-th row of every state with more than j
-rows). A Bellman step is then one sparse matrix-vector product into a preallocated buffer
-(scipy's ``csr_matvec`` kernel, falling back to ``A @ x``) and, per slot, one contiguous
-``np.maximum``/``np.minimum`` -- no ``reduceat``, no allocation. While only the lower bound is
-iterated, the row values are updated incrementally (``y += A (x_new - x_old)``, recomputed every 64
-steps) and one vector is multiplied; during verification both bounds share one pass over the matrix.
+Performance: unknown states are renumbered maximisers first, then by block, then by decreasing
+number of rows, and rows are stored by *block and slot* (slot j holds the j-th row of every state
+of the block with more than j rows). A Bellman step is then one sparse matrix-vector product into a
+preallocated buffer (scipy's ``csr_matvec`` kernel, falling back to ``A @ x``) and, per slot, one
+contiguous ``np.maximum``/``np.minimum`` -- no ``reduceat``, no allocation.
+
+Blocks (large systems only) are consecutive backward-search layers of the positive region, so the
+values flow from the known states through the blocks in order. The lower iteration and the
+verification sweep them Gauss-Seidel style: each block is evaluated against the vector already
+updated by the blocks before it, which carries a value across all the layers in one sweep instead
+of one layer per Jacobi step (pursuit N=30: 75 sweeps instead of 260 steps). Soundness is
+unchanged: a lower value is ``B`` of a vector below the least fixpoint; an upper sweep whose result
+is below its input has produced a pre-fixpoint (see :func:`_sweep_pair`). The end-component
+corrections (deflation, inflation) need a whole Jacobi step and switch the sweeps off.
+Without blocks, while only the lower bound is iterated, the row values are updated incrementally
+(``y += A (x_new - x_old)``, recomputed every 64 steps) and one vector is multiplied; during
+verification both bounds share one pass over the matrix.
 """
 
 from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -96,9 +107,15 @@ class System:
     ``states``: int64[n], the model state of each unknown; local states ``[0, num_max)`` maximise.
     ``rows``: int64[m], the model choice of each row; ``row_state``: int64[m], its local state.
     ``matrix``: csr float64 [m, n]; ``offset``: float64[m] (b); ``stays``: bool[m], no probability
-    leaves the unknowns. ``slots``: int64[k, 3], slot j holds rows
-    ``[slots[j,0], slots[j,0] + slots[j,1] + slots[j,2])``: first one row for each of the local
-    states ``[0, slots[j,1])``, then one for each of ``[num_max, num_max + slots[j,2])``.
+    leaves the unknowns.
+
+    ``slots``: int64[E, 6], one entry ``(row_start, max_lo, a, min_lo, b, j)`` per (block, slot
+    j): rows ``[row_start, row_start + a)`` are the j-th rows of the maximising states
+    ``[max_lo, max_lo + a)`` and the next ``b`` rows the j-th rows of the minimising states
+    ``[min_lo, min_lo + b)``. ``blocks``: int64[B + 1], block i owns the entries
+    ``blocks[i]:blocks[i+1]``, whose rows are contiguous; its j = 0 entry covers all its states.
+    Blocks are the Gauss-Seidel order of the lower iteration (nearest the known values first);
+    without an order there is one block and entry j is slot j of every state.
     """
 
     states: np.ndarray
@@ -109,6 +126,7 @@ class System:
     stays: np.ndarray
     num_max: int
     slots: np.ndarray
+    blocks: np.ndarray
 
     @property
     def n(self) -> int:
@@ -130,6 +148,59 @@ class System:
         """bool[m]: the row belongs to a maximising state."""
         return self.row_state < self.num_max
 
+    @property
+    def num_blocks(self) -> int:
+        return int(self.blocks.size - 1)
+
+    @cached_property
+    def entries(self) -> tuple[tuple[int, int, int, int, int, int], ...]:
+        """The slot table as Python ints (the reduction loops read it every step)."""
+        return tuple(tuple(int(v) for v in e) for e in self.slots)  # type: ignore[misc]
+
+    @cached_property
+    def plan(self) -> tuple[tuple[int, int, int, int, int, int, tuple], ...]:
+        """Per block ``(row_lo, row_hi, max_lo, a, min_lo, b, entries)``: its rows, its maximising
+        states ``[max_lo, max_lo + a)``, minimising states ``[min_lo, min_lo + b)`` and entries."""
+        out = []
+        for i in range(self.num_blocks):
+            ents = self.entries[int(self.blocks[i]) : int(self.blocks[i + 1])]
+            rs, ml, a, nl, b, _ = ents[0]
+            last = ents[-1]
+            out.append((rs, last[0] + last[2] + last[4], ml, a, nl, b, ents))
+        return tuple(out)
+
+    @cached_property
+    def first_row(self) -> np.ndarray:
+        """int64[n]: the first row (local index) of every state."""
+        out = np.empty(self.n, dtype=np.int64)
+        for rs, ml, a, nl, b, j in self.entries:
+            if j == 0:
+                out[ml : ml + a] = np.arange(rs, rs + a)
+                out[nl : nl + b] = np.arange(rs + a, rs + a + b)
+        return out
+
+
+_MAX_BLOCKS = 128
+"""Gauss-Seidel blocks at most: each costs a few numpy calls per sweep; fewer blocks of several
+BFS layers each still carry the values outwards by one block per layer inside a sweep."""
+
+_MIN_BLOCKED_STATES = 50_000
+"""Below this many unknowns one block (Jacobi) is as fast: the per-block overhead dominates."""
+
+
+def _block_of(layer: np.ndarray) -> np.ndarray:
+    """int64[n]: consecutive layers merged into at most ``_MAX_BLOCKS`` blocks of similar size."""
+    lay = layer.astype(np.int64)
+    unjoined = lay < 0
+    if unjoined.any():
+        lay[unjoined] = lay.max(initial=0) + 1
+    _, lay = np.unique(lay, return_inverse=True)
+    counts = np.bincount(lay)
+    size = -(-lay.size // _MAX_BLOCKS)
+    first = (np.cumsum(counts) - counts) // size  # the chunk where each layer starts
+    _, block_of_layer = np.unique(first, return_inverse=True)
+    return block_of_layer[lay]
+
 
 def build_system(
     g: Structure,
@@ -139,6 +210,7 @@ def build_system(
     allowed: np.ndarray | None = None,
     choice_offset: np.ndarray | None = None,
     fixed: np.ndarray | None = None,
+    layer: np.ndarray | None = None,
 ) -> System:
     """The fixpoint problem on ``unknown`` states.
 
@@ -150,6 +222,9 @@ def build_system(
         choice_offset: float64[C] or None: a constant per choice (a reward).
         fixed: float64[S] or None: the known value of every other state; probability mass into known
             states adds ``p * fixed`` to the row's offset.
+        layer: int64[S] or None: an order for the Gauss-Seidel lower iteration, smallest first
+            (e.g. the backward-search round where a state joined the positive region: values flow
+            from the known states outwards); None: one block.
 
     Returns:
         The :class:`System`.
@@ -160,41 +235,72 @@ def build_system(
     if allowed is not None:
         usable &= allowed
     rows_global = np.flatnonzero(usable)
-    counts_all = np.bincount(g.choice_state[rows_global], minlength=S)
+    if allowed is None:
+        counts_all = np.where(unknown, g.num_choices, 0)
+    else:
+        counts_all = np.bincount(g.choice_state[rows_global], minlength=S)
     counts = counts_all[unk]
     if counts.size and counts.min() < 1:
         raise ValueError("every unknown state needs at least one allowed choice")
     is_max = maximize[unk]
     kmax = int(counts.max()) if counts.size else 0
-    # maximisers first, each group by decreasing number of rows; a stable sort on a small integer
-    # key (numpy uses radix sort for 16-bit keys)
-    key16 = ((~is_max).astype(np.int64) * (kmax + 1) + (kmax - counts)).astype(np.uint16)
-    order = np.argsort(key16, kind="stable") if kmax < 30000 else np.lexsort((-counts, ~is_max))
+    if layer is not None and unk.size >= _MIN_BLOCKED_STATES:
+        block = _block_of(layer[unk])
+    else:
+        block = np.zeros(unk.size, dtype=np.int64)
+    nb = int(block.max()) + 1 if block.size else 1
+    # maximisers first, then by block, then by decreasing number of rows; a stable sort on a small
+    # integer key (numpy uses radix sort for 16-bit keys)
+    key = ((~is_max).astype(np.int64) * nb + block) * (kmax + 1) + (kmax - counts)
+    if key.size and int(key.max()) < 2**16:
+        order = np.argsort(key.astype(np.uint16), kind="stable")
+    else:
+        order = np.argsort(key, kind="stable")
     states = unk[order]
     counts = counts[order]
+    block = block[order]
     n = int(states.size)
     num_max = int(is_max.sum())
     local_of = np.full(S, -1, dtype=np.int64)
     local_of[states] = np.arange(n, dtype=np.int64)
-    # slot table: slot j holds the j-th row of each state with more than j rows
-    slots = np.zeros((kmax, 3), dtype=np.int64)
-    if kmax:
-        cmax = counts[:num_max]
-        cmin = counts[num_max:]
-        # counts are sorted decreasingly inside each group, so "more than j rows" is a prefix
-        hist_max = np.bincount(cmax, minlength=kmax + 1)
-        hist_min = np.bincount(cmin, minlength=kmax + 1)
-        slots[:, 1] = (cmax.size - np.cumsum(hist_max))[:kmax]
-        slots[:, 2] = (cmin.size - np.cumsum(hist_min))[:kmax]
-        sizes = slots[:, 1] + slots[:, 2]
-        slots[1:, 0] = np.cumsum(sizes)[:-1]
-    # scatter every usable row to its slot position (rows_global is grouped by state)
+    # entry (block i, slot j): the states of block i with more than j rows, per player; counts are
+    # sorted decreasingly inside each (player, block), so these are prefixes of its state ranges
+    player = (np.arange(n) >= num_max).astype(np.int64)
+    hist = np.bincount((block * 2 + player) * (kmax + 1) + counts, minlength=nb * 2 * (kmax + 1))
+    hist = hist.reshape(nb, 2, kmax + 1)
+    total = hist.sum(axis=2)  # [nb, 2]
+    more = total[:, :, None] - np.cumsum(hist, axis=2)[:, :, :kmax]  # [nb, 2, kmax]
+    sizes = (more[:, 0, :] + more[:, 1, :]).ravel()  # in (block, slot) order
+    row_start = (np.cumsum(sizes) - sizes).reshape(nb, kmax) if kmax else np.zeros((nb, 0), int)
+    max_lo = np.cumsum(total[:, 0]) - total[:, 0]
+    min_lo = num_max + np.cumsum(total[:, 1]) - total[:, 1]
+    nonempty = sizes > 0
+    bi, jj = np.divmod(np.flatnonzero(nonempty), max(kmax, 1))
+    slots = np.stack(
+        [
+            row_start[bi, jj],
+            max_lo[bi],
+            more[bi, 0, jj],
+            min_lo[bi],
+            more[bi, 1, jj],
+            jj,
+        ],
+        axis=1,
+    ).astype(np.int64).reshape(-1, 6)
+    blocks = np.zeros(nb + 1, dtype=np.int64)
+    np.cumsum(np.bincount(bi, minlength=nb), out=blocks[1:])
+    # scatter every usable row to its position (rows_global is grouped by state)
     row_st = g.choice_state[rows_global]
     start_of = np.zeros(S + 1, dtype=np.int64)
     np.cumsum(counts_all, out=start_of[1:])
     rank = np.arange(rows_global.size, dtype=np.int64) - start_of[row_st]
     loc = local_of[row_st]
-    pos = slots[rank, 0] + np.where(loc < num_max, loc, slots[rank, 1] + loc - num_max)
+    # position = table[block, player, slot] + local state, one gather per row
+    table = np.stack(
+        [row_start - max_lo[:, None], row_start + more[:, 0, :] - min_lo[:, None]], axis=1
+    ).ravel()  # [nb, 2, kmax]
+    state_base = (block * 2 + player) * kmax
+    pos = table[state_base[loc] + rank] + loc
     rows = np.empty(rows_global.size, dtype=np.int64)
     rows[pos] = rows_global
     row_state = np.empty(rows_global.size, dtype=np.int64)
@@ -212,16 +318,12 @@ def build_system(
     if fixed is not None and np.any(fixed != 0):
         known_fixed = np.where(local_of >= 0, 0.0, fixed)
         offset += sub @ known_fixed
-    # entries per row leaving the unknowns, by a product with the sparsity pattern (C speed)
-    pattern = sp.csr_matrix((np.ones(sub.nnz), sub.indices, sub.indptr), shape=sub.shape)
-    leaving = np.rint(pattern @ (local_of < 0).astype(np.float64)).astype(np.int64)
-    stays = leaving == 0
-    indptr = np.zeros(rows.size + 1, dtype=np.int64)
-    np.cumsum(np.diff(sub.indptr) - leaving, out=indptr[1:])
-    matrix = sp.csr_matrix(
-        (sub.data[inside], loc[inside], indptr.astype(index_dtype)),
-        shape=(rows.size, n),
-    )
+    # the kept entries before each row's start: one running count over all entries
+    kept = np.zeros(sub.nnz + 1, dtype=index_dtype)
+    np.cumsum(inside, out=kept[1:])
+    indptr = kept[sub.indptr]
+    stays = np.diff(indptr) == np.diff(sub.indptr)
+    matrix = sp.csr_matrix((sub.data[inside], loc[inside], indptr), shape=(rows.size, n))
     return System(
         states=states,
         rows=rows,
@@ -231,6 +333,7 @@ def build_system(
         stays=stays,
         num_max=num_max,
         slots=slots,
+        blocks=blocks,
     )
 
 
@@ -265,18 +368,23 @@ def _multiply(sys: System, x: np.ndarray, y: np.ndarray) -> None:
             y += A @ x
 
 
+def _reduce_entries(
+    entries: tuple[tuple[int, int, int, int, int, int], ...], y: np.ndarray, out: np.ndarray
+) -> None:
+    for rs, ml, a, nl, b, j in entries:
+        if j == 0:
+            out[ml : ml + a] = y[rs : rs + a]
+            out[nl : nl + b] = y[rs + a : rs + a + b]
+            continue
+        if a:
+            np.maximum(out[ml : ml + a], y[rs : rs + a], out=out[ml : ml + a])
+        if b:
+            np.minimum(out[nl : nl + b], y[rs + a : rs + a + b], out=out[nl : nl + b])
+
+
 def _reduce(sys: System, y: np.ndarray, out: np.ndarray) -> None:
     """out[s] = opt over the rows of s of y[row] (1-D or 2-D along axis 0)."""
-    nm = sys.num_max
-    if sys.slots.shape[0] == 0:
-        return
-    out[:] = y[: sys.n]
-    for j in range(1, sys.slots.shape[0]):
-        start, a, b = (int(v) for v in sys.slots[j])
-        if a:
-            np.maximum(out[:a], y[start : start + a], out=out[:a])
-        if b:
-            np.minimum(out[nm : nm + b], y[start + a : start + a + b], out=out[nm : nm + b])
+    _reduce_entries(sys.entries, y, out)
 
 
 def bellman(sys: System, x: np.ndarray) -> np.ndarray:
@@ -309,21 +417,21 @@ def choice_values(sys: System, x: np.ndarray) -> np.ndarray:
 
 def _argopt(sys: System, y: np.ndarray) -> np.ndarray:
     """int64[n]: the first optimal row of each state for row values y."""
-    n, nm = sys.n, sys.num_max
-    best = y[:n].copy()
-    arg = np.arange(n, dtype=np.int64)
-    for j in range(1, sys.slots.shape[0]):
-        start, a, b = (int(v) for v in sys.slots[j])
+    arg = sys.first_row.copy()
+    best = y[arg]
+    for rs, ml, a, nl, b, j in sys.entries:
+        if j == 0:
+            continue
         if a:
-            seg = y[start : start + a]
-            better = seg > best[:a]
-            best[:a][better] = seg[better]
-            arg[:a][better] = start + np.flatnonzero(better)
+            seg = y[rs : rs + a]
+            better = seg > best[ml : ml + a]
+            best[ml : ml + a][better] = seg[better]
+            arg[ml : ml + a][better] = rs + np.flatnonzero(better)
         if b:
-            seg = y[start + a : start + a + b]
-            better = seg < best[nm : nm + b]
-            best[nm : nm + b][better] = seg[better]
-            arg[nm : nm + b][better] = start + a + np.flatnonzero(better)
+            seg = y[rs + a : rs + a + b]
+            better = seg < best[nl : nl + b]
+            best[nl : nl + b][better] = seg[better]
+            arg[nl : nl + b][better] = rs + a + np.flatnonzero(better)
     return arg
 
 
@@ -556,6 +664,73 @@ def _lower_phase(
     return x, iters
 
 
+def _lower_phase_blocks(
+    sys: System,
+    lower: np.ndarray,
+    tau: float,
+    rel: bool,
+    iters: int,
+    max_it: int,
+) -> tuple[np.ndarray, int]:
+    """:func:`_lower_phase` by Gauss-Seidel sweeps over the blocks (same stopping rule).
+
+    Block by block in order, the rows of the block are evaluated against the current vector
+    (earlier blocks already updated in this sweep) and the block's states take the optimum, or
+    keep their value if that is larger. Every value written is ``B`` of a vector below the least
+    fixpoint, or a value already below it, so the vector stays a lower bound, as for Jacobi steps;
+    values travel from the known states outwards through all the blocks in one sweep instead of
+    one layer per step."""
+    n = sys.n
+    A = sys.matrix
+    y = np.empty(sys.m)
+    x = np.ascontiguousarray(lower, dtype=np.float64).copy()
+    tmp = np.empty(n)
+    plan = sys.plan
+    ratios = [0.0, 0.0]
+    previous = np.inf
+    while iters < max_it:
+        d = 0.0
+        for r0, r1, ml, a, nl, b, ents in plan:
+            yb = y[r0:r1]
+            yb[:] = sys.offset[r0:r1]
+            _kernels.csr_matvec(r1 - r0, n, A.indptr[r0 : r1 + 1], A.indices, A.data, x, yb)
+            _reduce_entries(ents, y, tmp)
+            for lo, k in ((ml, a), (nl, b)):
+                if not k:
+                    continue
+                new, old = tmp[lo : lo + k], x[lo : lo + k]
+                np.maximum(new, old, out=new)
+                d = max(d, _diff(new, old, rel))
+                old[:] = new
+        iters += 1
+        ratios = [ratios[1], min(d / previous, 0.999) if previous > 0 else 0.0]
+        previous = d
+        q = max(ratios)
+        if d <= tau and d * q / (1.0 - q) <= tau:
+            break
+    return x, iters
+
+
+def _sweep_pair(sys: System, X: np.ndarray, Xn: np.ndarray, Y: np.ndarray, T: np.ndarray) -> None:
+    """One Gauss-Seidel sweep of both columns of ``X`` [n, 2] into ``Xn`` (``Y`` [m, 2] and
+    ``T`` [n, 2] are scratch). For the upper column: if ``Xn <= X`` then ``Xn`` is a
+    pre-fixpoint, since ``B(Xn)(s) <= B(mix)(s) = Xn(s)`` for the mixed vector ``mix >= Xn`` that
+    state s was evaluated on; so the verification test is the same as for a Jacobi step."""
+    n = sys.n
+    A = sys.matrix
+    Xn[:] = X
+    flat = Xn.ravel()
+    for r0, r1, ml, a, nl, b, ents in sys.plan:
+        Yb = Y[r0:r1]
+        Yb[:] = sys.offset[r0:r1, None]
+        _kernels.csr_matvecs(
+            r1 - r0, n, 2, A.indptr[r0 : r1 + 1], A.indices, A.data, flat, Yb.ravel()
+        )
+        _reduce_entries(ents, Y, T)
+        Xn[ml : ml + a] = T[ml : ml + a]
+        Xn[nl : nl + b] = T[nl : nl + b]
+
+
 def solve(
     sys: System,
     options: SolverOptions,
@@ -648,6 +823,7 @@ def solve(
     X = np.empty((n, 2))
     Xn = np.empty((n, 2))
     Y = np.empty((sys.m, 2))
+    scratch2 = np.empty((n, 2))
     converged = False
     verified = False
     if inflating:
@@ -666,9 +842,12 @@ def solve(
     while iters < max_it and not converged and not stalled:
         # 1. lower bound by value iteration until it stalls
         phase_start = iters
-        lower, iters = _lower_phase(
-            sys, lower, tau, rel, iters, max_it, family if inflating else None
-        )
+        if sys.num_blocks > 1 and not inflating and _HAVE_KERNELS:
+            lower, iters = _lower_phase_blocks(sys, lower, tau, rel, iters, max_it)
+        else:
+            lower, iters = _lower_phase(
+                sys, lower, tau, rel, iters, max_it, family if inflating else None
+            )
         # 2. guess an upper bound
         if rel:
             guess = lower + prec * np.abs(lower)
@@ -684,8 +863,11 @@ def solve(
         since_refresh = 0
         last_gap = np.inf
         while iters < max_it:
-            _multiply(sys, X, Y)
-            _reduce(sys, Y, Xn)
+            if family is None and sys.num_blocks > 1 and _HAVE_KERNELS:
+                _sweep_pair(sys, X, Xn, Y, scratch2)
+            else:
+                _multiply(sys, X, Y)
+                _reduce(sys, Y, Xn)
             if family is not None:
                 if deflating:
                     family.deflate(Y[:, 1], Xn[:, 1])

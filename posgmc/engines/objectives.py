@@ -371,7 +371,8 @@ def reach_probability(
     rem = _bool(remain, S, True)
     mx = _directions(model, maximize)
     g = structure_of(model)
-    pos = positive_reach(g, tgt, rem, existential=mx)
+    layer = np.full(S, -1, dtype=np.int64)
+    pos = positive_reach(g, tgt, rem, existential=mx, layer=layer)
     one, one_witness = almost_sure_reach(g, tgt, rem, existential=mx, start=pos)
     zero = ~pos
     unknown = pos & ~one
@@ -379,7 +380,7 @@ def reach_probability(
     sys = None
     solved = None
     if unknown.any():
-        sys = build_system(g, unknown, maximize=mx, fixed=known_values)
+        sys = build_system(g, unknown, maximize=mx, fixed=known_values, layer=layer)
         nondet = model.model_type is not ModelType.DTMC
         solved = _solve_system(
             sys,
@@ -522,7 +523,7 @@ def _local_rows(sys: System, initial: np.ndarray) -> np.ndarray:
     """int64[n]: local System rows from global choices (first row where not usable)."""
     inv = np.full(int(sys.rows.max(initial=-1)) + 1, -1, dtype=np.int64)
     inv[sys.rows] = np.arange(sys.m, dtype=np.int64)
-    rows = np.arange(sys.n, dtype=np.int64)  # slot 0 holds the first row of every state in order
+    rows = sys.first_row
     g_init = initial[sys.states]
     ok = (g_init >= 0) & (g_init < inv.size)
     cand = np.where(ok, inv[np.where(ok, g_init, 0)], -1)
