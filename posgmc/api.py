@@ -37,7 +37,7 @@ from posgmc.semantics import checker as sem
 from posgmc.semantics.evaluate import evaluate_constant
 from posgmc.semantics.flat import FlatModel
 from posgmc.syntax import parser
-from posgmc.syntax.ast import Coalition, ModelFile, Property, PropertiesFile
+from posgmc.syntax.ast import NO_SPAN, Coalition, ModelFile, Property, PropertiesFile
 from posgmc.syntax.printer import format_expr
 
 ConstantValues = Mapping[str, object]
@@ -319,8 +319,12 @@ def iter_check(
         for prop in props:
             outcome = _check_one(session, built, checker, pf, prop, zero_based_players)
             if isinstance(outcome, PosgmcError):
-                if src is not None:
-                    _attach(outcome, src)
+                own = src
+                if own is None and outcome.span is not None and outcome.span.file and prop.text:
+                    # a --prop text: its own one-line source (the span names it "<--prop i>")
+                    own = SourceText(prop.text, outcome.span.file)
+                if own is not None:
+                    _attach(outcome, own)
             elif note:
                 outcome = dataclasses.replace(outcome, note=note)
             yield prop, outcome
@@ -352,6 +356,11 @@ def _check_one(
     except MultipleErrors as e:
         return e.errors[0] if len(e.errors) == 1 else e
     except PosgmcError as e:
+        # an engine refusing the property (e.g. negative rewards it cannot handle) knows no
+        # position: point at the property it was asked to check
+        if e.span is None:
+            span = prop.span if prop.span != NO_SPAN else prop.expr.span
+            e.span = span if span != NO_SPAN else None
         return e
 
 

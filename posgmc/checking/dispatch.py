@@ -269,6 +269,12 @@ class PropertyChecker:
         if isinstance(path, Temporal) and all(not _is_temporal(o) for o in path.operands):
             op = path.op
             if op is TemporalOp.NEXT:
+                if path.bound is not None:
+                    raise UnsupportedError(
+                        "the next operator X cannot have a step bound",
+                        path.bound.span if path.bound.span != NO_SPAN else path.span,
+                        hint="write X X a for 'a after two steps'",
+                    )
                 t = self._states(path.operands[0])
                 return _from_engine(obj.next_probability(m, t, maximize=maximize, options=opts))
             if op in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL):

@@ -1,0 +1,120 @@
+"""``posgmc check``: output, ``--json``, sweeps, exit codes and error positions (docs/cli.md).
+
+Expected numbers: models/rover.smg's values are derived in tests/test_models.py (reach 0.98765618,
+within the proven bounds printed); the coin model below is hand-computed in each test.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from posgmc.cli import EXIT_ERROR, EXIT_OK, EXIT_PROPERTY_FALSE, main
+
+ROOT = Path(__file__).resolve().parents[2]
+ROVER = str(ROOT / "models" / "rover.smg")
+ROVER_POSG = str(ROOT / "models" / "rover.posg")
+
+# s=0 tosses a coin with bias p: heads (s=1, "a"), tails (s=2); both absorbing. The reward -1 in
+# s=0 makes R[C] undefined without a target (mixed-sign total rewards are rejected).
+COIN = """mdp
+const double p;
+module coin
+  s : [0..2] init 0;
+  [] s=0 -> p:(s'=1) + (1-p):(s'=2);
+  [] s>0 -> true;
+endmodule
+rewards "r"
+  s=0 : -1;
+endrewards
+label "a" = s=1;
+"""
+
+
+@pytest.fixture
+def run():  # type: ignore[no-untyped-def]
+    runner = CliRunner()
+
+    def invoke(*args: str):  # type: ignore[no-untyped-def]
+        return runner.invoke(main, list(args), catch_exceptions=False)
+
+    return invoke
+
+
+@pytest.fixture
+def coin(tmp_path: Path) -> str:
+    path = tmp_path / "coin.nm"
+    path.write_text(COIN)
+    return str(path)
+
+
+def test_check_prints_size_value_bounds(run) -> None:  # type: ignore[no-untyped-def]
+    r = run("check", ROVER, "--prop", '<<rover>> Pmax=? [ F "goal" ]')
+    assert r.exit_code == EXIT_OK, r.output
+    assert "smg, 60 states, 100 choices, 125 transitions" in r.output
+    assert "0.98765" in r.output and "[0.98765" in r.output
+
+
+def test_check_json_is_documented_shape(run) -> None:  # type: ignore[no-untyped-def]
+    r = run("check", ROVER, "--prop", '<<rover>> Pmax=? [ F "goal" ]', "--json")
+    assert r.exit_code == EXIT_OK, r.output
+    doc = json.loads(r.output)
+    assert doc["model"] == {"type": "smg", "states": 60, "choices": 100, "transitions": 125}
+    (res,) = doc["results"]
+    assert res["property"] == '<<rover>> Pmax=? [ F "goal" ]'
+    assert res["lower"] <= 0.9876561794 <= res["upper"]  # exact value: tests/test_models.py
+    assert res["lower"] <= res["value"] <= res["upper"]
+    assert res["seconds"] >= 0 and res["sound"] is True
+
+
+def test_threshold_false_exits_one(run) -> None:  # type: ignore[no-untyped-def]
+    r = run("check", ROVER, "--prop", '<<rover>> P>=0.99 [ F "goal" ]', "--json")
+    assert r.exit_code == EXIT_PROPERTY_FALSE, r.output
+    assert json.loads(r.output)["results"][0]["value"] is False
+    r = run("check", ROVER, "--prop", '<<rover>> P>=0.95 [ F "goal" ]')
+    assert r.exit_code == EXIT_OK, r.output
+
+
+def test_const_sweep_prints_a_table(run, coin: str) -> None:  # type: ignore[no-untyped-def]
+    r = run("check", coin, "--prop", 'Pmax=? [ F "a" ]', "--const", "p=0.25:0.25:0.75")
+    assert r.exit_code == EXIT_OK, r.output
+    for p in ("0.25", "0.5", "0.75"):
+        assert p in r.output
+
+
+def test_next_with_a_step_bound_is_an_error_with_position(run, coin: str) -> None:  # type: ignore[no-untyped-def]
+    r = run("check", coin, "--const", "p=0.5", "--prop", 'P=? [ X<=3 "a" ]')
+    assert r.exit_code == EXIT_ERROR
+    assert '<--prop 1>:1:8: error: the next operator X cannot have a step bound' in r.output
+    assert 'P=? [ X<=3 "a" ]' in r.output and "^~~" in r.output
+
+
+def test_engine_refusal_points_at_the_property(run, coin: str, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    props = tmp_path / "coin.props"
+    props.write_text('P=? [ F "a" ];\n\nR{"r"}min=? [ C ];\n')
+    r = run("check", coin, str(props), "--const", "p=0.5")
+    assert r.exit_code == EXIT_ERROR
+    # the first property is still answered (PRISM goes on after an error): p = 0.5
+    assert "0.5" in r.output
+    assert f"{props}:3:1: error: negative rewards are not supported" in r.output
+    assert 'R{"r"}min=? [ C ]' in r.output
+
+
+def test_negative_reach_rewards_with_a_sure_target(run, coin: str) -> None:  # type: ignore[no-untyped-def]
+    # every path leaves s=0 after one step collecting -1, and "a | s=2" is reached surely: -1
+    r = run("check", coin, "--const", "p=0.5", "--prop", 'R{"r"}min=? [ F s>0 ]', "--json")
+    assert r.exit_code == EXIT_OK, r.output
+    res = json.loads(r.output)["results"][0]
+    assert res["lower"] <= -1.0 <= res["upper"] and abs(res["value"] + 1.0) < 1e-6
+
+
+def test_partially_observable_needs_full_observation(run) -> None:  # type: ignore[no-untyped-def]
+    r = run("check", ROVER_POSG, "--prop", '<<rover>> Pmax=? [ F "goal" ]')
+    assert r.exit_code == EXIT_ERROR
+    assert "partially observable synthesis is not available" in r.output
+    r = run("check", ROVER_POSG, "--prop", '<<rover>> Pmax=? [ F "goal" ]', "--full-observation")
+    assert r.exit_code == EXIT_OK, r.output
+    assert "full-observation value" in r.output
