@@ -286,9 +286,9 @@ class PropertyChecker:
             if op is TemporalOp.GLOBALLY:
                 bad = ~self._states(path.operands[0])
                 return _flip(self._until(None, bad, path.bound, ~maximize))
-            if op is TemporalOp.WEAK_UNTIL:  # a W b = !( !b U (!a & !b) )
+            if op is TemporalOp.WEAK_UNTIL:  # a W b = !( (a & !b) U (!a & !b) ), as in PRISM
                 a, b = self._states(path.operands[0]), self._states(path.operands[1])
-                return _flip(self._until(~b, ~a & ~b, path.bound, ~maximize))
+                return _flip(self._until(a & ~b, ~a & ~b, path.bound, ~maximize))
             if op is TemporalOp.RELEASE:  # a R b = !( !a U !b )
                 a, b = self._states(path.operands[0]), self._states(path.operands[1])
                 return _flip(self._until(~a, ~b, path.bound, ~maximize))

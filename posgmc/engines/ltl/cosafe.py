@@ -648,11 +648,12 @@ def translate(
         if op is TemporalOp.RELEASE:  # !(a R b) = !a U !b
             a, b = tr(left, neg), tr(right, neg)
             return tab.until(a, b, lo, hi) if neg else release(a, b, lo, hi, expr)
-        # WEAK_UNTIL: a W b = b R (a | b); !(a W b) = !b U (!a & !b)
+        # WEAK_UNTIL, as PRISM rewrites it: a W b = !((a & !b) U (!a & !b)) = (!a | b) R (a | b);
+        # without a lower step bound this is the textbook b R (a | b)
         a, b = tr(left, neg), tr(right, neg)
-        if neg:
-            return tab.until(b, tab.and_([a, b]), lo, hi)
-        return release(b, tab.or_([a, b]), lo, hi, expr)
+        if neg:  # (a & !b) U (!a & !b), with a, b already negated here
+            return tab.until(tab.and_([tr(left, False), b]), tab.and_([a, b]), lo, hi)
+        return release(tab.or_([tr(left, True), b]), tab.or_([a, b]), lo, hi, expr)
 
     root = tr(path, False)
     return Translation(tab, root, origins)
