@@ -1,6 +1,12 @@
 """Numerical engines on explicit models: graph precomputation, value/interval iteration, products.
 
-* :mod:`posgmc.engines.objectives` -- the public entry points (reachability, rewards, strategies);
+* :mod:`posgmc.engines.objectives` -- the public entry points (reachability, rewards, strategies),
+  re-exported from one module per objective family: :mod:`~posgmc.engines.reach`,
+  :mod:`~posgmc.engines.step_bounds`, :mod:`~posgmc.engines.rewards` (with
+  :mod:`~posgmc.engines.signed` for mixed-sign rewards), :mod:`~posgmc.engines.total`,
+  :mod:`~posgmc.engines.zero_reward`, :mod:`~posgmc.engines.stepped`,
+  :mod:`~posgmc.engines.discounted`, :mod:`~posgmc.engines.strategy`; shared plumbing in
+  :mod:`~posgmc.engines.common`;
 * :mod:`posgmc.engines.options` / :mod:`posgmc.engines.result` -- configuration and result records;
 * :mod:`posgmc.engines.graph` -- attractors, qualitative reachability, end components;
 * :mod:`posgmc.engines.iteration` -- the sound iterative solver (optimistic interval iteration with

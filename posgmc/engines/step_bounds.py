@@ -13,7 +13,7 @@ one-step operator restricted to ``phi``::
 (PRISM's ``computeRestrictedNext`` repeated ``k1`` times). This is the dynamic programme of the
 finite-horizon game whose last ``k1`` steps are the prefix, so the optimum is taken per state and
 per remaining step, as for ``U<=k``; the optimal strategies need a step counter, so none is
-returned (as for :func:`~posgmc.engines.objectives.bounded_reach_probability`).
+returned (as for :func:`~posgmc.engines.reach.bounded_reach_probability`).
 
 ``Step`` is monotone and non-expansive in the sup norm, so the proven lower and upper bounds of an
 unbounded ``v_0`` stay proven bounds after the ``k1`` steps, and their gap does not grow: lower,
@@ -29,8 +29,8 @@ import numpy as np
 
 from posgmc.engines.graph import structure_of
 from posgmc.engines.iteration import bellman, build_system, reduce_rows
-from posgmc.engines.objectives import bounded_reach_probability, reach_probability
 from posgmc.engines.options import SolverOptions
+from posgmc.engines.reach import bounded_reach_probability, reach_probability
 from posgmc.engines.result import EngineResult
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
@@ -67,13 +67,13 @@ def interval_reach_probability(
         lower_steps: k1 >= 0, the first step at which ``target`` counts.
         upper_steps: k2 >= k1, the last such step; None for no upper bound.
         maximize: bool[S], True where the state's owner maximises the probability (the convention
-            of :func:`~posgmc.engines.objectives.maximize_mask`).
+            of :func:`~posgmc.engines.common.maximize_mask`).
         options: solver options, used for the unbounded part (``upper_steps`` None).
 
     Returns:
         The :class:`EngineResult`. With ``upper_steps`` given the values are exact up to floating
         point (``lower = upper = values``); without, ``lower``/``upper`` are the proven bounds of
-        :func:`~posgmc.engines.objectives.reach_probability` carried through the ``k1`` steps,
+        :func:`~posgmc.engines.reach.reach_probability` carried through the ``k1`` steps,
         ``iterations`` counts both phases. ``strategy`` is None when ``lower_steps > 0`` (it needs a
         step counter); with ``lower_steps == 0`` the result is that of ``reach_probability`` or
         ``bounded_reach_probability`` unchanged.

@@ -10,7 +10,7 @@ from posgmc.engines import objectives as obj
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.errors import PosgmcError, UnsupportedError
 from posgmc.model.explicit import make_model
-from posgmc.syntax.ast import ModelType
+from posgmc.syntax.ast import Direction, ModelType
 
 ALL_METHODS = list(Method)
 INF = obj.ReachRewardMode.INFINITY
@@ -85,7 +85,7 @@ def test_zero_mode_on_a_game() -> None:
     r = np.zeros(9)
     r[[0, 1]] = 1.0
     t = (m.state_values[:, 0] == 2) & (m.state_values[:, 1] == 0)
-    mx = obj.maximize_mask(m, direction=obj.Direction.MAX, coalition=frozenset({0}))
+    mx = obj.maximize_mask(m, direction=Direction.MAX, coalition=frozenset({0}))
     _close(obj.expected_reach_reward(m, r, t, maximize=mx, mode=ZERO), [0.15, 0.15, 0.0, 0.0, 0.0])
 
 
@@ -206,7 +206,7 @@ def test_negative_rewards_are_rejected_for_total_reward() -> None:
 def test_cumulative_and_instantaneous() -> None:
     m = game_prism()
     r = m.reward_models[0].choice_rewards(m.row_groups)  # 1 per step everywhere
-    mx = obj.maximize_mask(m, direction=obj.Direction.MAX, coalition=frozenset({0}))
+    mx = obj.maximize_mask(m, direction=Direction.MAX, coalition=frozenset({0}))
     # C<=k with reward 1 per step is k in every state
     for k in (0, 1, 4):
         assert np.allclose(obj.cumulative_reward(m, r, steps=k, maximize=mx).values, k)
@@ -229,7 +229,7 @@ def test_smg_example_cumulative_minimum() -> None:
     m = smg_example()
     r = np.zeros(9)
     r[[0, 1]] = 1.0
-    mx = obj.maximize_mask(m, direction=obj.Direction.MAX, coalition=frozenset({0}))
+    mx = obj.maximize_mask(m, direction=Direction.MAX, coalition=frozenset({0}))
     assert obj.cumulative_reward(m, r, steps=3, maximize=mx).values[0] == pytest.approx(1.15)
 
 

@@ -19,7 +19,7 @@ from engine_models import game_prism
 from posgmc.engines import objectives as obj
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
-from posgmc.syntax.ast import ModelType
+from posgmc.syntax.ast import Direction, ModelType
 
 ZERO = obj.ReachRewardMode.ZERO
 
@@ -30,7 +30,7 @@ def test_game_prism_f0() -> None:
     t1 = np.zeros(8, dtype=bool)
     t1[6] = True
     rew = m.reward_models[0].choice_rewards(m.row_groups)
-    mx = obj.maximize_mask(m, direction=obj.Direction.MAX, coalition=frozenset({0}))
+    mx = obj.maximize_mask(m, direction=Direction.MAX, coalition=frozenset({0}))
     res = obj.expected_reach_reward(m, rew, t1, maximize=mx, mode=ZERO)
     assert res.values[0] == pytest.approx(0.4, abs=1e-6)
     assert res.lower[0] <= 0.4 + 1e-9 <= res.upper[0] + 2e-9

@@ -1,0 +1,85 @@
+"""Step-bounded rewards: ``R[C<=k]`` (cumulative) and ``R[I=k]`` (instantaneous).
+
+Both are exact up to floating point: k Bellman steps over all states, optimised per state and per
+remaining step. Their optimal strategies need a step counter, so none is returned (step-bounded
+probabilities are in :mod:`posgmc.engines.reach` and :mod:`posgmc.engines.step_bounds`).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from posgmc.engines.common import _check_rewards, _directions, _exact_result
+from posgmc.engines.graph import structure_of
+from posgmc.engines.iteration import bellman, build_system
+from posgmc.engines.options import SolverOptions
+from posgmc.engines.result import EngineResult
+from posgmc.errors import PosgmcError
+from posgmc.model.explicit import ExplicitModel
+
+__all__ = ["cumulative_reward", "instantaneous_reward"]
+
+
+def cumulative_reward(
+    model: ExplicitModel,
+    rewards: np.ndarray,
+    *,
+    steps: int,
+    maximize: np.ndarray,
+    options: SolverOptions = SolverOptions(),
+) -> EngineResult:
+    """``R[C<=k]``: the choice rewards of the first ``steps`` steps, by k Bellman steps.
+
+    Returns:
+        The :class:`EngineResult` (exact up to floating point; no strategy).
+    """
+    started = time.perf_counter()
+    if steps < 0:
+        raise PosgmcError(f"a step bound must be non-negative, got {steps}")
+    r = _check_rewards(model, rewards, nonnegative=False)
+    mx = _directions(model, maximize)
+    S = model.num_states
+    x = np.zeros(S)
+    if steps > 0:
+        sys = build_system(
+            structure_of(model), np.ones(S, dtype=bool), maximize=mx, choice_offset=r
+        )
+        local = np.zeros(S)
+        for _ in range(steps):
+            local = bellman(sys, local)
+        x[sys.states] = local
+    return _exact_result(x, steps, options.method, started)
+
+
+def instantaneous_reward(
+    model: ExplicitModel,
+    state_rewards: np.ndarray,
+    *,
+    steps: int,
+    maximize: np.ndarray,
+    options: SolverOptions = SolverOptions(),
+) -> EngineResult:
+    """``R[I=k]``: the expected state reward of the state occupied after ``steps`` steps.
+
+    Returns:
+        The :class:`EngineResult` (exact up to floating point; no strategy).
+    """
+    started = time.perf_counter()
+    if steps < 0:
+        raise PosgmcError(f"a step bound must be non-negative, got {steps}")
+    S = model.num_states
+    sr = np.asarray(state_rewards, dtype=np.float64)
+    if sr.shape != (S,):
+        raise PosgmcError(f"state rewards need one entry per state ({S}), got {sr.shape}")
+    mx = _directions(model, maximize)
+    x = sr.copy()
+    if steps > 0:
+        sys = build_system(structure_of(model), np.ones(S, dtype=bool), maximize=mx)
+        local = sr[sys.states]
+        for _ in range(steps):
+            local = bellman(sys, local)
+        x = np.empty(S)
+        x[sys.states] = local
+    return _exact_result(x, steps, options.method, started)
