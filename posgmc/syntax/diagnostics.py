@@ -14,12 +14,29 @@ from copy import copy
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
-from lark import Token, Tree
+from lark import Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
 from lark.lexer import PatternStr, TerminalDef
 from lark.parsers.lalr_parser_state import ParserState
 
 from posgmc.errors import ParseError, SourceSpan
+from posgmc.syntax.ast import (
+    Binary,
+    Call,
+    ConstantDecl,
+    FormulaDecl,
+    Ite,
+    LabelDecl,
+    ProbQuery,
+    RewardKind,
+    RewardObjective,
+    RewardQuery,
+    Temporal,
+    TimeBound,
+    Unary,
+    UnaryOp,
+)
+from posgmc.syntax.transformer import PropertyItem, QueryOp
 
 _FUNCTIONS = "min, max, floor, ceil, round, pow, mod and log"
 
@@ -70,7 +87,9 @@ _BLOCKS: dict[str, tuple[str, str]] = {
 
 @dataclass(frozen=True)
 class _Context:
-    """What the parser was in the middle of when it failed, read off its value stack."""
+    """What the parser was in the middle of when it failed, read off its value stack: tokens
+    not yet reduced, and the values (``ast.py`` nodes and the transformer's intermediate
+    records; lists for repetitions) of the complete phrases before them."""
 
     stack: tuple[object, ...]
 
@@ -90,37 +109,68 @@ class _Context:
                 rest = self.stack[i + 1 :]
                 if rest and isinstance(rest[0], Token) and rest[0].value in _BOUND_OPS:
                     return token.type in ("PLUS", "MINUS")
-                first = rest[0] if rest else None
-                if len(rest) > 1 and isinstance(first, Tree) and first.data.startswith("bound_"):
+                if len(rest) > 1 and isinstance(rest[0], TimeBound):
                     after = rest[1]
-                    return (isinstance(after, Tree) and after.data == "neg") or (
+                    return _is_negation(after) or (
                         isinstance(after, Token) and after.type == "MINUS"
                     )
                 break
-        return any(_bound_then_minus(item) for item in self.stack if isinstance(item, Tree))
+        return any(_bound_then_minus(item) for item in self.stack if not isinstance(item, Token))
 
 
 _BOUND_OPS = frozenset({"<=", "<", ">=", ">", "="})
-_TEMPORAL_TREES = frozenset({"next", "eventually", "globally", "until", "weak_until", "release"})
 
 
-def _bound_then_minus(tree: Tree) -> bool:
-    """True if ``tree`` (or its last descendant chain) is a bounded temporal operator whose
-    operand right after the bound is a negation."""
-    node: object = tree
-    while isinstance(node, Tree):
-        children = node.children
-        if node.data in _TEMPORAL_TREES:
-            for a, b in zip(children, children[1:]):
-                if (
-                    isinstance(a, Tree)
-                    and str(a.data).startswith("bound_")
-                    and isinstance(b, Tree)
-                    and b.data == "neg"
-                ):
-                    return True
-        node = children[-1] if children else None
+def _is_negation(value: object) -> bool:
+    return isinstance(value, Unary) and value.op is UnaryOp.NEG
+
+
+def _bound_then_minus(value: object) -> bool:
+    """True if ``value`` (or the chain of its last operands) holds a bounded temporal operator
+    whose operand right after the bound is a negation."""
+    node: object = value
+    while node is not None:
+        if isinstance(node, Temporal) and node.bound is not None:
+            if _is_negation(node.operands[-1]):
+                return True
+        node = _last_part(node)
     return False
+
+
+def _last_part(value: object) -> object:
+    """The last part of a stack value as written (its last operand), or ``None`` for a leaf."""
+    if isinstance(value, list):  # a repetition, e.g. the properties read so far
+        return value[-1] if value else None
+    if isinstance(value, Unary):
+        return value.operand
+    if isinstance(value, Binary):
+        return value.right
+    if isinstance(value, Ite):
+        return value.otherwise
+    if isinstance(value, (Call, Temporal)):
+        operands = value.args if isinstance(value, Call) else value.operands
+        return operands[-1] if operands else None
+    if isinstance(value, ProbQuery):
+        return value.path
+    if isinstance(value, RewardQuery):
+        return value.objective
+    if isinstance(value, RewardObjective):
+        if value.kind in (RewardKind.CUMULATIVE, RewardKind.INSTANTANEOUS):
+            return value.bound
+        if value.kind is RewardKind.DISCOUNTED_TOTAL:
+            return value.discount
+        return value.target
+    if isinstance(value, QueryOp):
+        return value.threshold.value if value.threshold is not None else None
+    if isinstance(value, TimeBound):
+        return value.upper if value.upper is not None else value.lower
+    if isinstance(value, PropertyItem):
+        return value.expr
+    if isinstance(value, ConstantDecl):
+        return value.value
+    if isinstance(value, (FormulaDecl, LabelDecl)):
+        return value.expr
+    return None
 
 
 def _join(phrases: Sequence[str]) -> str:
