@@ -25,7 +25,8 @@ from posgmc.syntax.ast import (
     Unary,
     UnaryOp,
 )
-from posgmc.syntax.parser import lark_parser, parse_expression
+from posgmc.syntax.lalr import lark_parser
+from posgmc.syntax.parser import parse_expression
 
 a, b, c, d = Ident("a"), Ident("b"), Ident("c"), Ident("d")
 

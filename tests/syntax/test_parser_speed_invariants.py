@@ -31,7 +31,7 @@ from typing import Any, Iterator
 
 import pytest
 
-import posgmc.syntax.parser as parser_module
+import posgmc.syntax.lalr as lalr_module
 from posgmc.errors import ParseError, PosgmcError, SourceSpan
 from posgmc.syntax.ast import (
     Binary,
@@ -334,10 +334,10 @@ def test_own_lexing_loop_agrees_with_larks_lexer(
     benchmarks: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     fast = {name: dump(_parse(name, path)) for name, path in FILES}
-    scanners = parser_module._automaton().scanners
+    scanners = lalr_module._automaton().scanners
     saved = list(scanners)
     # a scanner that never matches hands all lexing over to lark's contextual lexer
-    monkeypatch.setattr(parser_module, "_scanner", lambda state: parser_module._NO_SCANNER)
+    monkeypatch.setattr(lalr_module, "_scanner", lambda state: lalr_module._NO_SCANNER)
     scanners[:] = [None] * len(scanners)
     try:
         for name, path in FILES:
@@ -424,13 +424,13 @@ def test_cache_lives_in_a_private_directory(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    where = parser_module._cache_file("grammar text")
+    where = lalr_module._cache_file("grammar text")
     assert isinstance(where, str)
     assert Path(where).parent == tmp_path / "posgmc"
     if os.name == "posix":
         assert (tmp_path / "posgmc").stat().st_mode & 0o777 == 0o700
     # another grammar (or lark or Python version) gets another file
-    assert parser_module._cache_file("other grammar") != where
+    assert lalr_module._cache_file("other grammar") != where
 
 
 @pytest.mark.skipif(os.name != "posix", reason="POSIX permissions")
@@ -440,7 +440,7 @@ def test_no_cache_in_a_directory_others_may_write(
     (tmp_path / "posgmc").mkdir()
     (tmp_path / "posgmc").chmod(0o777)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    assert parser_module._cache_file("grammar text") is False
+    assert lalr_module._cache_file("grammar text") is False
 
 
 def test_no_cache_where_no_directory_can_be_made(
@@ -449,7 +449,7 @@ def test_no_cache_where_no_directory_can_be_made(
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
     monkeypatch.setenv("XDG_CACHE_HOME", str(blocker))
-    assert parser_module._cache_file("grammar text") is False
+    assert lalr_module._cache_file("grammar text") is False
 
 
 def _record() -> None:  # pragma: no cover - run by hand, see the module docstring
