@@ -36,7 +36,7 @@ from posgmc.syntax.ast import (
     Unary,
     UnaryOp,
 )
-from posgmc.syntax.transformer import PropertyItem, QueryOp
+from posgmc.syntax.items import PropertyItem, QueryOp
 
 _FUNCTIONS = "min, max, floor, ceil, round, pow, mod and log"
 

@@ -1,0 +1,86 @@
+"""Where temporal operators may stand: only directly inside ``P[..]``/``R[..]`` (and nested in
+path formulas there), checked on the syntax tree as PRISM's parser does."""
+
+from __future__ import annotations
+
+import operator
+from typing import Iterable
+
+
+from posgmc.errors import ParseError
+from posgmc.syntax.ast import (
+    Binary,
+    Call,
+    Expr,
+    Ite,
+    ProbQuery,
+    RewardKind,
+    RewardQuery,
+    Temporal,
+    Unary,
+)
+
+
+def contains_temporal(expr: Expr) -> bool:
+    """True if ``expr`` has a temporal operator outside any nested P/R query."""
+    if isinstance(expr, Temporal):
+        return True
+    return any(contains_temporal(child) for child in _state_children(expr))
+
+
+def _state_children(expr: Expr) -> Iterable[Expr]:
+    """The operands of ``expr`` that belong to the same formula (nested queries excluded)."""
+    if isinstance(expr, Unary):
+        return (expr.operand,)
+    if isinstance(expr, Binary):
+        return (expr.left, expr.right)
+    if isinstance(expr, Ite):
+        return (expr.cond, expr.then, expr.otherwise)
+    if isinstance(expr, Call):
+        return expr.args
+    if isinstance(expr, Temporal):
+        return expr.operands
+    return ()
+
+
+def check_temporal_placement(expr: Expr, *, allowed: bool) -> None:
+    """Reject temporal operators outside ``P[..]``/``R[..]`` (PRISM rejects them while parsing).
+
+    Args:
+        expr: a property expression.
+        allowed: whether ``expr`` itself stands where a path formula may.
+
+    Raises:
+        ParseError: at the first misplaced temporal operator.
+    """
+    if isinstance(expr, Temporal):
+        if not allowed:
+            raise ParseError(
+                f"the temporal operator {expr.op.value} may only appear inside P[...] or R[...]",
+                expr.span,
+                hint='write e.g. Pmax=? [ F "goal" ] instead of F "goal"',
+            )
+        for operand in expr.operands:
+            check_temporal_placement(operand, allowed=True)
+        if expr.bound is not None:
+            for b in (expr.bound.lower, expr.bound.upper):
+                if b is not None:
+                    check_temporal_placement(b, allowed=False)
+        return
+    if isinstance(expr, ProbQuery):
+        if expr.threshold is not None:
+            check_temporal_placement(expr.threshold.value, allowed=False)
+        check_temporal_placement(expr.path, allowed=True)
+        return
+    if isinstance(expr, RewardQuery):
+        if expr.threshold is not None:
+            check_temporal_placement(expr.threshold.value, allowed=False)
+        obj = expr.objective
+        for part in (obj.bound, obj.discount):
+            if part is not None:
+                check_temporal_placement(part, allowed=False)
+        if obj.target is not None:
+            check_temporal_placement(obj.target, allowed=obj.kind is RewardKind.LTL)
+        return
+    for child in _state_children(expr):
+        check_temporal_placement(child, allowed=allowed)
