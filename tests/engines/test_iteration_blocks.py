@@ -1,4 +1,4 @@
-"""The blocked (Gauss-Seidel) layout of :class:`~posgmc.engines.iteration.System`.
+"""The blocked (Gauss-Seidel) layout of :class:`~posgmc.engines.system.System`.
 
 Large systems are laid out in blocks (the backward-search layers of the positive region) and the
 lower iteration and the verification sweep them in order. Small test models stay below the size
@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from engine_models import as_floats, small_models
-from posgmc.engines import iteration as it
+from posgmc.engines import system as it
 from posgmc.engines import objectives as obj
 from posgmc.engines.graph import positive_reach, structure_of
 from posgmc.model.explicit import ExplicitModel

@@ -1,0 +1,408 @@
+"""The fixpoint problem on the unknown states (:class:`System`), its memory layout and the
+Bellman kernels every solver runs.
+
+A :class:`System` is the part of a model left after graph precomputation: ``n`` unknown states,
+``m`` rows (their usable choices), a sparse matrix ``A`` [m, n] and a constant ``b`` [m] per row,
+so that the Bellman operator is::
+
+    B(x)(s) = opt_{r in rows(s)} ( b[r] + sum_t A[r, t] x[t] ),   opt = max or min per state.
+
+Performance: unknown states are renumbered maximisers first, then by block, then by decreasing
+number of rows, and rows are stored by *block and slot* (slot j holds the j-th row of every state
+of the block with more than j rows). A Bellman step is then one sparse matrix-vector product into a
+preallocated buffer (scipy's ``csr_matvec`` kernel, falling back to ``A @ x``) and, per slot, one
+contiguous ``np.maximum``/``np.minimum`` -- no ``reduceat``, no allocation.
+
+Blocks (large systems only) group consecutive backward-search layers of the positive region;
+:mod:`posgmc.engines.iteration` sweeps them Gauss-Seidel style.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from posgmc.engines.graph import Structure
+
+try:  # the C kernels behind ``A @ x``; they accumulate into a given output buffer
+    from scipy.sparse import _sparsetools as _kernels
+
+    _HAVE_KERNELS = hasattr(_kernels, "csr_matvec") and hasattr(_kernels, "csr_matvecs")
+except ImportError:  # pragma: no cover - depends on the scipy build
+    _kernels = None
+    _HAVE_KERNELS = False
+
+__all__ = [
+    "System",
+    "build_system",
+    "bellman",
+    "reduce_rows",
+    "argopt_rows",
+    "choice_values",
+    "choose",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class System:
+    """The unknowns of one fixpoint problem in slot layout (see the module docstring).
+
+    ``states``: int64[n], the model state of each unknown; local states ``[0, num_max)`` maximise.
+    ``rows``: int64[m], the model choice of each row; ``row_state``: int64[m], its local state.
+    ``matrix``: csr float64 [m, n]; ``offset``: float64[m] (b); ``stays``: bool[m], no probability
+    leaves the unknowns.
+
+    ``slots``: int64[E, 6], one entry ``(row_start, max_lo, a, min_lo, b, j)`` per (block, slot
+    j): rows ``[row_start, row_start + a)`` are the j-th rows of the maximising states
+    ``[max_lo, max_lo + a)`` and the next ``b`` rows the j-th rows of the minimising states
+    ``[min_lo, min_lo + b)``. ``blocks``: int64[B + 1], block i owns the entries
+    ``blocks[i]:blocks[i+1]``, whose rows are contiguous; its j = 0 entry covers all its states.
+    Blocks are the Gauss-Seidel order of the lower iteration (nearest the known values first);
+    without an order there is one block and entry j is slot j of every state.
+    """
+
+    states: np.ndarray
+    rows: np.ndarray
+    row_state: np.ndarray
+    matrix: sp.csr_matrix
+    offset: np.ndarray
+    stays: np.ndarray
+    num_max: int
+    slots: np.ndarray
+    blocks: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return int(self.states.size)
+
+    @property
+    def m(self) -> int:
+        return int(self.rows.size)
+
+    @property
+    def maximize(self) -> np.ndarray:
+        """bool[n]."""
+        out = np.zeros(self.n, dtype=bool)
+        out[: self.num_max] = True
+        return out
+
+    @property
+    def row_maximize(self) -> np.ndarray:
+        """bool[m]: the row belongs to a maximising state."""
+        return self.row_state < self.num_max
+
+    @property
+    def num_blocks(self) -> int:
+        return int(self.blocks.size - 1)
+
+    @cached_property
+    def entries(self) -> tuple[tuple[int, int, int, int, int, int], ...]:
+        """The slot table as Python ints (the reduction loops read it every step)."""
+        return tuple(tuple(int(v) for v in e) for e in self.slots)  # type: ignore[misc]
+
+    @cached_property
+    def plan(self) -> tuple[tuple[int, int, int, int, int, int, tuple], ...]:
+        """Per block ``(row_lo, row_hi, max_lo, a, min_lo, b, entries)``: its rows, its maximising
+        states ``[max_lo, max_lo + a)``, minimising states ``[min_lo, min_lo + b)`` and entries."""
+        out = []
+        for i in range(self.num_blocks):
+            ents = self.entries[int(self.blocks[i]) : int(self.blocks[i + 1])]
+            rs, ml, a, nl, b, _ = ents[0]
+            last = ents[-1]
+            out.append((rs, last[0] + last[2] + last[4], ml, a, nl, b, ents))
+        return tuple(out)
+
+    @cached_property
+    def first_row(self) -> np.ndarray:
+        """int64[n]: the first row (local index) of every state."""
+        out = np.empty(self.n, dtype=np.int64)
+        for rs, ml, a, nl, b, j in self.entries:
+            if j == 0:
+                out[ml : ml + a] = np.arange(rs, rs + a)
+                out[nl : nl + b] = np.arange(rs + a, rs + a + b)
+        return out
+
+
+_MAX_BLOCKS = 128
+"""Gauss-Seidel blocks at most: each costs a few numpy calls per sweep; fewer blocks of several
+BFS layers each still carry the values outwards by one block per layer inside a sweep."""
+
+_MIN_BLOCKED_STATES = 50_000
+"""Below this many unknowns one block (Jacobi) is as fast: the per-block overhead dominates."""
+
+
+def _block_of(layer: np.ndarray) -> np.ndarray:
+    """int64[n]: consecutive layers merged into at most ``_MAX_BLOCKS`` blocks of similar size."""
+    lay = layer.astype(np.int64)
+    unjoined = lay < 0
+    if unjoined.any():
+        lay[unjoined] = lay.max(initial=0) + 1
+    _, lay = np.unique(lay, return_inverse=True)
+    counts = np.bincount(lay)
+    size = -(-lay.size // _MAX_BLOCKS)
+    first = (np.cumsum(counts) - counts) // size  # the chunk where each layer starts
+    _, block_of_layer = np.unique(first, return_inverse=True)
+    return block_of_layer[lay]
+
+
+def build_system(
+    g: Structure,
+    unknown: np.ndarray,
+    *,
+    maximize: np.ndarray,
+    allowed: np.ndarray | None = None,
+    choice_offset: np.ndarray | None = None,
+    fixed: np.ndarray | None = None,
+    layer: np.ndarray | None = None,
+) -> System:
+    """The fixpoint problem on ``unknown`` states.
+
+    Args:
+        g: the model structure.
+        unknown: bool[S]; every unknown state needs at least one allowed choice.
+        maximize: bool[S].
+        allowed: bool[C] or None: the choices the optimisation ranges over.
+        choice_offset: float64[C] or None: a constant per choice (a reward).
+        fixed: float64[S] or None: the known value of every other state; probability mass into known
+            states adds ``p * fixed`` to the row's offset.
+        layer: int64[S] or None: an order for the Gauss-Seidel lower iteration, smallest first
+            (e.g. the backward-search round where a state joined the positive region: values flow
+            from the known states outwards); None: one block.
+
+    Returns:
+        The :class:`System`.
+    """
+    S = g.num_states
+    unk = np.flatnonzero(unknown)
+    usable = unknown[g.choice_state]
+    if allowed is not None:
+        usable &= allowed
+    rows_global = np.flatnonzero(usable)
+    if allowed is None:
+        counts_all = np.where(unknown, g.num_choices, 0)
+    else:
+        counts_all = np.bincount(g.choice_state[rows_global], minlength=S)
+    counts = counts_all[unk]
+    if counts.size and counts.min() < 1:
+        raise ValueError("every unknown state needs at least one allowed choice")
+    is_max = maximize[unk]
+    kmax = int(counts.max()) if counts.size else 0
+    if layer is not None and unk.size >= _MIN_BLOCKED_STATES:
+        block = _block_of(layer[unk])
+    else:
+        block = np.zeros(unk.size, dtype=np.int64)
+    nb = int(block.max()) + 1 if block.size else 1
+    # maximisers first, then by block, then by decreasing number of rows; a stable sort on a small
+    # integer key (numpy uses radix sort for 16-bit keys)
+    key = ((~is_max).astype(np.int64) * nb + block) * (kmax + 1) + (kmax - counts)
+    if key.size and int(key.max()) < 2**16:
+        order = np.argsort(key.astype(np.uint16), kind="stable")
+    else:
+        order = np.argsort(key, kind="stable")
+    states = unk[order]
+    counts = counts[order]
+    block = block[order]
+    n = int(states.size)
+    num_max = int(is_max.sum())
+    local_of = np.full(S, -1, dtype=np.int64)
+    local_of[states] = np.arange(n, dtype=np.int64)
+    # entry (block i, slot j): the states of block i with more than j rows, per player; counts are
+    # sorted decreasingly inside each (player, block), so these are prefixes of its state ranges
+    player = (np.arange(n) >= num_max).astype(np.int64)
+    hist = np.bincount((block * 2 + player) * (kmax + 1) + counts, minlength=nb * 2 * (kmax + 1))
+    hist = hist.reshape(nb, 2, kmax + 1)
+    total = hist.sum(axis=2)  # [nb, 2]
+    more = total[:, :, None] - np.cumsum(hist, axis=2)[:, :, :kmax]  # [nb, 2, kmax]
+    sizes = (more[:, 0, :] + more[:, 1, :]).ravel()  # in (block, slot) order
+    row_start = (np.cumsum(sizes) - sizes).reshape(nb, kmax) if kmax else np.zeros((nb, 0), int)
+    max_lo = np.cumsum(total[:, 0]) - total[:, 0]
+    min_lo = num_max + np.cumsum(total[:, 1]) - total[:, 1]
+    nonempty = sizes > 0
+    bi, jj = np.divmod(np.flatnonzero(nonempty), max(kmax, 1))
+    slots = np.stack(
+        [
+            row_start[bi, jj],
+            max_lo[bi],
+            more[bi, 0, jj],
+            min_lo[bi],
+            more[bi, 1, jj],
+            jj,
+        ],
+        axis=1,
+    ).astype(np.int64).reshape(-1, 6)
+    blocks = np.zeros(nb + 1, dtype=np.int64)
+    np.cumsum(np.bincount(bi, minlength=nb), out=blocks[1:])
+    # scatter every usable row to its position (rows_global is grouped by state)
+    row_st = g.choice_state[rows_global]
+    start_of = np.zeros(S + 1, dtype=np.int64)
+    np.cumsum(counts_all, out=start_of[1:])
+    rank = np.arange(rows_global.size, dtype=np.int64) - start_of[row_st]
+    loc = local_of[row_st]
+    # position = table[block, player, slot] + local state, one gather per row
+    table = np.stack(
+        [row_start - max_lo[:, None], row_start + more[:, 0, :] - min_lo[:, None]], axis=1
+    ).ravel()  # [nb, 2, kmax]
+    state_base = (block * 2 + player) * kmax
+    pos = table[state_base[loc] + rank] + loc
+    rows = np.empty(rows_global.size, dtype=np.int64)
+    rows[pos] = rows_global
+    row_state = np.empty(rows_global.size, dtype=np.int64)
+    row_state[pos] = loc
+    # matrix restricted to the unknown columns; the rest goes into the offset
+    T = g.transitions
+    sub = T[rows]
+    index_dtype = np.int32 if max(n, sub.nnz) < 2**31 - 1 else np.int64
+    local32 = local_of.astype(index_dtype)
+    loc = local32[sub.indices]
+    inside = loc >= 0
+    offset = (
+        np.zeros(rows.size) if choice_offset is None else choice_offset[rows].astype(np.float64)
+    )
+    if fixed is not None and np.any(fixed != 0):
+        known_fixed = np.where(local_of >= 0, 0.0, fixed)
+        offset += sub @ known_fixed
+    # the kept entries before each row's start: one running count over all entries
+    kept = np.zeros(sub.nnz + 1, dtype=index_dtype)
+    np.cumsum(inside, out=kept[1:])
+    indptr = kept[sub.indptr]
+    stays = np.diff(indptr) == np.diff(sub.indptr)
+    matrix = sp.csr_matrix((sub.data[inside], loc[inside], indptr), shape=(rows.size, n))
+    return System(
+        states=states,
+        rows=rows,
+        row_state=row_state,
+        matrix=matrix,
+        offset=offset,
+        stays=stays,
+        num_max=num_max,
+        slots=slots,
+        blocks=blocks,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# kernels
+# ---------------------------------------------------------------------------------------------
+
+
+def _multiply(sys: System, x: np.ndarray, y: np.ndarray) -> None:
+    """y = offset + A x (x: [n] or [n, k] C-contiguous; y preallocated, same trailing shape)."""
+    A = sys.matrix
+    if x.ndim == 1:
+        y[:] = sys.offset
+        if _HAVE_KERNELS:
+            _kernels.csr_matvec(A.shape[0], A.shape[1], A.indptr, A.indices, A.data, x, y)
+        else:  # pragma: no cover
+            y += A @ x
+    else:
+        y[:] = sys.offset[:, None]
+        if _HAVE_KERNELS:
+            _kernels.csr_matvecs(
+                A.shape[0],
+                A.shape[1],
+                x.shape[1],
+                A.indptr,
+                A.indices,
+                A.data,
+                x.ravel(),
+                y.ravel(),
+            )
+        else:  # pragma: no cover
+            y += A @ x
+
+
+def _reduce_entries(
+    entries: tuple[tuple[int, int, int, int, int, int], ...], y: np.ndarray, out: np.ndarray
+) -> None:
+    for rs, ml, a, nl, b, j in entries:
+        if j == 0:
+            out[ml : ml + a] = y[rs : rs + a]
+            out[nl : nl + b] = y[rs + a : rs + a + b]
+            continue
+        if a:
+            np.maximum(out[ml : ml + a], y[rs : rs + a], out=out[ml : ml + a])
+        if b:
+            np.minimum(out[nl : nl + b], y[rs + a : rs + a + b], out=out[nl : nl + b])
+
+
+def _reduce(sys: System, y: np.ndarray, out: np.ndarray) -> None:
+    """out[s] = opt over the rows of s of y[row] (1-D or 2-D along axis 0)."""
+    _reduce_entries(sys.entries, y, out)
+
+
+def bellman(sys: System, x: np.ndarray) -> np.ndarray:
+    """B(x) (allocating; for tests and one-off use)."""
+    y = np.empty((sys.m,) + x.shape[1:])
+    _multiply(sys, np.ascontiguousarray(x), y)
+    out = np.empty_like(x, dtype=np.float64)
+    _reduce(sys, y, out)
+    return out
+
+
+def reduce_rows(sys: System, y: np.ndarray) -> np.ndarray:
+    """float64[n]: the optimum over each state's rows of the row values ``y`` (float64[m])."""
+    out = np.empty(sys.n)
+    _reduce(sys, y, out)
+    return out
+
+
+def argopt_rows(sys: System, y: np.ndarray) -> np.ndarray:
+    """int64[n]: the first optimal row (local index) of each state for row values ``y``."""
+    return _argopt(sys, y)
+
+
+def choice_values(sys: System, x: np.ndarray) -> np.ndarray:
+    """float64[m]: b + A x per row."""
+    y = np.empty((sys.m,) + x.shape[1:])
+    _multiply(sys, np.ascontiguousarray(x, dtype=np.float64), y)
+    return y
+
+
+def _argopt(sys: System, y: np.ndarray) -> np.ndarray:
+    """int64[n]: the first optimal row of each state for row values y."""
+    arg = sys.first_row.copy()
+    best = y[arg]
+    for rs, ml, a, nl, b, j in sys.entries:
+        if j == 0:
+            continue
+        if a:
+            seg = y[rs : rs + a]
+            better = seg > best[ml : ml + a]
+            best[ml : ml + a][better] = seg[better]
+            arg[ml : ml + a][better] = rs + np.flatnonzero(better)
+        if b:
+            seg = y[rs + a : rs + a + b]
+            better = seg < best[nl : nl + b]
+            best[nl : nl + b][better] = seg[better]
+            arg[nl : nl + b][better] = rs + a + np.flatnonzero(better)
+    return arg
+
+
+def choose(sys: System, lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A strategy from bounds: the best row of each state for the midpoint, and the rows that are
+    not provably suboptimal (maximiser: ``b + A upper >= lower(s)``; minimiser: ``b + A lower <=
+    upper(s)``).
+
+    Returns:
+        ``(best_row, candidate)``: int64[n] local row indices; bool[m].
+    """
+    lo = np.where(np.isfinite(lower), lower, 0.0)
+    hi = upper.copy()
+    finite = np.isfinite(hi)
+    y = choice_values(sys, np.ascontiguousarray(np.stack([lo, np.where(finite, hi, 0.0)], axis=1)))
+    y_lo, y_hi = y[:, 0], y[:, 1]
+    # rows into states with an infinite upper bound have an infinite upper value
+    if not finite.all():
+        inf_rows = np.asarray(sys.matrix @ (~finite).astype(np.float64)) > 0
+        y_hi = np.where(inf_rows, np.inf, y_hi)
+    mid = np.where(np.isfinite(y_hi), 0.5 * (y_lo + y_hi), y_lo)
+    best = _argopt(sys, mid)
+    rs = sys.row_state
+    rmax = sys.row_maximize
+    tol = 1e-12 * (1.0 + np.abs(lo[rs]))
+    candidate = np.where(rmax, y_hi >= lo[rs] - tol, y_lo <= hi[rs] + tol)
+    candidate[best] = True
+    return best, candidate
