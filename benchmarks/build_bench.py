@@ -30,6 +30,8 @@ import sys
 import time
 from pathlib import Path
 
+from _worker import run_worker  # benchmarks/_worker.py (this folder is on sys.path)
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 SCALE = (ROOT.parent / "shared" / "benchmarks" / "scale").resolve()
@@ -101,17 +103,7 @@ def worker_storm(path: str, n: int, minimal: bool) -> dict[str, object]:
 
 
 def _run(python: str, args: list[str], timeout: float) -> dict[str, object]:
-    proc = subprocess.run(
-        [python, str(Path(__file__).resolve()), "--worker", *args],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
-    if proc.returncode != 0:
-        tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:] or ["(no output)"]
-        return {"error": tail[0]}
-    return json.loads(proc.stdout.strip().splitlines()[-1])  # type: ignore[no-any-return]
+    return run_worker(Path(__file__), python, args, timeout)
 
 
 def _median(runs: list[dict[str, object]], key: str) -> float:

@@ -21,11 +21,12 @@ import importlib.util
 import json
 import resource
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
 from typing import Any
+
+from _worker import run_worker  # benchmarks/_worker.py (this folder is on sys.path)
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -71,17 +72,7 @@ def worker(path: str, n: int, prop: str) -> dict[str, Any]:
 
 
 def _posgmc(path: Path, n: int, prop: str, timeout: float) -> dict[str, Any]:
-    proc = subprocess.run(
-        [sys.executable, str(Path(__file__).resolve()), "--worker", str(path), str(n), prop],
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
-    )
-    lines = [line for line in proc.stdout.splitlines() if line.startswith("{")]
-    if not lines:
-        return {"error": (proc.stderr.strip().splitlines() or ["no output"])[-1]}
-    return json.loads(lines[-1])  # type: ignore[no-any-return]
+    return run_worker(Path(__file__), sys.executable, [str(path), str(n), prop], timeout)
 
 
 def _storm_module():  # type: ignore[no-untyped-def]

@@ -44,6 +44,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _worker import run_worker  # benchmarks/_worker.py (this folder is on sys.path)
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 STORM_PYTHON = Path("/root/refenv/bin/python")
@@ -118,7 +120,8 @@ def properties_text(num_properties: int) -> str:
 def worker_posgmc(kind: str, path: str, repeat: int) -> dict[str, object]:
     t0 = time.perf_counter()
     sys.path.insert(0, str(ROOT))
-    from posgmc.syntax.parser import lark_parser, parse_model, parse_properties
+    from posgmc.syntax.lalr import lark_parser
+    from posgmc.syntax.parser import parse_model, parse_properties
 
     lark_parser()
     startup = time.perf_counter() - t0
@@ -169,17 +172,7 @@ def worker_storm(kind: str, path: str, repeat: int, context: str) -> dict[str, o
 
 
 def _run(python: str, args: list[str], timeout: float) -> dict[str, object]:
-    proc = subprocess.run(
-        [python, str(Path(__file__).resolve()), "--worker", *args],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
-    if proc.returncode != 0:
-        tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:] or ["(no output)"]
-        return {"error": tail[0]}
-    return json.loads(proc.stdout.strip().splitlines()[-1])  # type: ignore[no-any-return]
+    return run_worker(Path(__file__), python, args, timeout)
 
 
 def _storm_available(python: Path) -> bool:

@@ -13,7 +13,6 @@ import json
 import sys
 import traceback
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any, NoReturn, TypeVar
 
 import click
@@ -333,21 +332,23 @@ def _write_strategy(path: str, report: Any) -> None:
     if len(report.results) != 1 or report.results[0].strategy is None:
         raise PosgmcError("--export-strategy needs exactly one unbounded P or R query")
     m = report.model
-    strategy = report.results[0].strategy
-    states = []
-    for s in range(m.num_states):
-        c = int(strategy[s])
-        if c < 0:
-            continue
-        entry: dict[str, Any] = {"state": s, "choice": c - int(m.row_groups[s]),
-                                 "action": m.action_names[int(m.choice_actions[c])]}
-        if m.variable_names:
-            entry["valuation"] = dict(zip(m.variable_names, (int(v) for v in m.state_values[s])))
-        if m.player_names:
-            entry["player"] = m.player_names[int(m.state_players[s])]
-        states.append(entry)
+    strategy = np.asarray(report.results[0].strategy)
+    # only the states where the strategy chooses; their fields gathered as whole arrays
+    chosen = np.flatnonzero(strategy >= 0)
+    choices = strategy[chosen]
+    local = (choices - m.row_groups[chosen]).tolist()
+    actions = [m.action_names[a] for a in m.choice_actions[choices].tolist()]
+    states = [
+        {"state": s, "choice": c, "action": a}
+        for s, c, a in zip(chosen.tolist(), local, actions)
+    ]
+    if m.variable_names:
+        for entry, row in zip(states, m.state_values[chosen].tolist()):
+            entry["valuation"] = dict(zip(m.variable_names, row))
+    if m.player_names:
+        for entry, p in zip(states, m.state_players[chosen].tolist()):
+            entry["player"] = m.player_names[p]
     doc = {"property": report.results[0].property, "memoryless": True, "states": states}
-    del np
     atomic_write_text(path, json.dumps(doc, indent=1))
 
 

@@ -405,30 +405,24 @@ def _almost_sure_reach_one_player(
     num_nodes = num_mecs + int(loose.sum())
     lose = num_nodes
     exits = np.flatnonzero(~internal)
-    # an exit hits LOSE when some mass goes to a non-target state outside the candidates; mass
-    # into the target leads to WIN, which cannot be attracted and needs no edge
-    to_lose = np.asarray(
-        sub[exits] @ (~cand & ~target).astype(np.float64)
-    ).ravel() > 0
-    ex_sub = inner[exits]
-    order = np.argsort(node_of[row_owner[exits]], kind="stable")
-    exits_sorted = exits[order]
-    ex_sub = ex_sub[order]
-    to_lose = to_lose[order]
-    counts = np.diff(ex_sub.indptr) + to_lose
-    indptr = np.zeros(exits_sorted.size + 1, dtype=np.int64)
-    np.cumsum(counts, out=indptr[1:])
-    cols = np.empty(int(indptr[-1]), dtype=np.int64)
-    # node successors of every exit, then LOSE last in the row where it applies
-    inner_pos = concat_ranges(indptr[:-1], indptr[:-1] + np.diff(ex_sub.indptr))
-    cols[inner_pos] = node_of[ex_sub.indices]
-    cols[indptr[1:][to_lose] - 1] = lose
+    exit_node = node_of[row_owner[exits]]
+    order = np.argsort(exit_node, kind="stable")
+    exits, exit_node = exits[order], exit_node[order]
+    # the successors of every exit as nodes: a candidate its node, any other non-target state
+    # LOSE; mass into the target leads to WIN, which cannot be attracted and needs no edge
+    node_of_state = np.full(S, lose, dtype=np.int64)
+    node_of_state[cand] = node_of
+    node_of_state[target] = -1
+    ex = sub[exits]
+    dest = node_of_state[ex.indices]
+    keep = dest >= 0
+    kept_before = np.zeros(dest.size + 1, dtype=np.int64)
+    np.cumsum(keep, out=kept_before[1:])
     quotient = sp.csr_matrix(
-        (np.ones(cols.size), cols, indptr), shape=(exits_sorted.size, num_nodes + 1)
+        (np.ones(int(kept_before[-1])), dest[keep], kept_before[ex.indptr]),
+        shape=(exits.size, num_nodes + 1),
     )
-    exit_counts = np.bincount(
-        node_of[row_owner[exits_sorted]], minlength=num_nodes + 1
-    )
+    exit_counts = np.bincount(exit_node, minlength=num_nodes + 1)
     row_groups = np.zeros(num_nodes + 2, dtype=np.int64)
     np.cumsum(exit_counts, out=row_groups[1:])
     q = Structure.build(quotient, row_groups)

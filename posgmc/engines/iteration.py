@@ -234,6 +234,10 @@ def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def _gap_ok(lower: np.ndarray, upper: np.ndarray, precision: float, relative: bool) -> bool:
+    """The interval meets the precision (its half-width, as :class:`SolverOptions` defines it); an
+    infinite bound never does (``inf <= inf`` would pass the relative test)."""
+    if not (np.isfinite(lower).all() and np.isfinite(upper).all()):
+        return False
     gap = upper - lower
     if relative:
         return bool(np.all(gap <= precision * (np.abs(upper) + np.abs(lower))))

@@ -33,6 +33,8 @@ from posgmc.engines.iteration import (
     Bounds,
     EndComponents,
     System,
+    _diff,
+    _gap_ok,
     bellman,
     build_system,
     solve,
@@ -135,16 +137,6 @@ def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return lower - lo_slack, upper + hi_slack
 
 
-def _gap_ok(lower: np.ndarray, upper: np.ndarray, precision: float, relative: bool) -> bool:
-    """The interval meets the precision (its half-width, as :class:`SolverOptions` defines it)."""
-    if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
-        return False
-    gap = upper - lower
-    if relative:
-        return bool(np.all(gap <= precision * (np.abs(upper) + np.abs(lower))))
-    return bool(np.max(gap, initial=0.0) <= 2.0 * precision)
-
-
 def solve_proper(
     sys: System, options: SolverOptions, *, lower: np.ndarray, upper: np.ndarray
 ) -> Bounds:
@@ -200,11 +192,6 @@ def value_iteration(sys: System, options: SolverOptions) -> Bounds:
     while not converged and iterations < options.max_iterations:
         nxt = bellman(sys, x)
         iterations += 1
-        d = np.abs(nxt - x)
-        if options.relative:
-            scale = np.abs(nxt)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                d = np.where(scale > 0, d / scale, d)
+        converged = _diff(nxt, x, options.relative) <= options.precision
         x = nxt
-        converged = float(np.max(d, initial=0.0)) <= options.precision
     return Bounds(x, x.copy(), iterations, converged, False)

@@ -19,6 +19,7 @@ from collections.abc import Callable
 from posgmc.errors import PosgmcError, SemanticError, SourceSpan
 from posgmc.semantics.symbols import Symbol, SymbolKind, Type, span_or_none
 from posgmc.syntax.ast import (
+    FUNCTION_ARITY,
     Binary,
     BinaryOp,
     BoolLit,
@@ -45,18 +46,6 @@ _LOGICAL = (BinaryOp.OR, BinaryOp.AND, BinaryOp.IMPLIES, BinaryOp.IFF)
 _EQUALITY = (BinaryOp.EQ, BinaryOp.NE)
 _ORDER = (BinaryOp.LT, BinaryOp.LE, BinaryOp.GT, BinaryOp.GE)
 _ARITHMETIC = (BinaryOp.ADD, BinaryOp.SUB, BinaryOp.MUL)
-
-# (min arguments, max arguments or None for n-ary), as PRISM's ExpressionFunc.minArities/maxArities
-_ARITY: dict[Function, tuple[int, int | None]] = {
-    Function.MIN: (1, None),
-    Function.MAX: (1, None),
-    Function.FLOOR: (1, 1),
-    Function.CEIL: (1, 1),
-    Function.ROUND: (1, 1),
-    Function.POW: (2, 2),
-    Function.MOD: (2, 2),
-    Function.LOG: (2, 2),
-}
 
 
 def _name(t: Type) -> str:
@@ -244,7 +233,7 @@ class TypeChecker:
 
     def _call(self, e: Call) -> Type | None:
         fn = e.function.value
-        low, high = _ARITY[e.function]
+        low, high = FUNCTION_ARITY[e.function]
         n = len(e.args)
         types = [self._type(a) for a in e.args]
         if n < low or (high is not None and n > high):

@@ -11,6 +11,7 @@ from lark import Token
 
 from posgmc.errors import ParseError, SourceSpan, UnsupportedError
 from posgmc.syntax.ast import (
+    FUNCTION_ARITY,
     BoolLit,
     Call,
     Coalition,
@@ -42,18 +43,6 @@ from posgmc.syntax.placement import contains_temporal
 
 # Decimal exponents beyond this are rejected: doubles overflow long before (1e308).
 _MAX_EXPONENT = 400
-
-# PRISM's arities (parser/ast/ExpressionFunc.java): (minimum, maximum or None for unbounded).
-_ARITY: dict[Function, tuple[int, int | None]] = {
-    Function.MIN: (1, None),
-    Function.MAX: (1, None),
-    Function.FLOOR: (1, 1),
-    Function.CEIL: (1, 1),
-    Function.ROUND: (1, 1),
-    Function.POW: (2, 2),
-    Function.MOD: (2, 2),
-    Function.LOG: (2, 2),
-}
 
 
 class ExpressionActions(ActionBase):
@@ -123,7 +112,7 @@ class ExpressionActions(ActionBase):
             )
             # a stand-in with the same operands, so that the parse can go on
             return Call(Function.MIN, tuple(args), span=span)
-        low, high = _ARITY[function]
+        low, high = FUNCTION_ARITY[function]
         if len(args) < low or (high is not None and len(args) > high):
             if low == high:
                 wanted = f"{low}"

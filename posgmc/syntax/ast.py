@@ -151,6 +151,20 @@ class Function(enum.Enum):
     LOG = "log"
 
 
+# PRISM's arities (parser/ast/ExpressionFunc.java minArities/maxArities): (minimum, maximum or
+# None for n-ary); the parser and the type checker both enforce them.
+FUNCTION_ARITY: dict[Function, tuple[int, int | None]] = {
+    Function.MIN: (1, None),
+    Function.MAX: (1, None),
+    Function.FLOOR: (1, 1),
+    Function.CEIL: (1, 1),
+    Function.ROUND: (1, 1),
+    Function.POW: (2, 2),
+    Function.MOD: (2, 2),
+    Function.LOG: (2, 2),
+}
+
+
 @dataclass(frozen=True)
 class Call(Expr):
     """``min(a, b, ...)``, ``pow(x, y)``, ``mod(i, n)``, ``log(x, base)``, ... (also ``func(min, a, b)``)."""

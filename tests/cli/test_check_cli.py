@@ -118,3 +118,33 @@ def test_partially_observable_needs_full_observation(run) -> None:  # type: igno
     r = run("check", ROVER_POSG, "--prop", '<<rover>> Pmax=? [ F "goal" ]', "--full-observation")
     assert r.exit_code == EXIT_OK, r.output
     assert "full-observation value" in r.output
+
+
+def test_export_strategy_writes_one_entry_per_deciding_state(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    from posgmc import api
+    from posgmc.checking.dispatch import CheckOptions
+
+    out = tmp_path / "strategy.json"
+    prop = '<<rover>> Pmax=? [ F "goal" ]'
+    r = run("check", ROVER, "--prop", prop, "--export-strategy", str(out))
+    assert r.exit_code == EXIT_OK, r.output
+    doc = json.loads(out.read_text())
+    assert doc["property"] == prop and doc["memoryless"] is True
+    report = api.check(api.load(ROVER), properties=[prop], options=CheckOptions(keep_strategy=True))
+    m, strategy = report.model, report.results[0].strategy
+    deciding = [s for s in range(m.num_states) if strategy[s] >= 0]
+    assert [e["state"] for e in doc["states"]] == deciding
+    for e in doc["states"]:
+        s, c = e["state"], int(m.row_groups[e["state"]]) + e["choice"]
+        assert c == strategy[s] and m.row_groups[s] <= c < m.row_groups[s + 1]
+        assert e["action"] == m.action_names[int(m.choice_actions[c])]
+        assert e["player"] == m.player_names[int(m.state_players[s])]
+        assert list(e["valuation"].values()) == [int(v) for v in m.state_values[s]]
+
+
+def test_export_strategy_needs_one_unbounded_query(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    out = tmp_path / "strategy.json"
+    r = run("check", ROVER, "--prop", '<<rover>> Pmax=? [ F<=3 "goal" ]', "--export-strategy", str(out))
+    assert r.exit_code == EXIT_ERROR
+    assert "--export-strategy needs exactly one unbounded P or R query" in r.output
+    assert not out.exists()
