@@ -104,9 +104,9 @@ def main(argv: list[str] | None = None) -> int:
 
     storm = None if args.no_storm or not STORM_PYTHON.exists() else _storm_module()
     rows = [
-        "| model | N | property | states | posgmc check (s) | posgmc value [lower, upper] "
-        "| Storm check (s) | Storm value | check ratio |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| model | N | property | states | posgmc check (s) | posgmc iterations "
+        "| posgmc value [lower, upper] | Storm check (s) | Storm value | check ratio |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for spec in args.jobs:
         name, _, ns = spec.partition("=")
@@ -125,6 +125,7 @@ def main(argv: list[str] | None = None) -> int:
                     f"`{prop}`",
                     f"{o['states']:,}",
                     f"{ours_t:.2f}",
+                    str(o["iterations"]),
                     f"{_fmt(o['value'])} [{_fmt(o['lower'])}, {_fmt(o['upper'])}]",
                 ]
                 if storm is not None:
