@@ -334,6 +334,9 @@ endrewards
     assert prop == 'R{"r"}min=? [F s=1]'
     assert isinstance(err, UnsupportedError)
     assert "negative rewards (e.g. -1 in state 0 (s=0))" in err.message
+    # the engine knows no position; the checker points at the refused property (a --prop text)
+    assert err.span is not None and (err.span.line, err.span.column) == (1, 1)
+    assert err.span.file == "<--prop 1>"
     # maximising, s=0 can loop forever: +inf
     assert report.results[0].value == np.inf
 
