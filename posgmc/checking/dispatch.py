@@ -208,6 +208,12 @@ class PropertyChecker:
     # -- queries -------------------------------------------------------------------------------
 
     def _maximize(self, expr: ProbQuery | RewardQuery) -> np.ndarray:
+        players = self.coalition_of(expr.coalition)
+        return obj.maximize_mask(self.model, direction=self.direction_of(expr), coalition=players)
+
+    def direction_of(self, expr: ProbQuery | RewardQuery) -> Direction:
+        """The direction in which the query's coalition optimises (a threshold decides it when
+        none is written: ``P>=p`` on an MDP means "for all schedulers", so the minimum)."""
         direction = expr.direction
         if direction is None:
             if expr.threshold is not None:
@@ -220,8 +226,7 @@ class PropertyChecker:
                     direction = Direction.MAX if upper_bound else Direction.MIN
             else:
                 direction = Direction.MAX  # dtmc: irrelevant
-        players = self.coalition_of(expr.coalition)
-        return obj.maximize_mask(self.model, direction=direction, coalition=players)
+        return direction
 
     def query(self, expr: ProbQuery | RewardQuery) -> QueryValue:
         maximize = self._maximize(expr)

@@ -10,6 +10,44 @@ from typing import Any
 import numpy as np
 
 
+def _num(x: float | bool | None) -> Any:
+    """A number as JSON has it: infinities as strings, NaN as null."""
+    if x is None or isinstance(x, bool):
+        return x
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    if math.isnan(x):
+        return None
+    return float(x)
+
+
+@dataclass(frozen=True)
+class Bound:
+    """One named number about finite-state strategies, with bounds that hold when ``sound``:
+    ``lower <= exact <= upper``; ``value`` is the reported point (the bounds' midpoint for interval
+    methods)."""
+
+    value: float
+    lower: float
+    upper: float
+    sound: bool = True
+
+    def to_json(self) -> dict[str, Any]:
+        return {"value": _num(self.value), "lower": _num(self.lower), "upper": _num(self.upper)}
+
+
+STRATEGY_NUMBERS = {
+    "guaranteed": "guaranteed against every adversary (the decision maker's strategy against an "
+    "omniscient adversary)",
+    "vs_fss_adversary": "against this adversary strategy (both strategies fixed: exact value)",
+    "upper_bound": "upper bound for any decision-maker strategy against this adversary strategy "
+    "(a decision maker who sees everything)",
+}
+"""What each number about given strategies means, worded for a maximising decision maker; for a
+minimising one (Pmin, Rmin) read "guaranteed" as "at most" and the third number as a lower bound.
+The keys are the JSON keys and :class:`PropertyResult`'s field names."""
+
+
 class ResultKind(enum.Enum):
     PROBABILITY = "probability"
     REWARD = "reward"
@@ -26,7 +64,10 @@ class PropertyResult:
     With several initial states, a numeric value is the one of the first initial state and
     ``per_initial`` lists them all; a boolean holds when it holds in every initial state (PRISM).
     ``note`` says what the number means when it is not the plain answer (e.g. a full-observation
-    bound on a partially observable model).
+    bound on a partially observable model). With given finite-state strategies, ``guaranteed``,
+    ``vs_fss_adversary`` and ``upper_bound`` hold the numbers that apply (see
+    :data:`STRATEGY_NUMBERS`), ``memory`` each strategy's memory size, and ``value``/``lower``/
+    ``upper`` repeat the first of them that is present (a threshold is judged on ``guaranteed``).
     """
 
     property: str
@@ -44,19 +85,15 @@ class PropertyResult:
     per_initial: tuple[float | bool, ...] = ()
     values: np.ndarray | None = field(default=None, repr=False)
     strategy: np.ndarray | None = field(default=None, repr=False)
+    guaranteed: Bound | None = None
+    vs_fss_adversary: Bound | None = None
+    upper_bound: Bound | None = None
+    memory: tuple[tuple[str, int], ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """The documented machine-readable form (see docs/cli.md)."""
 
-        def num(x: float | bool | None) -> Any:
-            if x is None or isinstance(x, bool):
-                return x
-            if math.isinf(x):
-                return "inf" if x > 0 else "-inf"
-            if math.isnan(x):
-                return None
-            return float(x)
-
+        num = _num
         out: dict[str, Any] = {
             "property": self.property,
             "name": self.name,
@@ -74,4 +111,10 @@ class PropertyResult:
             out["note"] = self.note
         if len(self.per_initial) > 1:
             out["per_initial"] = [num(v) for v in self.per_initial]
+        for key in STRATEGY_NUMBERS:
+            number = getattr(self, key)
+            if number is not None:
+                out[key] = number.to_json()
+        if self.memory:
+            out["memory"] = dict(self.memory)
         return out

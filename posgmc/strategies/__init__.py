@@ -1,0 +1,1 @@
+"""Finite-state strategies: objects, files, products with a model, and their verified values."""

@@ -1,0 +1,274 @@
+"""A finite-state strategy meets a compiled model: observations and actions in the model's numbers.
+
+:func:`player_view` says how one player of an :class:`ExplicitModel` sees it (its observation id
+of every state, and what each id means); :func:`bind` checks a :class:`FiniteStateStrategy`
+against that view and returns a :class:`BoundStrategy` whose lookups are whole-array operations:
+the probability γ(n, z(s), a(c)) of every (memory, choice) pair and the update rows δ.
+
+What binding checks (each a :class:`StrategyError` naming the file and JSON path):
+
+* the strategy's player is a player of the model, and its observables are that player's;
+* every action label the strategy plays is a label of the model and is enabled under the rule's
+  observation (states a player cannot tell apart offer it the same labels; the PRISM compiler
+  checks that, and binding checks it again for DRN input);
+* no state of the player offers two choices with one label (a strategy names actions by label).
+
+Rules for observations the model never produces are not errors; they are returned as warnings.
+Whether every (memory, observation) pair *reached* under the strategy has a rule is a question of
+the product (:mod:`posgmc.strategies.product`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from posgmc.errors import InputError
+from posgmc.model.explicit import ExplicitModel
+from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
+
+__all__ = ["PlayerView", "BoundStrategy", "player_view", "player_index", "bind"]
+
+
+@dataclass(frozen=True, eq=False)
+class PlayerView:
+    """How player ``player`` sees a model.
+
+    ``state_obs``: int64[S], the player's observation id of every state; ``obs_values``:
+    int64[Zm, max(d, 1)], what id z means (the observables' values; for observations without
+    observables — DRN — the id itself); ``observables``: the d observable names (a player that
+    observes everything sees every state variable; without variables, the state's number).
+    """
+
+    player: int
+    name: str
+    observables: tuple[str, ...]
+    state_obs: np.ndarray
+    obs_values: np.ndarray
+
+    @property
+    def num_observations(self) -> int:
+        return int(self.obs_values.shape[0])
+
+    def describe(self, z: int) -> str:
+        row = self.obs_values[z].tolist()
+        if not self.observables:
+            return f"observation {row[0]}"
+        return "{" + ", ".join(f"{n}={v}" for n, v in zip(self.observables, row)) + "}"
+
+
+def player_index(model: ExplicitModel, name: str) -> int:
+    """The index of the player called ``name``; a model without players has one agent, ``""``.
+
+    Raises:
+        StrategyError: no such player.
+    """
+    if not model.player_names:
+        if name in ("", None):
+            return 0
+        raise StrategyError(
+            f"the model ({model.model_type.value}) has no players; its single agent is named \"\"",
+            path="player",
+            hint='write "player": "" in the strategy file',
+        )
+    if name not in model.player_names:
+        raise StrategyError(
+            f"the model has no player {name!r} (players: {', '.join(model.player_names)})",
+            path="player",
+        )
+    return model.player_names.index(name)
+
+
+def player_view(model: ExplicitModel, player: int) -> PlayerView:
+    """The observation function of ``player`` (the whole state for a fully observing player)."""
+    name = model.player_names[player] if model.player_names else ""
+    obs = model.observation_of(player)
+    if obs is not None:
+        values = obs.values if obs.names else np.arange(obs.num_observations, dtype=np.int64)[:, None]
+        return PlayerView(player, name, obs.names, obs.state_ids.astype(np.int64),
+                          np.asarray(values, dtype=np.int64))
+    S = model.num_states
+    if model.variable_names:
+        return PlayerView(player, name, model.variable_names, np.arange(S, dtype=np.int64),
+                          np.asarray(model.state_values, dtype=np.int64))
+    return PlayerView(player, name, (), np.arange(S, dtype=np.int64),
+                      np.arange(S, dtype=np.int64)[:, None])
+
+
+@dataclass(frozen=True, eq=False)
+class BoundStrategy:
+    """A strategy matched to a model.
+
+    ``obs_map``: int64[Zm], the strategy's observation index of each model observation id (-1:
+    the strategy has no rule for it); ``action_map``: int64[len(model.action_names)], the
+    strategy's action index of each model action (-1: the strategy never plays it); ``owned``:
+    bool[S], the player's states; ``warnings``: rules for observations the model never produces.
+    """
+
+    fss: FiniteStateStrategy
+    view: PlayerView
+    obs_map: np.ndarray
+    action_map: np.ndarray
+    owned: np.ndarray
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def player(self) -> int:
+        return self.view.player
+
+    @property
+    def memory_size(self) -> int:
+        return self.fss.memory_size
+
+    def strategy_observation(self, states: np.ndarray) -> np.ndarray:
+        """int64[...]: the strategy's observation index of each state (-1: no rule there)."""
+        return np.asarray(self.obs_map[self.view.state_obs[states]])
+
+    def action_probability(self, model: ExplicitModel, memory: np.ndarray,
+                           choices: np.ndarray) -> np.ndarray:
+        """γ(n, z(s), a(c)) for pairs of memory nodes and (global) choice indices of its states."""
+        states = model.choice_states[choices]
+        z = self.strategy_observation(states)
+        a = self.action_map[model.choice_actions[choices]]
+        ok = (z >= 0) & (a >= 0)
+        out = np.zeros(np.shape(choices))
+        out[ok] = self.fss.action[memory[ok], z[ok], a[ok]]
+        return out
+
+    def update_rows(self, model: ExplicitModel, memory: np.ndarray,
+                    choices: np.ndarray) -> np.ndarray:
+        """float64[..., k]: δ(n, z(s), a(c)) for pairs of memory nodes and choices (rows of zeros
+        where the strategy has no rule or never plays the choice's action)."""
+        states = model.choice_states[choices]
+        z = self.strategy_observation(states)
+        a = self.action_map[model.choice_actions[choices]]
+        ok = (z >= 0) & (a >= 0)
+        out = np.zeros(np.shape(choices) + (self.memory_size,))
+        out[ok] = self.fss.update[memory[ok], z[ok], a[ok]]
+        return out
+
+    def missing_rule(self, memory: np.ndarray, states: np.ndarray) -> np.ndarray:
+        """bool[...]: the strategy has no rule for (n, z(s))."""
+        z = self.strategy_observation(states)
+        out = z < 0
+        ok = ~out
+        out[ok] = ~self.fss.has_rule[memory[ok], z[ok]]
+        return out
+
+
+def _where(fss: FiniteStateStrategy, n: int, z: int, tail: str = "") -> str | None:
+    path = fss.rule_path(n, z)
+    return path + tail if path is not None else None
+
+
+def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
+    """Match ``fss`` to ``model``.
+
+    Raises:
+        StrategyError: the strategy does not fit the model (see the module docstring).
+        InputError: states of the player with one observation offer different actions, or one
+            state offers two choices with the same label.
+    """
+    file = fss.source
+    try:
+        p = player_index(model, fss.player)
+    except StrategyError as e:
+        raise StrategyError(e.message.split(": ", 1)[-1], path="player", file=file, hint=e.hint) from None
+    view = player_view(model, p)
+    if fss.observables != view.observables:
+        raise StrategyError(
+            f"the observables {list(fss.observables)} are not those of player {view.name!r}: "
+            f"{list(view.observables)}",
+            path="observables",
+            file=file,
+            hint="list the player's observables in declaration order (all state variables for a "
+            "player that observes everything; [] for a model read from DRN)",
+        )
+    owned = (model.state_players == p) if model.player_names else np.ones(model.num_states, bool)
+
+    # -- observations: the strategy's rows matched to the model's ids (one sort, no dict) -------
+    Zm, Zs = view.num_observations, fss.num_observations
+    both = np.vstack([view.obs_values, fss.observation_values])
+    _, inverse = np.unique(both, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    key_model, key_fss = inverse[:Zm], inverse[Zm:]
+    lookup = np.full(int(inverse.max(initial=-1)) + 1, -1, dtype=np.int64)
+    lookup[key_fss] = np.arange(Zs)
+    obs_map = lookup[key_model]
+    produced = np.zeros(Zs, dtype=bool)
+    owned_obs = np.unique(view.state_obs[owned])
+    produced[obs_map[owned_obs][obs_map[owned_obs] >= 0]] = True
+    ruled = fss.has_rule.any(axis=0)
+    warnings = tuple(
+        f"{file or 'strategy'}: {_where(fss, int(np.argmax(fss.has_rule[:, z])), z) or ''}: "
+        f"the model never shows player {view.name!r} the observation {fss.describe_observation(z)}"
+        for z in np.flatnonzero(ruled & ~produced).tolist()
+    )
+
+    # -- actions ---------------------------------------------------------------------------------
+    names = {a: i for i, a in enumerate(model.action_names)}
+    action_map = np.full(len(model.action_names), -1, dtype=np.int64)
+    for j, label in enumerate(fss.actions):
+        if label in names:
+            action_map[names[label]] = j
+        elif np.any(fss.action[:, :, j] > 0):
+            n, z = map(int, np.argwhere(fss.action[:, :, j] > 0)[0])
+            raise StrategyError(
+                f"the model has no action labelled {label!r}",
+                path=_where(fss, n, z, f".action.{label}"),
+                file=file,
+                hint="actions are named by their label, e.g. [fwd] in the model is \"fwd\"",
+            )
+
+    # -- the labels each observation offers (states of one observation must agree) -------------
+    rows = np.flatnonzero(owned[model.choice_states])
+    acts = model.choice_actions[rows]
+    states = model.choice_states[rows]
+    A = len(model.action_names)
+    pair = states * A + acts
+    uniq, counts = np.unique(pair, return_counts=True)
+    if np.any(counts > 1):
+        s, a = divmod(int(uniq[np.argmax(counts > 1)]), A)
+        raise InputError(
+            f"state {_state_text(model, s)} of player {view.name!r} offers two choices labelled "
+            f"{model.action_names[a]!r}; a strategy names actions by label",
+            hint="give each command of the player's states a distinct action label",
+        )
+    offered = np.zeros((Zm, A), dtype=bool)
+    offered[view.state_obs[states], acts] = True
+    count_states = np.bincount(view.state_obs[owned], minlength=Zm)
+    count_pairs = np.zeros((Zm, A), dtype=np.int64)
+    np.add.at(count_pairs, (view.state_obs[states], acts), 1)
+    disagree = offered & (count_pairs != count_states[:, None])
+    if np.any(disagree):
+        z, a = map(int, np.argwhere(disagree)[0])
+        raise InputError(
+            f"states of player {view.name!r} with the observation {view.describe(z)} offer "
+            f"different actions: {model.action_names[a]!r} is enabled in some of them only",
+            hint="states a player cannot tell apart must offer it the same action labels",
+        )
+    # every played label must be offered under the rule's observation (in the strategy's numbers)
+    known = np.flatnonzero(action_map >= 0)
+    seen = np.flatnonzero(obs_map >= 0)
+    offered_fss = np.zeros((Zs, fss.num_actions), dtype=bool)
+    offered_fss[np.ix_(obs_map[seen], action_map[known])] = offered[np.ix_(seen, known)]
+    bad = (fss.action > 0) & ~offered_fss[None, :, :] & produced[None, :, None]
+    if np.any(bad):
+        n, z, j = map(int, np.argwhere(bad)[0])
+        z_model = int(np.flatnonzero(obs_map == z)[0])
+        enabled = [model.action_names[a] for a in np.flatnonzero(offered[z_model])]
+        raise StrategyError(
+            f"action {fss.actions[j]!r} is not enabled under the observation "
+            f"{fss.describe_observation(z)} (enabled: {', '.join(map(repr, enabled)) or 'none'})",
+            path=_where(fss, n, z, f".action.{fss.actions[j]}"),
+            file=file,
+        )
+    return BoundStrategy(fss, view, obs_map, action_map, owned, warnings)
+
+
+def _state_text(model: ExplicitModel, s: int) -> str:
+    if model.variable_names:
+        row = model.state_values[s].tolist()
+        return "(" + ", ".join(f"{n}={v}" for n, v in zip(model.variable_names, row)) + ")"
+    return str(s)

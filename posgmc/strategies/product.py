@@ -1,0 +1,255 @@
+"""The product of a game with finite-state strategies: what remains to be decided, as a model.
+
+Given some players' finite-state strategies, the product's states are pairs (s, m) of a model
+state and the joint memory m of those strategies; only the reachable part is kept. A state owned
+by a player with a strategy gets one row, the strategy's mixture: from (s, m) with n = the
+player's node and z = its observation of s,
+
+    P((s, m) -> (s', m[n := n'])) = Σ_a γ(n, z)(a) · δ(n, z, a)(n') · P(s, a, s'),
+
+and the expected action reward Σ_a γ(n, z)(a) · r(s, a) (turn-based: a player consults and
+updates its memory only in its own states). A state owned by a player without a strategy keeps
+all its choices, with every memory unchanged: that player sees the whole product state (s, m),
+i.e. it is omniscient, knowing the others' memory too — PAYNT's POSMG semantics. So
+
+* fixing the decision maker gives an MDP for the adversary (or a game, with more players): its
+  optimum is what the decision maker's strategy guarantees against every adversary;
+* fixing every player gives a Markov chain: the exact value of the strategy profile;
+* fixing the adversary gives an MDP in which the decision maker sees everything: its optimum
+  bounds what any decision-maker strategy can reach against that adversary.
+
+The construction is whole-array work: the model is laid out K times (K = the product of the
+memory sizes), the strategies' mixtures are computed for every (choice, memory) pair at once,
+and the reachable part is found by one breadth-first search (scipy.sparse.csgraph).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse import csgraph
+
+from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
+from posgmc.strategies.binding import BoundStrategy, _state_text
+from posgmc.strategies.fss import StrategyError
+from posgmc.syntax.ast import ModelType
+
+__all__ = ["StrategyProduct", "strategy_product"]
+
+
+@dataclass(frozen=True, eq=False)
+class StrategyProduct:
+    """``model``: the product (only reachable states); ``state_of``: int64[P], the model state of
+    each product state; ``memory_of``: int64[P, len(strategies)], each strategy's memory node;
+    ``initial_map``: int64[I], the product state of each of the model's initial states."""
+
+    model: ExplicitModel
+    state_of: np.ndarray
+    memory_of: np.ndarray
+    strategies: tuple[BoundStrategy, ...]
+    initial_map: np.ndarray
+
+
+def _product_type(model: ExplicitModel, all_fixed: bool) -> ModelType:
+    if all_fixed:
+        return ModelType.DTMC
+    return {ModelType.POSG: ModelType.SMG, ModelType.POMDP: ModelType.MDP}.get(
+        model.model_type, model.model_type
+    )
+
+
+def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) -> StrategyProduct:
+    """The reachable product of ``model`` with the given players' strategies.
+
+    Args:
+        model: the compiled model (any type; observations are the strategies' business).
+        strategies: at most one bound strategy per player.
+
+    Returns:
+        The product; its players keep their indices and names, its observations are the model's
+        (the players observe model states only).
+
+    Raises:
+        StrategyError: two strategies for one player, or a (memory, observation) pair reached
+            under the strategies for which a strategy has no rule.
+    """
+    strategies = tuple(strategies)
+    players = [b.player for b in strategies]
+    if len(set(players)) != len(players):
+        raise StrategyError("two strategies for one player")
+    S, rg, T = model.num_states, model.row_groups, model.transitions
+    ks = [b.memory_size for b in strategies]
+    K = math.prod(ks)
+    strides = [math.prod(ks[i + 1:]) for i in range(len(ks))]
+    choice_states = model.choice_states
+    num_choices = np.diff(rg)
+
+    fixed_by = np.full(S, -1, dtype=np.int64)
+    for i, b in enumerate(strategies):
+        fixed_by[b.owned] = i
+    rows_per_state = np.where(fixed_by >= 0, 1, num_choices)
+    counts = np.repeat(rows_per_state, K)  # product state s*K + m
+    prod_rg = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    row_start = prod_rg[:-1]
+    num_rows = int(prod_rg[-1])
+    memories = np.arange(K, dtype=np.int64)
+
+    rows_parts: list[np.ndarray] = []
+    cols_parts: list[np.ndarray] = []
+    vals_parts: list[np.ndarray] = []
+    row_action = np.zeros(num_rows, dtype=np.int32)
+    row_weight_parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (row, choice, w)
+
+    # -- choices of players without a strategy: copied for every memory -------------------------
+    free = np.flatnonzero(fixed_by[choice_states] < 0)
+    if free.size:
+        Tf = T[free].tocoo()
+        c = free[Tf.row]
+        s = choice_states[c]
+        rows = row_start[(s * K)[:, None] + memories] + (c - rg[s])[:, None]
+        rows_parts.append(rows.ravel())
+        cols_parts.append((Tf.col.astype(np.int64)[:, None] * K + memories).ravel())
+        vals_parts.append(np.repeat(Tf.data, K))
+        free_rows = row_start[(choice_states[free] * K)[:, None] + memories] + (
+            free - rg[choice_states[free]]
+        )[:, None]
+        row_action[free_rows.ravel()] = np.repeat(model.choice_actions[free], K)
+        row_weight_parts.append(
+            (free_rows.ravel(), np.repeat(free, K), np.ones(free.size * K))
+        )
+
+    # -- states of players with a strategy: one mixed row per (state, memory) ------------------
+    missing_parts: list[np.ndarray] = []
+    for i, b in enumerate(strategies):
+        k, stride = ks[i], strides[i]
+        ci = np.flatnonzero(fixed_by[choice_states] == i)
+        owned_states = np.flatnonzero(fixed_by == i)
+        node = (memories // stride) % k  # [K]
+        if owned_states.size:
+            miss = b.missing_rule(np.broadcast_to(node, (owned_states.size, K)).copy(),
+                                  np.broadcast_to(owned_states[:, None], (owned_states.size, K)).copy())
+            ps = (owned_states[:, None] * K + memories)[miss]
+            missing_parts.append(ps)
+            # a placeholder self-loop keeps the rows stochastic until reachability decides
+            rows_parts.append(row_start[ps])
+            cols_parts.append(ps)
+            vals_parts.append(np.ones(ps.size))
+        if not ci.size:
+            continue
+        n = np.broadcast_to(node, (ci.size, K)).copy()
+        cc = np.broadcast_to(ci[:, None], (ci.size, K)).copy()
+        w = b.action_probability(model, n, cc)  # [Ci, K]
+        d = b.update_rows(model, n, cc)  # [Ci, K, k]
+        s_ci = choice_states[ci]
+        prow = row_start[(s_ci * K)[:, None] + memories]  # [Ci, K]
+        row_weight_parts.append((prow.ravel(), cc.ravel(), w.ravel()))
+        sure = w == 1.0
+        row_action[prow[sure]] = model.choice_actions[cc[sure]]
+        Ti = T[ci].tocoo()
+        loc = Ti.row  # index into ci
+        # value [E, K, k]: w * δ * q; target (s'*K + m + (n' - n) * stride)
+        val = (w[loc][:, :, None] * d[loc]) * Ti.data[:, None, None]
+        nprime = np.arange(k, dtype=np.int64)
+        col = (Ti.col.astype(np.int64)[:, None, None] * K + memories[None, :, None]
+               + (nprime[None, None, :] - node[None, :, None]) * stride)
+        row = np.broadcast_to(prow[loc][:, :, None], val.shape)
+        keep = val > 0
+        rows_parts.append(row[keep])
+        cols_parts.append(col[keep])
+        vals_parts.append(val[keep])
+
+    rows = np.concatenate(rows_parts) if rows_parts else np.zeros(0, np.int64)
+    cols = np.concatenate(cols_parts) if cols_parts else np.zeros(0, np.int64)
+    vals = np.concatenate(vals_parts) if vals_parts else np.zeros(0)
+    N = S * K
+    full = sp.csr_matrix((vals, (rows, cols)), shape=(num_rows, N))
+    full.sum_duplicates()
+
+    # -- the reachable part -------------------------------------------------------------------
+    m0 = sum(b.fss.initial_memory * strides[i] for i, b in enumerate(strategies))
+    init = model.initial_states * K + m0
+    row_state = np.repeat(np.arange(N, dtype=np.int64), counts)
+    coo = full.tocoo()
+    src = np.concatenate([row_state[coo.row], np.full(init.size, N)])
+    dst = np.concatenate([coo.col.astype(np.int64), init])
+    graph = sp.csr_matrix((np.ones(src.size, dtype=np.int8), (src, dst)), shape=(N + 1, N + 1))
+    order = csgraph.breadth_first_order(graph, N, directed=True, return_predecessors=False)
+    reached = np.zeros(N + 1, dtype=bool)
+    reached[order] = True
+    reached = reached[:N]
+    for i, ps in enumerate(missing_parts):
+        hit = ps[reached[ps]]
+        if hit.size:
+            _missing_rule_error(model, strategies[i], int(hit[0]), K, strides[i])
+
+    keep_states = np.flatnonzero(reached)
+    new_index = np.full(N, -1, dtype=np.int64)
+    new_index[keep_states] = np.arange(keep_states.size)
+    keep_rows = reached[row_state]
+    sub = full[keep_rows]
+    sub = sp.csr_matrix((sub.data, new_index[sub.indices], sub.indptr),
+                        shape=(sub.shape[0], keep_states.size))
+    sub.sort_indices()
+    new_rg = np.concatenate([[0], np.cumsum(counts[keep_states])]).astype(np.int64)
+
+    state_of = keep_states // K
+    mem = keep_states % K
+    memory_of = np.stack([(mem // strides[i]) % ks[i] for i in range(len(ks))], axis=1) \
+        if ks else np.zeros((keep_states.size, 0), dtype=np.int64)
+
+    # -- rewards: action rewards mixed by the strategies' weights ------------------------------
+    rw_rows = np.concatenate([r for r, _, _ in row_weight_parts]) if row_weight_parts else np.zeros(0, np.int64)
+    rw_choice = np.concatenate([c for _, c, _ in row_weight_parts]) if row_weight_parts else np.zeros(0, np.int64)
+    rw_w = np.concatenate([w for _, _, w in row_weight_parts]) if row_weight_parts else np.zeros(0)
+    rewards = []
+    for rm in model.reward_models:
+        choice = None
+        if rm.choice is not None:
+            mixed = np.bincount(rw_rows, weights=rw_w * rm.choice[rw_choice], minlength=num_rows)
+            choice = mixed[keep_rows]
+        state = rm.state[state_of] if rm.state is not None else None
+        rewards.append(RewardModel(rm.name, state=state, choice=choice))
+
+    new_init = new_index[init]
+    labels = {name: lab[state_of] for name, lab in model.labels.items() if name != "init"}
+    init_label = np.zeros(keep_states.size, dtype=bool)
+    init_label[new_init] = True
+    labels["init"] = init_label
+    all_fixed = bool(np.all(fixed_by >= 0))
+    product = make_model(
+        _product_type(model, all_fixed),
+        new_rg,
+        sub,
+        initial_states=np.unique(new_init),
+        choice_actions=row_action[keep_rows],
+        action_names=model.action_names,
+        state_players=model.state_players[state_of],
+        player_names=model.player_names,
+        observations=tuple(
+            Observation(o.player, o.state_ids[state_of], o.names, o.values) for o in model.observations
+        ),
+        labels=labels,
+        reward_models=tuple(rewards),
+        variable_names=model.variable_names,
+        state_values=model.state_values[state_of] if model.state_values.shape[0] == S else None,
+        deadlocks=np.flatnonzero(np.isin(state_of, model.deadlocks)),
+    )
+    return StrategyProduct(product, state_of, memory_of, strategies, new_init)
+
+
+def _missing_rule_error(model: ExplicitModel, b: BoundStrategy, ps: int, K: int, stride: int) -> None:
+    s, m = divmod(ps, K)
+    n = (m // stride) % b.memory_size
+    fss = b.fss
+    raise StrategyError(
+        f"no rule for memory {n} under the observation {b.view.describe(int(b.view.state_obs[s]))}, "
+        f"which player {b.view.name!r} reaches under the strategies (e.g. in state "
+        f"{_state_text(model, s)})",
+        path="rules",
+        file=fss.source,
+        hint=f"add a rule {{\"memory\": {n}, \"observation\": ...}} for it",
+    )
