@@ -29,7 +29,8 @@ update              float64[k, Z, A, k]        δ: sums to 1 over the last axis 
 Observations of a DRN model have no observables (``observables == ()``); their rules then name
 the observation by its id in the file, kept as the single column of ``observation_values``.
 
-``source`` and ``rule_index`` (int64[k, Z], -1 where no rule) remember where each rule came from
+``boolean`` marks the observables that are Boolean (written ``true``/``false`` in files; stored as
+1/0); empty means none is. ``source`` and ``rule_index`` (int64[k, Z], -1 where no rule) remember where each rule came from
 in a strategy file, so that errors found when the strategy meets a model name the file and the
 rule's JSON path.
 """
@@ -74,6 +75,7 @@ class FiniteStateStrategy:
     actions: tuple[str, ...]
     action: np.ndarray
     update: np.ndarray
+    boolean: tuple[bool, ...] = ()
     source: str | None = None
     rule_index: np.ndarray | None = None
 
@@ -135,6 +137,8 @@ class FiniteStateStrategy:
             raise StrategyError("observation_values must have one column per observable")
         if self.observation_values.dtype != np.int64:
             raise StrategyError("observation_values must be int64")
+        if self.boolean and len(self.boolean) != len(self.observables):
+            raise StrategyError("boolean must have one entry per observable (or be empty)")
         if len(set(self.actions)) != A:
             raise StrategyError("action labels must be distinct")
         if self.action.shape != (k, Z, A) or self.update.shape != (k, Z, A, k):

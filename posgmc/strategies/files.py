@@ -1,0 +1,302 @@
+"""Strategy files: the ``posgmc-fss/1`` JSON format, read and written exactly.
+
+::
+
+    {"format": "posgmc-fss/1", "player": "rover", "memory_size": 2, "initial_memory": 0,
+     "observables": ["pos"],
+     "rules": [
+       {"memory": 0, "observation": {"pos": 0}, "action": {"via1": 0.7, "via2": 0.3},
+        "update": {"via1": {"0": 1.0}, "via2": {"1": 1.0}}},
+       {"memory": 1, "observation": {"pos": 0}, "action": {"via2": 1.0}}
+     ]}
+
+* ``player``: the player's name (``""`` for the agent of a model without players);
+* ``observables``: the player's observables in declaration order (all state variables for a
+  player that observes everything; ``[]`` for a model read from DRN, whose observations are
+  then given by their ids, ``"observation": 3``);
+* a rule: ``memory`` n, ``observation`` z (the observables' values: JSON ``true``/``false`` for a
+  Boolean observable, integers otherwise), ``action`` γ(n, z) as label → probability, and
+  optionally ``update`` δ(n, z, a) as label → {node → probability}; an action without an update
+  keeps the memory node;
+* every distribution sums to 1 within 1e-9; one rule per (memory, observation).
+
+Every error names the file and the JSON path of what is wrong (``rules[3].action.via1``), or the
+line and column for text that is not JSON. Writing sorts rules by memory and observation and
+prints probabilities with ``repr``, so reading a written file gives back the same arrays.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from posgmc.errors import InputError, SourceSpan, SourceText
+from posgmc.strategies.fss import PROBABILITY_TOLERANCE, FiniteStateStrategy, StrategyError
+
+__all__ = ["FORMAT", "read_strategy", "parse_strategy", "strategy_from_json", "strategy_to_json",
+           "write_strategy", "dump_strategy"]
+
+FORMAT = "posgmc-fss/1"
+_TOP_KEYS = {"format", "player", "memory_size", "initial_memory", "observables", "rules"}
+_RULE_KEYS = {"memory", "observation", "action", "update"}
+
+
+def read_strategy(path: str | Path) -> FiniteStateStrategy:
+    """Read a strategy file.
+
+    Raises:
+        InputError: the file cannot be read, or is not JSON (with line and column).
+        StrategyError: the JSON is not a valid ``posgmc-fss/1`` strategy (with its JSON path).
+    """
+    name = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"no such file: {name}") from None
+    except UnicodeDecodeError as e:
+        raise InputError(f"{name} is not UTF-8 text ({e.reason} at byte {e.start})") from None
+    except OSError as e:
+        raise InputError(f"cannot read {name}: {e.strerror}") from None
+    return parse_strategy(text, file=name)
+
+
+def parse_strategy(text: str, *, file: str | None = None) -> FiniteStateStrategy:
+    """A strategy from the text of a ``posgmc-fss/1`` file (see :func:`read_strategy`)."""
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as e:
+        error = InputError(f"not valid JSON: {e.msg}", SourceSpan(e.lineno, e.colno, file=file))
+        raise error.with_source(SourceText(text, file)) from None
+    return strategy_from_json(doc, file=file)
+
+
+def _fail(message: str, path: str, file: str | None, hint: str | None = None) -> StrategyError:
+    return StrategyError(message, path=path, file=file, hint=hint)
+
+
+def _int(value: Any, path: str, file: str | None, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise _fail(f"{what} must be an integer, got {json.dumps(value)}", path, file)
+    return value
+
+
+def _probability(value: Any, path: str, file: str | None) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or not 0.0 <= value <= 1.0:
+        raise _fail(f"a probability must be a number in [0, 1], got {json.dumps(value)}", path, file)
+    return float(value)
+
+
+def _distribution(value: Any, path: str, file: str | None, what: str) -> dict[str, float]:
+    if not isinstance(value, dict) or not value:
+        raise _fail(f"{what} must be a non-empty object of probabilities", path, file)
+    out = {str(k): _probability(v, f"{path}.{k}", file) for k, v in value.items()}
+    total = math.fsum(out.values())
+    if abs(total - 1.0) > PROBABILITY_TOLERANCE:
+        raise _fail(f"the probabilities of {what} sum to {total!r}, not 1", path, file)
+    return out
+
+
+def strategy_from_json(doc: Any, *, file: str | None = None) -> FiniteStateStrategy:
+    """A strategy from a parsed ``posgmc-fss/1`` document.
+
+    Raises:
+        StrategyError: with the JSON path of the first problem.
+    """
+    if not isinstance(doc, dict):
+        raise _fail("a strategy file holds one JSON object", "$", file)
+    for key in doc:
+        if key not in _TOP_KEYS:
+            raise _fail(f"unknown field {key!r} (fields: {', '.join(sorted(_TOP_KEYS))})", key, file)
+    if doc.get("format") != FORMAT:
+        raise _fail(f"format must be {FORMAT!r}, got {json.dumps(doc.get('format'))}", "format", file)
+    for key in ("player", "memory_size", "observables", "rules"):
+        if key not in doc:
+            raise _fail(f"the field {key!r} is missing", key, file)
+    player = doc["player"]
+    if not isinstance(player, str):
+        raise _fail("player must be a string (a player's name)", "player", file)
+    k = _int(doc["memory_size"], "memory_size", file, "memory_size")
+    if k < 1:
+        raise _fail(f"memory_size must be at least 1, got {k}", "memory_size", file)
+    n_init = _int(doc.get("initial_memory", 0), "initial_memory", file, "initial_memory")
+    if not 0 <= n_init < k:
+        raise _fail(f"initial_memory {n_init} is not a memory node (0..{k - 1})", "initial_memory", file)
+    observables = doc["observables"]
+    if not isinstance(observables, list) or not all(isinstance(o, str) for o in observables):
+        raise _fail("observables must be a list of names", "observables", file)
+    if len(set(observables)) != len(observables):
+        raise _fail("observables must be distinct", "observables", file)
+    rules = doc["rules"]
+    if not isinstance(rules, list):
+        raise _fail("rules must be a list", "rules", file)
+
+    obs_index: dict[tuple[int, ...], int] = {}
+    boolean = [False] * len(observables)
+    act_index: dict[str, int] = {}
+    parsed: list[tuple[int, int, dict[str, float], dict[str, dict[int, float]]]] = []
+    seen: dict[tuple[int, int], int] = {}
+    for i, rule in enumerate(rules):
+        here = f"rules[{i}]"
+        if not isinstance(rule, dict):
+            raise _fail("a rule must be an object", here, file)
+        for key in rule:
+            if key not in _RULE_KEYS:
+                raise _fail(f"unknown field {key!r} (fields: {', '.join(sorted(_RULE_KEYS))})",
+                            f"{here}.{key}", file)
+        for key in ("memory", "observation", "action"):
+            if key not in rule:
+                raise _fail(f"the field {key!r} is missing", f"{here}.{key}", file)
+        n = _int(rule["memory"], f"{here}.memory", file, "memory")
+        if not 0 <= n < k:
+            raise _fail(f"memory {n} is not a memory node (0..{k - 1})", f"{here}.memory", file)
+        z_values = _observation(rule["observation"], observables, boolean, f"{here}.observation", file)
+        z = obs_index.setdefault(z_values, len(obs_index))
+        if (n, z) in seen:
+            raise _fail(f"a second rule for memory {n} and this observation (the first is "
+                        f"rules[{seen[n, z]}])", here, file)
+        seen[n, z] = i
+        action = _distribution(rule["action"], f"{here}.action", file, "the action")
+        for label in action:
+            act_index.setdefault(label, len(act_index))
+        update: dict[str, dict[int, float]] = {}
+        if "update" in rule:
+            raw = rule["update"]
+            if not isinstance(raw, dict):
+                raise _fail("update must be an object: action -> {node: probability}",
+                            f"{here}.update", file)
+            for label, dist in raw.items():
+                upath = f"{here}.update.{label}"
+                if label not in action:
+                    raise _fail(f"an update for action {label!r}, which the rule does not play",
+                                upath, file)
+                nodes = _distribution(dist, upath, file, f"the update of {label!r}")
+                update[label] = {}
+                for node, prob in nodes.items():
+                    try:
+                        m = int(node)
+                    except ValueError:
+                        m = -1
+                    if str(m) != node or not 0 <= m < k:
+                        raise _fail(f"{node!r} is not a memory node (0..{k - 1})",
+                                    f"{upath}.{node}", file)
+                    update[label][m] = prob
+        parsed.append((n, z, action, update))
+
+    Z, A = len(obs_index), len(act_index)
+    gamma = np.zeros((k, Z, A))
+    delta = np.zeros((k, Z, A, k))
+    rule_index = np.full((k, Z), -1, dtype=np.int64)
+    for i, (n, z, action, update) in enumerate(parsed):
+        rule_index[n, z] = i
+        for label, prob in action.items():
+            a = act_index[label]
+            gamma[n, z, a] = prob
+            if label in update:
+                for m, q in update[label].items():
+                    delta[n, z, a, m] = q
+            else:
+                delta[n, z, a, n] = 1.0
+    values = np.array(list(obs_index), dtype=np.int64).reshape(Z, max(len(observables), 1))
+    return FiniteStateStrategy(
+        player=player,
+        memory_size=k,
+        initial_memory=n_init,
+        observables=tuple(observables),
+        observation_values=values,
+        actions=tuple(act_index),
+        action=gamma,
+        update=delta,
+        boolean=tuple(boolean) if any(boolean) else (),
+        source=file,
+        rule_index=rule_index,
+    )
+
+
+def _observation(value: Any, observables: list[str], boolean: list[bool], path: str,
+                 file: str | None) -> tuple[int, ...]:
+    if not observables:
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise _fail("with no observables (a model read from DRN) an observation is its id, a "
+                        f"non-negative integer; got {json.dumps(value)}", path, file)
+        return (value,)
+    if not isinstance(value, dict):
+        raise _fail("an observation must be an object: observable -> value", path, file)
+    for key in value:
+        if key not in observables:
+            raise _fail(f"{key!r} is not one of the observables ({', '.join(observables)})",
+                        f"{path}.{key}", file)
+    out = []
+    for j, name in enumerate(observables):
+        if name not in value:
+            raise _fail(f"the observable {name!r} has no value", path, file)
+        v = value[name]
+        if isinstance(v, bool):
+            boolean[j] = True
+            out.append(int(v))
+        elif isinstance(v, int):
+            out.append(v)
+        else:
+            raise _fail(f"an observable's value must be an integer or true/false, got "
+                        f"{json.dumps(v)}", f"{path}.{name}", file)
+    return tuple(out)
+
+
+def strategy_to_json(fss: FiniteStateStrategy) -> dict[str, Any]:
+    """The ``posgmc-fss/1`` document of a strategy (rules sorted by memory, then observation)."""
+    order = np.lexsort(fss.observation_values.T[::-1]) if fss.num_observations else np.zeros(0, int)
+    boolean = fss.boolean or (False,) * len(fss.observables)
+    rules = []
+    for n in range(fss.memory_size):
+        for z in order.tolist():
+            if not fss.has_rule[n, z]:
+                continue
+            row = fss.observation_values[z].tolist()
+            if fss.observables:
+                observation: Any = {
+                    name: (bool(v) if b else int(v)) for name, v, b in zip(fss.observables, row, boolean)
+                }
+            else:
+                observation = int(row[0])
+            played = np.flatnonzero(fss.action[n, z] > 0).tolist()
+            rule: dict[str, Any] = {
+                "memory": n,
+                "observation": observation,
+                "action": {fss.actions[a]: float(fss.action[n, z, a]) for a in played},
+            }
+            update = {}
+            for a in played:
+                dist = fss.update[n, z, a]
+                if not (dist[n] == 1.0 and np.count_nonzero(dist) == 1):
+                    update[fss.actions[a]] = {str(m): float(dist[m]) for m in np.flatnonzero(dist > 0)}
+            if update:
+                rule["update"] = update
+            rules.append(rule)
+    return {
+        "format": FORMAT,
+        "player": fss.player,
+        "memory_size": fss.memory_size,
+        "initial_memory": fss.initial_memory,
+        "observables": list(fss.observables),
+        "rules": rules,
+    }
+
+
+def dump_strategy(fss: FiniteStateStrategy) -> str:
+    """The text of a strategy file: one rule per line, so that diffs stay readable."""
+    doc = strategy_to_json(fss)
+    head = {k: v for k, v in doc.items() if k != "rules"}
+    lines = [json.dumps(r) for r in doc["rules"]]
+    body = ",\n  ".join(lines)
+    return json.dumps(head)[:-1] + ',\n "rules": [\n  ' + body + "\n ]}\n"
+
+
+def write_strategy(fss: FiniteStateStrategy, path: str | Path) -> None:
+    """Write a strategy file atomically (a reader never sees half a file)."""
+    from posgmc.io.atomic import atomic_write_text
+
+    atomic_write_text(str(path), dump_strategy(fss))
