@@ -20,6 +20,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from posgmc.build import BuildOptions, build_model
 from posgmc.checking.dispatch import CheckOptions, PropertyChecker
@@ -38,9 +39,14 @@ from posgmc.semantics.evaluate import evaluate_constant
 from posgmc.semantics.flat import FlatModel
 from posgmc.syntax import parser
 from posgmc.syntax.ast import NO_SPAN, Coalition, ModelFile, Property, PropertiesFile
+from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.printer import format_expr
 
+if TYPE_CHECKING:
+    from posgmc.strategies.fss import FiniteStateStrategy
+
 ConstantValues = Mapping[str, object]
+
 
 __all__ = [
     "Session",
@@ -283,31 +289,36 @@ def iter_check(
     full_observation: bool = False,
     zero_based_players: bool = False,
     built: BuiltModel,
+    strategies: Mapping[str, "FiniteStateStrategy"] | None = None,
 ) -> Iterator[tuple[Property, PropertyResult | PosgmcError]]:
     """Check each property in turn; a property that fails yields its error and the others go on
-    (as PRISM does). Errors that concern the whole input (unparsable files) are raised."""
+    (as PRISM does). Errors that concern the whole input (unparsable files) are raised.
+
+    With ``strategies`` (player name -> strategy) every property is answered under them (see
+    :mod:`posgmc.strategies.verify`): ``guaranteed``, ``vs_fss_adversary``, ``upper_bound``."""
     parsed, cli_props = parse_properties(session, files=property_files, texts=properties)
     model = built.model
     partial = model.model_type.is_partially_observable or bool(model.observations)
-    if partial and not full_observation:
+    if strategies and full_observation:
+        raise InputError(
+            "given strategies and --full-observation ask different questions",
+            hint="drop --full-observation: the numbers under given strategies need none",
+        )
+    if partial and not full_observation and not strategies:
         raise UnsupportedError(
-            f"this is a partially observable model ({model.model_type.value}); partially observable "
-            "synthesis is not available in this build",
-            hint="pass --full-observation (full_observation=True) to get the fully observable value, "
-            "which bounds the partially observable one",
+            f"this is a partially observable model ({model.model_type.value}); say how its players "
+            "are to play",
+            hint="give finite-state strategies with --strategy PLAYER=FILE (strategies=...) to get "
+            "what they guarantee, or pass --full-observation (full_observation=True) for the fully "
+            "observable value, which bounds the partially observable one",
         )
     note = (
         "full-observation value: an upper bound for a maximising and a lower bound for a minimising "
         "partially observing player"
-        if partial
+        if partial and not strategies
         else None
     )
-    checker = PropertyChecker(
-        model,
-        coalition_of=_coalition_resolver(model, zero_based_players),
-        scalar=_scalar,
-        options=options,
-    )
+    checker = _checker(model, options, zero_based_players, strategies)
     groups: list[tuple[Sequence[Property], SourceText | None]] = [
         (pf.properties, src) for pf, src in parsed
     ]
@@ -330,10 +341,24 @@ def iter_check(
             yield prop, outcome
 
 
+def _checker(
+    model: ExplicitModel,
+    options: CheckOptions,
+    zero_based_players: bool,
+    strategies: Mapping[str, "FiniteStateStrategy"] | None,
+) -> PropertyChecker | StrategyChecker:
+    coalition_of = _coalition_resolver(model, zero_based_players)
+    if strategies:
+        return StrategyChecker(
+            model, strategies, coalition_of=coalition_of, scalar=_scalar, options=options
+        )
+    return PropertyChecker(model, coalition_of=coalition_of, scalar=_scalar, options=options)
+
+
 def _check_one(
     session: Session,
     built: BuiltModel,
-    checker: PropertyChecker,
+    checker: "PropertyChecker | StrategyChecker",
     pf: PropertiesFile,
     prop: Property,
     zero_based_players: bool,
@@ -374,6 +399,7 @@ def check(
     full_observation: bool = False,
     zero_based_players: bool = False,
     built: BuiltModel | None = None,
+    strategies: Mapping[str, "FiniteStateStrategy | str | Path"] | None = None,
 ) -> CheckReport:
     """Build the model (unless ``built`` is given) and check each property at the initial states.
 
@@ -385,6 +411,11 @@ def check(
         full_observation: on pomdp/posg models, answer the full-observation value (a bound on the
             partially observable value, labelled as such); without it such models are refused.
         zero_based_players: read numeric coalitions ``<<0>>`` as Storm/PAYNT do.
+        strategies: finite-state strategies by player name (objects or ``posgmc-fss/1`` files);
+            each result then carries ``guaranteed`` (the decision maker's strategies against an
+            omniscient adversary), ``vs_fss_adversary`` (every player's strategy fixed) and
+            ``upper_bound`` (the adversary's strategies against an omniscient decision maker),
+            those that the given strategies determine.
 
     Returns:
         The report; ``errors`` holds (property text, error) for properties that could not be
@@ -395,6 +426,12 @@ def check(
         UnsupportedError: a partially observable model without ``full_observation``.
     """
     built = built or build(session, options=build_options, allow_extra_constants=True)
+    loaded = load_strategies(strategies) if strategies else None
+    warnings: tuple[str, ...] = ()
+    if loaded:  # bound once here for the warnings; cheap whole-array work
+        from posgmc.strategies.binding import bind
+
+        warnings = tuple(w for fss in loaded.values() for w in bind(built.model, fss).warnings)
     results: list[PropertyResult] = []
     errors: list[tuple[str, PosgmcError]] = []
     outcomes: list[PropertyResult | tuple[str, PosgmcError]] = []
@@ -406,6 +443,7 @@ def check(
         full_observation=full_observation,
         zero_based_players=zero_based_players,
         built=built,
+        strategies=loaded,
     ):
         if isinstance(outcome, PosgmcError):
             errors.append((prop.text or format_expr(prop.expr), outcome))
@@ -414,5 +452,35 @@ def check(
             results.append(outcome)
             outcomes.append(outcome)
     return CheckReport(
-        built.model, built.seconds, tuple(results), built.warnings, tuple(errors), tuple(outcomes)
+        built.model,
+        built.seconds,
+        tuple(results),
+        built.warnings + warnings,
+        tuple(errors),
+        tuple(outcomes),
     )
+
+
+def load_strategies(
+    strategies: Mapping[str, "FiniteStateStrategy | str | Path"],
+) -> dict[str, "FiniteStateStrategy"]:
+    """Strategies by player name, files read (a file's own player must be the one it is given for).
+
+    Raises:
+        InputError, StrategyError: unreadable or invalid files, or a file for another player.
+    """
+    from posgmc.strategies.files import read_strategy
+    from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
+
+    out: dict[str, FiniteStateStrategy] = {}
+    for player, given in strategies.items():
+        fss = given if isinstance(given, FiniteStateStrategy) else read_strategy(given)
+        if player is not None and fss.player != player:
+            raise StrategyError(
+                f"the strategy is player {fss.player!r}'s, given for player {player!r}",
+                path="player",
+                file=fss.source,
+            )
+        out[fss.player] = fss
+    return out
+

@@ -261,6 +261,13 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
     help="interval: sound bounds; value: plain value iteration; policy/exact: exact solves.",
 )
 @click.option("--full-observation", is_flag=True, help="pomdp/posg: answer the full-observation bound.")
+@click.option(
+    "--strategy",
+    "strategy_files",
+    multiple=True,
+    metavar="PLAYER=FILE",
+    help="A player's finite-state strategy (posgmc-fss/1 JSON); repeatable, one per player.",
+)
 @click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
 @click.option("--export-strategy", type=click.Path(dir_okay=False), default=None,
               help="Write the optimal memoryless strategy of the (single) property as JSON.")
@@ -275,6 +282,7 @@ def check(
     relative: bool,
     method: str,
     full_observation: bool,
+    strategy_files: tuple[str, ...],
     zero_based_players: bool,
     export_strategy: str | None,
     as_json: bool,
@@ -291,6 +299,7 @@ def check(
         if not props and not prop_texts:
             raise click.UsageError("give a properties file or --prop TEXT")
         swept, combos = expand_constants(consts)
+        strategies = strategy_options(strategy_files)
         options = CheckOptions(
             solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
             keep_strategy=export_strategy is not None,
@@ -307,6 +316,7 @@ def check(
                 build_options=_build_options(state_limit, False, None),
                 full_observation=full_observation,
                 zero_based_players=zero_based_players,
+                strategies=strategies or None,
             )
             if report.errors:
                 code = EXIT_ERROR
@@ -322,6 +332,26 @@ def check(
         return code
 
     _guard(debug, run)
+
+
+def strategy_options(values: Sequence[str]) -> dict[str | None, str]:
+    """``("rover=r.json", "a.json")`` -> {"rover": "r.json", None: "a.json"} (None: the file's
+    own player).
+
+    Raises:
+        click.UsageError: a player given twice, or an empty file name.
+    """
+    out: dict[str | None, str] = {}
+    for text in values:
+        player, sep, path = text.partition("=")
+        key: str | None = player if sep else None
+        path = path if sep else player
+        if not path:
+            raise click.UsageError(f"--strategy {text!r}: give PLAYER=FILE")
+        if key in out:
+            raise click.UsageError(f"--strategy: two strategies for player {key or '(from file)'!r}")
+        out[key] = path
+    return out
 
 
 def _write_strategy(path: str, report: Any) -> None:
@@ -379,6 +409,18 @@ def _fmt(v: Any) -> str:
     return f"{v:.10g}"
 
 
+def _print_strategy_numbers(r: Any) -> None:
+    """The numbers about given strategies, each with its bounds and what it means."""
+    from posgmc.checking.results import STRATEGY_NUMBERS
+
+    for key in STRATEGY_NUMBERS:
+        number = getattr(r, key, None)
+        if number is not None:
+            click.echo(f"  {key}: {_fmt(number.value)}  [{_fmt(number.lower)}, {_fmt(number.upper)}]")
+    if getattr(r, "memory", ()):
+        click.echo("  memory: " + ", ".join(f"{p or 'agent'}={k}" for p, k in r.memory))
+
+
 def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> None:
     first = rows[0][1]
     stats = first.model.statistics()
@@ -401,6 +443,7 @@ def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str],
             if not r.sound:
                 line += "  NOT PROVEN: bounds did not separate or the method is unsound"
             click.echo(line)
+            _print_strategy_numbers(r)
             if r.note:
                 click.echo(f"  note: {r.note}")
         return

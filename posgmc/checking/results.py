@@ -36,16 +36,23 @@ class Bound:
         return {"value": _num(self.value), "lower": _num(self.lower), "upper": _num(self.upper)}
 
 
-STRATEGY_NUMBERS = {
-    "guaranteed": "guaranteed against every adversary (the decision maker's strategy against an "
-    "omniscient adversary)",
-    "vs_fss_adversary": "against this adversary strategy (both strategies fixed: exact value)",
-    "upper_bound": "upper bound for any decision-maker strategy against this adversary strategy "
-    "(a decision maker who sees everything)",
-}
-"""What each number about given strategies means, worded for a maximising decision maker; for a
-minimising one (Pmin, Rmin) read "guaranteed" as "at most" and the third number as a lower bound.
-The keys are the JSON keys and :class:`PropertyResult`'s field names."""
+STRATEGY_NUMBERS = ("guaranteed", "vs_fss_adversary", "upper_bound")
+"""The numbers about given or synthesised finite-state strategies, in the order they are reported;
+the JSON keys and :class:`PropertyResult`'s field names."""
+
+
+def strategy_meaning(key: str, *, maximizing: bool) -> str:
+    """What one of :data:`STRATEGY_NUMBERS` means, in words, for a maximising (Pmax, Rmax) or a
+    minimising (Pmin, Rmin) decision maker."""
+    best, worse = ("at least", "more") if maximizing else ("at most", "less")
+    return {
+        "guaranteed": f"the decision maker's strategy ensures {best} this against every adversary "
+        "(an omniscient one)",
+        "vs_fss_adversary": "the exact value of the decision maker's strategy against this adversary "
+        "strategy",
+        "upper_bound": f"no decision-maker strategy gets {worse} than this against this adversary "
+        "strategy (not even one that sees everything)",
+    }[key]
 
 
 class ResultKind(enum.Enum):

@@ -28,7 +28,7 @@ from posgmc.errors import InputError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 
-__all__ = ["PlayerView", "BoundStrategy", "player_view", "player_index", "bind"]
+__all__ = ["PlayerView", "BoundStrategy", "player_view", "player_index", "bind", "memoryless_strategy"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -272,3 +272,52 @@ def _state_text(model: ExplicitModel, s: int) -> str:
         row = model.state_values[s].tolist()
         return "(" + ", ".join(f"{n}={v}" for n, v in zip(model.variable_names, row)) + ")"
     return str(s)
+
+
+def memoryless_strategy(model: ExplicitModel, player: int, choices: np.ndarray) -> FiniteStateStrategy:
+    """The memoryless deterministic strategy that plays the given choice in each state of
+    ``player``, as an FSS over the player's observations.
+
+    Args:
+        model: the model.
+        player: the player's index.
+        choices: int64[S], a global choice index per state (-1 where no decision matters: the
+            state's first choice is played); only the player's states are read.
+
+    Raises:
+        StrategyError: two states the player cannot tell apart get choices with different labels
+            (the choice is then not observation-based).
+    """
+    view = player_view(model, player)
+    owned = (model.state_players == player) if model.player_names else np.ones(model.num_states, bool)
+    states = np.flatnonzero(owned & (choices >= 0))
+    acts = model.choice_actions[choices[states]]
+    z = view.state_obs[states]
+    zs, first = np.unique(z, return_index=True)
+    chosen = np.full(view.num_observations, -1, dtype=np.int64)
+    chosen[zs] = acts[first]
+    if np.any(chosen[z] != acts):
+        s = int(states[np.argmax(chosen[z] != acts)])
+        raise StrategyError(
+            f"the choices are not observation-based: state {_state_text(model, s)} and another state "
+            f"with the observation {view.describe(int(view.state_obs[s]))} play different actions"
+        )
+    # where no decision matters (-1), the observation's first state plays its first choice
+    rest = np.flatnonzero(owned & (choices < 0))
+    rest = rest[chosen[view.state_obs[rest]] < 0]
+    zr, first_r = np.unique(view.state_obs[rest], return_index=True)
+    chosen[zr] = model.choice_actions[model.row_groups[rest[first_r]]]
+    zs = np.flatnonzero(chosen >= 0)
+    acts = chosen[zs]
+    used_actions = np.unique(acts)
+    a_index = np.full(len(model.action_names), -1, dtype=np.int64)
+    a_index[used_actions] = np.arange(used_actions.size)
+    gamma = np.zeros((1, zs.size, used_actions.size))
+    gamma[0, np.arange(zs.size), a_index[acts]] = 1.0
+    return FiniteStateStrategy.from_arrays(
+        player=view.name,
+        observables=view.observables,
+        observation_values=view.obs_values[zs],
+        actions=tuple(model.action_names[a] for a in used_actions.tolist()),
+        action=gamma,
+    )

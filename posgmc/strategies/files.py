@@ -21,8 +21,8 @@
 * every distribution sums to 1 within 1e-9; one rule per (memory, observation).
 
 Every error names the file and the JSON path of what is wrong (``rules[3].action.via1``), or the
-line and column for text that is not JSON. Writing sorts rules by memory and observation and
-prints probabilities with ``repr``, so reading a written file gives back the same arrays.
+line and column for text that is not JSON. Writing sorts rules by memory and observation, and
+actions by label, and prints probabilities with ``repr``, so reading a written file gives back the same arrays.
 """
 
 from __future__ import annotations
@@ -262,7 +262,7 @@ def strategy_to_json(fss: FiniteStateStrategy) -> dict[str, Any]:
                 }
             else:
                 observation = int(row[0])
-            played = np.flatnonzero(fss.action[n, z] > 0).tolist()
+            played = sorted(np.flatnonzero(fss.action[n, z] > 0).tolist(), key=lambda a: fss.actions[a])
             rule: dict[str, Any] = {
                 "memory": n,
                 "observation": observation,

@@ -24,13 +24,14 @@ import dataclasses
 from collections.abc import Mapping
 
 from posgmc.checking.dispatch import CheckOptions, CoalitionResolver, PropertyChecker, ScalarEvaluator
-from posgmc.checking.results import STRATEGY_NUMBERS, Bound, PropertyResult
+from posgmc.checking.results import Bound, PropertyResult, strategy_meaning
+from posgmc.syntax.ast import Direction
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import BoundStrategy, bind
 from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 from posgmc.strategies.product import strategy_product
-from posgmc.syntax.ast import ProbQuery, RewardQuery, Expr
+from posgmc.syntax.ast import Expr, ProbQuery, RewardQuery
 
 __all__ = ["StrategyChecker"]
 
@@ -139,9 +140,8 @@ class StrategyChecker:
                 "or the adversary's",
                 hint="--strategy PLAYER=FILE, once per player",
             )
-        first = next(iter(numbers))
-        note = "; ".join(f"{k}: {STRATEGY_NUMBERS[k]}" for k in numbers) if first != "guaranteed" \
-            or len(numbers) > 1 else None
+        maximizing = numeric.direction is Direction.MAX
+        note = "; ".join(f"{k}: {strategy_meaning(k, maximizing=maximizing)}" for k in numbers)
         memory = tuple(
             (b.view.name, b.memory_size) for _, b in sorted(self.bound.items())
         )
