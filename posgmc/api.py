@@ -60,9 +60,16 @@ __all__ = [
 ]
 
 
-def _is_drn(text: str) -> bool:
-    head = "\n".join(text.splitlines()[:40])
-    return "@type:" in head
+def _is_drn(text: str, path: str | None = None) -> bool:
+    """DRN or PRISM: a ``.drn`` file is DRN; otherwise the first token that is not in a ``//``
+    comment decides (DRN files open with ``@type:``, possibly after comment lines)."""
+    if path is not None and path.lower().endswith(".drn"):
+        return True
+    for line in text.lstrip("\ufeff").split("\n"):
+        stripped = line.strip()
+        if stripped and not stripped.startswith("//"):
+            return stripped.startswith("@")
+    return False
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,10 +124,12 @@ def load(
     content = text if text is not None else _read(path)  # type: ignore[arg-type]
     source = SourceText(content, name)
     try:
-        if _is_drn(content):
+        if _is_drn(content, name):
             from posgmc.io.drn import parse_drn
 
-            return Session(name, source, None, dict(constants or {}), parse_drn(content, file=name))
+            # a byte-order mark is accepted as in PRISM files; the columns of errors stay right
+            drn = parse_drn(content.removeprefix("\ufeff"), file=name)
+            return Session(name, source, None, dict(constants or {}), drn)
         return Session(name, source, parser.parse_model(content, file=name), dict(constants or {}))
     except PosgmcError as e:
         raise _attach(e, source) from None
@@ -135,9 +144,13 @@ def parse_properties(
         content = _read(f)
         src = SourceText(content, str(f))
         try:
-            parsed.append((parser.parse_properties(content, file=str(f)), src))
+            pf = parser.parse_properties(content, file=str(f))
         except PosgmcError as e:
             raise _attach(e, src) from None
+        if not pf.properties:
+            raise InputError(f"{f} holds no property", hint="a properties file lists one or more "
+                             "properties, e.g. Pmax=? [ F \"goal\" ];")
+        parsed.append((pf, src))
     props: list[Property] = []
     for i, t in enumerate(texts):
         src = SourceText(t, f"<--prop {i + 1}>")

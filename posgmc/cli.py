@@ -4,7 +4,8 @@ Exit status (fixed, documented in docs/cli.md):
 
 * 0 — success; for ``check``, every threshold property holds at the initial state(s);
 * 1 — ``check`` only: some threshold property does not hold;
-* 2 — bad input (model, properties, constants, options) or any other error.
+* 2 — bad input (model, properties, constants, options) or any other error;
+* 130 — interrupted (Ctrl-C), as shells report it.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from posgmc.errors import MultipleErrors, PosgmcError
 EXIT_OK = 0
 EXIT_PROPERTY_FALSE = 1
 EXIT_ERROR = 2
+EXIT_INTERRUPTED = 130
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -45,6 +47,9 @@ def _guard(debug: bool, fn: Callable[[], int]) -> NoReturn:
         _fail(e, debug=debug)
     except (click.exceptions.Exit, click.ClickException):
         raise
+    except KeyboardInterrupt:
+        click.echo("interrupted", err=True)
+        sys.exit(EXIT_INTERRUPTED)
     except BrokenPipeError:  # output piped into e.g. `head`: stop quietly, as Unix tools do
         sys.stderr.close()
         sys.exit(EXIT_OK)
@@ -81,6 +86,15 @@ def _const_text(setting: Any) -> str:
 
     value = getattr(setting, "value", setting)
     return value if isinstance(value, str) else format_value(value)
+
+
+def _positive_finite(value: float, option: str) -> float:
+    """A precision must be a positive finite number (nan and inf would never stop iterating)."""
+    import math
+
+    if not (math.isfinite(value) and value > 0):
+        raise click.BadParameter(f"{value!r} is not a positive finite number", param_hint=option)
+    return value
 
 
 # -- shared options --------------------------------------------------------------------------------
@@ -251,7 +265,8 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
 @click.argument("model", type=click.Path(dir_okay=False))
 @click.argument("props", nargs=-1, type=click.Path(dir_okay=False))
 @click.option("--prop", "prop_texts", multiple=True, metavar="TEXT", help="A property, as text (repeatable).")
-@click.option("--precision", type=click.FloatRange(min=0, min_open=True), default=1e-6, show_default=True)
+@click.option("--precision", type=float, callback=lambda _c, _p, v: _positive_finite(v, "--precision"),
+              default=1e-6, show_default=True)
 @click.option("--relative", is_flag=True, help="Precision is relative, not absolute.")
 @click.option(
     "--method",
@@ -440,6 +455,8 @@ def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str],
             if r.lower is not None and not isinstance(r.value, bool):
                 line += f"  [{_fmt(r.lower)}, {_fmt(r.upper)}]"
             line += f"  ({r.method}, {r.iterations} it., {r.seconds:.3f} s)"
+            if not r.converged:
+                line += "  NOT CONVERGED: the iteration cap was hit; the bounds hold but are wider"
             if not r.sound:
                 line += "  NOT PROVEN: bounds did not separate or the method is unsound"
             click.echo(line)

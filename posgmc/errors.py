@@ -33,9 +33,11 @@ class SourceText:
     file: str | None = None
 
     def line(self, number: int) -> str | None:
-        lines = self.text.splitlines()
+        """Line ``number`` (1-based), lines separated by "\n" only, as the lexer and PRISM count
+        them (``str.splitlines`` would also split at form feeds and U+0085)."""
+        lines = self.text.split("\n")
         if 1 <= number <= len(lines):
-            return lines[number - 1]
+            return lines[number - 1].removesuffix("\r")
         return None
 
 

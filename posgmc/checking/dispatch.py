@@ -448,7 +448,7 @@ class PropertyChecker:
             raise SemanticError("a discount factor is missing")
         g = float(self.scalar(e))  # type: ignore[arg-type]
         if not 0.0 <= g < 1.0:
-            raise SemanticError(f"a discount factor must lie in [0, 1); got {g}", e.span)
+            raise SemanticError(f"the discount factor {g:g} is not in [0, 1)", e.span)
         return g
 
 

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import dataclass
+
+from posgmc.errors import InputError
 
 __all__ = ["Method", "SolverOptions"]
 
@@ -38,3 +41,9 @@ class SolverOptions:
     relative: bool = False
     max_iterations: int = 1_000_000
     want_strategy: bool = True
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.precision) and self.precision > 0):
+            raise InputError(f"the precision must be a positive finite number, got {self.precision!r}")
+        if self.max_iterations < 1:
+            raise InputError(f"max_iterations must be at least 1, got {self.max_iterations}")

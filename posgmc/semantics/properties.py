@@ -70,6 +70,7 @@ from posgmc.semantics.symbols import (
 )
 from posgmc.semantics.types import TypeChecker
 from posgmc.syntax.ast import (
+    PlayerRef,
     Coalition,
     CoalitionKind,
     ConstantDecl,
@@ -399,8 +400,8 @@ def _check_query_values(
             _check_nonnegative(obj.bound, values, f'the step bound of "{obj.kind.value}"', errors)
         if obj.discount is not None:
             v = _value_of(obj.discount, values)
-            if v is not None and not isinstance(v, bool) and not 0 < v <= 1:
-                msg = f"the discount factor {format_value(v)} is not in (0, 1]"
+            if v is not None and not isinstance(v, bool) and not 0 <= v < 1:
+                msg = f"the discount factor {format_value(v)} is not in [0, 1)"
                 report(errors, msg, obj.discount.span)
 
 
@@ -428,10 +429,19 @@ def _resolve_coalition(
     listing = ", ".join(f"{i + first}: {p}" for i, p in enumerate(players))
     out: set[int] = set()
     ok = True
+
+    def add(index: int, ref: PlayerRef) -> None:
+        nonlocal ok
+        if index in out:
+            report(errors, f'player "{players[index]}" appears twice in the coalition', ref.span,
+                   hint="name each player once")
+            ok = False
+        out.add(index)
+
     for ref in c.players:
         if ref.name is not None:
             if ref.name in players:
-                out.add(players.index(ref.name))
+                add(players.index(ref.name), ref)
             else:
                 report(
                     errors,
@@ -469,7 +479,7 @@ def _resolve_coalition(
             )
             ok = False
             continue
-        out.add(k - first)
+        add(k - first, ref)
     return frozenset(out) if ok else None
 
 

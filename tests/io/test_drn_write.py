@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from posgmc.errors import UnsupportedError
+from posgmc.errors import UnsupportedError, InputError
 from posgmc.io._text import format_values
 from posgmc.io.drn import drn_text, parse_drn, read_drn, write_drn
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
@@ -169,7 +169,8 @@ def test_write_error_leaves_no_file(tmp_path: Path, monkeypatch: pytest.MonkeyPa
         raise OSError("disk full")
 
     monkeypatch.setattr(atomic.os, "replace", failing_replace)
-    with pytest.raises(OSError, match="disk full"):
+    # the error names the user's path, never the temporary file (issue #13)
+    with pytest.raises(InputError, match=f"cannot write {tmp_path / 'm.drn'}: disk full"):
         write_drn(tiny_mdp(), tmp_path / "m.drn")
     monkeypatch.setattr(atomic.os, "replace", real_replace)
     assert list(tmp_path.iterdir()) == []

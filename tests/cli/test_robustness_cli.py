@@ -1,0 +1,127 @@
+"""Bad or extreme input gets a clear answer (issue #13): each case failed before its fix."""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from posgmc import api
+from posgmc.cli import main
+from posgmc.engines.options import SolverOptions
+from posgmc.errors import InputError
+
+ROOT = Path(__file__).resolve().parents[2]
+ROVER = str(ROOT / "models" / "rover.smg")
+REACH = '<<rover>> Pmax=? [ F "goal" ]'
+
+
+def run(*args: str):  # type: ignore[no-untyped-def]
+    return CliRunner().invoke(main, list(args))
+
+
+@pytest.mark.parametrize("target", ["nodir/x.drn", ""])
+def test_export_to_an_impossible_path_names_the_users_path(
+    tmp_path: Path, target: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    r = run("build", ROVER, "--export", "drn", target)
+    assert r.exit_code == 2
+    assert f"cannot write {target or repr(target)}" in r.output
+    assert ".tmp" not in r.output and "internal error" not in r.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_export_strategy_to_a_missing_directory(tmp_path: Path) -> None:
+    r = run("check", ROVER, "--prop", REACH, "--export-strategy", str(tmp_path / "no" / "s.json"))
+    assert r.exit_code == 2 and f"cannot write {tmp_path / 'no' / 's.json'}" in r.output
+
+
+def test_writing_into_a_device_never_replaces_it() -> None:
+    """/dev/full is written into (and reports a full disk); an atomic rename would replace it."""
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full here")
+    r = run("build", ROVER, "--export", "drn", "/dev/full")
+    assert r.exit_code == 2 and "cannot write /dev/full: No space left on device" in r.output
+    assert stat.S_ISCHR(os.stat("/dev/full").st_mode)
+    assert run("build", ROVER, "--export", "drn", "/dev/null").exit_code == 0
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "0", "-1e-6"])
+def test_precision_must_be_positive_and_finite(value: str) -> None:
+    r = run("check", ROVER, "--prop", REACH, "--precision", value)
+    assert r.exit_code == 2 and "is not a positive finite number" in r.output
+    with pytest.raises(InputError, match="positive finite"):
+        SolverOptions(precision=float(value))
+
+
+def test_interruption_has_its_own_exit_code(monkeypatch: pytest.MonkeyPatch) -> None:
+    def interrupted(*_a: object, **_k: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(api, "check", interrupted)
+    r = run("check", ROVER, "--prop", REACH)
+    assert r.exit_code == 130 and "interrupted" in r.output
+
+
+def test_empty_properties_file_is_an_error(tmp_path: Path) -> None:
+    props = tmp_path / "empty.props"
+    props.write_text("// only a comment\n")
+    r = run("check", ROVER, str(props))
+    assert r.exit_code == 2 and f"{props} holds no property" in r.output
+
+
+def test_a_player_twice_in_a_coalition() -> None:
+    r = run("check", ROVER, "--prop", '<<rover,1>> Pmax=? [ F "goal" ]')
+    assert r.exit_code == 2
+    assert '<--prop 1>:1:9: error: player "rover" appears twice in the coalition' in r.output
+
+
+@pytest.mark.parametrize("gamma", ["1.5", "1"])
+def test_one_discount_rule_and_message(gamma: str) -> None:
+    r = run("check", ROVER, "--prop", f'<<rover>> R{{"steps"}}min=? [ Cdiscount={gamma} ]')
+    assert r.exit_code == 2 and f"the discount factor {gamma} is not in [0, 1)" in r.output
+
+
+def test_discount_zero_is_the_first_reward() -> None:
+    # with γ = 0 only the first step counts: the rover's first move costs 1 (models/rover.smg)
+    r = run("check", ROVER, "--prop", '<<rover>> R{"steps"}min=? [ Cdiscount=0 ]', "--json")
+    assert r.exit_code == 0, r.output
+    import json
+
+    res = json.loads(r.output)["results"][0]
+    assert res["lower"] <= 1.0 <= res["upper"]
+
+
+def test_prism_file_mentioning_type_in_a_comment_is_prism(tmp_path: Path) -> None:
+    model = tmp_path / "m.prism"
+    model.write_text("// converted from @type: DTMC files\ndtmc\nmodule m x : [0..1] init 0;\n"
+                     "  [] x=0 -> (x'=1);\n  [] x=1 -> true;\nendmodule\n")
+    r = run("build", str(model), "--json")
+    assert r.exit_code == 0, r.output
+    assert '"states": 2' in r.output
+
+
+def test_drn_with_a_byte_order_mark(tmp_path: Path) -> None:
+    drn = (ROOT.parent / "shared" / "benchmarks" / "posmg" / "test-game" / "sketch.templ")
+    if not drn.exists():
+        pytest.skip("shared benchmarks not present")
+    copy = tmp_path / "bom.drn"
+    copy.write_text("\ufeff" + drn.read_text(encoding="utf-8"), encoding="utf-8")
+    r = run("build", str(copy), "--json")
+    assert r.exit_code == 0, r.output
+    assert '"states": 8' in r.output
+
+
+def test_error_shows_the_right_line_after_a_form_feed(tmp_path: Path) -> None:
+    model = tmp_path / "ff.prism"
+    model.write_text("dtmc // page\x0cbreak\nmodule m x : [0..1] init 0;\n  [] x=0 -> (yy'=1);\nendmodule\n")
+    r = run("lint", str(model))
+    assert r.exit_code == 2
+    lines = r.output.splitlines()
+    at = next(i for i, line in enumerate(lines) if ":3:" in line)
+    assert "(yy'=1)" in lines[at + 1]
