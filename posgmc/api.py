@@ -27,6 +27,7 @@ from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.errors import (
     InputError,
+    LimitError,
     MultipleErrors,
     PosgmcError,
     SemanticError,
@@ -240,13 +241,33 @@ def build(
 ) -> BuiltModel:
     """Explore the model's reachable state space into an :class:`ExplicitModel`."""
     if session.explicit is not None:
-        return BuiltModel(session.explicit, 0.0)
+        return BuiltModel(_check_explicit(session, options), 0.0)
     flat = instantiate(session, allow_extra_constants=allow_extra_constants)
     try:
         result = build_model(flat, options=options)
     except PosgmcError as e:
         raise _attach(e, session.source) from None
     return BuiltModel(result.model, result.seconds, tuple(result.warnings), flat)
+
+
+def _check_explicit(session: Session, options: BuildOptions) -> ExplicitModel:
+    """A model read from DRN obeys the same options as a built one: the state limit holds, and
+    constants (which a DRN file cannot have) are an error rather than silently ignored."""
+    model = session.explicit
+    assert model is not None  # noqa: S101 - the caller checked
+    if session.constants:
+        raise InputError(
+            f"{session.path or 'the model'} is an explicit (DRN) model: it has no constants to set "
+            f"({', '.join(sorted(session.constants))} given)",
+            hint="drop --const for DRN input",
+        )
+    if model.num_states > options.state_limit:
+        raise LimitError(
+            f"the model has {model.num_states} states, more than the state limit "
+            f"{options.state_limit}",
+            hint="raise --state-limit",
+        )
+    return model
 
 
 @dataclass(frozen=True, eq=False)

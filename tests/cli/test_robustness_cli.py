@@ -125,3 +125,20 @@ def test_error_shows_the_right_line_after_a_form_feed(tmp_path: Path) -> None:
     lines = r.output.splitlines()
     at = next(i for i, line in enumerate(lines) if ":3:" in line)
     assert "(yy'=1)" in lines[at + 1]
+
+
+def _test_game() -> str:
+    drn = ROOT.parent / "shared" / "benchmarks" / "posmg" / "test-game" / "sketch.templ"
+    if not drn.exists():
+        pytest.skip("shared benchmarks not present")
+    return str(drn)
+
+
+def test_drn_input_obeys_the_state_limit() -> None:
+    r = run("build", _test_game(), "--state-limit", "5")
+    assert r.exit_code == 2 and "the model has 8 states, more than the state limit 5" in r.output
+
+
+def test_drn_input_refuses_constants() -> None:
+    r = run("build", _test_game(), "--const", "N=3")
+    assert r.exit_code == 2 and "it has no constants to set (N given)" in r.output
