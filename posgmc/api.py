@@ -85,6 +85,10 @@ class Session:
 
 
 def _read(path: str | Path) -> str:
+    if str(path) == "-":  # standard input, as PRISM and Storm users expect
+        import sys
+
+        return sys.stdin.read()
     try:
         return Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -105,6 +109,40 @@ def _attach(error: PosgmcError, source: SourceText) -> PosgmcError:
     return error
 
 
+def _paths(value: object, what: str) -> tuple[str | Path, ...]:
+    """One path or a sequence of them (a single string is one path, never its characters)."""
+    if value is None:
+        return ()
+    if isinstance(value, (str, Path)):
+        return (value,)
+    if isinstance(value, Sequence) and all(isinstance(v, (str, Path)) for v in value):
+        return tuple(value)
+    raise InputError(f"{what} must be a path or a list of paths, got {type(value).__name__}")
+
+
+def _texts(value: object, what: str) -> tuple[str, ...]:
+    """One text or a sequence of them."""
+    if value is None:
+        return ()
+    if isinstance(value, str):
+        return (value,)
+    if isinstance(value, Sequence) and all(isinstance(v, str) for v in value):
+        return tuple(value)
+    raise InputError(f"{what} must be a string or a list of strings, got {type(value).__name__}")
+
+
+def _session(value: object) -> "Session":
+    if isinstance(value, Session):
+        return value
+    hint = "load the model first: session = api.load(path)" if isinstance(value, (str, Path)) else None
+    raise InputError(f"expected a Session from api.load, got {type(value).__name__}", hint=hint)
+
+
+def _typed(value: object, kind: type, what: str) -> None:
+    if not isinstance(value, kind):
+        raise InputError(f"{what} must be a {kind.__name__}, got {type(value).__name__}")
+
+
 def load(
     path: str | Path | None = None,
     *,
@@ -121,6 +159,14 @@ def load(
     Raises:
         ParseError, InputError: unreadable or unparsable input, with file/line/column.
     """
+    if path is not None and not isinstance(path, (str, Path)):
+        raise InputError(f"path must be a file path, got {type(path).__name__}")
+    if text is not None and not isinstance(text, str):
+        raise InputError(f"text must be a string, got {type(text).__name__}")
+    if path is None and text is None:
+        raise InputError("give the model's path or its text (text=...)")
+    if constants is not None and not isinstance(constants, Mapping):
+        raise InputError(f"constants must be a mapping of names to values, got {type(constants).__name__}")
     name = str(path) if path is not None else None
     content = text if text is not None else _read(path)  # type: ignore[arg-type]
     source = SourceText(content, name)
@@ -140,6 +186,7 @@ def parse_properties(
     session: Session, *, files: Sequence[str | Path] = (), texts: Sequence[str] = ()
 ) -> tuple[list[tuple[PropertiesFile, SourceText]], list[Property]]:
     """Parse property files and command-line properties (raises ParseError with position)."""
+    files, texts = _paths(files, "files"), _texts(texts, "texts")
     parsed: list[tuple[PropertiesFile, SourceText]] = []
     for f in files:
         content = _read(f)
@@ -175,6 +222,8 @@ def lint(
     Constants without a value are not errors here: everything that does not depend on their values
     is checked, and with ``constants`` everything else too.
     """
+    property_files = _paths(property_files, "property_files")
+    property_texts = _texts(property_texts, "property_texts")
     errors: list[PosgmcError] = []
     try:
         session = load(path, constants=constants)
@@ -240,6 +289,8 @@ def build(
     session: Session, *, options: BuildOptions = BuildOptions(), allow_extra_constants: bool = False
 ) -> BuiltModel:
     """Explore the model's reachable state space into an :class:`ExplicitModel`."""
+    session = _session(session)
+    _typed(options, BuildOptions, "options")
     if session.explicit is not None:
         return BuiltModel(_check_explicit(session, options), 0.0)
     flat = instantiate(session, allow_extra_constants=allow_extra_constants)
@@ -459,6 +510,12 @@ def check(
         InputError: bad model, unparsable property files or constants.
         UnsupportedError: a partially observable model without ``full_observation``.
     """
+    session = _session(session)
+    _typed(options, CheckOptions, "options")
+    property_files = _paths(property_files, "property_files")
+    properties = _texts(properties, "properties")
+    if strategies is not None and not isinstance(strategies, Mapping):
+        raise InputError(f"strategies must map player names to strategies, got {type(strategies).__name__}")
     built = built or build(session, options=build_options, allow_extra_constants=True)
     loaded = load_strategies(strategies) if strategies else None
     warnings: tuple[str, ...] = ()
