@@ -40,10 +40,28 @@ def _fail(error: PosgmcError | Exception, *, debug: bool) -> NoReturn:
     sys.exit(EXIT_ERROR)
 
 
-def _guard(debug: bool, fn: Callable[[], int]) -> NoReturn:
+def error_json(error: PosgmcError) -> list[dict[str, Any]]:
+    """The machine-readable form of an input error: one object per error, with its position."""
+    errors = error.errors if isinstance(error, MultipleErrors) else [error]
+    out = []
+    for e in errors:
+        span = e.span
+        out.append({
+            "file": span.file if span else None,
+            "line": span.line if span else None,
+            "column": span.column if span else None,
+            "message": e.message,
+            "hint": e.hint,
+        })
+    return out
+
+
+def _guard(debug: bool, fn: Callable[[], int], *, as_json: bool = False) -> NoReturn:
     try:
         code = fn()
     except PosgmcError as e:
+        if as_json:  # machines get the errors on stdout too, in the shape of docs/cli.md
+            click.echo(json.dumps({"errors": error_json(e)}))
         _fail(e, debug=debug)
     except (click.exceptions.Exit, click.ClickException):
         raise
@@ -208,7 +226,7 @@ def build(
             _print_stats(model, stats)
         return EXIT_OK
 
-    _guard(debug, run)
+    _guard(debug, run, as_json=as_json)
 
 
 def _build_options(state_limit: int | None, no_fix_deadlocks: bool, progress: bool | None):  # type: ignore[no-untyped-def]
@@ -346,7 +364,7 @@ def check(
             _print_report(model, swept, rows)
         return code
 
-    _guard(debug, run)
+    _guard(debug, run, as_json=as_json)
 
 
 def strategy_options(values: Sequence[str]) -> dict[str | None, str]:

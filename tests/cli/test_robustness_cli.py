@@ -142,3 +142,16 @@ def test_drn_input_obeys_the_state_limit() -> None:
 def test_drn_input_refuses_constants() -> None:
     r = run("build", _test_game(), "--const", "N=3")
     assert r.exit_code == 2 and "it has no constants to set (N given)" in r.output
+
+
+def test_json_mode_reports_input_errors_as_json() -> None:
+    import json
+
+    r = CliRunner().invoke(
+        main, ["check", ROVER, "--prop", '<<rover>> Pmax=? [ F "goal" ', "--json"]
+    )
+    assert r.exit_code == 2
+    doc = json.loads(r.stdout)
+    (error,) = doc["errors"]
+    assert (error["file"], error["line"]) == ("<--prop 1>", 1) and error["column"] >= 1
+    assert error["message"]
