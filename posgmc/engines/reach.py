@@ -26,6 +26,7 @@ from posgmc.engines.common import (
 from posgmc.engines.graph import Structure, almost_sure_reach, positive_reach, structure_of
 from posgmc.engines.iteration import EndComponents, argopt_rows, bellman, build_system, reduce_rows
 from posgmc.engines.options import SolverOptions
+from posgmc.engines.stepped import bellman_steps
 from posgmc.engines.result import EngineResult
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
@@ -148,10 +149,7 @@ def bounded_reach_probability(
     iterations = 0
     if unknown.any() and steps > 0:
         sys = build_system(g, unknown, maximize=mx, fixed=x)
-        local = np.zeros(sys.n)
-        for _ in range(steps):
-            local = bellman(sys, local)
-            iterations += 1
+        local, iterations = bellman_steps(sys, np.zeros(sys.n), steps)
         x[sys.states] = local
     return _exact_result(x, iterations, options.method, started)
 

@@ -1,7 +1,7 @@
 """Step-bounded rewards: ``R[C<=k]`` (cumulative) and ``R[I=k]`` (instantaneous).
 
 Both are exact up to floating point: k Bellman steps over all states, optimised per state and per
-remaining step. Their optimal strategies need a step counter, so none is returned (step-bounded
+remaining step, cut short when the iteration reaches an exact fixpoint (:func:`bellman_steps`). Their optimal strategies need a step counter, so none is returned (step-bounded
 probabilities are in :mod:`posgmc.engines.reach` and :mod:`posgmc.engines.step_bounds`).
 """
 
@@ -14,12 +14,33 @@ import numpy as np
 from posgmc.engines.common import _check_rewards, _directions, _exact_result
 from posgmc.engines.graph import structure_of
 from posgmc.engines.iteration import bellman, build_system
+from posgmc.engines.system import System
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
 
-__all__ = ["cumulative_reward", "instantaneous_reward"]
+__all__ = ["cumulative_reward", "instantaneous_reward", "bellman_steps"]
+
+
+def bellman_steps(sys: System, local: np.ndarray, steps: int) -> tuple[np.ndarray, int]:
+    """``steps`` Bellman steps from ``local``, stopping early at an exact fixpoint.
+
+    Once one step leaves the vector unchanged bit for bit, every later step does too, so the
+    result is exactly what all ``steps`` steps would give: a bound like ``F<=10^20`` costs only
+    the steps until the floating-point iteration settles.
+
+    Returns:
+        The vector after ``steps`` steps and the number of steps actually computed.
+    """
+    done = 0
+    while done < steps:
+        nxt = bellman(sys, local)
+        done += 1
+        if np.array_equal(nxt, local):
+            return nxt, done
+        local = nxt
+    return local, done
 
 
 def cumulative_reward(
@@ -46,11 +67,10 @@ def cumulative_reward(
         sys = build_system(
             structure_of(model), np.ones(S, dtype=bool), maximize=mx, choice_offset=r
         )
-        local = np.zeros(S)
-        for _ in range(steps):
-            local = bellman(sys, local)
+        local, done = bellman_steps(sys, np.zeros(S), steps)
         x[sys.states] = local
-    return _exact_result(x, steps, options.method, started)
+        return _exact_result(x, done, options.method, started)
+    return _exact_result(x, 0, options.method, started)
 
 
 def instantaneous_reward(
@@ -77,9 +97,8 @@ def instantaneous_reward(
     x = sr.copy()
     if steps > 0:
         sys = build_system(structure_of(model), np.ones(S, dtype=bool), maximize=mx)
-        local = sr[sys.states]
-        for _ in range(steps):
-            local = bellman(sys, local)
+        local, done = bellman_steps(sys, sr[sys.states], steps)
         x = np.empty(S)
         x[sys.states] = local
-    return _exact_result(x, steps, options.method, started)
+        return _exact_result(x, done, options.method, started)
+    return _exact_result(x, 0, options.method, started)
