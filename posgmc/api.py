@@ -516,6 +516,8 @@ def check(
     properties = _texts(properties, "properties")
     if strategies is not None and not isinstance(strategies, Mapping):
         raise InputError(f"strategies must map player names to strategies, got {type(strategies).__name__}")
+    if built is None:
+        _check_constant_names(session, property_files)
     built = built or build(session, options=build_options, allow_extra_constants=True)
     loaded = load_strategies(strategies) if strategies else None
     warnings: tuple[str, ...] = ()
@@ -550,6 +552,28 @@ def check(
         tuple(errors),
         tuple(outcomes),
     )
+
+
+def _check_constant_names(session: Session, property_files: Sequence[str | Path]) -> None:
+    """A value for a name that no file declares is reported once, before anything is built."""
+    if session.syntax is None or not session.constants:
+        return
+    from posgmc.semantics.analysis import unknown_constant_errors
+
+    decls = list(session.syntax.constants)
+    for f in property_files:
+        try:
+            decls += list(parser.parse_properties(_read(f), file=str(f)).constants)
+        except PosgmcError:
+            return  # the file's own error is reported where it is parsed
+    errors = unknown_constant_errors(
+        session.constants,
+        [c.name for c in decls],
+        [c.name for c in decls if c.value is None],
+        where="the model or the properties",
+    )
+    if errors:
+        raise errors[0] if len(errors) == 1 else MultipleErrors(errors)
 
 
 def load_strategies(

@@ -40,6 +40,17 @@ def _fail(error: PosgmcError | Exception, *, debug: bool) -> NoReturn:
     sys.exit(EXIT_ERROR)
 
 
+def _show_const_text(error: PosgmcError, consts: Sequence[str]) -> None:
+    """Errors that point into a --const option get its text to show under the caret."""
+    from posgmc.errors import SourceText
+
+    names = ["--const"] if len(consts) == 1 else [f"--const #{i + 1}" for i in range(len(consts))]
+    sources = {n: SourceText(t, n) for n, t in zip(names, consts)}
+    for e in error.errors if isinstance(error, MultipleErrors) else [error]:
+        if e.span is not None and e.span.file in sources and e.source is None:
+            e.with_source(sources[e.span.file])
+
+
 def error_json(error: PosgmcError) -> list[dict[str, Any]]:
     """The machine-readable form of an input error: one object per error, with its position."""
     errors = error.errors if isinstance(error, MultipleErrors) else [error]
@@ -56,10 +67,13 @@ def error_json(error: PosgmcError) -> list[dict[str, Any]]:
     return out
 
 
-def _guard(debug: bool, fn: Callable[[], int], *, as_json: bool = False) -> NoReturn:
+def _guard(
+    debug: bool, fn: Callable[[], int], *, as_json: bool = False, consts: Sequence[str] = ()
+) -> NoReturn:
     try:
         code = fn()
     except PosgmcError as e:
+        _show_const_text(e, consts)
         if as_json:  # machines get the errors on stdout too, in the shape of docs/cli.md
             click.echo(json.dumps({"errors": error_json(e)}))
         _fail(e, debug=debug)
@@ -226,7 +240,7 @@ def build(
             _print_stats(model, stats)
         return EXIT_OK
 
-    _guard(debug, run, as_json=as_json)
+    _guard(debug, run, as_json=as_json, consts=consts)
 
 
 def _build_options(state_limit: int | None, no_fix_deadlocks: bool, progress: bool | None):  # type: ignore[no-untyped-def]
@@ -364,7 +378,7 @@ def check(
             _print_report(model, swept, rows)
         return code
 
-    _guard(debug, run, as_json=as_json)
+    _guard(debug, run, as_json=as_json, consts=consts)
 
 
 def strategy_options(values: Sequence[str]) -> dict[str | None, str]:

@@ -155,3 +155,15 @@ def test_json_mode_reports_input_errors_as_json() -> None:
     (error,) = doc["errors"]
     assert (error["file"], error["line"]) == ("<--prop 1>", 1) and error["column"] >= 1
     assert error["message"]
+
+
+def test_unknown_constant_is_reported_once_before_building(tmp_path: Path) -> None:
+    model = tmp_path / "c.prism"
+    model.write_text("dtmc\nconst int N;\nconst double p;\nmodule m x : [0..N] init 0;\n"
+                     "  [] x<N -> p:(x'=x+1) + 1-p:(x'=x);\n  [] x=N -> true;\nendmodule\n")
+    r = run("check", str(model), "--const", "N=3,p=0.5,Q=1", "--prop", "P=? [ F x=3 ]",
+            "--prop", "P=? [ F x=2 ]")
+    assert r.exit_code == 2
+    assert r.output.count('"Q" is not a constant of the model or the properties') == 1
+    assert "--const:1:11: error" in r.output and "  N=3,p=0.5,Q=1\n" in r.output
+    assert "Model " not in r.output  # nothing was built
