@@ -340,6 +340,11 @@ class FormulaTable:
             return ids[0]
         return self._intern((Kind.OR, tuple(sorted(ids))))
 
+    def letter(self) -> int:
+        """The state formula ``true``: it holds at the position being read, so reading one letter
+        satisfies it (``X true`` as a node; :meth:`next_` never builds it from ``true``)."""
+        return self._intern((Kind.NEXT, self.TRUE))
+
     def next_(self, f: int) -> int:
         if f in (self.TRUE, self.FALSE):  # X true = true, X false = false on infinite words
             return f
@@ -359,7 +364,7 @@ class FormulaTable:
     def release(self, a: int, b: int, lo: int, hi: int | None) -> int:
         """``a R[lo,hi] b`` = ``!(!a U[lo,hi] !b)``: b at every step j in [lo, hi] until a held at
         some step before j."""
-        if b == self.TRUE:
+        if b == self.TRUE or b == self.letter():  # the state formula true holds everywhere
             return self.TRUE
         if lo == 0:
             if b == self.FALSE or a == self.TRUE or hi == 0:
@@ -591,7 +596,9 @@ def translate(
             atom, odd = _strip_negations(expr)
             neg = neg != odd
             if isinstance(atom, BoolLit):
-                return tab.const(atom.value != neg)
+                # a state formula holds at a position of the path, so ``true`` needs one to exist
+                # (PRISM: R[X true] collects one step's reward, R[true] none)
+                return tab.letter() if atom.value != neg else tab.FALSE
             try:
                 i = index[atom]
             except KeyError:

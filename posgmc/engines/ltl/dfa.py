@@ -18,10 +18,13 @@ Construction:
 2. explore breadth-first from the formula, the successor of state ``f`` on letter ``sigma`` being
    ``progress(f, sigma)``; for each state only the atoms its progression reads are enumerated and
    the successor table is broadcast to all ``2**n`` letters with numpy; ``true`` is accepting;
-3. (``exact_good_prefixes``) make accepting every state from which every infinite word reaches
-   ``true``: progression with syntactic simplification may see a good prefix late (it does not
-   simplify ``(X a & X b) | X !a | X !b`` to ``true``), and the reward of ``R[co-safe]`` is
-   collected until the first good prefix; then make accepting states absorbing and drop unreachable ones;
+3. (only with ``exact_good_prefixes``) make accepting every state from which every infinite word
+   reaches ``true``. By default acceptance is progression reaching ``true``, which is PRISM's
+   rule for where ``R[co-safe]`` stops collecting reward: a state formula (an atom, or the
+   constant ``true``) is satisfied only by reading the letter of an existing position, so
+   ``R[X true]`` collects exactly one step and ``R[(X X true) U a]`` waits for the second step
+   after the first ``a`` (PRISM's ``dtmc_rewards.pm.cosafety.props``). Probabilities do not
+   depend on the choice, since every infinite word from such a state reaches ``true``;
 4. minimise (Moore's partition refinement, one ``np.unique`` over state signatures per round, on
    the alphabet compressed to classes of letters with identical columns).
 
@@ -223,7 +226,7 @@ def to_dfa(
     bound_value: BoundEvaluator | None = None,
     max_atoms: int = DEFAULT_MAX_ATOMS,
     max_states: int = DEFAULT_MAX_STATES,
-    exact_good_prefixes: bool = True,
+    exact_good_prefixes: bool = False,
     minimal: bool = True,
 ) -> Dfa:
     """The DFA of the good prefixes of a co-safe LTL path formula (see the module docstring).
@@ -235,7 +238,8 @@ def to_dfa(
         max_atoms: refuse formulas with more atoms (the alphabet has ``2**n`` letters).
         max_states: refuse automata with more states before minimisation.
         exact_good_prefixes: accept at the first good prefix (True), or only when progression
-            has reached ``true`` (False; the language then may lag some good prefixes).
+            has reached ``true`` (False, the default: PRISM's rule, which decides where
+            ``R[co-safe]`` stops collecting reward; probabilities are the same either way).
         minimal: minimise (True), or keep the progression automaton as explored.
 
     Returns:
