@@ -119,6 +119,7 @@ class PropertyChecker:
         self.coalition_of = coalition_of
         self.scalar = scalar
         self.options = options
+        self._everywhere = True  # set by query(): whether every state's value is needed
 
     # -- entry point -----------------------------------------------------------------------------
 
@@ -127,7 +128,7 @@ class PropertyChecker:
         start = time.perf_counter()
         init = self.model.initial_states
         if isinstance(expr, (ProbQuery, RewardQuery)) and expr.threshold is None:
-            q = self.query(expr)
+            q = self.query(expr, everywhere=False)
             kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
         else:
             q = self.state_value(expr)
@@ -228,8 +229,12 @@ class PropertyChecker:
                 direction = Direction.MAX  # dtmc: irrelevant
         return direction
 
-    def query(self, expr: ProbQuery | RewardQuery) -> QueryValue:
+    def query(self, expr: ProbQuery | RewardQuery, *, everywhere: bool = True) -> QueryValue:
+        """The query's value in every state (``everywhere``), or where only the initial states'
+        values are read (a top-level query): then an LTL product follows the initial states'
+        paths only, and other states' values are NaN."""
         maximize = self._maximize(expr)
+        self._everywhere = everywhere
         if isinstance(expr, ProbQuery):
             return self._probability(expr.path, maximize)
         return self._reward(expr, maximize)
@@ -327,13 +332,15 @@ class PropertyChecker:
     def _ltl_product(self, path: Expr):  # type: ignore[no-untyped-def]
         from posgmc.engines import ltl
 
+        everywhere = self._everywhere  # read before the atoms' own (nested) queries reset it
         atoms = ltl.extract_atoms(path)
         dfa = ltl.to_dfa(path, atoms)
         if atoms:
             atom_values = np.stack([self._states(a) for a in atoms])
         else:
             atom_values = np.zeros((0, self.model.num_states), dtype=bool)
-        return ltl.product(self.model, dfa, atom_values)
+        starts = np.arange(self.model.num_states) if everywhere else None
+        return ltl.product(self.model, dfa, atom_values, starts=starts), starts
 
     def _ltl_probability(self, path: Expr, maximize: np.ndarray) -> QueryValue:
         from posgmc.engines import ltl
@@ -348,19 +355,19 @@ class PropertyChecker:
                 hint="use X, F, U, bounded G and boolean connectives (co-safe), or G of a state "
                 "formula (safety)",
             )
-        prod = self._ltl_product(path)
+        prod, starts = self._ltl_product(path)
         pmax = maximize[prod.state_of]
         r = obj.reach_probability(prod.model, prod.accepting, maximize=pmax, options=self.options.solver)
-        return self._project(prod, _from_engine(r))
+        return self._project(prod, _from_engine(r), starts)
 
-    def _project(self, prod, q: QueryValue) -> QueryValue:  # type: ignore[no-untyped-def]
+    def _project(self, prod, q: QueryValue, starts: np.ndarray | None) -> QueryValue:  # type: ignore[no-untyped-def]
         """Values of the original states: those of the product state each starts in.
 
-        Only the initial states' values are meaningful for a product; other states get the value
-        of their own product start state where it exists in the product, else NaN."""
+        With ``starts`` None the product followed the initial states only, and the other states
+        get NaN; a nested query's product starts in every state."""
         S = self.model.num_states
         start = np.full(S, -1, dtype=np.int64)
-        start[self.model.initial_states] = prod.initial_map
+        start[self.model.initial_states if starts is None else starts] = prod.initial_map
 
         def pick(a: np.ndarray) -> np.ndarray:
             out = np.full(S, np.nan)
@@ -426,14 +433,14 @@ class PropertyChecker:
                 path.span,
                 hint="use X, F, U and bounded G (a finite prefix must decide the formula)",
             )
-        prod = self._ltl_product(path)
+        prod, starts = self._ltl_product(path)
         rm = prod.model.reward_model(expr.reward)
         rewards = rm.choice_rewards(prod.model.row_groups)
         pmax = maximize[prod.state_of]
         r = obj.expected_reach_reward(
             prod.model, rewards, prod.accepting, maximize=pmax, mode=mode, options=self.options.solver
         )
-        return self._project(prod, _from_engine(r))
+        return self._project(prod, _from_engine(r), starts)
 
     def _int(self, e: Expr | None) -> int:
         if e is None:

@@ -4,7 +4,7 @@ Product states are the reachable pairs ``(s, q)`` of a model state and a DFA sta
 the DFA state after reading the labels of the path up to and including ``s`` (the DFA reads the
 letter of the current state before moving, see :mod:`posgmc.engines.ltl.dfa`):
 
-* initial: ``(s0, delta[q0, L(s0)])`` for each initial state ``s0``;
+* initial: ``(s0, delta[q0, L(s0)])`` for each initial state ``s0`` (or each of ``starts``);
 * choice ``c`` of ``s`` in ``(s, q)`` moves to ``(t, delta[q, L(t)])`` with probability
   ``P(c, t)``.
 
@@ -173,6 +173,7 @@ def product(
     atom_values: np.ndarray,
     *,
     observe_dfa_state: bool = True,
+    starts: np.ndarray | None = None,
 ) -> Product:
     """Build the reachable product of ``model`` and ``dfa`` (see the module docstring).
 
@@ -182,6 +183,8 @@ def product(
         atom_values: bool[len(dfa.atoms), S]: row i is where ``dfa.atoms[i]`` holds.
         observe_dfa_state: make each observation the pair (observation, DFA state); when False,
             observation ids are copied unchanged.
+        starts: the model states whose paths are followed (default: the initial states); a
+            nested query needs every state (``np.arange(S)``).
 
     Returns:
         The :class:`Product`.
@@ -202,7 +205,7 @@ def product(
     # -- discovery, breadth-first over frontiers of keys s * Q + q ------------------------------
     num_letters = dfa.delta.shape[1]
     delta_flat = delta.reshape(-1)  # delta[q, letter] = delta_flat[q * num_letters + letter]
-    init_s = model.initial_states
+    init_s = model.initial_states if starts is None else np.asarray(starts, dtype=np.int64)
     init_keys = init_s * Q + delta[dfa.initial, letters[init_s]]
     graph = _state_graph(model)
     degree = np.diff(graph.indptr)
@@ -267,7 +270,7 @@ def product(
         model.model_type,
         row_groups,
         transitions,
-        initial_states=np.sort(initial_map),
+        initial_states=np.unique(initial_map),
         choice_actions=model.choice_actions[choice_of],
         action_names=model.action_names,
         state_players=model.state_players[state_of],
