@@ -210,6 +210,9 @@ def assemble(
         variable_names=program.variable_names,
         state_values=state_values,
         deadlocks=exp.deadlocks.astype(np.int64),
+        boolean_variables=frozenset(
+            n for n, t in zip(program.variable_names, program.variable_types) if t is ExprType.BOOL
+        ),
     )
     if options.validation is ValidationMode.ALWAYS or (
         options.validation is ValidationMode.AUTO

@@ -77,7 +77,8 @@ def evaluate_states(
             return full(float(e.value), np.float64)
         if isinstance(e, Ident):
             if e.name in columns:
-                return model.state_values[:, columns[e.name]]
+                column = model.state_values[:, columns[e.name]]
+                return column != 0 if e.name in model.boolean_variables else column
             if e.name in model.labels:  # named observables double as labels (PRISM)
                 return model.labels[e.name]
             raise SemanticError(f"'{e.name}' is not a state variable of this model", e.span)

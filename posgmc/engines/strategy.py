@@ -53,4 +53,5 @@ def induced_chain(model: ExplicitModel, strategy: np.ndarray) -> ExplicitModel:
         variable_names=model.variable_names,
         state_values=model.state_values,
         deadlocks=model.deadlocks,
+        boolean_variables=model.boolean_variables,
     )

@@ -26,6 +26,7 @@ observations        tuple[Observation, ...]      one per partially observing pla
 labels              Mapping[str, bool[S]]        includes "init" and "deadlock"
 reward_models       tuple[RewardModel, ...]      in declaration order
 variable_names      tuple[str, ...]              length V
+boolean_variables   frozenset[str]               the Boolean ones among variable_names
 state_values        int64[S, V]                  the valuation of each state; bools as 0/1
 deadlocks           int64[d]                     states that had no choice and got a self-loop
 ==================  ===========================  ==================================================
@@ -109,6 +110,7 @@ class ExplicitModel:
     variable_names: tuple[str, ...] = ()
     state_values: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.int64))
     deadlocks: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    boolean_variables: frozenset[str] = frozenset()
 
     # -- sizes, counted as Storm counts them ----------------------------------------------------
 
@@ -185,6 +187,8 @@ class ExplicitModel:
         rg = self.row_groups
         if S < 1:
             raise ModelInvariantError("a model needs at least one state")
+        if not self.boolean_variables <= set(self.variable_names):
+            raise ModelInvariantError("boolean_variables must be among variable_names")
         if rg[0] != 0 or np.any(np.diff(rg) < 1):
             raise ModelInvariantError("row_groups must start at 0 and give every state >= 1 choice")
         C = self.num_choices
@@ -251,6 +255,7 @@ def make_model(
     variable_names: tuple[str, ...] = (),
     state_values: Any | None = None,
     deadlocks: Any | None = None,
+    boolean_variables: frozenset[str] = frozenset(),
 ) -> ExplicitModel:
     """The validating constructor for hand-built models (tests, imports).
 
@@ -308,5 +313,6 @@ def make_model(
             else np.asarray(state_values, dtype=np.int64)
         ),
         deadlocks=dl,
+        boolean_variables=frozenset(boolean_variables),
     )
     return model.validate()

@@ -235,6 +235,7 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
         labels=labels,
         reward_models=tuple(rewards),
         variable_names=model.variable_names,
+        boolean_variables=model.boolean_variables,
         state_values=model.state_values[state_of] if model.state_values.shape[0] == S else None,
         deadlocks=np.flatnonzero(np.isin(state_of, model.deadlocks)),
     )

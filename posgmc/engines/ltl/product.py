@@ -279,6 +279,7 @@ def product(
         labels=MappingProxyType(labels),
         reward_models=rewards,
         variable_names=model.variable_names + (dfa_name,),
+        boolean_variables=model.boolean_variables,
         state_values=state_values,
         deadlocks=np.flatnonzero(np.isin(state_of, model.deadlocks)),
     )
