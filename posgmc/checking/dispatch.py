@@ -225,6 +225,15 @@ class PropertyChecker:
                     direction = Direction.MIN if upper_bound else Direction.MAX
                 else:
                     direction = Direction.MAX if upper_bound else Direction.MIN
+            elif self.model.model_type.is_nondeterministic:
+                # PRISM and Storm refuse to guess which optimum is meant
+                kind = "P" if isinstance(expr, ProbQuery) else "R"
+                raise SemanticError(
+                    f"{kind}=? on {_article(self.model.model_type.value)} needs a direction: the "
+                    "value depends on how the nondeterminism is resolved",
+                    expr.span,
+                    hint=f"write {kind}max=? or {kind}min=?",
+                )
             else:
                 direction = Direction.MAX  # dtmc: irrelevant
         return direction
@@ -460,6 +469,12 @@ class PropertyChecker:
 
 
 _ARITH = (BinaryOp.ADD, BinaryOp.SUB, BinaryOp.MUL, BinaryOp.DIV)
+
+
+def _article(model_type: str) -> str:
+    """``mdp`` -> "an MDP" (the article as the abbreviation is spoken)."""
+    name = model_type.upper()
+    return f"an {name}" if name[0] in "AEFHILMNORSX" else f"a {name}"
 
 
 def _is_temporal(e: Expr) -> bool:
