@@ -3,7 +3,8 @@
 Exit status (fixed, documented in docs/cli.md):
 
 * 0 — success; for ``check``, every threshold property holds at the initial state(s);
-* 1 — ``check`` only: some threshold property does not hold;
+* 1 — ``check`` only: some threshold property does not hold or is undecided (``unknown``), or a
+  result did not converge;
 * 2 — bad input (model, properties, constants, options) or any other error;
 * 130 — interrupted (Ctrl-C), as shells report it.
 """
@@ -367,7 +368,7 @@ def check(
             )
             if report.errors:
                 code = EXIT_ERROR
-            elif any(r.value is False for r in report.results) and code == EXIT_OK:
+            elif code == EXIT_OK and any(_not_passed(r) for r in report.results):
                 code = EXIT_PROPERTY_FALSE
             rows.append((constants, report))
             if export_strategy is not None:
@@ -379,6 +380,11 @@ def check(
         return code
 
     _guard(debug, run, as_json=as_json, consts=consts)
+
+
+def _not_passed(r: Any) -> bool:
+    """A threshold that is false or undecided, or a result whose iteration did not converge."""
+    return r.value is False or (r.value is None and r.kind.value == "boolean") or not r.converged
 
 
 def strategy_options(values: Sequence[str]) -> dict[str | None, str]:
@@ -452,7 +458,7 @@ def _fmt(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if v is None:
-        return "-"
+        return "unknown"
     return f"{v:.10g}"
 
 
@@ -487,6 +493,8 @@ def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str],
             if r.lower is not None and not isinstance(r.value, bool):
                 line += f"  [{_fmt(r.lower)}, {_fmt(r.upper)}]"
             line += f"  ({r.method}, {r.iterations} it., {r.seconds:.3f} s)"
+            if r.value is None:
+                line += "  (the proven bounds do not decide it, even after refining)"
             if not r.converged:
                 line += "  NOT CONVERGED: the iteration cap was hit; the bounds hold but are wider"
             if not r.sound:

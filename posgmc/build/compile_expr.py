@@ -178,7 +178,7 @@ _DTYPES = {ExprType.BOOL: np.bool_, ExprType.INT: np.int64, ExprType.DOUBLE: np.
 
 def _to_numpy_scalar(value: Any, type_: ExprType) -> Any:
     if type_ is ExprType.DOUBLE:
-        return float(value)
+        return _to_double(value)
     if type_ is ExprType.INT:
         return int(value)
     return bool(value)
@@ -314,7 +314,7 @@ def _fold_binary(op: BinaryOp, a: Scalar, b: Scalar) -> Scalar:
         return a * b
     # DIV: a double, exact while both are exact and the divisor is not 0
     if isinstance(a, float) or isinstance(b, float) or b == 0:
-        return _fdiv(float(a), float(b))
+        return _fdiv(_to_double(a), _to_double(b))
     return Fraction(a) / Fraction(b)
 
 
@@ -348,11 +348,20 @@ def _fold_call(fn: Function, args: list[Scalar], result_type: ExprType) -> Scala
                 return math.inf
             return base**exp
         try:
-            return math.pow(float(a), float(b))
+            return math.pow(_to_double(a), _to_double(b))
         except (ValueError, OverflowError):
             return math.nan
     # LOG
-    return _fdiv(_ln(float(a)), _ln(float(b)))
+    return _fdiv(_ln(_to_double(a)), _ln(_to_double(b)))
+
+
+def _to_double(value: Scalar) -> float:
+    """A folded constant as a double: beyond the double range it is infinite, as in PRISM
+    (``pow(2.0, 2000)`` is Infinity), instead of an OverflowError."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
 
 
 def _ln(x: float) -> float:
@@ -530,7 +539,7 @@ class _Generator:
             return "True" if value else "False"
         if type_ is ExprType.INT:
             return repr(int(value))
-        f = float(value)
+        f = _to_double(value)
         if math.isfinite(f):
             return repr(f)
         name = self.fresh("_c")

@@ -21,18 +21,23 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from posgmc.checking import intervals as iv
+from posgmc.checking.intervals import QueryValue
 from posgmc.checking.results import PropertyResult, ResultKind
-from posgmc.checking.states import evaluate_states
+from posgmc.checking.states import evaluate_call, evaluate_states
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.engines.step_bounds import interval_reach_probability
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.syntax.traversal import any_node
 from posgmc.syntax.ast import (
     NO_SPAN,
     Binary,
     BinaryOp,
+    Call,
+    Ite,
     Coalition,
     ComparisonOp,
     Direction,
@@ -63,20 +68,6 @@ class CheckOptions:
     solver: SolverOptions = SolverOptions()
     keep_values: bool = False
     keep_strategy: bool = False
-
-
-@dataclass(frozen=True, eq=False)
-class QueryValue:
-    """The per-state answer to one query (or sub-expression): values with proven bounds."""
-
-    values: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
-    engine: EngineResult | None = None
-    iterations: int = 0
-    converged: bool = True
-    sound: bool = True
-    method: str = "exact"
 
 
 def _flip(q: QueryValue) -> QueryValue:
@@ -133,16 +124,28 @@ class PropertyChecker:
         else:
             q = self.state_value(expr)
             kind = ResultKind.BOOLEAN if q.values.dtype == np.bool_ else ResultKind.NUMBER
+            init = self.model.initial_states
+            if kind is ResultKind.BOOLEAN and not np.all(q.decided[init]) and _contains_query(expr):
+                q = self._finer(
+                    lambda checker: checker.state_value(expr),
+                    lambda r: bool(np.all(r.decided[init])),
+                ) or q
         seconds = time.perf_counter() - start
         vals = q.values[init]
         if kind is ResultKind.BOOLEAN:
-            value: float | bool = bool(np.all(vals))
+            # PRISM: a Boolean holds when it holds in every initial state; decided only on proof
+            proven, possible = bool(np.all(q.lower[init])), bool(np.all(q.upper[init]))
+            value: float | bool | None = proven if proven == possible else None
             lower = upper = None
-            per_initial: tuple[float | bool, ...] = tuple(bool(v) for v in vals)
+            per_initial: tuple[float | bool | None, ...] = tuple(
+                bool(lo) if lo == hi else None for lo, hi in zip(q.lower[init], q.upper[init])
+            )
         else:
             value = float(vals[0])
             lower, upper = float(q.lower[init[0]]), float(q.upper[init[0]])
             per_initial = tuple(float(v) for v in vals)
+            if np.isnan([value, lower, upper]).any():  # undefined (0/0): no bound holds
+                q = replace(q, sound=False)
         eng = q.engine
         return PropertyResult(
             property=text,
@@ -164,47 +167,106 @@ class PropertyChecker:
     # -- state formulas and arithmetic -------------------------------------------------------------
 
     def state_value(self, expr: Expr) -> QueryValue:
-        """Evaluate a state expression, with interval arithmetic for bounds over nested queries."""
+        """Evaluate a state expression in every state; over nested queries with interval
+        arithmetic (:mod:`posgmc.checking.intervals`), so the bounds hold through every operator."""
         if isinstance(expr, (ProbQuery, RewardQuery)):
             q = self.query(expr)
             if expr.threshold is None:
                 return q
             return self._threshold(expr, q)
-        if isinstance(expr, Unary) and expr.op is UnaryOp.NEG:
+        if not _contains_query(expr):
+            return iv.exact(evaluate_states(self.model, expr))
+        if isinstance(expr, Unary):
             q = self.state_value(expr.operand)
-            return replace(q, values=-q.values, lower=-q.upper, upper=-q.lower)
-        if isinstance(expr, Binary) and expr.op in _ARITH and _contains_query(expr):
-            a, b = self.state_value(expr.left), self.state_value(expr.right)
-            return _interval_arith(expr.op, a, b)
-        collected: list[QueryValue] = []
-
-        def sub(e: Expr) -> np.ndarray:
-            q = self.state_value(e)
-            collected.append(q)
-            return q.values
-
-        values = evaluate_states(self.model, expr, queries=sub)
-        exact = all(q.sound and q.converged for q in collected)
-        method = collected[0].method if collected else "exact"
-        return QueryValue(values, values, values, sound=exact, method=method)
+            return iv.logical_not(q) if expr.op is UnaryOp.NOT else iv.negate(q)
+        if isinstance(expr, Binary):
+            return iv.binary(expr.op, self.state_value(expr.left), self.state_value(expr.right))
+        if isinstance(expr, Ite):
+            return iv.ite(*(self.state_value(e) for e in (expr.cond, expr.then, expr.otherwise)))
+        if isinstance(expr, Call):
+            args = [self.state_value(a) for a in expr.args]
+            # the domain rules of state formulas, decided on the reported values
+            evaluate_call(self.model, expr, [a.values for a in args])
+            return iv.call(expr.function, args)
+        raise UnsupportedError(f"cannot evaluate {type(expr).__name__} over states", expr.span)
 
     def _threshold(self, expr: ProbQuery | RewardQuery, q: QueryValue) -> QueryValue:
+        """``P>=p [...]``: true where the proven bounds are above the threshold, false where they
+        are below, undecided (``lower < upper``) where the interval straddles it after
+        refinement (see :meth:`_refined`)."""
         assert expr.threshold is not None  # noqa: S101 - guaranteed by caller
         bound = float(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
-        op = expr.threshold.op
         cmp = {
-            ComparisonOp.GE: np.greater_equal,
-            ComparisonOp.GT: np.greater,
-            ComparisonOp.LE: np.less_equal,
-            ComparisonOp.LT: np.less,
-        }[op]
-        # Decide on the proven bounds where they agree; where they straddle the threshold the
-        # reported value decides and the answer is marked unsound.
-        by_lower, by_upper = cmp(q.lower, bound), cmp(q.upper, bound)
-        decided = by_lower == by_upper
-        values = np.where(decided, by_lower, cmp(q.values, bound))
-        sound = q.sound and bool(np.all(decided[self.model.initial_states]))
-        return replace(q, values=values, lower=values, upper=values, sound=sound)
+            ComparisonOp.GE: BinaryOp.GE,
+            ComparisonOp.GT: BinaryOp.GT,
+            ComparisonOp.LE: BinaryOp.LE,
+            ComparisonOp.LT: BinaryOp.LT,
+        }[expr.threshold.op]
+        threshold = iv.exact(np.full(self.model.num_states, bound))
+        decided = iv.binary(cmp, q, threshold)
+        init = self.model.initial_states
+        if not np.all(decided.decided[init]):
+            q = self._refined(expr, q, lambda r: bool(np.all(iv.binary(cmp, r, threshold).decided[init])))
+            decided = iv.binary(cmp, q, threshold)
+        return replace(decided, engine=q.engine, method=q.method)
+
+    def _refined(self, expr: ProbQuery | RewardQuery, q: QueryValue, done) -> QueryValue:  # type: ignore[no-untyped-def]
+        """The query solved again until ``done``: with finer precision (:meth:`_finer`), then, for
+        an unbounded reachability probability on a small model, exactly in rational arithmetic.
+        Returns the last answer (still undecided if nothing decided it)."""
+        bare = replace(expr, threshold=None, direction=self.direction_of(expr))
+        q = self._finer(lambda checker: checker.query(bare), done) or q
+        if done(q):
+            return q
+        exact = self._rational(bare)
+        return exact if exact is not None and done(exact) else q
+
+    def _finer(self, solve, done) -> QueryValue | None:  # type: ignore[no-untyped-def]
+        """``solve`` with a precision 100 times finer each round, down to 1e-12, until ``done``;
+        the last answer (None if the precision was already that fine)."""
+        solver = self.options.solver
+        precision, q = solver.precision, None
+        while precision > 1e-12:
+            precision = max(precision / 100, 1e-12)
+            finer = replace(self.options, solver=replace(solver, precision=precision, relative=False))
+            checker = PropertyChecker(
+                self.model, coalition_of=self.coalition_of, scalar=self.scalar, options=finer
+            )
+            q = solve(checker)
+            if done(q):
+                break
+        return q
+
+    def _rational(self, expr: ProbQuery | RewardQuery) -> QueryValue | None:
+        """The exact value of an unbounded ``P[a U b]`` (or ``F``) on a model of at most
+        ``_RATIONAL_LIMIT`` states, by policy iteration in rational arithmetic (probabilities read
+        as the decimals the model was written with); None for anything else."""
+        from posgmc.engines.rational import exact_rational_reach
+
+        path = expr.path if isinstance(expr, ProbQuery) else None
+        if (
+            path is None
+            or self.model.num_states > _RATIONAL_LIMIT
+            or not isinstance(path, Temporal)
+            or path.bound is not None
+            or path.op not in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL)
+            or any(_is_temporal(o) for o in path.operands)
+        ):
+            return None
+        if path.op is TemporalOp.UNTIL:
+            remain, target = self._states(path.operands[0]), self._states(path.operands[1])
+        else:
+            remain, target = None, self._states(path.operands[0])
+        values = exact_rational_reach(
+            self.model, target, remain=remain, maximize=self._maximize(expr)
+        )
+        # each fraction rounded outwards to the floats around it: bounds that hold
+        nearest = np.array([float(v) for v in values])
+        below = np.array([float(v) > v for v in values])
+        above = np.array([float(v) < v for v in values])
+        lower = np.where(below, np.nextafter(nearest, -np.inf), nearest)
+        upper = np.where(above, np.nextafter(nearest, np.inf), nearest)
+        return QueryValue((lower + upper) / 2, lower, upper, method="exact (rational)")
 
     # -- queries -------------------------------------------------------------------------------
 
@@ -468,7 +530,8 @@ class PropertyChecker:
         return g
 
 
-_ARITH = (BinaryOp.ADD, BinaryOp.SUB, BinaryOp.MUL, BinaryOp.DIV)
+_RATIONAL_LIMIT = 300
+"""Models up to this many states may be solved in rational arithmetic to decide a threshold."""
 
 
 def _article(model_type: str) -> str:
@@ -479,47 +542,17 @@ def _article(model_type: str) -> str:
 
 def _is_temporal(e: Expr) -> bool:
     """Whether a path formula contains a temporal operator outside nested queries."""
-    if isinstance(e, Temporal):
-        return True
-    if isinstance(e, Unary):
-        return _is_temporal(e.operand)
-    if isinstance(e, Binary):
-        return _is_temporal(e.left) or _is_temporal(e.right)
-    return False
+    return any_node(
+        e,
+        lambda n: isinstance(n, Temporal),
+        into=lambda n: isinstance(n, (Unary, Binary)),
+    )
 
 
 def _contains_query(e: Expr) -> bool:
-    if isinstance(e, (ProbQuery, RewardQuery)):
-        return True
-    if isinstance(e, Unary):
-        return _contains_query(e.operand)
-    if isinstance(e, Binary):
-        return _contains_query(e.left) or _contains_query(e.right)
-    return False
-
-
-def _interval_arith(op: BinaryOp, a: QueryValue, b: QueryValue) -> QueryValue:
-    """Sound bounds of a op b from the bounds of a and b (interval arithmetic)."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        if op is BinaryOp.ADD:
-            lo, hi, v = a.lower + b.lower, a.upper + b.upper, a.values + b.values
-        elif op is BinaryOp.SUB:
-            lo, hi, v = a.lower - b.upper, a.upper - b.lower, a.values - b.values
-        else:
-            if op is BinaryOp.DIV:
-                # 1/[l,u] for intervals not containing 0
-                inv_lo, inv_hi = 1.0 / b.upper, 1.0 / b.lower
-                b = replace(b, values=1.0 / b.values, lower=inv_lo, upper=inv_hi)
-            cands = np.stack([a.lower * b.lower, a.lower * b.upper, a.upper * b.lower, a.upper * b.upper])
-            cands = np.nan_to_num(cands, nan=0.0)  # 0 * inf = 0 (rewards)
-            lo, hi = cands.min(axis=0), cands.max(axis=0)
-            v = np.nan_to_num(a.values * b.values, nan=0.0)
-    return QueryValue(
-        values=v.astype(np.float64),
-        lower=lo,
-        upper=hi,
-        iterations=a.iterations + b.iterations,
-        converged=a.converged and b.converged,
-        sound=a.sound and b.sound,
-        method=a.method,
+    """Whether a state expression contains a ``P``/``R`` query."""
+    return any_node(
+        e,
+        lambda n: isinstance(n, (ProbQuery, RewardQuery)),
+        into=lambda n: not isinstance(n, (ProbQuery, RewardQuery, Temporal)),
     )

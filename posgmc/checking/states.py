@@ -50,25 +50,39 @@ def evaluate_states(
 ) -> np.ndarray:
     """Evaluate ``expr`` in every state of ``model``.
 
+    Operators follow PRISM (and the compiler, :mod:`posgmc.build.compile_expr`): ``/`` is real
+    division (``1/0`` is infinite, ``0/0`` NaN), ``mod(i, n)`` needs ``n > 0``, ``pow`` of two ints
+    needs a non-negative exponent, ``floor``/``ceil``/``round`` need a finite argument. A failure
+    counts only where PRISM would evaluate the failing operand: ``&``, ``|``, ``=>`` and ``? :``
+    short-circuit, so ``x > 0 & mod(y, x) = 0`` is fine where ``x = 0``.
+
     Args:
         model: the explicit model (its ``state_values``, ``variable_names`` and ``labels`` are used).
         expr: a resolved state expression (constants already replaced by literals).
         queries: callback giving the per-state values of nested ``P``/``R`` queries.
 
     Returns:
-        An array of length ``num_states``: bool for formulas, int64 or float64 for numbers.
+        bool[S], int64[S] or float64[S].
 
     Raises:
-        SemanticError: an identifier that is not a state variable, or a label the model lacks.
+        SemanticError: an identifier that is not a state variable, a label the model lacks, or an
+            operator failing in a state (the message names the first such state).
         UnsupportedError: a temporal operator outside a ``P``/``R`` query.
     """
     num_states = model.num_states
     columns = {name: i for i, name in enumerate(model.variable_names)}
+    failures: list[tuple[np.ndarray, str, Expr]] = []  # (states, message, node) in order of use
 
     def full(value: object, dtype: type) -> np.ndarray:
         return np.full(num_states, value, dtype=dtype)
 
-    def ev(e: Expr) -> np.ndarray:
+    def fail(where: np.ndarray, message: str, e: Expr) -> np.ndarray:
+        """Record a failure in the states ``where``; returns a "failed" mask for propagation."""
+        failures.append((where, message, e))
+        return where
+
+    def ev(e: Expr, need: np.ndarray) -> np.ndarray:
+        """The value of ``e``; failures count only in the states ``need`` (short-circuit)."""
         if isinstance(e, BoolLit):
             return full(e.value, np.bool_)
         if isinstance(e, IntLit):
@@ -87,15 +101,26 @@ def evaluate_states(
                 raise SemanticError(f'unknown label "{e.name}"', e.span)
             return model.labels[e.name]
         if isinstance(e, Unary):
-            v = ev(e.operand)
+            v = ev(e.operand, need)
             return np.logical_not(v) if e.op is UnaryOp.NOT else -v
         if isinstance(e, Binary):
-            return _binary(e.op, ev(e.left), ev(e.right))
+            a = ev(e.left, need)
+            if e.op is BinaryOp.AND:
+                b = ev(e.right, need & a.astype(bool))
+            elif e.op is BinaryOp.OR:
+                b = ev(e.right, need & ~a.astype(bool))
+            elif e.op is BinaryOp.IMPLIES:
+                b = ev(e.right, need & a.astype(bool))
+            else:
+                b = ev(e.right, need)
+            return _binary(e.op, a, b)
         if isinstance(e, Ite):
-            c, a, b = ev(e.cond), ev(e.then), ev(e.otherwise)
+            c = ev(e.cond, need).astype(bool)
+            a, b = ev(e.then, need & c), ev(e.otherwise, need & ~c)
             return np.where(c, a, b)
         if isinstance(e, Call):
-            return _call(e.function, [ev(a) for a in e.args])
+            args = [ev(a, need) for a in e.args]
+            return _call(e, args, lambda bad, msg: fail(need & bad, msg, e))
         if isinstance(e, (ProbQuery, RewardQuery)):
             if queries is None:
                 raise UnsupportedError("a query cannot appear here", e.span)
@@ -106,10 +131,39 @@ def evaluate_states(
             )
         raise UnsupportedError(f"cannot evaluate {type(e).__name__} over states", e.span)
 
-    result = ev(expr)
+    with np.errstate(all="ignore"):  # IEEE results (inf, NaN) are the answer, not warnings
+        result = ev(expr, np.ones(num_states, dtype=bool))
+    for where, message, node in failures:
+        if where.any():
+            s = int(np.flatnonzero(where)[0])
+            raise SemanticError(f"{message} in state {model.describe_state(s)}", node.span)
     if result.shape != (num_states,):
         result = np.broadcast_to(result, (num_states,)).copy()
     return result
+
+
+def evaluate_call(model: ExplicitModel, e: Call, args: list[np.ndarray]) -> np.ndarray:
+    """``e``'s function over given argument values (e.g. the values of nested queries), with the
+    same domain rules as :func:`evaluate_states`.
+
+    Raises:
+        SemanticError: the function fails in some state (the message names the first).
+    """
+    failures: list[np.ndarray] = []
+    messages: list[str] = []
+
+    def fail(where: np.ndarray, message: str) -> np.ndarray:
+        failures.append(where)
+        messages.append(message)
+        return where
+
+    with np.errstate(all="ignore"):
+        out = _call(e, args, fail)
+    for where, message in zip(failures, messages):
+        if np.any(where):
+            s = int(np.flatnonzero(where)[0])
+            raise SemanticError(f"{message} in state {model.describe_state(s)}", e.span)
+    return out
 
 
 _BINARY: dict[BinaryOp, Callable[[np.ndarray, np.ndarray], np.ndarray]] = {
@@ -131,13 +185,22 @@ _BINARY: dict[BinaryOp, Callable[[np.ndarray, np.ndarray], np.ndarray]] = {
 
 def _binary(op: BinaryOp, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     if op is BinaryOp.DIV:
-        # PRISM: '/' is always real division; inf * 0 style corner cases follow IEEE.
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.true_divide(_as_float(a), _as_float(b))
+        # PRISM: '/' is always real division; 1/0 = inf and 0/0 = NaN as for doubles (IEEE)
+        return np.true_divide(_as_float(a), _as_float(b))
     return _BINARY[op](a, b)
 
 
-def _call(function: Function, args: list[np.ndarray]) -> np.ndarray:
+Failure = Callable[[np.ndarray, str], np.ndarray]
+"""Records that an operator fails in the given states (bool mask), with a message."""
+
+
+def _is_int(a: np.ndarray) -> bool:
+    return a.dtype.kind in "iub"
+
+
+def _call(e: Call, args: list[np.ndarray], fail: Failure) -> np.ndarray:
+    """PRISM's functions over all states, with the compiler's domain rules."""
+    function = e.function
     if function is Function.MIN:
         out = args[0]
         for a in args[1:]:
@@ -148,22 +211,28 @@ def _call(function: Function, args: list[np.ndarray]) -> np.ndarray:
         for a in args[1:]:
             out = np.maximum(out, a)
         return out
-    if function is Function.FLOOR:
-        return np.floor(args[0]).astype(np.int64)
-    if function is Function.CEIL:
-        return np.ceil(args[0]).astype(np.int64)
-    if function is Function.ROUND:
-        return np.floor(_as_float(args[0]) + 0.5).astype(np.int64)
+    if function in (Function.FLOOR, Function.CEIL, Function.ROUND):
+        x = _as_float(args[0])
+        fail(~np.isfinite(x), f"{function.value}() of a non-finite value")
+        x = np.where(np.isfinite(x), x, 0.0)
+        if function is Function.FLOOR:
+            return np.floor(x).astype(np.int64)
+        if function is Function.CEIL:
+            return np.ceil(x).astype(np.int64)
+        return np.floor(x + 0.5).astype(np.int64)
     if function is Function.POW:
         base, exp = args
-        if base.dtype.kind in "iu" and exp.dtype.kind in "iu" and np.all(exp >= 0):
-            return np.power(base, exp)
+        if _is_int(base) and _is_int(exp):
+            fail(exp < 0, "negative exponent in pow() of two ints")
+            return np.power(base.astype(np.int64), np.maximum(exp, 0).astype(np.int64))
         return np.power(_as_float(base), _as_float(exp))
     if function is Function.MOD:
-        return np.mod(args[0], args[1])
+        a, n = args
+        fail(n <= 0, "mod() by a non-positive divisor")
+        return np.mod(a, np.where(n > 0, n, 1))
     if function is Function.LOG:
         return np.log(_as_float(args[0])) / np.log(_as_float(args[1]))
-    raise UnsupportedError(f"unknown function {function.value}")
+    raise UnsupportedError(f"unknown function {function.value}", e.span)
 
 
 def literal_value(expr: Expr) -> int | float | bool | Fraction:

@@ -152,6 +152,17 @@ class ExplicitModel:
                 return rm
         raise PosgmcError(f'the model has no reward structure "{name}"')
 
+    def describe_state(self, s: int) -> str:
+        """State ``s`` as PRISM prints it, ``(x=1, b=true)``, or its number without variables."""
+        if not self.variable_names:
+            return f"state {s}"
+        row = self.state_values[s].tolist()
+        parts = [
+            f"{n}={'true' if v else 'false'}" if n in self.boolean_variables else f"{n}={v}"
+            for n, v in zip(self.variable_names, row)
+        ]
+        return "(" + ", ".join(parts) + ")"
+
     def observation_of(self, player: int) -> Observation | None:
         """The observation function of ``player``, or None if that player sees the whole state."""
         for obs in self.observations:

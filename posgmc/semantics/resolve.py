@@ -26,7 +26,8 @@ from dataclasses import dataclass
 
 from posgmc.errors import PosgmcError, SourceSpan
 from posgmc.semantics.constants import find_cycles
-from posgmc.semantics.evaluate import free_names, map_children, substitute
+from posgmc.semantics.evaluate import free_names, substitute
+from posgmc.syntax.traversal import map_children
 from posgmc.semantics.symbols import Symbol, SymbolKind, Type, line_of, report
 from posgmc.syntax.ast import (
     Assignment,

@@ -268,10 +268,7 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
 
 
 def _state_text(model: ExplicitModel, s: int) -> str:
-    if model.variable_names:
-        row = model.state_values[s].tolist()
-        return "(" + ", ".join(f"{n}={v}" for n, v in zip(model.variable_names, row)) + ")"
-    return str(s)
+    return model.describe_state(s)
 
 
 def memoryless_strategy(model: ExplicitModel, player: int, choices: np.ndarray) -> FiniteStateStrategy:
