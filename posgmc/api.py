@@ -351,7 +351,20 @@ def _coalition_resolver(model: ExplicitModel, zero_based: bool):  # type: ignore
                 assert p.number is not None  # noqa: S101 - a PlayerRef is a name or a number
                 index = p.number if zero_based else p.number - 1
                 if not 0 <= index < len(names):
-                    raise SemanticError(f"no player number {p.number}", p.span)
+                    listing = ", ".join(
+                        f"\"{n}\" = <<{i + 1}>> (<<{i}>> with --zero-based-players)"
+                        for i, n in enumerate(names)
+                    )
+                    raise SemanticError(
+                        f"no player number {p.number}: "
+                        + ("numbers count from 0 here" if zero_based else
+                           "PRISM-games numbers players from 1, Storm and PAYNT from 0"),
+                        p.span,
+                        hint=(f"the players are {listing}; " if names else "the model has no players; ")
+                        + ("drop --zero-based-players for 1-based numbers" if zero_based else
+                           "read numbers from 0 as PAYNT's files do with --zero-based-players "
+                           "(zero_based_players=True in Python)"),
+                    )
                 out.add(index)
         return frozenset(out)
 

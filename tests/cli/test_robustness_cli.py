@@ -167,3 +167,13 @@ def test_unknown_constant_is_reported_once_before_building(tmp_path: Path) -> No
     assert r.output.count('"Q" is not a constant of the model or the properties') == 1
     assert "--const:1:11: error" in r.output and "  N=3,p=0.5,Q=1\n" in r.output
     assert "Model " not in r.output  # nothing was built
+
+
+def test_zero_player_number_on_drn_names_the_option() -> None:
+    r = run("check", _test_game(), "--prop", '<<0>> Pmax=? [F "goal"]', "--full-observation")
+    assert r.exit_code == 2
+    assert "no player number 0: PRISM-games numbers players from 1, Storm and PAYNT from 0" in r.output
+    assert '"0" = <<1>> (<<0>> with --zero-based-players)' in r.output
+    ok = run("check", _test_game(), "--prop", '<<0>> Pmax=? [F "goal"]', "--full-observation",
+             "--zero-based-players")
+    assert ok.exit_code == 0, ok.output
