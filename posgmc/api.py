@@ -45,6 +45,7 @@ from posgmc.syntax.printer import format_expr
 
 if TYPE_CHECKING:
     from posgmc.strategies.fss import FiniteStateStrategy
+    from posgmc.strategies.simulate import Simulation
 
 ConstantValues = Mapping[str, object]
 
@@ -58,6 +59,9 @@ __all__ = [
     "check",
     "iter_check",
     "parse_properties",
+    "load_strategy",
+    "save_strategy",
+    "simulate",
 ]
 
 
@@ -612,3 +616,71 @@ def load_strategies(
         out[fss.player] = fss
     return out
 
+
+
+# -- strategies: files, simulation ------------------------------------------------------------
+
+
+def load_strategy(path: str | Path) -> "FiniteStateStrategy":
+    """Read a ``posgmc-fss/1`` strategy file (errors carry the file and JSON path)."""
+    from posgmc.strategies.files import read_strategy
+
+    return read_strategy(path)
+
+
+def save_strategy(strategy: "FiniteStateStrategy", path: str | Path) -> None:
+    """Write a strategy as a ``posgmc-fss/1`` file (atomically)."""
+    from posgmc.strategies.files import write_strategy
+
+    write_strategy(strategy, path)
+
+
+def simulate(
+    session: Session,
+    prop: str,
+    *,
+    strategies: Mapping[str, "FiniteStateStrategy | str | Path"] | None = None,
+    runs: int = 10_000,
+    seed: int = 0,
+    max_steps: int = 10_000,
+    opponent: str = "uniform",
+    trace: bool = False,
+    zero_based_players: bool = False,
+    build_options: BuildOptions = BuildOptions(),
+) -> "Simulation":
+    """Estimate a property by simulation under the given strategies (see
+    :mod:`posgmc.strategies.simulate`); players without one play uniformly, or their
+    full-observation optimum with ``opponent="best"``.
+
+    Raises:
+        InputError, StrategyError: bad model, property or strategy files.
+        UnsupportedError: a property simulation does not estimate.
+    """
+    from posgmc.strategies.simulate import Simulation, simulate as run  # noqa: F401
+
+    session = _session(session)
+    if not isinstance(runs, int) or runs < 1:
+        raise InputError(f"runs must be a positive integer, got {runs!r}")
+    if not isinstance(max_steps, int) or max_steps < 0:
+        raise InputError(f"max_steps must be a non-negative integer, got {max_steps!r}")
+    built = build(session, options=build_options, allow_extra_constants=True)
+    loaded = load_strategies(strategies) if strategies else {}
+    _, (parsed,) = parse_properties(session, texts=[prop])
+    src = SourceText(prop, "<--prop 1>")
+    try:
+        expr = parsed.expr
+        if session.syntax is not None and built.flat is not None:
+            (cp,) = sem.instantiate_properties(
+                PropertiesFile(properties=(parsed,)), built.flat, model=session.syntax,
+                constants=session.constants, zero_based_players=zero_based_players,
+            )
+            expr = cp.expr
+        return run(
+            built.model, expr, loaded, text=prop,
+            coalition_of=_coalition_resolver(built.model, zero_based_players), scalar=_scalar,
+            runs=runs, seed=seed, max_steps=max_steps, opponent=opponent, trace=trace,
+        )
+    except MultipleErrors as e:
+        raise _attach(e.errors[0] if len(e.errors) == 1 else e, src) from None
+    except PosgmcError as e:
+        raise _attach(e, src) from None

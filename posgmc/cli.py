@@ -11,6 +11,7 @@ Exit status (fixed, documented in docs/cli.md):
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 import traceback
@@ -385,6 +386,116 @@ def check(
 def _not_passed(r: Any) -> bool:
     """A threshold that is false or undecided, or a result whose iteration did not converge."""
     return r.value is False or (r.value is None and r.kind.value == "boolean") or not r.converged
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.option("--prop", "prop_text", required=True, metavar="TEXT",
+              help="P=? [F φ], P=? [a U b], their F<=k forms, or R=? [F φ].")
+@click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE",
+              help="A player's finite-state strategy; repeatable, one per player.")
+@click.option("--runs", type=click.IntRange(min=1), default=10_000, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--max-steps", type=click.IntRange(min=0), default=10_000, show_default=True)
+@click.option("--opponent", type=click.Choice(["uniform", "best"]), default="uniform", show_default=True,
+              help="How players without a strategy play: uniformly, or their full-observation optimum.")
+@click.option("--trace", is_flag=True, help="Also print one sampled path, step by step.")
+@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
+@click.option("--json", "as_json", is_flag=True, help='Print {"estimate", "lower", "upper", "runs", ...}.')
+@_common
+def simulate(
+    model: str,
+    prop_text: str,
+    strategy_files: tuple[str, ...],
+    runs: int,
+    seed: int,
+    max_steps: int,
+    opponent: str,
+    trace: bool,
+    zero_based_players: bool,
+    as_json: bool,
+    consts: tuple[str, ...],
+    debug: bool,
+) -> None:
+    """Estimate a property of MODEL by simulating runs under the given strategies."""
+    from posgmc import api
+
+    def run() -> int:
+        _, combos = expand_constants(consts)
+        if len(combos) > 1:
+            raise click.BadParameter("simulate takes single constant values", param_hint="'--const'")
+        session = api.load(model, constants=combos[0] if combos else {})
+        result = api.simulate(
+            session, prop_text, strategies=strategy_options(strategy_files) or None, runs=runs,
+            seed=seed, max_steps=max_steps, opponent=opponent, trace=trace,
+            zero_based_players=zero_based_players,
+        )
+        if as_json:
+            doc = result.to_json()
+            if trace:
+                doc["trace"] = [dataclasses.asdict(t) for t in result.trace]
+            click.echo(json.dumps(doc))
+            return EXIT_OK
+        interval = "Wilson 95 %" if result.kind == "probability" else "normal 95 %, an estimate"
+        click.echo(
+            f"{result.property}: {_fmt(result.estimate)}  [{_fmt(result.lower)}, {_fmt(result.upper)}]"
+            f"  ({interval}; {result.runs} runs, seed {result.seed})"
+        )
+        if result.undecided:
+            click.echo(f"  {result.undecided} runs reached --max-steps undecided; the interval "
+                       "counts them both ways")
+        if trace:
+            _print_trace(result.trace)
+        return EXIT_OK
+
+    _guard(debug, run, as_json=as_json, consts=consts)
+
+
+def _print_trace(steps: Any) -> None:
+    rows = [("step", "owner", "state", "observations", "memory", "action")]
+    for t in steps:
+        rows.append((
+            str(t.step), t.owner or "agent", t.state,
+            "; ".join(f"{p}: {o}" for p, o in t.observations) or "-",
+            ", ".join(f"{p}={n}" for p, n in t.memory) or "-",
+            t.action,
+        ))
+    widths = [max(len(r[i]) for r in rows) for i in range(6)]
+    for r in rows:
+        click.echo("  ".join(r[i].ljust(widths[i]) for i in range(6)).rstrip())
+
+
+@main.command("show-strategy")
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option("--model", "model_file", type=click.Path(dir_okay=False), default=None,
+              help="Check the strategy against this model (observables, labels).")
+@click.option("--dot", "dot_file", type=click.Path(dir_okay=False), default=None,
+              help="Also write the strategy as a DOT graph.")
+@_common
+def show_strategy(
+    file: str, model_file: str | None, dot_file: str | None, consts: tuple[str, ...], debug: bool
+) -> None:
+    """Print a finite-state strategy as a table (memory x observation -> action -> memory)."""
+    from posgmc import api
+    from posgmc.strategies.render import strategy_dot, strategy_table
+
+    def run() -> int:
+        fss = api.load_strategy(file)
+        if model_file is not None:
+            from posgmc.strategies.binding import bind
+
+            _, combos = expand_constants(consts)
+            built = api.build(api.load(model_file, constants=combos[0] if combos else {}))
+            for w in bind(built.model, fss).warnings:
+                click.echo(f"warning: {w}", err=True)
+        click.echo(strategy_table(fss), nl=False)
+        if dot_file is not None:
+            from posgmc.io.atomic import atomic_write_text
+
+            atomic_write_text(dot_file, strategy_dot(fss))
+        return EXIT_OK
+
+    _guard(debug, run, consts=consts)
 
 
 def strategy_options(values: Sequence[str]) -> dict[str | None, str]:
