@@ -45,6 +45,8 @@ from posgmc.syntax.printer import format_expr
 
 if TYPE_CHECKING:
     from posgmc.strategies.fss import FiniteStateStrategy
+    from posgmc.synthesis.checker import SynthesisChecker
+    from posgmc.synthesis.search import SynthesisOptions
     from posgmc.strategies.simulate import Simulation
 
 ConstantValues = Mapping[str, object]
@@ -392,12 +394,18 @@ def iter_check(
     zero_based_players: bool = False,
     built: BuiltModel,
     strategies: Mapping[str, "FiniteStateStrategy"] | None = None,
+    synthesis: "SynthesisOptions | None" = None,
 ) -> Iterator[tuple[Property, PropertyResult | PosgmcError]]:
     """Check each property in turn; a property that fails yields its error and the others go on
     (as PRISM does). Errors that concern the whole input (unparsable files) are raised.
 
     With ``strategies`` (player name -> strategy) every property is answered under them (see
-    :mod:`posgmc.strategies.verify`): ``guaranteed``, ``vs_fss_adversary``, ``upper_bound``."""
+    :mod:`posgmc.strategies.verify`): ``guaranteed``, ``vs_fss_adversary``, ``upper_bound``.
+    A partially observable model without strategies and without ``full_observation`` is answered
+    by synthesis (:mod:`posgmc.synthesis`), configured by ``synthesis``."""
+    from posgmc.synthesis.search import SynthesisOptions
+
+    synthesis = synthesis or SynthesisOptions()
     parsed, cli_props = parse_properties(session, files=property_files, texts=properties)
     model = built.model
     partial = model.model_type.is_partially_observable or bool(model.observations)
@@ -406,21 +414,15 @@ def iter_check(
             "given strategies and --full-observation ask different questions",
             hint="drop --full-observation: the numbers under given strategies need none",
         )
-    if partial and not full_observation and not strategies:
-        raise UnsupportedError(
-            f"this is a partially observable model ({model.model_type.value}); say how its players "
-            "are to play",
-            hint="give finite-state strategies with --strategy PLAYER=FILE (strategies=...) to get "
-            "what they guarantee, or pass --full-observation (full_observation=True) for the fully "
-            "observable value, which bounds the partially observable one",
-        )
+    synthesising = partial and not full_observation and not strategies
     note = (
         "full-observation value: an upper bound for a maximising and a lower bound for a minimising "
         "partially observing player"
-        if partial and not strategies
+        if partial and full_observation
         else None
     )
-    checker = _checker(model, options, zero_based_players, strategies)
+    checker = _checker(model, options, zero_based_players, strategies,
+                       synthesis if synthesising else None)
     groups: list[tuple[Sequence[Property], SourceText | None]] = [
         (pf.properties, src) for pf, src in parsed
     ]
@@ -448,8 +450,14 @@ def _checker(
     options: CheckOptions,
     zero_based_players: bool,
     strategies: Mapping[str, "FiniteStateStrategy"] | None,
-) -> PropertyChecker | StrategyChecker:
+    synthesis: "SynthesisOptions | None" = None,
+) -> "PropertyChecker | StrategyChecker | SynthesisChecker":
     coalition_of = _coalition_resolver(model, zero_based_players)
+    if synthesis is not None:
+        from posgmc.synthesis.checker import SynthesisChecker
+
+        return SynthesisChecker(model, coalition_of=coalition_of, scalar=_scalar, options=options,
+                                synthesis=synthesis)
     if strategies:
         return StrategyChecker(
             model, strategies, coalition_of=coalition_of, scalar=_scalar, options=options
@@ -460,7 +468,7 @@ def _checker(
 def _check_one(
     session: Session,
     built: BuiltModel,
-    checker: "PropertyChecker | StrategyChecker",
+    checker: "PropertyChecker | StrategyChecker | SynthesisChecker",
     pf: PropertiesFile,
     prop: Property,
     zero_based_players: bool,
@@ -502,6 +510,7 @@ def check(
     zero_based_players: bool = False,
     built: BuiltModel | None = None,
     strategies: Mapping[str, "FiniteStateStrategy | str | Path"] | None = None,
+    synthesis: "SynthesisOptions | None" = None,
 ) -> CheckReport:
     """Build the model (unless ``built`` is given) and check each property at the initial states.
 
@@ -518,6 +527,9 @@ def check(
             omniscient adversary), ``vs_fss_adversary`` (every player's strategy fixed) and
             ``upper_bound`` (the adversary's strategies against an omniscient decision maker),
             those that the given strategies determine.
+        synthesis: how to synthesise strategies for a partially observable model checked
+            without ``strategies`` and without ``full_observation`` (memory sizes, time budget,
+            seed; :class:`~posgmc.synthesis.search.SynthesisOptions`).
 
     Returns:
         The report; ``errors`` holds (property text, error) for properties that could not be
@@ -554,6 +566,7 @@ def check(
         zero_based_players=zero_based_players,
         built=built,
         strategies=loaded,
+        synthesis=synthesis,
     ):
         if isinstance(outcome, PosgmcError):
             errors.append((prop.text or format_expr(prop.expr), outcome))

@@ -318,8 +318,14 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
     help="A player's finite-state strategy (posgmc-fss/1 JSON); repeatable, one per player.",
 )
 @click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
-@click.option("--export-strategy", type=click.Path(dir_okay=False), default=None,
-              help="Write the optimal memoryless strategy of the (single) property as JSON.")
+@click.option("--memory", "memory", default="auto", show_default=True, metavar="K|K1..K2|auto",
+              help="Synthesis: memory sizes of the decision maker's strategy (auto: 1..3).")
+@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True,
+              help="Synthesis: seconds per property (anytime: the best defence so far is verified).")
+@click.option("--seed", type=int, default=0, show_default=True, help="Synthesis: random seed.")
+@click.option("--export-strategy", type=click.Path(), default=None,
+              help="Write the optimal memoryless strategy of the (single) property as JSON; for a "
+              "synthesised strategy, a directory receiving <player>.json.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (see docs/cli.md).")
 @click.option("--state-limit", type=click.IntRange(min=1), default=None)
 @_common
@@ -333,6 +339,9 @@ def check(
     full_observation: bool,
     strategy_files: tuple[str, ...],
     zero_based_players: bool,
+    memory: str,
+    timeout: float,
+    seed: int,
     export_strategy: str | None,
     as_json: bool,
     state_limit: int | None,
@@ -366,6 +375,7 @@ def check(
                 full_observation=full_observation,
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
+                synthesis=_synthesis_options(memory, timeout, seed),
             )
             if report.errors:
                 code = EXIT_ERROR
@@ -373,7 +383,10 @@ def check(
                 code = EXIT_PROPERTY_FALSE
             rows.append((constants, report))
             if export_strategy is not None:
-                _write_strategy(export_strategy, report)
+                if any(getattr(r, "strategies", ()) for r in report.results):
+                    _write_synthesised(export_strategy, report)
+                else:
+                    _write_strategy(export_strategy, report)
         if as_json:
             click.echo(json.dumps(_json_report(model, swept, rows)))
         else:
@@ -381,6 +394,39 @@ def check(
         return code
 
     _guard(debug, run, as_json=as_json, consts=consts)
+
+
+def _synthesis_options(memory: str, timeout: float, seed: int) -> Any:
+    """``--memory`` as memory sizes: ``2``, ``1..3``, ``auto`` (1..3), optionally ``player=...``
+    (the property's coalition is the decision maker either way)."""
+    from posgmc.synthesis.search import SynthesisOptions
+
+    text = memory.split("=", 1)[1] if "=" in memory else memory
+    try:
+        if text == "auto":
+            sizes: tuple[int, ...] = (1, 2, 3)
+        elif ".." in text:
+            lo, hi = (int(t) for t in text.split("..", 1))
+            sizes = tuple(range(lo, hi + 1))
+        else:
+            sizes = (int(text),)
+    except ValueError:
+        raise click.BadParameter(f"{memory!r}: give K, K1..K2 or auto", param_hint="'--memory'") from None
+    if not sizes or min(sizes) < 1:
+        raise click.BadParameter(f"{memory!r}: memory sizes start at 1", param_hint="'--memory'")
+    return SynthesisOptions(memory=sizes, timeout=timeout, seed=seed)
+
+
+def _write_synthesised(directory: str, report: Any) -> None:
+    """One posgmc-fss/1 file per synthesised player, <player>.json, in ``directory``."""
+    import os
+
+    from posgmc.strategies.files import write_strategy
+
+    os.makedirs(directory, exist_ok=True)
+    for r in report.results:
+        for fss in getattr(r, "strategies", ()):
+            write_strategy(fss, os.path.join(directory, f"{fss.player or 'agent'}.json"))
 
 
 def _not_passed(r: Any) -> bool:
@@ -577,10 +623,16 @@ def _print_strategy_numbers(r: Any) -> None:
     """The numbers about given strategies, each with its bounds and what it means."""
     from posgmc.checking.results import STRATEGY_NUMBERS
 
-    for key in STRATEGY_NUMBERS:
+    for key in (*STRATEGY_NUMBERS, "full_observation"):
         number = getattr(r, key, None)
         if number is not None:
             click.echo(f"  {key}: {_fmt(number.value)}  [{_fmt(number.lower)}, {_fmt(number.upper)}]")
+    stats = getattr(r, "synthesis", None)
+    if stats:
+        rounds = ", ".join(f"k={x['memory']}: {x['value_policy_iteration']:.8g}" for x in stats["rounds"])
+        phases = ", ".join(f"{k} {v:.2f} s" for k, v in stats["phases"].items())
+        click.echo(f"  synthesis: {rounds} (best so far, by policy iteration); {phases}; time budget "
+                   f"{stats['timeout']:g} s, seed {stats['seed']}" + ("; PARTIAL: the budget ran out" if stats["partial"] else ""))
     if getattr(r, "memory", ()):
         click.echo("  memory: " + ", ".join(f"{p or 'agent'}={k}" for p, k in r.memory))
 

@@ -60,8 +60,16 @@ def test_rover_values(name: str, method: Method) -> None:
             assert r.lower - 1e-9 <= value + 1e-9 and value - 1e-9 <= r.upper + 1e-9
 
 
-def test_posg_needs_full_observation_flag() -> None:
-    from posgmc.errors import UnsupportedError
+def test_posg_without_options_is_answered_by_synthesis() -> None:
+    """Without strategies and without full_observation a posg property is synthesised for; what
+    synthesis cannot answer yet is reported per property (here: bounded and reward objectives)."""
+    from posgmc.synthesis.search import SynthesisOptions
 
-    with pytest.raises(UnsupportedError, match="partially observable"):
-        api.check(api.load(MODELS / "rover.posg"), property_files=[MODELS / "rover.props"])
+    report = api.check(api.load(MODELS / "rover.posg"), property_files=[MODELS / "rover.props"],
+                       synthesis=SynthesisOptions(memory=(1,), timeout=5, restarts=0, iterations=10))
+    by_name = {r.name: r for r in report.results}
+    assert by_name["reach"].guaranteed is not None
+    # no partially observing rover beats the full-observation value (exact 0.9876561794)
+    assert by_name["reach"].guaranteed.lower <= 0.9876561794 + 1e-9
+    assert {text for text, _ in report.errors} == {'"reach_soon": <<rover>> Pmax=? [ F<=20 "goal" ]',
+                                                   '"steps": <<rover>> R{"steps"}min=? [ F "over" ]'}

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import enum
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -75,6 +76,10 @@ class PropertyResult:
     ``vs_fss_adversary`` and ``upper_bound`` hold the numbers that apply (see
     :data:`STRATEGY_NUMBERS`), ``memory`` each strategy's memory size, and ``value``/``lower``/
     ``upper`` repeat the first of them that is present (a threshold is judged on ``guaranteed``).
+    A synthesised result also has ``full_observation`` (the value when the decision maker sees
+    everything: no partially observing defence does better), ``synthesis`` (JSON-ready statistics:
+    ``partial``, ``phases``, ``rounds``) and ``strategies`` (the synthesised
+    :class:`~posgmc.strategies.fss.FiniteStateStrategy` objects).
     """
 
     property: str
@@ -96,6 +101,9 @@ class PropertyResult:
     vs_fss_adversary: Bound | None = None
     upper_bound: Bound | None = None
     memory: tuple[tuple[str, int], ...] = ()
+    full_observation: Bound | None = None
+    synthesis: Mapping[str, Any] | None = None
+    strategies: tuple[Any, ...] = field(default=(), repr=False)
 
     def to_json(self) -> dict[str, Any]:
         """The documented machine-readable form (see docs/cli.md)."""
@@ -124,4 +132,8 @@ class PropertyResult:
                 out[key] = number.to_json()
         if self.memory:
             out["memory"] = dict(self.memory)
+        if self.full_observation is not None:
+            out["full_observation"] = self.full_observation.to_json()
+        if self.synthesis is not None:
+            out.update(self.synthesis)
         return out

@@ -1,0 +1,105 @@
+"""Synthesis quality and time against PAYNT, both in the same invocation (issue: synthesis).
+
+Usage: python benchmarks/synthesis_bench.py [--timeout 30] [--paynt-timeout 30] [--only NAME ...]
+
+For every POSMG under ../shared/benchmarks/posmg/ with a DRN sketch: posgmc synthesises the
+coalition's strategy (`check` without --strategy: gradient search over randomised FSSs with
+memory 1..3 against the omniscient opponent, verified by sound interval iteration) within
+--timeout, and PAYNT 0.5.0 (`python -m paynt DIR --sketch sketch.templ --props sketch.props
+--fsc-synthesis --timeout T`, run by /root/refenv/bin/python) within --paynt-timeout. PAYNT's
+value is the last "optimum" it prints. Prints a markdown table: our guaranteed with its proven
+bounds, the full-observation value, our time; PAYNT's value and time; who is better.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+POSMG = ROOT.parent / "shared" / "benchmarks" / "posmg"
+REFPY = Path("/root/refenv/bin/python")
+
+
+def ours(directory: Path, timeout: float) -> dict[str, object]:
+    sys.path.insert(0, str(ROOT))
+    from posgmc import api
+    from posgmc.synthesis.search import SynthesisOptions
+
+    prop = (directory / "sketch.props").read_text().strip().splitlines()[-1].rstrip(";")
+    started = time.perf_counter()
+    report = api.check(api.load(directory / "sketch.templ"), properties=[prop], zero_based_players=True,
+                       synthesis=SynthesisOptions(timeout=timeout))
+    seconds = time.perf_counter() - started
+    outcome = report.outcomes[0]
+    if isinstance(outcome, tuple):
+        return {"property": prop, "error": outcome[1].message, "seconds": seconds}
+    rounds = outcome.synthesis["rounds"] if outcome.synthesis else []
+    return {"property": prop, "guaranteed": outcome.guaranteed, "full": outcome.full_observation,
+            "memory": dict(outcome.memory), "partial": outcome.synthesis["partial"],
+            "deterministic": rounds[-1]["deterministic"] if rounds else None, "seconds": seconds}
+
+
+def paynt(directory: Path, timeout: float) -> dict[str, object]:
+    if not REFPY.exists():
+        return {"error": "no /root/refenv (see benchmarks/README.md)"}
+    cmd = [str(REFPY), "-m", "paynt", str(directory), "--sketch", "sketch.templ", "--props",
+           "sketch.props", "--fsc-synthesis", "--timeout", str(int(timeout))]
+    started = time.perf_counter()
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout + 60, cwd="/tmp")
+    except subprocess.TimeoutExpired:
+        return {"error": "did not stop", "seconds": time.perf_counter() - started}
+    seconds = time.perf_counter() - started
+    text = out.stdout + out.stderr
+    values = re.findall(r"optimum: ([0-9.eE+-]+)", text) or re.findall(
+        r"double-checking specification satisfiability:\s*:\s*([0-9.eE+-]+)", text)
+    if not values:
+        tail = [line for line in text.splitlines() if line.strip()][-1:] or ["no output"]
+        return {"error": tail[0][-80:], "seconds": seconds}
+    return {"value": float(values[-1]), "seconds": seconds}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--timeout", type=float, default=30.0)
+    ap.add_argument("--paynt-timeout", type=float, default=30.0)
+    ap.add_argument("--only", nargs="*", default=None)
+    args = ap.parse_args()
+    dirs = sorted(d for d in POSMG.iterdir() if (d / "sketch.templ").exists() and (d / "sketch.props").exists())
+    if args.only:
+        dirs = [d for d in dirs if d.name in args.only]
+    print("| model | property | posgmc guaranteed [lower, upper] | full observation | memory | posgmc (s) | "
+          "PAYNT --fsc-synthesis | PAYNT (s) | better |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for d in dirs:
+        a = ours(d, args.timeout)
+        b = paynt(d, args.paynt_timeout)
+        prop = str(a["property"]).replace("|", "\\|")
+        if "error" in a:
+            mine = f"error: {a['error']}"
+            full = memory = "-"
+            better = "PAYNT" if "value" in b else "-"
+        else:
+            g = a["guaranteed"]
+            mine = f"{g.value:.6f} [{g.lower:.6f}, {g.upper:.6f}]" + (" (partial)" if a["partial"] else "")
+            full = f"{a['full'].value:.6f}"
+            memory = ", ".join(f"{k or 'agent'}={v}" for k, v in a["memory"].items())
+            if "value" in b:
+                maximize = "max" in prop
+                diff = (g.lower - b["value"]) if maximize else (b["value"] - g.upper)
+                better = "posgmc" if diff > 1e-6 else "PAYNT" if diff < -1e-6 else "equal"
+            else:
+                better = "posgmc (PAYNT fails)"
+        theirs = f"{b['value']:.6f}" if "value" in b else f"fails: {b['error']}"
+        pt = f"{b['seconds']:.1f}" if "seconds" in b else "-"
+        print(f"| {d.name} | `{prop}` | {mine} | {full} | {memory} | {a['seconds']:.1f} | {theirs} | {pt} | {better} |",
+              flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,95 @@
+"""Properties of partially observable models answered by synthesis: each property's coalition
+gets a finite-state strategy (:mod:`posgmc.synthesis.search`) and the result reports what it
+provably guarantees, beside the full-observation value that bounds every partially observing
+defence."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from posgmc.checking.dispatch import CheckOptions, CoalitionResolver, ScalarEvaluator
+from posgmc.checking.results import PropertyResult, ResultKind
+from posgmc.errors import UnsupportedError
+from posgmc.model.explicit import ExplicitModel
+from posgmc.synthesis.search import SynthesisOptions, synthesize
+from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery
+
+__all__ = ["SynthesisChecker"]
+
+
+class SynthesisChecker:
+    """Checks each property by synthesising the decision maker's strategy (same interface as
+    :class:`~posgmc.checking.dispatch.PropertyChecker`)."""
+
+    def __init__(self, model: ExplicitModel, *, coalition_of: CoalitionResolver,
+                 scalar: ScalarEvaluator, options: CheckOptions = CheckOptions(),
+                 synthesis: SynthesisOptions = SynthesisOptions()) -> None:
+        self.model, self.coalition_of, self.scalar = model, coalition_of, scalar
+        self.options, self.synthesis = options, synthesis
+
+    def _player(self, expr: ProbQuery) -> int:
+        if not self.model.player_names:
+            return 0
+        players = self.coalition_of(expr.coalition)
+        if players is None or len(players) != 1:
+            raise UnsupportedError(
+                "synthesis needs a coalition of one player, the decision maker",
+                expr.span,
+                hint="write <<player>> Pmax=? [ ... ]",
+            )
+        return next(iter(players))
+
+    def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
+        """Synthesise and verify. A threshold holds when ``guaranteed`` meets it, fails when the
+        full-observation value cannot, and is unknown in between."""
+        if not isinstance(expr, ProbQuery):
+            raise UnsupportedError(
+                "synthesis answers P queries of partially observable models so far",
+                expr.span,
+                hint="give strategies with --strategy, or use --full-observation",
+            )
+        player = self._player(expr)
+        bare = expr
+        if expr.threshold is not None:
+            maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
+            bare = dataclasses.replace(expr, threshold=None,
+                                       direction=Direction.MAX if maximize else Direction.MIN)
+        result = synthesize(self.model, bare, player=player, coalition_of=self.coalition_of,
+                            scalar=self.scalar, options=self.synthesis, check_options=self.options)
+        g, full = result.guaranteed, result.full_observation
+        value: float | bool | None = g.value
+        kind = ResultKind.PROBABILITY
+        lower: float | None = g.lower
+        upper: float | None = g.upper
+        if expr.threshold is not None:
+            p = float(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            holds = {ComparisonOp.GE: lambda x: x >= p, ComparisonOp.GT: lambda x: x > p,
+                     ComparisonOp.LE: lambda x: x <= p, ComparisonOp.LT: lambda x: x < p}[expr.threshold.op]
+            maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
+            proven = holds(g.lower if maximize else g.upper) and g.sound
+            refuted = not holds(full.upper if maximize else full.lower) and full.sound
+            value = True if proven else False if refuted else None
+            kind, lower, upper = ResultKind.BOOLEAN, None, None
+        player_name = self.model.player_names[player] if self.model.player_names else ""
+        direction = "at least" if (bare.direction is Direction.MAX) else "at most"
+        note = (f"guaranteed: the synthesised strategy of {player_name or 'the agent'!s} ensures "
+                f"{direction} this against every adversary (checked by {result.method}); "
+                f"full_observation: the value if it saw everything")
+        stats = {
+            "partial": result.partial,
+            "phases": {k: round(v, 3) for k, v in result.phases.items()},
+            "rounds": [
+                {"memory": r.memory, "value_policy_iteration": r.guaranteed.value,
+                 "deterministic": r.deterministic, "seconds": round(r.seconds, 3)}
+                for r in result.rounds
+            ],
+            "timeout": self.synthesis.timeout,
+            "seed": self.synthesis.seed,
+        }
+        return PropertyResult(
+            property=text, name=name, kind=kind, value=value, lower=lower, upper=upper,
+            seconds=sum(result.phases.values()), method=f"synthesis ({result.method})",
+            converged=True, sound=g.sound, note=note, per_initial=(value,),
+            guaranteed=g, memory=((player_name, result.strategy.memory_size),),
+            full_observation=full, synthesis=stats, strategies=(result.strategy,),
+        )

@@ -1,0 +1,212 @@
+"""The decision maker's randomised k-FSS as a parameter vector, and the exact value and gradient
+of what it guarantees against the omniscient adversary's best response.
+
+Parameters: logits ``A[n, z, a]`` (softmax over the labels observation z offers) for the action
+map γ, and logits ``D[n, z, a, n']`` (softmax over the k nodes) for the memory update δ, for
+every memory node n and every observation z of the decision maker. Since softmax probabilities
+are positive, the product's reachable structure does not depend on θ.
+
+Evaluation at θ (Danskin's theorem for ``min over adversaries``): build the product with the FSS
+(:mod:`posgmc.strategies.product`), let the engines solve the adversary's optimum on it and fix
+the adversary's optimal choices, then solve the induced chain exactly (one sparse LU) and its
+adjoint: with ``x = (I - P_UU)^{-1} b_U`` the values of the undecided states U and
+``y^T (I - P_UU) = e_init``, the derivative of the initial value along a change of the defence's
+rows is ``y^T (dP x + db)``. A defence row of product state (s, n) under observation z is
+``Σ_a γ(n,z,a) Σ_n' δ(n,z,a,n') P(s,a,·)`` over (s', n'), so with ``W[c, n'] = Σ_s' P(c,s') x(s',n')``
+
+    ∂/∂γ(n,z,a) = Σ_(s,n) y · Σ_n' δ(n,z,a,n') W[c(s,a), n'],  ∂/∂δ(n,z,a,n') = Σ_(s,n) y · γ · W[c, n'],
+
+and the softmax chain rule gives the logits' gradient. This is the subgradient of the max-min at
+θ (exact where the adversary's best response is unique). Only reachability probabilities
+(``P[a U b]``, ``F``) are differentiated here; the numbers reported to users come from the sound
+engines (:mod:`posgmc.strategies.verify`), never from this float evaluation.
+
+The decision maker must be the only player with memory: ``K = k``, product state (s, n).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+
+from posgmc.checking.dispatch import CheckOptions, PropertyChecker
+from posgmc.engines.options import Method, SolverOptions
+from posgmc.engines.graph import positive_reach, structure_of
+from posgmc.model.explicit import ExplicitModel
+from posgmc.strategies.binding import bind, player_view
+from posgmc.strategies.fss import FiniteStateStrategy
+from posgmc.strategies.product import strategy_product
+from posgmc.syntax.ast import Expr, ProbQuery
+
+__all__ = ["Parametrisation", "Evaluation"]
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """``value`` at the initial state (float), ``grad_action``/``grad_update`` with the shapes of
+    the logits."""
+
+    value: float
+    grad_action: np.ndarray
+    grad_update: np.ndarray
+
+
+class Parametrisation:
+    """The defence's FSSs of ``memory`` nodes for player ``player`` of ``model``.
+
+    Args:
+        model: the game (or pomdp).
+        player: the decision maker's index.
+        memory: k >= 1.
+        query: the property (a ``P`` query of ``[a U b]``/``F b``, unbounded).
+        target, remain: bool[S] of the model (where ``b`` and ``a`` hold).
+        coalition_of, scalar: as for the checker (the adversary's best response).
+    """
+
+    def __init__(self, model: ExplicitModel, player: int, memory: int, query: ProbQuery,
+                 target: np.ndarray, remain: np.ndarray, *, coalition_of, scalar) -> None:  # type: ignore[no-untyped-def]
+        self.model, self.player, self.k, self.query = model, player, memory, query
+        self.coalition_of, self.scalar = coalition_of, scalar
+        self.target, self.remain = target, remain
+        self.view = player_view(model, player)
+        owned = (model.state_players == player) if model.player_names else np.ones(model.num_states, bool)
+        self.owned = owned
+        rows = np.flatnonzero(owned[model.choice_states])
+        Z, A = self.view.num_observations, len(model.action_names)
+        offered = np.zeros((Z, A), dtype=bool)
+        offered[self.view.state_obs[model.choice_states[rows]], model.choice_actions[rows]] = True
+        self.used_obs = np.flatnonzero(offered.any(axis=1))  # observations of the player's states
+        self.used_actions = np.flatnonzero(offered.any(axis=0))
+        self.mask = offered[np.ix_(self.used_obs, self.used_actions)]  # [Zu, Au]
+        self.obs_index = np.full(Z, -1, dtype=np.int64)
+        self.obs_index[self.used_obs] = np.arange(self.used_obs.size)
+        self.act_index = np.full(A, -1, dtype=np.int64)
+        self.act_index[self.used_actions] = np.arange(self.used_actions.size)
+        self.maximize = query.direction is None or query.direction.name == "MAX"
+
+    # -- θ <-> strategies --------------------------------------------------------------------------
+
+    @property
+    def shapes(self) -> tuple[tuple[int, ...], tuple[int, ...]]:
+        Zu, Au = self.mask.shape
+        return (self.k, Zu, Au), (self.k, Zu, Au, self.k)
+
+    def probabilities(self, logits_a: np.ndarray, logits_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Softmax of the logits: γ[k, Zu, Au] (0 where a label is not offered), δ[k, Zu, Au, k]."""
+        a = np.where(self.mask[None], logits_a, -np.inf)
+        a = np.exp(a - a.max(axis=2, keepdims=True))
+        gamma = a / a.sum(axis=2, keepdims=True)
+        d = np.exp(logits_d - logits_d.max(axis=3, keepdims=True))
+        delta = d / d.sum(axis=3, keepdims=True)
+        return gamma, delta
+
+    def strategy(self, gamma: np.ndarray, delta: np.ndarray) -> FiniteStateStrategy:
+        """The FSS with these probabilities (rules for every observation of the player)."""
+        return FiniteStateStrategy.from_arrays(
+            player=self.view.name,
+            observables=self.view.observables,
+            observation_values=self.view.obs_values[self.used_obs],
+            actions=tuple(self.model.action_names[a] for a in self.used_actions),
+            action=gamma,
+            update=delta * (gamma[..., None] > 0),
+        )
+
+    def hardened(self, gamma: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The deterministic FSS of the most likely action and next node of every rule."""
+        g = np.zeros_like(gamma)
+        np.put_along_axis(g, gamma.argmax(axis=2)[..., None], 1.0, axis=2)
+        d = np.zeros_like(delta)
+        np.put_along_axis(d, delta.argmax(axis=3)[..., None], 1.0, axis=3)
+        return g, d
+
+    # -- value and gradient --------------------------------------------------------------------
+
+    def evaluate(self, gamma: np.ndarray, delta: np.ndarray, *, gradient: bool = True) -> Evaluation:
+        """The initial value against the adversary's best response, and its gradient with respect
+        to γ and δ (not yet through the softmax: see :meth:`logit_gradient`)."""
+        m = self.model
+        fss = self.strategy(gamma, delta)
+        prod = strategy_product(m, [bind(m, fss)])
+        pm = prod.model
+        # policy iteration: exact best responses, and no slow convergence near deterministic loops
+        checker = PropertyChecker(pm, coalition_of=self.coalition_of, scalar=self.scalar,
+                                  options=CheckOptions(solver=SolverOptions(method=Method.POLICY),
+                                                       keep_strategy=True))
+        q = checker.query(self.query)
+        strategy = q.engine.strategy if q.engine is not None else None
+        rows = pm.row_groups[:-1].copy()
+        if strategy is not None:
+            rows = np.where(strategy >= 0, strategy, rows)
+        P = pm.transitions[rows].tocsr()  # the induced chain
+        tgt = self.target[prod.state_of]
+        rem = self.remain[prod.state_of]
+        S = pm.num_states
+        chain = sp.csr_matrix(P)
+        reach = positive_reach(structure_of_chain(chain), tgt, rem, existential=np.ones(S, bool))
+        unknown = reach & ~tgt
+        x = tgt.astype(np.float64)
+        U = np.flatnonzero(unknown)
+        init = int(prod.initial_map[0])
+        Zu, Au = self.mask.shape
+        zero_a, zero_d = np.zeros(self.shapes[0]), np.zeros(self.shapes[1])
+        if U.size == 0:
+            return Evaluation(float(x[init]), zero_a, zero_d)
+        PUU = chain[U][:, U].tocsc()
+        b = np.asarray(chain[U][:, np.flatnonzero(tgt)].sum(axis=1)).ravel()
+        lu = splu((sp.identity(U.size, format="csc") - PUU).tocsc())
+        x[U] = lu.solve(b)
+        value = float(x[init])
+        if not gradient or not unknown[init]:
+            return Evaluation(value, zero_a, zero_d)
+        e = np.zeros(U.size)
+        e[np.searchsorted(U, init)] = 1.0
+        y_u = lu.solve(e, trans="T")
+        y = np.zeros(S)
+        y[U] = y_u
+        # values on the (state, node) grid, for W[c, n'] = Σ_s' P(c, s') x(s', n')
+        grid = np.zeros((m.num_states, self.k))
+        grid[prod.state_of, prod.memory_of[:, 0]] = x
+        W = np.asarray(m.transitions @ grid)  # [C, k]
+        # every defence product state with weight y: its choices c, node n, observation z
+        defend = np.flatnonzero(self.owned[prod.state_of] & (y != 0))
+        s = prod.state_of[defend]
+        n = prod.memory_of[defend, 0]
+        counts = np.diff(m.row_groups)[s]
+        c = np.repeat(m.row_groups[s], counts) + _ranges(counts)
+        q_of_c = np.repeat(np.arange(defend.size), counts)
+        zi = self.obs_index[self.view.state_obs[s]][q_of_c]
+        ai = self.act_index[m.choice_actions[c]]
+        ni = n[q_of_c]
+        yc = y[defend][q_of_c]
+        Wc = W[c]  # [E, k]
+        d = delta[ni, zi, ai]  # [E, k]
+        grad_a = np.zeros(self.shapes[0])
+        np.add.at(grad_a, (ni, zi, ai), yc * np.sum(d * Wc, axis=1))
+        grad_d = np.zeros(self.shapes[1])
+        np.add.at(grad_d, (ni, zi, ai), (yc * gamma[ni, zi, ai])[:, None] * Wc)
+        return Evaluation(value, grad_a, grad_d)
+
+    def logit_gradient(self, ev: Evaluation, gamma: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The gradient with respect to the logits (softmax Jacobian)."""
+        ga = gamma * (ev.grad_action - np.sum(gamma * ev.grad_action, axis=2, keepdims=True))
+        gd = delta * (ev.grad_update - np.sum(delta * ev.grad_update, axis=3, keepdims=True))
+        return ga * self.mask[None], gd
+
+
+def _ranges(counts: np.ndarray) -> np.ndarray:
+    """0..c-1 for each count c, concatenated."""
+    total = int(counts.sum())
+    starts = np.repeat(np.cumsum(counts) - counts, counts)
+    return np.arange(total) - starts
+
+
+def structure_of_chain(chain: sp.csr_matrix):  # type: ignore[no-untyped-def]
+    """The graph structure of a Markov chain given as a square matrix (one row per state)."""
+    from posgmc.model.explicit import make_model
+    from posgmc.syntax.ast import ModelType
+
+    n = chain.shape[0]
+    return structure_of(make_model(ModelType.DTMC, np.arange(n + 1), chain))
