@@ -1,8 +1,9 @@
 """Synthesis quality and time against PAYNT, both in the same invocation (issue: synthesis).
 
-Usage: python benchmarks/synthesis_bench.py [--timeout 30] [--paynt-timeout 30] [--only NAME ...]
+Usage: python benchmarks/synthesis_bench.py [--set posmg|pomdp] [--timeout 30] [--paynt-timeout 30] [--only NAME ...]
 
-For every POSMG under ../shared/benchmarks/posmg/ with a DRN sketch: posgmc synthesises the
+For every POSMG under ../shared/benchmarks/posmg/ with a DRN sketch (or, with --set pomdp, every
+POMDP under ../shared/benchmarks/pomdp/; --only NAME... for a subset): posgmc synthesises the
 coalition's strategy (`check` without --strategy: gradient search over randomised FSSs with
 memory 1..3 against the omniscient opponent, verified by sound interval iteration) within
 --timeout, and PAYNT 0.5.0 (`python -m paynt DIR --sketch sketch.templ --props sketch.props
@@ -21,8 +22,16 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-POSMG = ROOT.parent / "shared" / "benchmarks" / "posmg"
+SHARED = ROOT.parent / "shared" / "benchmarks"
 REFPY = Path("/root/refenv/bin/python")
+
+
+def first_property(directory: Path) -> str:
+    """The first property of the sketch's properties file (comments and blank lines skipped)."""
+    for line in (directory / "sketch.props").read_text().splitlines():
+        if line.strip() and not line.strip().startswith("//"):
+            return line.strip().rstrip(";")
+    raise SystemExit(f"{directory}: no property")
 
 
 def ours(directory: Path, timeout: float) -> dict[str, object]:
@@ -30,7 +39,7 @@ def ours(directory: Path, timeout: float) -> dict[str, object]:
     from posgmc import api
     from posgmc.synthesis.search import SynthesisOptions
 
-    prop = (directory / "sketch.props").read_text().strip().splitlines()[-1].rstrip(";")
+    prop = first_property(directory)
     started = time.perf_counter()
     report = api.check(api.load(directory / "sketch.templ"), properties=[prop], zero_based_players=True,
                        synthesis=SynthesisOptions(timeout=timeout))
@@ -69,8 +78,10 @@ def main() -> None:
     ap.add_argument("--timeout", type=float, default=30.0)
     ap.add_argument("--paynt-timeout", type=float, default=30.0)
     ap.add_argument("--only", nargs="*", default=None)
+    ap.add_argument("--set", choices=["posmg", "pomdp"], default="posmg")
     args = ap.parse_args()
-    dirs = sorted(d for d in POSMG.iterdir() if (d / "sketch.templ").exists() and (d / "sketch.props").exists())
+    base = SHARED / args.set
+    dirs = sorted(d for d in base.iterdir() if (d / "sketch.templ").exists() and (d / "sketch.props").exists())
     if args.only:
         dirs = [d for d in dirs if d.name in args.only]
     print("| model | property | posgmc guaranteed [lower, upper] | full observation | memory | posgmc (s) | "

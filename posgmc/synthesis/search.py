@@ -169,6 +169,15 @@ def synthesize(
             if time.perf_counter() > deadline:
                 partial = True
                 break
+        # deterministic neighbours of the best hardened candidate: one rule changed at a time
+        t0 = time.perf_counter()
+        hard = [c for c in candidates[1::2]]
+        if hard and time.perf_counter() < deadline:
+            g, d, logits = max(hard, key=lambda c: sign * par.evaluate(c[0], c[1], gradient=False).value)
+            (g, d), n_eval = _local_search(par, g, d, sign, deadline)
+            evaluations += n_eval
+            candidates.append((g, d, logits))
+        t_search += time.perf_counter() - t0
         # verify the most promising candidates (by their float value) with the sound engines
         t0 = time.perf_counter()
         scored = sorted(
@@ -243,6 +252,36 @@ def _ascend(par: Parametrisation, la: np.ndarray, ld: np.ndarray, sign: float,
         la = np.clip(la + step * ma / (np.sqrt(va) + eps), -_LOGIT, _LOGIT)
         ld = np.clip(ld + step * md / (np.sqrt(vd) + eps), -_LOGIT, _LOGIT)
     return best, n
+
+
+def _local_search(par: Parametrisation, gamma: np.ndarray, delta: np.ndarray, sign: float,
+                  deadline: float) -> tuple[tuple[np.ndarray, np.ndarray], int]:
+    """First-improvement search over deterministic FSSs: change one rule's action (or next node)
+    at a time, keep a change that improves the value, until no change improves or time is up."""
+    value = sign * par.evaluate(gamma, delta, gradient=False).value
+    n, improved = 1, True
+    k, Zu, Au = gamma.shape
+    while improved and time.perf_counter() < deadline:
+        improved = False
+        for node in range(k):
+            for z in range(Zu):
+                a_now = int(gamma[node, z].argmax())
+                m_now = int(delta[node, z, a_now].argmax())
+                for a in np.flatnonzero(par.mask[z]).tolist():
+                    for m in range(k):
+                        if (a, m) == (a_now, m_now) or time.perf_counter() > deadline:
+                            continue
+                        g2, d2 = gamma.copy(), delta.copy()
+                        g2[node, z] = 0.0
+                        g2[node, z, a] = 1.0
+                        d2[node, z, a] = 0.0
+                        d2[node, z, a, m] = 1.0
+                        v = sign * par.evaluate(g2, d2, gradient=False).value
+                        n += 1
+                        if v > value + 1e-12:
+                            gamma, delta, value, improved = g2, d2, v, True
+                            a_now, m_now = a, m
+    return (gamma, delta), n
 
 
 def _projected(par: Parametrisation, full, model: ExplicitModel) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
