@@ -12,7 +12,7 @@ from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.synthesis.search import SynthesisOptions, synthesize
-from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery
+from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
 
 __all__ = ["SynthesisChecker"]
 
@@ -27,7 +27,7 @@ class SynthesisChecker:
         self.model, self.coalition_of, self.scalar = model, coalition_of, scalar
         self.options, self.synthesis = options, synthesis
 
-    def _player(self, expr: ProbQuery) -> int:
+    def _player(self, expr: ProbQuery | RewardQuery) -> int:
         if not self.model.player_names:
             return 0
         players = self.coalition_of(expr.coalition)
@@ -42,9 +42,9 @@ class SynthesisChecker:
     def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
         """Synthesise and verify. A threshold holds when ``guaranteed`` meets it, fails when the
         full-observation value cannot, and is unknown in between."""
-        if not isinstance(expr, ProbQuery):
+        if not isinstance(expr, (ProbQuery, RewardQuery)):
             raise UnsupportedError(
-                "synthesis answers P queries of partially observable models so far",
+                "synthesis answers P and R queries of partially observable models",
                 expr.span,
                 hint="give strategies with --strategy, or use --full-observation",
             )
@@ -58,7 +58,7 @@ class SynthesisChecker:
                             scalar=self.scalar, options=self.synthesis, check_options=self.options)
         g, full = result.guaranteed, result.full_observation
         value: float | bool | None = g.value
-        kind = ResultKind.PROBABILITY
+        kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
         lower: float | None = g.lower
         upper: float | None = g.upper
         if expr.threshold is not None:

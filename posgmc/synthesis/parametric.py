@@ -17,9 +17,11 @@ rows is ``y^T (dP x + db)``. A defence row of product state (s, n) under observa
     ∂/∂γ(n,z,a) = Σ_(s,n) y · Σ_n' δ(n,z,a,n') W[c(s,a), n'],  ∂/∂δ(n,z,a,n') = Σ_(s,n) y · γ · W[c, n'],
 
 and the softmax chain rule gives the logits' gradient. This is the subgradient of the max-min at
-θ (exact where the adversary's best response is unique). Only reachability probabilities
-(``P[a U b]``, ``F``) are differentiated here; the numbers reported to users come from the sound
-engines (:mod:`posgmc.strategies.verify`), never from this float evaluation.
+θ (exact where the adversary's best response is unique). Two objectives: reachability
+probabilities (``P[a U b]``, ``F``) and the discounted cost until a target (``R[Fdiscount=g b]``,
+the seed paper's cost form: ``x = r + g P x`` off the target, and the action's own cost joins
+``∂/∂γ``). The numbers reported to users come from the sound engines
+(:mod:`posgmc.strategies.verify`), never from this float evaluation.
 
 The decision maker must be the only player with memory: ``K = k``, product state (s, n).
 """
@@ -39,7 +41,7 @@ from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
-from posgmc.syntax.ast import Expr, ProbQuery
+from posgmc.syntax.ast import ProbQuery, RewardQuery
 
 __all__ = ["Parametrisation", "Evaluation"]
 
@@ -66,9 +68,11 @@ class Parametrisation:
         coalition_of, scalar: as for the checker (the adversary's best response).
     """
 
-    def __init__(self, model: ExplicitModel, player: int, memory: int, query: ProbQuery,
-                 target: np.ndarray, remain: np.ndarray, *, coalition_of, scalar) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, model: ExplicitModel, player: int, memory: int, query: ProbQuery | RewardQuery,
+                 target: np.ndarray, remain: np.ndarray, *, coalition_of, scalar,  # type: ignore[no-untyped-def]
+                 rewards: np.ndarray | None = None, discount: float = 1.0) -> None:
         self.model, self.player, self.k, self.query = model, player, memory, query
+        self.rewards, self.discount = rewards, discount  # discounted cost: reward per choice
         self.coalition_of, self.scalar = coalition_of, scalar
         self.target, self.remain = target, remain
         self.view = player_view(model, player)
@@ -145,18 +149,26 @@ class Parametrisation:
         rem = self.remain[prod.state_of]
         S = pm.num_states
         chain = sp.csr_matrix(P)
-        reach = positive_reach(structure_of_chain(chain), tgt, rem, existential=np.ones(S, bool))
-        unknown = reach & ~tgt
-        x = tgt.astype(np.float64)
-        U = np.flatnonzero(unknown)
         init = int(prod.initial_map[0])
-        Zu, Au = self.mask.shape
         zero_a, zero_d = np.zeros(self.shapes[0]), np.zeros(self.shapes[1])
+        g_disc = self.discount
+        if self.rewards is None:  # reachability: x = P x on U, 1 on the target, 0 elsewhere
+            reach = positive_reach(structure_of_chain(chain), tgt, rem, existential=np.ones(S, bool))
+            unknown = reach & ~tgt
+            x = tgt.astype(np.float64)
+        else:  # discounted cost until the target: x = r + g P x off the target, 0 on it
+            unknown = ~tgt
+            x = np.zeros(S)
+        U = np.flatnonzero(unknown)
         if U.size == 0:
             return Evaluation(float(x[init]), zero_a, zero_d)
         PUU = chain[U][:, U].tocsc()
-        b = np.asarray(chain[U][:, np.flatnonzero(tgt)].sum(axis=1)).ravel()
-        lu = splu((sp.identity(U.size, format="csc") - PUU).tocsc())
+        if self.rewards is None:
+            b = np.asarray(chain[U][:, np.flatnonzero(tgt)].sum(axis=1)).ravel()
+        else:
+            prod_rewards = pm.reward_model(self.query.reward).choice_rewards(pm.row_groups)  # type: ignore[union-attr]
+            b = prod_rewards[rows][U]
+        lu = splu((sp.identity(U.size, format="csc") - g_disc * PUU).tocsc())
         x[U] = lu.solve(b)
         value = float(x[init])
         if not gradient or not unknown[init]:
@@ -169,7 +181,7 @@ class Parametrisation:
         # values on the (state, node) grid, for W[c, n'] = Σ_s' P(c, s') x(s', n')
         grid = np.zeros((m.num_states, self.k))
         grid[prod.state_of, prod.memory_of[:, 0]] = x
-        W = np.asarray(m.transitions @ grid)  # [C, k]
+        W = g_disc * np.asarray(m.transitions @ grid)  # [C, k]
         # every defence product state with weight y: its choices c, node n, observation z
         defend = np.flatnonzero(self.owned[prod.state_of] & (y != 0))
         s = prod.state_of[defend]
@@ -184,7 +196,10 @@ class Parametrisation:
         Wc = W[c]  # [E, k]
         d = delta[ni, zi, ai]  # [E, k]
         grad_a = np.zeros(self.shapes[0])
-        np.add.at(grad_a, (ni, zi, ai), yc * np.sum(d * Wc, axis=1))
+        own = np.sum(d * Wc, axis=1)
+        if self.rewards is not None:
+            own = own + self.rewards[c]  # the action's own cost
+        np.add.at(grad_a, (ni, zi, ai), yc * own)
         grad_d = np.zeros(self.shapes[1])
         np.add.at(grad_d, (ni, zi, ai), (yc * gamma[ni, zi, ai])[:, None] * Wc)
         return Evaluation(value, grad_a, grad_d)

@@ -27,7 +27,7 @@ from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.synthesis.parametric import Parametrisation
-from posgmc.syntax.ast import Direction, Expr, ProbQuery, Temporal, TemporalOp
+from posgmc.syntax.ast import Direction, Expr, ProbQuery, RewardKind, RewardQuery, Temporal, TemporalOp
 
 __all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
 
@@ -80,18 +80,26 @@ class SynthesisResult:
     method: str = "interval"
 
 
-def _reach_parts(model: ExplicitModel, expr: ProbQuery, checker: PropertyChecker) -> tuple[np.ndarray, np.ndarray]:
-    path = expr.path
-    if (
-        isinstance(path, Temporal)
-        and path.bound is None
-        and path.op in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL)
-    ):
-        if path.op is TemporalOp.UNTIL:
-            return checker._states(path.operands[1]), checker._states(path.operands[0])
-        return checker._states(path.operands[0]), np.ones(model.num_states, dtype=bool)
+def _objective(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: PropertyChecker):  # type: ignore[no-untyped-def]
+    """(target, remain, choice rewards or None, discount) of a supported objective."""
+    if isinstance(expr, ProbQuery):
+        path = expr.path
+        if (
+            isinstance(path, Temporal)
+            and path.bound is None
+            and path.op in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL)
+        ):
+            if path.op is TemporalOp.UNTIL:
+                return checker._states(path.operands[1]), checker._states(path.operands[0]), None, 1.0
+            return checker._states(path.operands[0]), np.ones(model.num_states, dtype=bool), None, 1.0
+    if isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.DISCOUNTED_REACH:
+        assert expr.objective.target is not None  # noqa: S101 - Fdiscount has a target
+        rewards = model.reward_model(expr.reward).choice_rewards(model.row_groups)
+        return (checker._states(expr.objective.target), np.ones(model.num_states, dtype=bool),
+                rewards, checker._discount(expr.objective.discount))
     raise UnsupportedError(
-        "synthesis supports unbounded reachability, <<d>> Pmax/Pmin=? [ F b ] or [ a U b ], so far",
+        "synthesis supports <<d>> Pmax/Pmin=? [ F b ] or [ a U b ] and the discounted cost "
+        "<<d>> R{\"c\"}min/max=? [ Fdiscount=g b ] so far",
         expr.span,
         hint="check other objectives under a given strategy (--strategy PLAYER=FILE)",
     )
@@ -119,14 +127,14 @@ def synthesize(
     """
     started = time.perf_counter()
     deadline = started + options.timeout
-    if not isinstance(expr, ProbQuery) or expr.threshold is not None:
-        raise UnsupportedError("synthesis takes one P query with min or max (=?)", expr.span,
+    if not isinstance(expr, (ProbQuery, RewardQuery)) or expr.threshold is not None:
+        raise UnsupportedError("synthesis takes one P or R query with min or max (=?)", expr.span,
                                hint="write <<player>> Pmax=? [ F \"goal\" ]")
     base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar,
                            options=CheckOptions(keep_strategy=True))
     direction = base.direction_of(expr)
     query = replace(expr, direction=direction)
-    target, remain = _reach_parts(model, query, base)
+    target, remain, rewards, discount = _objective(model, query, base)
     maximize = direction is Direction.MAX
     sign = 1.0 if maximize else -1.0
     phases: dict[str, float] = {}
@@ -151,7 +159,8 @@ def synthesize(
             break
         round_start = time.perf_counter()
         par = Parametrisation(model, player, k, query, target, remain,
-                              coalition_of=coalition_of, scalar=scalar)
+                              coalition_of=coalition_of, scalar=scalar, rewards=rewards,
+                              discount=discount)
         starts = [_projected(par, full, model)]
         if best_logits is not None:
             starts.append(_embedded(par, *best_logits))
