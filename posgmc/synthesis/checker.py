@@ -6,11 +6,13 @@ defence."""
 from __future__ import annotations
 
 import dataclasses
+import time
 
 from posgmc.checking.dispatch import CheckOptions, CoalitionResolver, ScalarEvaluator
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.synthesis.adversaries import enumerate_adversaries, versus_adversaries
 from posgmc.synthesis.search import SynthesisOptions, synthesize
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
 
@@ -57,6 +59,21 @@ class SynthesisChecker:
         result = synthesize(self.model, bare, player=player, coalition_of=self.coalition_of,
                             scalar=self.scalar, options=self.synthesis, check_options=self.options)
         g, full = result.guaranteed, result.full_observation
+        maximizing = bare.direction is Direction.MAX or (
+            bare.direction is None and expr.threshold is not None
+            and expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT))
+        vs = ub = None
+        enumeration = None
+        others = [p for p in range(len(self.model.player_names)) if p != player]
+        if len(others) == 1 and self.synthesis.adversaries > 0:
+            # the one-sided view: the adversary's deterministic memoryless strategies
+            t0 = time.perf_counter()
+            enumeration = enumerate_adversaries(self.model, others[0], limit=self.synthesis.adversaries)
+            vs, ub = versus_adversaries(
+                self.model, bare, result.strategy, enumeration.strategies, maximize=maximizing,
+                coalition_of=self.coalition_of, scalar=self.scalar,
+            )
+            result.phases["adversaries"] = time.perf_counter() - t0
         value: float | bool | None = g.value
         kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
         lower: float | None = g.lower
@@ -67,7 +84,10 @@ class SynthesisChecker:
                      ComparisonOp.LE: lambda x: x <= p, ComparisonOp.LT: lambda x: x < p}[expr.threshold.op]
             maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
             proven = holds(g.lower if maximize else g.upper) and g.sound
-            refuted = not holds(full.upper if maximize else full.lower) and full.sound
+            # no defence reaches the threshold: not with full observation, nor against the
+            # enumerated adversaries
+            bound = ub if ub is not None else full
+            refuted = not holds(bound.upper if maximize else bound.lower) and bound.sound
             value = True if proven else False if refuted else None
             kind, lower, upper = ResultKind.BOOLEAN, None, None
         player_name = self.model.player_names[player] if self.model.player_names else ""
@@ -86,10 +106,18 @@ class SynthesisChecker:
             "timeout": self.synthesis.timeout,
             "seed": self.synthesis.seed,
         }
+        if enumeration is not None:
+            stats["adversaries_kept"] = len(enumeration.strategies)
+            stats["exhaustive"] = enumeration.exhaustive
+            note += ("; vs_fss_adversary: its worst value against the adversary's deterministic "
+                     "memoryless strategies enumerated" + (" (all of them)" if enumeration.exhaustive
+                     else f" (the first {len(enumeration.strategies)})") + "; upper_bound: no "
+                     "defence does better against those adversaries")
         return PropertyResult(
             property=text, name=name, kind=kind, value=value, lower=lower, upper=upper,
             seconds=sum(result.phases.values()), method=f"synthesis ({result.method})",
             converged=True, sound=g.sound, note=note, per_initial=(value,),
-            guaranteed=g, memory=((player_name, result.strategy.memory_size),),
+            guaranteed=g, vs_fss_adversary=vs, upper_bound=ub,
+            memory=((player_name, result.strategy.memory_size),),
             full_observation=full, synthesis=stats, strategies=(result.strategy,),
         )

@@ -40,7 +40,9 @@ _LOGIT = 4.0
 class SynthesisOptions:
     """``memory``: the memory sizes to try in order; ``timeout``: seconds for the whole search;
     ``restarts``: random starts per memory size; ``iterations``: gradient steps per start;
-    ``verify``: how many of the best candidates (by float value) the sound engines verify."""
+    ``verify``: how many of the best candidates (by float value) the sound engines verify;
+    ``adversaries``: how many of the adversary's deterministic memoryless strategies to enumerate
+    for ``vs_fss_adversary`` and ``upper_bound`` (:mod:`posgmc.synthesis.adversaries`)."""
 
     memory: tuple[int, ...] = (1, 2, 3)
     timeout: float = 30.0
@@ -49,6 +51,7 @@ class SynthesisOptions:
     iterations: int = 60
     learning_rate: float = 0.3
     verify: int = 3
+    adversaries: int = 50
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,145 @@
+"""The adversary's deterministic memoryless strategies, enumerated with a SAT solver, and what
+they say about a defence (the one-sided approach of ACJJKT19, "The partially observable games we
+play for cyber deception").
+
+Encoding: one Boolean variable per (observation, offered label) for the observations of the
+adversary's states reachable in the model, exactly one label per observation. After each solution
+the strategy is applied (:mod:`posgmc.strategies.product`, the decision maker left free) and only
+the observations the adversary actually meets under it are blocked, so strategies that agree
+wherever they matter come once. The enumeration is *exhaustive* when the solver runs out of
+models. (Adversaries with memory, k□ > 1, are not enumerated yet.)
+
+With the enumerated adversaries A and a defence σ:
+
+* ``vs_fss_adversary`` = min over A of the value of (σ, a) — exact over all deterministic
+  memoryless adversaries when the enumeration was exhaustive;
+* ``upper_bound`` = min over A of the decision maker's full-information optimum against a (an
+  MDP solve on the product): no defence whatsoever does better against the adversaries of A, so
+  guaranteed <= the max-min over memoryless adversaries <= upper_bound (for Pmax; reversed for
+  Pmin and Rmin).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from pysat.card import CardEnc, EncType
+from pysat.solvers import Solver
+
+from posgmc.checking.results import Bound
+from posgmc.model.explicit import ExplicitModel
+from posgmc.strategies.binding import bind, player_view
+from posgmc.strategies.fss import FiniteStateStrategy
+from posgmc.strategies.product import strategy_product
+from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax.ast import Expr
+
+__all__ = ["Enumeration", "enumerate_adversaries", "versus_adversaries"]
+
+
+@dataclass(frozen=True)
+class Enumeration:
+    """The adversary strategies found; ``exhaustive``: every class was enumerated."""
+
+    strategies: tuple[FiniteStateStrategy, ...]
+    exhaustive: bool
+    seconds: float
+
+
+def enumerate_adversaries(model: ExplicitModel, player: int, *, limit: int = 50,
+                          deadline: float | None = None) -> Enumeration:
+    """Deterministic memoryless strategies of ``player``, one per class on the reachable part.
+
+    Args:
+        model: the game.
+        player: the adversary's index.
+        limit: stop after this many strategies.
+        deadline: ``time.perf_counter()`` value after which to stop.
+    """
+    started = time.perf_counter()
+    view = player_view(model, player)
+    owned = model.state_players == player
+    # observations of the adversary's states reachable at all (everyone free)
+    reach = _forward(model)
+    rows = np.flatnonzero((owned & reach)[model.choice_states])
+    A = len(model.action_names)
+    offered = np.zeros((view.num_observations, A), dtype=bool)
+    offered[view.state_obs[model.choice_states[rows]], model.choice_actions[rows]] = True
+    obs = np.flatnonzero(offered.any(axis=1))
+    var: dict[tuple[int, int], int] = {}
+    for z in obs.tolist():
+        for a in np.flatnonzero(offered[z]).tolist():
+            var[(z, a)] = len(var) + 1
+    solver = Solver(name="g3")
+    top = len(var)
+    for z in obs.tolist():
+        lits = [var[(z, a)] for a in np.flatnonzero(offered[z]).tolist()]
+        enc = CardEnc.equals(lits=lits, bound=1, top_id=top, encoding=EncType.seqcounter)
+        top = max(top, enc.nv)
+        for clause in enc.clauses:
+            solver.add_clause(clause)
+    found: list[FiniteStateStrategy] = []
+    exhaustive = False
+    used_actions = np.flatnonzero(offered.any(axis=0))
+    act_index = {a: i for i, a in enumerate(used_actions.tolist())}
+    while len(found) < limit and (deadline is None or time.perf_counter() < deadline):
+        if not solver.solve():
+            exhaustive = True
+            break
+        chosen = {z: a for (z, a), v in var.items() if solver.get_model()[v - 1] > 0}
+        gamma = np.zeros((1, obs.size, used_actions.size))
+        for i, z in enumerate(obs.tolist()):
+            gamma[0, i, act_index[chosen[z]]] = 1.0
+        fss = FiniteStateStrategy.from_arrays(
+            player=view.name, observables=view.observables, observation_values=view.obs_values[obs],
+            actions=tuple(model.action_names[a] for a in used_actions.tolist()), action=gamma,
+        )
+        found.append(fss)
+        # block the choice only where it matters: the observations met under this strategy
+        prod = strategy_product(model, [bind(model, fss)])
+        met = np.unique(view.state_obs[prod.state_of[owned[prod.state_of]]])
+        clause = [-var[(int(z), chosen[int(z)])] for z in met.tolist() if int(z) in chosen]
+        if not clause:
+            exhaustive = True  # the adversary never moves: one class only
+            break
+        solver.add_clause(clause)
+    solver.delete()
+    return Enumeration(tuple(found), exhaustive, time.perf_counter() - started)
+
+
+def _forward(model: ExplicitModel) -> np.ndarray:
+    """bool[S]: states reachable from the initial states (any choices)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import breadth_first_order
+
+    S = model.num_states
+    T = model.transitions.tocoo()
+    src = model.choice_states[T.row]
+    graph = sp.csr_matrix((np.ones(src.size, dtype=np.int8), (src, T.col)), shape=(S, S))
+    out = np.zeros(S, dtype=bool)
+    for s in model.initial_states.tolist():
+        out[breadth_first_order(graph, s, return_predecessors=False)] = True
+    return out
+
+
+def versus_adversaries(model: ExplicitModel, expr: Expr, defence: FiniteStateStrategy,
+                       adversaries: tuple[FiniteStateStrategy, ...], *, maximize: bool,
+                       coalition_of, scalar) -> tuple[Bound | None, Bound | None]:  # type: ignore[no-untyped-def]
+    """(vs_fss_adversary, upper_bound) over ``adversaries`` (see the module docstring): the
+    worst for the decision maker of each, with their proven bounds."""
+    worst_vs: Bound | None = None
+    worst_ub: Bound | None = None
+
+    def worse(a: Bound, b: Bound | None) -> bool:
+        return b is None or (a.value < b.value if maximize else a.value > b.value)
+
+    for adv in adversaries:
+        r = StrategyChecker(model, {defence.player: defence, adv.player: adv},
+                            coalition_of=coalition_of, scalar=scalar).check(expr, text="vs")
+        if r.vs_fss_adversary is not None and worse(r.vs_fss_adversary, worst_vs):
+            worst_vs = r.vs_fss_adversary
+        if r.upper_bound is not None and worse(r.upper_bound, worst_ub):
+            worst_ub = r.upper_bound
+    return worst_vs, worst_ub
