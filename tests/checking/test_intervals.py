@@ -31,6 +31,8 @@ def _inside(q: iv.QueryValue, exact: float) -> bool:
         return True  # no bound claimed
     if math.isnan(exact):
         return False
+    if math.isinf(exact):
+        return lo <= exact <= hi
     tol = 1e-9 * max(1.0, abs(exact))
     return lo - tol <= exact <= hi + tol
 
