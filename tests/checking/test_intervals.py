@@ -20,7 +20,7 @@ finite = st.floats(-50, 50, allow_nan=False)
 def boxed(draw: st.DrawFn) -> tuple[iv.QueryValue, float]:
     a, b = sorted((draw(finite), draw(finite)))
     t = draw(st.floats(0, 1))
-    point = a + t * (b - a)
+    point = min(max(a + t * (b - a), a), b)  # rounding may leave the interval
     q = iv.QueryValue(np.array([point]), np.array([a]), np.array([b]))
     return q, point
 
