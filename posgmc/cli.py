@@ -434,6 +434,95 @@ def _not_passed(r: Any) -> bool:
     return r.value is False or (r.value is None and r.kind.value == "boolean") or not r.converged
 
 
+@main.command("test")
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("props", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--tolerance", type=float, default=1e-5, show_default=True,
+              help="Relative tolerance for numbers (PRISM's test mode: 1e-5).")
+@click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
+              help="Also write a JUnit XML report (one test case per checked property).")
+@click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation value.")
+@click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE")
+@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
+@click.option("--memory", "memory", default="auto", show_default=True, metavar="K|K1..K2|auto")
+@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@_common
+def test(
+    model: str,
+    props: tuple[str, ...],
+    tolerance: float,
+    junit: str | None,
+    full_observation: bool,
+    strategy_files: tuple[str, ...],
+    zero_based_players: bool,
+    memory: str,
+    timeout: float,
+    seed: int,
+    consts: tuple[str, ...],
+    debug: bool,
+) -> None:
+    """Check every property of PROPS that has a // RESULT line against it (PRISM's -test)."""
+    import time
+
+    from posgmc import api
+    from posgmc.checking.expected import expected_for, grade
+    from posgmc.io.junit import Case, write_junit
+
+    def run() -> int:
+        swept, combos = expand_constants(consts)
+        strategies = strategy_options(strategy_files) or None
+        passed = failed = unchecked = 0
+        cases: list[Case] = []
+        for constants in combos or [{}]:
+            texts = {n: _const_text(v) for n, v in constants.items()}
+            label = ",".join(f"{n}={texts[n]}" for n in swept)
+            session = api.load(model, constants=constants)
+            built = api.build(session, allow_extra_constants=True)
+            loaded = api.load_strategies(strategies) if strategies else None
+            started = time.perf_counter()
+            for prop, outcome in api.iter_check(
+                session, property_files=props, built=built, full_observation=full_observation,
+                zero_based_players=zero_based_players, strategies=loaded,
+                synthesis=_synthesis_options(memory, timeout, seed),
+            ):
+                seconds, started = time.perf_counter() - started, time.perf_counter()
+                where = f"{prop.span.file}:{prop.span.line}"
+                name = (prop.text or "") + (f" ({label})" if label else "")
+                exp = expected_for(prop, texts)
+                if exp is None:
+                    unchecked += 1
+                    cases.append(Case(name, where, seconds, skipped="no RESULT line"))
+                    continue
+                try:
+                    verdict = grade(exp, outcome, tolerance=tolerance)
+                except ValueError as e:
+                    from posgmc.errors import InputError
+
+                    raise InputError(str(e), exp.span) from None
+                if verdict.passed is None:
+                    unchecked += 1
+                    cases.append(Case(name, where, seconds, skipped="RESULT: ?"))
+                    continue
+                what = f" ({exp.number})" if exp.number else ""
+                if verdict.passed:
+                    passed += 1
+                    click.echo(f"PASS {where}: {name}: {verdict.actual}{what}")
+                    cases.append(Case(name, where, seconds))
+                else:
+                    failed += 1
+                    message = f"expected {verdict.expected}{what}, got {verdict.actual}"
+                    click.echo(f"FAIL {where}: {name}: {message}")
+                    cases.append(Case(name, where, seconds, failure=message))
+        if junit is not None:
+            write_junit(junit, model, cases)
+        summary = f"{passed} passed, {failed} failed"
+        click.echo(summary + (f", {unchecked} skipped" if unchecked else ""))
+        return EXIT_PROPERTY_FALSE if failed else EXIT_OK
+
+    _guard(debug, run, consts=consts)
+
+
 @main.command()
 @click.argument("model", type=click.Path(dir_okay=False))
 @click.option("--prop", "prop_text", required=True, metavar="TEXT",

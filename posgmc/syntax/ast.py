@@ -487,6 +487,11 @@ class ExpectedResult:
     text: str
     constants: tuple[tuple[str, str], ...] = ()
     span: SourceSpan = _span()
+    number: str | None = None  # ``// RESULT (guaranteed): v``: which number of the result
+
+
+RESULT_NUMBERS = ("guaranteed", "vs_fss_adversary", "upper_bound", "full_observation")
+"""The numbers a ``// RESULT (name): v`` line may name (besides the result's value)."""
 
 
 @dataclass(frozen=True)

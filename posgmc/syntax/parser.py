@@ -25,6 +25,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 from posgmc.errors import InputError, ParseError, PosgmcError, SourceSpan, SourceText
 from posgmc.syntax import diagnostics, lalr
 from posgmc.syntax.ast import (
+    RESULT_NUMBERS,
     ConstantDecl,
     ExpectedResult,
     Expr,
@@ -278,16 +279,21 @@ def _expected_results(
             line, column = lines.position(comment.start() + match.start())
             span = SourceSpan(line, column, line, column + len(match.group()), file)
             constants: list[tuple[str, str]] = []
+            number: str | None = None
             for part in (match.group(2) or "").split(","):
                 if not part.strip():
+                    continue
+                if part.strip() in RESULT_NUMBERS and number is None:
+                    number = part.strip()
                     continue
                 pair = part.split("=")
                 if len(pair) != 2 or not pair[0].strip() or not pair[1].strip():
                     raise ParseError(
                         f"badly formed RESULT specification: {match.group()!r}",
                         span,
-                        hint="write e.g. // RESULT (k=3): 0.5",
+                        hint="write e.g. // RESULT (k=3): 0.5, or name a number: "
+                        "// RESULT (guaranteed): 0.9",
                     )
                 constants.append((pair[0].strip(), pair[1].strip()))
-            results.append(ExpectedResult(match.group(3), tuple(constants), span=span))
+            results.append(ExpectedResult(match.group(3), tuple(constants), span=span, number=number))
     return tuple(results)

@@ -90,11 +90,18 @@ def _parse(name: str, path: Path) -> ModelFile | PropertiesFile:
 # --- a dump that includes the spans -------------------------------------------------------------
 
 
+# fields added after the digests were recorded: left out while at their default, so the recorded
+# digests still pin everything else
+ADDED_LATER = {("ExpectedResult", "number")}
+
+
 def dump(value: Any) -> str:
     """Every field of every node, spans included, in a canonical text form."""
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         fields = ", ".join(
-            f"{f.name}={dump(getattr(value, f.name))}" for f in dataclasses.fields(value)
+            f"{f.name}={dump(getattr(value, f.name))}"
+            for f in dataclasses.fields(value)
+            if not ((type(value).__name__, f.name) in ADDED_LATER and getattr(value, f.name) == f.default)
         )
         return f"{type(value).__name__}({fields})"
     if isinstance(value, tuple):
@@ -221,7 +228,7 @@ GOLDEN: dict[str, str] = {
     "benchmarks/smg/smg_example/smg_example.prism.cosafe.props": "a6ff40218353d786",
     "benchmarks/smg/smg_example/smg_example.prism.props": "cd6d3133bb4a3dfb",
     "models/rover.posg": "080480d4a712cabd",
-    "models/rover.props": "311aa009cfe41ef1",
+    "models/rover.props": "c8b7f85fd57e54d5",  # RESULT lines added (issue #10's posgmc test)
     "models/rover.smg": "cf01a48708b51dd5",
 }
 

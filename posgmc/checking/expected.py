@@ -1,0 +1,115 @@
+"""PRISM's test convention: ``// RESULT: v`` above a property, graded as PRISM's ``-test`` does.
+
+A RESULT line holds a number (``0.85``, ``19/15``, ``1e-3``), an interval ``[lo,hi]``, ``true`` or
+``false``, ``Infinity``/``-Infinity``, ``NaN``, ``Error`` or ``Error:substring`` (the property must
+fail, with that text in its message), or ``?`` (not checked). ``// RESULT (N=4): v`` applies when
+the constant N is 4; ``// RESULT (guaranteed): v`` compares the named number of the result
+(``guaranteed``, ``vs_fss_adversary``, ``upper_bound``, ``full_observation``) instead of its value.
+Numbers pass within a relative tolerance (PRISM: 1e-5; absolute near 0), and an interval when
+the value lies in it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from fractions import Fraction
+
+from posgmc.checking.results import PropertyResult
+from posgmc.errors import PosgmcError
+from posgmc.syntax.ast import ExpectedResult, Property
+
+__all__ = ["Verdict", "expected_for", "grade", "DEFAULT_TOLERANCE"]
+
+DEFAULT_TOLERANCE = 1e-5
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """``passed``: True, False, or None when the line asks not to check (``?``)."""
+
+    passed: bool | None
+    expected: str
+    actual: str
+
+
+def expected_for(prop: Property, constants: Mapping[str, str]) -> ExpectedResult | None:
+    """The RESULT line that applies under these constant values (the most specific one)."""
+    best: ExpectedResult | None = None
+    for exp in prop.expected:
+        if all(constants.get(k) == v for k, v in exp.constants):
+            if best is None or len(exp.constants) > len(best.constants):
+                best = exp
+    return best
+
+
+def _number(text: str) -> float:
+    t = text.strip()
+    low = t.lower()
+    if low in ("infinity", "inf", "+infinity"):
+        return math.inf
+    if low in ("-infinity", "-inf"):
+        return -math.inf
+    if low == "nan":
+        return math.nan
+    return float(Fraction(t))
+
+
+def _close(value: float, expected: float, tolerance: float) -> bool:
+    if math.isnan(expected):
+        return math.isnan(value)
+    if math.isinf(expected):
+        return value == expected
+    return abs(value - expected) <= max(tolerance * abs(expected), 1e-10)  # absolute near 0
+
+
+def _show(value: object) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if value is None:
+        return "unknown"
+    if isinstance(value, float):
+        return "Infinity" if value == math.inf else "-Infinity" if value == -math.inf else f"{value:.10g}"
+    return str(value)
+
+
+def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
+          tolerance: float = DEFAULT_TOLERANCE) -> Verdict:
+    """Whether ``outcome`` matches ``expected``.
+
+    Raises:
+        ValueError: the RESULT text is not one of the forms above (the caller reports it with the
+            line's position).
+    """
+    text = expected.text.strip()
+    if text == "?":
+        return Verdict(None, text, "-")
+    if isinstance(outcome, PosgmcError):
+        actual = f"Error: {outcome.message}"
+        if text.lower().startswith("error"):
+            wanted = text.split(":", 1)[1].strip().strip('"') if ":" in text else ""
+            return Verdict(wanted.lower() in outcome.message.lower(), text, actual)
+        return Verdict(False, text, actual)
+    if text.lower().startswith("error"):
+        return Verdict(False, text, _show(outcome.value))
+    value: object = outcome.value
+    if expected.number is not None:
+        number = getattr(outcome, expected.number, None)
+        if number is None:
+            return Verdict(False, text, f"the result has no {expected.number} number")
+        value = number.value
+    if text.lower() in ("true", "false"):
+        return Verdict(value is (text.lower() == "true"), text, _show(value))
+    if isinstance(value, bool) or value is None:
+        return Verdict(False, text, _show(value))
+    v = float(value)  # type: ignore[arg-type]
+    if text.startswith("[") and text.endswith("]"):
+        lo, hi = (_number(x) for x in text[1:-1].split(","))
+        return Verdict(lo - tolerance * abs(lo) <= v <= hi + tolerance * abs(hi), text, _show(v))
+    try:
+        e = _number(text)
+    except (ValueError, ZeroDivisionError):
+        raise ValueError(f"RESULT value {text!r} is not a number, interval, true/false, "
+                         "Infinity, NaN, Error or ?") from None
+    return Verdict(_close(v, e, tolerance), text, _show(v))

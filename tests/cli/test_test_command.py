@@ -1,0 +1,98 @@
+"""`posgmc test`: PRISM's RESULT convention for CI (issue #10), and its JUnit report."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from posgmc.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+
+# by hand: x=0 moves to x=1 with p, else to x=2; x=1 always moves to x=2. So P(F x=2) = 1,
+# P(F (x=1 & X x=2)) = p, and the expected steps until x=2 are 1 + p
+MODEL = """dtmc
+const double p;
+module m
+  x : [0..2] init 0;
+  [] x<2 -> p : (x'=x+1) + 1-p : (x'=2);
+  [] x=2 -> true;
+endmodule
+rewards "steps" x<2 : 1; endrewards
+"""
+
+PROPS = """// RESULT: 1
+P=? [ F x=2 ];
+// RESULT (p=0.5): 0.5
+// RESULT (p=1/2): 0.5
+P=? [ F (x=1 & (X x=2)) ];
+// RESULT: [1.0,2.0]
+R{"steps"}=? [ F x=2 ];
+// RESULT: true
+P>=1 [ F x=2 ];
+// RESULT: Infinity
+R{"steps"}=? [ F x=3 ];
+// RESULT: Error:unknown
+R{"nope"}=? [ F x=2 ];
+// RESULT: ?
+P=? [ X x=1 ];
+P=? [ X x=2 ];
+"""
+
+
+def _files(tmp_path: Path, props: str = PROPS) -> tuple[str, str]:
+    m, p = tmp_path / "m.prism", tmp_path / "m.props"
+    m.write_text(MODEL)
+    p.write_text(props)
+    return str(m), str(p)
+
+
+def test_every_result_form(tmp_path: Path) -> None:
+    m, p = _files(tmp_path)
+    junit = tmp_path / "report.xml"
+    r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5", "--junit", str(junit)])
+    assert r.exit_code == 0, r.output
+    assert r.output.strip().splitlines()[-1] == "6 passed, 0 failed, 2 skipped"
+    xml = junit.read_text()
+    assert 'tests="8"' in xml and 'failures="0"' in xml and 'skipped="2"' in xml
+
+
+def test_a_failing_result_names_file_and_line(tmp_path: Path) -> None:
+    m, p = _files(tmp_path, "// RESULT: 0.3\nP=? [ F x=1 ];\n")
+    r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5"])
+    assert r.exit_code == 1
+    assert f"FAIL {p}:2: P=? [ F x=1 ]: expected 0.3, got 0.5" in r.output
+    assert "0 passed, 1 failed" in r.output
+
+
+def test_constant_specific_results_over_a_sweep(tmp_path: Path) -> None:
+    m, p = _files(tmp_path, "// RESULT (p=0.5): 0.5\n// RESULT (p=1): 1\nP=? [ F (x=1 & (X x=2)) ];\n")
+    r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5:0.5:1"])
+    assert r.exit_code == 0, r.output
+    assert "2 passed, 0 failed" in r.output
+
+
+def test_a_malformed_result_line_is_an_input_error(tmp_path: Path) -> None:
+    m, p = _files(tmp_path, "// RESULT (p): 0.3\nP=? [ F x=1 ];\n")
+    r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5"])
+    assert r.exit_code == 2 and f"{p}:1:4: error: badly formed RESULT specification" in r.output
+    m, p = _files(tmp_path, "// RESULT: zero\nP=? [ F x=1 ];\n")
+    r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5"])
+    assert r.exit_code == 2 and "RESULT value 'zero' is not a number" in r.output
+
+
+def test_named_number_of_a_strategy_result(tmp_path: Path) -> None:
+    props = tmp_path / "rover.props"
+    props.write_text('// RESULT (guaranteed): 0.9215685684\n<<rover>> Pmax=? [ !"crash" U "goal" ];\n'
+                     '// RESULT (upper_bound): 0.5\n<<rover>> Pmax=? [ F "goal" ];\n')
+    r = CliRunner().invoke(main, ["test", str(ROOT / "models" / "rover.posg"), str(props), "--strategy",
+                                  f"rover={ROOT / 'models' / 'rover' / 'forward.fss.json'}"])
+    assert r.exit_code == 1, r.output
+    assert "PASS" in r.output and "(guaranteed)" in r.output
+    assert "expected 0.5 (upper_bound), got the result has no upper_bound number" in r.output
+
+
+def test_bundled_models_pass_their_results() -> None:
+    r = CliRunner().invoke(main, ["test", str(ROOT / "models" / "rover.smg"), str(ROOT / "models" / "rover.props")])
+    assert r.exit_code == 0 and "5 passed, 0 failed" in r.output
