@@ -327,6 +327,8 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
               help="Write the optimal memoryless strategy of the (single) property as JSON; for a "
               "synthesised strategy, a directory receiving <player>.json.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (see docs/cli.md).")
+@click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
+              help="Also write a JUnit XML report: one test case per property.")
 @click.option("--state-limit", type=click.IntRange(min=1), default=None)
 @_common
 def check(
@@ -344,6 +346,7 @@ def check(
     seed: int,
     export_strategy: str | None,
     as_json: bool,
+    junit: str | None,
     state_limit: int | None,
     consts: tuple[str, ...],
     debug: bool,
@@ -387,6 +390,8 @@ def check(
                     _write_synthesised(export_strategy, report)
                 else:
                     _write_strategy(export_strategy, report)
+        if junit is not None:
+            _write_check_junit(junit, model, swept, rows)
         if as_json:
             click.echo(json.dumps(_json_report(model, swept, rows)))
         else:
@@ -394,6 +399,26 @@ def check(
         return code
 
     _guard(debug, run, as_json=as_json, consts=consts)
+
+
+def _write_check_junit(path: str, model: str, swept: list[str], rows: list[tuple[dict[str, Any], Any]]) -> None:
+    """One test case per property (and constant setting): an error fails as an error, a false or
+    undecided threshold or an unconverged result as a failure."""
+    from posgmc.io.junit import Case, write_junit
+
+    cases = []
+    for constants, report in rows:
+        label = ",".join(f"{n}={_const_text(constants[n])}" for n in swept)
+        for r in report.outcomes:
+            if isinstance(r, tuple):
+                cases.append(Case(r[0] + (f" ({label})" if label else ""), model, error=r[1].message))
+                continue
+            name = r.property + (f" ({label})" if label else "")
+            failure = None
+            if _not_passed(r):
+                failure = f"{r.property}: {_fmt(r.value)}" + ("" if r.converged else " (not converged)")
+            cases.append(Case(name, model, r.seconds, failure=failure))
+    write_junit(path, model, cases)
 
 
 def _synthesis_options(memory: str, timeout: float, seed: int) -> Any:

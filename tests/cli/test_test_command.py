@@ -96,3 +96,13 @@ def test_named_number_of_a_strategy_result(tmp_path: Path) -> None:
 def test_bundled_models_pass_their_results() -> None:
     r = CliRunner().invoke(main, ["test", str(ROOT / "models" / "rover.smg"), str(ROOT / "models" / "rover.props")])
     assert r.exit_code == 0 and "5 passed, 0 failed" in r.output
+
+
+def test_check_writes_a_junit_report(tmp_path: Path) -> None:
+    report = tmp_path / "check.xml"
+    r = CliRunner().invoke(main, ["check", str(ROOT / "models" / "rover.smg"), "--prop",
+                                  '<<rover>> P>=0.99 [ F "goal" ]', "--prop", '<<rover>> Pmax=? [ F "goal" ]',
+                                  "--prop", 'R{"nope"}max=? [ F "goal" ]', "--junit", str(report)])
+    assert r.exit_code == 2  # the third property is an error
+    xml = report.read_text()
+    assert 'tests="3"' in xml and 'failures="1"' in xml and 'errors="1"' in xml
