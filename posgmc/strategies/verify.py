@@ -76,6 +76,14 @@ class StrategyChecker:
     def num_players(self) -> int:
         return max(len(self.model.player_names), 1)
 
+    def bound_player(self, fss: FiniteStateStrategy) -> int:
+        """The player index of a strategy given to this checker."""
+        return next(p for p, b in self.bound.items() if b.fss is fss)
+
+    def product_checker(self, fixed: frozenset[int]) -> PropertyChecker:
+        """The checker of the product with the given players' strategies fixed (cached)."""
+        return self._checker(fixed)
+
     def _checker(self, fixed: frozenset[int]) -> PropertyChecker:
         """The checker of the product with the strategies of the players in ``fixed`` (cached)."""
         if fixed not in self._products:

@@ -126,20 +126,33 @@ def _forward(model: ExplicitModel) -> np.ndarray:
 
 def versus_adversaries(model: ExplicitModel, expr: Expr, defence: FiniteStateStrategy,
                        adversaries: tuple[FiniteStateStrategy, ...], *, maximize: bool,
-                       coalition_of, scalar) -> tuple[Bound | None, Bound | None]:  # type: ignore[no-untyped-def]
-    """(vs_fss_adversary, upper_bound) over ``adversaries`` (see the module docstring): the
-    worst for the decision maker of each, with their proven bounds."""
+                       coalition_of, scalar, deadline: float | None = None,  # type: ignore[no-untyped-def]
+                       ) -> tuple[Bound | None, Bound | None, int]:
+    """(vs_fss_adversary, upper_bound, how many adversaries were evaluated) over ``adversaries``
+    (see the module docstring), stopping at ``deadline``: the worst for the decision maker of each
+    number, with its proven bounds."""
     worst_vs: Bound | None = None
     worst_ub: Bound | None = None
 
     def worse(a: Bound, b: Bound | None) -> bool:
         return b is None or (a.value < b.value if maximize else a.value > b.value)
 
+    done = 0
     for adv in adversaries:
-        r = StrategyChecker(model, {defence.player: defence, adv.player: adv},
-                            coalition_of=coalition_of, scalar=scalar).check(expr, text="vs")
-        if r.vs_fss_adversary is not None and worse(r.vs_fss_adversary, worst_vs):
-            worst_vs = r.vs_fss_adversary
-        if r.upper_bound is not None and worse(r.upper_bound, worst_ub):
-            worst_ub = r.upper_bound
-    return worst_vs, worst_ub
+        if deadline is not None and done and time.perf_counter() > deadline:
+            break
+        checker = StrategyChecker(model, {defence.player: defence, adv.player: adv},
+                                  coalition_of=coalition_of, scalar=scalar)
+        p_def, p_adv = (checker.bound_player(f) for f in (defence, adv))
+        both = checker.product_checker(frozenset({p_def, p_adv}))
+        alone = checker.product_checker(frozenset({p_adv}))
+        vs = both.check(expr, text="vs")
+        ub = alone.check(expr, text="ub")
+        vs_b = Bound(float(vs.value), vs.lower, vs.upper, vs.sound and vs.converged)  # type: ignore[arg-type]
+        ub_b = Bound(float(ub.value), ub.lower, ub.upper, ub.sound and ub.converged)  # type: ignore[arg-type]
+        if worse(vs_b, worst_vs):
+            worst_vs = vs_b
+        if worse(ub_b, worst_ub):
+            worst_ub = ub_b
+        done += 1
+    return worst_vs, worst_ub, done

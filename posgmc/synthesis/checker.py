@@ -67,11 +67,14 @@ class SynthesisChecker:
         others = [p for p in range(len(self.model.player_names)) if p != player]
         if len(others) == 1 and self.synthesis.adversaries > 0:
             # the one-sided view: the adversary's deterministic memoryless strategies
+            # within a share of the time budget (a quarter, at least a few seconds)
             t0 = time.perf_counter()
-            enumeration = enumerate_adversaries(self.model, others[0], limit=self.synthesis.adversaries)
-            vs, ub = versus_adversaries(
+            deadline = t0 + max(self.synthesis.timeout / 4, 3.0)
+            enumeration = enumerate_adversaries(self.model, others[0], limit=self.synthesis.adversaries,
+                                                deadline=deadline)
+            vs, ub, evaluated = versus_adversaries(
                 self.model, bare, result.strategy, enumeration.strategies, maximize=maximizing,
-                coalition_of=self.coalition_of, scalar=self.scalar,
+                coalition_of=self.coalition_of, scalar=self.scalar, deadline=deadline,
             )
             result.phases["adversaries"] = time.perf_counter() - t0
         value: float | bool | None = g.value
@@ -107,11 +110,12 @@ class SynthesisChecker:
             "seed": self.synthesis.seed,
         }
         if enumeration is not None:
-            stats["adversaries_kept"] = len(enumeration.strategies)
-            stats["exhaustive"] = enumeration.exhaustive
+            exhaustive = enumeration.exhaustive and evaluated == len(enumeration.strategies)
+            stats["adversaries_kept"] = evaluated
+            stats["exhaustive"] = exhaustive
             note += ("; vs_fss_adversary: its worst value against the adversary's deterministic "
-                     "memoryless strategies enumerated" + (" (all of them)" if enumeration.exhaustive
-                     else f" (the first {len(enumeration.strategies)})") + "; upper_bound: no "
+                     "memoryless strategies enumerated" + (" (all of them)" if exhaustive
+                     else f" (the first {evaluated})") + "; upper_bound: no "
                      "defence does better against those adversaries")
         return PropertyResult(
             property=text, name=name, kind=kind, value=value, lower=lower, upper=upper,

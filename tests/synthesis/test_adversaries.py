@@ -70,8 +70,9 @@ def test_brute_force_max_min_is_below_upper_bound(seed: int) -> None:
     assert enum.exhaustive and 1 <= len(enum.strategies) <= len(d1)
     result = synthesize(model, q, player=0, coalition_of=coalition, scalar=api._scalar,
                         options=SynthesisOptions(memory=(1,), restarts=1, iterations=15, timeout=30))
-    vs, ub = versus_adversaries(model, q, result.strategy, enum.strategies, maximize=True,
-                                coalition_of=coalition, scalar=api._scalar)
+    vs, ub, evaluated = versus_adversaries(model, q, result.strategy, enum.strategies, maximize=True,
+                                           coalition_of=coalition, scalar=api._scalar)
+    assert evaluated == len(enum.strategies)
     assert maxmin <= ub.upper + 1e-6
     assert result.guaranteed.lower <= vs.upper + 1e-6  # guaranteed <= value vs every adversary
 
