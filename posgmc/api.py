@@ -91,18 +91,9 @@ class Session:
 
 
 def _read(path: str | Path) -> str:
-    if str(path) == "-":  # standard input, as PRISM and Storm users expect
-        import sys
+    from posgmc.io.reading import read_text
 
-        return sys.stdin.read()
-    try:
-        return Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"no such file: {path}") from None
-    except UnicodeDecodeError as e:
-        raise InputError(f"{path} is not UTF-8 text ({e.reason} at byte {e.start})") from None
-    except OSError as e:
-        raise InputError(f"cannot read {path}: {e.strerror}") from None
+    return read_text(path)
 
 
 def _attach(error: PosgmcError, source: SourceText) -> PosgmcError:

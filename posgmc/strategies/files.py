@@ -52,15 +52,10 @@ def read_strategy(path: str | Path) -> FiniteStateStrategy:
         InputError: the file cannot be read, or is not JSON (with line and column).
         StrategyError: the JSON is not a valid ``posgmc-fss/1`` strategy (with its JSON path).
     """
+    from posgmc.io.reading import read_text
+
     name = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"no such file: {name}") from None
-    except UnicodeDecodeError as e:
-        raise InputError(f"{name} is not UTF-8 text ({e.reason} at byte {e.start})") from None
-    except OSError as e:
-        raise InputError(f"cannot read {name}: {e.strerror}") from None
+    text = read_text(path)
     return parse_strategy(text, file=name)
 
 
