@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from posgmc.errors import SourceSpan
+from posgmc.semantics import operators as ops
 from posgmc.syntax.ast import (
     NO_SPAN,
     Binary,
@@ -178,7 +179,7 @@ _DTYPES = {ExprType.BOOL: np.bool_, ExprType.INT: np.int64, ExprType.DOUBLE: np.
 
 def _to_numpy_scalar(value: Any, type_: ExprType) -> Any:
     if type_ is ExprType.DOUBLE:
-        return float(value)
+        return ops.to_float(value)
     if type_ is ExprType.INT:
         return int(value)
     return bool(value)
@@ -268,23 +269,6 @@ class _FoldError(Exception):
     """A constant subexpression fails (``mod(3, 0)``); compiled to a runtime failure instead."""
 
 
-def _fdiv(a: float, b: float) -> float:
-    try:
-        return a / b
-    except ZeroDivisionError:
-        if a == 0 or math.isnan(a):
-            return math.nan
-        return math.copysign(math.inf, a) * math.copysign(1.0, b)
-
-
-def _to_int(x: Fraction | float, how: Callable[[Any], int]) -> int:
-    if isinstance(x, float):
-        if not math.isfinite(x):
-            raise _FoldError(f"cannot convert {x} to an int")
-        x = Fraction(x)
-    return how(x)
-
-
 def _fold_binary(op: BinaryOp, a: Scalar, b: Scalar) -> Scalar:
     if op is BinaryOp.AND:
         return bool(a) and bool(b)
@@ -313,9 +297,7 @@ def _fold_binary(op: BinaryOp, a: Scalar, b: Scalar) -> Scalar:
     if op is BinaryOp.MUL:
         return a * b
     # DIV: a double, exact while both are exact and the divisor is not 0
-    if isinstance(a, float) or isinstance(b, float) or b == 0:
-        return _fdiv(float(a), float(b))
-    return Fraction(a) / Fraction(b)
+    return ops.scalar_divide(a, b)  # type: ignore[arg-type]
 
 
 def _fold_call(fn: Function, args: list[Scalar], result_type: ExprType) -> Scalar:
@@ -324,43 +306,19 @@ def _fold_call(fn: Function, args: list[Scalar], result_type: ExprType) -> Scala
         if result_type is ExprType.DOUBLE and not isinstance(r, (float, Fraction)):
             return Fraction(r)
         return r
-    if fn is Function.FLOOR:
-        return _to_int(args[0], math.floor)
-    if fn is Function.CEIL:
-        return _to_int(args[0], math.ceil)
-    if fn is Function.ROUND:
-        return _to_int(args[0], lambda q: math.floor(q + Fraction(1, 2)))
-    a, b = args
-    if fn is Function.MOD:
-        if b <= 0:
-            raise _FoldError(f"mod() by a non-positive divisor ({b})")
-        return int(a) % int(b)
-    if fn is Function.POW:
-        if result_type is ExprType.INT:
-            if b < 0:
-                raise _FoldError(f"negative exponent {b} in pow() of two ints")
-            return int(int(a) ** int(b))
-        if not isinstance(a, float) and (
-            isinstance(b, int) or (isinstance(b, Fraction) and b.denominator == 1)
-        ):
-            base, exp = Fraction(a), int(b)
-            if base == 0 and exp < 0:
-                return math.inf
-            return base**exp
-        try:
-            return math.pow(float(a), float(b))
-        except (ValueError, OverflowError):
-            return math.nan
-    # LOG
-    return _fdiv(_ln(float(a)), _ln(float(b)))
-
-
-def _ln(x: float) -> float:
-    if math.isnan(x) or x < 0:
-        return math.nan
-    if x == 0:
-        return -math.inf
-    return math.log(x)
+    try:
+        if fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
+            return ops.scalar_to_int(args[0], fn.value)  # type: ignore[arg-type]
+        a, b = args
+        if fn is Function.MOD:
+            return ops.scalar_mod(int(a), int(b))
+        if fn is Function.POW:
+            if result_type is ExprType.INT:
+                return ops.scalar_int_pow(int(a), int(b))
+            return ops.scalar_pow(a, b)  # type: ignore[arg-type]
+        return ops.scalar_log(a, b)  # type: ignore[arg-type]
+    except ops.DomainFailure as failure:
+        raise _FoldError(failure.message) from None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -368,54 +326,33 @@ def _ln(x: float) -> float:
 # ---------------------------------------------------------------------------------------------
 
 
-def _first_row(v: Columns, bad: Any) -> int:
-    if isinstance(bad, np.ndarray) and bad.ndim:
-        return v.root_row(int(np.flatnonzero(bad)[0]))
-    return v.root_row(0)
+def _rt(v: Columns, span: SourceSpan, f: Callable[..., Any], *args: Any) -> Any:
+    """Apply a partial operator of :mod:`posgmc.semantics.operators`; a domain failure becomes an
+    :class:`EvaluationError` naming the root row."""
+    try:
+        return f(*args)
+    except ops.DomainFailure as failure:
+        raise EvaluationError(failure.message, span, v.root_row(failure.index)) from None
 
 
 def _rt_mod(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
-    bad = np.asarray(b) <= 0
-    if np.any(bad):
-        bv = b[np.flatnonzero(bad)[0]] if isinstance(b, np.ndarray) and b.ndim else b
-        raise EvaluationError(
-            f"mod() by a non-positive divisor ({int(bv)})", span, _first_row(v, bad)
-        )
-    return np.mod(a, b)
+    return _rt(v, span, ops.mod, a, b)
 
 
 def _rt_ipow(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
-    bad = np.asarray(b) < 0
-    if np.any(bad):
-        raise EvaluationError("negative exponent in pow() of two ints", span, _first_row(v, bad))
-    return np.power(a, b)
-
-
-def _rt_fpow(a: Any, b: Any) -> Any:
-    return np.power(np.asarray(a, dtype=np.float64), b)
-
-
-def _rt_to_int(v: Columns, x: Any, span: SourceSpan, name: str) -> Any:
-    bad = ~np.isfinite(x)
-    if np.any(bad):
-        raise EvaluationError(f"{name}() of a non-finite value", span, _first_row(v, bad))
-    return np.asarray(x).astype(np.int64)
+    return _rt(v, span, ops.int_pow, a, b)
 
 
 def _rt_floor(v: Columns, x: Any, span: SourceSpan) -> Any:
-    return _rt_to_int(v, np.floor(x), span, "floor")
+    return _rt(v, span, ops.to_int, x, "floor")
 
 
 def _rt_ceil(v: Columns, x: Any, span: SourceSpan) -> Any:
-    return _rt_to_int(v, np.ceil(x), span, "ceil")
+    return _rt(v, span, ops.to_int, x, "ceil")
 
 
 def _rt_round(v: Columns, x: Any, span: SourceSpan) -> Any:
-    return _rt_to_int(v, np.floor(np.asarray(x, dtype=np.float64) + 0.5), span, "round")
-
-
-def _rt_log(a: Any, b: Any) -> Any:
-    return np.log(np.asarray(a, dtype=np.float64)) / np.log(np.asarray(b, dtype=np.float64))
+    return _rt(v, span, ops.to_int, x, "round")
 
 
 def _rt_full(v: Columns, value: Any, dtype: Any) -> np.ndarray:
@@ -463,11 +400,11 @@ _RUNTIME: dict[str, Any] = {
     "_np": np,
     "_mod": _rt_mod,
     "_ipow": _rt_ipow,
-    "_fpow": _rt_fpow,
+    "_fpow": ops.float_pow,
     "_floor": _rt_floor,
     "_ceil": _rt_ceil,
     "_round": _rt_round,
-    "_log": _rt_log,
+    "_log": ops.log,
     "_full": _rt_full,
     "_lazy_where": _rt_lazy_where,
     "_lazy_and": _rt_lazy_and,
@@ -530,7 +467,7 @@ class _Generator:
             return "True" if value else "False"
         if type_ is ExprType.INT:
             return repr(int(value))
-        f = float(value)
+        f = ops.to_float(value)
         if math.isfinite(f):
             return repr(f)
         name = self.fresh("_c")
@@ -714,8 +651,6 @@ class _Generator:
         if fn is Function.POW:
             a, b = args
             if type_ is ExprType.INT:
-                if b.constant is not None and b.constant >= 0:
-                    return _Code(f"_np.power({a.text}, {b.text})", ExprType.INT, partial=partial)
                 return _Code(
                     f"_ipow(v, {a.text}, {b.text}, {self.span_const(e.span)})",
                     ExprType.INT,

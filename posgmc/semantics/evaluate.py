@@ -16,7 +16,10 @@ PRISM's rules (``parser/ast/ExpressionFunc.java``, ``ExpressionBinaryOp.java``):
   adds ``n`` to Java's negative remainder), which is Python's ``%`` for ``n > 0``.
 * ``log(x, b) = ln x / ln b``; ``min``/``max`` are n-ary.
 
-Division by zero is an error here (PRISM's floating-point mode would give an infinity).
+Division is IEEE as PRISM's doubles: ``1/0`` is an infinity and ``0/0`` NaN. The partial operators
+(``mod``, ``pow`` of ints, ``floor``/``ceil``/``round``) and the exact/IEEE arithmetic come from
+:mod:`posgmc.semantics.operators`, shared with the exploration code generator and the state-formula
+evaluator.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from collections.abc import Callable, Iterator, Mapping
 from fractions import Fraction
 
 from posgmc.errors import PosgmcError, SemanticError, SourceSpan
+from posgmc.semantics import operators as ops
 from posgmc.semantics.symbols import Symbol, SymbolKind, Type, span_or_none
 from posgmc.semantics.types import TypeChecker
 from posgmc.syntax.ast import (
@@ -278,24 +282,6 @@ def _error(message: str, e: Expr) -> SemanticError:
     return SemanticError(message, span_or_none(e.span))
 
 
-def _fdiv(a: float, b: float) -> float:
-    """IEEE division as in Java (x/0 is an infinity or NaN, not an exception)."""
-    try:
-        return a / b
-    except ZeroDivisionError:
-        if a == 0 or math.isnan(a):
-            return math.nan
-        return math.copysign(math.inf, a) * math.copysign(1.0, b)
-
-
-def _ln(x: float) -> float:
-    if math.isnan(x) or x < 0:
-        return math.nan
-    if x == 0:
-        return -math.inf
-    return math.log(x)
-
-
 def _static_type(e: Expr, env: Mapping[str, Value]) -> Type | None:
     def lookup(name: str) -> Symbol | None:
         if name in env:
@@ -318,7 +304,7 @@ def evaluate(expr: Expr, env: Mapping[str, Value]) -> Value:
         The value, typed as described in the module docstring.
 
     Raises:
-        SemanticError: an identifier without a value, division by zero, ``mod`` by a
+        SemanticError: an identifier without a value, ``mod`` by a
             non-positive number, a negative integer exponent, or a non-finite value where an
             int is needed.
     """
@@ -334,15 +320,6 @@ def evaluate(expr: Expr, env: Mapping[str, Value]) -> Value:
         if not isinstance(v, bool):
             raise _error("a number is used as a Boolean", e)
         return v
-
-    def to_int(x: int | Fraction | float, e: Expr, how: Callable[[Fraction], int]) -> int:
-        if isinstance(x, int):
-            return x
-        if isinstance(x, float):
-            if not math.isfinite(x):
-                raise _error(f"cannot convert {x} to an int", e)
-            x = Fraction(x)
-        return how(x)
 
     def ev(e: Expr) -> Value:
         if isinstance(e, (BoolLit, IntLit, DoubleLit)):
@@ -399,12 +376,8 @@ def evaluate(expr: Expr, env: Mapping[str, Value]) -> Value:
             return a_n - b_n
         if op is BinaryOp.MUL:
             return a_n * b_n
-        # DIV: always a double
-        if isinstance(a_n, float) or isinstance(b_n, float):
-            return _fdiv(float(a_n), float(b_n))
-        if b_n == 0:
-            raise _error("division by zero", e)
-        return Fraction(a_n) / Fraction(b_n)
+        # DIV: always a double; exact while both are exact, IEEE otherwise
+        return ops.scalar_divide(a_n, b_n)
 
     def call(e: Call) -> Value:
         fn = e.function
@@ -415,48 +388,23 @@ def evaluate(expr: Expr, env: Mapping[str, Value]) -> Value:
             r = min(args) if fn is Function.MIN else max(args)
             is_double = any(not isinstance(x, int) for x in args)
             return to_double(r) if is_double else r
-        if len(args) == 1 and fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
-            x = args[0]
-            if fn is Function.FLOOR:
-                return to_int(x, e, math.floor)
-            if fn is Function.CEIL:
-                return to_int(x, e, math.ceil)
-            return to_int(x, e, lambda q: math.floor(q + Fraction(1, 2)))
-        if len(args) != 2:
-            raise _error(f"{fn.value}() takes 2 arguments, found {len(args)}", e)
-        a, b = args
-        if fn is Function.MOD:
-            if not (isinstance(a, int) and isinstance(b, int)):
-                raise _error("mod() needs int arguments", e)
-            if b <= 0:
-                raise _error(f"mod() by a non-positive divisor ({b})", e)
-            return a % b
-        if fn is Function.POW:
-            return power(a, b, e)
-        # LOG
-        return _fdiv(_ln(float(a)), _ln(float(b)))
-
-    def power(a: int | Fraction | float, b: int | Fraction | float, e: Expr) -> Value:
-        if isinstance(a, int) and isinstance(b, int):
-            if b < 0:
-                raise _error(
-                    f"negative exponent {b} in pow() of two ints; write pow({a}.0, {b}) "
-                    "for a double result",
-                    e,
-                )
-            return a**b
-        exact_int_exp = isinstance(b, int) or (isinstance(b, Fraction) and b.denominator == 1)
-        if exact_int_exp and not isinstance(a, float):
-            base, exp = Fraction(a), int(b)
-            if base == 0 and exp < 0:
-                return math.inf
-            return base**exp
         try:
-            return math.pow(float(a), float(b))
-        except ValueError:
-            return math.nan
-        except OverflowError:
-            return math.inf
+            if len(args) == 1 and fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
+                return ops.scalar_to_int(args[0], fn.value)
+            if len(args) != 2:
+                raise _error(f"{fn.value}() takes 2 arguments, found {len(args)}", e)
+            a, b = args
+            if fn is Function.MOD:
+                if not (isinstance(a, int) and isinstance(b, int)):
+                    raise _error("mod() needs int arguments", e)
+                return ops.scalar_mod(a, b)
+            if fn is Function.POW:
+                if isinstance(a, int) and isinstance(b, int):
+                    return ops.scalar_int_pow(a, b)
+                return ops.scalar_pow(a, b)
+            return ops.scalar_log(a, b)
+        except ops.DomainFailure as failure:
+            raise _error(failure.message, e) from None
 
     return ev(expr)
 
