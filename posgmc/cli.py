@@ -4,7 +4,9 @@ Exit status (fixed, documented in docs/cli.md):
 
 * 0 — success; for ``check``, every threshold property holds at the initial state(s);
 * 1 — ``check`` only: some threshold property does not hold;
-* 2 — bad input (model, properties, constants, options) or any other error.
+* 2 — bad input (model, properties, constants, options) or any other error;
+* 3 — ``check`` only: some threshold property is ``unknown`` (its proven bounds straddle the
+  threshold even after refinement) or was decided by an unsound method (``--method value``).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from posgmc.errors import MultipleErrors, PosgmcError
 EXIT_OK = 0
 EXIT_PROPERTY_FALSE = 1
 EXIT_ERROR = 2
+EXIT_UNDECIDED = 3
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -308,10 +311,7 @@ def check(
                 full_observation=full_observation,
                 zero_based_players=zero_based_players,
             )
-            if report.errors:
-                code = EXIT_ERROR
-            elif any(r.value is False for r in report.results) and code == EXIT_OK:
-                code = EXIT_PROPERTY_FALSE
+            code = max(code, _exit_code(report), key=_SEVERITY.index)
             rows.append((constants, report))
             if export_strategy is not None:
                 _write_strategy(export_strategy, report)
@@ -322,6 +322,20 @@ def check(
         return code
 
     _guard(debug, run)
+
+
+_SEVERITY = (EXIT_OK, EXIT_PROPERTY_FALSE, EXIT_UNDECIDED, EXIT_ERROR)
+"""Exit codes from least to most severe: a run exits with the most severe of its properties'."""
+
+
+def _exit_code(report: Any) -> int:
+    if report.errors:
+        return EXIT_ERROR
+    if any(not r.is_decided for r in report.results):
+        return EXIT_UNDECIDED
+    if any(r.value is False for r in report.results):
+        return EXIT_PROPERTY_FALSE
+    return EXIT_OK
 
 
 def _write_strategy(path: str, report: Any) -> None:
@@ -371,11 +385,11 @@ def _json_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], 
     return {"model_file": model, "swept": swept, "runs": [one(c, r) for c, r in rows]}
 
 
-def _fmt(v: Any) -> str:
+def _fmt(v: Any, *, boolean: bool = False) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if v is None:
-        return "-"
+        return "unknown" if boolean else "-"
     return f"{v:.10g}"
 
 
@@ -394,11 +408,15 @@ def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str],
                 click.echo(f"{r[0]}: ERROR")
                 click.echo(r[1].render(), err=True)
                 continue
-            line = f"{r.property}: {_fmt(r.value)}"
+            line = f"{r.property}: {_fmt(r.value, boolean=r.is_unknown)}"
             if r.lower is not None and not isinstance(r.value, bool):
                 line += f"  [{_fmt(r.lower)}, {_fmt(r.upper)}]"
             line += f"  ({r.method}, {r.iterations} it., {r.seconds:.3f} s)"
-            if not r.sound:
+            if r.is_unknown:
+                line += (
+                    "  UNDECIDED: the proven bounds straddle the threshold even after refinement"
+                )
+            elif not r.sound:
                 line += "  NOT PROVEN: bounds did not separate or the method is unsound"
             click.echo(line)
             if r.note:
@@ -409,7 +427,7 @@ def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str],
         click.echo("\t".join(swept + ["Result"]))
         for constants, report in rows:
             r = report.outcomes[i]
-            value = "Error" if isinstance(r, tuple) else _fmt(r.value)
+            value = "Error" if isinstance(r, tuple) else _fmt(r.value, boolean=r.is_unknown)
             click.echo("\t".join([_const_text(constants[n]) for n in swept] + [value]))
             if isinstance(r, tuple):
                 click.echo(r[1].render(), err=True)

@@ -15,28 +15,34 @@ This module owns the meaning of queries on fully observable models:
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
 
+from posgmc.checking import intervals as iv
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.checking.states import evaluate_states
 from posgmc.engines import objectives as obj
-from posgmc.engines.options import SolverOptions
+from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.engines.step_bounds import interval_reach_probability
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.semantics.evaluate import iter_nodes
 from posgmc.syntax.ast import (
     NO_SPAN,
     Binary,
     BinaryOp,
+    Call,
     Coalition,
     ComparisonOp,
     Direction,
     Expr,
+    Function,
+    Ite,
     ProbQuery,
     RewardKind,
     RewardQuery,
@@ -119,91 +125,119 @@ class PropertyChecker:
         self.coalition_of = coalition_of
         self.scalar = scalar
         self.options = options
+        self._guessed = False  # set when a nested Boolean was undecided and its estimate used
 
     # -- entry point -----------------------------------------------------------------------------
 
     def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
-        """Check one property and report its value at the initial states."""
+        """Check one property and report its value at the initial states.
+
+        A comparison or threshold is decided only on proven bounds: while the bounds at an initial
+        state straddle the threshold, the property is solved again with a tighter precision (down
+        to 1e-12), then exactly (``Method.EXACT``) when the model has at most
+        :data:`EXACT_REFINEMENT_STATES` states; if it is still undecided the result is ``unknown``.
+        """
         start = time.perf_counter()
-        init = self.model.initial_states
+        outcome = self._evaluate(expr)
+        for options in self._refinements():
+            if outcome.settled(self.model.initial_states):
+                break
+            refined = PropertyChecker(
+                self.model, coalition_of=self.coalition_of, scalar=self.scalar, options=options
+            )
+            outcome = refined._evaluate(expr)
+        return outcome.result(
+            self.model.initial_states,
+            text=text,
+            name=name,
+            seconds=time.perf_counter() - start,
+            keep_values=self.options.keep_values,
+            keep_strategy=self.options.keep_strategy,
+        )
+
+    def _refinements(self) -> list[CheckOptions]:
+        """The options of each refinement round: tighter precisions, then an exact solve."""
+        solver = self.options.solver
+        if solver.method is not Method.INTERVAL:
+            return []
+        rounds = [
+            replace(self.options, solver=replace(solver, precision=p))
+            for p in REFINEMENT_PRECISIONS
+            if p < solver.precision
+        ]
+        if self.model.num_states <= EXACT_REFINEMENT_STATES:
+            rounds.append(replace(self.options, solver=replace(solver, method=Method.EXACT)))
+        return rounds
+
+    def _evaluate(self, expr: Expr) -> _Outcome:
+        self._guessed = False
         if isinstance(expr, (ProbQuery, RewardQuery)) and expr.threshold is None:
             q = self.query(expr)
             kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
-        else:
-            q = self.state_value(expr)
-            kind = ResultKind.BOOLEAN if q.values.dtype == np.bool_ else ResultKind.NUMBER
-        seconds = time.perf_counter() - start
-        vals = q.values[init]
-        if kind is ResultKind.BOOLEAN:
-            value: float | bool = bool(np.all(vals))
-            lower = upper = None
-            per_initial: tuple[float | bool, ...] = tuple(bool(v) for v in vals)
-        else:
-            value = float(vals[0])
-            lower, upper = float(q.lower[init[0]]), float(q.upper[init[0]])
-            per_initial = tuple(float(v) for v in vals)
-        eng = q.engine
-        return PropertyResult(
-            property=text,
-            name=name,
-            kind=kind,
-            value=value,
-            lower=lower,
-            upper=upper,
-            seconds=seconds,
-            method=q.method,
-            iterations=q.iterations,
-            converged=q.converged,
-            sound=q.sound,
-            per_initial=per_initial,
-            values=q.values if self.options.keep_values else None,
-            strategy=eng.strategy if (eng is not None and self.options.keep_strategy) else None,
-        )
+            b = iv.Bounds(q.values, q.lower, q.upper, ~np.isnan(q.values))
+            return _Outcome(kind, b, [q], guessed=False)
+        queries: list[QueryValue] = []
+        b = self._bounds(expr, queries)
+        kind = ResultKind.BOOLEAN if b.is_bool else ResultKind.NUMBER
+        return _Outcome(kind, b, queries, guessed=self._guessed)
 
     # -- state formulas and arithmetic -------------------------------------------------------------
 
     def state_value(self, expr: Expr) -> QueryValue:
-        """Evaluate a state expression, with interval arithmetic for bounds over nested queries."""
+        """Evaluate a state expression over all states; bounds over nested queries by interval
+        arithmetic (:mod:`posgmc.checking.intervals`). Where a Boolean is undecided the reported
+        value is the estimate's and the checker remembers that it guessed."""
+        if isinstance(expr, (ProbQuery, RewardQuery)) and expr.threshold is None:
+            return self.query(expr)
+        queries: list[QueryValue] = []
+        b = self._bounds(expr, queries)
+        if b.is_bool and not bool(np.all(b.decided)):
+            self._guessed = True
+        sound = all(q.sound for q in queries) and bool(np.all(b.defined))
+        method = queries[0].method if queries else "exact"
+        return QueryValue(b.value, b.lower, b.upper, sound=sound, method=method,
+                          iterations=sum(q.iterations for q in queries),
+                          converged=all(q.converged for q in queries))
+
+    def _bounds(self, expr: Expr, queries: list[QueryValue]) -> iv.Bounds:
+        """Per-state bounds of ``expr``; the queries it asked are appended to ``queries``."""
         if isinstance(expr, (ProbQuery, RewardQuery)):
             q = self.query(expr)
+            queries.append(q)
+            b = iv.Bounds(q.values, q.lower, q.upper, ~np.isnan(q.values) & ~np.isnan(q.lower))
             if expr.threshold is None:
-                return q
-            return self._threshold(expr, q)
-        if isinstance(expr, Unary) and expr.op is UnaryOp.NEG:
-            q = self.state_value(expr.operand)
-            return replace(q, values=-q.values, lower=-q.upper, upper=-q.lower)
-        if isinstance(expr, Binary) and expr.op in _ARITH and _contains_query(expr):
-            a, b = self.state_value(expr.left), self.state_value(expr.right)
-            return _interval_arith(expr.op, a, b)
-        collected: list[QueryValue] = []
+                return b
+            bound = self.scalar(expr.threshold.value)
+            threshold = iv.point(np.full(self.model.num_states, float(bound)))  # type: ignore[arg-type]
+            return iv.binary(_THRESHOLD_OPS[expr.threshold.op], b, threshold)
+        if not any(isinstance(n, (ProbQuery, RewardQuery)) for n in iter_nodes(expr)):
+            return iv.point(evaluate_states(self.model, expr))
+        if isinstance(expr, Unary):
+            return iv.unary(expr.op, self._bounds(expr.operand, queries))
+        if isinstance(expr, Binary):
+            return iv.binary(expr.op, self._bounds(expr.left, queries), self._bounds(expr.right, queries))
+        if isinstance(expr, Ite):
+            parts = [self._bounds(e, queries) for e in (expr.cond, expr.then, expr.otherwise)]
+            return iv.ite(*parts)
+        if isinstance(expr, Call):
+            args = [self._bounds(a, queries) for a in expr.args]
+            if expr.function in (Function.FLOOR, Function.CEIL, Function.ROUND):
+                self._check_finite(expr, args[0])
+            return iv.call(expr.function, args)
+        return iv.point(evaluate_states(self.model, expr))  # raises the positioned error
 
-        def sub(e: Expr) -> np.ndarray:
-            q = self.state_value(e)
-            collected.append(q)
-            return q.values
-
-        values = evaluate_states(self.model, expr, queries=sub)
-        exact = all(q.sound and q.converged for q in collected)
-        method = collected[0].method if collected else "exact"
-        return QueryValue(values, values, values, sound=exact, method=method)
-
-    def _threshold(self, expr: ProbQuery | RewardQuery, q: QueryValue) -> QueryValue:
-        assert expr.threshold is not None  # noqa: S101 - guaranteed by caller
-        bound = float(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
-        op = expr.threshold.op
-        cmp = {
-            ComparisonOp.GE: np.greater_equal,
-            ComparisonOp.GT: np.greater,
-            ComparisonOp.LE: np.less_equal,
-            ComparisonOp.LT: np.less,
-        }[op]
-        # Decide on the proven bounds where they agree; where they straddle the threshold the
-        # reported value decides and the answer is marked unsound.
-        by_lower, by_upper = cmp(q.lower, bound), cmp(q.upper, bound)
-        decided = by_lower == by_upper
-        values = np.where(decided, by_lower, cmp(q.values, bound))
-        sound = q.sound and bool(np.all(decided[self.model.initial_states]))
-        return replace(q, values=values, lower=values, upper=values, sound=sound)
+    def _check_finite(self, expr: Call, arg: iv.Bounds) -> None:
+        """PRISM: floor/ceil/round of an infinite or undefined value is an error."""
+        init = self.model.initial_states
+        bad = ~np.isfinite(arg.value[init]) & (arg.lower[init] == arg.upper[init])
+        if np.any(bad):
+            v = arg.value[init][np.flatnonzero(bad)[0]]
+            raise SemanticError(
+                f"{expr.function.value}() of {v} (the value in an initial state) is not an integer",
+                expr.span,
+                hint="PRISM refuses to round an infinite or undefined value; compare the query "
+                "with a number instead",
+            )
 
     # -- queries -------------------------------------------------------------------------------
 
@@ -218,6 +252,14 @@ class PropertyChecker:
                     direction = Direction.MIN if upper_bound else Direction.MAX
                 else:
                     direction = Direction.MAX if upper_bound else Direction.MIN
+            elif self.model.model_type.is_nondeterministic:
+                raise SemanticError(
+                    f"{'P' if isinstance(expr, ProbQuery) else 'R'}=? needs min or max on "
+                    f"{_phrase(self.model)}: the value depends on how the choices are resolved",
+                    expr.span,
+                    hint=f"write {'P' if isinstance(expr, ProbQuery) else 'R'}max=? or "
+                    f"{'P' if isinstance(expr, ProbQuery) else 'R'}min=? (as PRISM and Storm require)",
+                )
             else:
                 direction = Direction.MAX  # dtmc: irrelevant
         players = self.coalition_of(expr.coalition)
@@ -447,7 +489,96 @@ class PropertyChecker:
         return g
 
 
-_ARITH = (BinaryOp.ADD, BinaryOp.SUB, BinaryOp.MUL, BinaryOp.DIV)
+REFINEMENT_PRECISIONS = (1e-8, 1e-10, 1e-12)
+"""Precisions of the refinement rounds for an undecided threshold (those tighter than asked)."""
+
+EXACT_REFINEMENT_STATES = 100_000
+"""The largest model solved exactly (policy iteration, sparse LU) as the last refinement round."""
+
+_THRESHOLD_OPS = {
+    ComparisonOp.GE: BinaryOp.GE,
+    ComparisonOp.GT: BinaryOp.GT,
+    ComparisonOp.LE: BinaryOp.LE,
+    ComparisonOp.LT: BinaryOp.LT,
+}
+
+
+def _phrase(model: ExplicitModel) -> str:
+    return {"mdp": "an mdp", "smg": "a game (smg)", "pomdp": "a pomdp", "posg": "a game (posg)"}.get(
+        model.model_type.value, model.model_type.value
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class _Outcome:
+    """One evaluation of a property: its per-state bounds and the queries it asked."""
+
+    kind: ResultKind
+    bounds: iv.Bounds
+    queries: list[QueryValue]
+    guessed: bool  # a nested Boolean was undecided somewhere and its estimate was used
+
+    def settled(self, init: np.ndarray) -> bool:
+        """Nothing left to refine: no guess, and a Boolean answer decided in every initial state."""
+        if self.guessed:
+            return False
+        if self.kind is ResultKind.BOOLEAN:
+            return bool(np.all(self.bounds.decided[init]))
+        return True
+
+    def result(
+        self,
+        init: np.ndarray,
+        *,
+        text: str,
+        name: str | None,
+        seconds: float,
+        keep_values: bool,
+        keep_strategy: bool,
+    ) -> PropertyResult:
+        b = self.bounds
+        qs = self.queries
+        sound = all(q.sound for q in qs) and not self.guessed and bool(np.all(b.defined[init]))
+        lower: float | None
+        upper: float | None
+        value: float | bool | None
+        if self.kind is ResultKind.BOOLEAN:
+            proven_true, proven_false = b.lower[init], ~b.upper[init]
+            if bool(np.all(proven_true)):
+                value = True
+            elif bool(np.any(proven_false)):
+                value = False  # PRISM: a Boolean holds when it holds in every initial state
+            else:
+                value = None
+            per_initial: tuple[float | bool | None, ...] = tuple(
+                True if t else (False if f else None) for t, f in zip(proven_true, proven_false)
+            )
+            lower = upper = None
+            if value is None:
+                sound = False
+        else:
+            value = float(b.value[init[0]])
+            lower, upper = float(b.lower[init[0]]), float(b.upper[init[0]])
+            per_initial = tuple(float(v) for v in b.value[init])
+            if math.isnan(value):
+                sound = False
+        engine = qs[0].engine if len(qs) == 1 else None
+        return PropertyResult(
+            property=text,
+            name=name,
+            kind=self.kind,
+            value=value,
+            lower=lower,
+            upper=upper,
+            seconds=seconds,
+            method=qs[0].method if qs else "exact",
+            iterations=sum(q.iterations for q in qs),
+            converged=all(q.converged for q in qs),
+            sound=sound,
+            per_initial=per_initial,  # type: ignore[arg-type]
+            values=b.value if keep_values else None,
+            strategy=engine.strategy if (engine is not None and keep_strategy) else None,
+        )
 
 
 def _is_temporal(e: Expr) -> bool:
@@ -469,30 +600,3 @@ def _contains_query(e: Expr) -> bool:
     if isinstance(e, Binary):
         return _contains_query(e.left) or _contains_query(e.right)
     return False
-
-
-def _interval_arith(op: BinaryOp, a: QueryValue, b: QueryValue) -> QueryValue:
-    """Sound bounds of a op b from the bounds of a and b (interval arithmetic)."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        if op is BinaryOp.ADD:
-            lo, hi, v = a.lower + b.lower, a.upper + b.upper, a.values + b.values
-        elif op is BinaryOp.SUB:
-            lo, hi, v = a.lower - b.upper, a.upper - b.lower, a.values - b.values
-        else:
-            if op is BinaryOp.DIV:
-                # 1/[l,u] for intervals not containing 0
-                inv_lo, inv_hi = 1.0 / b.upper, 1.0 / b.lower
-                b = replace(b, values=1.0 / b.values, lower=inv_lo, upper=inv_hi)
-            cands = np.stack([a.lower * b.lower, a.lower * b.upper, a.upper * b.lower, a.upper * b.upper])
-            cands = np.nan_to_num(cands, nan=0.0)  # 0 * inf = 0 (rewards)
-            lo, hi = cands.min(axis=0), cands.max(axis=0)
-            v = np.nan_to_num(a.values * b.values, nan=0.0)
-    return QueryValue(
-        values=v.astype(np.float64),
-        lower=lo,
-        upper=hi,
-        iterations=a.iterations + b.iterations,
-        converged=a.converged and b.converged,
-        sound=a.sound and b.sound,
-        method=a.method,
-    )

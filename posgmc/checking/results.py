@@ -23,6 +23,9 @@ class PropertyResult:
 
     ``value`` is the reported number (or bool for threshold properties); ``lower``/``upper`` are
     proven bounds on the exact value (equal to ``value`` for exact methods, None for booleans).
+    A Boolean is ``True``/``False`` only when proven (``sound``) or decided by an unsound method
+    (``sound`` False); ``None`` means **unknown**: the proven bounds still straddle a threshold
+    after refinement (see :meth:`posgmc.checking.dispatch.PropertyChecker.check`).
     With several initial states, a numeric value is the one of the first initial state and
     ``per_initial`` lists them all; a boolean holds when it holds in every initial state (PRISM).
     ``note`` says what the number means when it is not the plain answer (e.g. a full-observation
@@ -32,7 +35,7 @@ class PropertyResult:
     property: str
     name: str | None
     kind: ResultKind
-    value: float | bool
+    value: float | bool | None
     lower: float | None
     upper: float | None
     seconds: float
@@ -41,14 +44,26 @@ class PropertyResult:
     converged: bool = True
     sound: bool = True
     note: str | None = None
-    per_initial: tuple[float | bool, ...] = ()
+    per_initial: tuple[float | bool | None, ...] = ()
     values: np.ndarray | None = field(default=None, repr=False)
     strategy: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def is_unknown(self) -> bool:
+        """A Boolean property left undecided by the proven bounds."""
+        return self.kind is ResultKind.BOOLEAN and self.value is None
+
+    @property
+    def is_decided(self) -> bool:
+        """A Boolean property decided on proven bounds (True for every non-Boolean result)."""
+        return self.kind is not ResultKind.BOOLEAN or (self.value is not None and self.sound)
 
     def to_json(self) -> dict[str, Any]:
         """The documented machine-readable form (see docs/cli.md)."""
 
         def num(x: float | bool | None) -> Any:
+            if x is None and self.kind is ResultKind.BOOLEAN:
+                return "unknown"
             if x is None or isinstance(x, bool):
                 return x
             if math.isinf(x):
@@ -62,8 +77,8 @@ class PropertyResult:
             "name": self.name,
             "kind": self.kind.value,
             "value": num(self.value),
-            "lower": num(self.lower),
-            "upper": num(self.upper),
+            "lower": None if self.lower is None else num(self.lower),
+            "upper": None if self.upper is None else num(self.upper),
             "seconds": round(self.seconds, 6),
             "method": self.method,
             "iterations": self.iterations,

@@ -86,15 +86,15 @@ def test_const_sweep_prints_a_table(run, coin: str) -> None:  # type: ignore[no-
 
 
 def test_next_with_a_step_bound_is_an_error_with_position(run, coin: str) -> None:  # type: ignore[no-untyped-def]
-    r = run("check", coin, "--const", "p=0.5", "--prop", 'P=? [ X<=3 "a" ]')
+    r = run("check", coin, "--const", "p=0.5", "--prop", 'Pmax=? [ X<=3 "a" ]')
     assert r.exit_code == EXIT_ERROR
-    assert '<--prop 1>:1:8: error: the next operator X cannot have a step bound' in r.output
-    assert 'P=? [ X<=3 "a" ]' in r.output and "^~~" in r.output
+    assert '<--prop 1>:1:11: error: the next operator X cannot have a step bound' in r.output
+    assert 'Pmax=? [ X<=3 "a" ]' in r.output and "^~~" in r.output
 
 
 def test_engine_refusal_points_at_the_property(run, coin: str, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     props = tmp_path / "coin.props"
-    props.write_text('P=? [ F "a" ];\n\nR{"r"}min=? [ C ];\n')
+    props.write_text('Pmax=? [ F "a" ];\n\nR{"r"}min=? [ C ];\n')
     r = run("check", coin, str(props), "--const", "p=0.5")
     assert r.exit_code == EXIT_ERROR
     # the first property is still answered (PRISM goes on after an error): p = 0.5

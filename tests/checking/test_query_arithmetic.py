@@ -1,0 +1,180 @@
+"""Arithmetic, comparisons and thresholds over queries: proven bounds through every operator.
+
+Expected numbers are hand-derived on the chains below:
+
+* ``HALF`` (dtmc): from x=0, 1/4 to x=1, 1/4 to x=2, 1/2 to x=3, which returns to x=0 with 1/2
+  and stays with 1/2. P(F x=1) = (1/4) / (1 - 1/2) = 1/2 exactly (x=3 is left to x=0 surely),
+  P(F x=2) = 1/2 likewise. Interval iteration approaches 1/2 from both sides but never reaches it,
+  so a threshold at 0.5 is decided only by refinement (the exact solve).
+* ``COIN`` (mdp): one choice, 1/2 to x=1 ("goal"), 1/2 to x=2; both absorbing.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from posgmc import api
+from posgmc.checking import dispatch
+from posgmc.checking import intervals as iv
+from posgmc.checking.results import ResultKind
+from posgmc.errors import SemanticError
+from posgmc.syntax.ast import BinaryOp, Function
+
+HALF = """dtmc
+module m
+  x : [0..3] init 0;
+  [] x=0 -> 0.25:(x'=1) + 0.25:(x'=2) + 0.5:(x'=3);
+  [] x=3 -> 0.5:(x'=0) + 0.5:(x'=3);
+  [] x=1|x=2 -> true;
+endmodule
+label "goal" = x=1;
+rewards "steps" true : 1; endrewards
+"""
+
+COIN = """mdp
+module m
+  x : [0..2] init 0;
+  [] x=0 -> 0.5:(x'=1) + 0.5:(x'=2);
+  [] x>0 -> true;
+endmodule
+label "goal" = x=1;
+"""
+
+
+def _check(model: str, prop: str, **kwargs):  # type: ignore[no-untyped-def]
+    session = api.load(text=model)
+    report = api.check(session, properties=[prop], **kwargs)
+    assert report.model.num_states in (3, 4)  # sizes first: HALF has 4 states, COIN 3
+    if report.errors:
+        raise report.errors[0][1]
+    return report.results[0]
+
+
+# -- thresholds and comparisons are decided on proven bounds only -------------------------------
+
+
+@pytest.mark.parametrize(
+    ("prop", "expected"),
+    [
+        ("P=? [ F x=1 ] > 0.5", False),  # exact value 1/2
+        ("P>0.5 [ F x=1 ]", False),
+        ("P>=0.5 [ F x=1 ]", True),
+        ("P=? [ F x=1 ] >= 0.5", True),
+        ("P=? [ F x=1 ] = P=? [ F x=2 ]", True),
+        ("P=? [ F x=1 ] < 0.5", False),
+    ],
+)
+def test_threshold_at_the_exact_value_is_refined_to_a_proof(prop: str, expected: bool) -> None:
+    r = _check(HALF, prop)
+    assert r.kind is ResultKind.BOOLEAN
+    assert r.value is expected and r.sound
+
+
+def test_undecided_threshold_is_unknown_without_exact_refinement(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    monkeypatch.setattr(dispatch, "EXACT_REFINEMENT_STATES", 0)
+    r = _check(HALF, "P>0.5 [ F x=1 ]")
+    assert r.value is None and r.is_unknown and not r.sound and not r.is_decided
+    assert r.to_json()["value"] == "unknown"
+    r = _check(HALF, "P=? [ F x=1 ] > 0.5")
+    assert r.is_unknown
+
+
+def test_separated_threshold_needs_no_refinement() -> None:
+    r = _check(HALF, "P>0.4 [ F x=1 ]")
+    assert r.value is True and r.sound and r.method == "interval"
+
+
+# -- P=? needs a direction where choices exist --------------------------------------------------
+
+
+def test_p_query_without_direction_on_an_mdp_is_refused() -> None:
+    with pytest.raises(SemanticError) as info:
+        _check(COIN, 'P=? [ F "goal" ]')
+    assert "needs min or max" in info.value.message and info.value.span is not None
+    assert "Pmax=?" in (info.value.hint or "")
+    assert _check(COIN, 'Pmax=? [ F "goal" ]').value == pytest.approx(0.5)
+
+
+# -- arithmetic over queries keeps its bounds ------------------------------------------------------
+
+
+def test_function_of_a_query_keeps_the_interval() -> None:
+    # the engine's bounds straddle 1/2; min(., 1) must keep them (not report lower = upper)
+    r = _check(HALF, "min(P=? [ F x=1 ], 1)")
+    assert r.lower <= 0.5 <= r.upper and r.lower < r.upper and r.sound
+
+
+def test_ite_over_queries_keeps_the_interval() -> None:
+    r = _check(HALF, "true ? P=? [ F x=1 ] : 0")
+    assert r.lower <= 0.5 <= r.upper and r.sound
+
+
+def test_division_of_a_query_by_zero_is_infinite() -> None:
+    # PRISM (Java doubles): 0.5 / 0 = Infinity; never the largest finite double
+    r = _check(HALF, "P=? [ F x=1 ] / 0")
+    assert r.value == math.inf and r.lower == math.inf and r.upper == math.inf
+    assert r.to_json()["value"] == "inf"
+
+
+def test_zero_over_zero_is_undefined_not_zero() -> None:
+    r = _check(COIN, 'Pmin=? [ F x=3 ] / Pmin=? [ F x=3 ]')  # 0/0: x=3 does not exist... as P=0
+    assert math.isnan(r.value) and not r.sound
+    assert r.to_json()["value"] is None
+
+
+def test_quotient_value_lies_within_its_bounds() -> None:
+    r = _check(HALF, "P=? [ F x=1 ] / (P=? [ F x=1 ] - P=? [ F x=1 ])")
+    assert r.lower <= r.value <= r.upper
+
+
+def test_floor_of_an_infinite_reward_is_an_error() -> None:
+    # from x=0 the target x=1 is missed with probability 1/2: R[F] is infinite (PRISM)
+    with pytest.raises(SemanticError) as info:
+        _check(HALF, 'floor(R{"steps"}=? [ F x=1 ])')
+    assert "floor() of inf" in info.value.message and info.value.span is not None
+
+
+# -- one rule for partial operators in properties and models ---------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("prop", "message"),
+    [
+        ("pow(2, x-1) > 0", "negative exponent -1 in pow() of two ints"),
+        ("mod(3, x)", "mod() by a non-positive divisor (0)"),
+        ("floor(1/x)", "floor() of inf is not an integer"),
+        ("mod(3, 0) + P=? [ F x=1 ]", "mod() by a non-positive divisor (0)"),
+    ],
+)
+def test_partial_operators_in_properties_fail_with_the_state(prop: str, message: str) -> None:
+    with pytest.raises(SemanticError) as info:
+        _check(HALF, prop)
+    assert message in info.value.message and "(x=0)" in info.value.message
+    assert info.value.span is not None
+
+
+# -- the interval operators themselves ----------------------------------------------------------------
+
+
+def _b(lo: float, hi: float) -> iv.Bounds:
+    a, b = np.array([lo]), np.array([hi])
+    return iv.Bounds((a + b) / 2, a, b, np.array([True]))
+
+
+def test_comparison_straddling_is_undecided() -> None:
+    r = iv.binary(BinaryOp.GT, _b(0.4, 0.6), iv.point(np.array([0.5])))
+    assert not r.decided[0] and not r.lower[0] and r.upper[0]
+    r = iv.binary(BinaryOp.GT, _b(0.51, 0.6), iv.point(np.array([0.5])))
+    assert r.decided[0] and r.lower[0]
+
+
+def test_monotone_and_product_bounds() -> None:
+    m = iv.call(Function.MIN, [_b(0.4, 0.6), iv.point(np.array([0.5]))])
+    assert (m.lower[0], m.upper[0]) == (0.4, 0.5)
+    p = iv.binary(BinaryOp.MUL, _b(-1.0, 2.0), _b(3.0, 4.0))
+    assert (p.lower[0], p.upper[0]) == (-4.0, 8.0)
+    d = iv.binary(BinaryOp.DIV, _b(1.0, 2.0), _b(-1.0, 1.0))
+    assert (d.lower[0], d.upper[0]) == (-math.inf, math.inf) and d.defined[0]
