@@ -148,3 +148,87 @@ def test_export_strategy_needs_one_unbounded_query(run, tmp_path: Path) -> None:
     assert r.exit_code == EXIT_ERROR
     assert "--export-strategy needs exactly one unbounded P or R query" in r.output
     assert not out.exists()
+
+
+# -- thresholds decided on proven bounds only (the semantics issue) ----------------------------------
+
+# From x=0: 1/4 to x=1, 1/4 to x=2, 1/2 to x=3, which goes back to x=0 or stays (1/2 each):
+# P(F x=1) = (1/4) / (1 - 1/2) = 1/2 exactly; interval iteration never reaches it from either side.
+HALF = """dtmc
+module m
+  x : [0..3] init 0;
+  [] x=0 -> 0.25:(x'=1) + 0.25:(x'=2) + 0.5:(x'=3);
+  [] x=3 -> 0.5:(x'=0) + 0.5:(x'=3);
+  [] x=1|x=2 -> true;
+endmodule
+"""
+
+
+@pytest.fixture
+def half(tmp_path: Path) -> str:
+    path = tmp_path / "half.pm"
+    path.write_text(HALF)
+    return str(path)
+
+
+def test_threshold_at_the_exact_value_is_decided_by_refinement(run, half: str) -> None:  # type: ignore[no-untyped-def]
+    r = run("check", half, "--prop", "P=? [ F x=1 ] > 0.5", "--prop", "P>0.5 [ F x=1 ]", "--json")
+    assert r.exit_code == EXIT_PROPERTY_FALSE, r.output
+    doc = json.loads(r.output)
+    assert doc["model"]["states"] == 4
+    assert [(x["value"], x["sound"]) for x in doc["results"]] == [(False, True), (False, True)]
+
+
+def test_undecided_threshold_is_unknown_and_exits_three(run, half: str, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    from posgmc.checking import dispatch
+    from posgmc.cli import EXIT_UNDECIDED
+
+    monkeypatch.setattr(dispatch, "EXACT_REFINEMENT_STATES", 0)  # as for a model too large
+    r = run("check", half, "--prop", "P>0.5 [ F x=1 ]")
+    assert r.exit_code == EXIT_UNDECIDED, r.output
+    assert "P>0.5 [ F x=1 ]: unknown" in r.output and "UNDECIDED" in r.output
+    r = run("check", half, "--prop", "P>0.5 [ F x=1 ]", "--json")
+    (res,) = json.loads(r.output)["results"]
+    assert res["value"] == "unknown" and res["sound"] is False
+
+
+def test_unsound_method_threshold_exits_three(run, half: str) -> None:  # type: ignore[no-untyped-def]
+    from posgmc.cli import EXIT_UNDECIDED
+
+    r = run("check", half, "--prop", "P>0.4 [ F x=1 ]", "--method", "value")
+    assert r.exit_code == EXIT_UNDECIDED and "NOT PROVEN" in r.output
+
+
+def test_rover_comparison_below_the_exact_value_is_false(run) -> None:  # type: ignore[no-untyped-def]
+    # exact value 0.98765618 (tests/test_models.py): 0.98765634 lies inside the first interval
+    r = run("check", ROVER, "--prop", '<<rover>> Pmax=? [F "goal"] >= 0.98765634', "--json")
+    assert r.exit_code == EXIT_PROPERTY_FALSE, r.output
+    (res,) = json.loads(r.output)["results"]
+    assert res["value"] is False and res["sound"] is True
+
+
+def test_query_divided_by_zero_prints_infinity(run, half: str) -> None:  # type: ignore[no-untyped-def]
+    r = run("check", half, "--prop", "P=? [ F x=1 ] / 0", "--json")
+    assert r.exit_code == EXIT_OK, r.output
+    (res,) = json.loads(r.output)["results"]
+    assert res["value"] == res["lower"] == res["upper"] == "inf"
+
+
+def test_partial_operator_in_a_property_is_a_positioned_error(run, half: str) -> None:  # type: ignore[no-untyped-def]
+    r = run("check", half, "--prop", "mod(3, x)")
+    assert r.exit_code == EXIT_ERROR
+    assert "<--prop 1>:1:1: error: mod() by a non-positive divisor (0) in state 0 (x=0)" in r.output
+    assert "RuntimeWarning" not in r.output and "states.py" not in r.output
+
+
+def test_guard_with_a_huge_double_is_compared_not_crashed(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    # pow(2.0, 2000) is Infinity for PRISM's doubles: the guard holds, the chain walks to x=2
+    path = tmp_path / "big.pm"
+    path.write_text(
+        "dtmc\nmodule m\n  x : [0..2] init 0;\n"
+        "  [] x < pow(2.0, 2000) & x < 2 -> (x'=x+1);\n  [] x = 2 -> true;\nendmodule\n"
+    )
+    r = run("check", str(path), "--prop", "P=? [ F x=2 ]", "--json")
+    assert r.exit_code == EXIT_OK, r.output
+    doc = json.loads(r.output)
+    assert doc["model"]["states"] == 3 and doc["results"][0]["value"] == 1.0
