@@ -26,6 +26,7 @@ from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.errors import (
     InputError,
+    SourceSpan,
     MultipleErrors,
     PosgmcError,
     SemanticError,
@@ -260,11 +261,33 @@ def _coalition_resolver(model: ExplicitModel, zero_based: bool):  # type: ignore
                 assert p.number is not None  # noqa: S101 - a PlayerRef is a name or a number
                 index = p.number if zero_based else p.number - 1
                 if not 0 <= index < len(names):
-                    raise SemanticError(f"no player number {p.number}", p.span)
+                    raise _no_such_player(p.number, names, zero_based, p.span)
                 out.add(index)
         return frozenset(out)
 
     return resolve
+
+
+def _no_such_player(
+    number: int, names: Sequence[str], zero_based: bool, span: SourceSpan
+) -> SemanticError:
+    """A coalition number out of range, with both numberings of the players and the option that
+    switches between them (PAYNT's POSMG files and ``sketch.props`` count from 0)."""
+    one = ", ".join(f"{i + 1}: {n}" for i, n in enumerate(names))
+    zero = ", ".join(f"{i}: {n}" for i, n in enumerate(names))
+    if zero_based:
+        hint = f"numbers count from 0 here (--zero-based-players): {zero}; PRISM-games' 1-based numbers are {one}"
+    else:
+        hint = (
+            f"numbers count from 1 as in PRISM-games: {one}; Storm and PAYNT count from 0 ({zero}): "
+            "pass --zero-based-players (zero_based_players=True in Python) to read them so"
+        )
+    n = len(names)
+    return SemanticError(
+        f"player number {number} does not exist: the model has {n} player{'s' if n != 1 else ''}",
+        span,
+        hint=hint,
+    )
 
 
 def _scalar(expr):  # type: ignore[no-untyped-def]

@@ -232,3 +232,39 @@ def test_guard_with_a_huge_double_is_compared_not_crashed(run, tmp_path: Path) -
     assert r.exit_code == EXIT_OK, r.output
     doc = json.loads(r.output)
     assert doc["model"]["states"] == 3 and doc["results"][0]["value"] == 1.0
+
+
+# PAYNT-style POSMG export: players numbered from 0 in the file and in sketch.props
+DRN_GAME = """\
+@type: SMG
+@parameters
+
+@reward_models
+
+@nr_states
+2
+@nr_choices
+3
+@model
+state 0 <1> init
+\taction a
+\t\t1 : 1
+\taction b
+\t\t0 : 1
+state 1 <0> goal
+\taction __NOLABEL__
+\t\t1 : 1
+"""
+
+
+def test_zero_player_on_drn_names_the_option_and_both_numberings(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    path = tmp_path / "game.drn"
+    path.write_text(DRN_GAME)
+    r = run("check", str(path), "--prop", '<<0>> Pmax=? [ F "goal" ]')
+    assert r.exit_code == EXIT_ERROR
+    assert "player number 0 does not exist: the model has 2 players" in r.output
+    assert "--zero-based-players" in r.output
+    assert "1: 0, 2: 1" in r.output and "(0: 0, 1: 1)" in r.output
+    r = run("check", str(path), "--prop", '<<1>> Pmax=? [ F "goal" ]', "--zero-based-players", "--json")
+    assert r.exit_code == EXIT_OK, r.output
+    assert json.loads(r.output)["model"]["states"] == 2
