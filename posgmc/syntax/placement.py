@@ -3,6 +3,7 @@ path formulas there), checked on the syntax tree as PRISM's parser does."""
 
 from __future__ import annotations
 
+import dataclasses
 import operator
 from typing import Iterable
 
@@ -10,6 +11,7 @@ from typing import Iterable
 from posgmc.errors import ParseError
 from posgmc.syntax.ast import (
     Binary,
+    BinaryOp,
     Call,
     Expr,
     Ite,
@@ -82,5 +84,30 @@ def check_temporal_placement(expr: Expr, *, allowed: bool) -> None:
         if obj.target is not None:
             check_temporal_placement(obj.target, allowed=obj.kind is RewardKind.LTL)
         return
+    if allowed and isinstance(expr, Binary) and expr.op not in _CONNECTIVES:
+        _check_not_compared(expr)
     for child in _state_children(expr):
         check_temporal_placement(child, allowed=allowed)
+
+
+_CONNECTIVES = (BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF)
+
+
+def _check_not_compared(expr: Binary) -> None:
+    """Storm reads ``a & X x=1`` as ``a & X (x=1)``; posgmc's grammar (PRISM's precedence for the
+    unparenthesised operand) gives ``(X x) = 1``, which means nothing: say where the parentheses go."""
+    from posgmc.syntax.printer import format_expr
+
+    for side in (expr.left, expr.right):
+        if isinstance(side, Temporal) and len(side.operands) == 1:
+            if side is expr.left:
+                inner = dataclasses.replace(expr, left=side.operands[0])
+            else:
+                inner = dataclasses.replace(expr, right=side.operands[0])
+            suggestion = format_expr(dataclasses.replace(side, operands=(inner,)))
+            raise ParseError(
+                f'the temporal formula {format_expr(side)} cannot be an operand of "{expr.op.value}"',
+                side.span,
+                hint=f"an unparenthesised temporal operand takes one operand only; "
+                f"write {suggestion} (parenthesise the state formula the operator applies to)",
+            )

@@ -298,3 +298,28 @@ def test_parse_property_single() -> None:
     assert prop.text == '"best": <<p1>> Pmax=? [ F "goal" ]'
     assert prop.span.file == "<--prop>"
     assert prop.expected == ()
+
+
+# -- Storm's unparenthesised temporal operands (Storm's FormulaParser accepts them; PRISM does not) --
+
+
+@pytest.mark.parametrize(
+    ("storm", "prism"),
+    [
+        ('P=? [ F ("a" & X "b") ]', 'P=? [ F ("a" & (X "b")) ]'),
+        ('P=? [ ("a" U "b") & F "c" ]', 'P=? [ ("a" U "b") & (F "c") ]'),
+        ('P=? [ "a" | G<=3 "b" ]', 'P=? [ "a" | (G<=3 "b") ]'),
+        ('P=? [ F "a" & "b" ]', 'P=? [ F ("a" & "b") ]'),  # PRISM's reading is kept
+    ],
+)
+def test_storm_temporal_operands_parse_as_parenthesised(storm: str, prism: str) -> None:
+    assert parse_property(storm).expr == parse_property(prism).expr
+
+
+def test_temporal_operand_of_a_comparison_says_where_the_parentheses_go() -> None:
+    with pytest.raises(ParseError) as info:
+        parse_property("P=? [ F (a & X x=1) ]")
+    err = info.value
+    assert 'cannot be an operand of "="' in err.message
+    assert err.span is not None and (err.span.line, err.span.column) == (1, 14)
+    assert "X (x = 1)" in (err.hint or "")
