@@ -31,7 +31,7 @@ from posgmc.engines.result import EngineResult
 from posgmc.engines.step_bounds import interval_reach_probability
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.semantics.evaluate import iter_nodes
+from posgmc.syntax.traversal import contains
 from posgmc.syntax.ast import (
     NO_SPAN,
     Binary,
@@ -210,7 +210,7 @@ class PropertyChecker:
             bound = self.scalar(expr.threshold.value)
             threshold = iv.point(np.full(self.model.num_states, float(bound)))  # type: ignore[arg-type]
             return iv.binary(_THRESHOLD_OPS[expr.threshold.op], b, threshold)
-        if not any(isinstance(n, (ProbQuery, RewardQuery)) for n in iter_nodes(expr)):
+        if not contains(expr, (ProbQuery, RewardQuery)):
             return iv.point(evaluate_states(self.model, expr))
         if isinstance(expr, Unary):
             return iv.unary(expr.op, self._bounds(expr.operand, queries))
@@ -583,20 +583,4 @@ class _Outcome:
 
 def _is_temporal(e: Expr) -> bool:
     """Whether a path formula contains a temporal operator outside nested queries."""
-    if isinstance(e, Temporal):
-        return True
-    if isinstance(e, Unary):
-        return _is_temporal(e.operand)
-    if isinstance(e, Binary):
-        return _is_temporal(e.left) or _is_temporal(e.right)
-    return False
-
-
-def _contains_query(e: Expr) -> bool:
-    if isinstance(e, (ProbQuery, RewardQuery)):
-        return True
-    if isinstance(e, Unary):
-        return _contains_query(e.operand)
-    if isinstance(e, Binary):
-        return _contains_query(e.left) or _contains_query(e.right)
-    return False
+    return contains(e, Temporal, into_queries=False)

@@ -9,6 +9,7 @@ from typing import Iterable
 
 
 from posgmc.errors import ParseError
+from posgmc.syntax.traversal import children, contains
 from posgmc.syntax.ast import (
     Binary,
     BinaryOp,
@@ -25,24 +26,17 @@ from posgmc.syntax.ast import (
 
 def contains_temporal(expr: Expr) -> bool:
     """True if ``expr`` has a temporal operator outside any nested P/R query."""
-    if isinstance(expr, Temporal):
-        return True
-    return any(contains_temporal(child) for child in _state_children(expr))
+    return contains(expr, Temporal, into_queries=False)
 
 
 def _state_children(expr: Expr) -> Iterable[Expr]:
-    """The operands of ``expr`` that belong to the same formula (nested queries excluded)."""
-    if isinstance(expr, Unary):
-        return (expr.operand,)
-    if isinstance(expr, Binary):
-        return (expr.left, expr.right)
-    if isinstance(expr, Ite):
-        return (expr.cond, expr.then, expr.otherwise)
-    if isinstance(expr, Call):
-        return expr.args
+    """The operands of ``expr`` that belong to the same formula (nested queries, and a temporal
+    operator's step bounds, excluded)."""
     if isinstance(expr, Temporal):
         return expr.operands
-    return ()
+    if isinstance(expr, (ProbQuery, RewardQuery)):
+        return ()
+    return children(expr)
 
 
 def check_temporal_placement(expr: Expr, *, allowed: bool) -> None:
