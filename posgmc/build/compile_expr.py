@@ -405,6 +405,7 @@ _RUNTIME: dict[str, Any] = {
     "_ceil": _rt_ceil,
     "_round": _rt_round,
     "_log": ops.log,
+    "_div": ops.divide,
     "_full": _rt_full,
     "_lazy_where": _rt_lazy_where,
     "_lazy_and": _rt_lazy_and,
@@ -530,7 +531,7 @@ class _Generator:
         if op is BinaryOp.IFF:
             return _Code(f"({a.text} == {b.text})", ExprType.BOOL, partial=partial)
         if op is BinaryOp.DIV:
-            return _Code(f"_np.true_divide({a.text}, {b.text})", ExprType.DOUBLE, partial=partial)
+            return _Code(f"_div({a.text}, {b.text})", ExprType.DOUBLE, partial=partial)
         type_ = ExprType.BOOL if op in _COMPARISONS else _join(a.type, b.type)
         return _Code(f"({a.text} {_PY_OPS[op]} {b.text})", type_, partial=partial)
 
@@ -547,6 +548,11 @@ class _Generator:
         left = f"(~{a.text})" if op is BinaryOp.IMPLIES else a.text
         if b.constant is not None:
             rv = bool(b.constant)
+            if a.partial and rv is (op is not BinaryOp.AND):
+                # the constant decides, but the left operand is evaluated first and may fail (as
+                # in the scalar evaluator): keep it
+                sym = "&" if op is BinaryOp.AND else "|"
+                return _Code(f"({left} {sym} {rv})", ExprType.BOOL, partial=True)
             if op is BinaryOp.AND:
                 return (
                     _Code(left, ExprType.BOOL, partial=a.partial)

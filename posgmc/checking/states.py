@@ -50,9 +50,9 @@ class _Failures:
     """Where partial operators failed, restricted to the states whose value needs them (PRISM
     short-circuits ``&``, ``|``, ``=>`` and ``? :``): one (mask, message, span) per failing node."""
 
-    items: list[tuple[np.ndarray, str, SourceSpan]] = field(default_factory=list)
+    items: list[tuple[np.ndarray, Callable[[int], str], SourceSpan]] = field(default_factory=list)
 
-    def add(self, bad: np.ndarray, message: str | None, span: SourceSpan) -> None:
+    def add(self, bad: np.ndarray, message: Callable[[int], str] | None, span: SourceSpan) -> None:
         if message is not None and bool(np.any(bad)):
             self.items.append((bad, message, span))
 
@@ -154,7 +154,9 @@ def evaluate_states(
         first = min(int(np.flatnonzero(bad & everywhere)[0]) for bad, _, _ in failures.items)
         for bad, message, span in failures.items:
             if bad[first]:
-                raise SemanticError(f"{message} in {_state_text(model, first)}", span_or_none(span))
+                raise SemanticError(
+                    f"{message(first)} in {_state_text(model, first)}", span_or_none(span)
+                )
     if result.shape != (num_states,):
         result = np.broadcast_to(result, (num_states,)).copy()
     return result
@@ -193,8 +195,10 @@ def _binary(op: BinaryOp, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return _BINARY[op](a, b)
 
 
-def _call(function: Function, args: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, str | None]:
-    """(value, failure mask, message of the first failure) of a function over all states."""
+def _call(
+    function: Function, args: list[np.ndarray]
+) -> tuple[np.ndarray, np.ndarray, Callable[[int], str] | None]:
+    """(value, failure mask, message at a failing state) of a function over all states."""
     ok = np.zeros(args[0].shape, dtype=bool)
     if function in (Function.MIN, Function.MAX):
         f = np.minimum if function is Function.MIN else np.maximum

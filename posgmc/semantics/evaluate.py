@@ -393,6 +393,8 @@ def simplify(expr: Expr, *, variable_types: Mapping[str, Type] | None = None) ->
         left, right = e.left, e.right
         lv = left.value if isinstance(left, BoolLit) else None
         rv = right.value if isinstance(right, BoolLit) else None
+        if rv is not None and _may_fail(left):
+            rv = None  # the left operand is evaluated first and may fail: keep it
         if e.op is BinaryOp.AND:
             if lv is False or rv is False:
                 return BoolLit(False, span=e.span)
@@ -415,3 +417,11 @@ def simplify(expr: Expr, *, variable_types: Mapping[str, Type] | None = None) ->
         return e
 
     return go(expr)
+
+
+_PARTIAL = (Function.MOD, Function.POW, Function.FLOOR, Function.CEIL, Function.ROUND)
+
+
+def _may_fail(e: Expr) -> bool:
+    """Whether evaluating ``e`` may raise (it applies a partial operator)."""
+    return any(isinstance(n, Call) and n.function in _PARTIAL for n in iter_nodes(e))

@@ -80,22 +80,26 @@ class Partial:
     message: Callable[..., str]
     compute: Callable[..., Any]
 
-    def masked(self, *args: Any) -> tuple[Any, np.ndarray, str | None]:
-        """(result, failure mask, message of the first failure or None); never raises."""
+    def masked(self, *args: Any) -> tuple[Any, np.ndarray, Callable[[int], str] | None]:
+        """(result, failure mask, the message at a failing position, or None without failures);
+        never raises."""
         shape = np.broadcast(*[np.asarray(a) for a in args]).shape
         with np.errstate(all="ignore"):
             bad = np.broadcast_to(np.asarray(self.failures(*args), dtype=bool), shape)
             if not np.any(bad):
                 return self.compute(*args), bad, None
-            i = _first(bad)
-            message = self.message(*[_at(np.broadcast_to(a, shape), i) for a in args])
-            return self.compute(*args, safe=~bad), bad, message
+
+            def message_at(i: int) -> str:
+                return self.message(*[_at(np.broadcast_to(a, shape), i) for a in args])
+
+            return self.compute(*args, safe=~bad), bad, message_at
 
     def __call__(self, *args: Any) -> Any:
         """The result. Raises DomainFailure at the first failing position."""
-        result, bad, message = self.masked(*args)
-        if message is not None:
-            raise DomainFailure(message, _first(bad))
+        result, bad, message_at = self.masked(*args)
+        if message_at is not None:
+            i = _first(bad)
+            raise DomainFailure(message_at(i), i)
         return result
 
 
@@ -163,15 +167,25 @@ def to_int(x: Any, name: str) -> Any:
 
 
 def float_pow(a: Any, b: Any) -> Any:
-    """``pow(a, b)`` with a double: IEEE (NaN for a negative base and a fractional exponent)."""
+    """``pow(a, b)`` with a double: IEEE (NaN for a negative base and a fractional exponent), with
+    one zero (see :func:`divide`)."""
     with np.errstate(all="ignore"):
-        return np.power(np.asarray(a, dtype=np.float64), b)
+        base = np.asarray(a, dtype=np.float64) + 0.0
+        r = np.power(base, b)
+        # numpy gives NaN for (-inf) ** y with y not an integer; C99 and Java give +inf (y > 0)
+        # or +0 (y < 0), as the exact evaluator (math.pow) does
+        fix = np.isneginf(base) & np.isnan(r) & ~np.isnan(b)
+        if np.any(fix):
+            r = np.where(fix, np.where(np.asarray(b) > 0, np.inf, 0.0), r)
+        return r
 
 
 def divide(a: Any, b: Any) -> Any:
-    """``a / b``: always a double, IEEE."""
+    """``a / b``: always a double, IEEE, with one zero: ``x / -0.0`` is ``x / 0.0``, because exact
+    arithmetic (constant folding, the scalar evaluator) has no signed zero and all evaluators must
+    agree (``-0.0 + 0.0`` is ``+0.0`` in IEEE)."""
     with np.errstate(all="ignore"):
-        return np.true_divide(np.asarray(a, dtype=np.float64), b)
+        return np.true_divide(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64) + 0.0)
 
 
 def log(a: Any, b: Any) -> Any:
@@ -222,10 +236,11 @@ def scalar_pow(a: Exact, b: Exact) -> Fraction | float:
     """``pow(a, b)`` as a double: exact while the base is exact and the exponent a small integer,
     IEEE otherwise (overflow is an infinity, a negative base with a fractional exponent NaN)."""
     integral = isinstance(b, int) or (isinstance(b, Fraction) and b.denominator == 1)
-    if integral and Fraction(a) == 0 and b < 0:
-        return math.inf
+    fa, fb = to_float(a), to_float(b)
+    if fa == 0 and fb < 0:
+        return math.inf  # Java: Math.pow(0.0, y) = Infinity for every y < 0
     try:
-        f = math.pow(to_float(a), to_float(b))
+        f = math.pow(fa, fb)
     except ValueError:
         return math.nan
     except OverflowError:
