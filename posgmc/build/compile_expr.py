@@ -26,7 +26,6 @@ a :class:`~posgmc.errors.BuildError` naming the state.
 
 from __future__ import annotations
 
-import enum
 import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
@@ -38,6 +37,7 @@ import numpy as np
 
 from posgmc.errors import SourceSpan
 from posgmc.semantics import operators as ops
+from posgmc.semantics.symbols import Type
 from posgmc.syntax.ast import (
     NO_SPAN,
     Binary,
@@ -61,19 +61,15 @@ __all__ = [
     "ExprType",
     "Scalar",
     "compile_expr",
-    "infer_type",
 ]
 
 Scalar = bool | int | Fraction | float
 """A folded constant: bool, int, exact double (Fraction) or inexact double (float)."""
 
 
-class ExprType(enum.Enum):
-    """The three value types of the PRISM language."""
-
-    BOOL = "bool"
-    INT = "int"
-    DOUBLE = "double"
+ExprType = Type
+"""The value types of the PRISM language: the semantic stage's :class:`~posgmc.semantics.symbols.Type`
+(only BOOL, INT and DOUBLE occur here)."""
 
 
 class EvaluationError(Exception):
@@ -190,59 +186,8 @@ def _to_numpy_scalar(value: Any, type_: ExprType) -> Any:
 # ---------------------------------------------------------------------------------------------
 
 
-def infer_type(expr: Expr, variable_types: Mapping[str, ExprType]) -> ExprType:
-    """The PRISM type of a (type-checked) model expression.
-
-    Args:
-        expr: an expression whose identifiers are all in ``variable_types``.
-        variable_types: the type (INT or BOOL) of each state variable.
-
-    Returns:
-        BOOL, INT or DOUBLE.
-
-    Raises:
-        KeyError: an identifier that is not a variable (the semantic stage rules this out).
-    """
-    if isinstance(expr, BoolLit):
-        return ExprType.BOOL
-    if isinstance(expr, IntLit):
-        return ExprType.INT
-    if isinstance(expr, DoubleLit):
-        return ExprType.DOUBLE
-    if isinstance(expr, Ident):
-        return variable_types[expr.name]
-    if isinstance(expr, Unary):
-        return ExprType.BOOL if expr.op is UnaryOp.NOT else infer_type(expr.operand, variable_types)
-    if isinstance(expr, Binary):
-        if expr.op in _BOOL_OPS or expr.op in _COMPARISONS:
-            return ExprType.BOOL
-        if expr.op is BinaryOp.DIV:
-            return ExprType.DOUBLE
-        return _join(infer_type(expr.left, variable_types), infer_type(expr.right, variable_types))
-    if isinstance(expr, Ite):
-        return _join(
-            infer_type(expr.then, variable_types), infer_type(expr.otherwise, variable_types)
-        )
-    if isinstance(expr, Call):
-        fn = expr.function
-        if fn in (Function.FLOOR, Function.CEIL, Function.ROUND, Function.MOD):
-            return ExprType.INT
-        if fn is Function.LOG:
-            return ExprType.DOUBLE
-        types = [infer_type(a, variable_types) for a in expr.args]
-        out = types[0]
-        for t in types[1:]:
-            out = _join(out, t)
-        return out
-    raise TypeError(f"{type(expr).__name__} is not a model expression")
-
-
 def _join(a: ExprType, b: ExprType) -> ExprType:
-    if a is b:
-        return a
-    if ExprType.DOUBLE in (a, b):
-        return ExprType.DOUBLE
-    return a if a is not ExprType.BOOL else b
+    return ops.ite_type(a, b)
 
 
 _BOOL_OPS = {BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF}
@@ -521,18 +466,14 @@ class _Generator:
             return self.logical(op, a, e.right)
         b = self.gen(e.right)
         if a.constant is not None and b.constant is not None:
-            type_ = (
-                ExprType.BOOL
-                if op in _COMPARISONS or op is BinaryOp.IFF
-                else (ExprType.DOUBLE if op is BinaryOp.DIV else _join(a.type, b.type))
-            )
+            type_ = ops.binary_type(op, a.type, b.type)
             return self.const(_fold_binary(op, a.constant, b.constant), type_)
         partial = a.partial or b.partial
         if op is BinaryOp.IFF:
             return _Code(f"({a.text} == {b.text})", ExprType.BOOL, partial=partial)
         if op is BinaryOp.DIV:
             return _Code(f"_div({a.text}, {b.text})", ExprType.DOUBLE, partial=partial)
-        type_ = ExprType.BOOL if op in _COMPARISONS else _join(a.type, b.type)
+        type_ = ops.binary_type(op, a.type, b.type)
         return _Code(f"({a.text} {_PY_OPS[op]} {b.text})", type_, partial=partial)
 
     def logical(self, op: BinaryOp, a: _Code, right: Expr) -> _Code:
@@ -610,14 +551,7 @@ class _Generator:
     def call(self, e: Call) -> _Code:
         fn = e.function
         args = [self.gen(a) for a in e.args]
-        if fn in (Function.FLOOR, Function.CEIL, Function.ROUND, Function.MOD):
-            type_ = ExprType.INT
-        elif fn is Function.LOG:
-            type_ = ExprType.DOUBLE
-        else:
-            type_ = args[0].type
-            for a in args[1:]:
-                type_ = _join(type_, a.type)
+        type_ = ops.call_type(fn, [a.type for a in args])
         if all(a.constant is not None for a in args):
             try:
                 return self.const(_fold_call(fn, [a.constant for a in args], type_), type_)  # type: ignore[misc]

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from fractions import Fraction
 
 import numpy as np
 
@@ -220,15 +219,3 @@ def _call(
     if function is Function.LOG:
         return ops.log(args[0], args[1]), ok, None
     raise UnsupportedError(f"unknown function {function.value}")
-
-
-def literal_value(expr: Expr) -> int | float | bool | Fraction:
-    """The value of a literal node (after constant substitution); for bounds and thresholds."""
-    if isinstance(expr, (IntLit, BoolLit)):
-        return expr.value
-    if isinstance(expr, DoubleLit):
-        return expr.value
-    if isinstance(expr, Unary) and expr.op is UnaryOp.NEG:
-        inner = literal_value(expr.operand)
-        return -inner
-    raise SemanticError("expected a constant value here", expr.span)

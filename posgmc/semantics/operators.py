@@ -27,7 +27,13 @@ from typing import Any
 
 import numpy as np
 
+from posgmc.semantics.symbols import Type
+from posgmc.syntax.ast import BinaryOp, Function
+
 __all__ = [
+    "binary_type",
+    "call_type",
+    "ite_type",
     "DomainFailure",
     "Partial",
     "ceil",
@@ -43,6 +49,53 @@ __all__ = [
 ]
 
 _INT64_MAX = float(np.iinfo(np.int64).max)
+
+
+# -- type rules (PRISM: ExpressionBinaryOp/ExpressionFunc.typeCheck) ----------------------------------
+
+_BOOLEAN_RESULT = frozenset(
+    {
+        BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF,
+        BinaryOp.EQ, BinaryOp.NE, BinaryOp.LT, BinaryOp.LE, BinaryOp.GT, BinaryOp.GE,
+    }
+)
+
+
+def _join(a: Type, b: Type) -> Type:
+    """The type of a value that is ``a`` or ``b`` (int widens to double)."""
+    if a is b:
+        return a
+    if Type.DOUBLE in (a, b):
+        return Type.DOUBLE
+    return a if a is not Type.BOOL else b
+
+
+def binary_type(op: BinaryOp, left: Type, right: Type) -> Type:
+    """The result type of ``left op right`` for well-typed operands: Boolean for connectives and
+    comparisons, double for ``/`` (always), otherwise int unless an operand is a double."""
+    if op in _BOOLEAN_RESULT:
+        return Type.BOOL
+    if op is BinaryOp.DIV:
+        return Type.DOUBLE
+    return _join(left, right)
+
+
+def ite_type(then: Type, otherwise: Type) -> Type:
+    """The result type of ``c ? then : otherwise`` (an int branch widens to double)."""
+    return _join(then, otherwise)
+
+
+def call_type(function: Function, args: list[Type]) -> Type:
+    """The result type of a function call: ``floor``/``ceil``/``round``/``mod`` give ints, ``log``
+    a double, ``min``/``max``/``pow`` an int unless an argument is a double."""
+    if function in (Function.FLOOR, Function.CEIL, Function.ROUND, Function.MOD):
+        return Type.INT
+    if function is Function.LOG:
+        return Type.DOUBLE
+    out = args[0]
+    for t in args[1:]:
+        out = _join(out, t)
+    return out
 
 
 class DomainFailure(Exception):

@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from posgmc.errors import PosgmcError, SemanticError, SourceSpan
+from posgmc.semantics import operators as ops
 from posgmc.semantics.symbols import Symbol, SymbolKind, Type, span_or_none
 from posgmc.syntax.ast import (
     FUNCTION_ARITY,
@@ -207,9 +208,7 @@ class TypeChecker:
                 ok = False
         if not ok:
             return None
-        if e.op is BinaryOp.DIV or Type.DOUBLE in (t1, t2):
-            return Type.DOUBLE
-        return Type.INT
+        return ops.binary_type(e.op, t1, t2)
 
     def _ite(self, e: Ite) -> Type | None:
         tc = self._type(e.cond)
@@ -227,9 +226,7 @@ class TypeChecker:
             found = f"found {_name(t1)} and {_name(t2)}"
             self._error(f'the branches of "? :" must have matching types, {found}', e.span)
             return None
-        if t1 is Type.BOOL:
-            return Type.BOOL
-        return Type.INT if t1 is Type.INT and t2 is Type.INT else Type.DOUBLE
+        return ops.ite_type(t1, t2)
 
     def _call(self, e: Call) -> Type | None:
         fn = e.function.value
@@ -256,11 +253,7 @@ class TypeChecker:
                 ok = False
         if not ok:
             return None
-        if e.function in (Function.MIN, Function.MAX, Function.POW):
-            return Type.DOUBLE if Type.DOUBLE in types else Type.INT
-        if e.function is Function.LOG:
-            return Type.DOUBLE
-        return Type.INT
+        return ops.call_type(e.function, [t for t in types if t is not None])
 
     def _label(self, e: LabelRef) -> Type | None:
         if self._labels is None:
