@@ -175,7 +175,7 @@ class PropertyChecker:
             q = self.query(expr)
             kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
             b = iv.Bounds(q.values, q.lower, q.upper, ~np.isnan(q.values))
-            return _Outcome(kind, b, [q], guessed=False)
+            return _Outcome(kind, b, [q], guessed=self._guessed)
         queries: list[QueryValue] = []
         b = self._bounds(expr, queries)
         kind = ResultKind.BOOLEAN if b.is_bool else ResultKind.NUMBER

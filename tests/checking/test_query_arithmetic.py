@@ -178,3 +178,17 @@ def test_monotone_and_product_bounds() -> None:
     assert (p.lower[0], p.upper[0]) == (-4.0, 8.0)
     d = iv.binary(BinaryOp.DIV, _b(1.0, 2.0), _b(-1.0, 1.0))
     assert (d.lower[0], d.upper[0]) == (-math.inf, math.inf) and d.defined[0]
+
+
+def test_nested_threshold_at_the_exact_value_is_refined() -> None:
+    # P>0.5 [F x=1] holds in x=1 only (x=0 and x=3 have exactly 1/2): the outer value is 1/2;
+    # with >= it holds in the initial state itself: 1
+    r = _check(HALF, "P=? [ F P>0.5 [ F x=1 ] ]")
+    assert r.value == pytest.approx(0.5, abs=1e-12) and r.sound and r.method == "exact"
+    assert _check(HALF, "P=? [ F P>=0.5 [ F x=1 ] ]").value == 1.0
+
+
+def test_nested_undecided_threshold_is_not_proven(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    monkeypatch.setattr(dispatch, "EXACT_REFINEMENT_STATES", 0)
+    r = _check(HALF, "P=? [ F P>0.5 [ F x=1 ] ]")
+    assert not r.sound  # the target set was guessed where the nested bounds straddle 0.5
