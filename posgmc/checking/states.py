@@ -4,6 +4,11 @@ A state expression may mention state variables (through ``state_values``), label
 literals, and queries (``P``/``R`` operators), whose per-state values are supplied by the caller:
 this is what lets ``P>=1 [F "a"] & x=1`` or ``(1/2) * <<p1>> Rmax=? [...]`` be evaluated by one
 recursive walk over the syntax tree, each node an array operation over every state.
+
+Operators mean what they mean in a model (:mod:`posgmc.semantics.operators`): ``/`` is IEEE,
+``mod``/``pow``/``floor``/... fail outside their domain with a positioned error naming the first
+state where their value is needed (``&``, ``|``, ``=>`` and ``? :`` short-circuit as in PRISM, so
+``x > 0 & mod(3, x) = 0`` never fails), and no numpy warning reaches the user.
 """
 
 from __future__ import annotations

@@ -525,6 +525,15 @@ def _check_query(
             errors=errors,
         )
     reward = _resolve_reward(q, reward_names, errors) if isinstance(q, RewardQuery) else None
+    if q.direction is None and q.threshold is None and model_type.is_nondeterministic:
+        letter = "P" if isinstance(q, ProbQuery) else "R"
+        report(
+            errors,
+            f"{letter}=? needs min or max on {model_type_phrase(model_type)}: the value depends on "
+            "how the choices are resolved",
+            q.span,
+            hint=f"write {letter}max=? or {letter}min=? (as PRISM and Storm require)",
+        )
     return coalition, reward
 
 

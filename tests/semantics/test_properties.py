@@ -273,3 +273,19 @@ def test_temporal_operator_outside_p_or_r() -> None:
         'the temporal operator "F" can only appear inside a P or R operator',
         SourceSpan(1, 1),
     )
+
+
+@pytest.mark.parametrize(
+    "prop",
+    ['P=? [F "goal"]', '<<p1>> P=? [F "goal"]', 'R{"r"}=? [F "goal"]', '1 - P=? [F "goal"]'],
+)
+def test_value_query_without_direction_on_a_game_is_an_error(prop: str) -> None:
+    # PRISM-games and Storm refuse P=? / R=? where choices exist: the value needs min or max
+    (got,) = lint_props(GAME, prop + "\n")
+    letter = prop.lstrip("<p1> -").lstrip("1 - ")[0]
+    assert got[0] == "SemanticError" and got[1].startswith(f"{letter}=? needs min or max")
+    assert got[2] == 1
+
+
+def test_value_query_with_direction_or_threshold_is_fine_on_a_game() -> None:
+    assert lint_props(GAME, 'Pmax=? [F "goal"]\nP>=0.5 [F "goal"]\n<<p1>> Rmin=? [F "goal"]\n') == []
