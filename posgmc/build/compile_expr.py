@@ -192,17 +192,6 @@ def _join(a: ExprType, b: ExprType) -> ExprType:
 
 _BOOL_OPS = {BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF}
 _COMPARISONS = {BinaryOp.EQ, BinaryOp.NE, BinaryOp.LT, BinaryOp.LE, BinaryOp.GT, BinaryOp.GE}
-_PY_OPS = {
-    BinaryOp.EQ: "==",
-    BinaryOp.NE: "!=",
-    BinaryOp.LT: "<",
-    BinaryOp.LE: "<=",
-    BinaryOp.GT: ">",
-    BinaryOp.GE: ">=",
-    BinaryOp.ADD: "+",
-    BinaryOp.SUB: "-",
-    BinaryOp.MUL: "*",
-}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -215,34 +204,7 @@ class _FoldError(Exception):
 
 
 def _fold_binary(op: BinaryOp, a: Scalar, b: Scalar) -> Scalar:
-    if op is BinaryOp.AND:
-        return bool(a) and bool(b)
-    if op is BinaryOp.OR:
-        return bool(a) or bool(b)
-    if op is BinaryOp.IMPLIES:
-        return (not a) or bool(b)
-    if op is BinaryOp.IFF:
-        return bool(a) == bool(b)
-    if op is BinaryOp.EQ:
-        return a == b
-    if op is BinaryOp.NE:
-        return a != b
-    if op is BinaryOp.LT:
-        return a < b
-    if op is BinaryOp.LE:
-        return a <= b
-    if op is BinaryOp.GT:
-        return a > b
-    if op is BinaryOp.GE:
-        return a >= b
-    if op is BinaryOp.ADD:
-        return a + b
-    if op is BinaryOp.SUB:
-        return a - b
-    if op is BinaryOp.MUL:
-        return a * b
-    # DIV: a double, exact while both are exact and the divisor is not 0
-    return ops.scalar_divide(a, b)  # type: ignore[arg-type]
+    return ops.BINARY[op].scalar(a, b)  # type: ignore[no-any-return]
 
 
 def _fold_call(fn: Function, args: list[Scalar], result_type: ExprType) -> Scalar:
@@ -474,7 +436,7 @@ class _Generator:
         if op is BinaryOp.DIV:
             return _Code(f"_div({a.text}, {b.text})", ExprType.DOUBLE, partial=partial)
         type_ = ops.binary_type(op, a.type, b.type)
-        return _Code(f"({a.text} {_PY_OPS[op]} {b.text})", type_, partial=partial)
+        return _Code(f"({a.text} {ops.BINARY[op].infix} {b.text})", type_, partial=partial)
 
     def logical(self, op: BinaryOp, a: _Code, right: Expr) -> _Code:
         b = self.gen(right)

@@ -175,28 +175,8 @@ def _state_text(model: ExplicitModel, s: int) -> str:
     return f"state {s}"
 
 
-_BINARY: dict[BinaryOp, Callable[[np.ndarray, np.ndarray], np.ndarray]] = {
-    BinaryOp.AND: np.logical_and,
-    BinaryOp.OR: np.logical_or,
-    BinaryOp.IMPLIES: lambda a, b: np.logical_or(np.logical_not(a), b),
-    BinaryOp.IFF: np.equal,
-    BinaryOp.EQ: np.equal,
-    BinaryOp.NE: np.not_equal,
-    BinaryOp.LT: np.less,
-    BinaryOp.LE: np.less_equal,
-    BinaryOp.GT: np.greater,
-    BinaryOp.GE: np.greater_equal,
-    BinaryOp.ADD: np.add,
-    BinaryOp.SUB: np.subtract,
-    BinaryOp.MUL: np.multiply,
-}
-
-
 def _binary(op: BinaryOp, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    if op is BinaryOp.DIV:
-        return ops.divide(a, _as_float(b))  # PRISM: '/' is always IEEE double division
-    with np.errstate(all="ignore"):
-        return _BINARY[op](a, b)
+    return ops.BINARY[op].vector(a, b)  # type: ignore[no-any-return]
 
 
 def _call(

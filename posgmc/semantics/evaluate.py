@@ -272,29 +272,14 @@ def evaluate(expr: Expr, env: Mapping[str, Value]) -> Value:
         if op is BinaryOp.IMPLIES:
             return (not boolean(e.left)) or boolean(e.right)
         if op is BinaryOp.IFF:
-            return boolean(e.left) == boolean(e.right)
+            return ops.BINARY[op].scalar(boolean(e.left), boolean(e.right))  # type: ignore[no-any-return]
         if op in (BinaryOp.EQ, BinaryOp.NE):
             a, b = ev(e.left), ev(e.right)
             if isinstance(a, bool) != isinstance(b, bool):
                 raise _error(f'"{op.value}" compares a Boolean with a number', e)
-            return (a == b) if op is BinaryOp.EQ else (a != b)
+            return ops.BINARY[op].scalar(a, b)  # type: ignore[no-any-return]
         a_n, b_n = num(e.left), num(e.right)
-        if op is BinaryOp.LT:
-            return a_n < b_n
-        if op is BinaryOp.LE:
-            return a_n <= b_n
-        if op is BinaryOp.GT:
-            return a_n > b_n
-        if op is BinaryOp.GE:
-            return a_n >= b_n
-        if op is BinaryOp.ADD:
-            return a_n + b_n
-        if op is BinaryOp.SUB:
-            return a_n - b_n
-        if op is BinaryOp.MUL:
-            return a_n * b_n
-        # DIV: always a double; exact while both are exact, IEEE otherwise
-        return ops.scalar_divide(a_n, b_n)
+        return ops.BINARY[op].scalar(a_n, b_n)  # type: ignore[no-any-return]
 
     def call(e: Call) -> Value:
         fn = e.function

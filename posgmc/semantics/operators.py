@@ -31,6 +31,8 @@ from posgmc.semantics.symbols import Type
 from posgmc.syntax.ast import BinaryOp, Function
 
 __all__ = [
+    "BINARY",
+    "BinarySpec",
     "binary_type",
     "call_type",
     "ite_type",
@@ -343,3 +345,59 @@ def scalar_to_int(x: Exact, name: str) -> int:
     if abs(r) > _INT64_MAX:
         raise DomainFailure(f"{name}() of {to_float(x)} overflows 64-bit integers", 0)
     return r
+
+
+
+# -- the table of binary operators ---------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BinarySpec:
+    """What a binary operator means.
+
+    ``scalar``: its value on exact scalars (bool, int, Fraction, float; operands already checked
+    for type). ``vector``: its value on numpy arrays (IEEE doubles). ``infix``: the numpy infix
+    operator the exploration code generator writes for it, or None when it calls ``vector``.
+    Evaluation order and short-circuiting (``&``, ``|``, ``=>``) belong to each evaluator; the
+    value of the operator is this table's.
+    """
+
+    op: BinaryOp
+    scalar: Callable[[Any, Any], Any]
+    vector: Callable[[Any, Any], Any]
+    infix: str | None
+
+
+def _vec(f: Callable[[Any, Any], Any]) -> Callable[[Any, Any], Any]:
+    def apply(a: Any, b: Any) -> Any:
+        with np.errstate(all="ignore"):
+            return f(a, b)
+
+    return apply
+
+
+BINARY: dict[BinaryOp, BinarySpec] = {
+    spec.op: spec
+    for spec in (
+        BinarySpec(BinaryOp.AND, lambda a, b: bool(a) and bool(b), np.logical_and, "&"),
+        BinarySpec(BinaryOp.OR, lambda a, b: bool(a) or bool(b), np.logical_or, "|"),
+        BinarySpec(
+            BinaryOp.IMPLIES,
+            lambda a, b: (not a) or bool(b),
+            lambda a, b: np.logical_or(np.logical_not(a), b),
+            None,
+        ),
+        BinarySpec(BinaryOp.IFF, lambda a, b: bool(a) == bool(b), np.equal, "=="),
+        BinarySpec(BinaryOp.EQ, lambda a, b: a == b, _vec(np.equal), "=="),
+        BinarySpec(BinaryOp.NE, lambda a, b: a != b, _vec(np.not_equal), "!="),
+        BinarySpec(BinaryOp.LT, lambda a, b: a < b, _vec(np.less), "<"),
+        BinarySpec(BinaryOp.LE, lambda a, b: a <= b, _vec(np.less_equal), "<="),
+        BinarySpec(BinaryOp.GT, lambda a, b: a > b, _vec(np.greater), ">"),
+        BinarySpec(BinaryOp.GE, lambda a, b: a >= b, _vec(np.greater_equal), ">="),
+        BinarySpec(BinaryOp.ADD, lambda a, b: a + b, _vec(np.add), "+"),
+        BinarySpec(BinaryOp.SUB, lambda a, b: a - b, _vec(np.subtract), "-"),
+        BinarySpec(BinaryOp.MUL, lambda a, b: a * b, _vec(np.multiply), "*"),
+        BinarySpec(BinaryOp.DIV, lambda a, b: scalar_divide(a, b), lambda a, b: divide(a, b), None),
+    )
+}
+"""Every binary operator of the language (``BINARY[op]``)."""
