@@ -575,7 +575,7 @@ class _Outcome:
             iterations=sum(q.iterations for q in qs),
             converged=all(q.converged for q in qs),
             sound=sound,
-            per_initial=per_initial,  # type: ignore[arg-type]
+            per_initial=per_initial,
             values=b.value if keep_values else None,
             strategy=engine.strategy if (engine is not None and keep_strategy) else None,
         )

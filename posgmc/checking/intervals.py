@@ -51,7 +51,7 @@ class Bounds:
     @property
     def decided(self) -> np.ndarray:
         """bool[S]: the bounds pin the value down (always true for a point)."""
-        return (self.lower == self.upper) & self.defined
+        return np.asarray((self.lower == self.upper) & self.defined, dtype=bool)
 
 
 def point(values: np.ndarray) -> Bounds:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import builtins
 import enum
 import math
 from dataclasses import dataclass, field
@@ -48,12 +49,13 @@ class PropertyResult:
     values: np.ndarray | None = field(default=None, repr=False)
     strategy: np.ndarray | None = field(default=None, repr=False)
 
-    @property
+    # the field "property" shadows the builtin inside this class body
+    @builtins.property
     def is_unknown(self) -> bool:
         """A Boolean property left undecided by the proven bounds."""
         return self.kind is ResultKind.BOOLEAN and self.value is None
 
-    @property
+    @builtins.property
     def is_decided(self) -> bool:
         """A Boolean property decided on proven bounds (True for every non-Boolean result)."""
         return self.kind is not ResultKind.BOOLEAN or (self.value is not None and self.sound)
