@@ -94,8 +94,11 @@ def _products(a_lo: np.ndarray, a_hi: np.ndarray, b_lo: np.ndarray, b_hi: np.nda
 def _divide(a: Bounds, b: Bounds) -> Bounds:
     value = a.value / b.value
     nonzero = (b.lower > 0) | (b.upper < 0)
-    inv_lo, inv_hi = 1.0 / b.upper, 1.0 / b.lower
-    lo, hi = _products(a.lower, a.upper, inv_lo, inv_hi)
+    # the four corner quotients, each rounded once: rounding is monotone, so they bracket the
+    # rounded quotient of any two points inside (multiplying by a rounded reciprocal would not)
+    c = np.stack([a.lower / b.lower, a.lower / b.upper, a.upper / b.lower, a.upper / b.upper])
+    c = np.where(np.isnan(c), 0.0, c)  # inf/inf at a corner: only where b is unbounded
+    lo, hi = c.min(axis=0), c.max(axis=0)
     # a divisor that is exactly 0: x/0 is +-inf by the sign of x, 0/0 undefined (IEEE, as PRISM)
     zero = (b.lower == 0) & (b.upper == 0)
     pos, neg = a.lower > 0, a.upper < 0

@@ -15,12 +15,15 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from posgmc import api
 from posgmc.checking import dispatch
 from posgmc.checking import intervals as iv
 from posgmc.checking.results import ResultKind
 from posgmc.errors import SemanticError
+from posgmc.semantics import operators as ops
 from posgmc.syntax.ast import BinaryOp, Function
 
 HALF = """dtmc
@@ -192,3 +195,49 @@ def test_nested_undecided_threshold_is_not_proven(monkeypatch) -> None:  # type:
     monkeypatch.setattr(dispatch, "EXACT_REFINEMENT_STATES", 0)
     r = _check(HALF, "P=? [ F P>0.5 [ F x=1 ] ]")
     assert not r.sound  # the target set was guessed where the nested bounds straddle 0.5
+
+
+# -- invariant: the bounds of a result contain the operator applied to any points inside ------------
+
+_finite = st.floats(-8, 8, allow_nan=False, allow_infinity=False)
+
+
+@st.composite
+def _interval_with_point(draw):  # type: ignore[no-untyped-def]
+    lo, pt, hi = sorted(draw(st.lists(_finite, min_size=3, max_size=3)))
+    return lo, pt, hi
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.sampled_from(list(BinaryOp)[4:]),  # comparisons and arithmetic (connectives below)
+    _interval_with_point(),
+    _interval_with_point(),
+)
+def test_binary_bounds_contain_every_point(op: BinaryOp, a, b) -> None:  # type: ignore[no-untyped-def]
+    A = iv.Bounds(*(np.array([x]) for x in (a[1], a[0], a[2])), np.array([True]))
+    B = iv.Bounds(*(np.array([x]) for x in (b[1], b[0], b[2])), np.array([True]))
+    r = iv.binary(op, A, B)
+    with np.errstate(all="ignore"):
+        exact = ops.BINARY[op].vector(np.array([a[1]]), np.array([b[1]]))
+    if r.defined[0] and not np.isnan(exact[0]):
+        assert r.lower[0] <= exact[0] <= r.upper[0], (op, a, b, r.lower, r.upper, exact)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.sampled_from([Function.MIN, Function.MAX, Function.FLOOR, Function.CEIL, Function.ROUND]),
+       _interval_with_point(), _interval_with_point())
+def test_function_bounds_contain_every_point(fn: Function, a, b) -> None:  # type: ignore[no-untyped-def]
+    A = iv.Bounds(*(np.array([x]) for x in (a[1], a[0], a[2])), np.array([True]))
+    B = iv.Bounds(*(np.array([x]) for x in (b[1], b[0], b[2])), np.array([True]))
+    args = [A, B] if fn in (Function.MIN, Function.MAX) else [A]
+    r = iv.call(fn, args)
+    pts = [np.array([a[1]]), np.array([b[1]])][: len(args)]
+    exact = {
+        Function.MIN: lambda: np.minimum(*pts),
+        Function.MAX: lambda: np.maximum(*pts),
+        Function.FLOOR: lambda: ops.to_int(pts[0], "floor"),
+        Function.CEIL: lambda: ops.to_int(pts[0], "ceil"),
+        Function.ROUND: lambda: ops.to_int(pts[0], "round"),
+    }[fn]()
+    assert r.lower[0] <= exact[0] <= r.upper[0]
