@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from posgmc.semantics import operators as ops
 from posgmc.syntax.ast import BinaryOp, Function, UnaryOp
 
 __all__ = ["Bounds", "binary", "call", "ite", "point", "unary"]
@@ -91,8 +92,7 @@ def _products(a_lo: np.ndarray, a_hi: np.ndarray, b_lo: np.ndarray, b_hi: np.nda
     return c.min(axis=0), c.max(axis=0)
 
 
-def _divide(a: Bounds, b: Bounds) -> Bounds:
-    value = a.value / b.value
+def _divide(a: Bounds, b: Bounds, value: np.ndarray) -> Bounds:
     nonzero = (b.lower > 0) | (b.upper < 0)
     # the four corner quotients, each rounded once: rounding is monotone, so they bracket the
     # rounded quotient of any two points inside (multiplying by a rounded reciprocal would not)
@@ -108,7 +108,7 @@ def _divide(a: Bounds, b: Bounds) -> Bounds:
     return _num(lo, hi, value, a.defined & b.defined & ~may_nan)
 
 
-def _compare(op: BinaryOp, a: Bounds, b: Bounds) -> Bounds:
+def _compare(op: BinaryOp, a: Bounds, b: Bounds, value: np.ndarray) -> Bounds:
     defined = a.defined & b.defined
     if op in (BinaryOp.LT, BinaryOp.LE, BinaryOp.GT, BinaryOp.GE):
         if op in (BinaryOp.GT, BinaryOp.GE):
@@ -117,39 +117,40 @@ def _compare(op: BinaryOp, a: Bounds, b: Bounds) -> Bounds:
         f = np.less if op is BinaryOp.LT else np.less_equal
         # a < b is proven when even a's largest value is below b's smallest, possible when
         # a's smallest is below b's largest
-        return _boolean(f(a.upper, b.lower), f(a.lower, b.upper), f(a.value, b.value), defined)
+        return _boolean(f(a.upper, b.lower), f(a.lower, b.upper), value, defined)
     if a.is_bool:
         equal_lo = (a.lower & b.lower) | (~a.upper & ~b.upper)
         equal_hi = (a.upper & b.upper) | (~a.lower & ~b.lower)
     else:
         equal_lo = (a.lower == a.upper) & (b.lower == b.upper) & (a.lower == b.lower)
         equal_hi = (a.lower <= b.upper) & (b.lower <= a.upper)
-    value = a.value == b.value
     if op in (BinaryOp.EQ, BinaryOp.IFF):
         return _boolean(equal_lo, equal_hi, value, defined)
-    return _boolean(~equal_hi, ~equal_lo, ~value, defined)
+    return _boolean(~equal_hi, ~equal_lo, value, defined)
 
 
 def binary(op: BinaryOp, a: Bounds, b: Bounds) -> Bounds:
-    """``a op b`` for every binary operator of the language."""
+    """``a op b`` for every binary operator of the language; the reported value is the operator
+    table's (:data:`posgmc.semantics.operators.BINARY`) applied to the reported values."""
     defined = a.defined & b.defined
+    value = ops.BINARY[op].vector(a.value, b.value)
     with np.errstate(all="ignore"):
         if op is BinaryOp.AND:
-            return _boolean(a.lower & b.lower, a.upper & b.upper, a.value & b.value, defined)
+            return _boolean(a.lower & b.lower, a.upper & b.upper, value, defined)
         if op is BinaryOp.OR:
-            return _boolean(a.lower | b.lower, a.upper | b.upper, a.value | b.value, defined)
+            return _boolean(a.lower | b.lower, a.upper | b.upper, value, defined)
         if op is BinaryOp.IMPLIES:
             return binary(BinaryOp.OR, unary(UnaryOp.NOT, a), b)
         if op in (BinaryOp.IFF, BinaryOp.EQ, BinaryOp.NE, BinaryOp.LT, BinaryOp.LE, BinaryOp.GT, BinaryOp.GE):
-            return _compare(op, a, b)
+            return _compare(op, a, b, value)
         if op is BinaryOp.ADD:
-            return _num(a.lower + b.lower, a.upper + b.upper, a.value + b.value, defined)
+            return _num(a.lower + b.lower, a.upper + b.upper, value, defined)
         if op is BinaryOp.SUB:
-            return _num(a.lower - b.upper, a.upper - b.lower, a.value - b.value, defined)
+            return _num(a.lower - b.upper, a.upper - b.lower, value, defined)
         if op is BinaryOp.MUL:
             lo, hi = _products(a.lower, a.upper, b.lower, b.upper)
-            return _num(lo, hi, a.value * b.value, defined)
-        return _divide(a, b)
+            return _num(lo, hi, value, defined)
+        return _divide(a, b, value)
 
 
 def ite(c: Bounds, a: Bounds, b: Bounds) -> Bounds:
@@ -174,7 +175,7 @@ def _ln(a: Bounds) -> Bounds:
 
 
 def _pow(a: Bounds, b: Bounds) -> Bounds:
-    value = np.power(a.value, b.value)
+    value = ops.float_pow(a.value, b.value)
     # for a positive base x^y is monotone in each argument on its own, so its extremes over a box
     # lie at the corners; a base that may be negative gives no useful bound
     corners = np.stack(
@@ -209,7 +210,8 @@ def call(function: Function, args: Sequence[Bounds]) -> Bounds:
         if function is Function.POW:
             return _pow(args[0], args[1])
         if function is Function.LOG:
-            return _divide(_ln(args[0]), _ln(args[1]))
+            num, den = _ln(args[0]), _ln(args[1])
+            return _divide(num, den, ops.log(args[0].value, args[1].value))
         # MOD: ints only; the type checker keeps query values (doubles) out of it
         a, b = args
         return _num(np.mod(a.lower, b.lower), np.mod(a.upper, b.upper), np.mod(a.value, b.value), a.decided & b.decided)
