@@ -241,3 +241,10 @@ def test_function_bounds_contain_every_point(fn: Function, a, b) -> None:  # typ
         Function.ROUND: lambda: ops.to_int(pts[0], "round"),
     }[fn]()
     assert r.lower[0] <= exact[0] <= r.upper[0]
+
+
+def test_reward_threshold_at_the_exact_value_is_refined() -> None:
+    # expected steps to x in {1,2}: E0 = 1 + E3/2, E3 = 1 + E0/2 + E3/2, so E0 = 4 exactly
+    assert _check(HALF, 'R{"steps"}=? [ F x=1|x=2 ] >= 4').value is True
+    r = _check(HALF, 'R{"steps"}<4 [ F x=1|x=2 ]')
+    assert r.value is False and r.sound
