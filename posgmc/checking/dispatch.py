@@ -216,12 +216,18 @@ class PropertyChecker:
         if not contains(expr, (ProbQuery, RewardQuery)):
             return iv.point(evaluate_states(self.model, expr))
         if isinstance(expr, Unary):
-            return iv.unary(expr.op, self._bounds(expr.operand, queries))
+            operand = self._bounds(expr.operand, queries)
+            return iv.unary(expr.op, _boolean(operand) if expr.op is UnaryOp.NOT else operand)
         if isinstance(expr, Binary):
-            return iv.binary(expr.op, self._bounds(expr.left, queries), self._bounds(expr.right, queries))
+            left, right = self._bounds(expr.left, queries), self._bounds(expr.right, queries)
+            if expr.op in _CONNECTIVES:
+                left, right = _boolean(left), _boolean(right)
+            return iv.binary(expr.op, left, right)
         if isinstance(expr, Ite):
-            parts = [self._bounds(e, queries) for e in (expr.cond, expr.then, expr.otherwise)]
-            return iv.ite(*parts)
+            cond, then, otherwise = (self._bounds(e, queries) for e in (expr.cond, expr.then, expr.otherwise))
+            if then.is_bool or otherwise.is_bool:
+                then, otherwise = _boolean(then), _boolean(otherwise)
+            return iv.ite(_boolean(cond), then, otherwise)
         if isinstance(expr, Call):
             args = [self._bounds(a, queries) for a in expr.args]
             if expr.function in (Function.FLOOR, Function.CEIL, Function.ROUND):
@@ -504,6 +510,15 @@ _THRESHOLD_OPS = {
     ComparisonOp.LE: BinaryOp.LE,
     ComparisonOp.LT: BinaryOp.LT,
 }
+
+
+_CONNECTIVES = (BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF)
+
+
+def _boolean(b: iv.Bounds) -> iv.Bounds:
+    """A Boolean operand as bool bounds: a Boolean state variable arrives as its 0/1 column
+    (the explicit model stores valuations as ints; the type checker has made sure it is one)."""
+    return b if b.is_bool else iv.point(np.asarray(b.value != 0))
 
 
 def _phrase(model: ExplicitModel) -> str:

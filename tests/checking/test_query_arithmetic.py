@@ -248,3 +248,36 @@ def test_reward_threshold_at_the_exact_value_is_refined() -> None:
     assert _check(HALF, 'R{"steps"}=? [ F x=1|x=2 ] >= 4').value is True
     r = _check(HALF, 'R{"steps"}<4 [ F x=1|x=2 ]')
     assert r.value is False and r.sound
+
+
+BOOLVAR = """dtmc
+module m
+  x : [0..2] init 0;
+  b : bool init true;
+  [] x=0 -> 0.5:(x'=1) + 0.5:(x'=2);
+  [] x>0 -> true;
+endmodule
+"""
+
+
+@pytest.mark.parametrize(
+    ("prop", "expected"),
+    [
+        ("b & P>0.4 [ F x=1 ]", True),  # P = 1/2 by hand
+        ("!b | P>0.6 [ F x=1 ]", False),
+        ("b = P>0.4 [ F x=1 ]", True),
+        ("(x=0 ? b : false) & P<0.6 [ F x=1 ]", True),
+    ],
+)
+def test_boolean_variables_combine_with_queries(prop: str, expected: bool) -> None:
+    # valuations are stored as ints: a Boolean variable must still act as a Boolean here
+    session = api.load(text=BOOLVAR)
+    report = api.check(session, properties=[prop])
+    assert report.model.num_states == 3 and not report.errors
+    assert report.results[0].value is expected and report.results[0].sound
+
+
+def test_boolean_variable_as_condition_over_a_query() -> None:
+    session = api.load(text=BOOLVAR)
+    (r,) = api.check(session, properties=["b ? P=? [ F x=1 ] : 0"]).results
+    assert r.lower <= 0.5 <= r.upper and r.sound
