@@ -100,6 +100,17 @@ class _Context:
                 return item
         return None
 
+    def open_temporal(self) -> Token | None:
+        """The unary temporal operator (F, G, X) whose operand the parser is in, inside the
+        innermost ``[``; None outside one."""
+        for item in reversed(self.stack):
+            if isinstance(item, Token):
+                if item.type == "LSQB":
+                    return None
+                if item.type in ("F", "G", "X"):
+                    return item
+        return None
+
     def in_time_bound(self, token: Token) -> bool:
         """True when the error looks like a time bound that swallowed less than intended:
         ``F<=T+1 x`` fails at '+', and ``F<=T-1 x`` parses ``-1 x`` as the operand."""
@@ -332,6 +343,14 @@ def unexpected_token(
             message = f"'{name}' is not a function: found '(' after it"
             hint = f"the functions are {_FUNCTIONS}; a call is written name(arg, ...)"
     temporal_word = token.value in ("F", "G", "X", "U", "W")
+    prefix = context.open_temporal()
+    if hint is None and temporal_word and prefix is not None and token.value in ("F", "G", "X"):
+        p, t = prefix.value, token.value
+        message = f"ambiguous temporal operator '{t}' inside the operand of '{p}'"
+        hint = (
+            f"the operand of {p} extends as far as it can (PRISM: F a & b is F (a & b)), so say "
+            f"which is meant with parentheses: {p} (a & ({t} b)) or ({p} a) & ({t} b)"
+        )
     if hint is None and temporal_word and token.type in ("IDENT", token.value):
         hint = 'temporal operators belong inside P[...] or R[...], e.g. Pmax=? [ F "goal" ]'
     if hint is None and token.type == "IDENTPRIME":

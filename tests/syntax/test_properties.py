@@ -310,6 +310,7 @@ def test_parse_property_single() -> None:
         ('P=? [ ("a" U "b") & F "c" ]', 'P=? [ ("a" U "b") & (F "c") ]'),
         ('P=? [ "a" | G<=3 "b" ]', 'P=? [ "a" | (G<=3 "b") ]'),
         ('P=? [ F "a" & "b" ]', 'P=? [ F ("a" & "b") ]'),  # PRISM's reading is kept
+        ('P=? [ "a" & F "b" & "c" ]', 'P=? [ ("a" & (F "b")) & "c" ]'),
     ],
 )
 def test_storm_temporal_operands_parse_as_parenthesised(storm: str, prism: str) -> None:
@@ -323,3 +324,15 @@ def test_temporal_operand_of_a_comparison_says_where_the_parentheses_go() -> Non
     assert 'cannot be an operand of "="' in err.message
     assert err.span is not None and (err.span.line, err.span.column) == (1, 14)
     assert "X (x = 1)" in (err.hint or "")
+
+
+@pytest.mark.parametrize("text", ['P=? [ F "a" & X "b" ]', 'P=? [ X "a" & X "b" ]', 'P=? [ G "a" | F "b" ]'])
+def test_temporal_inside_a_temporal_operand_is_ambiguous(text: str) -> None:
+    # PRISM reads F a & X b as F (a & X b), Storm as (F a) & (X b): neither is guessed
+    with pytest.raises(ParseError) as info:
+        parse_property(text)
+    err = info.value
+    assert err.message.startswith("ambiguous temporal operator")
+    second = max(text.rfind("& "), text.rfind("| ")) + 2  # 0-based index of the inner operator
+    assert err.span is not None and err.span.column == second + 1
+    assert "(" in (err.hint or "") and "or" in (err.hint or "")
