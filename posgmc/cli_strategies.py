@@ -1,0 +1,224 @@
+"""The commands about results and strategies: ``test`` (PRISM's RESULT convention for CI),
+``simulate`` and ``show-strategy``. Thin, like :mod:`posgmc.cli`, whose group and helpers they use."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from typing import Any
+
+import click
+
+from posgmc.cli import (
+    EXIT_OK,
+    EXIT_PROPERTY_FALSE,
+    _common,
+    _const_text,
+    _fmt,
+    _guard,
+    _synthesis_options,
+    expand_constants,
+    main,
+    strategy_options,
+)
+
+__all__ = ["test", "simulate", "show_strategy"]
+
+
+@main.command("test")
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("props", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--tolerance", type=float, default=1e-5, show_default=True,
+              help="Relative tolerance for numbers (PRISM's test mode: 1e-5).")
+@click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
+              help="Also write a JUnit XML report (one test case per checked property).")
+@click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation value.")
+@click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE")
+@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
+@click.option("--memory", "memory", default="auto", show_default=True, metavar="K|K1..K2|auto")
+@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@_common
+def test(
+    model: str,
+    props: tuple[str, ...],
+    tolerance: float,
+    junit: str | None,
+    full_observation: bool,
+    strategy_files: tuple[str, ...],
+    zero_based_players: bool,
+    memory: str,
+    timeout: float,
+    seed: int,
+    consts: tuple[str, ...],
+    debug: bool,
+) -> None:
+    """Check every property of PROPS that has a // RESULT line against it (PRISM's -test)."""
+    import time
+
+    from posgmc import api
+    from posgmc.checking.expected import expected_for, grade
+    from posgmc.io.junit import Case, write_junit
+
+    def run() -> int:
+        swept, combos = expand_constants(consts)
+        strategies = strategy_options(strategy_files) or None
+        passed = failed = unchecked = 0
+        cases: list[Case] = []
+        for constants in combos or [{}]:
+            texts = {n: _const_text(v) for n, v in constants.items()}
+            label = ",".join(f"{n}={texts[n]}" for n in swept)
+            session = api.load(model, constants=constants)
+            built = api.build(session, allow_extra_constants=True)
+            loaded = api.load_strategies(strategies) if strategies else None
+            started = time.perf_counter()
+            for prop, outcome in api.iter_check(
+                session, property_files=props, built=built, full_observation=full_observation,
+                zero_based_players=zero_based_players, strategies=loaded,
+                synthesis=_synthesis_options(memory, timeout, seed),
+            ):
+                seconds, started = time.perf_counter() - started, time.perf_counter()
+                where = f"{prop.span.file}:{prop.span.line}"
+                name = (prop.text or "") + (f" ({label})" if label else "")
+                exp = expected_for(prop, texts)
+                if exp is None:
+                    unchecked += 1
+                    cases.append(Case(name, where, seconds, skipped="no RESULT line"))
+                    continue
+                try:
+                    verdict = grade(exp, outcome, tolerance=tolerance)
+                except ValueError as e:
+                    from posgmc.errors import InputError
+
+                    raise InputError(str(e), exp.span) from None
+                if verdict.passed is None:
+                    unchecked += 1
+                    cases.append(Case(name, where, seconds, skipped="RESULT: ?"))
+                    continue
+                what = f" ({exp.number})" if exp.number else ""
+                if verdict.passed:
+                    passed += 1
+                    click.echo(f"PASS {where}: {name}: {verdict.actual}{what}")
+                    cases.append(Case(name, where, seconds))
+                else:
+                    failed += 1
+                    message = f"expected {verdict.expected}{what}, got {verdict.actual}"
+                    click.echo(f"FAIL {where}: {name}: {message}")
+                    cases.append(Case(name, where, seconds, failure=message))
+        if junit is not None:
+            write_junit(junit, model, cases)
+        summary = f"{passed} passed, {failed} failed"
+        click.echo(summary + (f", {unchecked} skipped" if unchecked else ""))
+        return EXIT_PROPERTY_FALSE if failed else EXIT_OK
+
+    _guard(debug, run, consts=consts)
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.option("--prop", "prop_text", required=True, metavar="TEXT",
+              help="P=? [F φ], P=? [a U b], their F<=k forms, or R=? [F φ].")
+@click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE",
+              help="A player's finite-state strategy; repeatable, one per player.")
+@click.option("--runs", type=click.IntRange(min=1), default=10_000, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--max-steps", type=click.IntRange(min=0), default=10_000, show_default=True)
+@click.option("--opponent", type=click.Choice(["uniform", "best"]), default="uniform", show_default=True,
+              help="How players without a strategy play: uniformly, or their full-observation optimum.")
+@click.option("--trace", is_flag=True, help="Also print one sampled path, step by step.")
+@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
+@click.option("--json", "as_json", is_flag=True, help='Print {"estimate", "lower", "upper", "runs", ...}.')
+@_common
+def simulate(
+    model: str,
+    prop_text: str,
+    strategy_files: tuple[str, ...],
+    runs: int,
+    seed: int,
+    max_steps: int,
+    opponent: str,
+    trace: bool,
+    zero_based_players: bool,
+    as_json: bool,
+    consts: tuple[str, ...],
+    debug: bool,
+) -> None:
+    """Estimate a property of MODEL by simulating runs under the given strategies."""
+    from posgmc import api
+
+    def run() -> int:
+        _, combos = expand_constants(consts)
+        if len(combos) > 1:
+            raise click.BadParameter("simulate takes single constant values", param_hint="'--const'")
+        session = api.load(model, constants=combos[0] if combos else {})
+        result = api.simulate(
+            session, prop_text, strategies=strategy_options(strategy_files) or None, runs=runs,
+            seed=seed, max_steps=max_steps, opponent=opponent, trace=trace,
+            zero_based_players=zero_based_players,
+        )
+        if as_json:
+            doc = result.to_json()
+            if trace:
+                doc["trace"] = [dataclasses.asdict(t) for t in result.trace]
+            click.echo(json.dumps(doc))
+            return EXIT_OK
+        interval = "Wilson 95 %" if result.kind == "probability" else "normal 95 %, an estimate"
+        click.echo(
+            f"{result.property}: {_fmt(result.estimate)}  [{_fmt(result.lower)}, {_fmt(result.upper)}]"
+            f"  ({interval}; {result.runs} runs, seed {result.seed})"
+        )
+        if result.undecided:
+            click.echo(f"  {result.undecided} runs reached --max-steps undecided; the interval "
+                       "counts them both ways")
+        if trace:
+            _print_trace(result.trace)
+        return EXIT_OK
+
+    _guard(debug, run, as_json=as_json, consts=consts)
+
+
+def _print_trace(steps: Any) -> None:
+    rows = [("step", "owner", "state", "observations", "memory", "action")]
+    for t in steps:
+        rows.append((
+            str(t.step), t.owner or "agent", t.state,
+            "; ".join(f"{p}: {o}" for p, o in t.observations) or "-",
+            ", ".join(f"{p}={n}" for p, n in t.memory) or "-",
+            t.action,
+        ))
+    widths = [max(len(r[i]) for r in rows) for i in range(6)]
+    for r in rows:
+        click.echo("  ".join(r[i].ljust(widths[i]) for i in range(6)).rstrip())
+
+
+@main.command("show-strategy")
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option("--model", "model_file", type=click.Path(dir_okay=False), default=None,
+              help="Check the strategy against this model (observables, labels).")
+@click.option("--dot", "dot_file", type=click.Path(dir_okay=False), default=None,
+              help="Also write the strategy as a DOT graph.")
+@_common
+def show_strategy(
+    file: str, model_file: str | None, dot_file: str | None, consts: tuple[str, ...], debug: bool
+) -> None:
+    """Print a finite-state strategy as a table (memory x observation -> action -> memory)."""
+    from posgmc import api
+    from posgmc.strategies.render import strategy_dot, strategy_table
+
+    def run() -> int:
+        fss = api.load_strategy(file)
+        if model_file is not None:
+            from posgmc.strategies.binding import bind
+
+            _, combos = expand_constants(consts)
+            built = api.build(api.load(model_file, constants=combos[0] if combos else {}))
+            for w in bind(built.model, fss).warnings:
+                click.echo(f"warning: {w}", err=True)
+        click.echo(strategy_table(fss), nl=False)
+        if dot_file is not None:
+            from posgmc.io.atomic import atomic_write_text
+
+            atomic_write_text(dot_file, strategy_dot(fss))
+        return EXIT_OK
+
+    _guard(debug, run, consts=consts)
