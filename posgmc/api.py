@@ -15,6 +15,7 @@ between them, so that a caller can stop after any of them. Every input error rai
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -36,6 +37,7 @@ from posgmc.errors import (
 )
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics import checker as sem
+from posgmc.semantics import operators as ops
 from posgmc.semantics.evaluate import evaluate_constant
 from posgmc.semantics.flat import FlatModel
 from posgmc.syntax import parser
@@ -290,7 +292,8 @@ def build(
     _typed(options, BuildOptions, "options")
     if session.explicit is not None:
         return BuiltModel(_check_explicit(session, options), 0.0)
-    flat = instantiate(session, allow_extra_constants=allow_extra_constants)
+    with ops.exact_arithmetic() if options.exact else contextlib.nullcontext():
+        flat = instantiate(session, allow_extra_constants=allow_extra_constants)
     try:
         result = build_model(flat, options=options)
     except PosgmcError as e:
@@ -444,6 +447,10 @@ def _checker(
     synthesis: "SynthesisOptions | None" = None,
 ) -> "PropertyChecker | StrategyChecker | SynthesisChecker":
     coalition_of = _coalition_resolver(model, zero_based_players)
+    if options.exact:
+        from posgmc.checking.exact import ExactChecker
+
+        return ExactChecker(model, coalition_of=coalition_of, scalar=_scalar, options=options)
     if synthesis is not None:
         from posgmc.synthesis.checker import SynthesisChecker
 
@@ -536,6 +543,14 @@ def check(
     properties = _texts(properties, "properties")
     if strategies is not None and not isinstance(strategies, Mapping):
         raise InputError(f"strategies must map player names to strategies, got {type(strategies).__name__}")
+    if options.exact:
+        if strategies or full_observation:
+            raise InputError(
+                "exact mode checks dtmcs, mdps and smgs, not given strategies or full-observation "
+                "bounds",
+                hint="drop --exact, or drop --strategy / --full-observation",
+            )
+        build_options = dataclasses.replace(build_options, exact=True)
     if built is None:
         _check_constant_names(session, property_files)
     built = built or build(session, options=build_options, allow_extra_constants=True)

@@ -21,6 +21,7 @@ import click
 
 from posgmc import __version__
 from posgmc.errors import MultipleErrors, PosgmcError
+from posgmc.semantics.evaluate import format_value
 
 EXIT_OK = 0
 EXIT_PROPERTY_FALSE = 1
@@ -308,6 +309,9 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
     show_default=True,
     help="interval: sound bounds; value: plain value iteration; policy/exact: exact solves.",
 )
+@click.option("--exact", is_flag=True,
+              help="PRISM's -exact: build and solve in rational arithmetic; values as fractions "
+              "(unbounded P[F]/P[U] and state formulas, small models).")
 @click.option("--full-observation", is_flag=True, help="pomdp/posg: answer the full-observation bound.")
 @click.option(
     "--strategy",
@@ -337,6 +341,7 @@ def check(
     precision: float,
     relative: bool,
     method: str,
+    exact: bool,
     full_observation: bool,
     strategy_files: tuple[str, ...],
     zero_based_players: bool,
@@ -363,6 +368,7 @@ def check(
         options = CheckOptions(
             solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
             keep_strategy=export_strategy is not None,
+            exact=exact,
         )
         rows = []
         code = EXIT_OK
@@ -567,6 +573,8 @@ def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str],
                 click.echo(r[1].render(), err=True)
                 continue
             line = f"{r.property}: {_fmt(r.value)}"
+            if r.exact is not None:
+                line = f"{r.property}: {format_value(r.exact)}"
             if r.lower is not None and not isinstance(r.value, bool):
                 line += f"  [{_fmt(r.lower)}, {_fmt(r.upper)}]"
             line += f"  ({r.method}, {r.iterations} it., {r.seconds:.3f} s)"

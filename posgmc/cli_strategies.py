@@ -32,6 +32,7 @@ __all__ = ["test", "simulate", "show_strategy"]
               help="Relative tolerance for numbers (PRISM's test mode: 1e-5).")
 @click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
               help="Also write a JUnit XML report (one test case per checked property).")
+@click.option("--exact", is_flag=True, help="PRISM's -exact: rational arithmetic, results compared exactly.")
 @click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation value.")
 @click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE")
 @click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
@@ -44,6 +45,7 @@ def test(
     props: tuple[str, ...],
     tolerance: float,
     junit: str | None,
+    exact: bool,
     full_observation: bool,
     strategy_files: tuple[str, ...],
     zero_based_players: bool,
@@ -57,6 +59,8 @@ def test(
     import time
 
     from posgmc import api
+    from posgmc.build.options import BuildOptions
+    from posgmc.checking.dispatch import CheckOptions
     from posgmc.checking.expected import expected_for, grade
     from posgmc.io.junit import Case, write_junit
 
@@ -69,13 +73,14 @@ def test(
             texts = {n: _const_text(v) for n, v in constants.items()}
             label = ",".join(f"{n}={texts[n]}" for n in swept)
             session = api.load(model, constants=constants)
-            built = api.build(session, allow_extra_constants=True)
+            built = api.build(session, allow_extra_constants=True, options=BuildOptions(exact=exact))
             loaded = api.load_strategies(strategies) if strategies else None
             started = time.perf_counter()
             for prop, outcome in api.iter_check(
                 session, property_files=props, built=built, full_observation=full_observation,
                 zero_based_players=zero_based_players, strategies=loaded,
                 synthesis=_synthesis_options(memory, timeout, seed),
+                options=CheckOptions(exact=exact),
             ):
                 seconds, started = time.perf_counter() - started, time.perf_counter()
                 where = f"{prop.span.file}:{prop.span.line}"

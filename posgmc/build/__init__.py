@@ -31,6 +31,7 @@ import time
 import numpy as np
 
 from posgmc.build.assemble import assemble
+from posgmc.build.exact import exact_model, explore_exact
 from posgmc.build.explore import explore
 from posgmc.build.options import BuildOptions, BuildResult, ProgressMode, ValidationMode
 from posgmc.build.program import compile_program
@@ -64,6 +65,13 @@ def build_model(flat: FlatModel, *, options: BuildOptions = BuildOptions()) -> B
     # x/0 and the like are IEEE values in PRISM, not warnings
     with np.errstate(all="ignore"):
         program = compile_program(flat)
-        exploration = explore(program, options)
-        model, warnings = assemble(program, exploration, options)
+        if options.exact:
+            exploration, exact = explore_exact(program, options)
+            layout = (exploration.choice_counts.tolist(), exploration.indptr.tolist(),
+                      exploration.targets.tolist())
+            model, warnings = assemble(program, exploration, options)
+            model = exact_model(model, program, *layout, exact)
+        else:
+            exploration = explore(program, options)
+            model, warnings = assemble(program, exploration, options)
     return BuildResult(model=model, seconds=time.perf_counter() - start, warnings=tuple(warnings))

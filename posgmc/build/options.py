@@ -37,6 +37,8 @@ class BuildOptions:
     ``probability_tolerance``: how far the update probabilities of a command may sum from 1.
     ``initial_state_limit``: the largest number of candidate valuations enumerated for an
     ``init ... endinit`` predicate (after fixing the variables it pins to one value).
+    ``exact``: explore in rational arithmetic (PRISM's ``-exact``, :mod:`posgmc.build.exact`): the
+    model carries its exact transition probabilities.
     """
 
     state_limit: int = 50_000_000
@@ -47,6 +49,7 @@ class BuildOptions:
     validate_limit: int = 1_000_000
     probability_tolerance: float = 1e-9
     initial_state_limit: int = 1 << 28
+    exact: bool = False
 
 
 @dataclass(frozen=True, eq=False)

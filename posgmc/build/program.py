@@ -66,6 +66,7 @@ class Command:
     assigned: frozenset[int]
     span: SourceSpan
     text: str  # short description for messages: "[a] in module m" or "in module m"
+    source: FlatCommand | None = None  # the command before compilation (exact exploration reads it)
 
 
 class GeneratorKind(enum.Enum):
@@ -160,6 +161,7 @@ def _compile_command(
         assigned=frozenset(assigned),
         span=flat_cmd.span,
         text=f"command {label}of module {flat_cmd.module}",
+        source=flat_cmd,
     )
 
 

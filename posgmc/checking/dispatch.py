@@ -68,6 +68,7 @@ class CheckOptions:
     solver: SolverOptions = SolverOptions()
     keep_values: bool = False
     keep_strategy: bool = False
+    exact: bool = False  # PRISM's -exact: rational arithmetic throughout (posgmc.checking.exact)
 
 
 def _flip(q: QueryValue) -> QueryValue:

@@ -103,6 +103,15 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
         return Verdict(value is (text.lower() == "true"), text, _show(value))
     if isinstance(value, bool) or value is None:
         return Verdict(False, text, _show(value))
+    exact = getattr(outcome, "exact", None) if expected.number is None else None
+    if exact is not None and not text.startswith("["):
+        # exact mode (PRISM's -exact test rule): the fraction must be equal, not close
+        try:
+            wanted = Fraction(text)
+        except (ValueError, ZeroDivisionError):
+            wanted = None
+        if wanted is not None:
+            return Verdict(exact == wanted, text, str(exact))
     v = float(value)  # type: ignore[arg-type]
     if text.startswith("[") and text.endswith("]"):
         lo, hi = (_number(x) for x in text[1:-1].split(","))

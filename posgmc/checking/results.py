@@ -6,6 +6,7 @@ import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -76,6 +77,8 @@ class PropertyResult:
     ``vs_fss_adversary`` and ``upper_bound`` hold the numbers that apply (see
     :data:`STRATEGY_NUMBERS`), ``memory`` each strategy's memory size, and ``value``/``lower``/
     ``upper`` repeat the first of them that is present (a threshold is judged on ``guaranteed``).
+    In exact mode (PRISM's ``-exact``) ``exact`` is the value as a fraction, and ``lower``/
+    ``upper`` are the doubles just around it.
     A synthesised result also has ``full_observation`` (the value when the decision maker sees
     everything: no partially observing defence does better), ``synthesis`` (JSON-ready statistics:
     ``partial``, ``phases``, ``rounds``) and ``strategies`` (the synthesised
@@ -104,6 +107,7 @@ class PropertyResult:
     full_observation: Bound | None = None
     synthesis: Mapping[str, Any] | None = None
     strategies: tuple[Any, ...] = field(default=(), repr=False)
+    exact: Fraction | None = None
 
     def to_json(self) -> dict[str, Any]:
         """The documented machine-readable form (see docs/cli.md)."""
@@ -122,6 +126,8 @@ class PropertyResult:
             "converged": self.converged,
             "sound": self.sound,
         }
+        if self.exact is not None:
+            out["exact"] = f"{self.exact.numerator}/{self.exact.denominator}"
         if self.note:
             out["note"] = self.note
         if len(self.per_initial) > 1:

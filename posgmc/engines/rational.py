@@ -144,7 +144,8 @@ def exact_rational_reach(
         target, remain: bool[S] (remain None: everywhere).
         maximize: bool[S], True where the owner maximises.
         limit_denominator: read each probability as ``Fraction(p).limit_denominator(d)``; None reads
-            the exact binary value of the float.
+            the exact binary value of the float. A model built in exact mode
+            (``model.exact_probabilities``) is read exactly and this is ignored.
 
     Returns:
         One :class:`Fraction` per state.
@@ -162,6 +163,7 @@ def exact_rational_reach(
     one, _ = almost_sure_reach(g, tgt, rem, existential=mx)
     unknown = pos & ~one
     T = model.transitions
+    exact = model.exact_probabilities
     states = [int(s) for s in np.flatnonzero(unknown)]
     options: dict[int, list[_Row]] = {}
     for s in states:
@@ -170,10 +172,15 @@ def exact_rational_reach(
             lo, hi = T.indptr[c], T.indptr[c + 1]
             mass = Fraction(0)
             succ: dict[int, Fraction] = {}
-            for t, p in zip(T.indices[lo:hi], T.data[lo:hi]):
-                f = Fraction(float(p))
-                if limit_denominator is not None:
-                    f = f.limit_denominator(limit_denominator)
+            for k, (t, p) in enumerate(zip(T.indices[lo:hi], T.data[lo:hi])):
+                if exact is not None:
+                    f = exact[lo + k]
+                else:
+                    f = Fraction(float(p))
+                    if limit_denominator is not None:
+                        short = f.limit_denominator(limit_denominator)
+                        # the decimal the model was written with, if it is the one the double holds
+                        f = short if float(short) == float(p) else f
                 if one[t]:
                     mass += f
                 elif unknown[t]:
@@ -200,3 +207,45 @@ def exact_rational_reach(
     for s in states:
         out[s] = x[s]
     return out
+
+
+def exact_bounded_reach(
+    model: ExplicitModel,
+    target: np.ndarray,
+    *,
+    remain: np.ndarray | None = None,
+    steps: int,
+    maximize: np.ndarray,
+    next_only: bool = False,
+) -> list[Fraction]:
+    """The exact value of ``P[remain U<=steps target]`` (or of ``P[X target]`` with ``next_only``)
+    per state, by ``steps`` rounds of backward induction in rational arithmetic on a model built
+    in exact mode (``model.exact_probabilities``). Each round optimises per state: the owner's
+    best choice (``maximize``) against the others' worst."""
+    exact = model.exact_probabilities
+    if exact is None:
+        raise PosgmcError("exact bounded reachability needs a model built in exact mode")
+    S = model.num_states
+    tgt = [bool(v) for v in np.asarray(target, dtype=bool)]
+    rem = [True] * S if remain is None else [bool(v) for v in np.asarray(remain, dtype=bool)]
+    mx = [True] * S if model.model_type is ModelType.DTMC else [bool(v) for v in maximize]
+    T = model.transitions
+    indptr, indices, groups = T.indptr, T.indices, model.row_groups
+
+    def step(x: list[Fraction]) -> list[Fraction]:
+        out = []
+        for s in range(S):
+            vals = [
+                sum((exact[k] * x[indices[k]] for k in range(indptr[c], indptr[c + 1])), Fraction(0))
+                for c in range(int(groups[s]), int(groups[s + 1]))
+            ]
+            out.append(max(vals) if mx[s] else min(vals))
+        return out
+
+    if next_only:
+        return step([Fraction(int(t)) for t in tgt])
+    x = [Fraction(int(t)) for t in tgt]
+    for _ in range(steps):
+        y = step(x)
+        x = [Fraction(1) if tgt[s] else (y[s] if rem[s] else Fraction(0)) for s in range(S)]
+    return x

@@ -29,6 +29,10 @@ variable_names      tuple[str, ...]              length V
 boolean_variables   frozenset[str]               the Boolean ones among variable_names
 state_values        int64[S, V]                  the valuation of each state; bools as 0/1
 deadlocks           int64[d]                     states that had no choice and got a self-loop
+exact_probabilities object[nnz] or None          exact mode (PRISM's ``-exact``): the Fraction of
+                                                 each entry of ``transitions.data``; every row
+                                                 sums to exactly 1, and ``transitions`` holds
+                                                 the nearest doubles
 ==================  ===========================  ==================================================
 """
 
@@ -111,6 +115,7 @@ class ExplicitModel:
     state_values: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.int64))
     deadlocks: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     boolean_variables: frozenset[str] = frozenset()
+    exact_probabilities: np.ndarray | None = None
 
     # -- sizes, counted as Storm counts them ----------------------------------------------------
 
@@ -192,6 +197,16 @@ class ExplicitModel:
 
     # -- validation ----------------------------------------------------------------------------
 
+    def _validate_exact(self) -> None:
+        exact = self.exact_probabilities
+        assert exact is not None  # noqa: S101 - the caller checked
+        T = self.transitions
+        if exact.shape != (T.nnz,):
+            raise ModelInvariantError("exact_probabilities needs one entry per transition")
+        for row in range(T.shape[0]):
+            if sum(exact[T.indptr[row]:T.indptr[row + 1]]) != 1:
+                raise ModelInvariantError(f"choice {row} has exact probabilities not summing to 1")
+
     def validate(self, *, tolerance: float = 1e-9) -> "ExplicitModel":
         """Check every invariant of the module docstring; raise :class:`ModelInvariantError`."""
         S = self.num_states
@@ -242,6 +257,8 @@ class ExplicitModel:
         for name, lab in self.labels.items():
             if lab.shape != (S,) or lab.dtype != np.bool_:
                 raise ModelInvariantError(f'label "{name}" must be bool[num_states]')
+        if self.exact_probabilities is not None:
+            self._validate_exact()
         for rm in self.reward_models:
             if rm.state is not None and rm.state.shape != (S,):
                 raise ModelInvariantError(f"reward model {rm.name!r}: state rewards need shape ({S},)")

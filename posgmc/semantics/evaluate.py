@@ -290,7 +290,10 @@ def evaluate(expr: Expr, env: Mapping[str, Value]) -> Value:
         if op is BinaryOp.MUL:
             return a_n * b_n
         # DIV: always a double; exact while both are exact, IEEE otherwise
-        return ops.scalar_divide(a_n, b_n)
+        try:
+            return ops.scalar_divide(a_n, b_n)
+        except ops.DomainFailure as failure:  # exact mode only
+            raise _error(failure.message, e) from None
 
     def call(e: Call) -> Value:
         fn = e.function

@@ -15,12 +15,19 @@ caller turns it into a positioned error naming the state.
 
 All functions compute under ``np.errstate(all="ignore")``: IEEE special values are intended and no
 numpy warning reaches the user.
+
+Exact mode (PRISM's ``-exact``, :func:`exact_arithmetic`): the scalar functions never fall back to
+floating point. A power with a non-integral result, a logarithm and a division by zero have no
+rational value and raise :class:`DomainFailure` instead (PRISM: "cannot compute fractional power
+exactly"); everything else is already exact on ints and Fractions.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -34,6 +41,8 @@ __all__ = [
     "floor",
     "round_",
     "divide",
+    "exact_arithmetic",
+    "exact_only",
     "float_pow",
     "int_pow",
     "log",
@@ -43,6 +52,23 @@ __all__ = [
 ]
 
 _INT64_MAX = float(np.iinfo(np.int64).max)
+
+_EXACT: contextvars.ContextVar[bool] = contextvars.ContextVar("posgmc_exact", default=False)
+
+
+@contextlib.contextmanager
+def exact_arithmetic() -> Iterator[None]:
+    """Within this block the scalar functions compute in rational arithmetic only (exact mode)."""
+    token = _EXACT.set(True)
+    try:
+        yield
+    finally:
+        _EXACT.reset(token)
+
+
+def exact_only() -> bool:
+    """Whether exact mode (:func:`exact_arithmetic`) is on."""
+    return _EXACT.get()
 
 
 class DomainFailure(Exception):
@@ -175,7 +201,9 @@ def divide(a: Any, b: Any) -> Any:
 
 
 def log(a: Any, b: Any) -> Any:
-    """``log(a, b) = ln a / ln b`` (IEEE)."""
+    """``log(a, b) = ln a / ln b`` (IEEE; no exact value in exact mode)."""
+    if _EXACT.get():
+        raise DomainFailure("log() cannot be computed exactly", 0)
     with np.errstate(all="ignore"):
         return np.log(np.asarray(a, dtype=np.float64)) / np.log(np.asarray(b, dtype=np.float64))
 
@@ -222,6 +250,8 @@ def scalar_pow(a: Exact, b: Exact) -> Fraction | float:
     """``pow(a, b)`` as a double: exact while the base is exact and the exponent a small integer,
     IEEE otherwise (overflow is an infinity, a negative base with a fractional exponent NaN)."""
     integral = isinstance(b, int) or (isinstance(b, Fraction) and b.denominator == 1)
+    if _EXACT.get():
+        return _exact_pow(a, b, integral)
     if integral and Fraction(a) == 0 and b < 0:
         return math.inf
     try:
@@ -236,9 +266,31 @@ def scalar_pow(a: Exact, b: Exact) -> Fraction | float:
     return f
 
 
+def _exact_pow(a: Exact, b: Exact, integral: bool) -> Fraction:
+    """``pow(a, b)`` in exact mode: a rational result or DomainFailure."""
+    if isinstance(a, float) or isinstance(b, float):
+        raise DomainFailure("pow() of a floating-point value has no exact value", 0)
+    base = Fraction(a)
+    if integral:
+        if base == 0 and b < 0:
+            raise DomainFailure("pow(0, negative) has no exact value (division by zero)", 0)
+        if abs(int(b)) > 1 << 16:
+            raise DomainFailure(f"pow() with exponent {int(b)} is too large to compute exactly", 0)
+        return base ** int(b)
+    # PRISM's exact engine refuses every fractional exponent, even where the root is rational
+    raise DomainFailure(
+        f"pow() with the fractional exponent {Fraction(b)} cannot be computed exactly", 0
+    )
+
+
 def scalar_divide(a: Exact, b: Exact) -> Fraction | float:
     """``a / b``: exact while both are exact and ``b != 0``, IEEE otherwise (``x/0`` an infinity,
-    ``0/0`` NaN, as PRISM's doubles)."""
+    ``0/0`` NaN, as PRISM's doubles); in exact mode a division by zero raises DomainFailure."""
+    if _EXACT.get() and (b == 0 or isinstance(a, float) or isinstance(b, float)):
+        raise DomainFailure(
+            "division by zero has no exact value" if b == 0 else "a floating-point value in exact mode",
+            0,
+        )
     if not isinstance(a, float) and not isinstance(b, float) and b != 0:
         return Fraction(a) / Fraction(b)
     x, y = to_float(a), to_float(b)
@@ -258,7 +310,9 @@ def _ln(x: float) -> float:
 
 
 def scalar_log(a: Exact, b: Exact) -> float:
-    """``log(a, b) = ln a / ln b`` (IEEE)."""
+    """``log(a, b) = ln a / ln b`` (IEEE; no exact value in exact mode)."""
+    if _EXACT.get():
+        raise DomainFailure("log() cannot be computed exactly", 0)
     return float(scalar_divide(_ln(to_float(a)), _ln(to_float(b))))
 
 

@@ -1,0 +1,151 @@
+"""Exact checking (PRISM's ``-exact``): values as fractions, thresholds decided on them.
+
+The model must be built in exact mode (:mod:`posgmc.build.exact`: its transition probabilities are
+Fractions). What is answered exactly:
+
+* next, step-bounded and unbounded reachability and until probabilities, ``P=? [ X b ]``,
+  ``P=? [ F<=k b ]``, ``P=? [ a U<=k b ]``, ``P=? [ F b ]``, ``P=? [ a U b ]``, with
+  ``min``/``max`` and coalitions on mdps and smgs, by policy iteration in rational arithmetic
+  (:func:`posgmc.engines.rational.exact_rational_reach`; step bounds by backward induction,
+  :func:`~posgmc.engines.rational.exact_bounded_reach`), and their thresholds ``P>=p [ ... ]``,
+  compared with the threshold as a fraction (``P>1/2`` on a value of ``1/2 + 10^-33`` is true);
+* state formulas without queries.
+
+Everything else (rewards, step bounds, LTL, arithmetic over queries, partially observable models)
+is refused with a message that names the supported fragment: an answer computed in floating point
+must not be printed as exact. Dense Gaussian elimination over Fractions: at most
+:data:`EXACT_STATE_LIMIT` states with an undecided value.
+"""
+
+from __future__ import annotations
+
+import operator
+import time
+from fractions import Fraction
+
+import numpy as np
+
+from posgmc.checking.dispatch import PropertyChecker, _contains_query, _is_temporal
+from posgmc.checking.results import PropertyResult, ResultKind
+from posgmc.checking.states import evaluate_states
+from posgmc.engines.rational import exact_bounded_reach, exact_rational_reach
+from posgmc.errors import LimitError, UnsupportedError
+from posgmc.syntax.ast import ComparisonOp, Expr, ProbQuery, Temporal, TemporalOp
+
+__all__ = ["EXACT_STATE_LIMIT", "ExactChecker"]
+
+EXACT_STATE_LIMIT = 3000
+"""The most states exact checking accepts (its linear algebra is dense, over Fractions)."""
+
+_SUPPORTED = (
+    "exact mode answers reachability probabilities (P[ X b ], P[ F b ], P[ a U b ], with upper "
+    "step bounds <=k and with their thresholds) and state formulas"
+)
+
+_COMPARE = {
+    ComparisonOp.GE: operator.ge,
+    ComparisonOp.GT: operator.gt,
+    ComparisonOp.LE: operator.le,
+    ComparisonOp.LT: operator.lt,
+}
+
+
+def _outward(v: Fraction) -> tuple[float, float]:
+    """The doubles just below and above ``v`` (equal when ``v`` is a double)."""
+    near = float(v)
+    lower = near if near <= v else float(np.nextafter(near, -np.inf))
+    upper = near if near >= v else float(np.nextafter(near, np.inf))
+    return lower, upper
+
+
+class ExactChecker(PropertyChecker):
+    """Checks properties exactly on a model built in exact mode (see the module docstring)."""
+
+    def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
+        start = time.perf_counter()
+        model = self.model
+        if model.exact_probabilities is None:
+            raise UnsupportedError(
+                "exact checking needs a model built in exact mode (its probabilities as fractions)",
+                hint="a model read from DRN has floating-point probabilities; check it without --exact",
+            )
+        if model.model_type.is_partially_observable or model.observations:
+            raise UnsupportedError(
+                f"exact mode does not cover partially observable models ({model.model_type.value})"
+            )
+        init = model.initial_states
+        common = {"property": text, "name": name, "method": "exact (rational)"}
+        if isinstance(expr, ProbQuery):
+            values = self._reach(expr)
+            at_init = [values[int(s)] for s in init]
+            if expr.threshold is None:
+                lower, upper = _outward(at_init[0])
+                return PropertyResult(
+                    kind=ResultKind.PROBABILITY,
+                    value=float(at_init[0]),
+                    lower=lower,
+                    upper=upper,
+                    seconds=time.perf_counter() - start,
+                    per_initial=tuple(float(v) for v in at_init),
+                    exact=at_init[0],
+                    **common,  # type: ignore[arg-type]
+                )
+            bound = Fraction(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            holds = [_COMPARE[expr.threshold.op](v, bound) for v in at_init]
+            return PropertyResult(
+                kind=ResultKind.BOOLEAN,
+                value=all(holds),
+                lower=None,
+                upper=None,
+                seconds=time.perf_counter() - start,
+                per_initial=tuple(holds),
+                **common,  # type: ignore[arg-type]
+            )
+        if _contains_query(expr):
+            raise UnsupportedError(f"{_SUPPORTED}; this property is not one of them", expr.span)
+        values_np = evaluate_states(model, expr)
+        if values_np.dtype != np.bool_:
+            raise UnsupportedError(
+                f"{_SUPPORTED}; a numeric state formula is evaluated in floating point", expr.span
+            )
+        holds = [bool(values_np[s]) for s in init]
+        return PropertyResult(
+            kind=ResultKind.BOOLEAN,
+            value=all(holds),
+            lower=None,
+            upper=None,
+            seconds=time.perf_counter() - start,
+            per_initial=tuple(holds),
+            **common,  # type: ignore[arg-type]
+        )
+
+    def _reach(self, expr: ProbQuery) -> list[Fraction]:
+        path = expr.path
+        bound = getattr(path, "bound", None)
+        if (
+            not isinstance(path, Temporal)
+            or path.op not in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL, TemporalOp.NEXT)
+            or any(_is_temporal(o) or _contains_query(o) for o in path.operands)
+            or (bound is not None and (path.op is TemporalOp.NEXT or self._step_interval(bound)[0] != 0
+                                       or self._step_interval(bound)[1] is None))
+        ):
+            raise UnsupportedError(f"{_SUPPORTED}; this path formula is not one of them", expr.span)
+        if self.model.num_states > EXACT_STATE_LIMIT:
+            raise LimitError(
+                f"exact mode solves models of at most {EXACT_STATE_LIMIT} states; this one has "
+                f"{self.model.num_states}",
+                hint="check without --exact: the default interval method gives proven bounds",
+            )
+        if path.op is TemporalOp.UNTIL:
+            remain, target = self._states(path.operands[0]), self._states(path.operands[1])
+        else:
+            remain, target = None, self._states(path.operands[0])
+        if path.op is TemporalOp.NEXT or bound is not None:
+            steps = 1 if bound is None else int(self._step_interval(bound)[1])  # type: ignore[arg-type]
+            return exact_bounded_reach(
+                self.model, target, remain=remain, steps=steps, maximize=self._maximize(expr),
+                next_only=path.op is TemporalOp.NEXT,
+            )
+        return exact_rational_reach(
+            self.model, target, remain=remain, maximize=self._maximize(expr)
+        )
