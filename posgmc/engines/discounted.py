@@ -13,7 +13,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from posgmc.engines.common import _bool, _check_rewards, _directions, _exact_result, _solve_system
+from posgmc.engines.common import (
+    _bool,
+    _check_rewards,
+    _directions,
+    _exact_result,
+    _local_rows,
+    _solve_system,
+)
 from posgmc.engines.graph import structure_of
 from posgmc.engines.iteration import EndComponents, build_system, solve_discounted
 from posgmc.engines.options import Method, SolverOptions
@@ -102,6 +109,8 @@ def _discounted(
             outer_max=True,
             idle_min=False,
             is_chain=model.model_type is ModelType.DTMC,
+            initial_rows=(None if options.initial_strategy is None
+                          else _local_rows(sys, options.initial_strategy)),
         )
         lo = hi = solved.lower
         iterations = solved.iterations

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import enum
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+
+import numpy as np
 
 from posgmc.errors import InputError
 
@@ -34,13 +36,16 @@ class SolverOptions:
     """``precision``: the half-width of the reported interval (absolute, or relative to the value
     when ``relative``); ``max_iterations`` caps the iterations of an iterative method (the result
     then says ``converged=False`` but its bounds stay proven); ``want_strategy``: compute a
-    strategy."""
+    strategy. ``initial_strategy``: for ``POLICY``/``EXACT``, a starting choice per state
+    (global choice index, -1 where none): policy iteration warm-started from a nearby optimum
+    (e.g. the previous step of a strategy search) needs one or two linear solves."""
 
     method: Method = Method.INTERVAL
     precision: float = 1e-6
     relative: bool = False
     max_iterations: int = 1_000_000
     want_strategy: bool = True
+    initial_strategy: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.precision) and self.precision > 0):

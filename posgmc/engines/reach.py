@@ -21,6 +21,7 @@ from posgmc.engines.common import (
     _first_choices,
     _reacher_fix,
     _result,
+    _local_rows,
     _solve_system,
 )
 from posgmc.engines.graph import Structure, almost_sure_reach, positive_reach, structure_of
@@ -85,6 +86,8 @@ def reach_probability(
             outer_max=True,
             idle_min=True,
             is_chain=not nondet,
+            initial_rows=(None if options.initial_strategy is None
+                          else _local_rows(sys, options.initial_strategy)),
         )
     strategy = None
     if options.want_strategy:

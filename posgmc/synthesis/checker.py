@@ -56,8 +56,12 @@ class SynthesisChecker:
             maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
             bare = dataclasses.replace(expr, threshold=None,
                                        direction=Direction.MAX if maximize else Direction.MIN)
+        # the time budget: 4/5 for the search (its verification is quick: candidates are
+        # sharpened), the rest for the adversaries; at least a second each
+        started = time.perf_counter()
+        search = dataclasses.replace(self.synthesis, timeout=self.synthesis.timeout * 0.8)
         result = synthesize(self.model, bare, player=player, coalition_of=self.coalition_of,
-                            scalar=self.scalar, options=self.synthesis, check_options=self.options)
+                            scalar=self.scalar, options=search, check_options=self.options)
         g, full = result.guaranteed, result.full_observation
         maximizing = bare.direction is Direction.MAX or (
             bare.direction is None and expr.threshold is not None
@@ -66,10 +70,10 @@ class SynthesisChecker:
         enumeration = None
         others = [p for p in range(len(self.model.player_names)) if p != player]
         if len(others) == 1 and self.synthesis.adversaries > 0:
-            # the one-sided view: the adversary's deterministic memoryless strategies
-            # within a share of the time budget (a quarter, at least a few seconds)
+            # the one-sided view: the adversary's deterministic memoryless strategies, within
+            # what is left of the time budget
             t0 = time.perf_counter()
-            deadline = t0 + max(self.synthesis.timeout / 4, 3.0)
+            deadline = max(started + self.synthesis.timeout, t0 + 1.0)
             enumeration = enumerate_adversaries(self.model, others[0], limit=self.synthesis.adversaries,
                                                 deadline=deadline)
             vs, ub, evaluated = versus_adversaries(

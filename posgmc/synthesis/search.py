@@ -176,14 +176,15 @@ def synthesize(
             evaluations += n_eval
             t_search += time.perf_counter() - t0
             g, d = par.probabilities(la, ld)
-            candidates.append((g, d, (la, ld)))
+            candidates.append((*par.sharpened(g, d), (la, ld)))
             candidates.append((*par.hardened(g, d), (la, ld)))
+            candidates.append((g, d, (la, ld)))
             if time.perf_counter() > deadline:
                 partial = True
                 break
         # deterministic neighbours of the best hardened candidate: one rule changed at a time
         t0 = time.perf_counter()
-        hard = [c for c in candidates[1::2]]
+        hard = [c for c in candidates[1::3]]
         if hard and time.perf_counter() < deadline:
             g, d, logits = max(hard, key=lambda c: sign * par.evaluate(c[0], c[1], gradient=False).value)
             (g, d), n_eval = _local_search(par, g, d, sign, deadline)
@@ -192,9 +193,11 @@ def synthesize(
         t_search += time.perf_counter() - t0
         # verify the most promising candidates (by their float value) with the sound engines
         t0 = time.perf_counter()
+        # rounded to 1e-7, so that on a near-tie the stable sort keeps the sharpened (or deterministic) version,
+        # which is simpler and verified far faster than the softmax's near-deterministic one
         scored = sorted(
             candidates,
-            key=lambda c: -sign * par.evaluate(c[0], c[1], gradient=False).value,
+            key=lambda c: round(-sign * par.evaluate(c[0], c[1], gradient=False).value, 7),
         )
         round_best: tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None = None
         for g, d, logits in scored[: options.verify]:
