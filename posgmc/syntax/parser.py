@@ -47,7 +47,8 @@ __all__ = [
 ]
 
 # PRISM's own pattern (parser/ast/Property.java): the expected value is the first word after ':'.
-_RESULT = re.compile(r"RESULT[ \t]*(\(([^)]+)\))?[ \t]*:[ \t]*([^ \t\n\r]+)")
+# the value: an interval "[lo, hi]" (spaces allowed inside) or one token
+_RESULT = re.compile(r"RESULT[ \t]*(\(([^)]+)\))?[ \t]*:[ \t]*(\[[^\]\n\r]*\]|[^ \t\n\r]+)")
 _COMMENT = re.compile(r"//[^\n]*")
 
 
@@ -295,5 +296,8 @@ def _expected_results(
                         "// RESULT (guaranteed): 0.9",
                     )
                 constants.append((pair[0].strip(), pair[1].strip()))
-            results.append(ExpectedResult(match.group(3), tuple(constants), span=span, number=number))
+            value = match.group(3)
+            if value.startswith("["):
+                value = "".join(value.split())  # "[0.8, 1]" as PRISM writes it: "[0.8,1]"
+            results.append(ExpectedResult(value, tuple(constants), span=span, number=number))
     return tuple(results)

@@ -106,3 +106,13 @@ def test_check_writes_a_junit_report(tmp_path: Path) -> None:
     assert r.exit_code == 2  # the third property is an error
     xml = report.read_text()
     assert 'tests="3"' in xml and 'failures="1"' in xml and 'errors="1"' in xml
+
+
+def test_an_interval_may_have_spaces_inside(tmp_path: Path) -> None:
+    """``// RESULT: [1.0, 2.0]`` as people write it (PRISM's own files write ``[1.0,2.0]``); the
+    expected steps are 1.5 at p=0.5, so the first passes and the second fails."""
+    m, p = _files(tmp_path, '// RESULT: [ 1.0 , 2.0 ]\nR{"steps"}=? [ F x=2 ];\n'
+                            '// RESULT: [1.6, 2.0]\nR{"steps"}=? [ F x=2 ];\n')
+    r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5"])
+    assert r.output.strip().splitlines()[-1] == "1 passed, 1 failed", r.output
+    assert "expected [1.6,2.0]" in r.output
