@@ -36,7 +36,7 @@ from scipy.sparse.linalg import splu
 
 from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.engines.options import Method, SolverOptions
-from posgmc.engines.graph import positive_reach, structure_of
+from posgmc.engines.graph import almost_sure_reach, positive_reach, structure_of
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
@@ -182,11 +182,16 @@ class Parametrisation:
             reach = positive_reach(structure_of_chain(chain), tgt, rem, existential=np.ones(S, bool))
             unknown = reach & ~tgt
             x = tgt.astype(np.float64)
-        else:  # discounted cost until the target: x = r + g P x off the target, 0 on it
+        elif g_disc < 1.0:  # discounted cost until the target: x = r + g P x off the target
             unknown = ~tgt
             x = np.zeros(S)
+        else:  # expected reward until the target (PRISM's F): infinite unless reached surely
+            sure, _ = almost_sure_reach(structure_of_chain(chain), tgt, np.ones(S, dtype=bool),
+                                        existential=np.ones(S, dtype=bool))
+            unknown = sure & ~tgt
+            x = np.where(sure, 0.0, np.inf)
         U = np.flatnonzero(unknown)
-        if U.size == 0:
+        if U.size == 0 or not np.isfinite(x[init]):
             return Evaluation(float(x[init]), zero_a, zero_d)
         PUU = chain[U][:, U].tocsc()
         if self.rewards is None:
@@ -206,7 +211,11 @@ class Parametrisation:
         y[U] = y_u
         # values on the (state, node) grid, for W[c, n'] = Σ_s' P(c, s') x(s', n')
         grid = np.zeros((m.num_states, self.k))
-        grid[prod.state_of, prod.memory_of[:, 0]] = x
+        # an infinite value (a reward never ending) enters the gradient as a large finite one, so
+        # that moving towards it is strongly rewarded (Rmax) or punished (Rmin) but stays a number
+        finite = np.isfinite(x)
+        big = 10.0 * (float(np.abs(x[finite]).max(initial=0.0)) + 1.0)
+        grid[prod.state_of, prod.memory_of[:, 0]] = np.where(finite, x, big)
         W = g_disc * np.asarray(m.transitions @ grid)  # [C, k]
         # every defence product state with weight y: its choices c, node n, observation z
         defend = np.flatnonzero(self.owned[prod.state_of] & (y != 0))

@@ -95,14 +95,20 @@ def _objective(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: Pro
             if path.op is TemporalOp.UNTIL:
                 return checker._states(path.operands[1]), checker._states(path.operands[0]), None, 1.0
             return checker._states(path.operands[0]), np.ones(model.num_states, dtype=bool), None, 1.0
-    if isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.DISCOUNTED_REACH:
-        assert expr.objective.target is not None  # noqa: S101 - Fdiscount has a target
+    if isinstance(expr, RewardQuery) and expr.objective.kind in (RewardKind.DISCOUNTED_REACH,
+                                                                  RewardKind.REACH):
+        assert expr.objective.target is not None  # noqa: S101 - F and Fdiscount have a target
         rewards = model.reward_model(expr.reward).choice_rewards(model.row_groups)
+        if rewards.size and rewards.min() < 0:
+            raise UnsupportedError("synthesis needs non-negative rewards", expr.span)
+        discount = (1.0 if expr.objective.kind is RewardKind.REACH
+                    else checker._discount(expr.objective.discount))
         return (checker._states(expr.objective.target), np.ones(model.num_states, dtype=bool),
-                rewards, checker._discount(expr.objective.discount))
+                rewards, discount)
     raise UnsupportedError(
-        "synthesis supports <<d>> Pmax/Pmin=? [ F b ] or [ a U b ] and the discounted cost "
-        "<<d>> R{\"c\"}min/max=? [ Fdiscount=g b ] so far",
+        "synthesis supports <<d>> Pmax/Pmin=? [ F b ] or [ a U b ], the expected reward "
+        "<<d>> R{\"c\"}min/max=? [ F b ] and the discounted cost <<d>> R{\"c\"}min/max=? "
+        "[ Fdiscount=g b ] so far",
         expr.span,
         hint="check other objectives under a given strategy (--strategy PLAYER=FILE)",
     )
@@ -235,8 +241,10 @@ def synthesize(
 
 def _better(a: Bound, b: Bound, maximize: bool) -> bool:
     """Whether ``a`` proves more than ``b`` (a higher lower bound for max, a lower upper bound for
-    min)."""
-    return a.lower > b.lower if maximize else a.upper < b.upper
+    min) by more than the numerical noise of the candidates' checks (1e-9 relative): a larger
+    memory that only gains noise does not replace a smaller strategy."""
+    margin = 1e-9 * max(1.0, abs(b.value)) if np.isfinite(b.value) else 0.0
+    return a.lower > b.lower + margin if maximize else a.upper < b.upper - margin
 
 
 def _ascend(par: Parametrisation, la: np.ndarray, ld: np.ndarray, sign: float,

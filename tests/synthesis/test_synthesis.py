@@ -172,3 +172,48 @@ def test_discounted_cost_synthesis_reaches_the_full_observation_optimum() -> Non
                    options=SynthesisOptions(memory=(1,), restarts=0, iterations=10, timeout=30))
     assert r.guaranteed.lower - 1e-6 <= 3.8826229 <= r.guaranteed.upper + 1e-6
     assert r.full_observation.lower <= r.guaranteed.upper + 1e-9
+
+
+def test_expected_reward_until_a_target_where_paynt_fails() -> None:
+    """testing-rewards: ``<<0>> Rmax=? [F "done"]``, which PAYNT 0.5 and Storm's POSMG path refuse
+    ("The reward model is not unique", RESULTS.md); its full-observation value is 4 (Storm 4.0000024
+    on the SMG). A memoryless defence already reaches it, and memory 1 is what is reported."""
+    model, resolve = _game("testing-rewards")
+    result = synthesize(model, _query('<<0>> Rmax=? [F "done"]'), player=0, coalition_of=resolve,
+                        scalar=api._scalar, options=SynthesisOptions(memory=(1, 2), timeout=20))
+    assert result.guaranteed.lower <= 4.0 <= result.guaranteed.upper
+    assert result.full_observation.lower <= 4.0 <= result.full_observation.upper
+    assert result.strategy.memory_size == 1
+
+
+# by hand: the agent cannot see whether it is in s=0, s=1 or s=2 (from s=0 either action moves
+# to s=1 or s=2, 1/2 each, for free); "a" reaches the goal from s=1 (cost
+# 1) and loops in s=2, "b" the other way round. Every memoryless strategy that reaches the goal
+# almost surely randomises: with P(a) = q the expected cost is 1/2 (1/q) + 1/2 (1/(1-q)), least at
+# q = 1/2: Rmin = 2 (full observation: 1). A deterministic strategy's cost is infinite.
+BLIND = """
+pomdp
+observables o endobservables
+module m
+  s : [0..3] init 0;
+  o : [0..1] init 0;
+  [a] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
+  [b] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
+  [a] s=1 -> (s'=3)&(o'=1);
+  [b] s=1 -> (s'=1);
+  [a] s=2 -> (s'=2);
+  [b] s=2 -> (s'=3)&(o'=1);
+  [a] s=3 -> true;
+  [b] s=3 -> true;
+endmodule
+rewards "cost" [a] s=1|s=2 : 1; [b] s=1|s=2 : 1; endrewards
+"""
+
+
+def test_expected_cost_needs_randomisation() -> None:
+    report = api.check(api.load(text=BLIND), properties=['R{"cost"}min=? [ F s=3 ]'],
+                       synthesis=SynthesisOptions(memory=(1,), timeout=20, seed=0))
+    r = report.results[0]
+    assert r.full_observation.lower <= 1.0 <= r.full_observation.upper
+    # a sound upper bound on what the synthesised strategy costs, close to the optimum 2
+    assert 2.0 - 1e-6 <= r.guaranteed.upper <= 2.05
