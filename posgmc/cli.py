@@ -157,30 +157,46 @@ def main() -> None:
 @click.argument("props", nargs=-1, type=click.Path(dir_okay=False))
 @click.option("--prop", "prop_texts", multiple=True, metavar="TEXT", help="A property, as text.")
 @click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
+@click.option("--each", is_flag=True,
+              help="Every argument is a model (as pre-commit passes changed files); a properties file "
+              "beside it with the same name and .props is checked with it; .props arguments are skipped.")
 @_common
 def lint(
     model: str,
     props: tuple[str, ...],
     prop_texts: tuple[str, ...],
     zero_based_players: bool,
+    each: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
     """Parse and check MODEL and PROPS files without building; print every error."""
+    from pathlib import Path
+
     from posgmc import api
+
+    jobs: list[tuple[str, tuple[str, ...]]] = [(model, props)]
+    if each:
+        jobs = []
+        for path in (model, *props):
+            if path.endswith(".props"):
+                continue
+            beside = Path(path).with_suffix(".props")
+            jobs.append((path, (str(beside),) if beside.exists() else ()))
 
     def run() -> int:
         _, combos = expand_constants(consts)
         errors: list[PosgmcError] = []
         for constants in combos or [{}]:
-            for e in api.lint(
-                model,
-                props,
-                constants=constants,
-                property_texts=prop_texts,
-                zero_based_players=zero_based_players,
-            ):
-                errors += e.errors if isinstance(e, MultipleErrors) else [e]
+            for job_model, job_props in jobs:
+                for e in api.lint(
+                    job_model,
+                    job_props,
+                    constants=constants,
+                    property_texts=prop_texts,
+                    zero_based_players=zero_based_players,
+                ):
+                    errors += e.errors if isinstance(e, MultipleErrors) else [e]
         seen = set()
         for e in errors:
             text = e.render()
@@ -190,7 +206,8 @@ def lint(
         if errors:
             click.echo(f"{len(seen)} error(s)", err=True)
             return EXIT_ERROR
-        click.echo(f"{model}: ok")
+        for job_model, _ in jobs:
+            click.echo(f"{job_model}: ok")
         return EXIT_OK
 
     _guard(debug, run)

@@ -99,8 +99,6 @@ def _objective(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: Pro
                                                                   RewardKind.REACH):
         assert expr.objective.target is not None  # noqa: S101 - F and Fdiscount have a target
         rewards = model.reward_model(expr.reward).choice_rewards(model.row_groups)
-        if rewards.size and rewards.min() < 0:
-            raise UnsupportedError("synthesis needs non-negative rewards", expr.span)
         discount = (1.0 if expr.objective.kind is RewardKind.REACH
                     else checker._discount(expr.objective.discount))
         return (checker._states(expr.objective.target), np.ones(model.num_states, dtype=bool),
@@ -156,73 +154,61 @@ def synthesize(
 
     verifier = StrategyChecker  # built per candidate (its products are cached per checker)
     rng = np.random.default_rng(options.seed)
-    rounds: list[MemoryRound] = []
     best: tuple[FiniteStateStrategy, Bound] | None = None
     best_logits: tuple[np.ndarray, np.ndarray] | None = None
     partial = False
     evaluations = 0
     t_search = t_verify = 0.0
-    for k in options.memory:
-        if time.perf_counter() > deadline and best is not None:
-            partial = True
-            break
-        round_start = time.perf_counter()
-        par = Parametrisation(model, player, k, query, target, remain,
-                              coalition_of=coalition_of, scalar=scalar, rewards=rewards,
-                              discount=discount)
-        starts = [_projected(par, full, model)]
-        if best_logits is not None:
-            starts.append(_embedded(par, *best_logits))
-        for _ in range(options.restarts):
-            starts.append((rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])))
-        candidates: list[tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]] = []
-        for la, ld in starts:
-            t0 = time.perf_counter()
-            (la, ld), n_eval = _ascend(par, la, ld, sign, options, deadline)
-            evaluations += n_eval
-            t_search += time.perf_counter() - t0
-            g, d = par.probabilities(la, ld)
-            candidates.append((*par.sharpened(g, d), (la, ld)))
-            candidates.append((*par.hardened(g, d), (la, ld)))
-            candidates.append((g, d, (la, ld)))
-            if time.perf_counter() > deadline:
+    # pass 0 tries every memory size from the projected full-observation strategy (and the best
+    # smaller one, embedded); later passes restart each size from new random points (and the best
+    # so far) for as long as a pass improves the best, at most _MAX_PASSES, within the budget
+    params: dict[int, Parametrisation] = {}
+    round_of: dict[int, MemoryRound] = {}
+    for pass_no in range(_MAX_PASSES):
+        improved = False
+        for k in options.memory:
+            if time.perf_counter() > deadline and best is not None:
                 partial = True
                 break
-        # deterministic neighbours of the best hardened candidate: one rule changed at a time
-        t0 = time.perf_counter()
-        hard = [c for c in candidates[1::3]]
-        if hard and time.perf_counter() < deadline:
-            g, d, logits = max(hard, key=lambda c: sign * par.evaluate(c[0], c[1], gradient=False).value)
-            (g, d), n_eval = _local_search(par, g, d, sign, deadline)
+            round_start = time.perf_counter()
+            if k not in params:
+                params[k] = Parametrisation(model, player, k, query, target, remain,
+                                            coalition_of=coalition_of, scalar=scalar,
+                                            rewards=rewards, discount=discount)
+            par = params[k]
+            starts = [_projected(par, full, model)] if pass_no == 0 else []
+            if best_logits is not None and best is not None and best[0].memory_size <= k:
+                la0, ld0 = _embedded(par, *best_logits)
+                starts.append((la0, ld0))
+                if best[0].memory_size < k:
+                    # the embedding is a stationary point of the larger space (the new nodes
+                    # copy node 0): perturbed copies let the nodes specialise
+                    for _ in range(2):
+                        starts.append((la0 + rng.normal(size=la0.shape),
+                                       ld0 + 2.0 * rng.normal(size=ld0.shape)))
+            for _ in range(options.restarts):
+                starts.append((rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])))
+            found, n_eval, seconds = _round(par, starts, sign, options, deadline, model, query,
+                                            coalition_of, scalar, maximize)
             evaluations += n_eval
-            candidates.append((g, d, logits))
-        t_search += time.perf_counter() - t0
-        # verify the most promising candidates (by their float value) with the sound engines
-        t0 = time.perf_counter()
-        # rounded to 1e-7, so that on a near-tie the stable sort keeps the sharpened (or deterministic) version,
-        # which is simpler and verified far faster than the softmax's near-deterministic one
-        scored = sorted(
-            candidates,
-            key=lambda c: round(-sign * par.evaluate(c[0], c[1], gradient=False).value, 7),
-        )
-        round_best: tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None = None
-        for g, d, logits in scored[: options.verify]:
-            fss = par.strategy(g, d)
-            r = verifier(model, {fss.player: fss}, coalition_of=coalition_of, scalar=scalar,
-                         options=_POLICY).check(query, text="synthesis")
-            bound = r.guaranteed
-            assert bound is not None  # noqa: S101 - the decision maker's strategy is given
-            if round_best is None or _better(bound, round_best[1], maximize):
-                round_best = (fss, bound, logits)
-        t_verify += time.perf_counter() - t0
-        assert round_best is not None  # noqa: S101 - at least the projected start
-        if best is None or _better(round_best[1], best[1], maximize):
-            best = (round_best[0], round_best[1])
-            best_logits = round_best[2]
-        # else the smaller defence stays: embedded into k nodes (_embed_strategy) it guarantees
-        # exactly as much, so k never does worse; the smaller one is reported
-        rounds.append(MemoryRound(k, best[1], best[0].is_deterministic, evaluations,
-                                  time.perf_counter() - round_start))
+            t_search += seconds[0]
+            t_verify += seconds[1]
+            if time.perf_counter() > deadline:
+                partial = True
+            if found is not None and (best is None or _better(found[1], best[1], maximize)):
+                best = (found[0], found[1])
+                best_logits = found[2]
+                improved = True
+            # else the smaller defence stays: embedded into k nodes (_embed_strategy) it
+            # guarantees exactly as much, so k never does worse; the smaller one is reported
+            assert best is not None  # noqa: S101 - the first round always yields a candidate
+            previous = round_of.get(k)
+            round_of[k] = MemoryRound(k, best[1], best[0].is_deterministic,
+                                      evaluations, (previous.seconds if previous else 0.0)
+                                      + time.perf_counter() - round_start)
+        if partial or not improved:
+            break
+    rounds = [round_of[k] for k in options.memory if k in round_of]
     phases["gradient search"] = t_search
     phases["candidates (policy iteration)"] = t_verify
     assert best is not None  # noqa: S101 - the first memory size always runs
@@ -237,6 +223,58 @@ def synthesize(
     assert final.guaranteed is not None  # noqa: S101 - the decision maker's strategy is given
     guaranteed, method = final.guaranteed, final.method
     return SynthesisResult(best[0], guaranteed, full_bound, tuple(rounds), partial, phases, method)
+
+
+_MAX_PASSES = 4
+"""Passes over the memory sizes: further ones restart from new random points while they improve."""
+
+
+def _round(par: Parametrisation, starts: list[tuple[np.ndarray, np.ndarray]], sign: float,
+           options: SynthesisOptions, deadline: float, model: ExplicitModel, query: Expr,
+           coalition_of, scalar, maximize: bool,  # type: ignore[no-untyped-def]
+           ) -> tuple[tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None,
+                      int, tuple[float, float]]:
+    """Gradient ascent from each start, a local search around the best deterministic candidate,
+    and the most promising candidates checked by policy iteration on their products. Returns the
+    best (strategy, its bound, its logits), the number of evaluations and (search, check) seconds."""
+    evaluations = 0
+    t0 = time.perf_counter()
+    candidates: list[tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]] = []
+    for la, ld in starts:
+        (la, ld), n_eval = _ascend(par, la, ld, sign, options, deadline)
+        evaluations += n_eval
+        g, d = par.probabilities(la, ld)
+        candidates.append((*par.sharpened(g, d), (la, ld)))
+        candidates.append((*par.hardened(g, d), (la, ld)))
+        candidates.append((g, d, (la, ld)))
+        if time.perf_counter() > deadline:
+            break
+    # deterministic neighbours of the best hardened candidate: one rule changed at a time
+    hard = candidates[1::3]
+    if hard and time.perf_counter() < deadline:
+        g, d, logits = max(hard, key=lambda c: sign * par.evaluate(c[0], c[1], gradient=False).value)
+        (g, d), n_eval = _local_search(par, g, d, sign, deadline)
+        evaluations += n_eval
+        candidates.append((g, d, logits))
+    t_search = time.perf_counter() - t0
+    # verify the most promising candidates (by their float value) with policy iteration; rounded
+    # to 1e-7, so that on a near-tie the stable sort keeps the sharpened (or deterministic)
+    # version, which is simpler and verified far faster than the softmax's near-deterministic one
+    t0 = time.perf_counter()
+    scored = sorted(
+        candidates,
+        key=lambda c: round(-sign * par.evaluate(c[0], c[1], gradient=False).value, 7),
+    )
+    best: tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None = None
+    for g, d, logits in scored[: options.verify]:
+        fss = par.strategy(g, d)
+        r = StrategyChecker(model, {fss.player: fss}, coalition_of=coalition_of, scalar=scalar,
+                            options=_POLICY).check(query, text="synthesis")
+        bound = r.guaranteed
+        assert bound is not None  # noqa: S101 - the decision maker's strategy is given
+        if best is None or _better(bound, best[1], maximize):
+            best = (fss, bound, logits)
+    return best, evaluations, (t_search, time.perf_counter() - t0)
 
 
 def _better(a: Bound, b: Bound, maximize: bool) -> bool:
