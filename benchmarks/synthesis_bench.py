@@ -103,7 +103,10 @@ def main() -> None:
             if "value" in b:
                 maximize = "max" in prop
                 diff = (g.lower - b["value"]) if maximize else (b["value"] - g.upper)
-                better = "posgmc" if diff > 1e-6 else "PAYNT" if diff < -1e-6 else "equal"
+                # equal within the precision of the proven bounds (1e-6 absolute) and PAYNT's
+                # printed digits (6 significant)
+                tol = max(2e-6, 1e-6 * abs(b["value"]))
+                better = "posgmc" if diff > tol else "PAYNT" if diff < -tol else "equal"
             else:
                 better = "posgmc (PAYNT fails)"
         theirs = f"{b['value']:.6f}" if "value" in b else f"fails: {b['error']}"

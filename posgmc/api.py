@@ -612,6 +612,67 @@ def _check_constant_names(session: Session, property_files: Sequence[str | Path]
         raise errors[0] if len(errors) == 1 else MultipleErrors(errors)
 
 
+def synthesize(
+    session: Session,
+    prop: str,
+    *,
+    memory: int | Sequence[int] | Mapping[str, int | Sequence[int]] | None = None,
+    timeout: float = 30.0,
+    seed: int = 0,
+    adversaries: int = 50,
+    zero_based_players: bool = False,
+    build_options: BuildOptions = BuildOptions(),
+    built: BuiltModel | None = None,
+) -> PropertyResult:
+    """Synthesise a finite-state strategy for the coalition of ``prop`` on a partially observable
+    model, and verify it (docs/synthesis.md).
+
+    Args:
+        session: from :func:`load` (a ``pomdp`` or ``posg``, or a DRN POSMG).
+        prop: one ``P`` or ``R`` query, e.g. ``'<<rover>> Pmax=? [ F "goal" ]'``.
+        memory: the decision maker's memory sizes (``2`` or ``(1, 2, 3)``), or sizes by player
+            name (``{"rover": (1, 2), "attacker": 2}``: the adversary's strategies are enumerated
+            with its largest size). Default: 1..3 for the decision maker, 1 for the adversary.
+        timeout: seconds for the whole synthesis of the property.
+        seed: random seed (the search is deterministic given the seed and a budget it keeps to).
+        adversaries: how many adversary strategies to enumerate (0: none).
+
+    Returns:
+        The result: ``guaranteed`` (against every adversary), ``vs_fss_adversary``,
+        ``upper_bound``, ``full_observation``, each with proven bounds; ``strategies`` (the
+        decision maker's, then the worst adversary strategy found); ``synthesis`` (statistics).
+
+    Raises:
+        PosgmcError: the model, the property, or an objective synthesis does not cover.
+    """
+    from posgmc.synthesis.search import SynthesisOptions
+
+    def sizes(v: int | Sequence[int]) -> tuple[int, ...]:
+        out = (v,) if isinstance(v, int) else tuple(v)
+        if not out or any(not isinstance(k, int) or isinstance(k, bool) or k < 1 for k in out):
+            raise InputError(f"memory sizes must be positive ints, got {v!r}")
+        return out
+
+    options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries)
+    if isinstance(memory, Mapping):
+        options = dataclasses.replace(
+            options, player_memory=tuple(sorted((str(p), sizes(v)) for p, v in memory.items()))
+        )
+    elif memory is not None:
+        options = dataclasses.replace(options, memory=sizes(memory))
+    report = check(session, properties=[prop], build_options=build_options,
+                   zero_based_players=zero_based_players, built=built, synthesis=options)
+    outcome = report.outcomes[0]
+    if isinstance(outcome, tuple):
+        raise outcome[1]
+    if outcome.guaranteed is None:
+        raise UnsupportedError(
+            f"{session.path or 'the model'} is not partially observable: nothing to synthesise",
+            hint="use check(): its value is the optimum, with a memoryless strategy",
+        )
+    return outcome
+
+
 def load_strategies(
     strategies: Mapping[str, "FiniteStateStrategy | str | Path"],
 ) -> dict[str, "FiniteStateStrategy"]:

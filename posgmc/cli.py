@@ -338,8 +338,12 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
     help="A player's finite-state strategy (posgmc-fss/1 JSON); repeatable, one per player.",
 )
 @click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
-@click.option("--memory", "memory", default="auto", show_default=True, metavar="K|K1..K2|auto",
-              help="Synthesis: memory sizes of the decision maker's strategy (auto: 1..3).")
+@click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
+              help="Synthesis: memory sizes of the decision maker's strategy (default auto: 1..3); "
+              "PLAYER=... for a named player, e.g. --memory rover=2 --memory attacker=1 (the "
+              "adversary's strategies enumerated with that memory). Repeatable.")
+@click.option("--adversaries", type=click.IntRange(min=0), default=50, show_default=True,
+              help="Synthesis: how many adversary strategies to enumerate (0: none).")
 @click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True,
               help="Synthesis: seconds per property (anytime: the best defence so far is verified).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Synthesis: random seed.")
@@ -362,7 +366,8 @@ def check(
     full_observation: bool,
     strategy_files: tuple[str, ...],
     zero_based_players: bool,
-    memory: str,
+    memory: tuple[str, ...],
+    adversaries: int,
     timeout: float,
     seed: int,
     export_strategy: str | None,
@@ -400,7 +405,7 @@ def check(
                 full_observation=full_observation,
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
-                synthesis=_synthesis_options(memory, timeout, seed),
+                synthesis=_synthesis_options(memory, timeout, seed, adversaries),
             )
             if report.errors:
                 code = EXIT_ERROR
@@ -443,12 +448,7 @@ def _write_check_junit(path: str, model: str, swept: list[str], rows: list[tuple
     write_junit(path, model, cases)
 
 
-def _synthesis_options(memory: str, timeout: float, seed: int) -> Any:
-    """``--memory`` as memory sizes: ``2``, ``1..3``, ``auto`` (1..3), optionally ``player=...``
-    (the property's coalition is the decision maker either way)."""
-    from posgmc.synthesis.search import SynthesisOptions
-
-    text = memory.split("=", 1)[1] if "=" in memory else memory
+def _memory_sizes(text: str, given: str) -> tuple[int, ...]:
     try:
         if text == "auto":
             sizes: tuple[int, ...] = (1, 2, 3)
@@ -458,10 +458,33 @@ def _synthesis_options(memory: str, timeout: float, seed: int) -> Any:
         else:
             sizes = (int(text),)
     except ValueError:
-        raise click.BadParameter(f"{memory!r}: give K, K1..K2 or auto", param_hint="'--memory'") from None
+        raise click.BadParameter(f"{given!r}: give K, K1..K2 or auto, optionally after PLAYER=",
+                                 param_hint="'--memory'") from None
     if not sizes or min(sizes) < 1:
-        raise click.BadParameter(f"{memory!r}: memory sizes start at 1", param_hint="'--memory'")
-    return SynthesisOptions(memory=sizes, timeout=timeout, seed=seed)
+        raise click.BadParameter(f"{given!r}: memory sizes start at 1", param_hint="'--memory'")
+    return sizes
+
+
+def _synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
+                       adversaries: int = 50) -> Any:
+    """``--memory`` settings as memory sizes: ``2``, ``1..3``, ``auto`` (1..3) for the property's
+    coalition, or ``PLAYER=...`` for a named player (the decision maker or the adversary)."""
+    from posgmc.synthesis.search import SynthesisOptions
+
+    settings = [memory] if isinstance(memory, str) else list(memory)
+    unnamed: tuple[int, ...] = (1, 2, 3)
+    named: dict[str, tuple[int, ...]] = {}
+    for given in settings:
+        if "=" in given:
+            player, text = given.split("=", 1)
+            if player.strip() in named:
+                raise click.BadParameter(f"{given!r}: player {player.strip()!r} given twice",
+                                         param_hint="'--memory'")
+            named[player.strip()] = _memory_sizes(text.strip(), given)
+        else:
+            unnamed = _memory_sizes(given.strip(), given)
+    return SynthesisOptions(memory=unnamed, timeout=timeout, seed=seed, adversaries=adversaries,
+                            player_memory=tuple(sorted(named.items())))
 
 
 def _write_synthesised(directory: str, report: Any) -> None:

@@ -36,7 +36,7 @@ __all__ = ["test", "simulate", "show_strategy"]
 @click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation value.")
 @click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE")
 @click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
-@click.option("--memory", "memory", default="auto", show_default=True, metavar="K|K1..K2|auto")
+@click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto")
 @click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
 @_common
@@ -49,7 +49,7 @@ def test(
     full_observation: bool,
     strategy_files: tuple[str, ...],
     zero_based_players: bool,
-    memory: str,
+    memory: tuple[str, ...],
     timeout: float,
     seed: int,
     consts: tuple[str, ...],

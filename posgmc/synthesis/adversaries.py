@@ -7,7 +7,8 @@ adversary's states reachable in the model, exactly one label per observation. Af
 the strategy is applied (:mod:`posgmc.strategies.product`, the decision maker left free) and only
 the observations the adversary actually meets under it are blocked, so strategies that agree
 wherever they matter come once. The enumeration is *exhaustive* when the solver runs out of
-models. (Adversaries with memory, k□ > 1, are not enumerated yet.)
+models. With memory (k□ > 1) the update δ(n, z) is enumerated too (see
+:func:`enumerate_adversaries`).
 
 With the enumerated adversaries A and a defence σ:
 
@@ -48,17 +49,29 @@ class Enumeration:
     seconds: float
 
 
-def enumerate_adversaries(model: ExplicitModel, player: int, *, limit: int = 50,
+def enumerate_adversaries(model: ExplicitModel, player: int, *, memory: int = 1, limit: int = 50,
                           deadline: float | None = None) -> Enumeration:
-    """Deterministic memoryless strategies of ``player``, one per class on the reachable part.
+    """Deterministic finite-state strategies of ``player`` with ``memory`` nodes, one per class on
+    the reachable part.
+
+    Encoding (python-sat): for every memory node n and observation z of the adversary's states
+    reachable at all, one-hot variables for the action γ(n, z) among the labels offered there and,
+    with memory, for the next node δ(n, z) (the update of the chosen action). Symmetry breaking on
+    node names: node m > 1 is a successor only if node m - 1 is one too, so renamings of the nodes
+    come once as far as this ordering reaches. After each solution the strategy is applied
+    (:mod:`posgmc.strategies.product`, the decision maker left free) and the choices at the
+    (node, observation) pairs it actually meets are blocked together, so strategies that agree
+    wherever they matter come once.
 
     Args:
         model: the game.
         player: the adversary's index.
+        memory: its memory nodes (1: memoryless).
         limit: stop after this many strategies.
         deadline: ``time.perf_counter()`` value after which to stop.
     """
     started = time.perf_counter()
+    k = memory
     view = player_view(model, player)
     owned = model.state_players == player
     # observations of the adversary's states reachable at all (everyone free)
@@ -68,39 +81,69 @@ def enumerate_adversaries(model: ExplicitModel, player: int, *, limit: int = 50,
     offered = np.zeros((view.num_observations, A), dtype=bool)
     offered[view.state_obs[model.choice_states[rows]], model.choice_actions[rows]] = True
     obs = np.flatnonzero(offered.any(axis=1))
-    var: dict[tuple[int, int], int] = {}
-    for z in obs.tolist():
-        for a in np.flatnonzero(offered[z]).tolist():
-            var[(z, a)] = len(var) + 1
+    act: dict[tuple[int, int, int], int] = {}  # (n, z, a) -> variable
+    upd: dict[tuple[int, int, int], int] = {}  # (n, z, m) -> variable
+    for n in range(k):
+        for z in obs.tolist():
+            for a in np.flatnonzero(offered[z]).tolist():
+                act[(n, z, a)] = len(act) + len(upd) + 1
+            if k > 1:
+                for m in range(k):
+                    upd[(n, z, m)] = len(act) + len(upd) + 1
     solver = Solver(name="g3")
-    top = len(var)
-    for z in obs.tolist():
-        lits = [var[(z, a)] for a in np.flatnonzero(offered[z]).tolist()]
+    top = len(act) + len(upd)
+
+    def exactly_one(lits: list[int]) -> None:
+        nonlocal top
         enc = CardEnc.equals(lits=lits, bound=1, top_id=top, encoding=EncType.seqcounter)
         top = max(top, enc.nv)
         for clause in enc.clauses:
             solver.add_clause(clause)
+
+    for n in range(k):
+        for z in obs.tolist():
+            exactly_one([act[(n, z, a)] for a in np.flatnonzero(offered[z]).tolist()])
+            if k > 1:
+                exactly_one([upd[(n, z, m)] for m in range(k)])
+    for m in range(2, k):  # node m is a successor only if node m-1 is one
+        earlier = [v for (_, _, mm), v in upd.items() if mm == m - 1]
+        for (_, _, mm), v in upd.items():
+            if mm == m:
+                solver.add_clause([-v, *earlier])
     found: list[FiniteStateStrategy] = []
     exhaustive = False
     used_actions = np.flatnonzero(offered.any(axis=0))
     act_index = {a: i for i, a in enumerate(used_actions.tolist())}
+    zi = {z: i for i, z in enumerate(obs.tolist())}
     while len(found) < limit and (deadline is None or time.perf_counter() < deadline):
         if not solver.solve():
             exhaustive = True
             break
-        chosen = {z: a for (z, a), v in var.items() if solver.get_model()[v - 1] > 0}
-        gamma = np.zeros((1, obs.size, used_actions.size))
-        for i, z in enumerate(obs.tolist()):
-            gamma[0, i, act_index[chosen[z]]] = 1.0
+        sol = solver.get_model()
+        chosen = {(n, z): a for (n, z, a), v in act.items() if sol[v - 1] > 0}
+        nxt = {(n, z): m for (n, z, m), v in upd.items() if sol[v - 1] > 0}
+        gamma = np.zeros((k, obs.size, used_actions.size))
+        delta = np.zeros((k, obs.size, used_actions.size, k))
+        for (n, z), a in chosen.items():
+            gamma[n, zi[z], act_index[a]] = 1.0
+            delta[n, zi[z], :, nxt.get((n, z), n)] = 1.0
         fss = FiniteStateStrategy.from_arrays(
             player=view.name, observables=view.observables, observation_values=view.obs_values[obs],
             actions=tuple(model.action_names[a] for a in used_actions.tolist()), action=gamma,
+            update=delta,
         )
         found.append(fss)
-        # block the choice only where it matters: the observations met under this strategy
+        # block the choices only where they matter: the (node, observation) pairs met under them
         prod = strategy_product(model, [bind(model, fss)])
-        met = np.unique(view.state_obs[prod.state_of[owned[prod.state_of]]])
-        clause = [-var[(int(z), chosen[int(z)])] for z in met.tolist() if int(z) in chosen]
+        mine = owned[prod.state_of]
+        met = {(int(n), int(z)) for n, z in zip(prod.memory_of[mine, 0].tolist(),
+                                                  view.state_obs[prod.state_of[mine]].tolist())}
+        clause = []
+        for n, z in sorted(met):
+            if (n, z) in chosen:
+                clause.append(-act[(n, z, chosen[(n, z)])])
+                if k > 1:
+                    clause.append(-upd[(n, z, nxt[(n, z)])])
         if not clause:
             exhaustive = True  # the adversary never moves: one class only
             break
@@ -127,11 +170,12 @@ def _forward(model: ExplicitModel) -> np.ndarray:
 def versus_adversaries(model: ExplicitModel, expr: Expr, defence: FiniteStateStrategy,
                        adversaries: tuple[FiniteStateStrategy, ...], *, maximize: bool,
                        coalition_of, scalar, deadline: float | None = None,  # type: ignore[no-untyped-def]
-                       ) -> tuple[Bound | None, Bound | None, int]:
-    """(vs_fss_adversary, upper_bound, how many adversaries were evaluated) over ``adversaries``
-    (see the module docstring), stopping at ``deadline``: the worst for the decision maker of each
-    number, with its proven bounds."""
+                       ) -> tuple[Bound | None, Bound | None, int, FiniteStateStrategy | None]:
+    """(vs_fss_adversary, upper_bound, how many adversaries were evaluated, the adversary that
+    achieves vs_fss_adversary) over ``adversaries`` (see the module docstring), stopping at
+    ``deadline``: the worst for the decision maker of each number, with its proven bounds."""
     worst_vs: Bound | None = None
+    worst_adversary: FiniteStateStrategy | None = None
     worst_ub: Bound | None = None
 
     def worse(a: Bound, b: Bound | None) -> bool:
@@ -151,8 +195,8 @@ def versus_adversaries(model: ExplicitModel, expr: Expr, defence: FiniteStateStr
         vs_b = Bound(float(vs.value), vs.lower, vs.upper, vs.sound and vs.converged)  # type: ignore[arg-type]
         ub_b = Bound(float(ub.value), ub.lower, ub.upper, ub.sound and ub.converged)  # type: ignore[arg-type]
         if worse(vs_b, worst_vs):
-            worst_vs = vs_b
+            worst_vs, worst_adversary = vs_b, adv
         if worse(ub_b, worst_ub):
             worst_ub = ub_b
         done += 1
-    return worst_vs, worst_ub, done
+    return worst_vs, worst_ub, done, worst_adversary

@@ -59,24 +59,29 @@ class SynthesisChecker:
         # the time budget: 4/5 for the search (its verification is quick: candidates are
         # sharpened), the rest for the adversaries; at least a second each
         started = time.perf_counter()
-        search = dataclasses.replace(self.synthesis, timeout=self.synthesis.timeout * 0.8)
+        others = [p for p in range(len(self.model.player_names)) if p != player]
+        names = self.model.player_names
+        settings = self.synthesis.for_players(
+            names[player] if names else "", names[others[0]] if len(others) == 1 else None,
+            tuple(names) if names else ("",),
+        )
+        search = dataclasses.replace(settings, timeout=settings.timeout * 0.8)
         result = synthesize(self.model, bare, player=player, coalition_of=self.coalition_of,
                             scalar=self.scalar, options=search, check_options=self.options)
         g, full = result.guaranteed, result.full_observation
         maximizing = bare.direction is Direction.MAX or (
             bare.direction is None and expr.threshold is not None
             and expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT))
-        vs = ub = None
+        vs = ub = worst = None
         enumeration = None
-        others = [p for p in range(len(self.model.player_names)) if p != player]
-        if len(others) == 1 and self.synthesis.adversaries > 0:
+        if len(others) == 1 and settings.adversaries > 0:
             # the one-sided view: the adversary's deterministic memoryless strategies, within
             # what is left of the time budget
             t0 = time.perf_counter()
             deadline = max(started + self.synthesis.timeout, t0 + 1.0)
-            enumeration = enumerate_adversaries(self.model, others[0], limit=self.synthesis.adversaries,
-                                                deadline=deadline)
-            vs, ub, evaluated = versus_adversaries(
+            enumeration = enumerate_adversaries(self.model, others[0], memory=settings.adversary_memory,
+                                                limit=settings.adversaries, deadline=deadline)
+            vs, ub, evaluated, worst = versus_adversaries(
                 self.model, bare, result.strategy, enumeration.strategies, maximize=maximizing,
                 coalition_of=self.coalition_of, scalar=self.scalar, deadline=deadline,
             )
@@ -117,8 +122,11 @@ class SynthesisChecker:
             exhaustive = enumeration.exhaustive and evaluated == len(enumeration.strategies)
             stats["adversaries_kept"] = evaluated
             stats["exhaustive"] = exhaustive
+            stats["adversary_memory"] = settings.adversary_memory
+            adversary_kind = ("memoryless" if settings.adversary_memory == 1
+                    else f"{settings.adversary_memory}-node finite-state")
             note += ("; vs_fss_adversary: its worst value against the adversary's deterministic "
-                     "memoryless strategies enumerated" + (" (all of them)" if exhaustive
+                     f"{adversary_kind} strategies enumerated" + (" (all of them)" if exhaustive
                      else f" (the first {evaluated})") + "; upper_bound: no "
                      "defence does better against those adversaries")
         return PropertyResult(
@@ -127,5 +135,5 @@ class SynthesisChecker:
             converged=True, sound=g.sound, note=note, per_initial=(value,),
             guaranteed=g, vs_fss_adversary=vs, upper_bound=ub,
             memory=((player_name, result.strategy.memory_size),),
-            full_observation=full, synthesis=stats, strategies=(result.strategy,),
+            full_observation=full, synthesis=stats, strategies=(result.strategy,) + ((worst,) if worst is not None else ()),
         )

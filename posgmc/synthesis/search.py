@@ -22,7 +22,7 @@ import numpy as np
 from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import Bound
 from posgmc.engines.options import Method, SolverOptions
-from posgmc.errors import UnsupportedError
+from posgmc.errors import InputError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
@@ -41,8 +41,11 @@ class SynthesisOptions:
     """``memory``: the memory sizes to try in order; ``timeout``: seconds for the whole search;
     ``restarts``: random starts per memory size; ``iterations``: gradient steps per start;
     ``verify``: how many of the best candidates (by float value) the sound engines verify;
-    ``adversaries``: how many of the adversary's deterministic memoryless strategies to enumerate
-    for ``vs_fss_adversary`` and ``upper_bound`` (:mod:`posgmc.synthesis.adversaries`)."""
+    ``adversaries``: how many of the adversary's deterministic strategies to enumerate for
+    ``vs_fss_adversary`` and ``upper_bound`` (:mod:`posgmc.synthesis.adversaries`), with
+    ``adversary_memory`` nodes. ``player_memory``: memory sizes by player name (``--memory
+    rover=1..3 --memory attacker=2``); the decision maker's entry replaces ``memory``, the
+    adversary's (its largest size) ``adversary_memory``."""
 
     memory: tuple[int, ...] = (1, 2, 3)
     timeout: float = 30.0
@@ -52,6 +55,25 @@ class SynthesisOptions:
     learning_rate: float = 0.3
     verify: int = 3
     adversaries: int = 50
+    adversary_memory: int = 1
+    player_memory: tuple[tuple[str, tuple[int, ...]], ...] = ()
+
+    def for_players(self, decision_maker: str, adversary: str | None,
+                    players: tuple[str, ...]) -> "SynthesisOptions":
+        """These options with ``player_memory`` resolved for a property's players.
+
+        Raises:
+            InputError: a name that is not a player of the model.
+        """
+        named = dict(self.player_memory)
+        unknown = sorted(set(named) - set(players))
+        if unknown:
+            raise InputError(
+                f"--memory names {', '.join(repr(u) for u in unknown)}, which is not a player of "
+                f"the model", hint=f"the players are {', '.join(players) or '(none)'}")
+        memory = named.get(decision_maker, self.memory)
+        adversary_memory = max(named[adversary]) if adversary in named else self.adversary_memory
+        return replace(self, memory=memory, adversary_memory=adversary_memory, player_memory=())
 
 
 @dataclass(frozen=True)
@@ -163,7 +185,9 @@ def synthesize(
     # smaller one, embedded); later passes restart each size from new random points (and the best
     # so far) for as long as a pass improves the best, at most _MAX_PASSES, within the budget
     params: dict[int, Parametrisation] = {}
-    round_of: dict[int, MemoryRound] = {}
+    best_of: dict[int, tuple[FiniteStateStrategy, Bound]] = {}
+    seconds_of: dict[int, float] = {}
+    evaluations_of: dict[int, int] = {}
     for pass_no in range(_MAX_PASSES):
         improved = False
         for k in options.memory:
@@ -201,14 +225,22 @@ def synthesize(
                 improved = True
             # else the smaller defence stays: embedded into k nodes (_embed_strategy) it
             # guarantees exactly as much, so k never does worse; the smaller one is reported
-            assert best is not None  # noqa: S101 - the first round always yields a candidate
-            previous = round_of.get(k)
-            round_of[k] = MemoryRound(k, best[1], best[0].is_deterministic,
-                                      evaluations, (previous.seconds if previous else 0.0)
-                                      + time.perf_counter() - round_start)
+            if found is not None and (k not in best_of or _better(found[1], best_of[k][1], maximize)):
+                best_of[k] = (found[0], found[1])
+            seconds_of[k] = seconds_of.get(k, 0.0) + time.perf_counter() - round_start
+            evaluations_of[k] = evaluations
         if partial or not improved:
             break
-    rounds = [round_of[k] for k in options.memory if k in round_of]
+    # per memory size: the best defence with at most that many nodes (a smaller one embeds)
+    rounds = []
+    upto: tuple[FiniteStateStrategy, Bound] | None = None
+    for k in options.memory:
+        if k not in best_of:
+            continue
+        if upto is None or _better(best_of[k][1], upto[1], maximize):
+            upto = best_of[k]
+        rounds.append(MemoryRound(k, upto[1], upto[0].is_deterministic, evaluations_of[k],
+                                  seconds_of[k]))
     phases["gradient search"] = t_search
     phases["candidates (policy iteration)"] = t_verify
     assert best is not None  # noqa: S101 - the first memory size always runs

@@ -70,7 +70,7 @@ def test_brute_force_max_min_is_below_upper_bound(seed: int) -> None:
     assert enum.exhaustive and 1 <= len(enum.strategies) <= len(d1)
     result = synthesize(model, q, player=0, coalition_of=coalition, scalar=api._scalar,
                         options=SynthesisOptions(memory=(1,), restarts=1, iterations=15, timeout=30))
-    vs, ub, evaluated = versus_adversaries(model, q, result.strategy, enum.strategies, maximize=True,
+    vs, ub, evaluated, _ = versus_adversaries(model, q, result.strategy, enum.strategies, maximize=True,
                                            coalition_of=coalition, scalar=api._scalar)
     assert evaluated == len(enum.strategies)
     assert maxmin <= ub.upper + 1e-6
@@ -86,3 +86,29 @@ def test_enumeration_counts_the_classes_that_matter() -> None:
         model = api.build(api.load(SHARED / name / "sketch.templ")).model
         enum = enumerate_adversaries(model, 1)
         assert enum.exhaustive and len(enum.strategies) == count
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_adversaries_with_memory_include_the_memoryless_ones(seed: int) -> None:
+    """Two-node adversaries (k□ = 2) contain every memoryless behaviour (a node that never
+    changes), so against a fixed defence the worst of them is at least as bad as the worst
+    memoryless one; every enumerated strategy is distinct on the reachable part (no two give the
+    same product); and enumeration is exhaustive on these small games."""
+    model, _, _ = _game(seed)
+    coalition = api._coalition_resolver(model, False)
+    q = parser.parse_property(PROP).expr
+    one = enumerate_adversaries(model, 1, limit=10_000)
+    two = enumerate_adversaries(model, 1, memory=2, limit=10_000)
+    assert one.exhaustive and two.exhaustive
+    assert len(two.strategies) >= len(one.strategies)
+    assert all(f.memory_size == 2 for f in two.strategies)
+    result = synthesize(model, q, player=0, coalition_of=coalition, scalar=api._scalar,
+                        options=SynthesisOptions(memory=(1,), restarts=1, iterations=10, timeout=30))
+    vs1, _, _, _ = versus_adversaries(model, q, result.strategy, one.strategies, maximize=True,
+                                      coalition_of=coalition, scalar=api._scalar)
+    vs2, _, _, worst = versus_adversaries(model, q, result.strategy, two.strategies, maximize=True,
+                                          coalition_of=coalition, scalar=api._scalar)
+    assert vs2.value <= vs1.value + 1e-9
+    assert worst is not None and worst.memory_size == 2
+    # still above what the defence guarantees against the omniscient adversary
+    assert result.guaranteed.lower <= vs2.upper + 1e-6

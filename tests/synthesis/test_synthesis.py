@@ -217,3 +217,48 @@ def test_expected_cost_needs_randomisation() -> None:
     assert r.full_observation.lower <= 1.0 <= r.full_observation.upper
     # a sound upper bound on what the synthesised strategy costs, close to the optimum 2
     assert 2.0 - 1e-6 <= r.guaranteed.upper <= 2.05
+
+
+BEACON = ROOT / "models" / "beacon" / "beacon.posg"
+
+
+def test_api_synthesize_returns_the_numbers_and_both_strategies() -> None:
+    """models/beacon: guaranteed 0.9 with two nodes, 0.5 with one (models/beacon/README.md); the
+    result carries the defence and the worst adversary strategy found, and per-k rounds that
+    never decrease."""
+    r = api.synthesize(api.load(BEACON), '<<rover>> Pmax=? [ F "safe" ]',
+                       memory={"rover": (1, 2), "jammer": 1}, timeout=20)
+    assert r.guaranteed.lower <= 0.9 <= r.guaranteed.upper
+    assert [f.player for f in r.strategies] == ["rover", "jammer"]
+    rounds = r.synthesis["rounds"]
+    assert [x["memory"] for x in rounds] == [1, 2]
+    assert rounds[0]["value_policy_iteration"] == pytest.approx(0.5, abs=1e-9)
+    assert rounds[1]["value_policy_iteration"] == pytest.approx(0.9, abs=1e-9)
+    assert r.synthesis["adversary_memory"] == 1 and r.synthesis["exhaustive"] is True
+
+
+def test_api_synthesize_refuses_bad_memory_and_full_observation_models() -> None:
+    from posgmc.errors import InputError, PosgmcError
+
+    with pytest.raises(InputError):
+        api.synthesize(api.load(BEACON), '<<rover>> Pmax=? [ F "safe" ]', memory=0)
+    with pytest.raises(PosgmcError) as info:
+        api.synthesize(api.load(ROOT / "models" / "rover.smg"), '<<rover>> Pmax=? [ F "goal" ]')
+    assert "not partially observable" in info.value.message
+
+
+def test_cli_memory_per_player_and_adversary_memory(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    r = CliRunner().invoke(main, ["check", str(BEACON), "--prop", '<<rover>> Pmax=? [ F "safe" ]',
+                                  "--memory", "rover=2", "--memory", "jammer=2", "--timeout", "20",
+                                  "--json", "--export-strategy", str(out)])
+    assert r.exit_code == 0, r.output
+    res = json.loads(r.output)["results"][0]
+    assert res["memory"] == {"rover": 2} and res["adversary_memory"] == 2
+    assert 0.9 - 1e-6 <= res["guaranteed"]["upper"] and res["guaranteed"]["lower"] <= 0.9 + 1e-6
+    # the worst two-node jammer found is exported beside the defence, and reads back
+    assert sorted(p.name for p in out.iterdir()) == ["jammer.json", "rover.json"]
+    assert api.load_strategy(out / "jammer.json").memory_size == 2
+    r = CliRunner().invoke(main, ["check", str(BEACON), "--prop", '<<rover>> Pmax=? [ F "safe" ]',
+                                  "--memory", "rovr=2"])
+    assert r.exit_code == 2 and "'rovr', which is not a player" in r.output
