@@ -91,3 +91,20 @@ def test_prism_games_results(benchmarks: Path, model: str, props: str, consts: s
                 exp = float(Fraction(expected))
                 assert outcome.lower - TOLERANCE <= exp <= outcome.upper + TOLERANCE, where
     assert checked > 0
+
+
+@pytest.mark.parametrize("model,props,consts", CASES)
+def test_posgmc_test_passes_prism_games_result_lines(model: str, props: str, consts: str) -> None:
+    """The same files through ``posgmc test`` (issue #10: the CI command users run on theirs)."""
+    from click.testing import CliRunner
+
+    from posgmc.cli import main
+
+    shared = Path(__file__).resolve().parents[3] / "shared" / "benchmarks"
+    if not (shared / model).exists():
+        pytest.skip("shared benchmarks not present")
+    args = ["test", str(shared / model), str(shared / props)] + (["--const", consts] if consts else [])
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0, r.output
+    summary = r.output.strip().splitlines()[-1]
+    assert summary.endswith(" 0 failed") and not summary.startswith("0 passed"), summary
