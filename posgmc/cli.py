@@ -642,7 +642,7 @@ def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str],
 
 # the strategy commands (test, simulate, show-strategy) live in their own module and register
 # themselves on ``main`` when imported
-from posgmc import cli_strategies  # noqa: E402,F401
+from posgmc import cli_strategies, cli_tradeoffs  # noqa: E402,F401
 
 if __name__ == "__main__":  # pragma: no cover
     # run as a script this file is __main__; the commands registered on the imported posgmc.cli

@@ -97,18 +97,18 @@ def _run_cli(*args: str) -> tuple[int, str]:
 
 def test_secure_autonomy_lints_clean() -> None:
     for props in ("secure_autonomy.props", "full_observation.props"):
-        assert api.lint(SECURE_MODEL, [SECURE / props], constants={"N": 3, "flash": False}) == []
+        assert api.lint(SECURE_MODEL, [SECURE / props], constants={"N": 3, "flash": False, "B": 1}) == []
 
 
 @pytest.mark.parametrize("n", sorted(SECURE_SIZES))
 def test_secure_autonomy_sizes(n: int) -> None:
-    m = api.build(api.load(SECURE_MODEL, constants={"N": n, "flash": False})).model
+    m = api.build(api.load(SECURE_MODEL, constants={"N": n, "flash": False, "B": 1})).model
     assert (m.num_states, m.num_choices, m.num_transitions) == SECURE_SIZES[n]
 
 
 @pytest.mark.slow
 def test_secure_autonomy_scales_to_a_million_states() -> None:
-    m = api.build(api.load(SECURE_MODEL, constants={"N": 8, "flash": False})).model
+    m = api.build(api.load(SECURE_MODEL, constants={"N": 8, "flash": False, "B": 1})).model
     assert (m.num_states, m.num_choices, m.num_transitions) == (962_169, 2_251_265, 3_828_196)
 
 
@@ -117,7 +117,7 @@ import json, sys, stormpy
 prog = stormpy.parse_prism_program(sys.argv[1])
 out = []
 for n in json.loads(sys.argv[2]):
-    inst = stormpy.io.instantiate_constants(prog, f"N={n},flash=false")[0]
+    inst = stormpy.io.instantiate_constants(prog, f"N={n},flash=false,B=1")[0]
     m = stormpy.build_model(inst)
     out.append([m.nr_states, m.nr_choices, m.nr_transitions])
 print(json.dumps(out))
@@ -149,7 +149,7 @@ def test_secure_autonomy_sizes_equal_storms(tmp_path: Path) -> None:
 def test_secure_autonomy_full_observation_results(n: int) -> None:
     """The // RESULT lines of full_observation.props (values: README.md)."""
     code, output = _run_cli("test", str(SECURE_MODEL), str(SECURE / "full_observation.props"),
-                            "--const", f"N={n},flash=false", "--full-observation")
+                            "--const", f"N={n},flash=false,B=1", "--full-observation")
     assert code == 0, output
     assert "0 failed" in output
 
@@ -158,7 +158,7 @@ def test_secure_autonomy_full_observation_results(n: int) -> None:
 def test_secure_autonomy_synthesis_gates() -> None:
     """The CI gates of secure_autonomy.props, on a synthesised memoryless defence."""
     code, output = _run_cli("test", str(SECURE_MODEL), str(SECURE / "secure_autonomy.props"),
-                            "--const", "N=3,flash=false", "--memory", "1", "--timeout", "60")
+                            "--const", "N=3,flash=false,B=1", "--memory", "1", "--timeout", "60")
     assert code == 0, output
     assert "3 passed, 0 failed" in output
 

@@ -1,0 +1,148 @@
+"""A trade-off front by sweeping a constant: one verified answer, and strategy, per point.
+
+For a partially observable model every point is a synthesised defence (:mod:`posgmc.synthesis`)
+with its proven ``guaranteed`` number, the ``full_observation`` bound beside it and, against the
+adversary strategies enumerated, ``upper_bound``; the strategies are written one directory per
+point, so a user can pick the point they want and deploy its strategy. For a fully observable
+model a point is the optimal value with its proven bounds. E.g. mission success against the
+adversary's take-down budget ``B = 0..2`` (models/secure_autonomy/README.md).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from posgmc.checking.results import Bound, PropertyResult
+from posgmc.errors import PosgmcError
+
+__all__ = ["Sweep", "SweepPoint", "sweep", "to_csv"]
+
+
+@dataclass(frozen=True, eq=False)
+class SweepPoint:
+    """One point: the swept constant's ``setting`` (as given, e.g. ``"2"``), its numeric ``x``,
+    and the property's result there (or the error that stopped it); ``strategy_dir`` holds the
+    point's ``<player>.json`` files when strategies were written."""
+
+    setting: str
+    x: float
+    result: PropertyResult | None
+    error: PosgmcError | None = None
+    strategy_dir: str | None = None
+
+    def main_number(self) -> Bound | None:
+        """What the point is worth to the decision maker: ``guaranteed`` when strategies are
+        synthesised, else the value with its bounds."""
+        r = self.result
+        if r is None:
+            return None
+        if r.guaranteed is not None:
+            return r.guaranteed
+        if isinstance(r.value, bool) or r.lower is None or r.upper is None:
+            return None
+        return Bound(float(r.value), float(r.lower), float(r.upper), r.sound)
+
+
+@dataclass(frozen=True, eq=False)
+class Sweep:
+    """The points of one property over one swept constant, in sweep order."""
+
+    constant: str
+    property: str
+    points: tuple[SweepPoint, ...]
+
+
+def sweep(
+    path: str | Path,
+    prop: str,
+    *,
+    constant: str,
+    settings: Sequence[Any],
+    constants: Mapping[str, Any] | None = None,
+    synthesis: Any = None,
+    full_observation: bool = False,
+    zero_based_players: bool = False,
+    strategy_dir: str | Path | None = None,
+) -> Sweep:
+    """Check (or synthesise for) ``prop`` at every value of ``constant``.
+
+    Args:
+        path: the model file.
+        prop: one property, e.g. ``'<<planner>> Pmax=? [ F "retrieved" ]'``.
+        constant: the swept constant (undefined in the model).
+        settings: its values, as ``--const`` would take them (``"0"``, ``2``, ``"1/3"``).
+        constants: the other undefined constants.
+        synthesis: :class:`~posgmc.synthesis.search.SynthesisOptions` for partially observable
+            models (default options when None).
+        strategy_dir: where to write each point's strategies, as ``<dir>/<constant>=<v>/``.
+
+    Returns:
+        The sweep; a point whose property fails keeps its error (the others go on, as in PRISM).
+    """
+    from posgmc import api
+    from posgmc.strategies.files import write_strategy
+
+    points = []
+    for setting in settings:
+        text = str(setting)
+        values = {**dict(constants or {}), constant: setting}
+        try:
+            session = api.load(path, constants=values)
+            report = api.check(session, properties=[prop], synthesis=synthesis,
+                               full_observation=full_observation,
+                               zero_based_players=zero_based_players)
+        except PosgmcError as e:
+            points.append(SweepPoint(text, _number(text), None, e))
+            continue
+        outcome = report.outcomes[0]
+        if isinstance(outcome, tuple):
+            points.append(SweepPoint(text, _number(text), None, outcome[1]))
+            continue
+        where = None
+        if strategy_dir is not None and outcome.strategies:
+            where = os.path.join(str(strategy_dir), f"{constant}={text}")
+            os.makedirs(where, exist_ok=True)
+            for fss in outcome.strategies:
+                write_strategy(fss, os.path.join(where, f"{fss.player or 'agent'}.json"))
+        points.append(SweepPoint(text, _number(text), outcome, None, where))
+    return Sweep(constant, prop, tuple(points))
+
+
+def _number(text: str) -> float:
+    from fractions import Fraction
+
+    try:
+        return float(Fraction(text))
+    except (ValueError, ZeroDivisionError):
+        return math.nan
+
+
+_COLUMNS = ("constant", "setting", "value", "lower", "upper", "full_observation", "upper_bound",
+            "memory", "partial", "strategies", "error")
+
+
+def to_csv(s: Sweep) -> str:
+    """The sweep as CSV: one row per point; ``value``/``lower``/``upper`` are ``guaranteed`` for
+    synthesised points, the optimum otherwise."""
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    w.writerow(_COLUMNS)
+    for p in s.points:
+        b = p.main_number()
+        r = p.result
+        full = r.full_observation.value if r is not None and r.full_observation else ""
+        ub = r.upper_bound.value if r is not None and r.upper_bound else ""
+        memory = ";".join(f"{n}={k}" for n, k in r.memory) if r is not None else ""
+        partial = bool(r.synthesis and r.synthesis.get("partial")) if r is not None else ""
+        w.writerow([s.constant, p.setting,
+                    "" if b is None else repr(b.value), "" if b is None else repr(b.lower),
+                    "" if b is None else repr(b.upper), full, ub, memory, partial,
+                    p.strategy_dir or "", "" if p.error is None else p.error.message])
+    return out.getvalue()

@@ -1,0 +1,91 @@
+"""Trade-off fronts by sweeping a constant (issue #15): every point verified, every synthesised
+point re-verified from its exported strategy, CSV and plot written whole."""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from posgmc import api
+from posgmc.cli import main
+from posgmc.synthesis.search import SynthesisOptions
+from posgmc.tradeoffs.sweep import sweep, to_csv
+
+ROOT = Path(__file__).resolve().parents[2]
+PROP = '<<rover>> Pmax=? [ F "safe" ]'
+
+# by hand: x=0 reaches x=1 with probability p, else x=2; P(F x=1) = p
+CHAIN = """dtmc
+const double p;
+module m x : [0..2] init 0; [] x=0 -> p:(x'=1) + 1-p:(x'=2); [] x>0 -> true; endmodule
+"""
+
+
+@pytest.fixture()
+def budget_model(tmp_path: Path) -> Path:
+    """models/beacon with the jammer's budget B left open: each jam costs the remembering rover a
+    wait survived with probability 0.9, so the optimum is 0.9^B (models/beacon/README.md)."""
+    text = (ROOT / "models" / "beacon" / "beacon.posg").read_text()
+    assert "const int B = 1;" in text
+    path = tmp_path / "budget.posg"
+    path.write_text(text.replace("const int B = 1;", "const int B;"))
+    return path
+
+
+def test_a_fully_observable_sweep_is_the_value_per_point(tmp_path: Path) -> None:
+    path = tmp_path / "chain.prism"
+    path.write_text(CHAIN)
+    s = sweep(path, "P=? [ F x=1 ]", constant="p", settings=["0.1", "1/2", "0.9"])
+    assert [p.setting for p in s.points] == ["0.1", "1/2", "0.9"]
+    for p, want in zip(s.points, (0.1, 0.5, 0.9)):
+        b = p.main_number()
+        assert b is not None and b.lower - 1e-12 <= want <= b.upper + 1e-12
+        assert p.result is not None and p.result.guaranteed is None
+
+
+def test_every_point_of_a_posg_front_reverifies_from_its_strategy(budget_model: Path, tmp_path: Path) -> None:
+    out = tmp_path / "strategies"
+    s = sweep(budget_model, PROP, constant="B", settings=["0", "1"],
+              synthesis=SynthesisOptions(memory=(2,), timeout=20), strategy_dir=out)
+    for p, want in zip(s.points, (1.0, 0.9)):
+        g = p.main_number()
+        assert g is not None and g.lower - 1e-9 <= want <= g.upper + 1e-9
+        assert p.strategy_dir == str(out / f"B={p.setting}")
+        # the exported defence, checked again on its own, guarantees the same
+        again = api.check(api.load(budget_model, constants={"B": p.setting}), properties=[PROP],
+                          strategies={"rover": Path(p.strategy_dir) / "rover.json"}).results[0]
+        assert again.guaranteed.lower == pytest.approx(g.lower, abs=1e-9)
+    rows = list(csv.DictReader(io.StringIO(to_csv(s))))
+    assert [r["setting"] for r in rows] == ["0", "1"]
+    assert float(rows[1]["lower"]) <= 0.9 <= float(rows[1]["upper"])
+    assert rows[1]["memory"] == "rover=2" and rows[1]["full_observation"] == "1.0"
+
+
+def test_pareto_command_table_csv_and_plot(budget_model: Path, tmp_path: Path) -> None:
+    pytest.importorskip("matplotlib")
+    csv_file, plot = tmp_path / "f.csv", tmp_path / "f.svg"
+    r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop", PROP, "--sweep", "B=0:1",
+                                  "--memory", "2", "--timeout", "20", "--csv", str(csv_file),
+                                  "--plot", str(plot)])
+    assert r.exit_code == 0, r.output
+    lines = r.output.splitlines()
+    assert lines[0] == f"{PROP} against B:"
+    assert lines[2].startswith("0  1 [1, 1]") and lines[3].startswith("1  0.9000005 [")
+    assert csv_file.read_text().startswith("constant,setting,value,lower,upper")
+    assert plot.read_text().lstrip().startswith("<?xml") and "</svg>" in plot.read_text()
+
+
+def test_pareto_refuses_what_it_cannot_do(budget_model: Path, tmp_path: Path) -> None:
+    r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop",
+                                  'multi(Pmax=? [ F "safe" ], Pmax=? [ F "over" ])', "--sweep", "B=0:1"])
+    assert r.exit_code == 2 and "multi-objective" in r.output
+    r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop", PROP, "--sweep", "B=1"])
+    assert r.exit_code == 2 and "one constant with a range" in r.output
+    r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop", PROP, "--sweep", "B=0:1",
+                                  "--plot", str(tmp_path / "f.txt"), "--memory", "1", "--timeout", "5"])
+    assert r.exit_code == 2 and ".png, .svg or .pdf" in r.output
+    assert not (tmp_path / "f.txt").exists()
