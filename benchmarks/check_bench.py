@@ -44,7 +44,7 @@ DEFAULT = ["two_robots=32", "pursuit=30"]
 def worker(path: str, n: int, prop: str) -> dict[str, Any]:
     sys.path.insert(0, str(ROOT))
     from posgmc import api
-    from posgmc.build import BuildOptions, ProgressMode
+    from posgmc.compiler import BuildOptions, ProgressMode
 
     t0 = time.perf_counter()
     session = api.load(path, constants={"N": str(n)})

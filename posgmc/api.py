@@ -23,7 +23,7 @@ from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from posgmc.build import BuildOptions, build_model
+from posgmc.compiler import BuildOptions, build_model
 from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.errors import (

@@ -263,7 +263,7 @@ def build(
 
 
 def _build_options(state_limit: int | None, no_fix_deadlocks: bool, progress: bool | None):  # type: ignore[no-untyped-def]
-    from posgmc.build import BuildOptions, ProgressMode
+    from posgmc.compiler import BuildOptions, ProgressMode
 
     kwargs: dict[str, Any] = {"fix_deadlocks": not no_fix_deadlocks}
     if state_limit is not None:

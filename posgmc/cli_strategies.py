@@ -59,7 +59,7 @@ def test(
     import time
 
     from posgmc import api
-    from posgmc.build.options import BuildOptions
+    from posgmc.compiler.options import BuildOptions
     from posgmc.checking.dispatch import CheckOptions
     from posgmc.checking.expected import expected_for, grade
     from posgmc.io.junit import Case, write_junit

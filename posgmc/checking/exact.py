@@ -1,6 +1,6 @@
 """Exact checking (PRISM's ``-exact``): values as fractions, thresholds decided on them.
 
-The model must be built in exact mode (:mod:`posgmc.build.exact`: its transition probabilities are
+The model must be built in exact mode (:mod:`posgmc.compiler.exact`: its transition probabilities are
 Fractions). What is answered exactly:
 
 * next, step-bounded and unbounded reachability and until probabilities, ``P=? [ X b ]``,

@@ -50,7 +50,7 @@ def evaluate_states(
 ) -> np.ndarray:
     """Evaluate ``expr`` in every state of ``model``.
 
-    Operators follow PRISM (and the compiler, :mod:`posgmc.build.compile_expr`): ``/`` is real
+    Operators follow PRISM (and the compiler, :mod:`posgmc.compiler.compile_expr`): ``/`` is real
     division (``1/0`` is infinite, ``0/0`` NaN), ``mod(i, n)`` needs ``n > 0``, ``pow`` of two ints
     needs a non-negative exponent, ``floor``/``ceil``/``round`` need a finite argument. A failure
     counts only where PRISM would evaluate the failing operand: ``&``, ``|``, ``=>`` and ``? :``

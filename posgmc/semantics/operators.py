@@ -2,7 +2,7 @@
 
 ``mod``, ``pow`` of two ints, and ``floor``/``ceil``/``round`` are the operators of the language
 that can fail (``parser/ast/ExpressionFunc.java``: ``evaluateMod``, ``evaluatePow``,
-``evaluateFloor``...). The exploration code generator (:mod:`posgmc.build.compile_expr`) and the
+``evaluateFloor``...). The exploration code generator (:mod:`posgmc.compiler.compile_expr`) and the
 state-formula evaluator (:mod:`posgmc.checking.states`) both call the functions below, so a model and
 a property give the same value or the same error for the same expression. Each function returns the
 result array or raises :class:`DomainFailure` with the message and the first offending position; the

@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.build import BuildOptions
+from posgmc.compiler import BuildOptions
 from posgmc.checking.dispatch import CheckOptions
 from posgmc.cli import main
 from posgmc.errors import BuildError, PosgmcError

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-from posgmc.build import build_model
+from posgmc.compiler import build_model
 from posgmc.errors import BuildError
 from posgmc.semantics.checker import instantiate
 from posgmc.syntax.parser import parse_model

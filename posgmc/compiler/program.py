@@ -20,8 +20,8 @@ import enum
 from dataclasses import dataclass, field
 from fractions import Fraction
 
-from posgmc.build.compile_expr import CompiledExpr, ExprType, Scalar, compile_expr
-from posgmc.build.state_space import StateEncoding
+from posgmc.compiler.compile_expr import CompiledExpr, ExprType, Scalar, compile_expr
+from posgmc.compiler.state_space import StateEncoding
 from posgmc.errors import BuildError, SourceSpan
 from posgmc.semantics.flat import FlatCommand, FlatModel
 from posgmc.syntax.ast import NO_SPAN, Expr, VarType

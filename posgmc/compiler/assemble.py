@@ -29,10 +29,10 @@ from types import MappingProxyType
 import numpy as np
 import scipy.sparse as sp
 
-from posgmc.build.compile_expr import Columns, CompiledExpr, EvaluationError, ExprType
-from posgmc.build.explore import Exploration
-from posgmc.build.options import BuildOptions, ValidationMode
-from posgmc.build.program import UNOWNED, Generator, GeneratorKind, Program
+from posgmc.compiler.compile_expr import Columns, CompiledExpr, EvaluationError, ExprType
+from posgmc.compiler.explore import Exploration
+from posgmc.compiler.options import BuildOptions, ValidationMode
+from posgmc.compiler.program import UNOWNED, Generator, GeneratorKind, Program
 from posgmc.errors import BuildError, SourceSpan, UnsupportedError
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel
 from posgmc.semantics.flat import FlatObservable

@@ -1,6 +1,6 @@
 """Exact exploration (PRISM's ``-exact``): every guard, probability and update in rational arithmetic.
 
-The vectorised explorer (:mod:`posgmc.build.explore`) computes in IEEE doubles, so a guard such as
+The vectorised explorer (:mod:`posgmc.compiler.explore`) computes in IEEE doubles, so a guard such as
 ``(s+1)*1/3 = 0.333333333333333333333333`` holds there (both sides round to one double) although it
 is false over the rationals, and a probability written ``0.500000000000000000000000000000001``
 becomes 0.5. In exact mode the model is explored state by state with the scalar evaluator
@@ -9,12 +9,12 @@ ints and Fractions only, and a value with no rational form (a fractional power, 
 division by zero) is a positioned :class:`~posgmc.errors.BuildError`, as in PRISM's exact engine.
 
 The semantics is the vectorised explorer's, one state at a time: states numbered in discovery
-order, choices in :mod:`posgmc.build.program`'s generator order, a synchronised choice per
+order, choices in :mod:`posgmc.compiler.program`'s generator order, a synchronised choice per
 combination of enabled commands (last module fastest) whose branches are the products of the
 modules' updates (first module slowest), zero-probability branches dropped, deadlocks fixed with a
 self-loop when allowed. A command's probabilities must sum to exactly 1.
 
-The exploration is handed to :func:`posgmc.build.assemble.assemble` (with the probabilities rounded
+The exploration is handed to :func:`posgmc.compiler.assemble.assemble` (with the probabilities rounded
 to the nearest doubles) for rewards, players and observations; :func:`exact_model` then attaches the
 exact transition probabilities (``ExplicitModel.exact_probabilities``, aligned with the CSR matrix)
 and re-evaluates the labels exactly. A Python loop per state: meant for the small models exact
@@ -31,9 +31,9 @@ from types import MappingProxyType
 
 import numpy as np
 
-from posgmc.build.explore import Exploration, initial_keys
-from posgmc.build.options import BuildOptions
-from posgmc.build.program import Command, Generator, GeneratorKind, Program
+from posgmc.compiler.explore import Exploration, initial_keys
+from posgmc.compiler.options import BuildOptions
+from posgmc.compiler.program import Command, Generator, GeneratorKind, Program
 from posgmc.errors import BuildError, LimitError, PosgmcError, SourceSpan
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics import operators as ops

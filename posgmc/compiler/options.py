@@ -37,7 +37,7 @@ class BuildOptions:
     ``probability_tolerance``: how far the update probabilities of a command may sum from 1.
     ``initial_state_limit``: the largest number of candidate valuations enumerated for an
     ``init ... endinit`` predicate (after fixing the variables it pins to one value).
-    ``exact``: explore in rational arithmetic (PRISM's ``-exact``, :mod:`posgmc.build.exact`): the
+    ``exact``: explore in rational arithmetic (PRISM's ``-exact``, :mod:`posgmc.compiler.exact`): the
     model carries its exact transition probabilities.
     """
 

@@ -3,7 +3,7 @@
 States are numbered in discovery order, exactly as Storm's explicit builder numbers them
 (``ExplicitModelBuilder`` with breadth-first order): the initial states first, then every state
 in the order its number is first asked for while expanding states ``0, 1, 2, ...``; within a state
-choices come in :mod:`posgmc.build.program`'s generator order and the successors of a choice in
+choices come in :mod:`posgmc.compiler.program`'s generator order and the successors of a choice in
 update order (for synchronised choices: the updates of the first module vary slowest). Zero
 probability branches are dropped before their target is looked at (Storm does the same), so they
 never create states.
@@ -28,10 +28,10 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from posgmc.build.compile_expr import Columns, CompiledExpr, EvaluationError
-from posgmc.build.options import BuildOptions, ProgressMode
-from posgmc.build.program import Assignment, Command, Generator, GeneratorKind, Program
-from posgmc.build.state_space import StateIndex, make_index
+from posgmc.compiler.compile_expr import Columns, CompiledExpr, EvaluationError
+from posgmc.compiler.options import BuildOptions, ProgressMode
+from posgmc.compiler.program import Assignment, Command, Generator, GeneratorKind, Program
+from posgmc.compiler.state_space import StateIndex, make_index
 from posgmc.errors import BuildError, LimitError, SourceSpan
 from posgmc.syntax.ast import (
     NO_SPAN,

@@ -12,8 +12,8 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from posgmc.build import BuildOptions, BuildResult, ProgressMode, build_model
-from posgmc.build.explore import _Progress
+from posgmc.compiler import BuildOptions, BuildResult, ProgressMode, build_model
+from posgmc.compiler.explore import _Progress
 from posgmc.errors import BuildError, LimitError, PosgmcError
 from posgmc.semantics.checker import instantiate
 from posgmc.syntax.parser import parse_model
@@ -641,7 +641,7 @@ def test_progress_through_build_model(capsys: pytest.CaptureFixture[str]) -> Non
 
 
 def test_validation_modes_build_the_same_model() -> None:
-    from posgmc.build import ValidationMode
+    from posgmc.compiler import ValidationMode
 
     a = build(COUNTDOWN, validation=ValidationMode.ALWAYS).model
     b = build(COUNTDOWN, validation=ValidationMode.NEVER).model

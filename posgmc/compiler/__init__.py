@@ -1,13 +1,13 @@
 """The compiler: vectorized exploration of a FlatModel into an ExplicitModel.
 
 ``build_model(flat)`` compiles every expression once into numpy code
-(:mod:`~posgmc.build.compile_expr`), packs states into integer keys
-(:mod:`~posgmc.build.state_space`), explores breadth-first a batch of states at a time numbering
-states exactly as Storm does (:mod:`~posgmc.build.explore`), and freezes the result
-(:mod:`~posgmc.build.assemble`). State, choice and transition counts equal Storm's.
+(:mod:`~posgmc.compiler.compile_expr`), packs states into integer keys
+(:mod:`~posgmc.compiler.state_space`), explores breadth-first a batch of states at a time numbering
+states exactly as Storm does (:mod:`~posgmc.compiler.explore`), and freezes the result
+(:mod:`~posgmc.compiler.assemble`). State, choice and transition counts equal Storm's.
 
 State numbers, the order of choices within a state and every row equal those of Storm's sparse
-builder (checked against stormpy 2.0 in ``tests/build/test_storm_order.py``). Where posgmc
+builder (checked against stormpy 2.0 in ``tests/compiler/test_storm_order.py``). Where posgmc
 deliberately differs from Storm:
 
 * an assignment outside its variable's range is a :class:`~posgmc.errors.BuildError` (PRISM's
@@ -30,11 +30,11 @@ import time
 
 import numpy as np
 
-from posgmc.build.assemble import assemble
-from posgmc.build.exact import exact_model, explore_exact
-from posgmc.build.explore import explore
-from posgmc.build.options import BuildOptions, BuildResult, ProgressMode, ValidationMode
-from posgmc.build.program import compile_program
+from posgmc.compiler.assemble import assemble
+from posgmc.compiler.exact import exact_model, explore_exact
+from posgmc.compiler.explore import explore
+from posgmc.compiler.options import BuildOptions, BuildResult, ProgressMode, ValidationMode
+from posgmc.compiler.program import compile_program
 from posgmc.semantics.flat import FlatModel
 
 __all__ = ["BuildOptions", "BuildResult", "ProgressMode", "ValidationMode", "build_model"]

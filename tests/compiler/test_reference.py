@@ -19,10 +19,10 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from posgmc.build import build_model
+from posgmc.compiler import build_model
 from posgmc.semantics.flat import FlatModel
 from posgmc.syntax import ast as A
-from tests.build.flatlib import boolvar, cmd, ex, flat_model, module, upd, var
+from tests.compiler.flatlib import boolvar, cmd, ex, flat_model, module, upd, var
 
 # ---------------------------------------------------------------------------------------------
 # a scalar evaluator for the generated expressions (PRISM semantics)

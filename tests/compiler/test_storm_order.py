@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from posgmc.build import build_model
+from posgmc.compiler import build_model
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics.checker import instantiate
 from posgmc.syntax.parser import parse_model

@@ -1,7 +1,7 @@
 """Compiled numpy expressions against PRISM's semantics, value by value.
 
 Expected values follow PRISM's ``ExpressionFunc``/``ExpressionBinaryOp`` (quoted in
-``posgmc/build/compile_expr.py``): ``mod`` never negative, ``/`` always a double, ``floor``/
+``posgmc/compiler/compile_expr.py``): ``mod`` never negative, ``/`` always a double, ``floor``/
 ``ceil``/``round`` ints with ``round(x) = floor(x + 1/2)``, integer ``pow`` needs a non-negative
 exponent.
 """
@@ -16,8 +16,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from posgmc.build.compile_expr import Columns, EvaluationError, ExprType, compile_expr
-from tests.build.flatlib import ex
+from posgmc.compiler.compile_expr import Columns, EvaluationError, ExprType, compile_expr
+from tests.compiler.flatlib import ex
 
 SLOTS = {"x": (0, ExprType.INT), "y": (1, ExprType.INT), "b": (2, ExprType.BOOL)}
 

@@ -6,11 +6,11 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from posgmc.build import build_model
-from posgmc.build.state_space import DirectIndex, HashIndex, StateEncoding, make_index
+from posgmc.compiler import build_model
+from posgmc.compiler.state_space import DirectIndex, HashIndex, StateEncoding, make_index
 from posgmc.syntax import ast as A
-from tests.build.flatlib import cmd, flat_model, module, upd, var
-from tests.build.test_reference import _compare
+from tests.compiler.flatlib import cmd, flat_model, module, upd, var
+from tests.compiler.test_reference import _compare
 
 
 @st.composite
@@ -114,8 +114,8 @@ def test_multi_word_model_equals_reference() -> None:
 
 
 def test_hash_index_builds_the_same_model_as_the_direct_table(monkeypatch) -> None:  # type: ignore[no-untyped-def]
-    from posgmc.build import state_space
-    from tests.build.flatlib import pursuit
+    from posgmc.compiler import state_space
+    from tests.compiler.flatlib import pursuit
 
     direct = build_model(pursuit(5)).model
     monkeypatch.setattr(state_space, "DIRECT_LIMIT", 1)
