@@ -57,6 +57,8 @@ def plot_sweep(s: Sweep, path: str | Path, *, title: str | None = None) -> None:
         ax.plot(xs, full, linestyle="--", marker="x", label="full observation")
     if not all(math.isnan(v) for v in ub):
         ax.plot(xs, ub, linestyle=":", marker="+", label="upper_bound (vs enumerated adversaries)")
+    if len(xs) <= 20 and all(float(x).is_integer() for x in xs):
+        ax.set_xticks(xs)
     ax.set_xlabel(s.constant)
     ax.set_ylabel(s.property if len(s.property) < 40 else "value")
     ax.set_title(title or s.property, fontsize=9)
