@@ -28,6 +28,7 @@ from posgmc.engines import exact as ex
 from posgmc.engines.graph import Structure, attractor
 from posgmc.engines.iteration import Bounds, EndComponents, System, choose, solve
 from posgmc.engines.options import Method, SolverOptions
+from posgmc.engines.topological import solve_topological
 from posgmc.engines.result import EngineResult
 from posgmc.errors import PosgmcError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
@@ -197,7 +198,11 @@ def _solve_system(
         cand = np.zeros(num_choices, dtype=bool)
         cand[best] = True
         return _Solved(x, x.copy(), rounds, True, True, best, cand)
-    bounds: Bounds = solve(sys, options, cap=cap, ec=ec)
+    bounds: Bounds | None = None
+    if sys.bands is not None and options.method is not Method.VALUE:
+        bounds = solve_topological(sys, options, cap=cap, ec=ec)
+    if bounds is None:
+        bounds = solve(sys, options, cap=cap, ec=ec)
     best_rows = None
     cand = None
     if options.want_strategy:

@@ -367,6 +367,8 @@ def _sweep_pair(sys: System, X: np.ndarray, Xn: np.ndarray, Y: np.ndarray, T: np
     for r0, r1, ml, a, nl, b, ents in sys.plan:
         Yb = Y[r0:r1]
         Yb[:] = sys.offset[r0:r1, None]
+        if sys.offset_upper is not None:
+            Yb[:, 1] = sys.offset_upper[r0:r1]
         _kernels.csr_matvecs(
             r1 - r0, n, 2, A.indptr[r0 : r1 + 1], A.indices, A.data, flat, Yb.ravel()
         )
@@ -477,7 +479,11 @@ def solve(
         # iteration proves it), and B^k of an upper bound stays an upper bound.
         positive = sys.offset[sys.offset > 0]
         eps = float(positive.min()) if positive.size else 1.0
-        raised = replace(sys, offset=np.maximum(sys.offset, eps))
+        raised = replace(
+            sys,
+            offset=np.maximum(sys.offset, eps),
+            offset_upper=None if sys.offset_upper is None else np.maximum(sys.offset_upper, eps),
+        )
         first = solve(raised, replace(options, want_strategy=False), cap=cap, ec=EndComponents.NONE)
         iters += first.iterations
         proven_upper = first.upper.copy()

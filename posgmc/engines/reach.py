@@ -75,7 +75,9 @@ def reach_probability(
     sys = None
     solved = None
     if unknown.any():
-        sys = build_system(g, unknown, maximize=mx, fixed=known_values, layer=layer)
+        sys = build_system(
+            g, unknown, maximize=mx, fixed=known_values, layer=layer, topological=True
+        )
         nondet = model.model_type is not ModelType.DTMC
         solved = _solve_system(
             sys,

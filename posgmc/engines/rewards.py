@@ -150,7 +150,9 @@ def _reach_reward_infinity(
     sys = None
     solved = None
     if unknown.any():
-        sys = build_system(g, unknown, maximize=mx, allowed=allowed, choice_offset=r)
+        sys = build_system(
+            g, unknown, maximize=mx, allowed=allowed, choice_offset=r, topological=True
+        )
         has_min = sys.num_max < sys.n and not dtmc
         if sys.offset.min(initial=0.0) < 0:
             # a usable choice has a negative reward (the offsets are the usable choices' rewards)

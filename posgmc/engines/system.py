@@ -26,6 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from posgmc.engines.graph import Structure
+from posgmc.engines.scc import topological_blocks
 
 try:  # the C kernels behind ``A @ x``; they accumulate into a given output buffer
     from scipy.sparse import _sparsetools as _kernels
@@ -62,6 +63,12 @@ class System:
     ``blocks[i]:blocks[i+1]``, whose rows are contiguous; its j = 0 entry covers all its states.
     Blocks are the Gauss-Seidel order of the lower iteration (nearest the known values first);
     without an order there is one block and entry j is slot j of every state.
+
+    ``bands``: int64[K + 1] or None: with a topological layout (see
+    :mod:`posgmc.engines.topological`), band k owns the blocks ``bands[k]:bands[k+1]``, a union of
+    whole strongly connected components whose rows only reach states of bands ``<= k``.
+    ``offset_upper``: float64[m] or None: a second constant per row for the upper bound (a band
+    solved against proven lower/upper bounds of the bands below it); None: ``offset`` for both.
     """
 
     states: np.ndarray
@@ -73,6 +80,8 @@ class System:
     num_max: int
     slots: np.ndarray
     blocks: np.ndarray
+    bands: np.ndarray | None = None
+    offset_upper: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -157,6 +166,8 @@ def build_system(
     choice_offset: np.ndarray | None = None,
     fixed: np.ndarray | None = None,
     layer: np.ndarray | None = None,
+    topological: bool = False,
+    band_states: int | None = None,
 ) -> System:
     """The fixpoint problem on ``unknown`` states.
 
@@ -171,6 +182,10 @@ def build_system(
         layer: int64[S] or None: an order for the Gauss-Seidel lower iteration, smallest first
             (e.g. the backward-search round where a state joined the positive region: values flow
             from the known states outwards); None: one block.
+        topological: lay the states out in bands of strongly connected components in solving
+            order (:mod:`posgmc.engines.scc`) when that pays; ``System.bands`` then says so.
+        band_states: states per band of the topological layout (None: automatic; tests force
+            small bands with it).
 
     Returns:
         The :class:`System`.
@@ -194,6 +209,20 @@ def build_system(
         block = _block_of(layer[unk])
     else:
         block = np.zeros(unk.size, dtype=np.int64)
+    band_of_block = None
+    if topological and unk.size:
+        start_usable = np.zeros(S + 1, dtype=np.int64)
+        np.cumsum(counts_all, out=start_usable[1:])
+        found = topological_blocks(
+            g.transitions,
+            start_usable,
+            rows_global,
+            unk,
+            sub_block=block if layer is not None and unk.size >= _MIN_BLOCKED_STATES else None,
+            band_states=band_states,
+        )
+        if found is not None:
+            block, band_of_block = found
     nb = int(block.max()) + 1 if block.size else 1
     # maximisers first, then by block, then by decreasing number of rows; a stable sort on a small
     # integer key (numpy uses radix sort for 16-bit keys)
@@ -270,6 +299,10 @@ def build_system(
     indptr = kept[sub.indptr]
     stays = np.diff(indptr) == np.diff(sub.indptr)
     matrix = sp.csr_matrix((sub.data[inside], loc[inside], indptr), shape=(rows.size, n))
+    bands = None
+    if band_of_block is not None:
+        bands = np.zeros(int(band_of_block[-1]) + 2, dtype=np.int64)
+        np.cumsum(np.bincount(band_of_block), out=bands[1:])
     return System(
         states=states,
         rows=rows,
@@ -280,6 +313,7 @@ def build_system(
         num_max=num_max,
         slots=slots,
         blocks=blocks,
+        bands=bands,
     )
 
 
@@ -299,6 +333,8 @@ def _multiply(sys: System, x: np.ndarray, y: np.ndarray) -> None:
             y += A @ x
     else:
         y[:] = sys.offset[:, None]
+        if sys.offset_upper is not None and x.shape[1] == 2:
+            y[:, 1] = sys.offset_upper
         if _HAVE_KERNELS:
             _kernels.csr_matvecs(
                 A.shape[0],

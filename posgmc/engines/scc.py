@@ -1,0 +1,137 @@
+"""The strongly connected components (SCCs) of the unknown states in a solving order, and the
+blocks and bands of a topological system layout (see :mod:`posgmc.engines.topological`).
+
+One decomposition per system: ``scipy.sparse.csgraph.connected_components(connection="strong")``
+on the bipartite graph *state -> its usable choices -> their successors* (nodes: the S model
+states, then the C model choices). Its edges are the model's own csr arrays plus one edge per
+usable choice, so nothing is transposed, sorted or deduplicated (scipy's routine does not
+terminate on a graph with duplicate entries; the model's rows have none, see
+:func:`components`), and the SCCs of the model states are exactly those of the state graph.
+
+scipy implements Pearce's algorithm, which numbers the components in the order it completes them:
+a reverse topological order of the condensation (a component's successors get smaller labels).
+The solver never trusts this blindly: a band whose rows reach a state not solved yet is refused
+and the whole system is solved at once instead (:func:`posgmc.engines.topological.solve_topological`).
+
+Layout. Unknown states are ranked by component label (states of one component stay together),
+cut into *bands* of about ``band_states`` states at component boundaries, each band into blocks of
+about an eighth of a band (Gauss-Seidel blocks of its solver); a component of
+``_MIN_SPLIT_STATES`` states or more keeps the backward-search blocks of the caller inside its
+block (the sweeps then carry values across its layers, as without a topological order).
+
+When the order pays (the decision of :func:`topological_blocks`): there are at least two bands,
+and the largest component holds at most half of the unknown states. A system dominated by one
+giant component gains nothing from the order (one band would be today's solver plus the
+decomposition), so it keeps the backward-search layout.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+__all__ = ["components", "topological_blocks", "DEFAULT_BANDS", "MIN_BAND_STATES"]
+
+DEFAULT_BANDS = 32
+"""Bands aimed at on a large system: one solver call each, so the Python overhead is per band
+(never per component) while the bands below a band are final when it is solved."""
+
+MIN_BAND_STATES = 16_384
+"""Smallest automatic band: below this a band's solver call costs more than it saves."""
+
+MAX_GIANT_SHARE = 0.5
+"""The order pays only if the largest SCC holds at most this share of the unknown states."""
+
+_BLOCKS_PER_BAND = 8
+
+_MIN_SPLIT_STATES = 50_000
+"""A component this large keeps the caller's backward-search blocks inside it."""
+
+
+def components(
+    transitions: sp.csr_matrix, usable_start: np.ndarray, usable_rows: np.ndarray
+) -> np.ndarray:
+    """int32[S + C]: the SCC label of every model state (then every choice), labels in a reverse
+    topological order of the condensation (see the module docstring).
+
+    Args:
+        transitions: csr [C, S], canonical (no duplicate entries in a row).
+        usable_start: int64[S + 1]: the usable choices of state s are
+            ``usable_rows[usable_start[s]:usable_start[s+1]]`` (empty for a known state).
+        usable_rows: int64[k] global choice indices.
+    """
+    C, S = transitions.shape
+    k = int(usable_rows.size)
+    idx_dtype = np.int32 if S + C + 1 < 2**31 and transitions.nnz + k < 2**31 else np.int64
+    if not transitions.has_canonical_format:
+        transitions = transitions.copy()
+        transitions.sum_duplicates()
+    indices = np.empty(k + transitions.nnz, dtype=idx_dtype)
+    np.add(usable_rows, S, out=indices[:k], casting="unsafe")
+    indices[k:] = transitions.indices
+    indptr = np.empty(S + C + 1, dtype=idx_dtype)
+    indptr[: S + 1] = usable_start
+    np.add(transitions.indptr[1:], k, out=indptr[S + 1 :], casting="unsafe")
+    data = np.ones(indices.size, dtype=np.int8)
+    graph = sp.csr_matrix((data, indices, indptr), shape=(S + C, S + C))
+    _, labels = connected_components(graph, directed=True, connection="strong")
+    return labels
+
+
+def topological_blocks(
+    transitions: sp.csr_matrix,
+    usable_start: np.ndarray,
+    usable_rows: np.ndarray,
+    unk: np.ndarray,
+    *,
+    sub_block: np.ndarray | None,
+    band_states: int | None,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Blocks and bands of a topological layout of the unknown states ``unk``, or None when the
+    order does not pay (see the module docstring).
+
+    Args:
+        transitions, usable_start, usable_rows: as for :func:`components`.
+        unk: int64[n] the unknown model states.
+        sub_block: int64[n] or None: the caller's backward-search block of each unknown state
+            (at most 128 values), kept inside very large components.
+        band_states: states per band (None: ``max(n / DEFAULT_BANDS, MIN_BAND_STATES)``); 1 makes
+            every component its own band and block (tests).
+
+    Returns:
+        ``(block, band_of_block)``: int64[n] the block of each unknown state, in solving order
+        (0 first); int64[num_blocks] the band of each block, non-decreasing from 0.
+    """
+    n = int(unk.size)
+    if n == 0:
+        return None
+    labels = components(transitions, usable_start, usable_rows)
+    lab = labels[unk]
+    sizes = np.bincount(lab)
+    if band_states is None:
+        if int(sizes.max()) > MAX_GIANT_SHARE * n:
+            return None
+        band_states = max(-(-n // DEFAULT_BANDS), MIN_BAND_STATES)
+    # states of earlier components (label order), counted over the unknown states only
+    before = np.cumsum(sizes) - sizes
+    rank = before[lab]
+    chunk = max(band_states // _BLOCKS_PER_BAND, 1)
+    piece = rank // chunk  # blocks nest in bands: a band is a run of whole pieces
+    band = piece // max(band_states // chunk, 1)
+    if int(band.max()) == 0:
+        return None
+    key = piece * 128
+    if sub_block is not None:
+        big = sizes[lab] >= _MIN_SPLIT_STATES
+        key[big] += sub_block[big]
+    # compact the keys in order without sorting (they are bounded by 128 n / chunk)
+    present = np.zeros(int(key.max()) + 1, dtype=bool)
+    present[key] = True
+    remap = np.cumsum(present) - 1
+    block = remap[key]
+    num_blocks = int(block.max()) + 1
+    band_of_block = np.zeros(num_blocks, dtype=np.int64)
+    band_of_block[block] = band
+    _, band_of_block = np.unique(band_of_block, return_inverse=True)
+    return block.astype(np.int64), band_of_block.astype(np.int64)
