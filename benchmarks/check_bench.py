@@ -8,8 +8,13 @@ through ``benchmarks/storm_check.py`` in the reference environment with its soun
 
 Usage::
 
-    python benchmarks/check_bench.py                       # the default jobs below
+    python benchmarks/check_bench.py --repeat 3            # the default jobs below
     python benchmarks/check_bench.py --jobs two_robots=10 --repeat 1 --no-storm
+
+Besides the check times, every row gives the whole-process ratio (a fresh interpreter that imports,
+parses, builds and checks, against ``storm_check.py``'s whole run, both timed from outside) and the
+peak-memory ratio (each process's ``ru_maxrss``). Storm runs interleaved with posgmc, repetition
+by repetition; medians are reported.
 
 Prints a markdown table (for docs/performance.md).
 """
@@ -33,21 +38,39 @@ ROOT = HERE.parent
 SCALE = (ROOT.parent / "shared" / "benchmarks" / "scale").resolve()
 STORM_PYTHON = Path("/root/refenv/bin/python")
 
-MODELS = {"two_robots": SCALE / "two_robots.nm", "pursuit": SCALE / "pursuit.smg"}
-PROPERTIES = {
-    "two_robots": ['Pmax=? [ F "goal" ]', 'Rmin=? [ F "goal" ]'],
-    "pursuit": ['<<evader>> Pmax=? [ F "escaped" ]'],
+OWN = HERE / "models"
+MODELS = {
+    "two_robots": SCALE / "two_robots.nm",
+    "pursuit": SCALE / "pursuit.smg",
+    "rover": OWN / "rover.nm",
+    "rover_wind": OWN / "rover_wind.smg",
 }
-DEFAULT = ["two_robots=32", "pursuit=30"]
+CONSTANT = {"two_robots": "N", "pursuit": "N", "rover": "L", "rover_wind": "L"}
+"""The constant that scales each model (the N of ``--jobs model=N``)."""
+PROPERTIES = {
+    "two_robots": ['Pmax=? [ F "goal" ]', 'Pmin=? [ F "goal" ]', 'Rmin=? [ F "goal" ]'],
+    "pursuit": [
+        '<<evader>> Pmax=? [ F "escaped" ]',
+        '<<evader>> Pmin=? [ F "escaped" ]',
+        '<<evader>> Rmin=? [ F "escaped" ]',
+    ],
+    "rover": ['Pmax=? [ F "goal" ]', 'Pmin=? [ F "goal" ]', 'Rmin=? [ F "goal" ]'],
+    "rover_wind": [
+        '<<rover>> Pmax=? [ F "goal" ]',
+        '<<rover>> Pmin=? [ F "goal" ]',
+        '<<rover>> Rmin=? [ F "goal" ]',
+    ],
+}
+DEFAULT = ["two_robots=32", "pursuit=30", "rover=2000", "rover_wind=500"]
 
 
-def worker(path: str, n: int, prop: str) -> dict[str, Any]:
+def worker(path: str, n: int, prop: str, constant: str = "N") -> dict[str, Any]:
     sys.path.insert(0, str(ROOT))
     from posgmc import api
     from posgmc.compiler import BuildOptions, ProgressMode
 
     t0 = time.perf_counter()
-    session = api.load(path, constants={"N": str(n)})
+    session = api.load(path, constants={constant: str(n)})
     built = api.build(session, options=BuildOptions(progress=ProgressMode.NEVER))
     t1 = time.perf_counter()
     report = api.check(session, properties=[prop], built=built)
@@ -71,8 +94,21 @@ def worker(path: str, n: int, prop: str) -> dict[str, Any]:
     }
 
 
-def _posgmc(path: Path, n: int, prop: str, timeout: float) -> dict[str, Any]:
-    return run_worker(Path(__file__), sys.executable, [str(path), str(n), prop], timeout)
+def _posgmc(path: Path, n: int, prop: str, constant: str, timeout: float) -> dict[str, Any]:
+    """One fresh process (imports, load, build, check); ``process_seconds`` is its wall time."""
+    t0 = time.perf_counter()
+    out = run_worker(Path(__file__), sys.executable, [str(path), str(n), prop, constant], timeout)
+    out["process_seconds"] = time.perf_counter() - t0
+    return out
+
+
+def _storm(module: Any, path: Path, n: int, prop: str, constant: str, timeout: float) -> dict:
+    t0 = time.perf_counter()
+    out = module.run_storm_check(
+        path, constants=f"{constant}={n}", prop=prop, sound=True, timeout=timeout
+    )
+    out["process_seconds"] = time.perf_counter() - t0
+    return out
 
 
 def _storm_module():  # type: ignore[no-untyped-def]
@@ -95,54 +131,65 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=1, help="runs per job; medians reported")
     parser.add_argument("--no-storm", action="store_true")
     parser.add_argument("--timeout", type=float, default=1200.0)
-    parser.add_argument("--worker", nargs=3, help=argparse.SUPPRESS)
+    parser.add_argument("--worker", nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker:
-        path, n, prop = args.worker
-        print(json.dumps(worker(path, int(n), prop)))
+        path, n, prop, constant = args.worker
+        print(json.dumps(worker(path, int(n), prop, constant)))
         return 0
 
     storm = None if args.no_storm or not STORM_PYTHON.exists() else _storm_module()
     rows = [
-        "| model | N | property | states | posgmc check (s) | posgmc iterations "
-        "| posgmc value [lower, upper] | Storm check (s) | Storm value | check ratio |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| model | N | property | states | posgmc check (s) | posgmc value [lower, upper] "
+        "| Storm check (s) | Storm value | check ratio | process ratio | peak memory ratio |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for spec in args.jobs:
         name, _, ns = spec.partition("=")
         for n in (int(x) for x in ns.split(",")):
             for prop in PROPERTIES[name]:
-                ours = [_posgmc(MODELS[name], n, prop, args.timeout) for _ in range(args.repeat)]
+                path, const = MODELS[name], CONSTANT[name]
+                ours: list[dict[str, Any]] = []
+                theirs: list[dict[str, Any]] = []
+                for _ in range(args.repeat):  # interleaved: both see the same machine load
+                    ours.append(_posgmc(path, n, prop, const, args.timeout))
+                    if storm is not None:
+                        theirs.append(_storm(storm, path, n, prop, const, args.timeout))
                 if "error" in ours[0]:
                     rows.append(f"| {name} | {n} | `{prop}` | posgmc failed: {ours[0]['error']} |")
                     print(rows[-1], file=sys.stderr)
                     continue
-                ours_t = statistics.median(o["check_seconds"] for o in ours)
+                med = {
+                    k: statistics.median(o[k] for o in ours)
+                    for k in ("check_seconds", "process_seconds", "peak_rss_mb")
+                }
                 o = ours[0]
                 cells = [
                     name,
                     str(n),
                     f"`{prop}`",
                     f"{o['states']:,}",
-                    f"{ours_t:.2f}",
-                    str(o["iterations"]),
+                    f"{med['check_seconds']:.2f}",
                     f"{_fmt(o['value'])} [{_fmt(o['lower'])}, {_fmt(o['upper'])}]",
                 ]
-                if storm is not None:
-                    theirs = [
-                        storm.run_storm_check(
-                            MODELS[name], constants=f"N={n}", prop=prop, sound=True,
-                            timeout=args.timeout,
-                        )
-                        for _ in range(args.repeat)
+                if theirs and "error" not in theirs[0]:
+                    st = {
+                        k: statistics.median(t[k] for t in theirs)
+                        for k in ("check_seconds", "process_seconds", "peak_rss_mb")
+                    }
+                    cells += [
+                        f"{st['check_seconds']:.2f}",
+                        _fmt(theirs[0]["value"]),
+                        f"{med['check_seconds'] / max(st['check_seconds'], 1e-3):.2f}",
+                        f"{med['process_seconds'] / st['process_seconds']:.2f} "
+                        f"({med['process_seconds']:.1f} / {st['process_seconds']:.1f} s)",
+                        f"{med['peak_rss_mb'] / st['peak_rss_mb']:.2f} "
+                        f"({med['peak_rss_mb']:.0f} / {st['peak_rss_mb']:.0f} MB)",
                     ]
-                    if "error" in theirs[0]:
-                        cells += [f"Storm failed: {theirs[0]['error']}", "", ""]
-                    else:
-                        st = statistics.median(t["check_seconds"] for t in theirs)
-                        cells += [f"{st:.2f}", _fmt(theirs[0]["value"]), f"{ours_t / st:.2f}"]
+                elif theirs:
+                    cells += [f"Storm failed: {theirs[0]['error']}", "", "", "", ""]
                 else:
-                    cells += ["-", "-", "-"]
+                    cells += ["-", "-", "-", "-", "-"]
                 rows.append("| " + " | ".join(cells) + " |")
                 print(rows[-1], file=sys.stderr)
     print("\n".join(rows))

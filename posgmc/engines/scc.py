@@ -13,11 +13,11 @@ a reverse topological order of the condensation (a component's successors get sm
 The solver never trusts this blindly: a band whose rows reach a state not solved yet is refused
 and the whole system is solved at once instead (:func:`posgmc.engines.topological.solve_topological`).
 
-Layout. Unknown states are ranked by component label (states of one component stay together),
-cut into *bands* of about ``band_states`` states at component boundaries, each band into blocks of
-about an eighth of a band (Gauss-Seidel blocks of its solver); a component of
-``_MIN_SPLIT_STATES`` states or more keeps the backward-search blocks of the caller inside its
-block (the sweeps then carry values across its layers, as without a topological order).
+Layout. Unknown states are ranked by component label (states of one component stay together) and
+cut into *bands* of about ``band_states`` states at component boundaries. Inside a band the
+Gauss-Seidel blocks of its solver follow the caller's backward-search layers (the direction in
+which values flow; any order inside a band is sound, the band being closed under successors),
+merged into at most ``_BLOCKS_PER_BAND`` runs.
 
 When the order pays (the decision of :func:`topological_blocks`): there are at least two bands,
 and the largest component holds at most half of the unknown states. A system dominated by one
@@ -43,10 +43,8 @@ MIN_BAND_STATES = 16_384
 MAX_GIANT_SHARE = 0.5
 """The order pays only if the largest SCC holds at most this share of the unknown states."""
 
-_BLOCKS_PER_BAND = 8
-
-_MIN_SPLIT_STATES = 50_000
-"""A component this large keeps the caller's backward-search blocks inside it."""
+_BLOCKS_PER_BAND = 64
+"""Gauss-Seidel blocks per band at most (each costs a few numpy calls per sweep)."""
 
 
 def components(
@@ -85,7 +83,7 @@ def topological_blocks(
     usable_rows: np.ndarray,
     unk: np.ndarray,
     *,
-    sub_block: np.ndarray | None,
+    layer: np.ndarray | None,
     band_states: int | None,
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """Blocks and bands of a topological layout of the unknown states ``unk``, or None when the
@@ -94,8 +92,8 @@ def topological_blocks(
     Args:
         transitions, usable_start, usable_rows: as for :func:`components`.
         unk: int64[n] the unknown model states.
-        sub_block: int64[n] or None: the caller's backward-search block of each unknown state
-            (at most 128 values), kept inside very large components.
+        layer: int64[n] or None: the caller's backward-search layer of each unknown state (-1:
+            last), the Gauss-Seidel order inside a band.
         band_states: states per band (None: ``max(n / DEFAULT_BANDS, MIN_BAND_STATES)``); 1 makes
             every component its own band and block (tests).
 
@@ -116,22 +114,45 @@ def topological_blocks(
     # states of earlier components (label order), counted over the unknown states only
     before = np.cumsum(sizes) - sizes
     rank = before[lab]
-    chunk = max(band_states // _BLOCKS_PER_BAND, 1)
-    piece = rank // chunk  # blocks nest in bands: a band is a run of whole pieces
-    band = piece // max(band_states // chunk, 1)
+    band = rank // band_states
     if int(band.max()) == 0:
         return None
-    key = piece * 128
-    if sub_block is not None:
-        big = sizes[lab] >= _MIN_SPLIT_STATES
-        key[big] += sub_block[big]
-    # compact the keys in order without sorting (they are bounded by 128 n / chunk)
+    # blocks inside a band: the caller's backward-search layers (the direction values flow in),
+    # merged into at most _BLOCKS_PER_BAND runs; without layers, runs of the label order
+    if layer is None:
+        sub = rank % band_states
+    else:
+        lay = np.where(layer < 0, int(layer.max(initial=0)) + 1, layer).astype(np.int64)
+        sub = lay
+    span = int(sub.max()) + 1
+    key = band * span + sub
+    if int(key.max()) < 8 * n + 1024:
+        present = np.zeros(int(key.max()) + 1, dtype=bool)
+        present[key] = True
+        _, within = _compact(key, present)
+    else:
+        _, within = np.unique(key, return_inverse=True)
+    # within: the rank of the state's (band, sub) pair; make it the rank inside its band
+    first = np.full(int(band.max()) + 1, np.iinfo(np.int64).max, dtype=np.int64)
+    np.minimum.at(first, band, within)
+    last = np.zeros(int(band.max()) + 1, dtype=np.int64)
+    np.maximum.at(last, band, within)
+    inner = within - first[band]
+    count = (last - first + 1)[band]
+    group = inner * _BLOCKS_PER_BAND // count
+    key = band * _BLOCKS_PER_BAND + group
     present = np.zeros(int(key.max()) + 1, dtype=bool)
     present[key] = True
-    remap = np.cumsum(present) - 1
-    block = remap[key]
+    block, _ = _compact(key, present)
     num_blocks = int(block.max()) + 1
     band_of_block = np.zeros(num_blocks, dtype=np.int64)
     band_of_block[block] = band
     _, band_of_block = np.unique(band_of_block, return_inverse=True)
     return block.astype(np.int64), band_of_block.astype(np.int64)
+
+
+def _compact(key: np.ndarray, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rank of every key among the present keys (both int64), without sorting."""
+    remap = np.cumsum(present) - 1
+    out = remap[key]
+    return out, out

@@ -218,7 +218,7 @@ def build_system(
             start_usable,
             rows_global,
             unk,
-            sub_block=block if layer is not None and unk.size >= _MIN_BLOCKED_STATES else None,
+            layer=None if layer is None else layer[unk],
             band_states=band_states,
         )
         if found is not None:
