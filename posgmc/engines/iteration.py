@@ -315,6 +315,7 @@ def _lower_phase_blocks(
     rel: bool,
     iters: int,
     max_it: int,
+    inner: int = 1,
 ) -> tuple[np.ndarray, int]:
     """:func:`_lower_phase` by Gauss-Seidel sweeps over the blocks (same stopping rule).
 
@@ -323,7 +324,10 @@ def _lower_phase_blocks(
     keep their value if that is larger. Every value written is ``B`` of a vector below the least
     fixpoint, or a value already below it, so the vector stays a lower bound, as for Jacobi steps;
     values travel from the known states outwards through all the blocks in one sweep instead of
-    one layer per step."""
+    one layer per step. With ``inner > 1`` a block is updated up to ``inner`` times in a row,
+    until its own change is below ``tau / 4`` (a block of small components in topological order
+    then converges before the next one reads it; same argument). The sweep's change is the
+    largest first update of a block; an iteration counts one sweep."""
     n = sys.n
     A = sys.matrix
     y = np.empty(sys.m)
@@ -336,16 +340,22 @@ def _lower_phase_blocks(
         d = 0.0
         for r0, r1, ml, a, nl, b, ents in plan:
             yb = y[r0:r1]
-            yb[:] = sys.offset[r0:r1]
-            _kernels.csr_matvec(r1 - r0, n, A.indptr[r0 : r1 + 1], A.indices, A.data, x, yb)
-            _reduce_entries(ents, y, tmp)
-            for lo, k in ((ml, a), (nl, b)):
-                if not k:
-                    continue
-                new, old = tmp[lo : lo + k], x[lo : lo + k]
-                np.maximum(new, old, out=new)
-                d = max(d, _diff(new, old, rel))
-                old[:] = new
+            for k in range(inner):
+                yb[:] = sys.offset[r0:r1]
+                _kernels.csr_matvec(r1 - r0, n, A.indptr[r0 : r1 + 1], A.indices, A.data, x, yb)
+                _reduce_entries(ents, y, tmp)
+                dk = 0.0
+                for lo, cnt in ((ml, a), (nl, b)):
+                    if not cnt:
+                        continue
+                    new, old = tmp[lo : lo + cnt], x[lo : lo + cnt]
+                    np.maximum(new, old, out=new)
+                    dk = max(dk, _diff(new, old, rel))
+                    old[:] = new
+                if k == 0:
+                    d = max(d, dk)
+                if dk <= 0.25 * tau:
+                    break
         iters += 1
         ratios = [ratios[1], min(d / previous, 0.999) if previous > 0 else 0.0]
         previous = d
@@ -383,6 +393,8 @@ def solve(
     *,
     cap: float,
     ec: EndComponents = EndComponents.NONE,
+    inner: int = 1,
+    spread: float = 0.0,
 ) -> Bounds:
     """Bounds on the least fixpoint of the system's Bellman operator (see the module docstring).
 
@@ -392,6 +404,12 @@ def solve(
             iteration (lower = upper, unsound); every other method gets interval bounds.
         cap: an a-priori upper bound on every value (1 for probabilities, inf if none is known).
         ec: the end-component treatment.
+        inner: repeated updates of a Gauss-Seidel block before the next (see
+            :func:`_lower_phase_blocks`; the topological solver's bands use more than one).
+        spread: part of the precision that is inherited (a band whose upper constants exceed
+            its lower ones, :mod:`posgmc.engines.topological`): the lower iteration stops at
+            ``precision - spread`` and the guessed upper bound adds ``spread`` to the usual
+            ``precision`` (absolute, or relative like the precision).
 
     Returns:
         :class:`Bounds` in local order.
@@ -465,7 +483,7 @@ def solve(
 
     # -- optimistic interval iteration ---------------------------------------------------------
     proven_upper = np.full(n, cap, dtype=np.float64)
-    tau = prec
+    tau = max(prec - spread, 0.25 * prec)
     X = np.empty((n, 2))
     Xn = np.empty((n, 2))
     Y = np.empty((sys.m, 2))
@@ -493,17 +511,17 @@ def solve(
         # 1. lower bound by value iteration until it stalls
         phase_start = iters
         if sys.num_blocks > 1 and not inflating and _HAVE_KERNELS:
-            lower, iters = _lower_phase_blocks(sys, lower, tau, rel, iters, max_it)
+            lower, iters = _lower_phase_blocks(sys, lower, tau, rel, iters, max_it, inner)
         else:
             lower, iters = _lower_phase(
                 sys, lower, tau, rel, iters, max_it, family if inflating else None
             )
         # 2. guess an upper bound
         if rel:
-            guess = lower + prec * np.abs(lower)
-            guess[lower == 0] += prec
+            guess = lower + (prec + spread) * np.abs(lower)
+            guess[lower == 0] += prec + spread
         else:
-            guess = lower + prec
+            guess = lower + prec + spread
         X[:, 0] = lower
         X[:, 1] = proven_upper if verified else np.minimum(guess, proven_upper)
         if refresh and needed:

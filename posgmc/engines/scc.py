@@ -14,10 +14,11 @@ The solver never trusts this blindly: a band whose rows reach a state not solved
 and the whole system is solved at once instead (:func:`posgmc.engines.topological.solve_topological`).
 
 Layout. Unknown states are ranked by component label (states of one component stay together) and
-cut into *bands* of about ``band_states`` states at component boundaries. Inside a band the
-Gauss-Seidel blocks of its solver follow the caller's backward-search layers (the direction in
-which values flow; any order inside a band is sound, the band being closed under successors),
-merged into at most ``_BLOCKS_PER_BAND`` runs.
+cut into *bands* of about ``band_states`` states at component boundaries, each band into
+``_BLOCKS_PER_BAND`` runs of the label order (the Gauss-Seidel blocks of its solver: a block only
+reads itself and the blocks before it). A component of ``_MIN_SPLIT_STATES`` states or more is cut
+along the caller's backward-search layers instead (the direction in which values flow inside it;
+any order inside a band is sound, the band being closed under successors).
 
 When the order pays (the decision of :func:`topological_blocks`): there are at least two bands,
 and the largest component holds at most half of the unknown states. A system dominated by one
@@ -44,7 +45,10 @@ MAX_GIANT_SHARE = 0.5
 """The order pays only if the largest SCC holds at most this share of the unknown states."""
 
 _BLOCKS_PER_BAND = 64
-"""Gauss-Seidel blocks per band at most (each costs a few numpy calls per sweep)."""
+"""Gauss-Seidel blocks per band (each costs a few numpy calls per sweep)."""
+
+_MIN_SPLIT_STATES = 50_000
+"""A component this large is cut into blocks along the caller's backward-search layers."""
 
 
 def components(
@@ -93,7 +97,7 @@ def topological_blocks(
         transitions, usable_start, usable_rows: as for :func:`components`.
         unk: int64[n] the unknown model states.
         layer: int64[n] or None: the caller's backward-search layer of each unknown state (-1:
-            last), the Gauss-Seidel order inside a band.
+            last), the Gauss-Seidel order inside a very large component.
         band_states: states per band (None: ``max(n / DEFAULT_BANDS, MIN_BAND_STATES)``); 1 makes
             every component its own band and block (tests).
 
@@ -117,42 +121,25 @@ def topological_blocks(
     band = rank // band_states
     if int(band.max()) == 0:
         return None
-    # blocks inside a band: the caller's backward-search layers (the direction values flow in),
-    # merged into at most _BLOCKS_PER_BAND runs; without layers, runs of the label order
-    if layer is None:
-        sub = rank % band_states
-    else:
-        lay = np.where(layer < 0, int(layer.max(initial=0)) + 1, layer).astype(np.int64)
-        sub = lay
-    span = int(sub.max()) + 1
-    key = band * span + sub
-    if int(key.max()) < 8 * n + 1024:
-        present = np.zeros(int(key.max()) + 1, dtype=bool)
-        present[key] = True
-        _, within = _compact(key, present)
-    else:
-        _, within = np.unique(key, return_inverse=True)
-    # within: the rank of the state's (band, sub) pair; make it the rank inside its band
-    first = np.full(int(band.max()) + 1, np.iinfo(np.int64).max, dtype=np.int64)
-    np.minimum.at(first, band, within)
-    last = np.zeros(int(band.max()) + 1, dtype=np.int64)
-    np.maximum.at(last, band, within)
-    inner = within - first[band]
-    count = (last - first + 1)[band]
-    group = inner * _BLOCKS_PER_BAND // count
-    key = band * _BLOCKS_PER_BAND + group
+    # blocks inside a band: runs of the label order (a topological order, so a block only reads
+    # itself and earlier blocks); inside a very large component the caller's backward-search
+    # layers instead (the direction values flow in there), at most 128 of them
+    chunk = max(band_states // _BLOCKS_PER_BAND, 1)
+    inner = np.minimum((rank - band * band_states) // chunk, _BLOCKS_PER_BAND - 1)
+    piece = band * _BLOCKS_PER_BAND + inner  # blocks nest in bands
+    key = piece * 128
+    if layer is not None:
+        big = sizes[lab] >= _MIN_SPLIT_STATES
+        if big.any():
+            lay = np.where(layer < 0, int(layer.max(initial=0)) + 1, layer).astype(np.int64)
+            top = int(lay[big].max()) + 1
+            key[big] += lay[big] * 128 // top
     present = np.zeros(int(key.max()) + 1, dtype=bool)
     present[key] = True
-    block, _ = _compact(key, present)
+    block = (np.cumsum(present) - 1)[key]
     num_blocks = int(block.max()) + 1
     band_of_block = np.zeros(num_blocks, dtype=np.int64)
     band_of_block[block] = band
     _, band_of_block = np.unique(band_of_block, return_inverse=True)
     return block.astype(np.int64), band_of_block.astype(np.int64)
 
-
-def _compact(key: np.ndarray, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The rank of every key among the present keys (both int64), without sorting."""
-    remap = np.cumsum(present) - 1
-    out = remap[key]
-    return out, out

@@ -56,6 +56,10 @@ from posgmc.engines.system import System
 
 __all__ = ["solve_topological"]
 
+_INNER = 32
+"""Updates of a block in a row (``solve(inner=...)``): a block of a band holds a few small SCCs in
+order, which then converge before the blocks after them read them."""
+
 _SELF_LOOP_LIMIT = 1.0 - 1e-9
 """Self-loops at least this likely are not eliminated (dividing by 1 - p would amplify rounding)."""
 
@@ -111,7 +115,7 @@ def solve_topological(
             want_strategy=False,
             initial_strategy=None,
         )
-        res = solve(sub, opts, cap=cap, ec=ec)
+        res = solve(sub, opts, cap=cap, ec=ec, inner=_INNER, spread=inherited)
         iters += res.iterations
         if not res.converged:
             return None
