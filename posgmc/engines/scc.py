@@ -2,11 +2,12 @@
 blocks and bands of a topological system layout (see :mod:`posgmc.engines.topological`).
 
 One decomposition per system: ``scipy.sparse.csgraph.connected_components(connection="strong")``
-on the bipartite graph *state -> its usable choices -> their successors* (nodes: the S model
-states, then the C model choices). Its edges are the model's own csr arrays plus one edge per
-usable choice, so nothing is transposed, sorted or deduplicated (scipy's routine does not
-terminate on a graph with duplicate entries; the model's rows have none, see
-:func:`components`), and the SCCs of the model states are exactly those of the state graph.
+on the state graph of the whole model (state s -> every successor of every choice of s). Its csr
+arrays are the model's own (the rows of a state are contiguous, so its successors are one slice
+of the entries) with duplicates summed (scipy's routine does not terminate on duplicate
+entries). Choices the optimisation may not use and the edges of states whose value is known only
+make components coarser: the order stays valid (a coarser component is still closed under the
+topological order), it merely has fewer, larger bands.
 
 scipy implements Pearce's algorithm, which numbers the components in the order it completes them:
 a reverse topological order of the condensation (a component's successors get smaller labels).
@@ -20,10 +21,12 @@ reads itself and the blocks before it). A component of ``_MIN_SPLIT_STATES`` sta
 along the caller's backward-search layers instead (the direction in which values flow inside it;
 any order inside a band is sound, the band being closed under successors).
 
-When the order pays (the decision of :func:`topological_blocks`): there are at least two bands,
-and the largest component holds at most half of the unknown states. A system dominated by one
-giant component gains nothing from the order (one band would be today's solver plus the
-decomposition), so it keeps the backward-search layout.
+When the order pays (the decision of :func:`topological_blocks`): the system has at least
+``2 * MIN_BAND_STATES`` unknown states, the decomposition gives at least two bands, and the
+largest component holds at most ``MAX_GIANT_SHARE`` of the unknown states. Otherwise (one giant
+component, as in two_robots or pursuit) the system keeps the backward-search layout; the
+decomposition then cost about as much as a few Bellman steps (a slice of the model's arrays, one
+duplicate sum and scipy's linear-time pass).
 """
 
 from __future__ import annotations
@@ -44,47 +47,37 @@ MIN_BAND_STATES = 16_384
 MAX_GIANT_SHARE = 0.5
 """The order pays only if the largest SCC holds at most this share of the unknown states."""
 
-_BLOCKS_PER_BAND = 64
+_BLOCKS_PER_BAND = 16
 """Gauss-Seidel blocks per band (each costs a few numpy calls per sweep)."""
 
 _MIN_SPLIT_STATES = 50_000
 """A component this large is cut into blocks along the caller's backward-search layers."""
 
 
-def components(
-    transitions: sp.csr_matrix, usable_start: np.ndarray, usable_rows: np.ndarray
-) -> np.ndarray:
-    """int32[S + C]: the SCC label of every model state (then every choice), labels in a reverse
-    topological order of the condensation (see the module docstring).
+def components(transitions: sp.csr_matrix, row_groups: np.ndarray) -> np.ndarray:
+    """int32[S]: the SCC label of every model state in the graph of all its choices, labels in a
+    reverse topological order of the condensation (see the module docstring).
 
     Args:
-        transitions: csr [C, S], canonical (no duplicate entries in a row).
-        usable_start: int64[S + 1]: the usable choices of state s are
-            ``usable_rows[usable_start[s]:usable_start[s+1]]`` (empty for a known state).
-        usable_rows: int64[k] global choice indices.
+        transitions: csr [C, S] whose rows are grouped by state.
+        row_groups: int64[S + 1]: the choices of state s are rows ``row_groups[s]:row_groups[s+1]``.
     """
-    C, S = transitions.shape
-    k = int(usable_rows.size)
-    idx_dtype = np.int32 if S + C + 1 < 2**31 and transitions.nnz + k < 2**31 else np.int64
-    if not transitions.has_canonical_format:
-        transitions = transitions.copy()
-        transitions.sum_duplicates()
-    indices = np.empty(k + transitions.nnz, dtype=idx_dtype)
-    np.add(usable_rows, S, out=indices[:k], casting="unsafe")
-    indices[k:] = transitions.indices
-    indptr = np.empty(S + C + 1, dtype=idx_dtype)
-    indptr[: S + 1] = usable_start
-    np.add(transitions.indptr[1:], k, out=indptr[S + 1 :], casting="unsafe")
-    data = np.ones(indices.size, dtype=np.int8)
-    graph = sp.csr_matrix((data, indices, indptr), shape=(S + C, S + C))
+    S = row_groups.size - 1
+    idx_dtype = np.int32 if transitions.nnz < 2**31 and S < 2**31 else np.int64
+    # the rows of a state are contiguous, so its successors are one slice of the entries
+    indptr = transitions.indptr[row_groups].astype(idx_dtype)
+    indices = transitions.indices.astype(idx_dtype, copy=True)
+    graph = sp.csr_matrix(
+        (np.ones(indices.size, dtype=np.int8), indices, indptr), shape=(S, S), copy=False
+    )
+    graph.sum_duplicates()  # several choices into one successor (the routine needs no duplicates)
     _, labels = connected_components(graph, directed=True, connection="strong")
     return labels
 
 
 def topological_blocks(
     transitions: sp.csr_matrix,
-    usable_start: np.ndarray,
-    usable_rows: np.ndarray,
+    row_groups: np.ndarray,
     unk: np.ndarray,
     *,
     layer: np.ndarray | None,
@@ -94,7 +87,7 @@ def topological_blocks(
     order does not pay (see the module docstring).
 
     Args:
-        transitions, usable_start, usable_rows: as for :func:`components`.
+        transitions, row_groups: as for :func:`components`.
         unk: int64[n] the unknown model states.
         layer: int64[n] or None: the caller's backward-search layer of each unknown state (-1:
             last), the Gauss-Seidel order inside a very large component.
@@ -108,7 +101,9 @@ def topological_blocks(
     n = int(unk.size)
     if n == 0:
         return None
-    labels = components(transitions, usable_start, usable_rows)
+    if band_states is None and n < 2 * MIN_BAND_STATES:
+        return None
+    labels = components(transitions, row_groups)
     lab = labels[unk]
     sizes = np.bincount(lab)
     if band_states is None:

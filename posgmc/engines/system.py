@@ -211,12 +211,9 @@ def build_system(
         block = np.zeros(unk.size, dtype=np.int64)
     band_of_block = None
     if topological and unk.size:
-        start_usable = np.zeros(S + 1, dtype=np.int64)
-        np.cumsum(counts_all, out=start_usable[1:])
         found = topological_blocks(
             g.transitions,
-            start_usable,
-            rows_global,
+            g.row_groups,
             unk,
             layer=None if layer is None else layer[unk],
             band_states=band_states,
