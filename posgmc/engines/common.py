@@ -241,6 +241,13 @@ def _solve_system(
         return x, rows, rounds, _Solved(lower, upper, rounds, True, True, best, cand, estimate=x)
 
     if options.method in (Method.EXACT, Method.POLICY):
+        if not options.prove:
+            x, rows, rounds = _policy_solution(
+                sys, ex.grouped(sys), initial_rows, outer_max=outer_max, idle_min=idle_min,
+                unbounded=unbounded, is_chain=is_chain, max_rounds=options.max_iterations,
+            )
+            best, cand = _candidates(sys, rows, num_choices)
+            return _Solved(x, x.copy(), rounds, True, False, best, cand, estimate=x)
         x, rows, rounds, solved = policy(initial_rows)
         if solved is not None:
             return solved
