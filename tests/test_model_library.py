@@ -95,3 +95,64 @@ def test_results_pass(folder: str, model: str, props: str, args: list[str], pass
     summary = f"{passed} passed, 0 failed" + (f", {skipped} skipped" if skipped else "")
     assert r.exit_code == 0, r.output
     assert r.output.strip().splitlines()[-1] == summary, r.output
+
+
+# -- Storm 2.0 agrees (skipped without the reference environment) ---------------------------------
+
+_STORM = r"""
+import json, re, sys, tempfile
+import stormpy, stormpy.pomdp
+
+out = []
+for path, constants, prop, kind in json.loads(sys.argv[1]):
+    text = open(path).read()
+    if kind == "posg":  # the smg twin: the same game with its observations removed
+        text = re.sub(r"^posg$", "smg", text, flags=re.M)
+        text = re.sub(r"^\s*observables? .*$", "", text, flags=re.M)
+    with tempfile.NamedTemporaryFile("w", suffix=".prism", delete=False) as f:
+        f.write(text)
+    program = stormpy.parse_prism_program(f.name)
+    if constants:
+        program = stormpy.io.instantiate_constants(program, constants)[0]
+    properties = stormpy.parse_properties(prop, program) if prop else []
+    model = stormpy.build_model(program, properties)
+    value = None
+    if kind == "pomdp":
+        result = stormpy.pomdp.verify_with_belief_unfolding(model, properties[0], max_exploration_time=60)
+        value = [result.value, bool(result.completed_exploration)]
+    out.append([model.nr_states, model.nr_choices, model.nr_transitions, value])
+print(json.dumps(out))
+"""
+
+# (the model's key in SIZES, constants for Storm, property for Storm's belief unfolding, optimum)
+STORM_CASES = [
+    (("maze", "maze.pomdp", ()), "", 'R{"steps"}min=? [ F s=10 ]', 4.3),  # PRISM's RESULT
+    (("tiger", "tiger.pomdp", ()), "", 'R{"cost"}min=? [ F "opened" ]', 2391 / 494),  # README.md
+    (("trap_grid", "trap_grid.pomdp", ()), "", 'Pmax=? [ F "goal" ]', (0.9**4 + 0.9**6) / 2),  # README.md
+    (("convoy", "convoy.posg", ()), "", "", None),
+    (("cyber_deception", "cyber_deception.posg", ()), "", "", None),
+    (("tennis", "tennis.smg", (("receiver_first", True),)), "receiver_first=true", "", None),
+    (("red_and_black", "red_and_black.smg", (("start", 3),)), "start=3", "", None),
+]
+
+
+def test_storm_builds_the_same_models_and_finds_the_pomdp_optima() -> None:
+    """Storm 2.0 (in /root/refenv, benchmarks/README.md) builds each model (a posg as its smg twin)
+    to our sizes, and its belief unfolding completes at the POMDP optima the READMEs derive, which
+    bound the synthesis RESULT ranges. Skipped without the reference environment."""
+    import json
+    import subprocess
+
+    storm_python = Path("/root/refenv/bin/python")
+    if not storm_python.exists():
+        pytest.skip("no reference environment with stormpy at /root/refenv")
+    assert {key for key, *_ in STORM_CASES} == set(SIZES)
+    cases = [[str(MODELS / f / m), c, p, m.rsplit(".", 1)[1]] for (f, m, _), c, p, _ in STORM_CASES]
+    out = subprocess.run([str(storm_python), "-c", _STORM, json.dumps(cases)], capture_output=True,
+                         text=True, check=True, timeout=300)
+    got = json.loads(out.stdout.strip().splitlines()[-1])
+    for (key, _, _, optimum), (s, c, t, value) in zip(STORM_CASES, got, strict=True):
+        assert (s, c, t) == SIZES[key], key
+        if optimum is not None:
+            assert value[1], f"{key}: Storm's exploration did not complete"
+            assert value[0] == pytest.approx(optimum, rel=1e-6), key
