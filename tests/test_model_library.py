@@ -156,3 +156,11 @@ def test_storm_builds_the_same_models_and_finds_the_pomdp_optima() -> None:
         if optimum is not None:
             assert value[1], f"{key}: Storm's exploration did not complete"
             assert value[0] == pytest.approx(optimum, rel=1e-6), key
+
+
+@pytest.mark.parametrize(("folder", "model"), sorted({(c[0], c[1]) for c in CASES}))
+def test_lint_clean(folder: str, model: str) -> None:
+    """The model with every properties file of its folder (what `posgmc lint` and the pre-commit
+    hook check)."""
+    props = sorted((MODELS / folder).glob("*.props"))
+    assert api.lint(MODELS / folder / model, props) == []
