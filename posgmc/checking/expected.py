@@ -20,7 +20,7 @@ from posgmc.checking.results import PropertyResult
 from posgmc.errors import PosgmcError
 from posgmc.syntax.ast import ExpectedResult, Property
 
-__all__ = ["Verdict", "expected_for", "grade", "DEFAULT_TOLERANCE"]
+__all__ = ["Verdict", "check_form", "expected_for", "grade", "DEFAULT_TOLERANCE"]
 
 DEFAULT_TOLERANCE = 1e-5
 
@@ -91,8 +91,10 @@ def _interval(text: str) -> tuple[float, float]:
     return lo, hi
 
 
-def _check_form(text: str) -> None:
+def check_form(text: str) -> None:
     """ValueError unless ``text`` is one of the RESULT forms (see the module docstring)."""
+    if text.strip() == "?":
+        return
     low = text.lower()
     if low in ("true", "false") or low == "error" or low.startswith("error:"):
         return
@@ -116,7 +118,7 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
     text = expected.text.strip()
     if text == "?":
         return Verdict(None, text, "-")
-    _check_form(text)  # a malformed line is an input error whatever the outcome
+    check_form(text)  # a malformed line is an input error whatever the outcome
     if isinstance(outcome, PosgmcError):
         actual = f"Error: {outcome.message}"
         if text.lower().startswith("error"):
@@ -138,12 +140,13 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
     exact = getattr(outcome, "exact", None) if expected.number is None else None
     if exact is not None and not text.startswith("["):
         # exact mode (PRISM's -exact test rule): the fraction must be equal, not close
+        fraction: Fraction | None
         try:
-            wanted = Fraction(text)
+            fraction = Fraction(text)
         except (ValueError, ZeroDivisionError):
-            wanted = None
-        if wanted is not None:
-            return Verdict(exact == wanted, text, str(exact))
+            fraction = None
+        if fraction is not None:
+            return Verdict(exact == fraction, text, str(exact))
     v = float(value)  # type: ignore[arg-type]
     if text.startswith("[") and text.endswith("]"):
         lo, hi = _interval(text)

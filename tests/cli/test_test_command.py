@@ -159,3 +159,14 @@ def test_malformed_values_are_input_errors_even_when_the_property_fails(tmp_path
         r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5"])
         assert r.exit_code == 2, r.output
         assert f"{p}:1:4: error: {message}" in r.output
+
+
+def test_a_malformed_line_stops_the_run_before_any_check(tmp_path: Path) -> None:
+    """Nothing half-reported: a bad RESULT line further down is found before the first property is
+    checked, so no PASS line and no JUnit file appear."""
+    m, p = _files(tmp_path, "// RESULT: 1\nP=? [ F x=2 ];\n// RESULT: [1, 2, 3]\nP=? [ F x=1 ];\n")
+    junit = tmp_path / "r.xml"
+    r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5", "--junit", str(junit)])
+    assert r.exit_code == 2
+    assert "PASS" not in r.output and f"{p}:3:4: error: RESULT interval" in r.output
+    assert not junit.exists()
