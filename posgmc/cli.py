@@ -597,6 +597,22 @@ def _print_strategy_numbers(r: Any) -> None:
         click.echo("  memory: " + ", ".join(f"{p or 'agent'}={k}" for p, k in r.memory))
 
 
+def _print_multi(r: Any) -> None:
+    """A multi(...) result: the LP's answer, what it is, and the front of a Pareto query."""
+    front = r.front
+    if front is not None:
+        click.echo(f"{r.property}: Pareto front {front.text()}  (lp (HiGHS), {r.seconds:.3f} s)")
+        click.echo(f"  under-approximation (achievable vertices): {front.text()}")
+        corners = ",".join(f"({x:.10g},{y:.10g})" for x, y in front.corners)
+        click.echo(f"  over-approximation vertices: [{corners}]; precision {front.precision:.3g}")
+    else:
+        line = f"{r.property}: {'NaN' if r.value != r.value else _fmt(r.value)}"
+        line += f"  (lp (HiGHS), {r.seconds:.3f} s)  LP value: floating point, not a proven bound"
+        click.echo(line)
+    if r.note:
+        click.echo(f"  note: {r.note}")
+
+
 def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> None:
     first = rows[0][1]
     stats = first.model.statistics()
@@ -611,6 +627,9 @@ def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str],
             if isinstance(r, tuple):
                 click.echo(f"{r[0]}: ERROR")
                 click.echo(r[1].render(), err=True)
+                continue
+            if r.multi is not None:
+                _print_multi(r)
                 continue
             line = f"{r.property}: {_fmt(r.value)}"
             if r.exact is not None:

@@ -26,6 +26,7 @@ from posgmc.syntax.ast import (
     Ite,
     LabelRef,
     PlayerRef,
+    MultiQuery,
     ProbQuery,
     RewardKind,
     RewardObjective,
@@ -242,6 +243,9 @@ class ExpressionActions(ActionBase):
         return RewardQuery(
             coalition, op.reward, op.direction, op.threshold, children[-1], span=span
         )
+
+    def multi_query(self, span: SourceSpan, children: Sequence[Any]) -> MultiQuery:
+        return MultiQuery(tuple(c for c in children if not isinstance(c, Token)), span=span)
 
     def rew_cumulative(self, span: SourceSpan, children: Sequence[Expr]) -> RewardObjective:
         return RewardObjective(RewardKind.CUMULATIVE, bound=children[0], span=span)

@@ -299,6 +299,15 @@ class RewardQuery(Expr):
     objective: RewardObjective
 
 
+@dataclass(frozen=True)
+class MultiQuery(Expr):
+    """PRISM's multi-objective query ``multi(q1, ..., qn)``; each ``objectives[i]`` is written as a
+    :class:`ProbQuery` or :class:`RewardQuery` (the semantics check it): all thresholds is an
+    achievability query, one ``=?`` a numerical one, two a Pareto query."""
+
+    objectives: tuple[Expr, ...]
+
+
 # ---------------------------------------------------------------------------------------------
 # Model files
 # ---------------------------------------------------------------------------------------------
