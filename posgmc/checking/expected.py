@@ -140,7 +140,7 @@ def _points(text: str) -> list[tuple[float, ...]]:
 def _grade_front(text: str, front: object, tolerance: float) -> Verdict:
     """A Pareto RESULT passes when the same vertices were found: every expected point is close to
     a vertex of the computed front and every vertex close to an expected point (relative
-    ``tolerance``, absolute 1e-4 near 0 as PRISM's Pareto tests need)."""
+    ``tolerance``, absolute 1e-6 near 0)."""
     if front is None:
         return Verdict(False, text, "not a Pareto front")
     wanted = _points(text)
@@ -149,7 +149,7 @@ def _grade_front(text: str, front: object, tolerance: float) -> Verdict:
 
     def near(p: tuple[float, ...], q: tuple[float, ...]) -> bool:
         return len(p) == len(q) and all(
-            abs(a - b) <= max(tolerance * abs(b), 1e-4) for a, b in zip(p, q)
+            abs(a - b) <= max(tolerance * abs(b), 1e-6) for a, b in zip(p, q)
         )
 
     ok = all(any(near(g, w) for g in got) for w in wanted) and all(

@@ -154,8 +154,8 @@ class _Objective:
     def reported(self, v: float) -> float:
         """An LP value (maximising sense) in the objective's own units."""
         if not self.minimise:
-            return v
-        return 1.0 - v if self.is_probability else -v
+            return v + 0.0
+        return 1.0 - v if self.is_probability else 0.0 - v
 
     @property
     def scale_of_bound(self) -> float:

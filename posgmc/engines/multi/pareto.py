@@ -9,7 +9,7 @@ is optimised (here by the occupation LP, :mod:`posgmc.engines.multi.lp`), which 
 * a half-plane ``w @ v <= w @ p`` containing every achievable point (the **over-approximation**
   is the intersection of the half-planes).
 
-Both objectives are in the maximising sense. The extremes come from lexicographic optima; then
+Both objectives are in the maximising sense. The extremes come from optimising one objective with the other as a tie-breaker; then
 each segment between neighbouring points is probed with its outward normal; a segment is final
 when no point lies further than ``tolerance`` beyond it. The ``precision`` reported is the
 largest distance from a vertex of the over-approximation to the under-approximation (0 up to the
@@ -27,6 +27,9 @@ from posgmc.engines.multi.lp import LPStatus, OccupationLP
 from posgmc.errors import UnsupportedError
 
 __all__ = ["ParetoFront", "pareto_front"]
+
+_TIE = 1e-7
+"""The weight of the other objective when one is optimised (a tie-breaker)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,25 +90,22 @@ def pareto_front(
             raise UnsupportedError(f"the LP solver failed: {point.message}")
         return point.values[list(pair)]
 
-    def lexicographic(axis: int) -> np.ndarray | None:
-        w = np.zeros(2)
+    def extreme(axis: int) -> tuple[np.ndarray | None, np.ndarray]:
+        # the optimum of one objective, the other breaking ties: an LP's optimal basic solution
+        # for weights (1, TIE) is such a vertex unless the front is steeper than 1/TIE there
+        # (then it is another vertex of the front); either way w @ v <= w @ p is a valid facet
+        w = np.full(2, _TIE)
         w[axis] = 1.0
-        best = solve(w, {})
-        if best is None:
-            return None
-        slack = 1e-7 * (1.0 + abs(best[axis]))
-        w2 = np.zeros(2)
-        w2[1 - axis] = 1.0
-        found = solve(w2, {pair[axis]: max(best[axis] - slack, at_least.get(pair[axis], -np.inf))})
-        return best if found is None else found
+        w /= np.linalg.norm(w)
+        return solve(w, {}), w
 
-    a = lexicographic(0)
+    a, wa = extreme(0)
     if a is None:
         empty = np.zeros((0, 2))
         return ParetoFront(empty, np.zeros((0, 3)), empty, 0.0, solves, True)
-    b = lexicographic(1)
+    b, wb = extreme(1)
     assert b is not None  # noqa: S101 - feasible for one weight, feasible for all
-    facets = [np.array([1.0, 0.0, a[0]]), np.array([0.0, 1.0, b[1]])]
+    facets = [np.array([wa[0], wa[1], float(wa @ a)]), np.array([wb[0], wb[1], float(wb @ b)])]
     points = [a, b]
     queue = [(a, b)] if np.linalg.norm(a - b) > tolerance else []
     converged = True
