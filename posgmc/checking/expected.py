@@ -143,6 +143,8 @@ def _grade_front(text: str, front: object, tolerance: float) -> Verdict:
     ``tolerance``, absolute 1e-6 near 0)."""
     if front is None:
         return Verdict(False, text, "not a Pareto front")
+    if not text.startswith("[("):
+        return Verdict(False, text, front.text())  # type: ignore[attr-defined]
     wanted = _points(text)
     got = [tuple(float(v) for v in p) for p in front.points]  # type: ignore[attr-defined]
     actual = front.text()  # type: ignore[attr-defined]
