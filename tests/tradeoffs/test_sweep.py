@@ -82,7 +82,10 @@ def test_pareto_command_table_csv_and_plot(budget_model: Path, tmp_path: Path) -
 def test_pareto_refuses_what_it_cannot_do(budget_model: Path, tmp_path: Path) -> None:
     r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop",
                                   'multi(Pmax=? [ F "safe" ], Pmax=? [ F "over" ])', "--sweep", "B=0:1"])
-    assert r.exit_code == 2 and "multi-objective" in r.output
+    assert r.exit_code == 2 and "--sweep does not apply" in r.output
+    r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop",
+                                  'multi(Pmax=? [ F "safe" ], Pmax=? [ F "safe" ])', "--const", "B=1"])
+    assert r.exit_code == 2 and "not on posg models" in r.output
     r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop", PROP, "--sweep", "B=1"])
     assert r.exit_code == 2 and "one constant with a range" in r.output
     r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop", PROP, "--sweep", "B=0:1",
