@@ -20,7 +20,7 @@ from typing import Any, NoReturn, TypeVar
 import click
 
 from posgmc import __version__
-from posgmc.errors import MultipleErrors, PosgmcError
+from posgmc.errors import InputError, MultipleErrors, PosgmcError
 from posgmc.semantics.evaluate import format_value
 
 EXIT_OK = 0
@@ -353,6 +353,9 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (see docs/cli.md).")
 @click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
               help="Also write a JUnit XML report: one test case per property.")
+@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
+              help="With one swept constant (--const B=0:4): draw each property against it "
+              "(.png, .svg, .pdf; needs matplotlib).")
 @click.option("--state-limit", type=click.IntRange(min=1), default=None)
 @_common
 def check(
@@ -373,6 +376,7 @@ def check(
     export_strategy: str | None,
     as_json: bool,
     junit: str | None,
+    plot_file: str | None,
     state_limit: int | None,
     consts: tuple[str, ...],
     debug: bool,
@@ -386,6 +390,13 @@ def check(
         if not props and not prop_texts:
             raise click.UsageError("give a properties file or --prop TEXT")
         swept, combos = expand_constants(consts)
+        if plot_file is not None:
+            if not plot_file.lower().endswith((".png", ".svg", ".pdf")):
+                raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
+            if len(swept) != 1:
+                raise InputError("--plot draws properties against one swept constant; "
+                                 f"{len(swept)} are swept",
+                                 hint="give one constant a range, e.g. --const B=0:4")
         strategies = strategy_options(strategy_files)
         options = CheckOptions(
             solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
@@ -419,6 +430,12 @@ def check(
                     _write_strategy(export_strategy, report)
         if junit is not None:
             _write_check_junit(junit, model, swept, rows)
+        if plot_file is not None:
+            from posgmc.tradeoffs.plot import plot_sweeps
+            from posgmc.tradeoffs.sweep import sweeps_of_check
+
+            texts = [({n: _const_text(v) for n, v in c.items()}, r) for c, r in rows]
+            plot_sweeps(sweeps_of_check(swept[0], texts), plot_file)
         if as_json:
             click.echo(json.dumps(_json_report(model, swept, rows)))
         else:

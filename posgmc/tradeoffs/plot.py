@@ -13,7 +13,7 @@ from posgmc.tradeoffs.sweep import Sweep
 if TYPE_CHECKING:
     from posgmc.checking.multi import Front
 
-__all__ = ["plot_sweep", "plot_front"]
+__all__ = ["plot_sweep", "plot_sweeps", "plot_front"]
 
 
 def _pyplot():  # type: ignore[no-untyped-def]
@@ -143,3 +143,48 @@ def plot_sweep(s: Sweep, path: str | Path, *, title: str | None = None) -> None:
     with atomic_open(path, "wb", encoding=None) as handle:  # never a half-written picture
         fig.savefig(handle, format=suffix[1:])
     plt.close(fig)
+
+
+def plot_sweeps(sweeps: "list[Sweep]", path: str | Path) -> None:
+    """Several properties against one swept constant (``check --const B=0:4 --plot F``): one
+    property is drawn as :func:`plot_sweep` draws it; several share the axes, each its value with
+    its proven bounds as error bars.
+
+    Raises:
+        UnsupportedError: matplotlib is not installed.
+        InputError: no point has a number to draw, or an unknown file type.
+    """
+    if len(sweeps) == 1:
+        plot_sweep(sweeps[0], path)
+        return
+    _check_suffix(path)
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    drawn = 0
+    for s in sweeps:
+        xs, ys, lo, hi = [], [], [], []
+        for p in s.points:
+            b = p.main_number()
+            if b is None or math.isnan(p.x):
+                continue
+            xs.append(p.x)
+            ys.append(b.value)
+            lo.append(max(0.0, b.value - b.lower))
+            hi.append(max(0.0, b.upper - b.value))
+        if xs:
+            drawn += 1
+            ax.errorbar(xs, ys, yerr=[lo, hi], marker="o", capsize=4, label=s.property)
+            for x, y in zip(xs, ys):
+                ax.annotate(f"{y:.4g}", (x, y), textcoords="offset points", xytext=(6, 6), fontsize=7)
+    if not drawn:
+        plt.close(fig)
+        raise InputError("no property of the sweep has a number to plot")
+    xs_all = sorted({p.x for s in sweeps for p in s.points if not math.isnan(p.x)})
+    if len(xs_all) <= 20 and all(float(x).is_integer() for x in xs_all):
+        ax.set_xticks(xs_all)
+    ax.set_xlabel(sweeps[0].constant)
+    ax.set_ylabel("value (proven bounds)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, plt, path)
