@@ -148,7 +148,7 @@ def plot_sweep(s: Sweep, path: str | Path, *, title: str | None = None) -> None:
 def plot_sweeps(sweeps: "list[Sweep]", path: str | Path) -> None:
     """Several properties against one swept constant (``check --const B=0:4 --plot F``): one
     property is drawn as :func:`plot_sweep` draws it; several share the axes, each its value with
-    its proven bounds as error bars.
+    its proven bounds as error bars (the first full-observation bound found drawn dashed).
 
     Raises:
         UnsupportedError: matplotlib is not installed.
@@ -160,7 +160,7 @@ def plot_sweeps(sweeps: "list[Sweep]", path: str | Path) -> None:
     _check_suffix(path)
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    drawn = 0
+    drawn, full_drawn = 0, False
     for s in sweeps:
         xs, ys, lo, hi = [], [], [], []
         for p in s.points:
@@ -176,6 +176,12 @@ def plot_sweeps(sweeps: "list[Sweep]", path: str | Path) -> None:
             ax.errorbar(xs, ys, yerr=[lo, hi], marker="o", capsize=4, label=s.property)
             for x, y in zip(xs, ys):
                 ax.annotate(f"{y:.4g}", (x, y), textcoords="offset points", xytext=(6, 6), fontsize=7)
+        full = [(p.x, p.result.full_observation.value) for p in s.points
+                if p.result is not None and p.result.full_observation is not None]
+        if full and not full_drawn:
+            full_drawn = True
+            ax.plot([x for x, _ in full], [v for _, v in full], linestyle="--", marker="x",
+                    color="grey", label="full observation (bound)")
     if not drawn:
         plt.close(fig)
         raise InputError("no property of the sweep has a number to plot")
