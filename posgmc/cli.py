@@ -615,16 +615,19 @@ def _print_strategy_numbers(r: Any) -> None:
 
 
 def _print_multi(r: Any) -> None:
-    """A multi(...) result: the LP's answer, what it is, and the front of a Pareto query."""
+    """A multi(...) result: its answer, what it is, and the front of a Pareto query."""
     front = r.front
     if front is not None:
-        click.echo(f"{r.property}: Pareto front {front.text()}  (lp (HiGHS), {r.seconds:.3f} s)")
+        click.echo(f"{r.property}: Pareto front {front.text()}  ({r.method}, {r.seconds:.3f} s)")
         click.echo(f"  under-approximation (achievable vertices): {front.text()}")
-        corners = ",".join(f"({x:.10g},{y:.10g})" for x, y in front.corners)
-        click.echo(f"  over-approximation vertices: [{corners}]; precision {front.precision:.3g}")
+        if len(front.corners):
+            corners = ",".join(f"({x:.10g},{y:.10g})" for x, y in front.corners)
+            click.echo(f"  over-approximation vertices: [{corners}]; precision {front.precision:.3g}")
     else:
         line = f"{r.property}: {'NaN' if r.value != r.value else _fmt(r.value)}"
-        line += f"  (lp (HiGHS), {r.seconds:.3f} s)  LP value: floating point, not a proven bound"
+        what = ("LP value: floating point, not a proven bound" if r.method.startswith("lp")
+                else "from an under-approximation, see the note")
+        line += f"  ({r.method}, {r.seconds:.3f} s)  {what}"
         click.echo(line)
     if r.note:
         click.echo(f"  note: {r.note}")

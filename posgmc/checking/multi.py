@@ -32,6 +32,7 @@ nominal LP answer is reported with a note that it is within the LP's tolerance.
 from __future__ import annotations
 
 import enum
+import math
 import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -105,7 +106,7 @@ class Front:
             "directions": [d.value for d in self.directions],
             "points": self.points.tolist(),
             "over_approximation": self.corners.tolist(),
-            "precision": self.precision,
+            "precision": self.precision if math.isfinite(self.precision) else None,
             "solves": self.solves,
             "converged": self.converged,
         }
@@ -347,6 +348,10 @@ def answer_multi(
     Raises:
         UnsupportedError: a form outside the fragment (see :mod:`posgmc.semantics.multi`).
     """
+    if expr.coalition is not None:
+        from posgmc.checking.multi_games import answer_game
+
+        return answer_game(checker, expr)
     start = time.perf_counter()
     objectives = _objectives(expr, checker)
     texts = tuple(format_expr(o.query) for o in objectives)
@@ -402,6 +407,8 @@ def answer_multi(
 def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name: str | None) -> PropertyResult:
     """A ``multi(...)`` property as a :class:`PropertyResult` (``multi`` holds the typed answer)."""
     a = answer_multi(checker, expr)
+    if expr.coalition is not None:
+        return _game_result(a, text=text, name=name)
     method = "lp (HiGHS)"
     common = dict(property=text, name=name, seconds=a.seconds, method=method, sound=False, multi=a)
     if a.kind is MultiKind.ACHIEVABILITY:
@@ -430,5 +437,32 @@ def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name
             f"({f.solves} LPs" + ("" if f.converged else ", STOPPED at the LP budget") + ")")
     if len(f.points) == 0:
         note = "the constraints cannot be met together: the front is empty"
+    return PropertyResult(kind=ResultKind.PARETO, value=float("nan"), lower=None, upper=None,
+                          note=note, **common)  # type: ignore[arg-type]
+
+
+def _game_result(a: MultiAnswer, *, text: str, name: str | None) -> PropertyResult:
+    """A coalition query on an smg: answers from an under-approximation (multi_games.py)."""
+    common = dict(property=text, name=name, seconds=a.seconds, method="value iteration (sets)",
+                  sound=False, multi=a)
+    if a.kind is MultiKind.ACHIEVABILITY:
+        note = ("the coalition achieves the thresholds (they lie in the under-approximation of "
+                "the achievable set)" if a.achievable else
+                f"not proven: the thresholds lie {-a.margin:.3g} outside the under-approximation "
+                "of the achievable set; its limit might still reach them")
+        return PropertyResult(kind=ResultKind.BOOLEAN, value=bool(a.achievable), lower=None,
+                              upper=None, note=note, **common)  # type: ignore[arg-type]
+    if a.kind is MultiKind.NUMERICAL:
+        note = ("a lower bound: achievable by the coalition (from the under-approximation of the "
+                "achievable set); the optimum may be higher")
+        if np.isnan(a.value):
+            note = "no point of the under-approximation meets the constraint"
+        return PropertyResult(kind=ResultKind.NUMBER, value=a.value, lower=a.value,
+                              upper=math.inf if not np.isnan(a.value) else a.value, note=note,
+                              **common)  # type: ignore[arg-type]
+    assert a.front is not None  # noqa: S101
+    note = (f"Pareto front of the coalition: {len(a.front.points)} vertices of an "
+            "under-approximation (value iteration"
+            + (", converged" if a.front.converged else ", NOT converged") + "); no over-approximation")
     return PropertyResult(kind=ResultKind.PARETO, value=float("nan"), lower=None, upper=None,
                           note=note, **common)  # type: ignore[arg-type]

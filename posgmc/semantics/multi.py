@@ -12,7 +12,9 @@ Checked here, each error at the offending argument:
 * the model is an mdp or a dtmc (smg, pomdp and posg are answered elsewhere or refused);
 * each argument is a ``P``/``R`` query without a coalition; ``=?`` has ``min`` or ``max``;
 * reward objectives are total ``[C]`` or cumulative ``[C<=k]`` (PRISM's fragment);
-* at most two ``=?`` arguments (posgmc's Pareto fronts are two-dimensional).
+* at most two ``=?`` arguments (posgmc's Pareto fronts are two-dimensional);
+* PRISM-games' ``<<C>> (q1 & q2)`` on smgs: one or two objectives the coalition maximises
+  (``P>=p``/``Pmax=?`` of co-safe formulas, ``R>=r``/``Rmax=?`` of total rewards ``[C]``).
 
 Path formulas are checked when the query is answered (co-safe LTL, ``G F a``, ``F G a``), as for
 single queries.
@@ -22,7 +24,16 @@ from __future__ import annotations
 
 from posgmc.errors import PosgmcError, SemanticError, UnsupportedError
 from posgmc.semantics.evaluate import iter_nodes
-from posgmc.syntax.ast import Expr, ModelType, MultiQuery, ProbQuery, RewardKind, RewardQuery
+from posgmc.syntax.ast import (
+    ComparisonOp,
+    Direction,
+    Expr,
+    ModelType,
+    MultiQuery,
+    ProbQuery,
+    RewardKind,
+    RewardQuery,
+)
 
 __all__ = ["check_multi", "MULTI_REWARD_KINDS", "MULTI_MODEL_TYPES"]
 
@@ -47,14 +58,20 @@ def check_multi(expr: Expr, *, model_type: ModelType, errors: list[PosgmcError])
             )
     if top is None:
         return
+    if top.coalition is not None:
+        _check_game_form(top, model_type=model_type, errors=errors)
+        return
     if model_type not in MULTI_MODEL_TYPES:
+        hint = ("on an smg write PRISM-games' coalition form <<C>> (q1 & q2) (docs/tradeoffs.md)"
+                if model_type is ModelType.SMG else
+                "see docs/tradeoffs.md for what each model type supports (posg: posgmc pareto "
+                "--sweep)")
         errors.append(
             UnsupportedError(
                 f"multi-objective queries are answered on mdps (and dtmcs), not on "
                 f"{model_type.value} models",
                 top.span,
-                hint="see docs/tradeoffs.md for what each model type supports (posg: "
-                "posgmc pareto --sweep)",
+                hint=hint,
             )
         )
     queries = 0
@@ -103,3 +120,52 @@ def check_multi(expr: Expr, *, model_type: ModelType, errors: list[PosgmcError])
                 hint="turn all but two into constraints (P>=p, R<=r)",
             )
         )
+
+
+def _check_game_form(top: MultiQuery, *, model_type: ModelType, errors: list[PosgmcError]) -> None:
+    """PRISM-games' ``<<C>> (q1 & q2)`` on an smg: posgmc's fragment (docs/tradeoffs.md) is one
+    or two objectives, each a probability ``P>=p`` / ``Pmax=?`` of a co-safe formula or an
+    expected total reward ``R>=r [C]`` / ``Rmax=? [C]`` (the coalition maximises them all)."""
+    if model_type is not ModelType.SMG:
+        errors.append(
+            UnsupportedError(
+                f"a coalition over several objectives, <<C>> (q1 & q2), is answered on smgs, not on "
+                f"{model_type.value} models",
+                top.span,
+                hint="on an mdp write multi(q1, q2)" if model_type is ModelType.MDP else
+                "see docs/tradeoffs.md",
+            )
+        )
+        return
+    if len(top.objectives) > 2:
+        errors.append(
+            UnsupportedError(
+                f"a multi-objective game query has at most two objectives here, found "
+                f"{len(top.objectives)}",
+                top.span,
+            )
+        )
+    for arg in top.objectives:
+        if not isinstance(arg, (ProbQuery, RewardQuery)):
+            errors.append(SemanticError(
+                "each conjunct of <<C>> (...) must be a P or R query", arg.span,
+                hint='e.g. <<p1>> (P>=0.9 [ F "goal" ] & R{"value"}>=2 [ C ])'))
+            continue
+        if arg.coalition is not None:
+            errors.append(UnsupportedError(
+                "an objective inside <<C>> (...) takes no coalition of its own", arg.coalition.span))
+        upward = (arg.threshold is not None and arg.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)) \
+            or (arg.threshold is None and arg.direction is Direction.MAX)
+        if not upward:
+            errors.append(UnsupportedError(
+                "in games posgmc answers objectives the coalition maximises: P>=p, P>p, Pmax=?, "
+                "R>=r, R>r, Rmax=?",
+                arg.span,
+                hint="write a cost as a reward to be maximised (e.g. a budget left over), or "
+                "check it alone",
+            ))
+        if isinstance(arg, RewardQuery) and arg.objective.kind is not RewardKind.TOTAL:
+            errors.append(UnsupportedError(
+                f'in games multi-objective rewards are total rewards [C], not "{arg.objective.kind.value}"',
+                arg.objective.span if arg.objective.span.line else arg.span,
+            ))

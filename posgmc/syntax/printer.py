@@ -215,6 +215,9 @@ def _bare(expr: Expr) -> str:
     if isinstance(expr, Temporal):
         return _temporal(expr)
     if isinstance(expr, MultiQuery):
+        if expr.coalition is not None:
+            body = " & ".join(_fmt(o, _ITE) for o in expr.objectives)
+            return f"{format_coalition(expr.coalition)} ({body})"
         return "multi(" + ", ".join(_fmt(o, _ITE) for o in expr.objectives) + ")"
     if isinstance(expr, ProbQuery):
         prefix = format_coalition(expr.coalition) + " " if expr.coalition else ""

@@ -60,3 +60,18 @@ def test_front_geometry() -> None:
     d = _distance_to_under(corners[0], under)
     assert 0.0 < d < np.hypot(0.4, 0.4) + 1e-12
     assert _distance_to_under(np.array([0.2, 0.2]), under) == 0.0
+
+
+def test_polygon_operations() -> None:
+    from posgmc.engines.multi import polygon
+
+    a = polygon.hull(np.array([[1.0, 0.0], [0.0, 1.0]]))
+    b = polygon.point(np.array([0.5, 0.5]))
+    # Minkowski sum: 0.5 a + 0.5 b + (1, 0) has the vertices (1.75, 0.25) and (1.25, 0.75)
+    s = polygon.weighted_sum([a, b], np.array([0.5, 0.5]), np.array([1.0, 0.0]))
+    assert np.allclose(s, [[1.75, 0.25], [1.25, 0.75]])
+    # the intersection of "below (1, 0)-(0, 1)" and "below (0.8, 0.8)" is cut at x + y = 1
+    c = polygon.intersection([a, polygon.point(np.array([0.8, 0.8]))])
+    assert np.allclose(c, [[0.8, 0.2], [0.2, 0.8]])
+    assert polygon.contains(c, np.array([0.5, 0.5])) and not polygon.contains(c, np.array([0.6, 0.5]))
+    assert np.allclose(polygon.support(c, np.array([[1.0, 0.0], [0.0, 1.0]])), [0.8, 0.8])
