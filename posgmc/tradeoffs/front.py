@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from posgmc.checking.multi import Front, MultiAnswer
-from posgmc.errors import InputError, PosgmcError
+from posgmc.errors import InputError
 
 __all__ = ["multi_objective", "front_to_csv"]
 
@@ -46,9 +46,8 @@ def multi_objective(
                          hint='e.g. multi(Pmax=? [ F "goal" ], R{"cost"}min=? [ C ])')
     report = api.check(api.load(path, constants=dict(constants or {})), properties=[prop])
     outcome = report.outcomes[0]
-    if isinstance(outcome, tuple):
-        error: PosgmcError = outcome[1]
-        raise error
+    if isinstance(outcome, api.PropertyError):
+        raise outcome.error
     return outcome.multi  # type: ignore[no-any-return]
 
 
