@@ -23,7 +23,7 @@ single queries.
 from __future__ import annotations
 
 from posgmc.errors import PosgmcError, SemanticError, UnsupportedError
-from posgmc.semantics.evaluate import iter_nodes
+from posgmc.syntax.traversal import iter_nodes
 from posgmc.syntax.ast import (
     ComparisonOp,
     Direction,
