@@ -4,7 +4,7 @@ defences of memory k◦ = 1 and 2 (models/secure_autonomy/README.md shows the pi
 Usage::
 
     python benchmarks/secure_autonomy_front.py [--n 3] [--flash true] [--budgets 0:2]
-        [--memory 1 --memory 1..2] [--timeout 60,120] [--out models/secure_autonomy/front]
+        [--memory 1 --memory 2] [--timeout 60,120] [--out models/secure_autonomy/front]
         [--strategies DIR]
 
 Each ``--memory`` is one series, with the synthesis's memory sizes (``1..2``: memory 1 first,
@@ -38,7 +38,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--flash", default="true")
     parser.add_argument("--budgets", default="0:2")
     parser.add_argument("--memory", action="append", default=None,
-                        help="memory sizes of one series (repeatable; default 1 and 1..2)")
+                        help="memory sizes of one series (repeatable; default 1 and 2)")
     parser.add_argument("--timeout", default="60,120", help="seconds per point, per series")
     parser.add_argument("--out", type=Path, default=ROOT / "models" / "secure_autonomy" / "front")
     parser.add_argument("--strategies", type=Path, default=None)
@@ -56,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
     w.writerow(["series", "B", "guaranteed", "lower", "upper", "full_observation", "seconds"])
-    for k, timeout in zip(args.memory or ["1", "1..2"], timeouts):
+    for k, timeout in zip(args.memory or ["1", "2"], timeouts):
         lo_k, _, hi_k = k.partition("..")
         sizes = tuple(range(int(lo_k), int(hi_k or lo_k) + 1))
         start = time.perf_counter()
