@@ -38,7 +38,7 @@ def multi_lines(props: Path) -> list[tuple[str, str, int]]:
             continue
         if not stripped or stripped.startswith("//"):
             continue
-        if stripped.startswith("multi(") and result is not None:
+        if re.match(r"multi\s*\(", stripped) and result is not None:
             out.append((result, stripped, number))
         result = None
     return out
@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
 
     root = args.checkout
     tests = root / "prism-tests" if (root / "prism-tests").is_dir() else root
-    files = sorted(p for p in tests.rglob("*.props") if "multi(" in p.read_text())
+    files = sorted(p for p in tests.rglob("*.props") if re.search(r"multi\s*\(", p.read_text()))
     passed = failed = errors = 0
     start = time.perf_counter()
     for props in files:
