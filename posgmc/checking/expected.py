@@ -127,6 +127,9 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
         return Verdict(False, text, actual)
     if text.lower().startswith("error"):
         return Verdict(False, text, _show(outcome.value))
+    front = getattr(outcome, "front", None)
+    if front is not None or text.startswith("[("):
+        return _grade_front(text, front, tolerance)
     value: object = outcome.value
     if expected.number is not None:
         number = getattr(outcome, expected.number, None)
@@ -151,4 +154,42 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
     if text.startswith("[") and text.endswith("]"):
         lo, hi = _interval(text)
         return Verdict(lo - tolerance * abs(lo) <= v <= hi + tolerance * abs(hi), text, _show(v))
-    return Verdict(_close(v, _number(text), tolerance), text, _show(v))
+    try:
+        e = _number(text)
+    except (ValueError, ZeroDivisionError):
+        raise ValueError(f"RESULT value {text!r} is not a number, interval, true/false, "
+                         "Infinity, NaN, Error or ?") from None
+    return Verdict(_close(v, e, tolerance), text, _show(v))
+
+
+def _points(text: str) -> list[tuple[float, ...]]:
+    """``[(1,0),(0.6,0.4)]`` (PRISM's Pareto RESULT; stray parentheses tolerated) as tuples."""
+    import re
+
+    groups = re.findall(r"\(([^()]*)\)", text)
+    if not groups:
+        raise ValueError(f"RESULT value {text!r} is not a list of points [(x,y),...]")
+    return [tuple(_number(x) for x in g.split(",")) for g in groups]
+
+
+def _grade_front(text: str, front: object, tolerance: float) -> Verdict:
+    """A Pareto RESULT passes when the same vertices were found: every expected point is close to
+    a vertex of the computed front and every vertex close to an expected point (relative
+    ``tolerance``, absolute 1e-6 near 0)."""
+    if front is None:
+        return Verdict(False, text, "not a Pareto front")
+    if not text.startswith("[("):
+        return Verdict(False, text, front.text())  # type: ignore[attr-defined]
+    wanted = _points(text)
+    got = [tuple(float(v) for v in p) for p in front.points]  # type: ignore[attr-defined]
+    actual = front.text()  # type: ignore[attr-defined]
+
+    def near(p: tuple[float, ...], q: tuple[float, ...]) -> bool:
+        return len(p) == len(q) and all(
+            abs(a - b) <= max(tolerance * abs(b), 1e-6) for a, b in zip(p, q)
+        )
+
+    ok = all(any(near(g, w) for g in got) for w in wanted) and all(
+        any(near(g, w) for w in wanted) for g in got
+    )
+    return Verdict(ok, text, actual)

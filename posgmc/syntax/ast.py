@@ -278,6 +278,17 @@ class RewardQuery(Expr):
     objective: RewardObjective
 
 
+@dataclass(frozen=True)
+class MultiQuery(Expr):
+    """PRISM's multi-objective query ``multi(q1, ..., qn)``; each ``objectives[i]`` is written as a
+    :class:`ProbQuery` or :class:`RewardQuery` (the semantics check it): all thresholds is an
+    achievability query, one ``=?`` a numerical one, two a Pareto query. PRISM-games' form
+    ``<<C>> (q1 & q2)`` (a coalition over a conjunction of queries) has ``coalition`` set."""
+
+    objectives: tuple[Expr, ...]
+    coalition: Coalition | None = None
+
+
 # ---------------------------------------------------------------------------------------------
 # Model files
 # ---------------------------------------------------------------------------------------------
