@@ -277,25 +277,39 @@ def build_system(
     rows[pos] = rows_global
     row_state = np.empty(rows_global.size, dtype=np.int64)
     row_state[pos] = loc
-    # matrix restricted to the unknown columns; the rest goes into the offset
+    # matrix restricted to the unknown columns; the rest goes into the offset. ``sub`` is this
+    # call's own copy of the rows, so its arrays are reused in place where the dtypes allow
     T = g.transitions
     sub = T[rows]
-    index_dtype = np.int32 if max(n, sub.nnz) < 2**31 - 1 else np.int64
-    local32 = local_of.astype(index_dtype)
-    loc = local32[sub.indices]
-    inside = loc >= 0
     offset = (
         np.zeros(rows.size) if choice_offset is None else choice_offset[rows].astype(np.float64)
     )
     if fixed is not None and np.any(fixed != 0):
         known_fixed = np.where(local_of >= 0, 0.0, fixed)
-        offset += sub @ known_fixed
-    # the kept entries before each row's start: one running count over all entries
-    kept = np.zeros(sub.nnz + 1, dtype=index_dtype)
-    np.cumsum(inside, out=kept[1:])
-    indptr = kept[sub.indptr]
-    stays = np.diff(indptr) == np.diff(sub.indptr)
-    matrix = sp.csr_matrix((sub.data[inside], loc[inside], indptr), shape=(rows.size, n))
+        offset += sub @ known_fixed  # before the column indices are rewritten below
+        del known_fixed
+    index_dtype = np.int32 if max(n, sub.nnz) < 2**31 - 1 else np.int64
+    local32 = local_of.astype(index_dtype)
+    if sub.indices.dtype == index_dtype:
+        loc = np.take(local32, sub.indices, out=sub.indices, mode="clip")  # unbuffered, in place
+    else:
+        loc = local32[sub.indices]
+    del local32
+    inside = loc >= 0
+    all_inside = bool(inside.all())
+    if all_inside:
+        indptr = sub.indptr.astype(index_dtype, copy=False)
+        stays = np.ones(rows.size, dtype=bool)
+        data, indices = sub.data, loc
+    else:
+        per_row = np.add.reduceat(inside, sub.indptr[:-1], dtype=index_dtype)
+        per_row[np.diff(sub.indptr) == 0] = 0
+        indptr = np.zeros(rows.size + 1, dtype=index_dtype)
+        np.cumsum(per_row, out=indptr[1:])
+        stays = per_row == np.diff(sub.indptr)
+        data, indices = sub.data[inside], loc[inside]
+    del sub, loc, inside
+    matrix = sp.csr_matrix((data, indices, indptr), shape=(rows.size, n), copy=False)
     bands = None
     if band_of_block is not None:
         bands = np.zeros(int(band_of_block[-1]) + 2, dtype=np.int64)
