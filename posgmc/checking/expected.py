@@ -74,7 +74,8 @@ def _show(value: object) -> str:
     return str(value)
 
 
-_FORMS = "a number, an interval [lo, hi], true/false, Infinity, NaN, Error or ?"
+_FORMS = ("a number, an interval [lo, hi], a Pareto front [(x,y),...], true/false, Infinity, "
+          "NaN, Error or ?")
 
 
 def _interval(text: str) -> tuple[float, float]:
@@ -97,6 +98,9 @@ def check_form(text: str) -> None:
         return
     low = text.lower()
     if low in ("true", "false") or low == "error" or low.startswith("error:"):
+        return
+    if text.startswith("[(") and text.endswith("]"):
+        _points(text)  # a Pareto front: [(x,y),...]
         return
     if text.startswith("[") and text.endswith("]"):
         _interval(text)
