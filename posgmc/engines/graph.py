@@ -50,8 +50,10 @@ __all__ = [
 class Structure:
     """The choice/state layout of a transition matrix and its transpose.
 
-    ``transitions``: csr float64 [C, S]; ``backward``: csc of the same matrix (for state t, the
-    choices with an edge into t are ``backward.indices[backward.indptr[t]:backward.indptr[t+1]]``);
+    ``transitions``: csr float64 [C, S]; ``backward``: csc of the same matrix's *pattern* (int8
+    ones: for state t, the choices with an edge into t are
+    ``backward.indices[backward.indptr[t]:backward.indptr[t+1]]``; the searches never read the
+    probabilities, so the transpose carries 1 byte per entry instead of 8);
     ``row_groups``: int64[S + 1]; ``choice_state``: int64[C]; ``num_choices``: int64[S].
     """
 
@@ -75,7 +77,10 @@ class Structure:
         counts = np.diff(row_groups)
         return Structure(
             transitions=transitions,
-            backward=transitions.tocsc(),
+            backward=sp.csr_matrix(
+                (np.ones(transitions.nnz, dtype=np.int8), transitions.indices, transitions.indptr),
+                shape=transitions.shape,
+            ).tocsc(),
             row_groups=row_groups,
             choice_state=np.repeat(np.arange(counts.size, dtype=np.int64), counts),
             num_choices=counts,
