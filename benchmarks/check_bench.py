@@ -131,8 +131,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=1, help="runs per job; medians reported")
     parser.add_argument("--no-storm", action="store_true")
     parser.add_argument("--timeout", type=float, default=1200.0)
+    parser.add_argument(
+        "--scale", type=Path, default=SCALE, help="folder of the shared scale models"
+    )
     parser.add_argument("--worker", nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    for name in ("two_robots", "pursuit"):  # a git worktree is not next to shared/
+        MODELS[name] = args.scale / MODELS[name].name
     if args.worker:
         path, n, prop, constant = args.worker
         print(json.dumps(worker(path, int(n), prop, constant)))
