@@ -51,8 +51,7 @@ PROPERTIES = {
     "two_robots": ['Pmax=? [ F "goal" ]', 'Pmin=? [ F "goal" ]', 'Rmin=? [ F "goal" ]'],
     "pursuit": [
         '<<evader>> Pmax=? [ F "escaped" ]',
-        '<<evader>> Pmin=? [ F "escaped" ]',
-        '<<evader>> Rmin=? [ F "escaped" ]',
+        '<<evader>> Pmin=? [ F "escaped" ]',  # pursuit has no rewards: no Rmin row
     ],
     "rover": ['Pmax=? [ F "goal" ]', 'Pmin=? [ F "goal" ]', 'Rmin=? [ F "goal" ]'],
     "rover_wind": [
