@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from posgmc.compiler import BuildOptions, build_model
+from posgmc.deep import deep_generator, deep_stack
 from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.errors import (
@@ -142,6 +143,7 @@ def _typed(value: object, kind: type, what: str) -> None:
         raise InputError(f"{what} must be a {kind.__name__}, got {type(value).__name__}")
 
 
+@deep_stack
 def load(
     path: str | Path | None = None,
     *,
@@ -181,6 +183,7 @@ def load(
         raise _attach(e, source) from None
 
 
+@deep_stack
 def parse_properties(
     session: Session, *, files: Sequence[str | Path] = (), texts: Sequence[str] = ()
 ) -> tuple[list[tuple[PropertiesFile, SourceText]], list[Property]]:
@@ -208,6 +211,7 @@ def parse_properties(
     return parsed, props
 
 
+@deep_stack
 def lint(
     path: str | Path,
     property_files: Sequence[str | Path] = (),
@@ -261,6 +265,7 @@ def lint(
     return errors
 
 
+@deep_stack
 def instantiate(session: Session, *, allow_extra_constants: bool = False) -> FlatModel:
     """Semantic checks and constant substitution: the model ready for the compiler.
 
@@ -284,6 +289,7 @@ class BuiltModel:
     flat: FlatModel | None = None
 
 
+@deep_stack
 def build(
     session: Session, *, options: BuildOptions = BuildOptions(), allow_extra_constants: bool = False
 ) -> BuiltModel:
@@ -378,6 +384,7 @@ def _scalar(expr):  # type: ignore[no-untyped-def]
     return value
 
 
+@deep_generator
 def iter_check(
     session: Session,
     *,
@@ -497,6 +504,7 @@ def _check_one(
         return e
 
 
+@deep_stack
 def check(
     session: Session,
     *,
@@ -612,6 +620,7 @@ def _check_constant_names(session: Session, property_files: Sequence[str | Path]
         raise errors[0] if len(errors) == 1 else MultipleErrors(errors)
 
 
+@deep_stack
 def synthesize(
     session: Session,
     prop: str,
@@ -673,6 +682,7 @@ def synthesize(
     return outcome
 
 
+@deep_stack
 def load_strategies(
     strategies: Mapping[str, "FiniteStateStrategy | str | Path"],
 ) -> dict[str, "FiniteStateStrategy"]:
@@ -715,6 +725,7 @@ def save_strategy(strategy: "FiniteStateStrategy", path: str | Path) -> None:
     write_strategy(strategy, path)
 
 
+@deep_stack
 def simulate(
     session: Session,
     prop: str,

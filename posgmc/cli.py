@@ -72,8 +72,10 @@ def error_json(error: PosgmcError) -> list[dict[str, Any]]:
 def _guard(
     debug: bool, fn: Callable[[], int], *, as_json: bool = False, consts: Sequence[str] = ()
 ) -> NoReturn:
+    from posgmc.deep import deep_call
+
     try:
-        code = fn()
+        code = deep_call(fn)
     except PosgmcError as e:
         _show_const_text(e, consts)
         if as_json:  # machines get the errors on stdout too, in the shape of docs/cli.md

@@ -26,6 +26,7 @@ a :class:`~posgmc.errors.BuildError` naming the state.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import itertools
 import math
@@ -420,15 +421,36 @@ _RUNTIME: dict[str, Any] = {
 # ---------------------------------------------------------------------------------------------
 
 
+_MAX_NESTING = 40
+"""Deepest bracket nesting of one generated Python expression. Python's own parser refuses more
+than 200 nested brackets (and its compiler recurses on nesting), so a deeper subexpression is
+hoisted into a local ``_tN = ...`` statement of the function evaluating it."""
+
+
 @dataclass
 class _Code:
-    """A generated subexpression: source text, type, folded value, and whether it can fail."""
+    """A generated subexpression: source text, type, folded value, and whether it can fail.
+
+    ``prelude``: statements (temporaries) that must run before ``text`` in the same function;
+    ``depth``: the bracket nesting of ``text``.
+    """
 
     text: str
     type: ExprType
     constant: Scalar | None = None
     partial: bool = False
     fold_error: str | None = None  # a constant that fails to evaluate
+    prelude: tuple[str, ...] = ()
+    depth: int = 0
+
+
+def _joined(text: str, type_: ExprType, *parts: _Code, partial: bool = False, extra: int = 1) -> _Code:
+    """A new code whose text embeds ``parts`` (their preludes run first, in order)."""
+    prelude: tuple[str, ...] = ()
+    for p in parts:
+        prelude += p.prelude
+    depth = max((p.depth for p in parts), default=0) + extra
+    return _Code(text, type_, partial=partial, prelude=prelude, depth=depth)
 
 
 class _Generator:
@@ -452,9 +474,17 @@ class _Generator:
     def function(self, code: _Code) -> str:
         """Wrap ``code`` into an auxiliary ``def _fN(v)`` and return its name."""
         name = self.fresh("_f")
-        body = self.materialize(code)
-        self.aux.append(f"def {name}(v):\n    return {body}\n")
+        self.aux.append(_function_source(name, code.prelude, self.materialize(code)))
         return name
+
+    def hoist(self, code: _Code) -> _Code:
+        """``code`` itself, or a temporary holding it when its text nests too deeply."""
+        if code.depth <= _MAX_NESTING or code.constant is not None:
+            return code
+        name = self.fresh("_t")
+        return dataclasses.replace(
+            code, text=name, prelude=code.prelude + (f"{name} = {code.text}",), depth=0
+        )
 
     def materialize(self, code: _Code) -> str:
         """Source that yields an array of ``v.n`` rows (constants become ``_full``)."""
@@ -479,7 +509,26 @@ class _Generator:
             value = Fraction(value)
         return _Code(self.literal(value, type_), type_, constant=value)
 
-    def gen(self, e: Expr) -> _Code:
+    def gen(self, root: Expr) -> _Code:
+        """The code of ``root``, built bottom-up with an explicit stack: no recursion, so an
+        expression nested thousands deep compiles (its text is cut into temporaries)."""
+        out: list[_Code] = []
+        stack: list[tuple[Expr, bool]] = [(root, False)]
+        while stack:
+            e, ready = stack.pop()
+            kids = _operands(e)
+            if not ready and kids:
+                stack.append((e, True))
+                stack.extend((k, False) for k in reversed(kids))
+                continue
+            args = out[len(out) - len(kids):] if kids else []
+            if kids:
+                del out[len(out) - len(kids):]
+            out.append(self.hoist(self.node(e, args)))
+        assert len(out) == 1
+        return out[0]
+
+    def node(self, e: Expr, args: list[_Code]) -> _Code:
         if isinstance(e, BoolLit):
             return self.const(bool(e.value), ExprType.BOOL)
         if isinstance(e, IntLit):
@@ -492,33 +541,30 @@ class _Generator:
         if isinstance(e, Ident):
             index, type_ = self.slots[e.name]
             self.variables.add(index)
-            return _Code(f"v[{index}]", type_)
+            return _Code(f"v[{index}]", type_, depth=1)
         if isinstance(e, Unary):
-            return self.unary(e)
+            return self.unary(e, args[0])
         if isinstance(e, Binary):
-            return self.binary(e)
+            return self.binary(e, args[0], args[1])
         if isinstance(e, Ite):
-            return self.ite(e)
+            return self.ite(e, *args)
         if isinstance(e, Call):
-            return self.call(e)
+            return self.call(e, args)
         raise TypeError(f"{type(e).__name__} cannot be compiled: not a model expression")
 
-    def unary(self, e: Unary) -> _Code:
-        a = self.gen(e.operand)
+    def unary(self, e: Unary, a: _Code) -> _Code:
         if e.op is UnaryOp.NOT:
             if a.constant is not None:
                 return self.const(not a.constant, ExprType.BOOL)
-            return _Code(f"(~{a.text})", ExprType.BOOL, partial=a.partial)
+            return _joined(f"(~{a.text})", ExprType.BOOL, a, partial=a.partial)
         if a.constant is not None:
             return self.const(-a.constant, a.type)
-        return _Code(f"(-{a.text})", a.type, partial=a.partial)
+        return _joined(f"(-{a.text})", a.type, a, partial=a.partial)
 
-    def binary(self, e: Binary) -> _Code:
+    def binary(self, e: Binary, a: _Code, b: _Code) -> _Code:
         op = e.op
-        a = self.gen(e.left)
         if op in (BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES):
-            return self.logical(op, a, e.right)
-        b = self.gen(e.right)
+            return self.logical(op, a, b)
         if a.constant is not None and b.constant is not None:
             type_ = (
                 ExprType.BOOL
@@ -528,14 +574,15 @@ class _Generator:
             return self.const(_fold_binary(op, a.constant, b.constant), type_)
         partial = a.partial or b.partial
         if op is BinaryOp.IFF:
-            return _Code(f"({a.text} == {b.text})", ExprType.BOOL, partial=partial)
+            return _joined(f"({a.text} == {b.text})", ExprType.BOOL, a, b, partial=partial)
         if op is BinaryOp.DIV:
-            return _Code(f"_np.true_divide({a.text}, {b.text})", ExprType.DOUBLE, partial=partial)
+            return _joined(
+                f"_np.true_divide({a.text}, {b.text})", ExprType.DOUBLE, a, b, partial=partial
+            )
         type_ = ExprType.BOOL if op in _COMPARISONS else _join(a.type, b.type)
-        return _Code(f"({a.text} {_PY_OPS[op]} {b.text})", type_, partial=partial)
+        return _joined(f"({a.text} {_PY_OPS[op]} {b.text})", type_, a, b, partial=partial)
 
-    def logical(self, op: BinaryOp, a: _Code, right: Expr) -> _Code:
-        b = self.gen(right)
+    def logical(self, op: BinaryOp, a: _Code, b: _Code) -> _Code:
         if a.constant is not None:
             # a constant left operand decides or disappears
             lv = bool(a.constant)
@@ -547,43 +594,38 @@ class _Generator:
         left = f"(~{a.text})" if op is BinaryOp.IMPLIES else a.text
         if b.constant is not None:
             rv = bool(b.constant)
-            if op is BinaryOp.AND:
-                return (
-                    _Code(left, ExprType.BOOL, partial=a.partial)
-                    if rv
-                    else self.const(False, ExprType.BOOL)
-                )
-            return (
-                self.const(True, ExprType.BOOL)
-                if rv
-                else _Code(left, ExprType.BOOL, partial=a.partial)
-            )
+            if (op is BinaryOp.AND) is not rv:
+                return self.const(not rv, ExprType.BOOL)
+            return _joined(left, ExprType.BOOL, a, partial=a.partial)
         if b.partial:
             # short-circuit: evaluate the right operand only where it decides the result
             helper = "_lazy_and" if op is BinaryOp.AND else "_lazy_or"
-            return _Code(f"{helper}(v, {left}, {self.function(b)})", ExprType.BOOL, partial=True)
+            return _joined(
+                f"{helper}(v, {left}, {self.function(b)})", ExprType.BOOL, a, partial=True
+            )
         sym = "&" if op is BinaryOp.AND else "|"
-        return _Code(f"({left} {sym} {b.text})", ExprType.BOOL, partial=a.partial)
+        return _joined(f"({left} {sym} {b.text})", ExprType.BOOL, a, b, partial=a.partial)
 
-    def ite(self, e: Ite) -> _Code:
-        c = self.gen(e.cond)
-        a = self.gen(e.then)
-        b = self.gen(e.otherwise)
+    def ite(self, e: Ite, c: _Code, a: _Code, b: _Code) -> _Code:
         type_ = _join(a.type, b.type)
         if c.constant is not None:
             chosen = a if c.constant else b
             if chosen.constant is not None:
                 return self.const(chosen.constant, type_)
             if chosen.type is not type_:
-                return _Code(
-                    f"({chosen.text}).astype({_DTYPE_NAMES[type_]})", type_, partial=chosen.partial
+                return _joined(
+                    f"({chosen.text}).astype({_DTYPE_NAMES[type_]})",
+                    type_,
+                    chosen,
+                    partial=chosen.partial,
                 )
             return chosen
         if a.partial or b.partial or a.fold_error or b.fold_error:
-            return _Code(
+            return _joined(
                 f"_lazy_where(v, {c.text}, {self.function(a)}, {self.function(b)}, "
                 f"{_DTYPE_NAMES[type_]})",
                 type_,
+                c,
                 partial=True,
             )
         at = (
@@ -599,11 +641,12 @@ class _Generator:
         if type_ is ExprType.DOUBLE:
             at = self.literal(a.constant, type_) if a.constant is not None else at
             bt = self.literal(b.constant, type_) if b.constant is not None else bt
-        return _Code(f"_np.where({c.text}, {at}, {bt})", type_, partial=c.partial)
+        return _joined(
+            f"_np.where({c.text}, {at}, {bt})", type_, c, a, b, partial=c.partial, extra=2
+        )
 
-    def call(self, e: Call) -> _Code:
+    def call(self, e: Call, args: list[_Code]) -> _Code:
         fn = e.function
-        args = [self.gen(a) for a in e.args]
         if fn in (Function.FLOOR, Function.CEIL, Function.ROUND, Function.MOD):
             type_ = ExprType.INT
         elif fn is Function.LOG:
@@ -623,12 +666,13 @@ class _Generator:
         texts = [a.text for a in args]
         if fn in (Function.MIN, Function.MAX):
             np_fn = "_np.minimum" if fn is Function.MIN else "_np.maximum"
-            acc = texts[0]
-            for t in texts[1:]:
-                acc = f"{np_fn}({acc}, {t})"
+            if len(texts) == 2:
+                acc = f"{np_fn}({texts[0]}, {texts[1]})"
+            else:  # n-ary: one flat reduction, not n nested calls
+                acc = f"{np_fn}.reduce(_np.broadcast_arrays(_full(v, 0, _int), {', '.join(texts)})[1:])"
             if type_ is ExprType.DOUBLE:
                 acc = f"_np.asarray({acc}, dtype=_float)"
-            return _Code(acc, type_, partial=partial)
+            return _joined(acc, type_, *args, partial=partial, extra=3)
         if fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
             a = args[0]
             if a.type is ExprType.INT:
@@ -636,28 +680,34 @@ class _Generator:
             helper = {Function.FLOOR: "_floor", Function.CEIL: "_ceil", Function.ROUND: "_round"}[
                 fn
             ]
-            return _Code(
-                f"{helper}(v, {a.text}, {self.span_const(e.span)})", ExprType.INT, partial=True
+            return _joined(
+                f"{helper}(v, {a.text}, {self.span_const(e.span)})", ExprType.INT, a, partial=True
             )
         if fn is Function.MOD:
             a, b = args
             if b.constant is not None and b.constant > 0:
-                return _Code(f"_np.mod({a.text}, {b.text})", ExprType.INT, partial=partial)
-            return _Code(
+                return _joined(f"_np.mod({a.text}, {b.text})", ExprType.INT, a, b, partial=partial)
+            return _joined(
                 f"_mod(v, {a.text}, {b.text}, {self.span_const(e.span)})",
                 ExprType.INT,
+                a,
+                b,
                 partial=True,
             )
         if fn is Function.POW:
             a, b = args
             if type_ is ExprType.INT:
-                return _Code(
+                return _joined(
                     f"_ipow(v, {a.text}, {b.text}, {self.span_const(e.span)})",
                     ExprType.INT,
+                    a,
+                    b,
                     partial=True,
                 )
-            return _Code(f"_fpow({a.text}, {b.text})", ExprType.DOUBLE, partial=partial)
-        return _Code(f"_log({texts[0]}, {texts[1]})", ExprType.DOUBLE, partial=partial)
+            return _joined(f"_fpow({a.text}, {b.text})", ExprType.DOUBLE, a, b, partial=partial)
+        return _joined(
+            f"_log({texts[0]}, {texts[1]})", ExprType.DOUBLE, *args, partial=partial
+        )
 
     def failing(self, message: str, span: SourceSpan, type_: ExprType) -> _Code:
         """A constant that fails whenever evaluated (e.g. ``mod(1, 0)`` in a branch)."""
@@ -671,6 +721,24 @@ class _Generator:
 
 
 _DTYPE_NAMES = {ExprType.BOOL: "_bool", ExprType.INT: "_int", ExprType.DOUBLE: "_float"}
+
+
+def _operands(e: Expr) -> tuple[Expr, ...]:
+    """The sub-expressions a model expression's code is generated from, in order."""
+    if isinstance(e, Unary):
+        return (e.operand,)
+    if isinstance(e, Binary):
+        return (e.left, e.right)
+    if isinstance(e, Ite):
+        return (e.cond, e.then, e.otherwise)
+    if isinstance(e, Call):
+        return e.args
+    return ()
+
+
+def _function_source(name: str, prelude: Sequence[str], result: str) -> str:
+    lines = [f"def {name}(v):\n"] + [f"    {line}\n" for line in prelude]
+    return "".join(lines) + f"    return {result}\n"
 
 
 def _constant_function(value: Any) -> Callable[[Columns], Any]:
@@ -706,8 +774,7 @@ def compile_expr(expr: Expr, slots: Mapping[str, tuple[int, ExprType]]) -> Compi
             function=_constant_function(plain),
             span=expr.span,
         )
-    body = code.text
-    source = "".join(gen.aux) + f"def _main(v):\n    return {body}\n"
+    source = "".join(gen.aux) + _function_source("_main", code.prelude, code.text)
     namespace: dict[str, Any] = dict(_RUNTIME)
     namespace.update(gen.env)
     exec(compile(source, f"<posgmc expression {expr.span}>", "exec"), namespace)  # noqa: S102
