@@ -248,6 +248,12 @@ def _join(a: ExprType, b: ExprType) -> ExprType:
 
 _BOOL_OPS = {BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF}
 _COMPARISONS = {BinaryOp.EQ, BinaryOp.NE, BinaryOp.LT, BinaryOp.LE, BinaryOp.GT, BinaryOp.GE}
+_INT_ARITHMETIC: dict[BinaryOp, Callable[[Any, Any], Any]] = {
+    BinaryOp.ADD: lambda a, b: a + b,
+    BinaryOp.SUB: lambda a, b: a - b,
+    BinaryOp.MUL: lambda a, b: a * b,
+}
+_CHECKED_HELPERS = {BinaryOp.ADD: "_iadd", BinaryOp.SUB: "_isub", BinaryOp.MUL: "_imul"}
 _PY_OPS = {
     BinaryOp.EQ: "==",
     BinaryOp.NE: "!=",
@@ -291,12 +297,14 @@ def _fold_binary(op: BinaryOp, a: Scalar, b: Scalar) -> Scalar:
         return a > b
     if op is BinaryOp.GE:
         return a >= b
-    if op is BinaryOp.ADD:
-        return a + b
-    if op is BinaryOp.SUB:
-        return a - b
-    if op is BinaryOp.MUL:
-        return a * b
+    if op in _INT_ARITHMETIC:
+        r = _INT_ARITHMETIC[op](a, b)
+        if type(r) is int:
+            try:
+                ops.check_int(r, f"{a} {_PY_OPS[op]} {b}")
+            except ops.DomainFailure as failure:
+                raise _FoldError(failure.message) from None
+        return r
     # DIV: a double, exact while both are exact and the divisor is not 0
     return ops.scalar_divide(a, b)  # type: ignore[arg-type]
 
@@ -342,6 +350,22 @@ def _rt_mod(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
 
 def _rt_ipow(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
     return _rt(v, span, ops.int_pow, a, b)
+
+
+def _rt_iadd(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
+    return _rt(v, span, ops.int_add, a, b)
+
+
+def _rt_isub(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
+    return _rt(v, span, ops.int_sub, a, b)
+
+
+def _rt_imul(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
+    return _rt(v, span, ops.int_mul, a, b)
+
+
+def _rt_ineg(v: Columns, a: Any, span: SourceSpan) -> Any:
+    return _rt(v, span, ops.int_neg, a)
 
 
 def _rt_floor(v: Columns, x: Any, span: SourceSpan) -> Any:
@@ -402,6 +426,10 @@ _RUNTIME: dict[str, Any] = {
     "_mod": _rt_mod,
     "_ipow": _rt_ipow,
     "_fpow": ops.float_pow,
+    "_iadd": _rt_iadd,
+    "_isub": _rt_isub,
+    "_imul": _rt_imul,
+    "_ineg": _rt_ineg,
     "_floor": _rt_floor,
     "_ceil": _rt_ceil,
     "_round": _rt_round,
@@ -442,6 +470,30 @@ class _Code:
     fold_error: str | None = None  # a constant that fails to evaluate
     prelude: tuple[str, ...] = ()
     depth: int = 0
+    bounds: tuple[int, int] | None = None  # an int's proven [min, max] over the states
+
+
+def _fits(bounds: tuple[int, int] | None) -> bool:
+    return bounds is not None and ops.INT64_MIN <= bounds[0] and bounds[1] <= ops.INT64_MAX
+
+
+def _clip(bounds: tuple[int, int] | None) -> tuple[int, int] | None:
+    if bounds is None:
+        return None
+    return max(bounds[0], ops.INT64_MIN), min(bounds[1], ops.INT64_MAX)
+
+
+def _int_bounds(op: BinaryOp, a: _Code, b: _Code) -> tuple[int, int] | None:
+    """Interval arithmetic on the operands' bounds (None: unknown)."""
+    if a.bounds is None or b.bounds is None:
+        return None
+    (al, ah), (bl, bh) = a.bounds, b.bounds
+    if op is BinaryOp.ADD:
+        return al + bl, ah + bh
+    if op is BinaryOp.SUB:
+        return al - bh, ah - bl
+    products = (al * bl, al * bh, ah * bl, ah * bh)
+    return min(products), max(products)
 
 
 def _joined(text: str, type_: ExprType, *parts: _Code, partial: bool = False, extra: int = 1) -> _Code:
@@ -456,8 +508,13 @@ def _joined(text: str, type_: ExprType, *parts: _Code, partial: bool = False, ex
 class _Generator:
     """Turns one expression tree into source text plus auxiliary functions and span constants."""
 
-    def __init__(self, slots: Mapping[str, tuple[int, ExprType]]) -> None:
+    def __init__(
+        self,
+        slots: Mapping[str, tuple[int, ExprType]],
+        ranges: Mapping[str, tuple[int, int]],
+    ) -> None:
         self.slots = slots
+        self.ranges = ranges
         self.variables: set[int] = set()
         self.aux: list[str] = []
         self.env: dict[str, Any] = {}
@@ -507,7 +564,8 @@ class _Generator:
     def const(self, value: Scalar, type_: ExprType) -> _Code:
         if type_ is ExprType.DOUBLE and isinstance(value, int):
             value = Fraction(value)
-        return _Code(self.literal(value, type_), type_, constant=value)
+        bounds = (int(value), int(value)) if type_ is ExprType.INT else None
+        return _Code(self.literal(value, type_), type_, constant=value, bounds=bounds)
 
     def gen(self, root: Expr) -> _Code:
         """The code of ``root``, built bottom-up with an explicit stack: no recursion, so an
@@ -541,7 +599,8 @@ class _Generator:
         if isinstance(e, Ident):
             index, type_ = self.slots[e.name]
             self.variables.add(index)
-            return _Code(f"v[{index}]", type_, depth=1)
+            bounds = self.ranges.get(e.name) if type_ is ExprType.INT else None
+            return _Code(f"v[{index}]", type_, depth=1, bounds=bounds)
         if isinstance(e, Unary):
             return self.unary(e, args[0])
         if isinstance(e, Binary):
@@ -558,7 +617,22 @@ class _Generator:
                 return self.const(not a.constant, ExprType.BOOL)
             return _joined(f"(~{a.text})", ExprType.BOOL, a, partial=a.partial)
         if a.constant is not None:
+            if a.type is ExprType.INT and not _fits((-int(a.constant), 0)):
+                return self.failing(
+                    ops.int_overflow_message(f"-({a.constant})", -int(a.constant)), e.span, a.type
+                )
             return self.const(-a.constant, a.type)
+        if a.type is ExprType.INT:
+            bounds = None if a.bounds is None else (-a.bounds[1], -a.bounds[0])
+            if not _fits(bounds):
+                code = _joined(
+                    f"_ineg(v, {a.text}, {self.span_const(e.span)})", a.type, a, partial=True
+                )
+                code.bounds = _clip(bounds)
+                return code
+            code = _joined(f"(-{a.text})", a.type, a, partial=a.partial)
+            code.bounds = bounds
+            return code
         return _joined(f"(-{a.text})", a.type, a, partial=a.partial)
 
     def binary(self, e: Binary, a: _Code, b: _Code) -> _Code:
@@ -571,7 +645,10 @@ class _Generator:
                 if op in _COMPARISONS or op is BinaryOp.IFF
                 else (ExprType.DOUBLE if op is BinaryOp.DIV else _join(a.type, b.type))
             )
-            return self.const(_fold_binary(op, a.constant, b.constant), type_)
+            try:
+                return self.const(_fold_binary(op, a.constant, b.constant), type_)
+            except _FoldError as err:
+                return self.failing(str(err), e.span, type_)
         partial = a.partial or b.partial
         if op is BinaryOp.IFF:
             return _joined(f"({a.text} == {b.text})", ExprType.BOOL, a, b, partial=partial)
@@ -580,6 +657,22 @@ class _Generator:
                 f"_np.true_divide({a.text}, {b.text})", ExprType.DOUBLE, a, b, partial=partial
             )
         type_ = ExprType.BOOL if op in _COMPARISONS else _join(a.type, b.type)
+        if type_ is ExprType.INT:
+            # 64-bit ints: numpy wraps silently, so an operation the ranges do not prove safe is
+            # checked and fails with the exact value (docs/language.md)
+            bounds = _int_bounds(op, a, b)
+            if not _fits(bounds):
+                code = _joined(
+                    f"{_CHECKED_HELPERS[op]}(v, {a.text}, {b.text}, {self.span_const(e.span)})",
+                    type_,
+                    a,
+                    b,
+                    partial=True,
+                )
+            else:
+                code = _joined(f"({a.text} {_PY_OPS[op]} {b.text})", type_, a, b, partial=partial)
+            code.bounds = _clip(bounds)
+            return code
         return _joined(f"({a.text} {_PY_OPS[op]} {b.text})", type_, a, b, partial=partial)
 
     def logical(self, op: BinaryOp, a: _Code, b: _Code) -> _Code:
@@ -641,9 +734,11 @@ class _Generator:
         if type_ is ExprType.DOUBLE:
             at = self.literal(a.constant, type_) if a.constant is not None else at
             bt = self.literal(b.constant, type_) if b.constant is not None else bt
-        return _joined(
+        code = _joined(
             f"_np.where({c.text}, {at}, {bt})", type_, c, a, b, partial=c.partial, extra=2
         )
+        code.bounds = _union(a.bounds, b.bounds) if type_ is ExprType.INT else None
+        return code
 
     def call(self, e: Call, args: list[_Code]) -> _Code:
         fn = e.function
@@ -672,7 +767,13 @@ class _Generator:
                 acc = f"{np_fn}.reduce(_np.broadcast_arrays(_full(v, 0, _int), {', '.join(texts)})[1:])"
             if type_ is ExprType.DOUBLE:
                 acc = f"_np.asarray({acc}, dtype=_float)"
-            return _joined(acc, type_, *args, partial=partial, extra=3)
+            code = _joined(acc, type_, *args, partial=partial, extra=3)
+            if type_ is ExprType.INT and all(a.bounds is not None for a in args):
+                pick = min if fn is Function.MIN else max
+                los = [a.bounds[0] for a in args]  # type: ignore[index]
+                his = [a.bounds[1] for a in args]  # type: ignore[index]
+                code.bounds = (pick(los), pick(his))
+            return code
         if fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
             a = args[0]
             if a.type is ExprType.INT:
@@ -686,7 +787,9 @@ class _Generator:
         if fn is Function.MOD:
             a, b = args
             if b.constant is not None and b.constant > 0:
-                return _joined(f"_np.mod({a.text}, {b.text})", ExprType.INT, a, b, partial=partial)
+                code = _joined(f"_np.mod({a.text}, {b.text})", ExprType.INT, a, b, partial=partial)
+                code.bounds = (0, int(b.constant) - 1)
+                return code
             return _joined(
                 f"_mod(v, {a.text}, {b.text}, {self.span_const(e.span)})",
                 ExprType.INT,
@@ -723,6 +826,12 @@ class _Generator:
 _DTYPE_NAMES = {ExprType.BOOL: "_bool", ExprType.INT: "_int", ExprType.DOUBLE: "_float"}
 
 
+def _union(a: tuple[int, int] | None, b: tuple[int, int] | None) -> tuple[int, int] | None:
+    if a is None or b is None:
+        return None
+    return min(a[0], b[0]), max(a[1], b[1])
+
+
 def _operands(e: Expr) -> tuple[Expr, ...]:
     """The sub-expressions a model expression's code is generated from, in order."""
     if isinstance(e, Unary):
@@ -748,12 +857,18 @@ def _constant_function(value: Any) -> Callable[[Columns], Any]:
     return constant
 
 
-def compile_expr(expr: Expr, slots: Mapping[str, tuple[int, ExprType]]) -> CompiledExpr:
+def compile_expr(
+    expr: Expr,
+    slots: Mapping[str, tuple[int, ExprType]],
+    ranges: Mapping[str, tuple[int, int]] | None = None,
+) -> CompiledExpr:
     """Compile ``expr`` into a function of a :class:`Columns` batch.
 
     Args:
         expr: a model expression (literals, variables, operators, functions).
         slots: for each variable name, its column index and type (INT or BOOL).
+        ranges: the declared range of int variables; integer ``+ - *`` that these bounds prove
+            within 64 bits compile to plain numpy, any other is checked for overflow.
 
     Returns:
         The compiled expression; for a constant one, ``constant`` holds the folded value.
@@ -761,7 +876,7 @@ def compile_expr(expr: Expr, slots: Mapping[str, tuple[int, ExprType]]) -> Compi
     Raises:
         KeyError: an identifier that is not a variable.
     """
-    gen = _Generator(slots)
+    gen = _Generator(slots, ranges or {})
     code = gen.gen(expr)
     if code.constant is not None:
         value = code.constant

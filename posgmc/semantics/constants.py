@@ -30,7 +30,7 @@ from fractions import Fraction
 from posgmc.errors import ConstantError, PosgmcError, SourceSpan
 from posgmc.semantics.evaluate import Value, evaluate, format_value, free_names, to_double
 from posgmc.semantics.symbols import span_or_none
-from posgmc.syntax.ast import ConstantDecl, Expr, VarType
+from posgmc.syntax.ast import INT64_MAX, INT64_MIN, ConstantDecl, Expr, VarType
 
 __all__ = [
     "ConstRange",
@@ -214,10 +214,19 @@ def convert_user_value(
     if isinstance(given, bool):
         raise ConstantError(f'constant "{name}" is {_a(var_type)}, but {shown} is a Boolean', span)
     if var_type is VarType.INT:
+        value: int | None = None
         if isinstance(given, int):
-            return given
-        if isinstance(given, str) and _INT_RE.fullmatch(given.strip()):
-            return int(given.strip())
+            value = given
+        elif isinstance(given, str) and _INT_RE.fullmatch(given.strip()):
+            value = int(given.strip()) if len(given.strip()) <= 30 else INT64_MAX + 1
+        if value is not None:
+            if not INT64_MIN <= value <= INT64_MAX:
+                raise ConstantError(
+                    f'constant "{name}" is an int, but {shown} is beyond 64-bit integers',
+                    span,
+                    hint=f'declare it "const double {name};" if an approximate value will do',
+                )
+            return value
         raise ConstantError(
             f'constant "{name}" is an int, but {shown} is not an integer',
             span,
@@ -358,6 +367,16 @@ def resolve_constants(
                 unknown.add(name)
                 return
             v = int(v)
+            if not INT64_MIN <= v <= INT64_MAX:
+                errors.append(
+                    ConstantError(
+                        f'int constant "{name}" has the value {format_value(v)}, beyond 64-bit '
+                        "integers",
+                        span_or_none(decl.value.span),
+                    )
+                )
+                unknown.add(name)
+                return
         values[name] = _cast(v, decl.type)
 
     for d in sorted(by_name.values(), key=_pos):

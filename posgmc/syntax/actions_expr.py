@@ -12,6 +12,7 @@ from lark import Token
 from posgmc.errors import ParseError, SourceSpan, UnsupportedError
 from posgmc.syntax.ast import (
     FUNCTION_ARITY,
+    INT64_MAX,
     BoolLit,
     Call,
     Coalition,
@@ -71,7 +72,19 @@ class ExpressionActions(ActionBase):
         return Unary(UnaryOp.NEG, children[0], span=span)
 
     def int_lit(self, span: SourceSpan, children: Sequence[Token]) -> IntLit:
-        return IntLit(int(children[0].value), span=span)
+        text = str(children[0].value)
+        # ints are 64-bit (docs/language.md); also keeps int() off 5000-digit strings
+        if len(text.lstrip("0")) > 19 or int(text) > INT64_MAX:
+            self._fail(
+                ParseError(
+                    f"the integer {text if len(text) <= 30 else text[:20] + '...'} is beyond "
+                    f"64-bit integers (at most {INT64_MAX})",
+                    span,
+                    hint="write a double (e.g. 1e20) if an approximate value will do",
+                )
+            )
+            return IntLit(0, span=span)
+        return IntLit(int(text), span=span)
 
     def double_lit(self, span: SourceSpan, children: Sequence[Token]) -> DoubleLit:
         text = str(children[0].value)

@@ -65,9 +65,14 @@ class Expr:
     span: SourceSpan = _span()
 
 
+INT64_MIN = -(2**63)
+INT64_MAX = 2**63 - 1
+"""The int type of the language is 64-bit signed, as Storm's (docs/language.md)."""
+
+
 @dataclass(frozen=True)
 class IntLit(Expr):
-    value: int
+    value: int  # within [INT64_MIN, INT64_MAX]
 
 
 @dataclass(frozen=True)

@@ -109,3 +109,56 @@ def _nesting(line: str) -> int:
         depth -= ch in ")]"
         deepest = max(deepest, depth)
     return deepest
+
+
+# -- one rule for integers: 64-bit, an error on overflow (docs/language.md) -----------------------
+
+
+def _cube_model(tmp_path: Path, guard: str) -> str:
+    path = tmp_path / "cube.prism"
+    path.write_text(
+        "mdp\nconst int B = 3000000000;\nmodule m\n  x : [0..3000000000] init 3000000000;\n"
+        f"  y : [0..1] init 0;\n  [] y=0 & {guard} -> (y'=1);\nendmodule\n"
+    )
+    return str(path)
+
+
+@pytest.mark.parametrize("guard, column", [("x*x*x > 0", 12), ("B*B*B > 0", 12)])
+def test_int_overflow_is_an_error_for_variables_and_constants(
+    tmp_path: Path, guard: str, column: int
+) -> None:
+    # 3e9^3 = 2.7e28 > 2^63: numpy wrapped the variable product to 0 while the constant one was
+    # exact (issue #13); now both are the same positioned error
+    r = CliRunner().invoke(main, ["build", _cube_model(tmp_path, guard)])
+    assert r.exit_code == 2, r.output
+    assert f"cube.prism:6:{column}: error: integer overflow" in r.output
+    assert "27000000000000000000000000000 is beyond 64-bit integers" in r.output
+
+
+def test_overflow_in_an_untaken_branch_is_no_error(tmp_path: Path) -> None:
+    # PRISM evaluates only the branch taken; an overflow elsewhere must not fail the build
+    model = _cube_model(tmp_path, "(x < 5 ? x*x*x : 1) > 0")
+    assert api.build(api.load(model)).model.num_states == 2
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("x : [0..18446744073709551616] init 0;", "beyond 64-bit integers"),
+        ("x : [0..pow(10,400)] init 0;", "pow() of two ints overflows 64-bit integers"),
+        ("x : [0..9223372036854775807+1] init 0;", "integer overflow"),
+    ],
+)
+def test_huge_integer_ranges_are_positioned_errors(tmp_path: Path, text: str, message: str) -> None:
+    path = tmp_path / "r.prism"
+    path.write_text(f"mdp\nmodule m\n  {text}\n  [] true -> true;\nendmodule\n")
+    for verb in ("lint", "build"):
+        r = CliRunner().invoke(main, [verb, str(path)])
+        assert r.exit_code == 2 and message in r.output and "r.prism:3:" in r.output, r.output
+
+
+def test_an_int_constant_beyond_64_bits_names_the_option(tmp_path: Path) -> None:
+    path = tmp_path / "c.prism"
+    path.write_text("mdp\nconst int N;\nmodule m\n  x : [0..1] init 0;\n  [] x<N -> true;\nendmodule\n")
+    r = CliRunner().invoke(main, ["build", str(path), "--const", "N=99999999999999999999"])
+    assert r.exit_code == 2 and "--const:1:1" in r.output and "beyond 64-bit" in r.output

@@ -91,7 +91,12 @@ def test_double_literals_are_exact(text: str, value: Fraction) -> None:
 
 
 def test_int_and_bool_literals() -> None:
-    assert parse_expression("123456789012345678901") == IntLit(123456789012345678901)
+    # ints are 64-bit (docs/language.md): the largest literal is 2^63 - 1
+    assert parse_expression("9223372036854775807") == IntLit(2**63 - 1)
+    for text in ("9223372036854775808", "123456789012345678901", "1" * 5000):
+        with pytest.raises(ParseError, match="beyond 64-bit integers") as info:
+            parse_expression(text)
+        assert info.value.span is not None and info.value.span.column == 1
     assert parse_expression("true") == BoolLit(True)
     assert parse_expression("false", model=True) == BoolLit(False)
 
