@@ -406,12 +406,15 @@ class PropertyChecker:
 
         everywhere = self._everywhere  # read before the atoms' own (nested) queries reset it
         atoms = ltl.extract_atoms(path)
-        dfa = ltl.to_dfa(path, atoms)
+        ltl.check_atoms(path, atoms)  # before evaluating them
         if atoms:
             atom_values = np.stack([self._states(a) for a in atoms])
         else:
             atom_values = np.zeros((0, self.model.num_states), dtype=bool)
         starts = np.arange(self.model.num_states) if everywhere else None
+        # the automaton over the letters of this model, in its orders, not all 2**n (issue #13)
+        graph = ltl.letter_graph(self.model, atom_values, starts)
+        dfa = ltl.to_dfa(path, atoms, alphabet=graph)
         return ltl.product(self.model, dfa, atom_values, starts=starts), starts
 
     def _ltl_probability(self, path: Expr, maximize: np.ndarray) -> QueryValue:
