@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
@@ -517,6 +517,8 @@ def check(
     built: BuiltModel | None = None,
     strategies: Mapping[str, "FiniteStateStrategy | str | Path"] | None = None,
     synthesis: "SynthesisOptions | None" = None,
+    on_start: "Callable[[ExplicitModel, float, tuple[str, ...]], None] | None" = None,
+    on_outcome: "Callable[[PropertyResult | tuple[str, PosgmcError]], None] | None" = None,
 ) -> CheckReport:
     """Build the model (unless ``built`` is given) and check each property at the initial states.
 
@@ -536,6 +538,10 @@ def check(
         synthesis: how to synthesise strategies for a partially observable model checked
             without ``strategies`` and without ``full_observation`` (memory sizes, time budget,
             seed; :class:`~posgmc.synthesis.search.SynthesisOptions`).
+        on_start: called once the model is built, with the model, its build time and the
+            warnings, before any property is checked (to show progress).
+        on_outcome: called with each outcome (as in ``outcomes``) as soon as it is computed, so
+            a caller can print results while the next property is being checked.
 
     Returns:
         The report; ``errors`` holds (property text, error) for properties that could not be
@@ -568,6 +574,8 @@ def check(
         from posgmc.strategies.binding import bind
 
         warnings = tuple(w for fss in loaded.values() for w in bind(built.model, fss).warnings)
+    if on_start is not None:
+        on_start(built.model, built.seconds, built.warnings + warnings)
     results: list[PropertyResult] = []
     errors: list[tuple[str, PosgmcError]] = []
     outcomes: list[PropertyResult | tuple[str, PosgmcError]] = []
@@ -588,6 +596,8 @@ def check(
         else:
             results.append(outcome)
             outcomes.append(outcome)
+        if on_outcome is not None:
+            on_outcome(outcomes[-1])
     return CheckReport(
         built.model,
         built.seconds,

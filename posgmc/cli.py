@@ -353,6 +353,9 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
               help="Write the optimal memoryless strategy of the (single) property as JSON; for a "
               "synthesised strategy, a directory receiving <player>.json.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (see docs/cli.md).")
+@click.option("--json-lines", "json_lines", is_flag=True,
+              help="Print one JSON object per line as soon as it is known: the model, then each "
+              "result (see docs/cli.md).")
 @click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
               help="Also write a JUnit XML report: one test case per property.")
 @click.option("--state-limit", type=click.IntRange(min=1), default=None)
@@ -374,6 +377,7 @@ def check(
     seed: int,
     export_strategy: str | None,
     as_json: bool,
+    json_lines: bool,
     junit: str | None,
     state_limit: int | None,
     consts: tuple[str, ...],
@@ -394,10 +398,18 @@ def check(
             keep_strategy=export_strategy is not None,
             exact=exact,
         )
+        if as_json and json_lines:
+            raise click.UsageError("give --json or --json-lines, not both")
         rows = []
         code = EXIT_OK
+        # results are shown as they are computed (a killed run keeps what it printed), except
+        # in the one-object --json and in sweep tables
+        streaming = not as_json and len(combos or [{}]) == 1
         for constants in combos or [{}]:
             session = api.load(model, constants=constants)
+            on_start, on_outcome = (
+                _streamers(model, constants, json_lines) if streaming else (None, None)
+            )
             report = api.check(
                 session,
                 property_files=props,
@@ -408,6 +420,8 @@ def check(
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
                 synthesis=_synthesis_options(memory, timeout, seed, adversaries),
+                on_start=on_start,
+                on_outcome=on_outcome,
             )
             if report.errors:
                 code = EXIT_ERROR
@@ -421,13 +435,44 @@ def check(
                     _write_strategy(export_strategy, report)
         if junit is not None:
             _write_check_junit(junit, model, swept, rows)
-        if as_json:
+        if as_json or (json_lines and not streaming):
             click.echo(json.dumps(_json_report(model, swept, rows)))
-        else:
+        elif not streaming:
             _print_report(model, swept, rows)
         return code
 
-    _guard(debug, run, as_json=as_json, consts=consts)
+    _guard(debug, run, as_json=as_json or json_lines, consts=consts)
+
+
+def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type: ignore[no-untyped-def]
+    """(on_start, on_outcome) callbacks printing the header and each result as it comes."""
+
+    def start(built: Any, seconds: float, warnings: tuple[str, ...]) -> None:
+        stats = built.statistics()
+        if json_lines:
+            click.echo(json.dumps({
+                "model_file": model,
+                "constants": {n: _const_text(v) for n, v in constants.items()},
+                "model": {k: stats[k] for k in ("type", "states", "choices", "transitions")},
+                "build_seconds": round(seconds, 6),
+                "warnings": list(warnings),
+            }))
+            return
+        _print_header(model, stats, seconds, warnings)
+
+    def outcome(r: Any) -> None:
+        if json_lines:
+            click.echo(json.dumps(_outcome_json(r)))
+        else:
+            _print_outcome(r)
+
+    return start, outcome
+
+
+def _outcome_json(r: Any) -> dict[str, Any]:
+    if isinstance(r, tuple):
+        return {"property": r[0], "error": r[1].render()}
+    return r.to_json()  # type: ignore[no-any-return]
 
 
 def _write_check_junit(path: str, model: str, swept: list[str], rows: list[tuple[dict[str, Any], Any]]) -> None:
@@ -561,10 +606,7 @@ def _json_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], 
             "constants": {n: _const_text(v) for n, v in constants.items()},
             "model": {k: stats[k] for k in ("type", "states", "choices", "transitions")},
             "build_seconds": round(report.build_seconds, 6),
-            "results": [
-                r.to_json() if not isinstance(r, tuple) else {"property": r[0], "error": r[1].render()}
-                for r in report.outcomes
-            ],
+            "results": [_outcome_json(r) for r in report.outcomes],
         }
 
     if len(rows) == 1:
@@ -599,37 +641,45 @@ def _print_strategy_numbers(r: Any) -> None:
         click.echo("  memory: " + ", ".join(f"{p or 'agent'}={k}" for p, k in r.memory))
 
 
-def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> None:
-    first = rows[0][1]
-    stats = first.model.statistics()
+def _print_header(model: str, stats: dict[str, Any], seconds: float, warnings: Sequence[str]) -> None:
     click.echo(
         f"Model {model}: {stats['type']}, {stats['states']} states, {stats['choices']} choices, "
-        f"{stats['transitions']} transitions (built in {first.build_seconds:.3f} s)"
+        f"{stats['transitions']} transitions (built in {seconds:.3f} s)"
     )
-    for w in first.warnings:
+    for w in warnings:
         click.echo(f"warning: {w}", err=True)
+
+
+def _print_outcome(r: Any) -> None:
+    """One property's result (or error) as text; click.echo flushes, so it shows at once."""
+    if isinstance(r, tuple):
+        click.echo(f"{r[0]}: ERROR")
+        click.echo(r[1].render(), err=True)
+        return
+    line = f"{r.property}: {_fmt(r.value)}"
+    if r.exact is not None:
+        line = f"{r.property}: {format_value(r.exact)}"
+    if r.lower is not None and not isinstance(r.value, bool):
+        line += f"  [{_fmt(r.lower)}, {_fmt(r.upper)}]"
+    line += f"  ({r.method}, {r.iterations} it., {r.seconds:.3f} s)"
+    if r.value is None:
+        line += "  (the proven bounds do not decide it, even after refining)"
+    if not r.converged:
+        line += "  NOT CONVERGED: the iteration cap was hit; the bounds hold but are wider"
+    if not r.sound:
+        line += "  NOT PROVEN: bounds did not separate or the method is unsound"
+    click.echo(line)
+    _print_strategy_numbers(r)
+    if r.note:
+        click.echo(f"  note: {r.note}")
+
+
+def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> None:
+    first = rows[0][1]
+    _print_header(model, first.model.statistics(), first.build_seconds, first.warnings)
     if len(rows) == 1:
         for r in first.outcomes:
-            if isinstance(r, tuple):
-                click.echo(f"{r[0]}: ERROR")
-                click.echo(r[1].render(), err=True)
-                continue
-            line = f"{r.property}: {_fmt(r.value)}"
-            if r.exact is not None:
-                line = f"{r.property}: {format_value(r.exact)}"
-            if r.lower is not None and not isinstance(r.value, bool):
-                line += f"  [{_fmt(r.lower)}, {_fmt(r.upper)}]"
-            line += f"  ({r.method}, {r.iterations} it., {r.seconds:.3f} s)"
-            if r.value is None:
-                line += "  (the proven bounds do not decide it, even after refining)"
-            if not r.converged:
-                line += "  NOT CONVERGED: the iteration cap was hit; the bounds hold but are wider"
-            if not r.sound:
-                line += "  NOT PROVEN: bounds did not separate or the method is unsound"
-            click.echo(line)
-            _print_strategy_numbers(r)
-            if r.note:
-                click.echo(f"  note: {r.note}")
+            _print_outcome(r)
         return
     for i, r0 in enumerate(first.outcomes):
         click.echo(f"\n{r0[0] if isinstance(r0, tuple) else r0.property}:")

@@ -197,3 +197,52 @@ def test_conjunction_of_13_eventualities_takes_seconds(tmp_path: Path) -> None:
     assert time.perf_counter() - start < 20  # seconds even on a shared machine (was 110 s)
     # every state of the ring is visited almost surely: probability 1 (hand derivation)
     assert '"value": 1' in r.output.replace("1.0", "1")
+
+
+def test_each_result_is_printed_before_the_next_property_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+    # issue #13: killed after the first result, nothing had been printed; now the first line is
+    # out before the second property starts (here the second is interrupted: exit 130)
+    real = api._check_one
+    calls = []
+
+    def second_interrupted(*args, **kwargs):  # type: ignore[no-untyped-def]
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(api, "_check_one", second_interrupted)
+    for extra in ([], ["--json-lines"]):
+        calls.clear()
+        r = run("check", ROVER, "--prop", REACH, "--prop", REACH, *extra)
+        assert r.exit_code == 130
+        assert r.output.count("Pmax=?") == 1 and "0.98765" in r.output, r.output
+        assert "interrupted" in r.output
+
+
+def test_json_lines_prints_one_object_per_line() -> None:
+    import json
+
+    r = run("check", ROVER, "--prop", REACH, "--prop", '<<rover>> Pmin=? [ F "goal" ]', "--json-lines")
+    assert r.exit_code == 0, r.output
+    lines = [json.loads(line) for line in r.output.splitlines()]
+    assert lines[0]["model"]["states"] > 0 and [x["property"] for x in lines[1:]] == [
+        REACH,
+        '<<rover>> Pmin=? [ F "goal" ]',
+    ]
+
+
+def test_hitting_the_iteration_cap_says_so_and_fails(monkeypatch: pytest.MonkeyPatch) -> None:
+    # one iteration cannot converge on rover's reachability; the line says so and exit is 1
+    from posgmc.engines import options as engine_options
+
+    original = engine_options.SolverOptions.__init__
+
+    def capped(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+        kwargs["max_iterations"] = 1
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(engine_options.SolverOptions, "__init__", capped)
+    r = run("check", ROVER, "--prop", REACH)
+    assert "NOT CONVERGED: the iteration cap was hit" in r.output, r.output
+    assert r.exit_code == 1
