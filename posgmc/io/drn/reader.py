@@ -30,6 +30,7 @@ import numpy as np
 
 from posgmc.io._text import STR
 from posgmc.io.drn.body import (
+    Body,
     States,
     check_state_count,
     classify,
@@ -42,6 +43,12 @@ from posgmc.io.drn.lines import NOLABEL
 from posgmc.io.drn.rewards import parse_reward_models
 from posgmc.io.drn.source import DrnText
 from posgmc.io.drn.transitions import dtmc_choices, nondeterministic_choices, parse_transitions
+from posgmc.model.actions import (
+    action_signatures,
+    conflict_message,
+    labels_of,
+    observation_action_conflict,
+)
 from posgmc.model.explicit import ExplicitModel, ModelInvariantError, Observation, make_model
 from posgmc.syntax.ast import ModelType
 
@@ -114,6 +121,11 @@ def _read(drn: DrnText) -> ExplicitModel:
     reward_models = parse_reward_models(drn, header, model_type, states, actions, choices)
     players, player_names = _players(drn, states, model_type, header)
     variable_names, state_values = valuations(body, state_idx)
+    observations = _observations(states, model_type, player_names)
+    _check_observed_actions(
+        drn, body, state_idx, observations, players, player_names, model_type,
+        choice_actions, choices.row_groups, action_names,
+    )
     try:
         return make_model(
             model_type,
@@ -124,7 +136,7 @@ def _read(drn: DrnText) -> ExplicitModel:
             action_names=action_names,
             state_players=players,
             player_names=player_names,
-            observations=_observations(states, model_type, player_names),
+            observations=observations,
             labels=labels,
             reward_models=reward_models,
             variable_names=variable_names,
@@ -133,6 +145,47 @@ def _read(drn: DrnText) -> ExplicitModel:
         )
     except ModelInvariantError as e:  # pragma: no cover - every invariant is checked above
         raise drn.whole_line_error(f"invalid model: {e.message}", header.model_line) from None
+
+
+def _check_observed_actions(
+    drn: DrnText,
+    body: Body,
+    state_idx: np.ndarray,
+    observations: tuple[Observation, ...],
+    players: np.ndarray,
+    player_names: tuple[str, ...],
+    model_type: ModelType,
+    choice_actions: np.ndarray,
+    row_groups: np.ndarray,
+    action_names: tuple[str, ...],
+) -> None:
+    """States a player cannot tell apart offer the same actions, as in a PRISM model
+    (:mod:`posgmc.model.actions`); with no action labels at all, the same number of choices."""
+    if not observations:
+        return
+    if action_names == ("",):
+        signatures = np.diff(row_groups).astype(np.int64).reshape(-1, 1)
+    else:
+        signatures = action_signatures(choice_actions, row_groups, len(action_names))
+    for obs in observations:
+        owned = (
+            np.flatnonzero(players == obs.player)
+            if model_type.is_game
+            else np.arange(players.size)
+        )
+        conflict = observation_action_conflict(obs.state_ids, owned, signatures)
+        if conflict is None:
+            continue
+        s, t = conflict
+        if action_names == ("",):
+            a_s = {f"{int(signatures[s, 0])} choices"}
+            a_t = {f"{int(signatures[t, 0])} choices"}
+        else:
+            a_s = labels_of(signatures[s], action_names)
+            a_t = labels_of(signatures[t], action_names)
+        who = f"player {player_names[obs.player]}" if model_type.is_game else "the agent"
+        message, hint = conflict_message(str(s), str(t), who, int(obs.state_ids[s]), a_s, a_t)
+        raise drn.whole_line_error(message, body.line(state_idx[t]), hint=hint)
 
 
 def _players(
