@@ -64,14 +64,15 @@ def worker_storm(n: int, target: str) -> dict[str, object]:
     import stormpy
 
     program = stormpy.parse_prism_program(str(MODEL))
-    program = stormpy.preprocess_symbolic_input(program, [], f"N={n}")[0].as_prism_program()
-    options = stormpy.BuildOptions()
+    program = stormpy.io.instantiate_constants(program, f"N={n}")[0]
+    options = stormpy.BuilderOptions()
     options.set_build_all_labels()
     options.set_build_all_reward_models()
-    model = stormpy.build_sparse_model_with_options(program, options)
+    options.set_build_choice_labels()  # posgmc writes action names too
+    model = stormpy.build_model(program, options=options)
     built_mb = _peak_mb()
     t0 = time.perf_counter()
-    stormpy.export_to_drn(model, target)
+    stormpy.io.export_to_drn(model, target)
     return {
         "states": model.nr_states,
         "built_mb": built_mb,

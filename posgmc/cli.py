@@ -428,7 +428,8 @@ def check(
             elif code == EXIT_OK and any(_not_passed(r) for r in report.results):
                 code = EXIT_PROPERTY_FALSE
             rows.append((constants, report))
-            if export_strategy is not None:
+            if export_strategy is not None and not report.errors:
+                # a property that failed has said why; "needs exactly one query" would hide it
                 if any(getattr(r, "strategies", ()) for r in report.results):
                     _write_synthesised(export_strategy, report)
                 else:
