@@ -34,6 +34,7 @@ from posgmc.compiler.explore import Exploration
 from posgmc.compiler.options import BuildOptions, ValidationMode
 from posgmc.compiler.program import UNOWNED, Generator, GeneratorKind, Program
 from posgmc.errors import BuildError, SourceSpan, UnsupportedError
+from posgmc.semantics import operators as ops
 from posgmc.model.actions import (
     action_signatures,
     conflict_message,
@@ -270,7 +271,7 @@ def _rewards(
                 v = program.compile(it.value)
                 if g.constant is not None and v.constant is not None:
                     if g.constant:
-                        per_action[a] += float(v.constant)
+                        per_action[a] += ops.to_float(v.constant)
                 else:
                     varying.append((a, g, v))
             choice = per_action[choice_actions] if per_action.any() else np.zeros(num_choices)

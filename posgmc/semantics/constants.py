@@ -105,6 +105,8 @@ _NAME_RE = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
 
 def _parse_number(text: str) -> int | Fraction:
     text = text.strip()
+    if len(text) > 400:  # Python converts at most 4300 digits; no sane constant is this long
+        raise ValueError(f"{text[:20]}... has too many digits")
     if _INT_RE.fullmatch(text):
         return int(text)
     return Fraction(text)  # "0.5", "1e-3", "1/3"; ValueError otherwise

@@ -280,7 +280,7 @@ def to_float(x: int | Fraction | float) -> float:
     try:
         return float(x)
     except OverflowError:
-        return math.copysign(math.inf, x)
+        return -math.inf if x < 0 else math.inf
 
 
 # -- exact scalar forms (constant folding and the scalar evaluator) ----------------------------------

@@ -90,7 +90,7 @@ class ExpressionActions(ActionBase):
         text = str(children[0].value)
         _, _, exponent = text.lower().partition("e")
         # an exact Fraction of 1e999999999 would be a billion-digit integer
-        if exponent and abs(int(exponent)) > _MAX_EXPONENT:
+        if exponent and abs(_small_int(exponent)) > _MAX_EXPONENT:
             self._fail(
                 ParseError(
                     f"the number {text} is out of range (exponent beyond ±{_MAX_EXPONENT})", span
@@ -212,7 +212,7 @@ class ExpressionActions(ActionBase):
         refs = []
         for tok in children:
             if tok.type == "INT":
-                refs.append(PlayerRef(number=int(tok.value), span=self._tspan(tok)))
+                refs.append(PlayerRef(number=_small_int(str(tok.value)), span=self._tspan(tok)))
             else:
                 refs.append(PlayerRef(name=str(tok.value), span=self._tspan(tok)))
         return tuple(refs)
@@ -223,7 +223,7 @@ class ExpressionActions(ActionBase):
     def reward_index(self, span: None, children: Sequence[Token]) -> str | int:
         tok = children[0]
         if tok.type == "INT":
-            return int(tok.value)
+            return _small_int(str(tok.value))
         return self._quoted_identifier(tok, "reward structure")
 
     def _reward_of(self, children: Sequence[Any]) -> str | int | None:
@@ -308,3 +308,11 @@ def _fraction(text: str) -> Fraction:
     # Fraction(str) parses with a regular expression; generated models repeat a few literals
     # (0.5, 0.1, ...) thousands of times, and a Fraction is immutable, so one may be shared.
     return Fraction(text)
+
+
+def _small_int(text: str) -> int:
+    """``int(text)`` for an index or exponent; beyond 18 digits it is just "too large" (and
+    Python refuses to convert more than 4300 digits at all)."""
+    sign = -1 if text.startswith("-") else 1
+    digits = text.lstrip("+-").lstrip("0") or "0"
+    return sign * (int(digits) if len(digits) <= 18 else 10**18)
