@@ -71,6 +71,9 @@ def test_interruption_has_its_own_exit_code(monkeypatch: pytest.MonkeyPatch) -> 
     monkeypatch.setattr(api, "check", interrupted)
     r = run("check", ROVER, "--prop", REACH)
     assert r.exit_code == 130 and "interrupted" in r.output
+    monkeypatch.setattr(api, "build", interrupted)  # build exited 1 too
+    r = run("build", ROVER)
+    assert r.exit_code == 130 and "interrupted" in r.output
 
 
 def test_empty_properties_file_is_an_error(tmp_path: Path) -> None:
@@ -112,9 +115,7 @@ def test_prism_file_mentioning_type_in_a_comment_is_prism(tmp_path: Path) -> Non
 
 
 def test_drn_with_a_byte_order_mark(tmp_path: Path) -> None:
-    drn = (ROOT.parent / "shared" / "benchmarks" / "posmg" / "test-game" / "sketch.templ")
-    if not drn.exists():
-        pytest.skip("shared benchmarks not present")
+    drn = Path(_test_game())
     copy = tmp_path / "bom.drn"
     copy.write_text("\ufeff" + drn.read_text(encoding="utf-8"), encoding="utf-8")
     r = run("build", str(copy), "--json")
