@@ -567,6 +567,8 @@ def check(
         build_options = dataclasses.replace(build_options, exact=True)
     if built is None:
         _check_constant_names(session, property_files)
+        # unreadable or unparsable property files are reported before anything is built
+        parse_properties(session, files=property_files, texts=properties)
     built = built or build(session, options=build_options, allow_extra_constants=True)
     loaded = load_strategies(strategies) if strategies else None
     warnings: tuple[str, ...] = ()
