@@ -22,7 +22,10 @@ class Method(enum.Enum):
     :mod:`posgmc.engines.iteration`). ``VALUE`` is plain value iteration from below with the usual
     unsound stopping rule (``lower = upper = values``, ``sound = False``). ``POLICY`` is policy
     iteration with an exact linear solve per evaluation (mdp/smg; dtmc as ``EXACT``). ``EXACT`` is a
-    direct sparse LU solve for a dtmc and policy iteration to optimality for an mdp/smg.
+    direct sparse LU solve for a dtmc and policy iteration to optimality for an mdp/smg. Both
+    report bounds proven by :func:`~posgmc.engines.certify.certify`, or by interval iteration
+    where no certificate is found; ``INTERVAL`` tries that certificate too once its iteration
+    turns out stiff (:mod:`posgmc.engines.common`).
     """
 
     INTERVAL = "interval"
