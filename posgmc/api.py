@@ -582,7 +582,7 @@ def check(
     strategies: Mapping[str, "FiniteStateStrategy | str | Path"] | None = None,
     synthesis: "SynthesisOptions | None" = None,
     on_start: "Callable[[ExplicitModel, float, tuple[str, ...]], None] | None" = None,
-    on_outcome: "Callable[[PropertyResult | tuple[str, PosgmcError]], None] | None" = None,
+    on_outcome: "Callable[[PropertyResult | PropertyError], None] | None" = None,
 ) -> CheckReport:
     """Build the model (unless ``built`` is given) and check each property at the initial states.
 
