@@ -33,6 +33,28 @@ MAX_FRAMES = 60_000
 
 T = TypeVar("T")
 _local = threading.local()
+_limit_lock = threading.Lock()
+_active = 0  # workers running; the raised limit is restored when the last one ends
+_saved_limit = 0
+
+
+def _raise_limit() -> None:
+    # the recursion limit is per process: raise it while any worker runs, so that one caller's
+    # worker finishing never lowers it under another's
+    global _active, _saved_limit
+    with _limit_lock:
+        if _active == 0:
+            _saved_limit = sys.getrecursionlimit()
+            sys.setrecursionlimit(max(_saved_limit, MAX_FRAMES))
+        _active += 1
+
+
+def _restore_limit() -> None:
+    global _active
+    with _limit_lock:
+        _active -= 1
+        if _active == 0:
+            sys.setrecursionlimit(_saved_limit)
 
 
 def deep_call(fn: Callable[[], T]) -> T:
@@ -58,21 +80,21 @@ def deep_call(fn: Callable[[], T]) -> T:
             )
         except BaseException as e:  # noqa: BLE001 - re-raised in the caller's thread below
             box["error"] = e
+        finally:
+            _restore_limit()  # by the worker itself: balanced even if the caller was interrupted
 
+    _raise_limit()
     old_size = threading.stack_size()
-    old_limit = sys.getrecursionlimit()
     try:
         threading.stack_size(STACK_BYTES)
         worker = threading.Thread(target=work, name="posgmc-deep", daemon=True)
-        sys.setrecursionlimit(max(old_limit, MAX_FRAMES))
         worker.start()
+    except BaseException:
+        _restore_limit()
+        raise
     finally:
         threading.stack_size(old_size)
-    try:
-        worker.join()
-    finally:
-        if not worker.is_alive():
-            sys.setrecursionlimit(old_limit)
+    worker.join()  # Ctrl-C interrupts this wait in the main thread, as it should
     if "error" in box:
         raise box["error"]
     return box["value"]  # type: ignore[no-any-return]

@@ -44,6 +44,7 @@ from posgmc.syntax.placement import contains_temporal
 
 # Decimal exponents beyond this are rejected: doubles overflow long before (1e308).
 _MAX_EXPONENT = 400
+_MAX_DIGITS = 1000
 
 
 class ExpressionActions(ActionBase):
@@ -88,8 +89,15 @@ class ExpressionActions(ActionBase):
 
     def double_lit(self, span: SourceSpan, children: Sequence[Token]) -> DoubleLit:
         text = str(children[0].value)
-        _, _, exponent = text.lower().partition("e")
-        # an exact Fraction of 1e999999999 would be a billion-digit integer
+        mantissa, _, exponent = text.lower().partition("e")
+        # an exact Fraction of 1e999999999 would be a billion-digit integer, and Python refuses
+        # to convert more than 4300 digits
+        if len(mantissa) > _MAX_DIGITS:
+            shown = text[:20] + "..."
+            self._fail(
+                ParseError(f"the number {shown} has more than {_MAX_DIGITS} digits", span)
+            )
+            return DoubleLit(Fraction(0), span=span)
         if exponent and abs(_small_int(exponent)) > _MAX_EXPONENT:
             self._fail(
                 ParseError(

@@ -118,9 +118,9 @@ def parse_state_line(
             m.start(1) + 1,
             m.end(1) + 1,
         )
-    if int(token) != expected:
+    if len(token) > 18 or int(token) != expected:
         raise drn.error(
-            f"expected state {expected}, found state {int(token)}",
+            f"expected state {expected}, found state {token if len(token) <= 30 else token[:20] + '...'}",
             ln,
             m.start(1) + 1,
             m.end(1) + 1,
