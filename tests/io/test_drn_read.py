@@ -553,3 +553,13 @@ def test_same_observation_different_actions_is_refused_as_in_prism() -> None:
     with pytest.raises(ModelFormatError, match="states 0 and 2 .* 2 choices"):
         parse_drn(unlabelled)
     assert parse_drn(_conflict(a0="a", b0="b", a1="a", b1="a")).num_states == 3
+
+
+def test_a_nul_character_is_a_positioned_error() -> None:
+    # found by the long fuzz run (issue #13): numpy's strings dropped it and int() failed later
+    from posgmc.errors import ModelFormatError
+
+    text = _conflict(a0="a", b0="b", a1="a", b1="a").replace("state 1 {1}", "state 1\x00 {1}")
+    with pytest.raises(ModelFormatError, match="NUL character") as info:
+        parse_drn(text)
+    assert info.value.span is not None and (info.value.span.line, info.value.span.column) == (16, 8)

@@ -42,6 +42,7 @@ from posgmc.io.drn.header import PLAYERS_PREFIX, Header, read_header
 from posgmc.io.drn.lines import NOLABEL
 from posgmc.io.drn.rewards import parse_reward_models
 from posgmc.io.drn.source import DrnText
+from posgmc.io.reading import read_text
 from posgmc.io.drn.transitions import dtmc_choices, nondeterministic_choices, parse_transitions
 from posgmc.model.actions import (
     action_signatures,
@@ -73,7 +74,7 @@ def read_drn(source: str | os.PathLike[str], *, file: str | None = None) -> Expl
     if isinstance(source, str) and "\n" in source:
         return parse_drn(source, file=file)
     path = Path(source)
-    text = path.read_text(encoding="utf-8")
+    text = read_text(path)  # UTF-8 problems as file:line:col errors
     return parse_drn(text, file=file if file is not None else str(path))
 
 
@@ -91,7 +92,13 @@ def parse_drn(text: str, *, file: str | None = None) -> ExplicitModel:
         ModelFormatError: the text is not valid DRN (with line and column).
         UnsupportedError: valid DRN this build does not handle.
     """
-    return _read(DrnText(text, file))
+    drn = DrnText(text, file)
+    nul = text.find("\x00")
+    if nul >= 0:  # never valid in DRN, and numpy's strings would drop it silently
+        line = text.count("\n", 0, nul) + 1
+        column = nul - (text.rfind("\n", 0, nul) + 1) + 1
+        raise drn.error("a NUL character is not allowed in a DRN file", line, column, column + 1)
+    return _read(drn)
 
 
 def _read(drn: DrnText) -> ExplicitModel:
