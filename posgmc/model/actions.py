@@ -72,10 +72,13 @@ def conflict_message(
     s_text: str, t_text: str, who: str, observation: int, a_s: set[str], a_t: set[str]
 ) -> tuple[str, str]:
     """(message, hint) of an observation-action conflict between states s and t."""
-    return (
+    message = (
         f"states {s_text} and {t_text} look the same to {who} (observation {observation}) but "
         f"offer different actions: {', '.join(sorted(a_s - a_t)) or 'none'} only in the first, "
-        f"{', '.join(sorted(a_t - a_s)) or 'none'} only in the second",
-        "states with the same observation must enable the same action labels; observe more "
-        "or make the commands' guards depend only on observed values",
+        f"{', '.join(sorted(a_t - a_s)) or 'none'} only in the second"
     )
+    hint = (
+        "states with the same observation must enable the same action labels; observe more "
+        "or make the commands' guards depend only on observed values"
+    )
+    return message, hint

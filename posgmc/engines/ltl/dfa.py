@@ -56,8 +56,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from posgmc.errors import LimitError, UnsupportedError
-from posgmc.syntax.ast import Expr
 from posgmc.engines.ltl.cosafe import (
     BoundEvaluator,
     FormulaTable,
@@ -65,6 +63,8 @@ from posgmc.engines.ltl.cosafe import (
     extract_atoms,
     translate,
 )
+from posgmc.errors import LimitError, UnsupportedError
+from posgmc.syntax.ast import Expr
 
 __all__ = ["Dfa", "LetterGraph", "check_atoms", "minimise", "to_dfa"]
 
