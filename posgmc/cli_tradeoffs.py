@@ -1,5 +1,6 @@
-"""The ``pareto`` command: a property against a swept constant, each point verified, as a table,
-CSV and a plot (:mod:`posgmc.tradeoffs`). Thin, like :mod:`posgmc.cli`."""
+"""The ``pareto`` command: a property against a swept constant, each point verified, or the front
+of a ``multi(...)`` query on an mdp, as a table, CSV and a plot (:mod:`posgmc.tradeoffs`). Thin,
+like :mod:`posgmc.cli`."""
 
 from __future__ import annotations
 
@@ -15,8 +16,9 @@ __all__ = ["pareto"]
 
 @main.command("pareto")
 @click.argument("model", type=click.Path(dir_okay=False))
-@click.option("--prop", "prop_text", required=True, metavar="TEXT", help="The property.")
-@click.option("--sweep", "sweep_text", required=True, metavar="B=0:4",
+@click.option("--prop", "prop_text", required=True, metavar="TEXT",
+              help="The property: any property with --sweep, or a multi(...) query (mdp).")
+@click.option("--sweep", "sweep_text", default=None, metavar="B=0:4",
               help="The constant to sweep, as a --const range (PRISM syntax: B=0:4, p=0.1:0.1:0.5).")
 @click.option("--csv", "csv_file", type=click.Path(dir_okay=False), default=None,
               help="Also write the points as CSV.")
@@ -24,6 +26,9 @@ __all__ = ["pareto"]
               help="Also draw the front (.png, .svg, .pdf; needs matplotlib: pip install 'posgmc[plot]').")
 @click.option("--strategies", "strategy_dir", type=click.Path(file_okay=False), default=None,
               help="Write each point's strategies to DIR/<constant>=<value>/<player>.json.")
+@click.option("--also", "also", multiple=True, metavar="TEXT",
+              help="A further property checked at every point under its synthesised defence "
+              "(its guaranteed number), e.g. the defence's expected cost; repeatable.")
 @click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation values.")
 @click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
 @click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
@@ -35,10 +40,11 @@ __all__ = ["pareto"]
 def pareto(
     model: str,
     prop_text: str,
-    sweep_text: str,
+    sweep_text: str | None,
     csv_file: str | None,
     plot_file: str | None,
     strategy_dir: str | None,
+    also: tuple[str, ...],
     full_observation: bool,
     zero_based_players: bool,
     memory: tuple[str, ...],
@@ -47,7 +53,8 @@ def pareto(
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
-    """A trade-off: PROP against a swept constant, one verified point (and strategy) per value."""
+    """A trade-off: PROP against a swept constant, one verified point (and strategy) per value;
+    or the Pareto front of a multi(...) query with its approximation band."""
     from posgmc.io.atomic import atomic_write_text
     from posgmc.semantics.constants import ConstRange, parse_const_assignments
     from posgmc.tradeoffs.sweep import sweep, to_csv
@@ -56,10 +63,18 @@ def pareto(
         if plot_file is not None and not plot_file.lower().endswith((".png", ".svg", ".pdf")):
             raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
         if prop_text.lstrip().startswith("multi"):
-            raise UnsupportedError(
-                "multi-objective queries (multi(...)) are not supported yet",
-                hint="sweep a constant instead: --sweep B=0:4 (docs/tradeoffs.md)",
-            )
+            if sweep_text is not None:
+                raise UnsupportedError(
+                    "a multi(...) query gives its own front: --sweep does not apply to it",
+                    hint="drop --sweep, or sweep a single-objective property",
+                )
+            if strategy_dir is not None or also:
+                raise UnsupportedError("--strategies and --also apply to sweeps; a multi(...) "
+                                       "front keeps no strategies yet")
+            return _multi(model, prop_text, consts, csv_file, plot_file)
+        if sweep_text is None:
+            raise InputError("--sweep is needed (unless --prop is a multi(...) query)",
+                             hint="e.g. --sweep B=0:4")
         swept = parse_const_assignments(sweep_text, source="--sweep")
         if len(swept) != 1 or not isinstance(next(iter(swept.values())), ConstRange):
             raise InputError("--sweep takes one constant with a range, e.g. --sweep B=0:4")
@@ -79,7 +94,7 @@ def pareto(
         result = sweep(model, prop_text, constant=name, settings=values, constants=others,
                        synthesis=_synthesis_options(memory or ("auto",), timeout, seed),
                        full_observation=full_observation, zero_based_players=zero_based_players,
-                       strategy_dir=strategy_dir)
+                       strategy_dir=strategy_dir, also=also)
         _print(result)
         if csv_file is not None:
             atomic_write_text(csv_file, to_csv(result))
@@ -87,20 +102,78 @@ def pareto(
             from posgmc.tradeoffs.plot import plot_sweep
 
             plot_sweep(result, plot_file)
-        return EXIT_ERROR if any(p.error is not None for p in result.points) else EXIT_OK
+        failed = any(p.error is not None or any(not hasattr(a, "guaranteed") for a in p.also)
+                     for p in result.points)
+        return EXIT_ERROR if failed else EXIT_OK
 
     _guard(debug, run, consts=consts)
+
+
+def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | None,
+           plot_file: str | None) -> int:
+    """``pareto --prop 'multi(...)'``: the answer; for a Pareto query the front as a table."""
+    from posgmc.io.atomic import atomic_write_text
+    from posgmc.semantics.constants import ConstRange, parse_const_assignments
+    from posgmc.tradeoffs.front import front_to_csv, multi_objective
+
+    constants: dict[str, Any] = {}
+    for i, text in enumerate(consts):
+        for n, setting in parse_const_assignments(
+            text, source="--const" if len(consts) == 1 else f"--const #{i + 1}"
+        ).items():
+            if isinstance(setting, ConstRange):
+                raise InputError(f"--const {n}: a multi(...) query takes single values", setting.span)
+            constants[n] = setting
+    answer = multi_objective(model, prop_text, constants=constants)
+    front = answer.front
+    if front is None:
+        if csv_file is not None or plot_file is not None:
+            raise UnsupportedError(
+                f"a {answer.kind.value} query has no front to write",
+                hint="--csv and --plot need a Pareto query: two objectives with =?",
+            )
+        value = answer.achievable if answer.kind.value == "achievability" else answer.value
+        click.echo(f"{prop_text}: {_fmt(value)}  (lp (HiGHS), {answer.seconds:.3f} s; LP value: "
+                   "floating point, not a proven bound)")
+        return EXIT_OK
+    click.echo(f"{prop_text}: Pareto front, {len(front.points)} vertices "
+               f"({front.solves} LPs over {answer.states} states, {answer.seconds:.3f} s)")
+    rows = [("", front.objectives[0] + f" ({front.directions[0].value})",
+             front.objectives[1] + f" ({front.directions[1].value})")]
+    rows += [("achievable", _fmt(float(x)), _fmt(float(y))) for x, y in front.points]
+    rows += [("over-approximation", _fmt(float(x)), _fmt(float(y))) for x, y in front.corners]
+    widths = [max(len(row[i]) for row in rows) for i in range(3)]
+    for row in rows:
+        click.echo("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
+    click.echo(f"precision: every point of the over-approximation is within {front.precision:.3g} "
+               "of an achievable one" + ("" if front.converged else " (STOPPED at the LP budget)"))
+    click.echo("achievable: the vertices of the under-approximation (each point of their convex "
+               "hull, and anything worse, is achieved by a strategy); LP values in floating point")
+    if csv_file is not None:
+        atomic_write_text(csv_file, front_to_csv(front))
+    if plot_file is not None:
+        from posgmc.tradeoffs.plot import plot_front
+
+        plot_front(front, plot_file, title=prop_text)
+    return EXIT_OK
+
+
+def _also_cell(a: Any) -> str:
+    g = getattr(a, "guaranteed", None)
+    if g is None:
+        return "Error" if a is not None else "-"
+    return f"{_fmt(g.value)} [{_fmt(g.lower)}, {_fmt(g.upper)}]"
 
 
 def _print(result: Any) -> None:
     click.echo(f"{result.property} against {result.constant}:")
     rows = [(result.constant, "value [lower, upper]", "full_observation", "upper_bound", "memory",
-             "strategies")]
+             "strategies", *result.also)]
     for p in result.points:
         b = p.main_number()
         r = p.result
         if p.error is not None:
-            rows.append((p.setting, "Error", "", "", "", ""))
+            rows.append((p.setting, "Error", "", "", "", "", *("" for _ in result.also)))
             click.echo(p.error.render(), err=True)
             continue
         cell = "-" if b is None else f"{_fmt(b.value)} [{_fmt(b.lower)}, {_fmt(b.upper)}]"
@@ -112,10 +185,16 @@ def _print(result: Any) -> None:
             _fmt(r.upper_bound.value) if r is not None and r.upper_bound else "-",
             ", ".join(f"{n or 'agent'}={k}" for n, k in r.memory) if r is not None and r.memory else "-",
             p.strategy_dir or "-",
+            *(_also_cell(a) for a in (p.also or (None,) * len(result.also))),
         ))
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     for row in rows:
         click.echo("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
     if any(p.result is not None and p.result.guaranteed is not None for p in result.points):
         click.echo("value: what the synthesised strategy of each point guarantees against every "
-                   "adversary (proven bounds)")
+                   "adversary (proven bounds)" + ("; the further columns: what the same strategy "
+                   "guarantees for each --also property" if result.also else ""))
+    for p in result.points:
+        for a in p.also:
+            if not hasattr(a, "guaranteed") and hasattr(a, "render"):
+                click.echo(f"{result.constant}={p.setting}: " + a.render(), err=True)

@@ -25,17 +25,18 @@ has a unique fixpoint and ``B'^k(y) -> lfp B'`` from every start, so a post-fixp
 The perturbations make the inequalities hold with room: ``t`` satisfies ``t >= 1 + A_r t`` on the
 rows it maximises over, so ``A_r (x + d t) + b_r <= x + d t`` wherever ``A_r x + b_r <= x + d``;
 ``d_u`` (``d_l``) is the largest violation of ``x`` itself, enlarged a little. ``t_u`` is the
-same count with the minimiser fixed to ``sigma`` and the maximiser maximising it (where that is
-infinite, the count of the profile ``sigma`` itself: the upper bound needs no finiteness, only
-its check). The
-inequalities are then *checked* on the vectors (nothing rests on the choice of ``d``), with the
-relative rounding noise :data:`~posgmc.engines.iteration._NOISE` that the iterative engine
-tolerates too, and the caller widens the bounds as it widens iterated ones: proven up to
-floating-point error, like every float-based checker's.
+same count with the minimiser fixed to ``sigma`` and the maximiser maximising it. The
+inequalities are then *evaluated* on the vectors, and whatever they miss by (rounding), ``tau``,
+is added once more along the count: since ``t >= 1 + A_r t`` on every row the count maximises
+over, ``u + tau t_u`` is a pre-fixpoint when ``B(u) <= u + tau`` (and likewise below). No
+tolerance is accepted without this amplification: a slack taken alone would be unsound under a
+slow contraction (the reason interval iteration's check allows only a few ulps). The caller
+widens the bounds as it widens iterated ones: proven up to floating-point error, like every
+float-based checker's.
 
-Where a certificate cannot be had (an infinite count: end components; infinite values; a gap
-above the requested precision), :func:`certify` returns None and the caller solves by interval
-iteration instead.
+Where a certificate cannot be had (an infinite count: end components of either player; infinite
+values; a gap above the requested precision), :func:`certify` returns None and the caller solves
+by interval iteration instead.
 """
 
 from __future__ import annotations
@@ -43,9 +44,12 @@ from __future__ import annotations
 import numpy as np
 
 from posgmc.engines import exact as ex
-from posgmc.engines.iteration import _NOISE, System, choice_values, reduce_rows
+from posgmc.engines.iteration import System, choice_values, reduce_rows
 
 __all__ = ["certify"]
+
+_ULPS = 8 * float(np.finfo(np.float64).eps)
+"""A few ulps (relative): room left above x for rounding, and the rounding allowance of a check."""
 
 
 def _max_steps(gr: ex.Grouped, keep: np.ndarray) -> np.ndarray:
@@ -65,17 +69,6 @@ def _max_steps(gr: ex.Grouped, keep: np.ndarray) -> np.ndarray:
         steps, steps.row_groups[:-1].copy(), outer_max=True, idle_min=False, unbounded=True
     )
     return t
-
-
-def _lower_ok(sys: System, y: np.ndarray, sigma: np.ndarray, low: np.ndarray) -> bool:
-    """``low <= b_sigma + A_sigma low`` at maximising states and ``low <= B(low)`` at minimising
-    ones (up to rounding noise), with ``y`` the row values of ``low``."""
-    k = sys.num_max
-    slack = _NOISE * np.maximum(np.abs(low), 1.0)
-    best = reduce_rows(sys, y)
-    return bool(
-        np.all(y[sigma[:k]] >= low[:k] - slack[:k]) and np.all(best[k:] >= low[k:] - slack[k:])
-    )
 
 
 def certify(
@@ -106,39 +99,36 @@ def certify(
     own = np.zeros(sys.m, dtype=bool)
     own[sigma] = True
     row_max = sys.row_maximize
-    y = choice_values(sys, x)
-    gap = y - x[sys.row_state]  # how far each row's value lies above x
-
-    # upper: the maximiser free, the minimiser on sigma
-    keep_up = np.zeros(sys.m, dtype=bool)
-    keep_up[row_max | own] = True
+    keep_up = row_max | own  # the maximiser free, the minimiser on sigma
+    keep_low = ~row_max | own  # the maximiser on sigma, the minimiser free
     t_up = _max_steps(gr, keep_up[gr.source])
-    if not np.all(np.isfinite(t_up)):
-        # The maximiser has end components (it may stay forever): count the steps of the profile
-        # itself. Staying rows then keep u's average, which often still passes the check below.
-        t_up = _max_steps(gr, own[gr.source])
-    # lower: the maximiser on sigma, the minimiser free
-    keep_low = np.zeros(sys.m, dtype=bool)
-    keep_low[~row_max | own] = True
     t_low = _max_steps(gr, keep_low[gr.source])
     if not (np.all(np.isfinite(t_up)) and np.all(np.isfinite(t_low))):
-        return None
+        return None  # end components: no count bounds every row (interval iteration instead)
 
+    gap = choice_values(sys, x) - x[sys.row_state]  # how far each row's value lies above x
     scale = float(np.max(np.abs(x), initial=1.0))
-    d_up = max(float(np.max(gap[keep_up], initial=0.0)), 0.0) * 1.01 + 1e-15 * scale
-    d_low = max(float(np.max(-gap[keep_low], initial=0.0)), 0.0) * 1.01 + 1e-15 * scale
+    d_up = max(float(np.max(gap[keep_up], initial=0.0)), 0.0) * 1.01 + _ULPS * scale
+    d_low = max(float(np.max(-gap[keep_low], initial=0.0)), 0.0) * 1.01 + _ULPS * scale
     upper = x + d_up * t_up
     lower = x - d_low * t_low
+
+    # The checks that make them bounds. What rounding leaves of B(u) - u (resp. l - B'(l)),
+    # tau, is absorbed by one more step along the counts: t >= 1 + A_r t on every row they
+    # maximise over, so B(u + tau t) <= B(u) + tau (t - 1) <= u + tau t.
+    y = choice_values(sys, upper)
+    over = reduce_rows(sys, y) - upper
+    tau = max(float(np.max(over, initial=0.0)), 0.0) + _ULPS * float(np.max(np.abs(upper)))
+    upper = upper + tau * t_up
+    y = choice_values(sys, lower)
+    k = sys.num_max
+    best = reduce_rows(sys, y)
+    under = np.concatenate([lower[:k] - y[sigma[:k]], lower[k:] - best[k:]])
+    tau = max(float(np.max(under, initial=0.0)), 0.0) + _ULPS * float(np.max(np.abs(lower)))
+    lower = lower - tau * t_low
     if np.all(sys.offset >= 0):
         lower = np.maximum(lower, 0.0)  # lfp >= 0 when every constant is
-    upper = np.minimum(upper, cap)  # lfp <= cap, and B(min(u, cap)) <= min(u, cap)
-
-    # the checks that make them bounds
-    noise = _NOISE * np.maximum(np.abs(upper), 1.0)
-    if not np.all(reduce_rows(sys, choice_values(sys, upper)) <= upper + noise):
-        return None
-    if not _lower_ok(sys, choice_values(sys, lower), sigma, lower):
-        return None
+    upper = np.minimum(upper, cap)  # lfp <= cap
     half = 0.5 * (upper - lower)
     limit = precision * 0.5 * (np.abs(upper) + np.abs(lower)) if relative else precision
     if np.any(half > limit):

@@ -49,6 +49,10 @@ class SolverOptions:
     max_iterations: int = 1_000_000
     want_strategy: bool = True
     initial_strategy: np.ndarray | None = field(default=None, compare=False, repr=False)
+    prove: bool = True
+    """``POLICY``/``EXACT``: prove the bounds (a certificate, else interval iteration). False
+    returns policy iteration's float values as they are (``sound=False``): for searches that
+    only rank candidates and verify the winner afterwards."""
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.precision) and self.precision > 0):

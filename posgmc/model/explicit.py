@@ -51,7 +51,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from posgmc.errors import PosgmcError
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["ExplicitModel", "Observation", "RewardModel", "ModelInvariantError"]
 

@@ -270,3 +270,19 @@ def test_arrays_are_read_only() -> None:
                   model.reward_models[0].state):
         with pytest.raises(ValueError, match="read-only"):
             array[0] = array[0]
+
+
+def test_the_model_package_needs_no_front_end() -> None:
+    """posgmc.model needs nothing but numpy, scipy and its own enums (docs/architecture.md)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, posgmc.model.explicit; "
+            "print(sorted(m for m in sys.modules if m.startswith(('posgmc.syntax', "
+            "'posgmc.semantics', 'posgmc.compiler', 'posgmc.engines'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+    from posgmc.model.types import ModelType as Compiled
+    from posgmc.syntax.ast import ModelType as Written
+
+    assert Compiled is Written  # one enum, named by both
