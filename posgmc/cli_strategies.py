@@ -91,7 +91,7 @@ def test(
                     cases.append(Case(name, where, seconds, skipped="no RESULT line"))
                     continue
                 try:
-                    verdict = grade(exp, outcome, tolerance=tolerance)
+                    verdict = grade(exp, outcome, tolerance=tolerance, constants=texts)
                 except ValueError as e:
                     from posgmc.errors import InputError
 

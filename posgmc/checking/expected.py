@@ -5,8 +5,12 @@ A RESULT line holds a number (``0.85``, ``19/15``, ``1e-3``), an interval ``[lo,
 fail, with that text in its message), or ``?`` (not checked). ``// RESULT (N=4): v`` applies when
 the constant N is 4; ``// RESULT (guaranteed): v`` compares the named number of the result
 (``guaranteed``, ``vs_fss_adversary``, ``upper_bound``, ``full_observation``) instead of its value.
-Numbers pass within a relative tolerance (PRISM: 1e-5; absolute near 0), and an interval when
-the value lies in it.
+Numbers pass within a relative tolerance of the result (PRISM: ``1e-5·|v| + 1e-12``), an interval
+when the value ± that tolerance meets it; ``~v`` asks only for closeness in exact mode; an
+expected value may be an expression over the constants (``RESULT: 1/N``), as PRISM allows.
+``Error:a,b`` passes when the message contains every comma-separated word. In exact mode the
+fraction must be equal. The rules are PRISM's (``prism/src/prism/ResultTesting.java``), and the
+applicable line is the first whose constants all match (``Property.getExpectedResultString``).
 """
 
 from __future__ import annotations
@@ -35,13 +39,23 @@ class Verdict:
 
 
 def expected_for(prop: Property, constants: Mapping[str, str]) -> ExpectedResult | None:
-    """The RESULT line that applies under these constant values (the most specific one)."""
-    best: ExpectedResult | None = None
+    """The RESULT line that applies under these constant values: as PRISM, the first one whose
+    constants all have these values (numbers compared as numbers, so ``x=0.50`` matches 0.5)."""
     for exp in prop.expected:
-        if all(constants.get(k) == v for k, v in exp.constants):
-            if best is None or len(exp.constants) > len(best.constants):
-                best = exp
-    return best
+        if all(_same_constant(constants.get(k), v) for k, v in exp.constants):
+            return exp
+    return None
+
+
+def _same_constant(given: str | None, written: str) -> bool:
+    if given is None:
+        return False
+    if given == written:
+        return True
+    try:
+        return Fraction(given) == Fraction(written)
+    except (ValueError, ZeroDivisionError):
+        return False
 
 
 def _number(text: str) -> float:
@@ -56,12 +70,46 @@ def _number(text: str) -> float:
     return float(Fraction(t))
 
 
+_FLOATING_POINT_ERROR = 1e-12  # PRISM's Accuracy.FLOATING_POINT_ERROR
+
+
+def _slack(value: float, tolerance: float) -> float:
+    """PRISM's error bound around a result: relative to the result, plus floating-point error."""
+    return tolerance * abs(value) + _FLOATING_POINT_ERROR
+
+
 def _close(value: float, expected: float, tolerance: float) -> bool:
-    if math.isnan(expected):
-        return math.isnan(value)
-    if math.isinf(expected):
+    if math.isnan(expected) or math.isnan(value):
+        return math.isnan(value) and math.isnan(expected)
+    if math.isinf(expected) or math.isinf(value):
         return value == expected
-    return abs(value - expected) <= max(tolerance * abs(expected), 1e-10)  # absolute near 0
+    return abs(value - expected) <= _slack(value, tolerance)
+
+
+def _expected_number(text: str, constants: Mapping[str, str] | None) -> float:
+    """A number, a fraction, Infinity/NaN, or (as PRISM) an expression over the constants."""
+    try:
+        return _number(text)
+    except (ValueError, ZeroDivisionError):
+        pass
+    from posgmc.semantics.evaluate import evaluate
+    from posgmc.syntax.parser import parse_expression
+
+    try:
+        expr = parse_expression(text)
+        env = {k: _constant_value(v) for k, v in (constants or {}).items()}
+        return float(evaluate(expr, env))  # type: ignore[arg-type]
+    except (PosgmcError, ValueError, TypeError, KeyError, ZeroDivisionError):
+        raise ValueError(f"RESULT value {text!r} is not a number, interval, true/false, "
+                         "Infinity, NaN, Error, ? or an expression over the constants") from None
+
+
+def _constant_value(text: str) -> int | Fraction | bool:
+    """A constant's value as given on the command line (``4``, ``0.5``, ``1/3``, ``true``)."""
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    value = Fraction(text)
+    return int(value) if value.denominator == 1 and "." not in text else value
 
 
 def _show(value: object) -> str:
@@ -75,8 +123,9 @@ def _show(value: object) -> str:
 
 
 def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
-          tolerance: float = DEFAULT_TOLERANCE) -> Verdict:
-    """Whether ``outcome`` matches ``expected``.
+          tolerance: float = DEFAULT_TOLERANCE, constants: Mapping[str, str] | None = None) -> Verdict:
+    """Whether ``outcome`` matches ``expected`` (``constants``: the values an expected expression
+    such as ``1/N`` may name).
 
     Raises:
         ValueError: the RESULT text is not one of the forms above (the caller reports it with the
@@ -88,8 +137,10 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
     if isinstance(outcome, PosgmcError):
         actual = f"Error: {outcome.message}"
         if text.lower().startswith("error"):
-            wanted = text.split(":", 1)[1].strip().strip('"') if ":" in text else ""
-            return Verdict(wanted.lower() in outcome.message.lower(), text, actual)
+            words = text.split(":", 1)[1].split(",") if ":" in text else []
+            message = outcome.message.lower()
+            found = all(w.strip().strip('"').lower() in message for w in words)
+            return Verdict(found, text, actual)
         return Verdict(False, text, actual)
     if text.lower().startswith("error"):
         return Verdict(False, text, _show(outcome.value))
@@ -103,22 +154,23 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
         return Verdict(value is (text.lower() == "true"), text, _show(value))
     if isinstance(value, bool) or value is None:
         return Verdict(False, text, _show(value))
+    approximate = text.startswith("~")
+    body = text[1:] if approximate else text
     exact = getattr(outcome, "exact", None) if expected.number is None else None
-    if exact is not None and not text.startswith("["):
-        # exact mode (PRISM's -exact test rule): the fraction must be equal, not close
+    if exact is not None and not body.startswith("["):
+        # exact mode (PRISM's -exact test rule): the fraction must be equal; "~v" only close
         try:
-            wanted = Fraction(text)
+            wanted = Fraction(body)
         except (ValueError, ZeroDivisionError):
             wanted = None
-        if wanted is not None:
+        if wanted is not None and (exact == wanted or not approximate):
             return Verdict(exact == wanted, text, str(exact))
     v = float(value)  # type: ignore[arg-type]
-    if text.startswith("[") and text.endswith("]"):
-        lo, hi = (_number(x) for x in text[1:-1].split(","))
-        return Verdict(lo - tolerance * abs(lo) <= v <= hi + tolerance * abs(hi), text, _show(v))
-    try:
-        e = _number(text)
-    except (ValueError, ZeroDivisionError):
-        raise ValueError(f"RESULT value {text!r} is not a number, interval, true/false, "
-                         "Infinity, NaN, Error or ?") from None
+    if body.startswith("[") and body.endswith("]"):
+        lo, hi = (_number(x) for x in body[1:-1].split(","))
+        if math.isnan(v):
+            return Verdict(False, text, _show(v))
+        slack = _slack(v, tolerance) if math.isfinite(v) else 0.0
+        return Verdict(v - slack <= hi and lo <= v + slack, text, _show(v))
+    e = _expected_number(body, constants)
     return Verdict(_close(v, e, tolerance), text, _show(v))
