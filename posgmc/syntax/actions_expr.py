@@ -133,6 +133,10 @@ class ExpressionActions(ActionBase):
     def old_call(self, span: SourceSpan, children: Sequence[Any]) -> Call:
         return self._make_call(children[0], children[1:], span)
 
+    def power(self, span: SourceSpan, children: Sequence[Expr]) -> Call:
+        """``a ^ b`` is PRISM's ``pow(a, b)``: one operator with one meaning."""
+        return Call(Function.POW, (children[0], children[1]), span=span)
+
     # --- temporal operators ----------------------------------------------------------------------
 
     def _temporal(self, op: TemporalOp, span: SourceSpan, children: Sequence[Any]) -> Temporal:
