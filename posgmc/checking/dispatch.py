@@ -22,6 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from posgmc.checking import intervals as iv
+from posgmc.checking.filters import apply_filter
 from posgmc.checking.intervals import QueryValue
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.checking.states import evaluate_call, evaluate_states
@@ -31,6 +32,7 @@ from posgmc.engines.result import EngineResult
 from posgmc.engines.step_bounds import interval_reach_probability
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.syntax.printer import format_expr
 from posgmc.syntax.traversal import any_node
 from posgmc.syntax.ast import (
     NO_SPAN,
@@ -42,6 +44,7 @@ from posgmc.syntax.ast import (
     ComparisonOp,
     Direction,
     Expr,
+    Filter,
     ProbQuery,
     RewardKind,
     RewardQuery,
@@ -175,6 +178,12 @@ class PropertyChecker:
             if expr.threshold is None:
                 return q
             return self._threshold(expr, q)
+        if isinstance(expr, Filter):
+            states = (np.ones(self.model.num_states, dtype=np.bool_) if expr.states is None
+                      else self._states(expr.states))
+            text = format_expr(expr.states) if expr.states is not None else "true"
+            return apply_filter(self.model, expr.op, self.state_value(expr.operand), states,
+                                span=expr.span, states_text=text)
         if not _contains_query(expr):
             return iv.exact(evaluate_states(self.model, expr))
         if isinstance(expr, Unary):
@@ -554,6 +563,6 @@ def _contains_query(e: Expr) -> bool:
     """Whether a state expression contains a ``P``/``R`` query."""
     return any_node(
         e,
-        lambda n: isinstance(n, (ProbQuery, RewardQuery)),
+        lambda n: isinstance(n, (ProbQuery, RewardQuery, Filter)),
         into=lambda n: not isinstance(n, (ProbQuery, RewardQuery, Temporal)),
     )

@@ -25,6 +25,8 @@ from posgmc.syntax.ast import (
     BoolLit,
     Call,
     DoubleLit,
+    Filter,
+    FilterOp,
     Expr,
     Function,
     Ident,
@@ -134,6 +136,8 @@ class TypeChecker:
             return self._ite(e)
         if isinstance(e, Call):
             return self._call(e)
+        if isinstance(e, Filter):
+            return self._filter(e)
         if isinstance(e, LabelRef):
             return self._label(e)
         if isinstance(e, Temporal):
@@ -230,6 +234,37 @@ class TypeChecker:
         if t1 is Type.BOOL:
             return Type.BOOL
         return Type.INT if t1 is Type.INT and t2 is Type.INT else Type.DOUBLE
+
+    def _filter(self, e: Filter) -> Type | None:
+        """PRISM's type rules of filters (``parser/visitor/TypeCheck.java``)."""
+        t = self._type(e.operand)
+        if e.states is not None:
+            ts = self._type(e.states)
+            if ts is not None and ts is not Type.BOOL:
+                self._error(f"the states of a filter must be a Boolean formula, found {_name(ts)}",
+                            e.states.span)
+        if t is None:
+            return None
+        name = e.op.value
+        if t is Type.PATH:
+            self._error(f"filter {name} applies to a state formula, found a path formula",
+                        e.operand.span, hint="write it inside P[...] or R[...]")
+            return None
+        numeric = (FilterOp.MIN, FilterOp.MAX, FilterOp.ARGMIN, FilterOp.ARGMAX, FilterOp.SUM,
+                   FilterOp.AVG, FilterOp.RANGE)
+        if e.op in numeric and not t.is_numeric:
+            self._error(f"filter {name} needs a numeric operand, found {_name(t)}", e.operand.span)
+            return None
+        if e.op in (FilterOp.COUNT, FilterOp.FORALL, FilterOp.EXISTS) and t is not Type.BOOL:
+            self._error(f"filter {name} needs a Boolean operand, found {_name(t)}", e.operand.span)
+            return None
+        if e.op in (FilterOp.ARGMIN, FilterOp.ARGMAX, FilterOp.FORALL, FilterOp.EXISTS):
+            return Type.BOOL
+        if e.op is FilterOp.COUNT:
+            return Type.INT
+        if e.op is FilterOp.AVG:
+            return Type.DOUBLE
+        return t
 
     def _call(self, e: Call) -> Type | None:
         fn = e.function.value

@@ -4,6 +4,7 @@ step bounds, coalitions and ``P``/``R`` queries."""
 from __future__ import annotations
 
 import functools
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, Sequence
 
@@ -18,8 +19,11 @@ from posgmc.syntax.ast import (
     CoalitionKind,
     ComparisonOp,
     Direction,
+    FILTER_ALIASES,
     DoubleLit,
     Expr,
+    Filter,
+    FilterOp,
     Function,
     Ident,
     IntLit,
@@ -43,6 +47,26 @@ from posgmc.syntax.placement import contains_temporal
 
 # Decimal exponents beyond this are rejected: doubles overflow long before (1e308).
 _MAX_EXPONENT = 400
+
+
+@dataclass(frozen=True)
+class _OldFilter:
+    """PRISM's old ``{states}{min}{max}`` suffix inside a query (``PrismParser.jj``, ``Filter``):
+    a threshold query is checked for all of ``states``; otherwise ``{min}``, ``{max}``, both
+    (the range) or neither (the value in the one state satisfying ``states``)."""
+
+    states: Expr
+    minimum: bool
+    maximum: bool
+
+    def wrap(self, query: ProbQuery | RewardQuery, span: SourceSpan) -> Filter:
+        if query.threshold is not None:
+            op = FilterOp.FORALL
+        elif self.minimum:
+            op = FilterOp.RANGE if self.maximum else FilterOp.MIN
+        else:
+            op = FilterOp.MAX if self.maximum else FilterOp.STATE
+        return Filter(op, query, self.states, span=span)
 
 
 class ExpressionActions(ActionBase):
@@ -239,6 +263,32 @@ class ExpressionActions(ActionBase):
         coalition = children[0] if isinstance(children[0], Coalition) else None
         op: QueryOp = children[-2]
         return ProbQuery(coalition, op.direction, op.threshold, children[-1], span=span)
+
+    def filter(self, span: SourceSpan, children: Sequence[Any]) -> Filter:
+        token: Token = children[1]
+        name = str(token.value)
+        op = FILTER_ALIASES.get(name)
+        if op is None:
+            try:
+                op = FilterOp(name)
+            except ValueError:
+                names = ", ".join(o.value for o in FilterOp)
+                self._fail(ParseError(f"'{name}' is not a filter operator", self._tspan(token),
+                                      hint=f"the filter operators are {names} (and +, &, |)"))
+        return Filter(op, children[2], children[3] if len(children) > 3 else None, span=span)
+
+    def filter_op(self, span: SourceSpan, children: Sequence[Any]) -> Token:
+        return children[0]  # type: ignore[no-any-return]
+
+    def old_filter(self, span: SourceSpan, children: Sequence[Any]) -> _OldFilter:
+        mods = {str(t.value) for t in children[1:]}
+        return _OldFilter(children[0], "min" in mods, "max" in mods)
+
+    def prob_query_old_filter(self, span: SourceSpan, children: Sequence[Any]) -> Filter:
+        return children[-1].wrap(self.prob_query(span, children[:-1]), span)
+
+    def reward_query_old_filter(self, span: SourceSpan, children: Sequence[Any]) -> Filter:
+        return children[-1].wrap(self.reward_query(span, children[:-1]), span)
 
     def reward_query(self, span: SourceSpan, children: Sequence[Any]) -> RewardQuery:
         coalition = children[0] if isinstance(children[0], Coalition) else None

@@ -173,6 +173,40 @@ class Call(Expr):
     args: tuple[Expr, ...]
 
 
+class FilterOp(enum.Enum):
+    """PRISM's filter operators (``prism/src/parser/ast/ExpressionFilter.java``)."""
+
+    MIN = "min"
+    MAX = "max"
+    ARGMIN = "argmin"
+    ARGMAX = "argmax"
+    COUNT = "count"
+    SUM = "sum"
+    AVG = "avg"
+    FIRST = "first"
+    RANGE = "range"
+    FORALL = "forall"
+    EXISTS = "exists"
+    PRINT = "print"
+    PRINTALL = "printall"
+    STATE = "state"
+
+
+FILTER_ALIASES = {"+": FilterOp.SUM, "&": FilterOp.FORALL, "|": FilterOp.EXISTS}
+"""PRISM's symbolic names of filter operators."""
+
+
+@dataclass(frozen=True)
+class Filter(Expr):
+    """``filter(op, operand, states)``: ``op`` over the operand's values in the states satisfying
+    ``states`` (all states when None). PRISM's old form ``P=? [ ... {states}{min} ]`` is a filter
+    too."""
+
+    op: FilterOp
+    operand: Expr
+    states: Expr | None = None
+
+
 # --- temporal operators (only inside P/R operators) ------------------------------------------
 
 

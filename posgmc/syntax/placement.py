@@ -14,6 +14,7 @@ from posgmc.syntax.ast import (
     BinaryOp,
     Call,
     Expr,
+    Filter,
     Ite,
     ProbQuery,
     RewardKind,
@@ -40,6 +41,8 @@ def _state_children(expr: Expr) -> Iterable[Expr]:
         return (expr.cond, expr.then, expr.otherwise)
     if isinstance(expr, Call):
         return expr.args
+    if isinstance(expr, Filter):
+        return (expr.operand,) if expr.states is None else (expr.operand, expr.states)
     if isinstance(expr, Temporal):
         return expr.operands
     return ()

@@ -19,6 +19,7 @@ from posgmc.syntax.ast import (
     CoalitionKind,
     DoubleLit,
     Expr,
+    Filter,
     Ident,
     IntLit,
     Ite,
@@ -211,6 +212,10 @@ def _bare(expr: Expr) -> str:
     if isinstance(expr, Call):
         args = ", ".join(_fmt(a, _ITE) for a in expr.args)
         return f"{expr.function.value}({args})"
+    if isinstance(expr, Filter):
+        # the old form P=? [ ... {states}{min} ] prints as the filter it means
+        states = f", {_fmt(expr.states, _ITE)}" if expr.states is not None else ""
+        return f"filter({expr.op.value}, {_fmt(expr.operand, _ITE)}{states})"
     if isinstance(expr, Temporal):
         return _temporal(expr)
     if isinstance(expr, ProbQuery):

@@ -10,6 +10,7 @@ from posgmc.syntax.ast import (
     Binary,
     Call,
     Expr,
+    Filter,
     Ite,
     ProbQuery,
     RewardObjective,
@@ -34,6 +35,8 @@ def children(e: Expr) -> tuple[Expr, ...]:
         return (e.cond, e.then, e.otherwise)
     if isinstance(e, Call):
         return e.args
+    if isinstance(e, Filter):
+        return (e.operand,) if e.states is None else (e.operand, e.states)
     if isinstance(e, Temporal):
         out = list(e.operands)
         if e.bound is not None:
@@ -70,6 +73,8 @@ def map_children(e: Expr, f: Callable[[Expr], Expr]) -> Expr:
         new = dataclasses.replace(e, cond=f(e.cond), then=f(e.then), otherwise=f(e.otherwise))
     elif isinstance(e, Call):
         new = dataclasses.replace(e, args=tuple(f(a) for a in e.args))
+    elif isinstance(e, Filter):
+        new = dataclasses.replace(e, operand=f(e.operand), states=opt(e.states))
     elif isinstance(e, Temporal):
         bound: TimeBound | None = e.bound
         if bound is not None:
