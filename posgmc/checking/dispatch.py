@@ -22,6 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from posgmc.checking import intervals as iv
+from posgmc.checking.ctl import quantified_states
 from posgmc.checking.filters import apply_filter
 from posgmc.checking.intervals import QueryValue
 from posgmc.checking.results import PropertyResult, ResultKind
@@ -45,6 +46,7 @@ from posgmc.syntax.ast import (
     Direction,
     Expr,
     Filter,
+    PathQuantifier,
     ProbQuery,
     RewardKind,
     RewardQuery,
@@ -178,6 +180,8 @@ class PropertyChecker:
             if expr.threshold is None:
                 return q
             return self._threshold(expr, q)
+        if isinstance(expr, PathQuantifier):
+            return iv.exact(quantified_states(self.model, expr, self._states))
         if isinstance(expr, Filter):
             states = (np.ones(self.model.num_states, dtype=np.bool_) if expr.states is None
                       else self._states(expr.states))
@@ -563,6 +567,6 @@ def _contains_query(e: Expr) -> bool:
     """Whether a state expression contains a ``P``/``R`` query."""
     return any_node(
         e,
-        lambda n: isinstance(n, (ProbQuery, RewardQuery, Filter)),
+        lambda n: isinstance(n, (ProbQuery, RewardQuery, Filter, PathQuantifier)),
         into=lambda n: not isinstance(n, (ProbQuery, RewardQuery, Temporal)),
     )

@@ -27,6 +27,7 @@ from posgmc.syntax.ast import (
     DoubleLit,
     Filter,
     FilterOp,
+    PathQuantifier,
     Expr,
     Function,
     Ident,
@@ -138,6 +139,8 @@ class TypeChecker:
             return self._call(e)
         if isinstance(e, Filter):
             return self._filter(e)
+        if isinstance(e, PathQuantifier):
+            return self._quantifier(e)
         if isinstance(e, LabelRef):
             return self._label(e)
         if isinstance(e, Temporal):
@@ -359,6 +362,20 @@ class TypeChecker:
             return True
         what = f"the bound of the {name} operator"
         return self.expect(e.threshold.value, Type.DOUBLE, what, constant=what) is not None
+
+    def _quantifier(self, e: PathQuantifier) -> Type | None:
+        name = "A" if e.universal else "E"
+        if not self._query_allowed(e, name):
+            return None
+        self._query_depth += 1
+        try:
+            t = self._type(e.path)
+        finally:
+            self._query_depth -= 1
+        if t is not None and not t.is_boolean:
+            self._error(f"the {name} operator needs a path formula, found {_name(t)}", e.path.span)
+            return None
+        return None if t is None else Type.BOOL
 
     def _prob(self, e: ProbQuery) -> Type | None:
         if not self._query_allowed(e, "P"):

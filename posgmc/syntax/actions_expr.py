@@ -29,6 +29,7 @@ from posgmc.syntax.ast import (
     IntLit,
     Ite,
     LabelRef,
+    PathQuantifier,
     PlayerRef,
     ProbQuery,
     RewardKind,
@@ -276,6 +277,12 @@ class ExpressionActions(ActionBase):
                 self._fail(ParseError(f"'{name}' is not a filter operator", self._tspan(token),
                                       hint=f"the filter operators are {names} (and +, &, |)"))
         return Filter(op, children[2], children[3] if len(children) > 3 else None, span=span)
+
+    def forall_paths(self, span: SourceSpan, children: Sequence[Any]) -> PathQuantifier:
+        return PathQuantifier(True, children[1], span=span)
+
+    def exists_paths(self, span: SourceSpan, children: Sequence[Any]) -> PathQuantifier:
+        return PathQuantifier(False, children[1], span=span)
 
     def filter_op(self, span: SourceSpan, children: Sequence[Any]) -> Token:
         return children[0]  # type: ignore[no-any-return]

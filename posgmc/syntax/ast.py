@@ -207,6 +207,15 @@ class Filter(Expr):
     states: Expr | None = None
 
 
+@dataclass(frozen=True)
+class PathQuantifier(Expr):
+    """CTL's ``A [ path ]`` (every path satisfies it) and ``E [ path ]`` (some path does), over the
+    underlying graph of the model (PRISM: ``ExpressionForAll`` / ``ExpressionExists``)."""
+
+    universal: bool
+    path: Expr
+
+
 # --- temporal operators (only inside P/R operators) ------------------------------------------
 
 

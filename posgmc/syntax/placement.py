@@ -16,6 +16,7 @@ from posgmc.syntax.ast import (
     Expr,
     Filter,
     Ite,
+    PathQuantifier,
     ProbQuery,
     RewardKind,
     RewardQuery,
@@ -75,6 +76,9 @@ def check_temporal_placement(expr: Expr, *, allowed: bool) -> None:
     if isinstance(expr, ProbQuery):
         if expr.threshold is not None:
             check_temporal_placement(expr.threshold.value, allowed=False)
+        check_temporal_placement(expr.path, allowed=True)
+        return
+    if isinstance(expr, PathQuantifier):
         check_temporal_placement(expr.path, allowed=True)
         return
     if isinstance(expr, RewardQuery):

@@ -24,6 +24,7 @@ from posgmc.syntax.ast import (
     IntLit,
     Ite,
     LabelRef,
+    PathQuantifier,
     ProbQuery,
     RewardKind,
     RewardObjective,
@@ -216,6 +217,8 @@ def _bare(expr: Expr) -> str:
         # the old form P=? [ ... {states}{min} ] prints as the filter it means
         states = f", {_fmt(expr.states, _ITE)}" if expr.states is not None else ""
         return f"filter({expr.op.value}, {_fmt(expr.operand, _ITE)}{states})"
+    if isinstance(expr, PathQuantifier):
+        return f"{'A' if expr.universal else 'E'} [ {_fmt(expr.path, _PATH_BINARY)} ]"
     if isinstance(expr, Temporal):
         return _temporal(expr)
     if isinstance(expr, ProbQuery):

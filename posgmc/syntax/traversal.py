@@ -12,6 +12,7 @@ from posgmc.syntax.ast import (
     Expr,
     Filter,
     Ite,
+    PathQuantifier,
     ProbQuery,
     RewardObjective,
     RewardQuery,
@@ -37,6 +38,8 @@ def children(e: Expr) -> tuple[Expr, ...]:
         return e.args
     if isinstance(e, Filter):
         return (e.operand,) if e.states is None else (e.operand, e.states)
+    if isinstance(e, PathQuantifier):
+        return (e.path,)
     if isinstance(e, Temporal):
         out = list(e.operands)
         if e.bound is not None:
@@ -75,6 +78,8 @@ def map_children(e: Expr, f: Callable[[Expr], Expr]) -> Expr:
         new = dataclasses.replace(e, args=tuple(f(a) for a in e.args))
     elif isinstance(e, Filter):
         new = dataclasses.replace(e, operand=f(e.operand), states=opt(e.states))
+    elif isinstance(e, PathQuantifier):
+        new = dataclasses.replace(e, path=f(e.path))
     elif isinstance(e, Temporal):
         bound: TimeBound | None = e.bound
         if bound is not None:
