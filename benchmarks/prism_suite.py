@@ -41,6 +41,7 @@ import time
 from collections import Counter, defaultdict
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -298,7 +299,7 @@ def worker(spec: dict[str, Any]) -> None:
     """Check one run and print one JSON line per graded RESULT line (after a ``plan`` line)."""
     from posgmc import api
     from posgmc.checking.dispatch import CheckOptions
-    from posgmc.checking.expected import expected_for, grade
+    from posgmc.checking.expected import Verdict, expected_for, grade
     from posgmc.cli import _const_text, expand_constants
     from posgmc.compiler.options import BuildOptions
     from posgmc.errors import PosgmcError
@@ -312,7 +313,12 @@ def worker(spec: dict[str, Any]) -> None:
         tmp.write_text(text)
         from posgmc.syntax import parser
 
-        parsed = parser.parse_properties(text, file=str(tmp)).properties
+        pfile = parser.parse_properties(text, file=str(tmp))
+        parsed = pfile.properties
+        try:
+            declared = (*parser.load_model(model).constants, *pfile.constants)
+        except PosgmcError:
+            declared = tuple(pfile.constants)
 
         def wanted(index: int, prop: Any) -> bool:
             if only is None:
@@ -320,8 +326,10 @@ def worker(spec: dict[str, Any]) -> None:
             return prop.name == only or (only.isdigit() and int(only) == index + 1)
 
         for constants in combos or [{}]:
-            texts = {n: _const_text(v) for n, v in constants.items()}
-            label = ",".join(f"{n}={v}" for n, v in texts.items())
+            given = {n: _const_text(v) for n, v in constants.items()}
+            label = ",".join(f"{n}={v}" for n, v in given.items())
+            # PRISM matches RESULT (c=v) against every constant, the defined ones too
+            texts = _defined_constants(declared, given)
             plan: dict[int, Any] = {}
             for i, prop in enumerate(parsed):
                 exp = expected_for(prop, texts)
@@ -347,20 +355,27 @@ def worker(spec: dict[str, Any]) -> None:
                                           options=CheckOptions(exact=exact))
                 pairs = ((p, o) for p, o in outcomes if p.span.line in plan)
             except PosgmcError as err:
-                pairs = ((p, err) for p in parsed if p.span.line in plan)
+                failure = err
+                pairs = ((p, failure) for p in parsed if p.span.line in plan)
             for prop, outcome in _guarded(pairs, parsed, plan):
                 exp = plan[prop.span.line]
                 try:
-                    verdict = grade(exp, outcome, constants=texts)
+                    verdict = (grade(exp, outcome, constants=texts) if not isinstance(
+                        outcome, BaseException) or isinstance(outcome, PosgmcError)
+                        else Verdict(False, exp.text, "-"))
                 except ValueError as bad:
                     _emit({**base, "line": prop.span.line, "property": prop.text,
                            "expected": exp.text, "class": "internal error", "actual": "-",
                            "message": f"runner: {bad}"})
                     continue
-                if verdict.passed:
+                if isinstance(outcome, BaseException) and not isinstance(outcome, PosgmcError):
+                    kind = "internal error"
+                elif verdict.passed:
                     kind = "pass"
                 elif isinstance(outcome, BaseException):
                     kind = _classify(outcome)
+                elif _undecided(outcome, exp.text):
+                    kind = "timeout"  # ran out of iterations; its bounds still allow PRISM's value
                 else:
                     kind = "wrong answer"
                 record = {**base, "line": prop.span.line, "property": prop.text,
@@ -369,7 +384,51 @@ def worker(spec: dict[str, Any]) -> None:
                     record["message"] = _message(outcome, str(tmp), str(props))
                 else:
                     record["sound"] = bool(getattr(outcome, "sound", False))
+                    if kind == "timeout":
+                        record["message"] = (f"not decided: bounds [{outcome.lower}, "
+                                             f"{outcome.upper}], converged={outcome.converged}")
                 _emit(record)
+
+
+def _undecided(outcome: Any, expected: str) -> bool:
+    """An answer that did not converge (or a Boolean left undecided) whose proven bounds still
+    contain PRISM's value: a resource limit, not a wrong answer."""
+    if getattr(outcome, "value", 0) is None:
+        return True
+    if getattr(outcome, "converged", True):
+        return False
+    lower, upper = getattr(outcome, "lower", None), getattr(outcome, "upper", None)
+    try:
+        wanted = float(Fraction(expected.lstrip("~")))
+    except (ValueError, ZeroDivisionError):
+        return False
+    return lower is not None and upper is not None and lower <= wanted <= upper
+
+
+def _defined_constants(declared: Sequence[Any], given: dict[str, str]) -> dict[str, str]:
+    """``given`` (the -const values) and every declared constant whose definition evaluates, as
+    text (PRISM's ``RESULT (N=4)`` may name a constant defined in the file)."""
+    from posgmc.checking.expected import _constant_value
+    from posgmc.errors import PosgmcError
+    from posgmc.semantics.evaluate import evaluate, format_value
+
+    texts = dict(given)
+    env: dict[str, Any] = {}
+    for name, text in given.items():
+        try:
+            env[name] = _constant_value(text)
+        except (ValueError, ZeroDivisionError):
+            pass
+    for decl in declared:
+        if decl.name in env or decl.value is None:
+            continue
+        try:
+            value = evaluate(decl.value, env)
+        except (PosgmcError, ValueError, TypeError, ZeroDivisionError, KeyError):
+            continue
+        env[decl.name] = value
+        texts[decl.name] = format_value(value)
+    return texts
 
 
 def _guarded(pairs: Iterator[tuple[Any, Any]], parsed: Sequence[Any],
@@ -401,10 +460,10 @@ def _run_one(run: Run, tests: Path, timeout: float) -> tuple[list[dict[str, Any]
         proc = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--worker",
                                json.dumps(spec)], capture_output=True, text=True,
                               timeout=timeout, env=env, check=False)
-        out, err, timed_out = proc.stdout, proc.stderr, False
+        out, err, timed_out, crashed = proc.stdout, proc.stderr, False, proc.returncode != 0
     except subprocess.TimeoutExpired as e:
         out = e.stdout.decode() if isinstance(e.stdout, bytes) else (e.stdout or "")
-        err, timed_out = "", True
+        err, timed_out, crashed = "", True, False
     seconds = time.perf_counter() - started
     records: list[dict[str, Any]] = []
     planned: list[tuple[str, int]] = []
@@ -418,14 +477,14 @@ def _run_one(run: Run, tests: Path, timeout: float) -> tuple[list[dict[str, Any]
             records.append(rec)
     graded = {(r["consts"], r["line"]) for r in records}
     missing = [key for key in planned if key not in graded]
-    if timed_out or missing or not planned and not records:
+    if timed_out or crashed or missing:
         why = (f"no answer within {timeout:g} s" if timed_out
                else (err.strip().splitlines() or ["the worker stopped"])[-1])
         kind = "timeout" if timed_out else "internal error"
         for consts, line in missing:
             records.append({"consts": consts, "line": line, "property": _line_text(run.props, line),
                             "expected": "?", "class": kind, "actual": "-", "message": why})
-        if not planned:
+        if not planned and not records:  # ended before it knew its lines
             records.append({"consts": "", "line": 0, "property": "(whole file)",
                             "expected": "?", "class": kind, "actual": "-", "message": why})
     rel = {"folder": run.folder, "model": str(Path(run.model).relative_to(tests)),
