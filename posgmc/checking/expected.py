@@ -5,8 +5,9 @@ A RESULT line holds a number (``0.85``, ``19/15``, ``1e-3``), an interval ``[lo,
 fail, with that text in its message), or ``?`` (not checked). ``// RESULT (N=4): v`` applies when
 the constant N is 4; ``// RESULT (guaranteed): v`` compares the named number of the result
 (``guaranteed``, ``vs_fss_adversary``, ``upper_bound``, ``full_observation``) instead of its value.
-Numbers pass within a relative tolerance of the result (PRISM: ``1e-5·|v| + 1e-12``), an interval
-when the value ± that tolerance meets it; ``~v`` asks only for closeness in exact mode; an
+Numbers pass within a relative tolerance of the result (PRISM: ``1e-5·|v| + 1e-12``) or within
+the result's proven bounds (PRISM grades with a result's own accuracy when it has one), an
+interval when the value ± that tolerance (or the bounds) meets it; ``~v`` asks only for closeness in exact mode; an
 expected value may be an expression over the constants (``RESULT: 1/N``), as PRISM allows.
 ``Error:a,b`` passes when the message contains every comma-separated word. In exact mode the
 fraction must be equal. The rules are PRISM's (``prism/src/prism/ResultTesting.java``), and the
@@ -166,11 +167,30 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
         if wanted is not None and (exact == wanted or not approximate):
             return Verdict(exact == wanted, text, str(exact))
     v = float(value)  # type: ignore[arg-type]
+    proven = _proven_bounds(outcome) if expected.number is None else None
     if body.startswith("[") and body.endswith("]"):
         lo, hi = (_number(x) for x in body[1:-1].split(","))
         if math.isnan(v):
             return Verdict(False, text, _show(v))
         slack = _slack(v, tolerance) if math.isfinite(v) else 0.0
-        return Verdict(v - slack <= hi and lo <= v + slack, text, _show(v))
+        meets = v - slack <= hi and lo <= v + slack
+        if proven is not None:
+            meets |= proven[0] - _FLOATING_POINT_ERROR <= hi and lo <= proven[1] + _FLOATING_POINT_ERROR
+        return Verdict(meets, text, _show(v))
     e = _expected_number(body, constants)
-    return Verdict(_close(v, e, tolerance), text, _show(v))
+    close = _close(v, e, tolerance)
+    if proven is not None and math.isfinite(e):
+        # PRISM grades with the result's own accuracy when it has one (ResultTesting's
+        # getTestingAccuracy): posgmc's proven bounds are that accuracy
+        close |= proven[0] - _FLOATING_POINT_ERROR <= e <= proven[1] + _FLOATING_POINT_ERROR
+    return Verdict(close, text, _show(v))
+
+
+def _proven_bounds(outcome: PropertyResult) -> tuple[float, float] | None:
+    """The result's proven bounds, when it has finite ones that hold."""
+    lower, upper = getattr(outcome, "lower", None), getattr(outcome, "upper", None)
+    if not getattr(outcome, "sound", False) or lower is None or upper is None:
+        return None
+    if not (math.isfinite(lower) and math.isfinite(upper)):
+        return None
+    return float(lower), float(upper)
