@@ -30,7 +30,17 @@ from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.checking.states import evaluate_states
 from posgmc.engines.rational import exact_bounded_reach, exact_rational_reach
 from posgmc.errors import LimitError, UnsupportedError
-from posgmc.syntax.ast import ComparisonOp, Expr, ProbQuery, Temporal, TemporalOp
+from posgmc.engines.steady import as_fractions, long_run_exact
+from posgmc.syntax.ast import (
+    ComparisonOp,
+    Expr,
+    ProbQuery,
+    RewardKind,
+    RewardQuery,
+    SteadyQuery,
+    Temporal,
+    TemporalOp,
+)
 
 __all__ = ["EXACT_STATE_LIMIT", "ExactChecker"]
 
@@ -101,6 +111,26 @@ class ExactChecker(PropertyChecker):
                 per_initial=tuple(holds),
                 **common,  # type: ignore[arg-type]
             )
+        steady = self._steady(expr)
+        if steady is not None:
+            at_init = [steady[int(s)] for s in init]
+            threshold = expr.threshold if isinstance(expr, SteadyQuery) else None
+            if threshold is None:
+                lower, upper = _outward(at_init[0])
+                kind = ResultKind.PROBABILITY if isinstance(expr, SteadyQuery) else ResultKind.REWARD
+                return PropertyResult(
+                    kind=kind, value=float(at_init[0]), lower=lower, upper=upper,
+                    seconds=time.perf_counter() - start,
+                    per_initial=tuple(float(v) for v in at_init), exact=at_init[0],
+                    **common,  # type: ignore[arg-type]
+                )
+            bound = Fraction(self.scalar(threshold.value))  # type: ignore[arg-type]
+            holds = [_COMPARE[threshold.op](v, bound) for v in at_init]
+            return PropertyResult(
+                kind=ResultKind.BOOLEAN, value=all(holds), lower=None, upper=None,
+                seconds=time.perf_counter() - start, per_initial=tuple(holds),
+                **common,  # type: ignore[arg-type]
+            )
         if _contains_query(expr):
             raise UnsupportedError(f"{_SUPPORTED}; this property is not one of them", expr.span)
         values_np = evaluate_states(model, expr)
@@ -118,6 +148,24 @@ class ExactChecker(PropertyChecker):
             per_initial=tuple(holds),
             **common,  # type: ignore[arg-type]
         )
+
+    def _steady(self, expr: Expr) -> list[Fraction] | None:
+        """``S [ phi ]`` and ``R [ S ]`` per state, exactly (None for other properties)."""
+        if isinstance(expr, SteadyQuery):
+            weight = [Fraction(int(b)) for b in self._states(expr.operand)]
+        elif (isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.STEADY
+              and expr.threshold is None):
+            rm = self.model.reward_model(expr.reward)
+            weight = as_fractions(rm.choice_rewards(self.model.row_groups))
+        else:
+            return None
+        if self.model.num_states > EXACT_STATE_LIMIT:
+            raise LimitError(
+                f"exact mode solves models of at most {EXACT_STATE_LIMIT} states; this one has "
+                f"{self.model.num_states}",
+                hint="check without --exact: the default method gives proven bounds",
+            )
+        return long_run_exact(self.model, weight)
 
     def _reach(self, expr: ProbQuery) -> list[Fraction]:
         path = expr.path

@@ -28,6 +28,7 @@ from posgmc.syntax.ast import (
     Filter,
     FilterOp,
     PathQuantifier,
+    SteadyQuery,
     Expr,
     Function,
     Ident,
@@ -141,6 +142,8 @@ class TypeChecker:
             return self._filter(e)
         if isinstance(e, PathQuantifier):
             return self._quantifier(e)
+        if isinstance(e, SteadyQuery):
+            return self._steady(e)
         if isinstance(e, LabelRef):
             return self._label(e)
         if isinstance(e, Temporal):
@@ -362,6 +365,19 @@ class TypeChecker:
             return True
         what = f"the bound of the {name} operator"
         return self.expect(e.threshold.value, Type.DOUBLE, what, constant=what) is not None
+
+    def _steady(self, e: SteadyQuery) -> Type | None:
+        if not self._query_allowed(e, "S"):
+            return None
+        ok = self._threshold(e, "S")  # type: ignore[arg-type]
+        t = self._type(e.operand)
+        if t is not None and t is not Type.BOOL:
+            self._error(f"the S operator needs a Boolean state formula, found {_name(t)}",
+                        e.operand.span)
+            return None
+        if t is None or not ok:
+            return None
+        return Type.DOUBLE if e.threshold is None else Type.BOOL
 
     def _quantifier(self, e: PathQuantifier) -> Type | None:
         name = "A" if e.universal else "E"

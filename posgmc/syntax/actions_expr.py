@@ -35,6 +35,7 @@ from posgmc.syntax.ast import (
     RewardKind,
     RewardObjective,
     RewardQuery,
+    SteadyQuery,
     Temporal,
     TemporalOp,
     Threshold,
@@ -278,6 +279,13 @@ class ExpressionActions(ActionBase):
                                       hint=f"the filter operators are {names} (and +, &, |)"))
         return Filter(op, children[2], children[3] if len(children) > 3 else None, span=span)
 
+    def steady_value(self, span: SourceSpan, children: Sequence[Any]) -> SteadyQuery:
+        return SteadyQuery(None, children[-1], span=span)
+
+    def steady_threshold(self, span: SourceSpan, children: Sequence[Any]) -> SteadyQuery:
+        op, bound, operand = children[-3:]
+        return SteadyQuery(Threshold(op, bound, span=span), operand, span=span)
+
     def forall_paths(self, span: SourceSpan, children: Sequence[Any]) -> PathQuantifier:
         return PathQuantifier(True, children[1], span=span)
 
@@ -337,13 +345,7 @@ class ExpressionActions(ActionBase):
         ):
             return RewardObjective(RewardKind.REACH, target=path.operands[0], span=span)
         if isinstance(path, Ident) and path.name == "S":
-            self._fail(
-                UnsupportedError(
-                    "long-run average rewards (R[S]) are not supported",
-                    path.span,
-                    hint="use a reachability (F), cumulative (C<=k) or total (C) reward objective",
-                )
-            )
+            return RewardObjective(RewardKind.STEADY, span=span)
         return RewardObjective(RewardKind.LTL, target=path, span=span)
 
 

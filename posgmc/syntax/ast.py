@@ -208,6 +208,15 @@ class Filter(Expr):
 
 
 @dataclass(frozen=True)
+class SteadyQuery(Expr):
+    """PRISM's steady-state operator ``S=? [ phi ]`` / ``S>=p [ phi ]``: the long-run fraction of
+    time spent in states satisfying ``phi`` (dtmcs)."""
+
+    threshold: "Threshold | None"
+    operand: Expr
+
+
+@dataclass(frozen=True)
 class PathQuantifier(Expr):
     """CTL's ``A [ path ]`` (every path satisfies it) and ``E [ path ]`` (some path does), over the
     underlying graph of the model (PRISM: ``ExpressionForAll`` / ``ExpressionExists``)."""
@@ -316,6 +325,7 @@ class RewardKind(enum.Enum):
     INSTANTANEOUS = "I="  # R[I=k]
     DISCOUNTED_TOTAL = "Cdiscount="  # R[Cdiscount=g]: sum_t g^t r_t (Storm's syntax)
     DISCOUNTED_REACH = "Fdiscount="  # R[Fdiscount=g phi]: discounted cost collected until phi
+    STEADY = "S"  # R[S]: long-run average reward (dtmcs)
     LTL = "LTL"  # R[ co-safe LTL ]: reward until the co-safe formula is satisfied
 
 

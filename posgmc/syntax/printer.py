@@ -29,6 +29,7 @@ from posgmc.syntax.ast import (
     RewardKind,
     RewardObjective,
     RewardQuery,
+    SteadyQuery,
     Temporal,
     TemporalOp,
     Threshold,
@@ -134,6 +135,8 @@ def format_objective(objective: RewardObjective) -> str:
         return "C<=" + _fmt(_required(objective.bound), _ITE)
     if kind is RewardKind.TOTAL:
         return "C"
+    if kind is RewardKind.STEADY:
+        return "S"
     if kind is RewardKind.INSTANTANEOUS:
         return "I=" + _fmt(_required(objective.bound), _ITE)
     if kind is RewardKind.DISCOUNTED_TOTAL:
@@ -217,6 +220,9 @@ def _bare(expr: Expr) -> str:
         # the old form P=? [ ... {states}{min} ] prints as the filter it means
         states = f", {_fmt(expr.states, _ITE)}" if expr.states is not None else ""
         return f"filter({expr.op.value}, {_fmt(expr.operand, _ITE)}{states})"
+    if isinstance(expr, SteadyQuery):
+        op = _operator("S", None, None, expr.threshold)
+        return f"{op} [ {_fmt(expr.operand, _ITE)} ]"
     if isinstance(expr, PathQuantifier):
         return f"{'A' if expr.universal else 'E'} [ {_fmt(expr.path, _PATH_BINARY)} ]"
     if isinstance(expr, Temporal):

@@ -16,6 +16,7 @@ from posgmc.syntax.ast import (
     ProbQuery,
     RewardObjective,
     RewardQuery,
+    SteadyQuery,
     Temporal,
     Threshold,
     TimeBound,
@@ -40,6 +41,8 @@ def children(e: Expr) -> tuple[Expr, ...]:
         return (e.operand,) if e.states is None else (e.operand, e.states)
     if isinstance(e, PathQuantifier):
         return (e.path,)
+    if isinstance(e, SteadyQuery):
+        return ((e.threshold.value,) if e.threshold else ()) + (e.operand,)
     if isinstance(e, Temporal):
         out = list(e.operands)
         if e.bound is not None:
@@ -80,6 +83,8 @@ def map_children(e: Expr, f: Callable[[Expr], Expr]) -> Expr:
         new = dataclasses.replace(e, operand=f(e.operand), states=opt(e.states))
     elif isinstance(e, PathQuantifier):
         new = dataclasses.replace(e, path=f(e.path))
+    elif isinstance(e, SteadyQuery):
+        new = dataclasses.replace(e, threshold=thr(e.threshold), operand=f(e.operand))
     elif isinstance(e, Temporal):
         bound: TimeBound | None = e.bound
         if bound is not None:
