@@ -56,7 +56,7 @@ _REGEX_NAMES: dict[str, str] = {
 _EXPRESSION_STARTS = frozenset(
     {
         "INT", "DOUBLE", "IDENT", "PIDENT", "TRUE", "FALSE", "LPAR", "MINUS", "BANG", "MIN", "MAX",
-        "CALLNAME", "FILTER", "CTL_A", "CTL_E", "FUNC", "STRING", "P", "PMIN", "PMAX", "R", "RMIN", "RMAX", "LSQB", "F", "G",
+        "CALLNAME", "FILTER", "CTL_A", "CTL_E", "STEADY", "FUNC", "STRING", "P", "PMIN", "PMAX", "R", "RMIN", "RMAX", "LSQB", "F", "G",
         "X",
     }
 )  # fmt: skip
