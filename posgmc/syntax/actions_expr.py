@@ -3,6 +3,7 @@ step bounds, coalitions and ``P``/``R`` queries."""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass
 from fractions import Fraction
@@ -13,6 +14,7 @@ from lark import Token
 from posgmc.errors import ParseError, SourceSpan, UnsupportedError
 from posgmc.syntax.ast import (
     FUNCTION_ARITY,
+    Binary,
     BoolLit,
     Call,
     Coalition,
@@ -51,6 +53,17 @@ from posgmc.syntax.placement import contains_temporal
 _MAX_EXPONENT = 400
 
 
+def _negate_leftmost(e: Expr, span: SourceSpan) -> Expr:
+    """``-`` written before ``e``: unary minus binds tighter than every binary operator, so it
+    applies to the leftmost operand (``-a + b`` is ``(-a) + b``)."""
+    if isinstance(e, Binary):
+        return dataclasses.replace(e, left=_negate_leftmost(e.left, span))
+    if isinstance(e, Ite):
+        return dataclasses.replace(e, cond=_negate_leftmost(e.cond, span))
+    start = SourceSpan(span.line, span.column, e.span.end_line, e.span.end_column, span.file)
+    return Unary(UnaryOp.NEG, e, span=start)
+
+
 @dataclass(frozen=True)
 class _OldFilter:
     """PRISM's old ``{states}{min}{max}`` suffix inside a query (``PrismParser.jj``, ``Filter``):
@@ -81,6 +94,12 @@ class ExpressionActions(ActionBase):
 
     def named_property(self, span: SourceSpan, children: Sequence[Any]) -> PropertyItem:
         return PropertyItem(children[1], str(children[0].value)[1:-1], span)
+
+    def minus_property(self, span: SourceSpan, children: Sequence[Expr]) -> PropertyItem:
+        return PropertyItem(_negate_leftmost(children[0], span), None, span)
+
+    def named_minus_property(self, span: SourceSpan, children: Sequence[Any]) -> PropertyItem:
+        return PropertyItem(_negate_leftmost(children[1], span), str(children[0].value)[1:-1], span)
 
     # --- expressions -----------------------------------------------------------------------------
 
