@@ -29,7 +29,6 @@ Not part of the ``posgmc`` package; the suite's files are never copied into posg
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import os
 import platform
@@ -216,17 +215,15 @@ def _chunks(lines: Sequence[str]) -> list[tuple[int, int]]:
     """Line ranges ``[first, last]`` (0-based) of the file's items: each item's comments and code,
     ending at the first code line after which brackets balance."""
     chunks: list[tuple[int, int]] = []
-    start, depth, has_code = 0, 0, False
+    start, depth = 0, 0
     for i, line in enumerate(lines):
         code = line.split("//", 1)[0]
         for ch in code:
             depth += ch in "([{"
             depth -= ch in ")]}"
-        if code.strip():
-            has_code = True
-            if depth <= 0:
-                chunks.append((start, i))
-                start, depth, has_code = i + 1, 0, False
+        if code.strip() and depth <= 0:
+            chunks.append((start, i))
+            start, depth = i + 1, 0
     if start < len(lines):
         chunks.append((start, len(lines) - 1))
     return chunks
@@ -562,9 +559,9 @@ def markdown(records: list[dict[str, Any]], skipped: list[tuple[Run, int]], *, c
     total = Counter(r["class"] for r in records)
     lines = [
         f"Command: `{command}`  ",
-        f"Date: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; machine: {platform.node()} "
-        f"({os.cpu_count()} cores, shared with other jobs), Python {platform.python_version()}; "
-        f"{seconds:.0f} s in all.",
+        (f"Date: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; machine: "
+         f"{platform.node()} ({os.cpu_count()} cores, shared with other jobs), Python "
+         f"{platform.python_version()}; {seconds:.0f} s in all."),
         "",
         "| folder | graded | " + " | ".join(CLASSES) + " |",
         "|---|---:|" + "---:|" * len(CLASSES),
@@ -592,8 +589,8 @@ def markdown(records: list[dict[str, Any]], skipped: list[tuple[Run, int]], *, c
         lines.append(f"- `{r['props']}:{r['line']}` `{r['property']}`: PRISM {r['expected']}, "
                      f"posgmc {r['actual']} — {r['message']}")
     lines += ["", "### Refusals by feature", "",
-              "Each line: how many graded lines, then the message a user sees (first line) and one "
-              "example.", ""]
+              ("Each line: how many graded lines, then the message a user sees (first line) and "
+               "one example."), ""]
     refusals = [r for r in records
                 if r["class"] not in ("pass", "wrong answer", "deliberate difference")]
     groups: dict[str, dict[str, list[dict[str, Any]]]] = defaultdict(lambda: defaultdict(list))

@@ -24,7 +24,7 @@ from posgmc.errors import SemanticError, SourceSpan, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.syntax.ast import FilterOp
 
-__all__ = ["apply_filter", "CLOSE_RELATIVE"]
+__all__ = ["CLOSE_RELATIVE", "apply_filter"]
 
 CLOSE_RELATIVE = 1e-5
 """How close to the optimum a value must be to count for ``argmin``/``argmax`` (PRISM's

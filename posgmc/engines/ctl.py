@@ -19,9 +19,9 @@ import scipy.sparse as sp
 from posgmc.engines.graph import Structure, attractor, row_of_entries
 from posgmc.model.explicit import ExplicitModel
 
-__all__ = ["edge_structure", "exists_next", "forall_next", "exists_until", "forall_until"]
+__all__ = ["edge_structure", "exists_next", "exists_until", "forall_next", "forall_until"]
 
-_EDGES: "weakref.WeakKeyDictionary[ExplicitModel, Structure]" = weakref.WeakKeyDictionary()
+_EDGES: weakref.WeakKeyDictionary[ExplicitModel, Structure] = weakref.WeakKeyDictionary()
 
 
 def edge_structure(model: ExplicitModel) -> Structure:

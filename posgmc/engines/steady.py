@@ -159,12 +159,13 @@ def _long_run_exact(model: ExplicitModel, weight: np.ndarray) -> LongRun:
 
 
 def long_run_average(model: ExplicitModel, weight: np.ndarray, *,
-                     options: SolverOptions = SolverOptions()) -> LongRun:
+                     options: SolverOptions | None = None) -> LongRun:
     """The long-run average of ``weight`` (float64[S], any sign) from every state of a dtmc.
 
     Raises:
         UnsupportedError: the model is not a dtmc.
     """
+    options = options or SolverOptions()
     p = _state_matrix(model)
     S = model.num_states
     if S <= EXACT_LIMIT:
