@@ -48,8 +48,9 @@ EXACT_STATE_LIMIT = 3000
 """The most states exact checking accepts (its linear algebra is dense, over Fractions)."""
 
 _SUPPORTED = (
-    "exact mode answers reachability probabilities (P[ X b ], P[ F b ], P[ a U b ], with upper "
-    "step bounds <=k and with their thresholds) and state formulas"
+    "exact mode answers reachability probabilities (P[ X b ], P[ F b ], P[ G b ], P[ a U b ], with "
+    "upper step bounds <=k and with their thresholds), steady-state probabilities and long-run "
+    "rewards on dtmcs (S, R[S]) and state formulas"
 )
 
 _COMPARE = {
@@ -149,6 +150,14 @@ class ExactChecker(PropertyChecker):
             **common,  # type: ignore[arg-type]
         )
 
+    def _check_size(self) -> None:
+        if self.model.num_states > EXACT_STATE_LIMIT:
+            raise LimitError(
+                f"exact mode solves models of at most {EXACT_STATE_LIMIT} states; this one has "
+                f"{self.model.num_states}",
+                hint="check without --exact: the default interval method gives proven bounds",
+            )
+
     def _steady(self, expr: Expr) -> list[Fraction] | None:
         """``S [ phi ]`` and ``R [ S ]`` per state, exactly (None for other properties)."""
         if isinstance(expr, SteadyQuery):
@@ -159,17 +168,27 @@ class ExactChecker(PropertyChecker):
             weight = as_fractions(rm.choice_rewards(self.model.row_groups))
         else:
             return None
-        if self.model.num_states > EXACT_STATE_LIMIT:
-            raise LimitError(
-                f"exact mode solves models of at most {EXACT_STATE_LIMIT} states; this one has "
-                f"{self.model.num_states}",
-                hint="check without --exact: the default method gives proven bounds",
-            )
+        self._check_size()
         return long_run_exact(self.model, weight)
 
     def _reach(self, expr: ProbQuery) -> list[Fraction]:
         path = expr.path
         bound = getattr(path, "bound", None)
+        if (isinstance(path, Temporal) and path.op is TemporalOp.GLOBALLY
+                and not any(_is_temporal(o) or _contains_query(o) for o in path.operands)
+                and (bound is None or (self._step_interval(bound)[0] == 0
+                                       and self._step_interval(bound)[1] is not None))):
+            # G a = !F !a: the complement, with the opposite optimum (PRISM does the same)
+            self._check_size()
+            bad = ~self._states(path.operands[0])
+            flipped = ~self._maximize(expr)
+            if bound is None:
+                reach = exact_rational_reach(self.model, bad, maximize=flipped)
+            else:
+                steps = int(self._step_interval(bound)[1])  # type: ignore[arg-type]
+                reach = exact_bounded_reach(self.model, bad, remain=None, steps=steps,
+                                            maximize=flipped, next_only=False)
+            return [1 - v for v in reach]
         if (
             not isinstance(path, Temporal)
             or path.op not in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL, TemporalOp.NEXT)
@@ -178,12 +197,7 @@ class ExactChecker(PropertyChecker):
                                        or self._step_interval(bound)[1] is None))
         ):
             raise UnsupportedError(f"{_SUPPORTED}; this path formula is not one of them", expr.span)
-        if self.model.num_states > EXACT_STATE_LIMIT:
-            raise LimitError(
-                f"exact mode solves models of at most {EXACT_STATE_LIMIT} states; this one has "
-                f"{self.model.num_states}",
-                hint="check without --exact: the default interval method gives proven bounds",
-            )
+        self._check_size()
         if path.op is TemporalOp.UNTIL:
             remain, target = self._states(path.operands[0]), self._states(path.operands[1])
         else:
