@@ -30,6 +30,7 @@ from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.checking.states import evaluate_states
 from posgmc.engines.rational import exact_bounded_reach, exact_rational_reach
 from posgmc.errors import LimitError, UnsupportedError
+from posgmc.engines.rational_rewards import exact_reach_reward
 from posgmc.engines.steady import as_fractions, long_run_exact
 from posgmc.syntax.ast import (
     ComparisonOp,
@@ -49,8 +50,8 @@ EXACT_STATE_LIMIT = 3000
 
 _SUPPORTED = (
     "exact mode answers reachability probabilities (P[ X b ], P[ F b ], P[ G b ], P[ a U b ], with "
-    "upper step bounds <=k and with their thresholds), steady-state probabilities and long-run "
-    "rewards on dtmcs (S, R[S]) and state formulas"
+    "upper step bounds <=k and with their thresholds), expected rewards R[F b] (dtmc, mdp), "
+    "steady-state probabilities and long-run rewards on dtmcs (S, R[S]) and state formulas"
 )
 
 _COMPARE = {
@@ -112,6 +113,10 @@ class ExactChecker(PropertyChecker):
                 per_initial=tuple(holds),
                 **common,  # type: ignore[arg-type]
             )
+        if (isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.REACH
+                and expr.objective.target is not None and not _is_temporal(expr.objective.target)
+                and not _contains_query(expr.objective.target)):
+            return self._reach_reward(expr, common, start)
         steady = self._steady(expr)
         if steady is not None:
             at_init = [steady[int(s)] for s in init]
@@ -149,6 +154,41 @@ class ExactChecker(PropertyChecker):
             per_initial=tuple(holds),
             **common,  # type: ignore[arg-type]
         )
+
+    def _reach_reward(self, expr: RewardQuery, common: dict[str, object],
+                      start: float) -> PropertyResult:
+        """``R[F b]`` (and its thresholds) exactly; infinite values are exact too."""
+        self._check_size()
+        model = self.model
+        assert expr.objective.target is not None  # noqa: S101 - checked by the caller
+        target = self._states(expr.objective.target)
+        rewards = as_fractions(model.reward_model(expr.reward).choice_rewards(model.row_groups))
+        maximize = bool(self._maximize(expr).any())
+        values, infinite = exact_reach_reward(model, rewards, target, maximize=maximize)
+        init = [int(s) for s in model.initial_states]
+        seconds = time.perf_counter() - start
+        if expr.threshold is not None:
+            bound = Fraction(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            above = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
+            # an infinite value is above every threshold
+            holds = [above if infinite[s] else _COMPARE[expr.threshold.op](values[s], bound)
+                     for s in init]
+            return PropertyResult(kind=ResultKind.BOOLEAN, value=all(holds), lower=None,
+                                  upper=None, seconds=seconds, per_initial=tuple(holds),
+                                  **common)  # type: ignore[arg-type]
+        s0 = init[0]
+        if infinite[s0]:
+            return PropertyResult(kind=ResultKind.REWARD, value=float("inf"), lower=float("inf"),
+                                  upper=float("inf"), seconds=seconds,
+                                  per_initial=tuple(float("inf") if infinite[s] else
+                                                    float(values[s]) for s in init),
+                                  **common)  # type: ignore[arg-type]
+        lower, upper = _outward(values[s0])
+        return PropertyResult(kind=ResultKind.REWARD, value=float(values[s0]), lower=lower,
+                              upper=upper, seconds=seconds, exact=values[s0],
+                              per_initial=tuple(float("inf") if infinite[s] else float(values[s])
+                                                for s in init),
+                              **common)  # type: ignore[arg-type]
 
     def _check_size(self) -> None:
         if self.model.num_states > EXACT_STATE_LIMIT:
