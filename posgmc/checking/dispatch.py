@@ -48,6 +48,7 @@ from posgmc.syntax.ast import (
     Expr,
     Filter,
     PathQuantifier,
+    MultiQuery,
     ProbQuery,
     SteadyQuery,
     RewardKind,
@@ -132,6 +133,10 @@ class PropertyChecker:
 
     def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
         """Check one property and report its value at the initial states."""
+        if isinstance(expr, MultiQuery):
+            from posgmc.checking.multi import check_multi
+
+            return check_multi(self, expr, text=text, name=name)
         start = time.perf_counter()
         init = self.model.initial_states
         if isinstance(expr, (ProbQuery, RewardQuery)) and expr.threshold is None:

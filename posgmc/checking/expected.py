@@ -2,7 +2,8 @@
 
 A RESULT line holds a number (``0.85``, ``19/15``, ``1e-3``), an interval ``[lo,hi]``, ``true`` or
 ``false``, ``Infinity``/``-Infinity``, ``NaN``, ``Error`` or ``Error:substring`` (the property must
-fail, with that text in its message), or ``?`` (not checked). ``// RESULT (N=4): v`` applies when
+fail, with that text in its message), a Pareto front ``[(x,y),...]`` (multi-objective queries), or
+``?`` (not checked). ``// RESULT (N=4): v`` applies when
 the constant N is 4; ``// RESULT (guaranteed): v`` compares the named number of the result
 (``guaranteed``, ``vs_fss_adversary``, ``upper_bound``, ``full_observation``) instead of its value.
 Numbers pass within a relative tolerance of the result (PRISM: ``1e-5·|v| + 1e-12``) or within
@@ -25,7 +26,7 @@ from posgmc.checking.results import PropertyResult
 from posgmc.errors import PosgmcError
 from posgmc.syntax.ast import ExpectedResult, Property
 
-__all__ = ["Verdict", "expected_for", "grade", "DEFAULT_TOLERANCE"]
+__all__ = ["Verdict", "check_form", "expected_for", "grade", "DEFAULT_TOLERANCE"]
 
 DEFAULT_TOLERANCE = 1e-5
 
@@ -123,6 +124,49 @@ def _show(value: object) -> str:
     return str(value)
 
 
+_FORMS = ("a number, an interval [lo, hi], a Pareto front [(x,y),...], true/false, Infinity, "
+          "NaN, Error, ? or an expression over the constants")
+
+
+def _interval(text: str) -> tuple[float, float]:
+    """The bounds of ``[lo, hi]``; ValueError unless two numbers with lo <= hi."""
+    parts = text[1:-1].split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        lo, hi = (_number(x) for x in parts)
+    except (ValueError, ZeroDivisionError):
+        raise ValueError(f"RESULT interval {text!r} is not [lo, hi] with two numbers") from None
+    if not lo <= hi:
+        raise ValueError(f"RESULT interval {text!r} is empty: its lower end exceeds its upper end")
+    return lo, hi
+
+
+def check_form(text: str) -> None:
+    """ValueError unless ``text`` is one of the RESULT forms (see the module docstring)."""
+    if text.strip() == "?":
+        return
+    low = text.lower()
+    if low in ("true", "false") or low == "error" or low.startswith("error:"):
+        return
+    body = text[1:] if text.startswith("~") else text
+    if body.startswith("[(") and body.endswith("]"):
+        _points(body)  # a Pareto front: [(x,y),...]
+        return
+    if body.startswith("[") and body.endswith("]"):
+        _interval(body)
+        return
+    try:
+        _number(body)
+    except (ValueError, ZeroDivisionError):
+        from posgmc.syntax.parser import parse_expression
+
+        try:  # PRISM: an expression over the constants, evaluated when graded
+            parse_expression(body)
+        except PosgmcError:
+            raise ValueError(f"RESULT value {text!r} is not {_FORMS}") from None
+
+
 def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
           tolerance: float = DEFAULT_TOLERANCE, constants: Mapping[str, str] | None = None) -> Verdict:
     """Whether ``outcome`` matches ``expected`` (``constants``: the values an expected expression
@@ -135,6 +179,7 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
     text = expected.text.strip()
     if text == "?":
         return Verdict(None, text, "-")
+    check_form(text)  # a malformed line is an input error whatever the outcome
     if isinstance(outcome, PosgmcError):
         actual = f"Error: {outcome.message}"
         if text.lower().startswith("error"):
@@ -145,6 +190,9 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
         return Verdict(False, text, actual)
     if text.lower().startswith("error"):
         return Verdict(False, text, _show(outcome.value))
+    front = getattr(outcome, "front", None)
+    if front is not None or text.startswith("[("):
+        return _grade_front(text, front, tolerance)
     value: object = outcome.value
     if expected.number is not None:
         number = getattr(outcome, expected.number, None)
@@ -169,7 +217,7 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
     v = float(value)  # type: ignore[arg-type]
     proven = _proven_bounds(outcome) if expected.number is None else None
     if body.startswith("[") and body.endswith("]"):
-        lo, hi = (_number(x) for x in body[1:-1].split(","))
+        lo, hi = _interval(body)
         if math.isnan(v):
             return Verdict(False, text, _show(v))
         slack = _slack(v, tolerance) if math.isfinite(v) else 0.0
@@ -194,3 +242,36 @@ def _proven_bounds(outcome: PropertyResult) -> tuple[float, float] | None:
     if not (math.isfinite(lower) and math.isfinite(upper)):
         return None
     return float(lower), float(upper)
+
+
+def _points(text: str) -> list[tuple[float, ...]]:
+    """``[(1,0),(0.6,0.4)]`` (PRISM's Pareto RESULT; stray parentheses tolerated) as tuples."""
+    import re
+
+    groups = re.findall(r"\(([^()]*)\)", text)
+    if not groups:
+        raise ValueError(f"RESULT value {text!r} is not a list of points [(x,y),...]")
+    return [tuple(_number(x) for x in g.split(",")) for g in groups]
+
+
+def _grade_front(text: str, front: object, tolerance: float) -> Verdict:
+    """A Pareto RESULT passes when the same vertices were found: every expected point is close to
+    a vertex of the computed front and every vertex close to an expected point (relative
+    ``tolerance``, absolute 1e-6 near 0)."""
+    if front is None:
+        return Verdict(False, text, "not a Pareto front")
+    if not text.startswith("[("):
+        return Verdict(False, text, front.text())  # type: ignore[attr-defined]
+    wanted = _points(text)
+    got = [tuple(float(v) for v in p) for p in front.points]  # type: ignore[attr-defined]
+    actual = front.text()  # type: ignore[attr-defined]
+
+    def near(p: tuple[float, ...], q: tuple[float, ...]) -> bool:
+        return len(p) == len(q) and all(
+            abs(a - b) <= max(tolerance * abs(b), 1e-6) for a, b in zip(p, q)
+        )
+
+    ok = all(any(near(g, w) for g in got) for w in wanted) and all(
+        any(near(g, w) for w in wanted) for g in got
+    )
+    return Verdict(ok, text, actual)

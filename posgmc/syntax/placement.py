@@ -17,6 +17,7 @@ from posgmc.syntax.ast import (
     Filter,
     Ite,
     PathQuantifier,
+    MultiQuery,
     ProbQuery,
     RewardKind,
     RewardQuery,
@@ -46,6 +47,8 @@ def _state_children(expr: Expr) -> Iterable[Expr]:
         return (expr.operand,) if expr.states is None else (expr.operand, expr.states)
     if isinstance(expr, Temporal):
         return expr.operands
+    if isinstance(expr, MultiQuery):
+        return expr.objectives
     return ()
 
 

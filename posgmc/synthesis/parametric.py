@@ -160,7 +160,7 @@ class Parametrisation:
             last[1], prod.memory_of
         ):
             initial = last[2]
-        solver = SolverOptions(method=Method.POLICY, initial_strategy=initial)
+        solver = SolverOptions(method=Method.POLICY, initial_strategy=initial, prove=False)
         checker = PropertyChecker(pm, coalition_of=self.coalition_of, scalar=self.scalar,
                                   options=CheckOptions(solver=solver, keep_strategy=True))
         q = checker.query(self.query)

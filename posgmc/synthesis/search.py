@@ -31,7 +31,7 @@ from posgmc.syntax.ast import Direction, Expr, ProbQuery, RewardKind, RewardQuer
 
 __all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
 
-_POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY))
+_POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY, prove=False))  # ranking only
 _LOGIT = 4.0
 """Logits stay in [-_LOGIT, _LOGIT]."""
 
