@@ -18,7 +18,7 @@ applicable line is the first whose constants all match (``Property.getExpectedRe
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -142,8 +142,9 @@ def _interval(text: str) -> tuple[float, float]:
     return lo, hi
 
 
-def check_form(text: str) -> None:
-    """ValueError unless ``text`` is one of the RESULT forms (see the module docstring)."""
+def check_form(text: str, names: Collection[str] | None = None) -> None:
+    """ValueError unless ``text`` is one of the RESULT forms (see the module docstring); an
+    expression may name only ``names`` (the constants), when given."""
     if text.strip() == "?":
         return
     low = text.lower()
@@ -161,10 +162,15 @@ def check_form(text: str) -> None:
     except (ValueError, ZeroDivisionError):
         from posgmc.syntax.parser import parse_expression
 
+        from posgmc.semantics.evaluate import free_names
+
         try:  # PRISM: an expression over the constants, evaluated when graded
-            parse_expression(body)
+            unknown = free_names(parse_expression(body)) - set(names if names is not None else ())
         except PosgmcError:
             raise ValueError(f"RESULT value {text!r} is not {_FORMS}") from None
+        if names is not None and unknown:
+            raise ValueError(f"RESULT value {text!r} is not {_FORMS} (no constant named "
+                             f"{', '.join(sorted(unknown))})")
 
 
 def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,

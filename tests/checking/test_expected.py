@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from posgmc.checking.expected import expected_for, grade
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.errors import SemanticError
@@ -64,3 +66,12 @@ def test_intervals_and_booleans() -> None:
     assert not grade(_exp("[0.2,0.4]"), _result(0.5)).passed
     assert grade(_exp("true"), _result(True)).passed
     assert not grade(_exp("true"), _result(1.0)).passed
+
+
+def test_expression_lines_may_name_only_constants() -> None:
+    from posgmc.checking.expected import check_form
+
+    check_form("1/N", ["N"])
+    check_form("(5-2*p)/(10-10*p)", ["p"])
+    with pytest.raises(ValueError, match="no constant named zero"):
+        check_form("zero", ["N"])
