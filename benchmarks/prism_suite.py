@@ -669,9 +669,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if opts.json:
         opts.json.write_text(json.dumps(records, indent=1))
     if opts.markdown:
-        command = "python benchmarks/prism_suite.py PRISM_CHECKOUT " + " ".join(
-            a for a in (argv if argv is not None else sys.argv[1:])[1:]
-            if not a.startswith("/"))
+        given = list(argv if argv is not None else sys.argv[1:])[1:]
+        shown = [a for i, a in enumerate(given)
+                 if a != "--json" and (i == 0 or given[i - 1] != "--json")]
+        command = "python benchmarks/prism_suite.py PRISM_CHECKOUT " + " ".join(shown)
         _write_markdown(opts.markdown, markdown(records, skipped, command=command.strip(),
                                                 seconds=seconds))
     return 0
