@@ -534,7 +534,19 @@ FEATURES: tuple[tuple[str, str], ...] = (
 )
 
 
+# what the message says decides first (a filter around non-co-safe LTL is refused for the LTL)
+MESSAGE_FEATURES: tuple[tuple[str, str], ...] = (
+    ("non-co-safe LTL (G F, F G, ...)", "not co-safe"),
+    ("LTL under A[...] / E[...]", "is checked for CTL path formulas only"),
+    ("exact mode (--exact) beyond what it answers", "exact mode answers"),
+)
+
+
 def _feature(record: dict[str, Any]) -> str:
+    message = record.get("message", "") or ""
+    for name, words in MESSAGE_FEATURES:
+        if words in message:
+            return name
     text = record.get("property", "")
     for name, pattern in FEATURES:
         if re.search(pattern, text):
@@ -645,6 +657,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="rewrite the generated part of this file (docs/compatibility.md)")
     ap.add_argument("--only", default=None, help="only runs whose properties path contains this")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--from-json", type=Path, default=None,
+                    help="rewrite --markdown from an earlier run's --json instead of running")
     opts = ap.parse_args(argv)
     tests = _tests_root(opts.prism.resolve())
     runs = discover(tests)
@@ -653,9 +667,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     started = time.perf_counter()
     records: list[dict[str, Any]] = []
     skipped: list[tuple[Run, int]] = []
+    earlier: float | None = None
+    if opts.from_json is not None:
+        saved = json.loads(opts.from_json.read_text())
+        records, earlier = (saved, None) if isinstance(saved, list) else (
+            saved["records"], saved.get("seconds"))
     for k, run in enumerate(runs, 1):
         if run.skip:
             skipped.append((run, _count_results(run.props)))
+            continue
+        if opts.from_json is not None:
             continue
         got, seconds = _run_one(run, tests, opts.timeout)
         records += got
@@ -663,15 +684,16 @@ def main(argv: Sequence[str] | None = None) -> int:
             c = Counter(r["class"] for r in got)
             print(f"[{k}/{len(runs)}] {Path(run.props).relative_to(tests)} {run.args_text} "
                   f"{seconds:.1f}s {dict(c)}", file=sys.stderr, flush=True)
-    seconds = time.perf_counter() - started
+    seconds = time.perf_counter() - started if opts.from_json is None else (earlier or 0.0)
     total = Counter(r["class"] for r in records)
     print(json.dumps({k: total[k] for k in CLASSES}))
     if opts.json:
-        opts.json.write_text(json.dumps(records, indent=1))
+        opts.json.write_text(json.dumps({"seconds": seconds, "records": records}, indent=1))
     if opts.markdown:
         given = list(argv if argv is not None else sys.argv[1:])[1:]
+        valued = ("--json", "--from-json")
         shown = [a for i, a in enumerate(given)
-                 if a != "--json" and (i == 0 or given[i - 1] != "--json")]
+                 if a not in valued and (i == 0 or given[i - 1] not in valued)]
         command = "python benchmarks/prism_suite.py PRISM_CHECKOUT " + " ".join(shown)
         _write_markdown(opts.markdown, markdown(records, skipped, command=command.strip(),
                                                 seconds=seconds))
