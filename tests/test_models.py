@@ -188,7 +188,7 @@ def test_beacon_memory_helps_and_never_hurts() -> None:
     got = []
     for k in (1, 2, 3):
         report = api.check(session, properties=['<<rover>> Pmax=? [ F "safe" ]'], built=built,
-                           synthesis=SynthesisOptions(memory=(k,), timeout=60, seed=0))
+                           synthesis=SynthesisOptions(memory=(k,), timeout=20, seed=0))
         g = report.results[0].guaranteed
         assert g is not None and g.sound
         got.append(g)
@@ -202,5 +202,5 @@ def test_beacon_memory_helps_and_never_hurts() -> None:
 def test_beacon_results_pass_with_memory() -> None:
     code, output = _run_cli("test", str(MODELS / "beacon" / "beacon.posg"),
                             str(MODELS / "beacon" / "beacon.props"), "--memory", "1..3",
-                            "--timeout", "60")  # a ceiling: the search stops when converged
+                            "--timeout", "20")
     assert code == 0 and "2 passed, 0 failed" in output, output
