@@ -265,18 +265,18 @@ def _solve_system(
         bounds = solve(sys, replace(options, max_iterations=_STIFF_STEPS), cap=cap, ec=ec)
         if not bounds.converged:
             start, _ = choose(sys, bounds.lower, bounds.upper)
-            *_, solved = policy(start)
+            x_pi, _, _, solved = policy(start)
             if solved is not None:  # both are proven: keep their intersection
                 lower = np.maximum(solved.lower, bounds.lower)
                 upper = np.minimum(solved.upper, bounds.upper)
                 return replace(solved, lower=lower, upper=upper,
                                iterations=bounds.iterations + solved.iterations,
-                               estimate=np.clip(solved.estimate, lower, upper))
+                               estimate=np.clip(x_pi, lower, upper))
             bounds = solve(sys, options, cap=cap, ec=ec)
     else:
         bounds = solve(sys, options, cap=cap, ec=ec)
-    best_rows = None
-    cand = None
+    best_rows: np.ndarray | None = None
+    cand: np.ndarray | None = None
     if options.want_strategy:
         lo = bounds.lower
         hi = bounds.upper if options.method is not Method.VALUE else bounds.lower

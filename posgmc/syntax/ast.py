@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 from posgmc.errors import SourceSpan
-from posgmc.model.types import ModelType  # the compiled game's enum; the syntax names the same types
+from posgmc.model.types import ModelType as ModelType  # the compiled game's enum, named here too
 
 NO_SPAN = SourceSpan(0, 0)
 
