@@ -187,13 +187,15 @@ class Parametrisation:
             last[1], prod.memory_of
         ):
             initial = last[2]
-        solver = SolverOptions(method=Method.POLICY, initial_strategy=initial)
-        checker = PropertyChecker(pm, coalition_of=self.coalition_of, scalar=self.scalar,
-                                  options=CheckOptions(solver=solver, keep_strategy=True))
-        q = checker.query(self.query)
-        strategy = q.engine.strategy if q.engine is not None else None
-        if strategy is not None:
-            self._last_response = (prod.state_of, prod.memory_of, strategy)
+        strategy = None
+        if pm.transitions.shape[0] > pm.num_states:  # someone still chooses: the best response
+            solver = SolverOptions(method=Method.POLICY, initial_strategy=initial)
+            checker = PropertyChecker(pm, coalition_of=self.coalition_of, scalar=self.scalar,
+                                      options=CheckOptions(solver=solver, keep_strategy=True))
+            q = checker.query(self.query)
+            strategy = q.engine.strategy if q.engine is not None else None
+            if strategy is not None:
+                self._last_response = (prod.state_of, prod.memory_of, strategy)
         rows = pm.row_groups[:-1].copy()
         if strategy is not None:
             rows = np.where(strategy >= 0, strategy, rows)
