@@ -72,7 +72,7 @@ class SynthesisChecker:
             if _better(g_composed, g, maximize):
                 defence, g = composed, g_composed
         enumerated = found.enumeration.strategies
-        ranked_all = len(found.ranked) - found.added >= len(enumerated)
+        ranked_all = found.all_ranked
         # against every enumerated adversary when there are few enough, else the kept ones
         small = found.enumeration.exhaustive and ranked_all and len(enumerated) <= RESPONSE_EXHAUSTIVE
         pool = tuple(enumerated) + tuple(a for a in found.kept if not any(a is e for e in enumerated)) \

@@ -234,9 +234,10 @@ class OneSided:
     ``added``: how many of those the double oracle added; ``composed``: the composed defence
     (None when there was nothing to compose); ``responses``: per double-oracle round, the best
     response's value against the composed defence and whether it was exhaustive; ``partial``:
-    the time ran out."""
+    the time ran out; ``all_ranked``: every enumerated strategy was ranked."""
 
     enumeration: Enumeration
+    all_ranked: bool
     ranked: tuple[tuple[FiniteStateStrategy, float], ...]
     kept: tuple[FiniteStateStrategy, ...]
     added: int
@@ -268,9 +269,10 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
     ranked = [(enumeration.strategies[i], strengths[i]) for i in order]
     phases["adversaries: ranking"] = time.perf_counter() - t0
     partial = len(strengths) < len(enumeration.strategies)
+    all_ranked = not partial
     kept = [a for a, _ in ranked[:keep]]
     if not kept:
-        return OneSided(enumeration, tuple(ranked), (), 0, None, (), partial, phases)
+        return OneSided(enumeration, not partial, tuple(ranked), (), 0, None, (), partial, phases)
 
     layout = Layout.of(problem.model, problem.player)
     k = defence.memory_size
@@ -280,7 +282,7 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
     starts += [(rng.normal(size=shapes[0]), rng.normal(size=shapes[1])) for _ in range(restarts)]
     t_compose = t_oracle = 0.0
     t0 = time.perf_counter()
-    composed = _compose(executor, kept, k, starts, iterations, learning_rate, deadline)
+    composed = _compose(executor, kept, k, defence, starts, iterations, learning_rate, deadline)
     t_compose += time.perf_counter() - t0
     responses: list[tuple[float, bool]] = []
     added = 0
@@ -308,13 +310,14 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
         t0 = time.perf_counter()
         # recompose from the current defence (never worse against the old set) and one new start
         again = [composed.logits, (rng.normal(size=shapes[0]), rng.normal(size=shapes[1]))]
-        composed = _compose(executor, kept, k, again, iterations, learning_rate, deadline)
+        composed = _compose(executor, kept, k, composed.strategy, again, iterations, learning_rate,
+                            deadline)
         t_compose += time.perf_counter() - t0
     else:
         partial = partial or bool(oracle_rounds == 0)
     phases["adversaries: composition"] = t_compose
     phases["adversaries: double oracle"] = t_oracle
-    return OneSided(enumeration, tuple(ranked), tuple(kept), added, composed, tuple(responses),
+    return OneSided(enumeration, all_ranked, tuple(ranked), tuple(kept), added, composed, tuple(responses),
                     partial or expired(deadline), phases)
 
 
@@ -330,15 +333,18 @@ def _batched(executor: Executor, jobs: list, deadline: float) -> list:  # type: 
 
 
 def _compose(executor: Executor, adversaries: list[FiniteStateStrategy], memory: int,
-             starts: list[tuple[np.ndarray, np.ndarray]], iterations: int, learning_rate: float,
-             deadline: float) -> Composed:
-    """The best composed defence over the starts (the first on a tie)."""
+             incumbent: FiniteStateStrategy, starts: list[tuple[np.ndarray, np.ndarray]],
+             iterations: int, learning_rate: float, deadline: float) -> Composed:
+    """The best composed defence over the starts, or ``incumbent`` (the defence the first start
+    approximates: its logits are clipped) when none does better against ``adversaries`` — so
+    composing never loses against the set (the first on a tie)."""
     jobs = [ComposeJob(tuple(adversaries), memory, s, iterations, learning_rate, deadline)
             for s in starts]
     results: list[Composed] = executor.map(jobs)
     sign = executor.problem.sign
-    best = results[0]
-    for r in results[1:]:
+    values = executor.map([VersusJob(incumbent, a) for a in adversaries])
+    best = Composed(incumbent, starts[0], min(values, key=lambda v: sign * v), 0)
+    for r in results:
         if round(sign * r.value, 7) > round(sign * best.value, 7):
             best = r
     return best
