@@ -10,19 +10,25 @@ import time
 from contextlib import closing
 from dataclasses import dataclass
 
-from posgmc.checking.dispatch import CheckOptions, CoalitionResolver, ScalarEvaluator
+from posgmc.checking.dispatch import CheckOptions, CoalitionResolver, PropertyChecker, ScalarEvaluator
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.checking.results import Bound
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
-from posgmc.synthesis.compose import RESPONSE_EXHAUSTIVE, one_sided, verified_numbers
-from posgmc.synthesis.jobs import Executor, Problem, executor_for
+from posgmc.synthesis.compose import RESPONSE_EXHAUSTIVE, VersusJob, one_sided, verified_numbers
+from posgmc.synthesis.jobs import POLICY, Executor, Problem, executor_for
+from posgmc.synthesis.objectives import lift, needs_product
 from posgmc.synthesis.search import SynthesisOptions, SynthesisResult, _better, problem_of, synthesize
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
 
 __all__ = ["SynthesisChecker"]
+
+_GAIN = 1e-7
+"""How much better (relative) the composed defence must be, by policy iteration, before the
+sound engines check it: a gain below this is numerical noise, and a randomised strategy's sound
+check can be slow."""
 
 
 class SynthesisChecker:
@@ -63,29 +69,45 @@ class SynthesisChecker:
         maximize = problem.maximize
         defence, g = result.strategy, result.guaranteed
         composed = found.composed.strategy if found.composed is not None else None
+        if composed is not None and composed is result.strategy:
+            composed = None  # composing kept the search's defence
+        sign = problem.sign
         g_composed: Bound | None = None
         if composed is not None:
-            g_composed = StrategyChecker(self.model, {composed.player: composed},
-                                         coalition_of=problem.coalition_of, scalar=problem.scalar,
-                                         options=self.options).check(problem.query, text="composed").guaranteed
-            assert g_composed is not None  # noqa: S101 - the decision maker's strategy is given
-            if _better(g_composed, g, maximize):
-                defence, g = composed, g_composed
+            # policy iteration first (cheap); the sound engines only for a real gain, since a
+            # randomised strategy's near-deterministic loops make interval iteration slow
+            rough = StrategyChecker(self.model, {composed.player: composed},
+                                    coalition_of=problem.coalition_of, scalar=problem.scalar,
+                                    options=POLICY).check(problem.query, text="composed").guaranteed
+            assert rough is not None  # noqa: S101 - the decision maker's strategy is given
+            if sign * rough.value > sign * g.value + _GAIN * max(1.0, abs(g.value)):
+                g_composed = StrategyChecker(self.model, {composed.player: composed},
+                                             coalition_of=problem.coalition_of, scalar=problem.scalar,
+                                             options=self.options).check(problem.query, text="composed").guaranteed
+                assert g_composed is not None  # noqa: S101 - as above
+                if _better(g_composed, g, maximize):
+                    defence, g = composed, g_composed
         enumerated = found.enumeration.strategies
         ranked_all = found.all_ranked
         # against every enumerated adversary when there are few enough, else the kept ones
         small = found.enumeration.exhaustive and ranked_all and len(enumerated) <= RESPONSE_EXHAUSTIVE
         pool = tuple(enumerated) + tuple(a for a in found.kept if not any(a is e for e in enumerated)) \
             if small else found.kept
-        vs, worst, ub = verified_numbers(problem, executor, defence, g, pool, found.ranked,
-                                         check_options=self.options)
         vs_from_composed = False
-        if composed is not None and composed is not defence and g_composed is not None:
-            vs_c, worst_c, _ = verified_numbers(problem, executor, composed, g_composed, pool, (),
-                                                check_options=self.options)
-            sign = problem.sign
-            if vs is not None and vs_c is not None and sign * vs_c.value > sign * vs.value + 1e-9:
-                vs, worst, vs_from_composed = vs_c, worst_c, True
+        if composed is not None and composed is not defence and pool:
+            # vs_fss_adversary of the composed defence when it is clearly better there
+            mine = min(executor.map([VersusJob(defence, a) for a in pool]), key=lambda v: sign * v)
+            theirs = min(executor.map([VersusJob(composed, a) for a in pool]), key=lambda v: sign * v)
+            if sign * theirs > sign * mine + _GAIN * max(1.0, abs(mine)):
+                if g_composed is None:
+                    g_composed = StrategyChecker(
+                        self.model, {composed.player: composed}, coalition_of=problem.coalition_of,
+                        scalar=problem.scalar, options=self.options).check(problem.query, text="composed").guaranteed
+                vs_from_composed = g_composed is not None
+        shown, shown_g = (composed, g_composed) if vs_from_composed else (defence, g)
+        assert shown is not None and shown_g is not None  # noqa: S101 - set together
+        vs, worst, ub = verified_numbers(problem, executor, shown, shown_g, pool, found.ranked,
+                                         check_options=self.options)
         phases = dict(found.phases)
         phases["adversaries: verification"] = time.perf_counter() - t0
         stats: dict[str, object] = {
@@ -95,14 +117,40 @@ class SynthesisChecker:
             "adversaries_added": found.added,
             "vs_adversaries": len(pool),
             "exhaustive": bool(small),
-            "defence": "composed" if defence is composed else "search",
-            "vs_fss_defence": "composed" if vs_from_composed or defence is composed else "search",
+            "defence": "composed" if composed is not None and defence is composed else "search",
+            "vs_fss_defence": "composed" if vs_from_composed or (composed is not None and defence is composed)
+            else "search",
             "composed_value": None if found.composed is None else found.composed.value,
             "oracle": [{"response_value": v, "exhaustive": e} for v, e in found.responses],
         }
         return _AdversaryOutcome(defence, g, vs, ub, worst,
                                  composed if vs_from_composed else None, vs_from_composed,
                                  found.partial, phases, stats)
+
+    def _on_product(self, expr: ProbQuery | RewardQuery, *, text: str,
+                    name: str | None) -> PropertyResult:
+        """Co-safe LTL and step bounds: synthesis on the product with the formula's automaton
+        (:mod:`posgmc.synthesis.objectives`: the strategies observe the game, not the
+        automaton, so they are strategies of the game); the defence's ``guaranteed`` is then
+        recomputed on the game itself, as ``--strategy`` would."""
+        lifted, query = lift(self.model, expr, PropertyChecker(
+            self.model, coalition_of=self.coalition_of, scalar=self.scalar))
+        inner = SynthesisChecker(lifted, coalition_of=self.coalition_of, scalar=self.scalar,
+                                 options=self.options, synthesis=self.synthesis)
+        result = inner.check(query, text=text, name=name)
+        defence = result.strategies[0]
+        bare = expr if expr.threshold is None else dataclasses.replace(
+            expr, threshold=None, direction=Direction.MAX if expr.threshold.op in (
+                ComparisonOp.GE, ComparisonOp.GT) else Direction.MIN)
+        g = StrategyChecker(self.model, {defence.player: defence}, coalition_of=self.coalition_of,
+                            scalar=self.scalar, options=self.options).check(bare, text=text).guaranteed
+        assert g is not None  # noqa: S101 - the decision maker's strategy is given
+        note = (result.note or "") + ("; synthesised on the product with the formula's automaton, "
+                                      "whose state the strategies do not observe")
+        if expr.threshold is not None:
+            return dataclasses.replace(result, guaranteed=g, note=note)
+        return dataclasses.replace(result, guaranteed=g, value=g.value, lower=g.lower, upper=g.upper,
+                                   per_initial=(g.value,), sound=result.sound and g.sound, note=note)
 
     def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
         """Synthesise and verify. A threshold holds when ``guaranteed`` meets it, fails when the
@@ -114,6 +162,8 @@ class SynthesisChecker:
                 hint="give strategies with --strategy, or use --full-observation",
             )
         player = self._player(expr)
+        if needs_product(expr):
+            return self._on_product(expr, text=text, name=name)
         bare = expr
         if expr.threshold is not None:
             maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)

@@ -65,7 +65,7 @@ class SynthesisOptions:
     player_memory: tuple[tuple[str, tuple[int, ...]], ...] = ()
     jobs: int = 1
     enumeration_limit: int = 1000
-    compose_restarts: int = 2
+    compose_restarts: int = 1
     oracle_rounds: int = 8
 
     def for_players(self, decision_maker: str, adversary: str | None,
@@ -127,6 +127,11 @@ def _objective(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: Pro
             if path.op is TemporalOp.UNTIL:
                 return checker._states(path.operands[1]), checker._states(path.operands[0]), None, 1.0
             return checker._states(path.operands[0]), np.ones(model.num_states, dtype=bool), None, 1.0
+    if isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.DISCOUNTED_TOTAL:
+        # R[Cdiscount=g]: x = r + g P x everywhere (a target that is never reached)
+        rewards = model.reward_model(expr.reward).choice_rewards(model.row_groups)
+        never = np.zeros(model.num_states, dtype=bool)
+        return never, ~never, rewards, checker._discount(expr.objective.discount)
     if isinstance(expr, RewardQuery) and expr.objective.kind in (RewardKind.DISCOUNTED_REACH,
                                                                   RewardKind.REACH):
         assert expr.objective.target is not None  # noqa: S101 - F and Fdiscount have a target
@@ -136,9 +141,9 @@ def _objective(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: Pro
         return (checker._states(expr.objective.target), np.ones(model.num_states, dtype=bool),
                 rewards, discount)
     raise UnsupportedError(
-        "synthesis supports <<d>> Pmax/Pmin=? [ F b ] or [ a U b ], the expected reward "
-        "<<d>> R{\"c\"}min/max=? [ F b ] and the discounted cost <<d>> R{\"c\"}min/max=? "
-        "[ Fdiscount=g b ] so far",
+        "synthesis supports <<d>> Pmax/Pmin=? of F b, a U b and co-safe LTL (step bounds "
+        "included), the expected reward <<d>> R{\"c\"}min/max=? [ F b ] or until a co-safe "
+        "formula, and the discounted costs R[ Fdiscount=g b ] and R[ Cdiscount=g ]",
         expr.span,
         hint="check other objectives under a given strategy (--strategy PLAYER=FILE)",
     )
