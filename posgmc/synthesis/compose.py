@@ -41,7 +41,7 @@ from posgmc.strategies.verify import StrategyChecker
 from posgmc.synthesis.adversaries import Enumeration, enumerate_adversaries
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.jobs import POLICY, Executor, Problem, expired
-from posgmc.synthesis.parametric import Layout, Parametrisation
+from posgmc.synthesis.parametric import Layout, Parametrisation, game_views
 
 __all__ = ["OneSided", "one_sided", "verified_numbers", "RankJob", "VersusJob", "ComposeJob",
            "ResponseJob", "RESPONSE_EXHAUSTIVE"]
@@ -186,14 +186,14 @@ class ResponseJob:
             if best is None or round(v, 7) > round(best[0], 7):
                 best = (v, gg, dd)
         assert best is not None  # noqa: S101 - three candidates
-        return par.strategy(best[1], best[2]), -sign * best[0]
+        return par.strategy(best[1], best[2]), sign * best[0]
 
 
 def _on_product(problem: Problem, prod, player: int, memory: int,  # type: ignore[no-untyped-def]
                 layout: Layout) -> Parametrisation:
     """``player``'s k-node FSSs on the product ``prod`` of the model with another player's
     strategy, laid out as on the model itself."""
-    pm = prod.model
+    pm = game_views(problem.model, prod.model, prod.state_of)
     rewards = None
     if problem.rewards is not None:
         rewards = pm.reward_model(problem.query.reward).choice_rewards(pm.row_groups)  # type: ignore[union-attr]
@@ -316,8 +316,6 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
         composed = _compose(executor, kept, k, composed.strategy, again, iterations, learning_rate,
                             deadline)
         t_compose += time.perf_counter() - t0
-    else:
-        partial = partial or bool(oracle_rounds == 0)
     phases["adversaries: composition"] = t_compose
     phases["adversaries: double oracle"] = t_oracle
     return OneSided(enumeration, all_ranked, tuple(ranked), tuple(kept), added, composed, tuple(responses),

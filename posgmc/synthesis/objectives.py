@@ -29,8 +29,8 @@ import dataclasses
 import numpy as np
 
 from posgmc.errors import UnsupportedError
-from posgmc.model.explicit import ExplicitModel, Observation
-from posgmc.strategies.binding import player_view
+from posgmc.model.explicit import ExplicitModel
+from posgmc.synthesis.parametric import game_views
 from posgmc.syntax.ast import (Expr, LabelRef, ProbQuery, RewardKind, RewardObjective, RewardQuery,
                                Temporal, TemporalOp)
 
@@ -91,18 +91,10 @@ def lift(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker,  # type: 
     labels = dict(pm.labels)
     labels[name] = np.asarray(prod.accepting, dtype=bool)
     # the automaton state is no part of any player's view: the observations are the model's,
-    # and the valuations a fully observing player sees are the model state's
-    observations = [dataclasses.replace(o, state_ids=o.state_ids[prod.state_of])
-                    for o in model.observations]
-    # a fully observing player sees the model state: one observation per model state (its view
-    # of the product would otherwise be the product state, automaton included)
-    for p in range(len(model.player_names)):
-        if model.observation_of(p) is None:
-            view = player_view(model, p)
-            observations.append(Observation(p, view.state_obs[prod.state_of].astype(np.int32),
-                                            view.observables, view.obs_values))
+    # a fully observing player observes the model state (game_views), and the valuations are
+    # the model state's
     lifted = dataclasses.replace(
-        pm, labels=labels, observations=tuple(observations), variable_names=model.variable_names,
+        game_views(model, pm, prod.state_of), labels=labels, variable_names=model.variable_names,
         state_values=model.state_values[prod.state_of] if model.state_values.shape[0] == model.num_states
         else model.state_values,
     )

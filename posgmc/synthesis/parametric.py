@@ -43,7 +43,26 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.syntax.ast import ProbQuery, RewardQuery
 
-__all__ = ["Parametrisation", "Evaluation", "Layout"]
+__all__ = ["Parametrisation", "Evaluation", "Layout", "game_views"]
+
+
+def game_views(model: ExplicitModel, product: ExplicitModel, state_of: np.ndarray) -> ExplicitModel:
+    """``product`` (of ``model`` with strategies or an automaton; ``state_of``: int64[P], the
+    model state of each product state) with every player viewing it as it views ``model``: a
+    fully observing player gets an explicit observation of the model state, where it would
+    otherwise see the product state (memory nodes or automaton state included). So a strategy
+    laid out on ``model`` (:class:`Layout`) means the same on the product."""
+    import dataclasses
+
+    from posgmc.model.explicit import Observation
+
+    observations = [dataclasses.replace(o, state_ids=o.state_ids[state_of]) for o in model.observations]
+    for p in range(max(len(model.player_names), 1)):
+        if model.observation_of(p) is None:
+            view = player_view(model, p)
+            observations.append(Observation(p, view.state_obs[state_of].astype(np.int32),
+                                            view.observables, view.obs_values))
+    return dataclasses.replace(product, observations=tuple(observations))
 
 
 @dataclass(frozen=True, eq=False)

@@ -17,7 +17,7 @@ from posgmc.checking.dispatch import CheckOptions
 from posgmc.strategies.files import read_strategy, write_strategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.synthesis.checker import SynthesisChecker
-from posgmc.synthesis.compose import VersusJob, one_sided
+from posgmc.synthesis.compose import VersusJob, _best_response, one_sided
 from posgmc.synthesis.jobs import POLICY, InProcess
 from posgmc.synthesis.search import SynthesisOptions, problem_of
 from posgmc.syntax import parser
@@ -195,3 +195,33 @@ def test_jobs_give_bit_identical_results() -> None:
     assert _without_times(two.to_json()) == _without_times(one.to_json())
     for a, b in zip(one.strategies, two.strategies):
         assert np.array_equal(a.action, b.action) and np.array_equal(a.update, b.update)
+
+
+@pytest.mark.parametrize("memory", [1, 2])
+def test_gradient_best_response_is_a_strategy_of_the_game(memory: int) -> None:
+    """The double oracle's best response by gradient (used when the enumeration is incomplete or
+    large): the adversary's k□-node FSS synthesised against the fixed defence on the product
+    (where it observes the game state, not the defence's memory) is a strategy of the game, its
+    reported value is the value of the pair, and it is no weaker than the kept strategy it
+    starts from. Seed 15: the strongest adversary by full-information optimum is not the best
+    response (see above), so the gradient has something to find."""
+    model = random_posg(15)
+    problem = _problem(model)
+    executor = InProcess(problem)
+    search = _synthesised(model, replace(SMALL, memory=(2,), adversaries=0))
+    defence = search.strategies[0]
+    found = one_sided(problem, executor, defence=defence, keep=1, adversary_memory=1,
+                      enumeration_limit=10_000, restarts=0, oracle_rounds=0, iterations=10,
+                      learning_rate=0.3, seed=0, deadline=float("inf"))
+    kept = [found.ranked[0][0]]
+    if memory == 2:
+        from posgmc.synthesis.search import _embed_strategy
+
+        kept = [_embed_strategy(kept[0], 2)]
+    response, value = _best_response(problem, executor, defence, found.enumeration, False, kept,
+                                     memory, 30, 0.3, np.random.default_rng(0), float("inf"))
+    assert response.memory_size == memory and response.player == "p1"
+    assert executor.map([VersusJob(defence, response)])[0] == pytest.approx(value, abs=1e-9)
+    assert value <= executor.map([VersusJob(defence, kept[0])])[0] + 1e-12
+    # no better for the adversary than the omniscient one
+    assert value >= search.guaranteed.lower - 1e-9
