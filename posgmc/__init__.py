@@ -44,6 +44,7 @@ _WHERE = {
     "Session": "posgmc.api",
     "BuiltModel": "posgmc.api",
     "CheckReport": "posgmc.api",
+    "PropertyError": "posgmc.api",
     "PropertyResult": "posgmc.checking.results",
     "Bound": "posgmc.checking.results",
     "ExplicitModel": "posgmc.model.explicit",

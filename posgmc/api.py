@@ -21,7 +21,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 from posgmc.compiler import BuildOptions, build_model
 from posgmc.checking.dispatch import CheckOptions, PropertyChecker
@@ -57,6 +57,7 @@ ConstantValues = Mapping[str, object]
 __all__ = [
     "Session",
     "CheckReport",
+    "PropertyError",
     "load",
     "lint",
     "build",
@@ -90,6 +91,28 @@ class Session:
     syntax: ModelFile | None
     constants: Mapping[str, object] = field(default_factory=dict)
     explicit: ExplicitModel | None = None  # set for DRN input
+
+    def with_constants(
+        self, constants: ConstantValues | None = None, /, **values: object
+    ) -> "Session":
+        """The same parsed model with other constant values (added to, or replacing, this
+        session's), without reading or parsing the file again: what a sweep needs per point.
+
+        ``session.with_constants({"N": 4})`` and ``session.with_constants(N=4)`` are the same.
+        """
+        if constants is not None and not isinstance(constants, Mapping):
+            raise InputError(
+                f"constants must be a mapping of names to values, got {type(constants).__name__}"
+            )
+        return dataclasses.replace(self, constants={**self.constants, **(constants or {}), **values})
+
+    @classmethod
+    def of_model(cls, model: ExplicitModel, *, name: str | None = None) -> "Session":
+        """A session around a compiled model (read from DRN or built by hand with
+        :func:`~posgmc.model.explicit.make_model`), so that :func:`check` can take it."""
+        if not isinstance(model, ExplicitModel):
+            raise InputError(f"expected an ExplicitModel, got {type(model).__name__}")
+        return cls(name, SourceText("", name), None, {}, model.validate())
 
 
 def _read(path: str | Path) -> str:
@@ -130,11 +153,31 @@ def _texts(value: object, what: str) -> tuple[str, ...]:
     raise InputError(f"{what} must be a string or a list of strings, got {type(value).__name__}")
 
 
+def _property_items(value: object) -> tuple[str | Property, ...]:
+    """One property (text or parsed) or a sequence of them."""
+    if value is None:
+        return ()
+    if isinstance(value, (str, Property)):
+        return (value,)
+    if isinstance(value, Sequence) and all(isinstance(v, (str, Property)) for v in value):
+        return tuple(value)
+    raise InputError(
+        "properties must be a string or a list of strings or parsed properties, "
+        f"got {type(value).__name__}"
+    )
+
+
 def _session(value: object) -> "Session":
     if isinstance(value, Session):
         return value
-    hint = "load the model first: session = api.load(path)" if isinstance(value, (str, Path)) else None
-    raise InputError(f"expected a Session from api.load, got {type(value).__name__}", hint=hint)
+    if isinstance(value, ExplicitModel):
+        return Session.of_model(value)
+    hint = ("load the model first: session = api.load(path)" if isinstance(value, (str, Path))
+            else "check() also takes a compiled ExplicitModel")
+    raise InputError(
+        f"expected a Session from api.load, got {type(value).__name__}",
+        hint=hint,
+    )
 
 
 def _typed(value: object, kind: type, what: str) -> None:
@@ -182,10 +225,17 @@ def load(
 
 
 def parse_properties(
-    session: Session, *, files: Sequence[str | Path] = (), texts: Sequence[str] = ()
+    session: Session,
+    *,
+    files: Sequence[str | Path] = (),
+    texts: Sequence[str | Property] = (),
 ) -> tuple[list[tuple[PropertiesFile, SourceText]], list[Property]]:
-    """Parse property files and command-line properties (raises ParseError with position)."""
-    files, texts = _paths(files, "files"), _texts(texts, "texts")
+    """Parse property files and property texts (raises ParseError with position).
+
+    Returns the parsed files (each with its source) and the properties of ``texts``: reusable
+    :class:`~posgmc.syntax.ast.Property` objects that :func:`check` accepts in ``properties``
+    (already parsed ones in ``texts`` are passed through)."""
+    files, texts = _paths(files, "files"), _property_items(texts)
     parsed: list[tuple[PropertiesFile, SourceText]] = []
     for f in files:
         content = _read(f)
@@ -200,6 +250,9 @@ def parse_properties(
         parsed.append((pf, src))
     props: list[Property] = []
     for i, t in enumerate(texts):
+        if isinstance(t, Property):
+            props.append(t)
+            continue
         src = SourceText(t, f"<--prop {i + 1}>")
         try:
             props.append(parser.parse_property(t, file=src.file))
@@ -321,16 +374,27 @@ def _check_explicit(session: Session, options: BuildOptions) -> ExplicitModel:
     return model
 
 
+class PropertyError(NamedTuple):
+    """A property that could not be checked (the others go on, as in PRISM): its text and the
+    positioned error. A named tuple, so ``text, error = outcome`` works too."""
+
+    property: str
+    error: PosgmcError
+
+
 @dataclass(frozen=True, eq=False)
 class CheckReport:
-    """The model's size and one result per property, in order."""
+    """The model's size and one outcome per property, in order.
+
+    ``outcomes`` holds every property's :class:`PropertyResult` or :class:`PropertyError`;
+    ``results`` and ``errors`` are the two kinds apart."""
 
     model: ExplicitModel
     build_seconds: float
     results: tuple[PropertyResult, ...]
     warnings: tuple[str, ...] = ()
-    errors: tuple[tuple[str, PosgmcError], ...] = ()
-    outcomes: tuple[PropertyResult | tuple[str, PosgmcError], ...] = ()  # all, in order
+    errors: tuple[PropertyError, ...] = ()
+    outcomes: tuple[PropertyResult | PropertyError, ...] = ()  # all, in order
 
 
 def _coalition_resolver(model: ExplicitModel, zero_based: bool):  # type: ignore[no-untyped-def]
@@ -382,7 +446,7 @@ def iter_check(
     session: Session,
     *,
     property_files: Sequence[str | Path] = (),
-    properties: Sequence[str] = (),
+    properties: Sequence[str | Property] = (),
     options: CheckOptions = CheckOptions(),
     full_observation: bool = False,
     zero_based_players: bool = False,
@@ -498,10 +562,10 @@ def _check_one(
 
 
 def check(
-    session: Session,
+    session: Session | ExplicitModel,
     *,
     property_files: Sequence[str | Path] = (),
-    properties: Sequence[str] = (),
+    properties: Sequence[str | Property] = (),
     options: CheckOptions = CheckOptions(),
     build_options: BuildOptions = BuildOptions(),
     full_observation: bool = False,
@@ -513,9 +577,11 @@ def check(
     """Build the model (unless ``built`` is given) and check each property at the initial states.
 
     Args:
-        session: from :func:`load`.
+        session: from :func:`load`, or a compiled :class:`ExplicitModel` (read from DRN or built
+            by hand), checked as it is.
         property_files: PRISM property files.
-        properties: property texts (as given with ``--prop``).
+        properties: property texts (as given with ``--prop``) or properties parsed once with
+            :func:`parse_properties`.
         options: numerical method, precision, what to keep.
         full_observation: on pomdp/posg models, answer the full-observation value (a bound on the
             partially observable value, labelled as such); without it such models are refused.
@@ -540,7 +606,7 @@ def check(
     session = _session(session)
     _typed(options, CheckOptions, "options")
     property_files = _paths(property_files, "property_files")
-    properties = _texts(properties, "properties")
+    properties = _property_items(properties)
     if strategies is not None and not isinstance(strategies, Mapping):
         raise InputError(f"strategies must map player names to strategies, got {type(strategies).__name__}")
     if options.exact:
@@ -561,8 +627,8 @@ def check(
 
         warnings = tuple(w for fss in loaded.values() for w in bind(built.model, fss).warnings)
     results: list[PropertyResult] = []
-    errors: list[tuple[str, PosgmcError]] = []
-    outcomes: list[PropertyResult | tuple[str, PosgmcError]] = []
+    errors: list[PropertyError] = []
+    outcomes: list[PropertyResult | PropertyError] = []
     for prop, outcome in iter_check(
         session,
         property_files=property_files,
@@ -575,7 +641,7 @@ def check(
         synthesis=synthesis,
     ):
         if isinstance(outcome, PosgmcError):
-            errors.append((prop.text or format_expr(prop.expr), outcome))
+            errors.append(PropertyError(prop.text or format_expr(prop.expr), outcome))
             outcomes.append(errors[-1])
         else:
             results.append(outcome)
@@ -667,8 +733,8 @@ def synthesize(
     report = check(session, properties=[prop], build_options=build_options,
                    zero_based_players=zero_based_players, built=built, synthesis=options)
     outcome = report.outcomes[0]
-    if isinstance(outcome, tuple):
-        raise outcome[1]
+    if isinstance(outcome, PropertyError):
+        raise outcome.error
     if outcome.guaranteed is None:
         raise UnsupportedError(
             f"{session.path or 'the model'} is not partially observable: nothing to synthesise",

@@ -20,7 +20,7 @@ from typing import Any, NoReturn, TypeVar
 import click
 
 from posgmc import __version__
-from posgmc.errors import MultipleErrors, PosgmcError
+from posgmc.errors import InputError, MultipleErrors, PosgmcError
 from posgmc.semantics.evaluate import format_value
 
 EXIT_OK = 0
@@ -357,6 +357,9 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (see docs/cli.md).")
 @click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
               help="Also write a JUnit XML report: one test case per property.")
+@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
+              help="With one swept constant (--const B=0:4): draw each property against it "
+              "(.png, .svg, .pdf; needs matplotlib).")
 @click.option("--state-limit", type=click.IntRange(min=1), default=None)
 @_common
 def check(
@@ -378,6 +381,7 @@ def check(
     export_strategy: str | None,
     as_json: bool,
     junit: str | None,
+    plot_file: str | None,
     state_limit: int | None,
     consts: tuple[str, ...],
     debug: bool,
@@ -391,6 +395,13 @@ def check(
         if not props and not prop_texts:
             raise click.UsageError("give a properties file or --prop TEXT")
         swept, combos = expand_constants(consts)
+        if plot_file is not None:
+            if not plot_file.lower().endswith((".png", ".svg", ".pdf")):
+                raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
+            if len(swept) != 1:
+                raise InputError("--plot draws properties against one swept constant; "
+                                 f"{len(swept)} are swept",
+                                 hint="give one constant a range, e.g. --const B=0:4")
         strategies = strategy_options(strategy_files)
         options = CheckOptions(
             solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
@@ -424,6 +435,12 @@ def check(
                     _write_strategy(export_strategy, report)
         if junit is not None:
             _write_check_junit(junit, model, swept, rows)
+        if plot_file is not None:
+            from posgmc.tradeoffs.plot import plot_sweeps
+            from posgmc.tradeoffs.sweep import sweeps_of_check
+
+            texts = [({n: _const_text(v) for n, v in c.items()}, r) for c, r in rows]
+            plot_sweeps(sweeps_of_check(swept[0], texts), plot_file)
         if as_json:
             click.echo(json.dumps(_json_report(model, swept, rows)))
         else:
@@ -616,6 +633,25 @@ def _print_strategy_numbers(r: Any) -> None:
         click.echo("  memory: " + ", ".join(f"{p or 'agent'}={k}" for p, k in r.memory))
 
 
+def _print_multi(r: Any) -> None:
+    """A multi(...) result: its answer, what it is, and the front of a Pareto query."""
+    front = r.front
+    if front is not None:
+        click.echo(f"{r.property}: Pareto front {front.text()}  ({r.method}, {r.seconds:.3f} s)")
+        click.echo(f"  under-approximation (achievable vertices): {front.text()}")
+        if len(front.corners):
+            corners = ",".join(f"({x:.10g},{y:.10g})" for x, y in front.corners)
+            click.echo(f"  over-approximation vertices: [{corners}]; precision {front.precision:.3g}")
+    else:
+        line = f"{r.property}: {'NaN' if r.value != r.value else _fmt(r.value)}"
+        what = ("LP value: floating point, not a proven bound" if r.method.startswith("lp")
+                else "from an under-approximation, see the note")
+        line += f"  ({r.method}, {r.seconds:.3f} s)  {what}"
+        click.echo(line)
+    if r.note:
+        click.echo(f"  note: {r.note}")
+
+
 def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> None:
     first = rows[0][1]
     stats = first.model.statistics()
@@ -630,6 +666,9 @@ def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str],
             if isinstance(r, tuple):
                 click.echo(f"{r[0]}: ERROR")
                 click.echo(r[1].render(), err=True)
+                continue
+            if r.multi is not None:
+                _print_multi(r)
                 continue
             line = f"{r.property}: {_fmt(r.value)}"
             if r.exact is not None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -21,6 +21,9 @@ from posgmc.cli import (
     main,
     strategy_options,
 )
+
+if TYPE_CHECKING:
+    from posgmc.api import Session
 
 __all__ = ["test", "simulate", "show_strategy"]
 
@@ -69,10 +72,12 @@ def test(
         strategies = strategy_options(strategy_files) or None
         passed = failed = unchecked = 0
         cases: list[Case] = []
-        for constants in combos or [{}]:
+        for i, constants in enumerate(combos or [{}]):
             texts = {n: _const_text(v) for n, v in constants.items()}
             label = ",".join(f"{n}={texts[n]}" for n in swept)
             session = api.load(model, constants=constants)
+            if i == 0:
+                _check_result_lines(session, props)  # before any work: nothing half-reported
             built = api.build(session, allow_extra_constants=True, options=BuildOptions(exact=exact))
             loaded = api.load_strategies(strategies) if strategies else None
             started = time.perf_counter()
@@ -117,6 +122,22 @@ def test(
         return EXIT_PROPERTY_FALSE if failed else EXIT_OK
 
     _guard(debug, run, consts=consts)
+
+
+def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
+    """Every RESULT line of the property files is well formed (InputError with its position)."""
+    from posgmc import api
+    from posgmc.checking.expected import check_form
+    from posgmc.errors import InputError
+
+    parsed, _ = api.parse_properties(session, files=props)
+    for pf, _src in parsed:
+        for prop in pf.properties:
+            for exp in prop.expected:
+                try:
+                    check_form(exp.text.strip())
+                except ValueError as e:
+                    raise InputError(str(e), exp.span) from None
 
 
 @main.command()

@@ -1,5 +1,6 @@
-"""The ``pareto`` command: a property against a swept constant, each point verified, as a table,
-CSV and a plot (:mod:`posgmc.tradeoffs`). Thin, like :mod:`posgmc.cli`."""
+"""The ``pareto`` command: a property against a swept constant, each point verified, or the front
+of a ``multi(...)`` query on an mdp, as a table, CSV and a plot (:mod:`posgmc.tradeoffs`). Thin,
+like :mod:`posgmc.cli`."""
 
 from __future__ import annotations
 
@@ -15,8 +16,9 @@ __all__ = ["pareto"]
 
 @main.command("pareto")
 @click.argument("model", type=click.Path(dir_okay=False))
-@click.option("--prop", "prop_text", required=True, metavar="TEXT", help="The property.")
-@click.option("--sweep", "sweep_text", required=True, metavar="B=0:4",
+@click.option("--prop", "prop_text", required=True, metavar="TEXT",
+              help="The property: any property with --sweep, or a multi(...) query (mdp).")
+@click.option("--sweep", "sweep_text", default=None, metavar="B=0:4",
               help="The constant to sweep, as a --const range (PRISM syntax: B=0:4, p=0.1:0.1:0.5).")
 @click.option("--csv", "csv_file", type=click.Path(dir_okay=False), default=None,
               help="Also write the points as CSV.")
@@ -35,7 +37,7 @@ __all__ = ["pareto"]
 def pareto(
     model: str,
     prop_text: str,
-    sweep_text: str,
+    sweep_text: str | None,
     csv_file: str | None,
     plot_file: str | None,
     strategy_dir: str | None,
@@ -47,7 +49,8 @@ def pareto(
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
-    """A trade-off: PROP against a swept constant, one verified point (and strategy) per value."""
+    """A trade-off: PROP against a swept constant, one verified point (and strategy) per value;
+    or the Pareto front of a multi(...) query with its approximation band."""
     from posgmc.io.atomic import atomic_write_text
     from posgmc.semantics.constants import ConstRange, parse_const_assignments
     from posgmc.tradeoffs.sweep import sweep, to_csv
@@ -56,10 +59,17 @@ def pareto(
         if plot_file is not None and not plot_file.lower().endswith((".png", ".svg", ".pdf")):
             raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
         if prop_text.lstrip().startswith("multi"):
-            raise UnsupportedError(
-                "multi-objective queries (multi(...)) are not supported yet",
-                hint="sweep a constant instead: --sweep B=0:4 (docs/tradeoffs.md)",
-            )
+            if sweep_text is not None:
+                raise UnsupportedError(
+                    "a multi(...) query gives its own front: --sweep does not apply to it",
+                    hint="drop --sweep, or sweep a single-objective property",
+                )
+            if strategy_dir is not None:
+                raise UnsupportedError("--strategies: a multi(...) front keeps no strategies yet")
+            return _multi(model, prop_text, consts, csv_file, plot_file)
+        if sweep_text is None:
+            raise InputError("--sweep is needed (unless --prop is a multi(...) query)",
+                             hint="e.g. --sweep B=0:4")
         swept = parse_const_assignments(sweep_text, source="--sweep")
         if len(swept) != 1 or not isinstance(next(iter(swept.values())), ConstRange):
             raise InputError("--sweep takes one constant with a range, e.g. --sweep B=0:4")
@@ -90,6 +100,55 @@ def pareto(
         return EXIT_ERROR if any(p.error is not None for p in result.points) else EXIT_OK
 
     _guard(debug, run, consts=consts)
+
+
+def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | None,
+           plot_file: str | None) -> int:
+    """``pareto --prop 'multi(...)'``: the answer; for a Pareto query the front as a table."""
+    from posgmc.io.atomic import atomic_write_text
+    from posgmc.semantics.constants import ConstRange, parse_const_assignments
+    from posgmc.tradeoffs.front import front_to_csv, multi_objective
+
+    constants: dict[str, Any] = {}
+    for i, text in enumerate(consts):
+        for n, setting in parse_const_assignments(
+            text, source="--const" if len(consts) == 1 else f"--const #{i + 1}"
+        ).items():
+            if isinstance(setting, ConstRange):
+                raise InputError(f"--const {n}: a multi(...) query takes single values", setting.span)
+            constants[n] = setting
+    answer = multi_objective(model, prop_text, constants=constants)
+    front = answer.front
+    if front is None:
+        if csv_file is not None or plot_file is not None:
+            raise UnsupportedError(
+                f"a {answer.kind.value} query has no front to write",
+                hint="--csv and --plot need a Pareto query: two objectives with =?",
+            )
+        value = answer.achievable if answer.kind.value == "achievability" else answer.value
+        click.echo(f"{prop_text}: {_fmt(value)}  (lp (HiGHS), {answer.seconds:.3f} s; LP value: "
+                   "floating point, not a proven bound)")
+        return EXIT_OK
+    click.echo(f"{prop_text}: Pareto front, {len(front.points)} vertices "
+               f"({front.solves} LPs over {answer.states} states, {answer.seconds:.3f} s)")
+    rows = [("", front.objectives[0] + f" ({front.directions[0].value})",
+             front.objectives[1] + f" ({front.directions[1].value})")]
+    rows += [("achievable", _fmt(float(x)), _fmt(float(y))) for x, y in front.points]
+    rows += [("over-approximation", _fmt(float(x)), _fmt(float(y))) for x, y in front.corners]
+    widths = [max(len(row[i]) for row in rows) for i in range(3)]
+    for row in rows:
+        click.echo("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
+    click.echo(f"precision: every point of the over-approximation is within {front.precision:.3g} "
+               "of an achievable one" + ("" if front.converged else " (STOPPED at the LP budget)"))
+    click.echo("achievable: the vertices of the under-approximation (each point of their convex "
+               "hull, and anything worse, is achieved by a strategy); LP values in floating point")
+    if csv_file is not None:
+        atomic_write_text(csv_file, front_to_csv(front))
+    if plot_file is not None:
+        from posgmc.tradeoffs.plot import plot_front
+
+        plot_front(front, plot_file, title=prop_text)
+    return EXIT_OK
 
 
 def _print(result: Any) -> None:

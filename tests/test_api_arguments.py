@@ -52,3 +52,36 @@ def test_dash_reads_the_model_from_standard_input() -> None:
     r = CliRunner().invoke(main, ["build", "-", "--json"], input=text)
     assert r.exit_code == 0, r.output
     assert '"states": 60' in r.output
+
+
+def test_check_takes_a_compiled_model_and_validates_it() -> None:
+    from posgmc.model.explicit import ExplicitModel, ModelInvariantError
+
+    model = api.build(api.load(ROVER)).model
+    report = api.check(model, properties=['<<rover>> Pmax=? [ F "goal" ]'])
+    assert report.model is model and report.results[0].lower <= 0.9876561794
+    broken = ExplicitModel(**{**{f: getattr(model, f) for f in (
+        "model_type", "row_groups", "transitions", "choice_actions", "action_names",
+        "state_players", "player_names", "labels", "variable_names", "state_values", "deadlocks",
+    )}, "initial_states": model.initial_states[::-1].copy() if model.initial_states.size > 1
+        else model.initial_states.repeat(2)})
+    with pytest.raises(ModelInvariantError, match="sorted and distinct"):
+        api.check(broken, properties=['<<rover>> Pmax=? [ F "goal" ]'])
+
+
+def test_with_constants_keeps_the_parse_and_checks_its_argument() -> None:
+    session = api.load(text="dtmc const int N; module m x:[0..N] init 0; [] x<N -> (x'=x+1); "
+                            "[] x=N -> true; endmodule")
+    assert session.with_constants(N=3).constants == {"N": 3}
+    assert session.with_constants({"N": 2}).syntax is session.syntax  # parsed once
+    assert api.build(session.with_constants(N=3)).model.num_states == 4
+    with pytest.raises(InputError, match="constants must be a mapping"):
+        session.with_constants(["N=3"])  # type: ignore[arg-type]
+
+
+def test_outcomes_are_typed() -> None:
+    report = api.check(api.load(ROVER), properties=['Pmax=? [ F "nowhere" ]'])
+    (outcome,) = report.outcomes
+    assert isinstance(outcome, api.PropertyError)
+    text, error = outcome  # still a pair
+    assert text == outcome.property and error is outcome.error

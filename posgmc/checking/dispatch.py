@@ -42,6 +42,7 @@ from posgmc.syntax.ast import (
     ComparisonOp,
     Direction,
     Expr,
+    MultiQuery,
     ProbQuery,
     RewardKind,
     RewardQuery,
@@ -117,6 +118,10 @@ class PropertyChecker:
 
     def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
         """Check one property and report its value at the initial states."""
+        if isinstance(expr, MultiQuery):
+            from posgmc.checking.multi import check_multi
+
+            return check_multi(self, expr, text=text, name=name)
         start = time.perf_counter()
         init = self.model.initial_states
         if isinstance(expr, (ProbQuery, RewardQuery)) and expr.threshold is None:

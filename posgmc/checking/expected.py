@@ -20,7 +20,7 @@ from posgmc.checking.results import PropertyResult
 from posgmc.errors import PosgmcError
 from posgmc.syntax.ast import ExpectedResult, Property
 
-__all__ = ["Verdict", "expected_for", "grade", "DEFAULT_TOLERANCE"]
+__all__ = ["Verdict", "check_form", "expected_for", "grade", "DEFAULT_TOLERANCE"]
 
 DEFAULT_TOLERANCE = 1e-5
 
@@ -74,6 +74,43 @@ def _show(value: object) -> str:
     return str(value)
 
 
+_FORMS = ("a number, an interval [lo, hi], a Pareto front [(x,y),...], true/false, Infinity, "
+          "NaN, Error or ?")
+
+
+def _interval(text: str) -> tuple[float, float]:
+    """The bounds of ``[lo, hi]``; ValueError unless two numbers with lo <= hi."""
+    parts = text[1:-1].split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        lo, hi = (_number(x) for x in parts)
+    except (ValueError, ZeroDivisionError):
+        raise ValueError(f"RESULT interval {text!r} is not [lo, hi] with two numbers") from None
+    if not lo <= hi:
+        raise ValueError(f"RESULT interval {text!r} is empty: its lower end exceeds its upper end")
+    return lo, hi
+
+
+def check_form(text: str) -> None:
+    """ValueError unless ``text`` is one of the RESULT forms (see the module docstring)."""
+    if text.strip() == "?":
+        return
+    low = text.lower()
+    if low in ("true", "false") or low == "error" or low.startswith("error:"):
+        return
+    if text.startswith("[(") and text.endswith("]"):
+        _points(text)  # a Pareto front: [(x,y),...]
+        return
+    if text.startswith("[") and text.endswith("]"):
+        _interval(text)
+        return
+    try:
+        _number(text)
+    except (ValueError, ZeroDivisionError):
+        raise ValueError(f"RESULT value {text!r} is not {_FORMS}") from None
+
+
 def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
           tolerance: float = DEFAULT_TOLERANCE) -> Verdict:
     """Whether ``outcome`` matches ``expected``.
@@ -85,6 +122,7 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
     text = expected.text.strip()
     if text == "?":
         return Verdict(None, text, "-")
+    check_form(text)  # a malformed line is an input error whatever the outcome
     if isinstance(outcome, PosgmcError):
         actual = f"Error: {outcome.message}"
         if text.lower().startswith("error"):
@@ -93,6 +131,9 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
         return Verdict(False, text, actual)
     if text.lower().startswith("error"):
         return Verdict(False, text, _show(outcome.value))
+    front = getattr(outcome, "front", None)
+    if front is not None or text.startswith("[("):
+        return _grade_front(text, front, tolerance)
     value: object = outcome.value
     if expected.number is not None:
         number = getattr(outcome, expected.number, None)
@@ -106,15 +147,16 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
     exact = getattr(outcome, "exact", None) if expected.number is None else None
     if exact is not None and not text.startswith("["):
         # exact mode (PRISM's -exact test rule): the fraction must be equal, not close
+        fraction: Fraction | None
         try:
-            wanted = Fraction(text)
+            fraction = Fraction(text)
         except (ValueError, ZeroDivisionError):
-            wanted = None
-        if wanted is not None:
-            return Verdict(exact == wanted, text, str(exact))
+            fraction = None
+        if fraction is not None:
+            return Verdict(exact == fraction, text, str(exact))
     v = float(value)  # type: ignore[arg-type]
     if text.startswith("[") and text.endswith("]"):
-        lo, hi = (_number(x) for x in text[1:-1].split(","))
+        lo, hi = _interval(text)
         return Verdict(lo - tolerance * abs(lo) <= v <= hi + tolerance * abs(hi), text, _show(v))
     try:
         e = _number(text)
@@ -122,3 +164,36 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
         raise ValueError(f"RESULT value {text!r} is not a number, interval, true/false, "
                          "Infinity, NaN, Error or ?") from None
     return Verdict(_close(v, e, tolerance), text, _show(v))
+
+
+def _points(text: str) -> list[tuple[float, ...]]:
+    """``[(1,0),(0.6,0.4)]`` (PRISM's Pareto RESULT; stray parentheses tolerated) as tuples."""
+    import re
+
+    groups = re.findall(r"\(([^()]*)\)", text)
+    if not groups:
+        raise ValueError(f"RESULT value {text!r} is not a list of points [(x,y),...]")
+    return [tuple(_number(x) for x in g.split(",")) for g in groups]
+
+
+def _grade_front(text: str, front: object, tolerance: float) -> Verdict:
+    """A Pareto RESULT passes when the same vertices were found: every expected point is close to
+    a vertex of the computed front and every vertex close to an expected point (relative
+    ``tolerance``, absolute 1e-6 near 0)."""
+    if front is None:
+        return Verdict(False, text, "not a Pareto front")
+    if not text.startswith("[("):
+        return Verdict(False, text, front.text())  # type: ignore[attr-defined]
+    wanted = _points(text)
+    got = [tuple(float(v) for v in p) for p in front.points]  # type: ignore[attr-defined]
+    actual = front.text()  # type: ignore[attr-defined]
+
+    def near(p: tuple[float, ...], q: tuple[float, ...]) -> bool:
+        return len(p) == len(q) and all(
+            abs(a - b) <= max(tolerance * abs(b), 1e-6) for a, b in zip(p, q)
+        )
+
+    ok = all(any(near(g, w) for g in got) for w in wanted) and all(
+        any(near(g, w) for w in wanted) for g in got
+    )
+    return Verdict(ok, text, actual)

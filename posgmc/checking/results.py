@@ -62,6 +62,7 @@ class ResultKind(enum.Enum):
     REWARD = "reward"
     BOOLEAN = "boolean"
     NUMBER = "number"  # arithmetic over queries
+    PARETO = "pareto"  # a multi(...) Pareto query: the front is in ``multi.front``
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,6 +109,13 @@ class PropertyResult:
     synthesis: Mapping[str, Any] | None = None
     strategies: tuple[Any, ...] = field(default=(), repr=False)
     exact: Fraction | None = None
+    multi: Any = field(default=None, repr=False)
+
+    @property
+    def front(self) -> Any:
+        """The Pareto front of a ``multi(...)`` Pareto query
+        (:class:`~posgmc.checking.multi.Front`), else None."""
+        return getattr(self.multi, "front", None)
 
     def to_json(self) -> dict[str, Any]:
         """The documented machine-readable form (see docs/cli.md)."""
@@ -142,4 +150,10 @@ class PropertyResult:
             out["full_observation"] = self.full_observation.to_json()
         if self.synthesis is not None:
             out.update(self.synthesis)
+        if self.multi is not None:
+            out["multi"] = {"kind": self.multi.kind.value, "lp_states": self.multi.states}
+            if self.front is not None:
+                out["front"] = self.front.to_json()
+            elif self.kind is ResultKind.BOOLEAN:
+                out["multi"].update(decided=self.multi.decided, margin=num(self.multi.margin))
         return out

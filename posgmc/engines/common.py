@@ -20,13 +20,15 @@ other way round.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from posgmc.engines import exact as ex
 from posgmc.engines.graph import Structure, attractor
-from posgmc.engines.iteration import Bounds, EndComponents, System, choose, solve
+from posgmc.engines.certify import certify
+from posgmc.engines.iteration import Bounds, EndComponents, System, _widen, choose, solve
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.errors import PosgmcError, UnsupportedError
@@ -149,6 +151,49 @@ class _Solved:
     best_rows: np.ndarray | None  # int64[n] global choices
     candidates: np.ndarray | None  # bool[C] global choices that are not provably suboptimal
     needs_fix: bool = False  # the reacher has end components: the attractor fix is required
+    estimate: np.ndarray | None = None  # policy iteration's values (reported inside the bounds)
+
+
+_STIFF_STEPS = 2_000
+"""Interval iteration that has not converged after this many steps is stiff (a loop left with a
+tiny probability): policy iteration with a certificate is tried before it goes on."""
+
+_STIFF_LIMIT = 200_000
+"""Up to this many unknowns, policy iteration's sparse LU solves are affordable for that."""
+
+
+def _policy_solution(
+    sys: System,
+    gr: ex.Grouped,
+    initial_rows: np.ndarray | None,
+    *,
+    outer_max: bool,
+    idle_min: bool,
+    unbounded: bool,
+    is_chain: bool,
+    max_rounds: int,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """Policy iteration (a direct solve for a chain): values, the local row of each state, rounds."""
+    if initial_rows is None:
+        start = gr.row_groups[:-1].copy()
+    else:
+        inv = np.empty(gr.source.size, dtype=np.int64)  # local rows -> grouped rows
+        inv[gr.source] = np.arange(gr.source.size)
+        start = inv[initial_rows]
+    if is_chain:
+        return ex.evaluate(gr, start), gr.source[start], 1
+    x, rows, rounds = ex.policy_iteration(
+        gr, start, outer_max=outer_max, idle_min=idle_min, unbounded=unbounded,
+        max_rounds=max_rounds,
+    )
+    return x, gr.source[rows], rounds
+
+
+def _candidates(sys: System, rows: np.ndarray, num_choices: int) -> tuple[np.ndarray, np.ndarray]:
+    best = sys.rows[rows]
+    cand = np.zeros(num_choices, dtype=bool)
+    cand[best] = True
+    return best, cand
 
 
 def _solve_system(
@@ -163,43 +208,75 @@ def _solve_system(
     unbounded: bool = False,
     initial_rows: np.ndarray | None = None,
     is_chain: bool = False,
+    interval: Callable[[], Bounds] | None = None,
 ) -> _Solved:
-    """Dispatch on the method (see :mod:`posgmc.engines.iteration`, :mod:`posgmc.engines.exact`)."""
+    """Dispatch on the method (see :mod:`posgmc.engines.iteration`, :mod:`posgmc.engines.exact`).
+
+    Policy iteration's values get proven bounds from :func:`~posgmc.engines.certify.certify`, or,
+    where no certificate is found, from ``interval()`` (default: :func:`solve` by interval
+    iteration; objectives with another sound solver pass theirs). Interval iteration that turns
+    out stiff (not converged after :data:`_STIFF_STEPS` steps) tries the same certificate on
+    policy iteration's solution before it goes on."""
     n = sys.n
     if n == 0:
         z = np.zeros(0)
         return _Solved(
             z, z.copy(), 0, True, options.method is not Method.VALUE, np.zeros(0, np.int64), None
         )
+    certifiable = ec is not EndComponents.INFLATE and not unbounded
+
+    def policy(start: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, int, _Solved | None]:
+        x, rows, rounds = _policy_solution(
+            sys, ex.grouped(sys), start, outer_max=outer_max, idle_min=idle_min,
+            unbounded=unbounded, is_chain=is_chain, max_rounds=options.max_iterations,
+        )
+        proven = (
+            certify(sys, x, rows, cap=cap, precision=options.precision, relative=options.relative)
+            if certifiable else None
+        )
+        if proven is None:
+            return x, rows, rounds, None
+        lower, upper = _widen(*proven)
+        best, cand = _candidates(sys, rows, num_choices)
+        return x, rows, rounds, _Solved(lower, upper, rounds, True, True, best, cand, estimate=x)
+
     if options.method in (Method.EXACT, Method.POLICY):
-        gr = ex.grouped(sys)
-        if initial_rows is None:
-            start = gr.row_groups[:-1].copy()
-        else:
-            # map System rows (local) to grouped rows
-            inv = np.empty(gr.source.size, dtype=np.int64)
-            inv[gr.source] = np.arange(gr.source.size)
-            start = inv[initial_rows]
-        if is_chain:
-            x = ex.evaluate(gr, start)
-            rows = start
-            rounds = 1
-        else:
-            x, rows, rounds = ex.policy_iteration(
-                gr,
-                start,
-                outer_max=outer_max,
-                idle_min=idle_min,
-                unbounded=unbounded,
-                max_rounds=options.max_iterations,
+        if not options.prove:
+            x, rows, rounds = _policy_solution(
+                sys, ex.grouped(sys), initial_rows, outer_max=outer_max, idle_min=idle_min,
+                unbounded=unbounded, is_chain=is_chain, max_rounds=options.max_iterations,
             )
-        best = sys.rows[gr.source[rows]]
-        cand = np.zeros(num_choices, dtype=bool)
-        cand[best] = True
-        return _Solved(x, x.copy(), rounds, True, True, best, cand)
-    bounds: Bounds = solve(sys, options, cap=cap, ec=ec)
-    best_rows = None
-    cand = None
+            best, cand = _candidates(sys, rows, num_choices)
+            return _Solved(x, x.copy(), rounds, True, False, best, cand, estimate=x)
+        x, rows, rounds, solved = policy(initial_rows)
+        if solved is not None:
+            return solved
+        # No certificate (end components, infinite values, a gap above the precision): the same
+        # optimal strategy, with bounds proven by interval iteration.
+        if interval is None:
+            bounds = solve(sys, replace(options, method=Method.INTERVAL), cap=cap, ec=ec)
+        else:
+            bounds = interval()
+        best, cand = _candidates(sys, rows, num_choices)
+        return _Solved(bounds.lower, bounds.upper, rounds + bounds.iterations, bounds.converged,
+                       bounds.sound, best, cand, estimate=np.clip(x, bounds.lower, bounds.upper))
+    if (options.method is Method.INTERVAL and certifiable and n <= _STIFF_LIMIT
+            and options.max_iterations > _STIFF_STEPS):
+        bounds = solve(sys, replace(options, max_iterations=_STIFF_STEPS), cap=cap, ec=ec)
+        if not bounds.converged:
+            start, _ = choose(sys, bounds.lower, bounds.upper)
+            x_pi, _, _, solved = policy(start)
+            if solved is not None:  # both are proven: keep their intersection
+                lower = np.maximum(solved.lower, bounds.lower)
+                upper = np.minimum(solved.upper, bounds.upper)
+                return replace(solved, lower=lower, upper=upper,
+                               iterations=bounds.iterations + solved.iterations,
+                               estimate=np.clip(x_pi, lower, upper))
+            bounds = solve(sys, options, cap=cap, ec=ec)
+    else:
+        bounds = solve(sys, options, cap=cap, ec=ec)
+    best_rows: np.ndarray | None = None
+    cand: np.ndarray | None = None
     if options.want_strategy:
         lo = bounds.lower
         hi = bounds.upper if options.method is not Method.VALUE else bounds.lower
@@ -242,6 +319,8 @@ def _result(
         upper[sys.states] = solved.upper
         if method is Method.VALUE:
             values[sys.states] = solved.lower
+        elif solved.estimate is not None:
+            values[sys.states] = solved.estimate
         else:
             with np.errstate(invalid="ignore"):
                 mid = np.where(

@@ -99,6 +99,7 @@ def _discounted(
     sys = replace(base, matrix=scaled, stays=np.zeros(base.m, dtype=bool))
     iterations = 0
     converged = True
+    solved = None
     if options.method in (Method.EXACT, Method.POLICY) and sys.n:
         solved = _solve_system(
             sys,
@@ -111,9 +112,10 @@ def _discounted(
             is_chain=model.model_type is ModelType.DTMC,
             initial_rows=(None if options.initial_strategy is None
                           else _local_rows(sys, options.initial_strategy)),
+            interval=lambda: solve_discounted(sys, replace(options, method=Method.INTERVAL))[0],
         )
-        lo = hi = solved.lower
-        iterations = solved.iterations
+        lo, hi = solved.lower, solved.upper
+        iterations, converged = solved.iterations, solved.converged
         best = solved.best_rows
     else:
         bounds, best_local = solve_discounted(sys, options)
@@ -122,7 +124,7 @@ def _discounted(
         best = sys.rows[best_local]
     lower[sys.states] = lo
     upper[sys.states] = hi
-    x[sys.states] = 0.5 * (lo + hi)
+    x[sys.states] = 0.5 * (lo + hi) if solved is None or solved.estimate is None else solved.estimate
     if strategy is not None and best is not None:
         strategy[sys.states] = best
     return EngineResult(

@@ -22,7 +22,10 @@ class Method(enum.Enum):
     :mod:`posgmc.engines.iteration`). ``VALUE`` is plain value iteration from below with the usual
     unsound stopping rule (``lower = upper = values``, ``sound = False``). ``POLICY`` is policy
     iteration with an exact linear solve per evaluation (mdp/smg; dtmc as ``EXACT``). ``EXACT`` is a
-    direct sparse LU solve for a dtmc and policy iteration to optimality for an mdp/smg.
+    direct sparse LU solve for a dtmc and policy iteration to optimality for an mdp/smg. Both
+    report bounds proven by :func:`~posgmc.engines.certify.certify`, or by interval iteration
+    where no certificate is found; ``INTERVAL`` tries that certificate too once its iteration
+    turns out stiff (:mod:`posgmc.engines.common`).
     """
 
     INTERVAL = "interval"
@@ -46,6 +49,10 @@ class SolverOptions:
     max_iterations: int = 1_000_000
     want_strategy: bool = True
     initial_strategy: np.ndarray | None = field(default=None, compare=False, repr=False)
+    prove: bool = True
+    """``POLICY``/``EXACT``: prove the bounds (a certificate, else interval iteration). False
+    returns policy iteration's float values as they are (``sound=False``): for searches that
+    only rank candidates and verify the winner afterwards."""
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.precision) and self.precision > 0):

@@ -39,7 +39,7 @@ from posgmc.engines.graph import (
     positive_buchi,
     structure_of,
 )
-from posgmc.engines.iteration import EndComponents, System, build_system, choose
+from posgmc.engines.iteration import Bounds, EndComponents, System, build_system, choose
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.engines.signed import proper_region, solve_proper, start_bounds, value_iteration
@@ -249,15 +249,12 @@ def _solve_signed(
             idle_min=False,
             initial_rows=initial_rows,
             is_chain=model.model_type is ModelType.DTMC,
+            interval=lambda: _proper_bounds(g, unknown, r, allowed, sys, options),
         )
     if options.method is Method.VALUE:
         bounds = value_iteration(sys, options)
     else:
-        lower0, upper0, aux_iterations = start_bounds(
-            g, unknown, r, allowed=allowed, options=options
-        )
-        bounds = solve_proper(sys, options, lower=lower0[sys.states], upper=upper0[sys.states])
-        bounds = replace(bounds, iterations=bounds.iterations + aux_iterations)
+        bounds = _proper_bounds(g, unknown, r, allowed, sys, options)
     best_rows = None
     candidates = None
     if options.want_strategy:
@@ -343,3 +340,19 @@ def _improper_error(
         "component outside the target), keep the rewards non-negative, or use a discounted "
         "reward (R[Fdiscount=g ...])",
     )
+
+
+def _proper_bounds(
+    g: Structure,
+    unknown: np.ndarray,
+    r: np.ndarray,
+    allowed: np.ndarray,
+    sys: System,
+    options: SolverOptions,
+) -> Bounds:
+    """Proven bounds of a system whose policies are all proper (:mod:`posgmc.engines.signed`):
+    value iteration between the sound start bounds."""
+    lower0, upper0, aux_iterations = start_bounds(g, unknown, r, allowed=allowed, options=options)
+    options = replace(options, method=Method.INTERVAL)
+    bounds = solve_proper(sys, options, lower=lower0[sys.states], upper=upper0[sys.states])
+    return replace(bounds, iterations=bounds.iterations + aux_iterations)

@@ -4,6 +4,10 @@ This module needs nothing but numpy and scipy, so engines can be tested on hand-
 The layout follows Storm's sparse models and PRISM's explicit engine: the choices of all states
 are the rows of one matrix, grouped by state.
 
+Every array of the record is read-only (numpy's ``writeable`` flag is cleared at construction):
+nothing mutates a compiled game, engines derive new arrays. :meth:`ExplicitModel.validate`
+checks every invariant below; :func:`make_model` normalises and validates hand-built input.
+
 Notation: ``S`` = ``num_states``, ``C`` = ``num_choices``, ``V`` = number of state variables.
 
 ==================  ===========================  ==================================================
@@ -47,13 +51,21 @@ import numpy as np
 import scipy.sparse as sp
 
 from posgmc.errors import PosgmcError
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["ExplicitModel", "Observation", "RewardModel", "ModelInvariantError"]
 
 
 class ModelInvariantError(PosgmcError):
     """A hand-built or imported model violates an invariant of :class:`ExplicitModel`."""
+
+
+def _freeze(*arrays: np.ndarray | None) -> None:
+    """Make the arrays of a compiled model read-only: nothing mutates a model after assembly
+    (engines derive new arrays), and numpy now enforces it."""
+    for a in arrays:
+        if a is not None:
+            a.flags.writeable = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,6 +83,9 @@ class Observation:
     names: tuple[str, ...]
     values: np.ndarray
 
+    def __post_init__(self) -> None:
+        _freeze(self.state_ids, self.values)
+
     @property
     def num_observations(self) -> int:
         return int(self.values.shape[0])
@@ -84,6 +99,9 @@ class RewardModel:
     name: str | None
     state: np.ndarray | None = None
     choice: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        _freeze(self.state, self.choice)
 
     def choice_rewards(self, row_groups: np.ndarray) -> np.ndarray:
         """Reward collected when choice c is taken in its state: state reward + action reward."""
@@ -116,6 +134,14 @@ class ExplicitModel:
     deadlocks: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     boolean_variables: frozenset[str] = frozenset()
     exact_probabilities: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        T = self.transitions
+        _freeze(
+            self.initial_states, self.row_groups, T.data, T.indices, T.indptr,
+            self.choice_actions, self.state_players, self.state_values, self.deadlocks,
+            self.exact_probabilities, *self.labels.values(),
+        )
 
     # -- sizes, counted as Storm counts them ----------------------------------------------------
 
@@ -203,9 +229,14 @@ class ExplicitModel:
         T = self.transitions
         if exact.shape != (T.nnz,):
             raise ModelInvariantError("exact_probabilities needs one entry per transition")
-        for row in range(T.shape[0]):
-            if sum(exact[T.indptr[row]:T.indptr[row + 1]]) != 1:
-                raise ModelInvariantError(f"choice {row} has exact probabilities not summing to 1")
+        # np.add.reduceat adds the Fractions of each row exactly (object dtype); every row of a
+        # model that passed the float checks has at least one entry.
+        sums = np.add.reduceat(exact, T.indptr[:-1]) if T.nnz else exact
+        bad = np.flatnonzero(sums != 1)
+        if bad.size:
+            raise ModelInvariantError(
+                f"choice {int(bad[0])} has exact probabilities not summing to 1"
+            )
 
     def validate(self, *, tolerance: float = 1e-9) -> "ExplicitModel":
         """Check every invariant of the module docstring; raise :class:`ModelInvariantError`."""
@@ -218,18 +249,12 @@ class ExplicitModel:
         if rg[0] != 0 or np.any(np.diff(rg) < 1):
             raise ModelInvariantError("row_groups must start at 0 and give every state >= 1 choice")
         C = self.num_choices
-        T = self.transitions
-        if T.shape != (C, S):
-            raise ModelInvariantError(f"transitions has shape {T.shape}, expected {(C, S)}")
-        sums = np.asarray(T.sum(axis=1)).ravel()
-        bad = np.flatnonzero(np.abs(sums - 1.0) > tolerance)
-        if bad.size:
-            raise ModelInvariantError(f"choice {int(bad[0])} has probabilities summing to {sums[bad[0]]}")
-        if T.nnz and T.data.min() <= 0:
-            raise ModelInvariantError("transition probabilities must be positive")
+        self._validate_transitions(C, S, tolerance)
         init = self.initial_states
         if init.size < 1 or init.min() < 0 or init.max() >= S:
             raise ModelInvariantError("initial states must be non-empty and within [0, num_states)")
+        if np.any(np.diff(init) <= 0):
+            raise ModelInvariantError("initial states must be sorted and distinct")
         if self.choice_actions.shape != (C,):
             raise ModelInvariantError("choice_actions must have one entry per choice")
         if not self.action_names or self.action_names[0] != "":
@@ -240,7 +265,8 @@ class ExplicitModel:
             raise ModelInvariantError("deadlock states must be within [0, num_states)")
         if self.state_values.shape != (S, len(self.variable_names)):
             raise ModelInvariantError(
-                f"state_values has shape {self.state_values.shape}, expected {(S, len(self.variable_names))}"
+                f"state_values has shape {self.state_values.shape}, "
+                f"expected {(S, len(self.variable_names))}"
             )
         if self.state_players.shape != (S,):
             raise ModelInvariantError("state_players must have one entry per state")
@@ -249,14 +275,8 @@ class ExplicitModel:
         if self.model_type.is_game and self.player_names:
             if self.state_players.min() < 0 or self.state_players.max() >= len(self.player_names):
                 raise ModelInvariantError("state_players must index player_names")
-        for obs in self.observations:
-            if obs.state_ids.shape != (S,):
-                raise ModelInvariantError("an observation needs one id per state")
-            if obs.state_ids.min() < 0 or obs.state_ids.max() >= obs.num_observations:
-                raise ModelInvariantError("observation ids must lie in [0, num_observations)")
-        for name, lab in self.labels.items():
-            if lab.shape != (S,) or lab.dtype != np.bool_:
-                raise ModelInvariantError(f'label "{name}" must be bool[num_states]')
+        self._validate_observations(S)
+        self._validate_labels(S)
         if self.exact_probabilities is not None:
             self._validate_exact()
         for rm in self.reward_models:
@@ -264,7 +284,76 @@ class ExplicitModel:
                 raise ModelInvariantError(f"reward model {rm.name!r}: state rewards need shape ({S},)")
             if rm.choice is not None and rm.choice.shape != (C,):
                 raise ModelInvariantError(f"reward model {rm.name!r}: choice rewards need shape ({C},)")
+        self._validate_dtypes()
         return self
+
+    def _validate_dtypes(self) -> None:
+        expected: list[tuple[str, np.ndarray | None, type]] = [
+            ("initial_states", self.initial_states, np.int64),
+            ("row_groups", self.row_groups, np.int64),
+            ("transitions.data", self.transitions.data, np.float64),
+            ("choice_actions", self.choice_actions, np.int32),
+            ("state_players", self.state_players, np.int32),
+            ("state_values", self.state_values, np.int64),
+            ("deadlocks", self.deadlocks, np.int64),
+        ]
+        for obs in self.observations:
+            expected += [("observation state_ids", obs.state_ids, np.int32),
+                         ("observation values", obs.values, np.int64)]
+        for rm in self.reward_models:
+            expected += [(f"reward model {rm.name!r} state", rm.state, np.float64),
+                         (f"reward model {rm.name!r} choice", rm.choice, np.float64)]
+        for what, array, dtype in expected:
+            if array is not None and array.dtype != dtype:
+                raise ModelInvariantError(
+                    f"{what} has dtype {array.dtype}, expected {np.dtype(dtype).name}"
+                )
+
+    def _validate_transitions(self, C: int, S: int, tolerance: float) -> None:
+        T = self.transitions
+        if T.shape != (C, S):
+            raise ModelInvariantError(f"transitions has shape {T.shape}, expected {(C, S)}")
+        sums = np.asarray(T.sum(axis=1)).ravel()
+        bad = np.flatnonzero(np.abs(sums - 1.0) > tolerance)
+        if bad.size:
+            raise ModelInvariantError(f"choice {int(bad[0])} has probabilities summing to {sums[bad[0]]}")
+        if T.nnz and T.data.min() <= 0:
+            raise ModelInvariantError("transition probabilities must be positive")
+        # Within a row, column indices strictly increase (sorted, no duplicates); a decrease or
+        # repeat is allowed only where a new row starts.
+        steps = np.diff(T.indices.astype(np.int64))
+        row_start = np.zeros(steps.size, dtype=bool)
+        starts = T.indptr[1:-1]
+        row_start[starts[(starts > 0) & (starts <= steps.size)] - 1] = True
+        bad = np.flatnonzero((steps <= 0) & ~row_start)
+        if bad.size:
+            row = int(np.searchsorted(T.indptr, bad[0], side="right") - 1)
+            raise ModelInvariantError(
+                f"choice {row} has unsorted or repeated column indices in transitions"
+            )
+
+    def _validate_observations(self, S: int) -> None:
+        players = len(self.player_names) if self.player_names else 1
+        for obs in self.observations:
+            if not 0 <= obs.player < players:
+                raise ModelInvariantError(f"an observation names player {obs.player}, which does not exist")
+            if obs.state_ids.shape != (S,):
+                raise ModelInvariantError("an observation needs one id per state")
+            if obs.values.ndim != 2 or obs.values.shape[1] != len(obs.names):
+                raise ModelInvariantError(
+                    f"observation values have shape {obs.values.shape}, expected one column per "
+                    f"observable ({len(obs.names)})"
+                )
+            if obs.state_ids.min() < 0 or obs.state_ids.max() >= obs.num_observations:
+                raise ModelInvariantError("observation ids must lie in [0, num_observations)")
+
+    def _validate_labels(self, S: int) -> None:
+        for name, lab in self.labels.items():
+            if lab.shape != (S,) or lab.dtype != np.bool_:
+                raise ModelInvariantError(f'label "{name}" must be bool[num_states]')
+        for name in ("init", "deadlock"):
+            if name not in self.labels:
+                raise ModelInvariantError(f'the label "{name}" is missing')
 
 
 def make_model(
@@ -292,7 +381,7 @@ def make_model(
     """
     rg = np.asarray(row_groups, dtype=np.int64)
     S = rg.size - 1
-    T = sp.csr_matrix(transitions, dtype=np.float64)
+    T = sp.csr_matrix(transitions, dtype=np.float64, copy=True)
     T.sum_duplicates()
     T.eliminate_zeros()
     T.sort_indices()

@@ -59,6 +59,7 @@ from posgmc.semantics.evaluate import (
     substitute,
 )
 from posgmc.semantics.flat import FlatModel
+from posgmc.semantics.multi import check_multi
 from posgmc.semantics.resolve import RESERVED_LABELS, position, variable_types
 from posgmc.semantics.symbols import (
     Symbol,
@@ -80,6 +81,7 @@ from posgmc.syntax.ast import (
     LabelRef,
     ModelFile,
     ModelType,
+    MultiQuery,
     ProbQuery,
     PropertiesFile,
     Property,
@@ -348,6 +350,10 @@ def _analyse(
         e = replace_labels(substitute(prop.expr, formulas), labels)
         # a path formula outside P/R is reported by the type checker ("temporal operator ...")
         t = tc.check(e)
+        check_multi(e, model_type=model.model_type, errors=errors)
+        if isinstance(e, MultiQuery) and e.coalition is not None and model.model_type.is_game:
+            _resolve_coalition(e.coalition, model_type=model.model_type, players=players,
+                               zero_based=zero_based_players, errors=errors)
         for node in iter_nodes(e):
             if isinstance(node, (ProbQuery, RewardQuery)):
                 _check_query(

@@ -31,6 +31,7 @@ from posgmc.syntax.ast import (
     IntLit,
     Ite,
     LabelRef,
+    MultiQuery,
     ProbQuery,
     RewardKind,
     RewardQuery,
@@ -142,6 +143,8 @@ class TypeChecker:
             return self._prob(e)
         if isinstance(e, RewardQuery):
             return self._reward(e)
+        if isinstance(e, MultiQuery):
+            return self._multi(e)
         self._error(f"unexpected expression {type(e).__name__}", e.span)
         return None
 
@@ -342,6 +345,14 @@ class TypeChecker:
         if t is None or not ok:
             return None
         return Type.DOUBLE if e.threshold is None else Type.BOOL
+
+    def _multi(self, e: MultiQuery) -> Type | None:
+        # which arguments may stand in multi(...) is semantics/multi.py's question; here each
+        # argument is typed, and the query is Boolean when every argument has a threshold
+        types = [self._type(o) for o in e.objectives]
+        if any(t is None for t in types):
+            return None
+        return Type.BOOL if all(t is Type.BOOL for t in types) else Type.DOUBLE
 
     def _reward(self, e: RewardQuery) -> Type | None:
         if not self._query_allowed(e, "R"):

@@ -12,6 +12,8 @@ from lark import Token
 from posgmc.errors import ParseError, SourceSpan, UnsupportedError
 from posgmc.syntax.ast import (
     FUNCTION_ARITY,
+    Binary,
+    BinaryOp,
     BoolLit,
     Call,
     Coalition,
@@ -26,6 +28,7 @@ from posgmc.syntax.ast import (
     Ite,
     LabelRef,
     PlayerRef,
+    MultiQuery,
     ProbQuery,
     RewardKind,
     RewardObjective,
@@ -242,6 +245,21 @@ class ExpressionActions(ActionBase):
         return RewardQuery(
             coalition, op.reward, op.direction, op.threshold, children[-1], span=span
         )
+
+    def multi_query(self, span: SourceSpan, children: Sequence[Any]) -> MultiQuery:
+        return MultiQuery(tuple(c for c in children if not isinstance(c, Token)), span=span)
+
+    def coalition_multi(self, span: SourceSpan, children: Sequence[Any]) -> MultiQuery:
+        coalition, body = children[0], children[-1]
+        parts: list[Expr] = []
+        stack = [body]
+        while stack:  # the conjuncts, left to right
+            e = stack.pop()
+            if isinstance(e, Binary) and e.op is BinaryOp.AND:
+                stack += [e.right, e.left]
+            else:
+                parts.append(e)
+        return MultiQuery(tuple(parts), coalition, span=span)
 
     def rew_cumulative(self, span: SourceSpan, children: Sequence[Expr]) -> RewardObjective:
         return RewardObjective(RewardKind.CUMULATIVE, bound=children[0], span=span)

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 from posgmc.errors import SourceSpan
+from posgmc.model.types import ModelType as ModelType  # the compiled game's enum, named here too
 
 NO_SPAN = SourceSpan(0, 0)
 
@@ -23,28 +24,6 @@ NO_SPAN = SourceSpan(0, 0)
 def _span() -> SourceSpan:
     # keyword-only so that subclasses can declare required positional fields after it
     return field(default=NO_SPAN, compare=False, repr=False, kw_only=True)  # type: ignore[no-any-return]
-
-
-class ModelType(enum.Enum):
-    """The model types of the language; ``posg`` is posgmc's extension."""
-
-    DTMC = "dtmc"
-    MDP = "mdp"
-    POMDP = "pomdp"
-    SMG = "smg"
-    POSG = "posg"
-
-    @property
-    def is_game(self) -> bool:
-        return self in (ModelType.SMG, ModelType.POSG)
-
-    @property
-    def is_partially_observable(self) -> bool:
-        return self in (ModelType.POMDP, ModelType.POSG)
-
-    @property
-    def is_nondeterministic(self) -> bool:
-        return self is not ModelType.DTMC
 
 
 class VarType(enum.Enum):
@@ -297,6 +276,17 @@ class RewardQuery(Expr):
     direction: Direction | None
     threshold: Threshold | None
     objective: RewardObjective
+
+
+@dataclass(frozen=True)
+class MultiQuery(Expr):
+    """PRISM's multi-objective query ``multi(q1, ..., qn)``; each ``objectives[i]`` is written as a
+    :class:`ProbQuery` or :class:`RewardQuery` (the semantics check it): all thresholds is an
+    achievability query, one ``=?`` a numerical one, two a Pareto query. PRISM-games' form
+    ``<<C>> (q1 & q2)`` (a coalition over a conjunction of queries) has ``coalition`` set."""
+
+    objectives: tuple[Expr, ...]
+    coalition: Coalition | None = None
 
 
 # ---------------------------------------------------------------------------------------------

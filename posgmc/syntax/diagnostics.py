@@ -27,6 +27,7 @@ from posgmc.syntax.ast import (
     FormulaDecl,
     Ite,
     LabelDecl,
+    MultiQuery,
     ProbQuery,
     RewardKind,
     RewardObjective,
@@ -46,6 +47,7 @@ _REGEX_NAMES: dict[str, str] = {
     "PIDENT": "a name",
     "IDENTPRIME": "a primed variable (x')",
     "CALLNAME": "a function name",
+    "MULTI": "multi(",
     "INT": "an integer",
     "DOUBLE": "a number",
     "STRING": 'a quoted name ("...")',
@@ -57,7 +59,7 @@ _EXPRESSION_STARTS = frozenset(
     {
         "INT", "DOUBLE", "IDENT", "PIDENT", "TRUE", "FALSE", "LPAR", "MINUS", "BANG", "MIN", "MAX",
         "CALLNAME", "FUNC", "STRING", "P", "PMIN", "PMAX", "R", "RMIN", "RMAX", "LSQB", "F", "G",
-        "X",
+        "X", "MULTI",
     }
 )  # fmt: skip
 
@@ -161,6 +163,8 @@ def _last_part(value: object) -> object:
     if isinstance(value, (Call, Temporal)):
         operands = value.args if isinstance(value, Call) else value.operands
         return operands[-1] if operands else None
+    if isinstance(value, MultiQuery):
+        return value.objectives[-1] if value.objectives else None
     if isinstance(value, ProbQuery):
         return value.path
     if isinstance(value, RewardQuery):

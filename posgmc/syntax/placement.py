@@ -15,6 +15,7 @@ from posgmc.syntax.ast import (
     Call,
     Expr,
     Ite,
+    MultiQuery,
     ProbQuery,
     RewardKind,
     RewardQuery,
@@ -42,6 +43,8 @@ def _state_children(expr: Expr) -> Iterable[Expr]:
         return expr.args
     if isinstance(expr, Temporal):
         return expr.operands
+    if isinstance(expr, MultiQuery):
+        return expr.objectives
     return ()
 
 

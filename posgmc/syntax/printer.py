@@ -23,6 +23,7 @@ from posgmc.syntax.ast import (
     IntLit,
     Ite,
     LabelRef,
+    MultiQuery,
     ProbQuery,
     RewardKind,
     RewardObjective,
@@ -213,6 +214,11 @@ def _bare(expr: Expr) -> str:
         return f"{expr.function.value}({args})"
     if isinstance(expr, Temporal):
         return _temporal(expr)
+    if isinstance(expr, MultiQuery):
+        if expr.coalition is not None:
+            body = " & ".join(_fmt(o, _ITE) for o in expr.objectives)
+            return f"{format_coalition(expr.coalition)} ({body})"
+        return "multi(" + ", ".join(_fmt(o, _ITE) for o in expr.objectives) + ")"
     if isinstance(expr, ProbQuery):
         prefix = format_coalition(expr.coalition) + " " if expr.coalition else ""
         op = _operator("P", None, expr.direction, expr.threshold)

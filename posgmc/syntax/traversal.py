@@ -11,6 +11,7 @@ from posgmc.syntax.ast import (
     Call,
     Expr,
     Ite,
+    MultiQuery,
     ProbQuery,
     RewardObjective,
     RewardQuery,
@@ -39,6 +40,8 @@ def children(e: Expr) -> tuple[Expr, ...]:
         if e.bound is not None:
             out += [x for x in (e.bound.lower, e.bound.upper) if x is not None]
         return tuple(out)
+    if isinstance(e, MultiQuery):
+        return e.objectives
     if isinstance(e, ProbQuery):
         return ((e.threshold.value,) if e.threshold else ()) + (e.path,)
     if isinstance(e, RewardQuery):
@@ -75,6 +78,8 @@ def map_children(e: Expr, f: Callable[[Expr], Expr]) -> Expr:
         if bound is not None:
             bound = dataclasses.replace(bound, lower=opt(bound.lower), upper=opt(bound.upper))
         new = dataclasses.replace(e, operands=tuple(f(a) for a in e.operands), bound=bound)
+    elif isinstance(e, MultiQuery):
+        new = dataclasses.replace(e, objectives=tuple(f(o) for o in e.objectives))
     elif isinstance(e, ProbQuery):
         new = dataclasses.replace(e, threshold=thr(e.threshold), path=f(e.path))
     elif isinstance(e, RewardQuery):

@@ -29,7 +29,7 @@ from posgmc.syntax.ast import Coalition, Direction, ProbQuery, RewardQuery
 
 __all__ = ["Problem", "Job", "Executor", "InProcess", "ProcessPool", "executor_for", "run_job"]
 
-POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY))
+POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY, prove=False))
 """Exact linear solves (policy iteration): how candidates are ranked, never what is reported."""
 
 

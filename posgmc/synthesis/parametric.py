@@ -208,7 +208,8 @@ class Parametrisation:
             initial = last[2]
         strategy = None
         if pm.transitions.shape[0] > pm.num_states:  # someone still chooses: the best response
-            solver = SolverOptions(method=Method.POLICY, initial_strategy=initial)
+            solver = SolverOptions(method=Method.POLICY, initial_strategy=initial,
+                                   prove=False)
             checker = PropertyChecker(pm, coalition_of=self.coalition_of, scalar=self.scalar,
                                       options=CheckOptions(solver=solver, keep_strategy=True))
             q = checker.query(self.query)

@@ -34,7 +34,7 @@ from posgmc.syntax.ast import Direction, Expr, ProbQuery, RewardKind, RewardQuer
 
 __all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
 
-_POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY))
+_POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY, prove=False))  # ranking only
 _LOGIT = LOGIT
 
 

@@ -4,12 +4,87 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from posgmc.errors import InputError, UnsupportedError
 from posgmc.io.atomic import atomic_open
 from posgmc.tradeoffs.sweep import Sweep
 
-__all__ = ["plot_sweep"]
+if TYPE_CHECKING:
+    from posgmc.checking.multi import Front
+
+__all__ = ["plot_sweep", "plot_sweeps", "plot_front"]
+
+
+def _pyplot():  # type: ignore[no-untyped-def]
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise UnsupportedError("plots need matplotlib", hint="pip install 'posgmc[plot]'") from None
+    return plt
+
+
+def _save(fig, plt, path: str | Path) -> None:  # type: ignore[no-untyped-def]
+    suffix = Path(path).suffix.lower()
+    with atomic_open(path, "wb", encoding=None) as handle:  # never a half-written picture
+        fig.savefig(handle, format=suffix[1:])
+    plt.close(fig)
+
+
+def _check_suffix(path: str | Path) -> None:
+    if Path(path).suffix.lower() not in (".png", ".svg", ".pdf"):
+        raise InputError(f"{path}: a plot is written as .png, .svg or .pdf")
+
+
+def plot_front(front: "Front", path: str | Path, *, title: str | None = None) -> None:
+    """A two-objective Pareto front (:class:`~posgmc.checking.multi.Front`): the achievable
+    region (shaded, its vertices marked and annotated), the over-approximation's boundary (dashed)
+    and the band between them, in the objectives' own units; a minimised objective's better
+    values are the lower ones.
+
+    Raises:
+        UnsupportedError: matplotlib is not installed.
+        InputError: the front is empty (the constraints cannot be met), or an unknown file type.
+    """
+    import numpy as np
+
+    from posgmc.syntax.ast import Direction
+
+    _check_suffix(path)
+    if len(front.points) == 0:
+        raise InputError("the front is empty: the constraints cannot be met together")
+    plt = _pyplot()
+    pts, corners = np.asarray(front.points), np.asarray(front.corners)
+    both = np.vstack([pts, corners]) if len(corners) else pts
+    span = np.maximum(both.max(axis=0) - both.min(axis=0), 1e-9)
+    lo, hi = both.min(axis=0) - 0.15 * span, both.max(axis=0) + 0.15 * span
+    # the worse end of each axis, where the achievable region extends to
+    worse = [lo[i] if front.directions[i] is Direction.MAX else hi[i] for i in range(2)]
+    region = np.vstack([[pts[0][0], worse[1]], pts, [worse[0], pts[-1][1]], [worse[0], worse[1]]])
+    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    ax.fill(region[:, 0], region[:, 1], alpha=0.18, label="achievable (under-approximation)")
+    ax.plot(pts[:, 0], pts[:, 1], marker="o", label="Pareto front (achievable vertices)")
+    if len(corners):
+        band = np.vstack([pts, corners[::-1]])
+        ax.fill(band[:, 0], band[:, 1], alpha=0.35, hatch="//", fill=False,
+                label=f"unknown band (width {front.precision:.2g})")
+        ax.plot(corners[:, 0], corners[:, 1], linestyle="--", marker="x",
+                label="over-approximation (nothing beyond)")
+    for x, y in pts:
+        ax.annotate(f"({x:.4g}, {y:.4g})", (x, y), textcoords="offset points", xytext=(6, 6),
+                    fontsize=8)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_xlabel(f"{front.objectives[0]}  ({front.directions[0].value})", fontsize=8)
+    ax.set_ylabel(f"{front.objectives[1]}  ({front.directions[1].value})", fontsize=8)
+    ax.set_title(title or "Pareto front", fontsize=9)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, plt, path)
 
 
 def plot_sweep(s: Sweep, path: str | Path, *, title: str | None = None) -> None:
@@ -68,3 +143,54 @@ def plot_sweep(s: Sweep, path: str | Path, *, title: str | None = None) -> None:
     with atomic_open(path, "wb", encoding=None) as handle:  # never a half-written picture
         fig.savefig(handle, format=suffix[1:])
     plt.close(fig)
+
+
+def plot_sweeps(sweeps: "list[Sweep]", path: str | Path) -> None:
+    """Several properties against one swept constant (``check --const B=0:4 --plot F``): one
+    property is drawn as :func:`plot_sweep` draws it; several share the axes, each its value with
+    its proven bounds as error bars (the first full-observation bound found drawn dashed).
+
+    Raises:
+        UnsupportedError: matplotlib is not installed.
+        InputError: no point has a number to draw, or an unknown file type.
+    """
+    if len(sweeps) == 1:
+        plot_sweep(sweeps[0], path)
+        return
+    _check_suffix(path)
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    drawn, full_drawn = 0, False
+    for s in sweeps:
+        xs, ys, lo, hi = [], [], [], []
+        for p in s.points:
+            b = p.main_number()
+            if b is None or math.isnan(p.x):
+                continue
+            xs.append(p.x)
+            ys.append(b.value)
+            lo.append(max(0.0, b.value - b.lower))
+            hi.append(max(0.0, b.upper - b.value))
+        if xs:
+            drawn += 1
+            ax.errorbar(xs, ys, yerr=[lo, hi], marker="o", capsize=4, label=s.property)
+            for x, y in zip(xs, ys):
+                ax.annotate(f"{y:.4g}", (x, y), textcoords="offset points", xytext=(6, 6), fontsize=7)
+        full = [(p.x, p.result.full_observation.value) for p in s.points
+                if p.result is not None and p.result.full_observation is not None]
+        if full and not full_drawn:
+            full_drawn = True
+            ax.plot([x for x, _ in full], [v for _, v in full], linestyle="--", marker="x",
+                    color="grey", label="full observation (bound)")
+    if not drawn:
+        plt.close(fig)
+        raise InputError("no property of the sweep has a number to plot")
+    xs_all = sorted({p.x for s in sweeps for p in s.points if not math.isnan(p.x)})
+    if len(xs_all) <= 20 and all(float(x).is_integer() for x in xs_all):
+        ax.set_xticks(xs_all)
+    ax.set_xlabel(sweeps[0].constant)
+    ax.set_ylabel("value (proven bounds)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, plt, path)

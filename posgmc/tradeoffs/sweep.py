@@ -22,7 +22,7 @@ from typing import Any
 from posgmc.checking.results import Bound, PropertyResult
 from posgmc.errors import PosgmcError
 
-__all__ = ["Sweep", "SweepPoint", "sweep", "to_csv"]
+__all__ = ["Sweep", "SweepPoint", "sweep", "sweeps_of_check", "to_csv"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,6 +113,24 @@ def sweep(
                 write_strategy(fss, os.path.join(where, f"{fss.player or 'agent'}.json"))
         points.append(SweepPoint(text, _number(text), outcome, None, where))
     return Sweep(constant, prop, tuple(points))
+
+
+def sweeps_of_check(constant: str, rows: Sequence[tuple[Mapping[str, str], Any]]) -> list[Sweep]:
+    """The sweeps of ``check --const B=0:4``: one per property, from the
+    ``(constant settings as text, CheckReport)`` rows of the swept runs."""
+    out = []
+    for i, o in enumerate(rows[0][1].outcomes):
+        name = o[0] if isinstance(o, tuple) else o.property
+        points = []
+        for constants, report in rows:
+            setting = constants[constant]
+            r = report.outcomes[i]
+            if isinstance(r, tuple):
+                points.append(SweepPoint(setting, _number(setting), None, r[1]))
+            else:
+                points.append(SweepPoint(setting, _number(setting), r))
+        out.append(Sweep(constant, name, tuple(points)))
+    return out
 
 
 def _number(text: str) -> float:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from posgmc.cli import main
@@ -116,3 +117,56 @@ def test_an_interval_may_have_spaces_inside(tmp_path: Path) -> None:
     r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5"])
     assert r.output.strip().splitlines()[-1] == "1 passed, 1 failed", r.output
     assert "expected [1.6,2.0]" in r.output
+
+
+def test_false_plain_error_and_a_fraction(tmp_path: Path) -> None:
+    """``false``, a bare ``Error`` (any error passes) and ``1/2``, each passing and each failing
+    when the outcome differs (p=0.5: P(F x=1) = 1/2, so P<0.4 is false)."""
+    m, p = _files(tmp_path, '// RESULT: false\nP<0.4 [ F x=1 ];\n// RESULT: Error\nR{"nope"}=? [ F x=2 ];\n'
+                            "// RESULT: 1/2\nP=? [ F x=1 ];\n// RESULT: false\nP>=0.4 [ F x=1 ];\n"
+                            "// RESULT: Error\nP=? [ F x=1 ];\n// RESULT: 1/3\nP=? [ F x=1 ];\n")
+    r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5"])
+    assert r.exit_code == 1
+    lines = r.output.strip().splitlines()
+    assert lines[-1] == "3 passed, 3 failed", r.output
+    assert f"FAIL {p}:8: P>=0.4 [ F x=1 ]: expected false, got true" in lines
+    assert f"FAIL {p}:10: P=? [ F x=1 ]: expected Error, got 0.5" in lines
+    assert f"FAIL {p}:12: P=? [ F x=1 ]: expected 1/3, got 0.5" in lines
+
+
+def test_a_missing_result_is_skipped_not_passed(tmp_path: Path) -> None:
+    """A property without a RESULT line is reported as skipped (JUnit: "no RESULT line"), and a
+    file with no RESULT line at all passes nothing."""
+    m, p = _files(tmp_path, "P=? [ F x=1 ];\nP=? [ F x=2 ];\n")
+    junit = tmp_path / "r.xml"
+    r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5", "--junit", str(junit)])
+    assert r.exit_code == 0
+    assert r.output.strip().splitlines()[-1] == "0 passed, 0 failed, 2 skipped"
+    assert junit.read_text().count("no RESULT line") == 2
+
+
+@pytest.mark.parametrize(("line", "message"), [
+    ("[1,2,3]", "RESULT interval '[1,2,3]' is not [lo, hi] with two numbers"),
+    ("[a, 2]", "RESULT interval '[a,2]' is not [lo, hi] with two numbers"),
+    ("[2, 1]", "RESULT interval '[2,1]' is empty"),
+    ("zero", "RESULT value 'zero' is not a number"),
+])
+def test_malformed_values_are_input_errors_even_when_the_property_fails(tmp_path: Path, line: str,
+                                                                       message: str) -> None:
+    """Checked before the outcome is looked at: the second property is itself an error."""
+    for prop in ("P=? [ F x=1 ]", 'R{"nope"}=? [ F x=2 ]'):
+        m, p = _files(tmp_path, f"// RESULT: {line}\n{prop};\n")
+        r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5"])
+        assert r.exit_code == 2, r.output
+        assert f"{p}:1:4: error: {message}" in r.output
+
+
+def test_a_malformed_line_stops_the_run_before_any_check(tmp_path: Path) -> None:
+    """Nothing half-reported: a bad RESULT line further down is found before the first property is
+    checked, so no PASS line and no JUnit file appear."""
+    m, p = _files(tmp_path, "// RESULT: 1\nP=? [ F x=2 ];\n// RESULT: [1, 2, 3]\nP=? [ F x=1 ];\n")
+    junit = tmp_path / "r.xml"
+    r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5", "--junit", str(junit)])
+    assert r.exit_code == 2
+    assert "PASS" not in r.output and f"{p}:3:4: error: RESULT interval" in r.output
+    assert not junit.exists()

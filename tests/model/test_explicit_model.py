@@ -193,3 +193,96 @@ GAPS = [
 def test_validate_gaps(changes: dict[str, Any]) -> None:
     with pytest.raises(ModelInvariantError):
         make_model(ModelType.MDP, ROW_GROUPS, MATRIX, **changes)
+
+
+# ---------------------------------------------------------------------------------------------
+# The invariants make_model establishes by normalising, checked by validate() on a model built
+# directly (as an importer or the assembler does), and read-only arrays.
+# ---------------------------------------------------------------------------------------------
+
+
+def _direct(**changes: Any) -> ExplicitModel:
+    """A valid 2-state mdp built field by field (no normalisation), with ``changes`` applied."""
+    base = mdp()
+    fields = {f: getattr(base, f) for f in (
+        "model_type", "initial_states", "row_groups", "transitions", "choice_actions",
+        "action_names", "state_players", "player_names", "observations", "labels",
+        "reward_models", "variable_names", "state_values", "deadlocks", "boolean_variables",
+    )}
+    fields.update(changes)
+    return ExplicitModel(**fields)
+
+
+def _unsorted_transitions() -> sp.csr_matrix:
+    # Row 0 lists column 1 before column 0 (as a careless importer might).
+    return sp.csr_matrix(
+        (np.array([0.5, 0.5, 1.0, 1.0]), np.array([1, 0, 1, 1], dtype=np.int32),
+         np.array([0, 2, 3, 4], dtype=np.int32)), shape=(3, 2),
+    )
+
+
+DIRECT_INVALID = [
+    ("unsorted-initial", dict(initial_states=np.array([1, 0], dtype=np.int64)),
+     "initial states must be sorted and distinct"),
+    ("repeated-initial", dict(initial_states=np.array([0, 0], dtype=np.int64)),
+     "initial states must be sorted and distinct"),
+    ("unsorted-columns", dict(transitions=_unsorted_transitions()),
+     "choice 0 has unsorted or repeated column indices"),
+    ("row-groups-dtype", dict(row_groups=np.array([0, 2, 3], dtype=np.int32)),
+     "row_groups has dtype int32, expected int64"),
+    ("actions-dtype", dict(choice_actions=np.zeros(3, dtype=np.int64)),
+     "choice_actions has dtype int64, expected int32"),
+    ("no-init-label", dict(labels={"deadlock": np.zeros(2, dtype=bool)}), 'the label "init" is missing'),
+    ("no-deadlock-label", dict(labels={"init": np.array([True, False])}), 'the label "deadlock" is missing'),
+    ("observation-width",
+     dict(model_type=ModelType.POMDP,
+          observations=(Observation(0, np.zeros(2, dtype=np.int32), ("x",), np.zeros((1, 2), dtype=np.int64)),)),
+     "expected one column per observable (1)"),
+    ("observation-player",
+     dict(model_type=ModelType.POMDP,
+          observations=(Observation(3, np.zeros(2, dtype=np.int32), (), np.zeros((1, 0), dtype=np.int64)),)),
+     "an observation names player 3"),
+]
+
+
+@pytest.mark.parametrize(("changes", "fragment"), [c[1:] for c in DIRECT_INVALID], ids=[c[0] for c in DIRECT_INVALID])
+def test_validate_checks_every_documented_invariant(changes: dict[str, Any], fragment: str) -> None:
+    assert _direct().validate().num_states == 2  # the unchanged record is valid
+    with pytest.raises(ModelInvariantError) as info:
+        _direct(**changes).validate()
+    assert fragment in info.value.message
+
+
+def test_exact_probabilities_checked_per_row() -> None:
+    from fractions import Fraction
+
+    good = np.array([Fraction(1, 2), Fraction(1, 2), Fraction(1), Fraction(1)], dtype=object)
+    assert _direct(exact_probabilities=good).validate().num_choices == 3
+    bad = np.array([Fraction(1, 2), Fraction(1, 3), Fraction(1), Fraction(1)], dtype=object)
+    with pytest.raises(ModelInvariantError, match="choice 0 has exact probabilities"):
+        _direct(exact_probabilities=bad).validate()
+
+
+def test_arrays_are_read_only() -> None:
+    model = mdp(reward_models=(RewardModel("r", state=np.zeros(2)),))
+    for array in (model.row_groups, model.transitions.data, model.transitions.indices,
+                  model.choice_actions, model.initial_states, model.label("init"),
+                  model.reward_models[0].state):
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = array[0]
+
+
+def test_the_model_package_needs_no_front_end() -> None:
+    """posgmc.model needs nothing but numpy, scipy and its own enums (docs/architecture.md)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, posgmc.model.explicit; "
+            "print(sorted(m for m in sys.modules if m.startswith(('posgmc.syntax', "
+            "'posgmc.semantics', 'posgmc.compiler', 'posgmc.engines'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+    from posgmc.model.types import ModelType as Compiled
+    from posgmc.syntax.ast import ModelType as Written
+
+    assert Compiled is Written  # one enum, named by both

@@ -82,10 +82,29 @@ def test_pareto_command_table_csv_and_plot(budget_model: Path, tmp_path: Path) -
 def test_pareto_refuses_what_it_cannot_do(budget_model: Path, tmp_path: Path) -> None:
     r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop",
                                   'multi(Pmax=? [ F "safe" ], Pmax=? [ F "over" ])', "--sweep", "B=0:1"])
-    assert r.exit_code == 2 and "multi-objective" in r.output
+    assert r.exit_code == 2 and "--sweep does not apply" in r.output
+    r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop",
+                                  'multi(Pmax=? [ F "safe" ], Pmax=? [ F "safe" ])', "--const", "B=1"])
+    assert r.exit_code == 2 and "not on posg models" in r.output
     r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop", PROP, "--sweep", "B=1"])
     assert r.exit_code == 2 and "one constant with a range" in r.output
     r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop", PROP, "--sweep", "B=0:1",
                                   "--plot", str(tmp_path / "f.txt"), "--memory", "1", "--timeout", "5"])
     assert r.exit_code == 2 and ".png, .svg or .pdf" in r.output
     assert not (tmp_path / "f.txt").exists()
+
+
+def test_check_sweep_draws_a_plot(tmp_path: Path) -> None:
+    pytest.importorskip("matplotlib")
+    path, plot = tmp_path / "chain.prism", tmp_path / "sweep.svg"
+    path.write_text(CHAIN)
+    r = CliRunner().invoke(main, ["check", str(path), "--prop", "P=? [ F x=1 ]", "--prop",
+                                  "P=? [ F x=2 ]", "--const", "p=0.1:0.4:0.9", "--plot", str(plot)])
+    assert r.exit_code == 0, r.output
+    svg = plot.read_text()
+    # one series per property, each point annotated with its value (0.1, 0.5, 0.9 and reversed)
+    assert "</svg>" in svg and svg.count("P=? [ F x=1 ]") >= 1 and svg.count("P=? [ F x=2 ]") >= 1
+    r = CliRunner().invoke(main, ["check", str(path), "--prop", "P=? [ F x=1 ]", "--const", "p=0.5",
+                                  "--plot", str(tmp_path / "none.svg")])
+    assert r.exit_code == 2 and "one swept constant" in r.output
+    assert not (tmp_path / "none.svg").exists()

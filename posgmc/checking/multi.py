@@ -1,0 +1,468 @@
+"""PRISM's multi-objective queries ``multi(...)`` on mdps: what each form asks, as one LP.
+
+Semantics (PRISM manual, "Multi-objective properties"; Forejt et al., TACAS 2011): a strategy is
+sought for the single initial state that meets every objective **at once**:
+
+* achievability ``multi(P>=0.9 [F "goal"], R{"cost"}<=20 [C])``: does one exist? (Boolean);
+* numerical ``multi(Pmax=? [F "goal"], R{"cost"}<=20 [C])``: the optimum of the ``=?`` objective
+  over the strategies meeting the constraints (NaN when none does, as PRISM);
+* Pareto ``multi(Pmax=? [...], R{"cost"}min=? [...])``: the front of the two ``=?`` objectives
+  over those strategies, as an under- and an over-approximation (:mod:`posgmc.engines.multi.pareto`).
+
+A threshold ``P>=p`` here means "some strategy achieves it" (not "every scheduler", as alone).
+Strict and non-strict thresholds are read alike (the LP's closure; PRISM does the same).
+
+Translation (each step a module of its own): every probability objective becomes a condition on
+the end component a path settles in (:mod:`posgmc.engines.multi.settle`): a co-safe LTL formula
+(reachability, until, bounded ``F``, ...) through its DFA product, whose accepting set is closed
+under successors; a formula whose negation is co-safe (``G a``) through the complement; ``G F a``
+and ``F G a`` directly; a minimised probability or an upper bound ``P<=p`` through the
+complement of the formula. Cumulative rewards ``[C<=k]`` unfold the MDP by steps
+(:mod:`posgmc.engines.multi.unfold`). Total rewards must be non-negative; a path may settle only
+where no total-reward objective collects reward. Then one occupation LP
+(:mod:`posgmc.engines.multi.lp`) over the product answers the query.
+
+Precision: an LP optimum is a floating-point number (HiGHS, feasibility tolerances
+:data:`~posgmc.engines.multi.lp.LP_TOLERANCE`), not a proven bound: results say so
+(``sound: false``, ``method: "lp"``). An achievability verdict is **decided** when the
+constraints hold (or fail) with a margin of at least :data:`MARGIN`; at the boundary the
+nominal LP answer is reported with a note that it is within the LP's tolerance.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from posgmc.checking.results import PropertyResult, ResultKind
+from posgmc.engines.multi.lp import LP_TOLERANCE, LPStatus, OccupationLP
+from posgmc.engines.multi.pareto import ParetoFront, pareto_front
+from posgmc.engines.multi.settle import Condition, ConditionKind, settling_options
+from posgmc.engines.multi.unfold import layer_rewards, unfold_steps
+from posgmc.errors import SemanticError, UnsupportedError
+from posgmc.model.explicit import ExplicitModel
+from posgmc.syntax.ast import (
+    NO_SPAN,
+    ComparisonOp,
+    Direction,
+    Expr,
+    MultiQuery,
+    ProbQuery,
+    RewardKind,
+    RewardQuery,
+    Temporal,
+    TemporalOp,
+    Unary,
+    UnaryOp,
+)
+from posgmc.syntax.printer import format_expr
+
+if TYPE_CHECKING:
+    from posgmc.checking.dispatch import PropertyChecker
+
+__all__ = ["MultiKind", "MultiAnswer", "Front", "answer_multi", "check_multi", "MARGIN"]
+
+MARGIN = 1e-6
+"""An achievability verdict is decided when the constraints hold, or fail, by at least this
+much (relative to ``max(1, |bound|)`` for rewards)."""
+
+
+class MultiKind(enum.Enum):
+    ACHIEVABILITY = "achievability"
+    NUMERICAL = "numerical"
+    PARETO = "pareto"
+
+
+@dataclass(frozen=True, eq=False)
+class Front:
+    """A two-objective Pareto front in the objectives' own units (a minimised one as itself).
+
+    ``points``: float64[m, 2], achievable vertices (the under-approximation is their convex
+    hull, closed towards the worse values); ``corners``: float64[k, 2], the vertices of the
+    over-approximation (no strategy achieves a point beyond it); ``precision``: the largest
+    distance between the two; ``converged``: every segment was closed within the tolerance.
+    """
+
+    objectives: tuple[str, str]
+    directions: tuple[Direction, Direction]
+    points: np.ndarray
+    corners: np.ndarray
+    precision: float
+    solves: int
+    converged: bool
+
+    def text(self) -> str:
+        """PRISM's form: ``[(x1,y1),(x2,y2)]``."""
+        return "[" + ",".join(f"({x:.10g},{y:.10g})" for x, y in self.points) + "]"
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "objectives": list(self.objectives),
+            "directions": [d.value for d in self.directions],
+            "points": self.points.tolist(),
+            "over_approximation": self.corners.tolist(),
+            "precision": self.precision if math.isfinite(self.precision) else None,
+            "solves": self.solves,
+            "converged": self.converged,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class MultiAnswer:
+    """The typed answer to a ``multi(...)`` query.
+
+    ``achievable`` (achievability): the LP's verdict; ``decided``: it holds with the margin
+    ``margin`` (> 0: every constraint met with that much room; < 0: some constraint missed by
+    that much). ``value`` (numerical): the optimum in the objective's units (NaN: the constraints
+    cannot be met). ``front`` (Pareto). ``residual``: the largest violation of the LP's equations
+    by the solution reported. ``states``: the size of the LP's MDP (product and unfolding).
+    """
+
+    kind: MultiKind
+    objectives: tuple[str, ...]
+    achievable: bool | None = None
+    decided: bool = True
+    margin: float = float("nan")
+    value: float = float("nan")
+    front: Front | None = None
+    residual: float = 0.0
+    states: int = 0
+    seconds: float = 0.0
+
+
+@dataclass(frozen=True)
+class _Objective:
+    query: ProbQuery | RewardQuery
+    minimise: bool  # Pmin/Rmin, or an upper bound P<=p / R<=r: enters the LP complemented/negated
+    bound: float | None  # the threshold as written (None for =?)
+
+    @property
+    def is_probability(self) -> bool:
+        return isinstance(self.query, ProbQuery)
+
+    def lp_bound(self) -> float:
+        """The threshold in the LP's maximising sense."""
+        assert self.bound is not None  # noqa: S101
+        if not self.minimise:
+            return self.bound
+        return 1.0 - self.bound if self.is_probability else -self.bound
+
+    def reported(self, v: float) -> float:
+        """An LP value (maximising sense) in the objective's own units."""
+        if not self.minimise:
+            return v + 0.0
+        return 1.0 - v if self.is_probability else 0.0 - v
+
+    @property
+    def scale_of_bound(self) -> float:
+        return 1.0 if self.is_probability or self.bound is None else max(1.0, abs(self.bound))
+
+
+def _objectives(expr: MultiQuery, checker: "PropertyChecker") -> list[_Objective]:
+    out = []
+    for q in expr.objectives:
+        if not isinstance(q, (ProbQuery, RewardQuery)):  # pragma: no cover - semantics reject it
+            raise SemanticError("each argument of multi(...) must be a P or R query", q.span)
+        if q.threshold is not None:
+            minimise = q.threshold.op in (ComparisonOp.LE, ComparisonOp.LT)
+            bound = float(checker.scalar(q.threshold.value))  # type: ignore[arg-type]
+        else:
+            if q.direction is None:
+                raise SemanticError("=? in multi(...) needs a direction", q.span,
+                                    hint="write Pmax=?/Pmin=? or Rmax=?/Rmin=?")
+            minimise, bound = q.direction is Direction.MIN, None
+        out.append(_Objective(q, minimise, bound))
+    return out
+
+
+# -- translation to the LP ---------------------------------------------------------------------
+
+
+def _is_temporal(e: Expr) -> bool:
+    from posgmc.checking.dispatch import _is_temporal as temporal
+
+    return temporal(e)
+
+
+def _unary_chain(path: Expr, outer: TemporalOp, inner: TemporalOp) -> Expr | None:
+    """``a`` if ``path`` is ``outer inner a`` (``G F a``, ``F G a``) without bounds."""
+    if (
+        isinstance(path, Temporal) and path.op is outer and path.bound is None
+        and isinstance(path.operands[0], Temporal) and path.operands[0].op is inner
+        and path.operands[0].bound is None and not _is_temporal(path.operands[0].operands[0])
+    ):
+        return path.operands[0].operands[0]
+    return None
+
+
+class _Builder:
+    """The product MDP grown objective by objective, with each condition's mask kept current."""
+
+    def __init__(self, checker: "PropertyChecker") -> None:
+        self.base = checker
+        self.model: ExplicitModel = checker.model
+        self.initial = int(checker.model.initial_states[0])
+        self.masks: list[tuple[ConditionKind, np.ndarray]] = []
+
+    def _checker(self) -> "PropertyChecker":
+        from posgmc.checking.dispatch import PropertyChecker
+
+        b = self.base
+        return PropertyChecker(self.model, coalition_of=b.coalition_of, scalar=b.scalar, options=b.options)
+
+    def _states(self, e: Expr) -> np.ndarray:
+        values = self._checker().state_value(e).values
+        if values.dtype != np.bool_:
+            raise SemanticError("expected a boolean state formula", e.span)
+        return values
+
+    def _product(self, path: Expr) -> np.ndarray:
+        """Grow the product by the DFA of the co-safe ``path``; its accepting set."""
+        from posgmc.engines import ltl
+
+        atoms = ltl.extract_atoms(path)
+        dfa = ltl.to_dfa(path, atoms)
+        S = self.model.num_states
+        values = np.stack([self._states(a) for a in atoms]) if atoms else np.zeros((0, S), bool)
+        prod = ltl.product(self.model, dfa, values)
+        self.masks = [(k, m[prod.state_of]) for k, m in self.masks]
+        self.model = prod.model
+        self.initial = int(prod.initial_map[0])
+        return prod.accepting
+
+    def add_probability(self, obj: _Objective) -> int:
+        """Add the condition of a probability objective (in the LP's maximising sense)."""
+        from posgmc.engines import ltl
+
+        path = obj.query.path  # type: ignore[union-attr]
+        S = self.model.num_states
+        if not _is_temporal(path):
+            holds = bool(self._states(path)[self.initial])
+            cond = Condition(ConditionKind.INSIDE, np.full(S, holds))
+        elif (a := _unary_chain(path, TemporalOp.GLOBALLY, TemporalOp.EVENTUALLY)) is not None:
+            cond = Condition(ConditionKind.MEETS, self._states(a))
+        elif (a := _unary_chain(path, TemporalOp.EVENTUALLY, TemporalOp.GLOBALLY)) is not None:
+            cond = Condition(ConditionKind.INSIDE, self._states(a))
+        elif ltl.is_cosafe(path):
+            cond = Condition(ConditionKind.INSIDE, self._product(path))
+        else:
+            negated = Unary(UnaryOp.NOT, path, span=path.span)
+            if not ltl.is_cosafe(negated):
+                raise UnsupportedError(
+                    "multi(...) supports co-safe LTL, its negation (safety), G F a and F G a; "
+                    "this path formula is none of them",
+                    path.span if path.span != NO_SPAN else obj.query.span,
+                )
+            cond = Condition(ConditionKind.INSIDE, ~self._product(negated))
+        if obj.minimise:
+            cond = cond.negated()
+        self.masks.append((cond.kind, cond.states))
+        return len(self.masks) - 1
+
+
+def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecker") -> tuple[OccupationLP, int]:
+    """The occupation LP of the query (objective ``i`` is row ``i``) and its number of states."""
+    model = checker.model
+    if model.initial_states.size != 1:
+        raise UnsupportedError(
+            f"multi(...) needs a single initial state; the model has {model.initial_states.size}",
+            expr.span,
+            hint="add an init ... endinit block, or initial values, that pick one state",
+        )
+    builder = _Builder(checker)
+    condition_of = {i: builder.add_probability(o) for i, o in enumerate(objectives) if o.is_probability}
+    m = builder.model
+    last = 0
+    bounds: dict[int, int | None] = {}
+    for i, o in enumerate(objectives):
+        if isinstance(o.query, RewardQuery):
+            if o.query.objective.kind is RewardKind.CUMULATIVE:
+                bounds[i] = checker._int(o.query.objective.bound)
+                last = max(last, bounds[i] or 0)
+            else:
+                bounds[i] = None
+    transitions, groups = m.transitions, m.row_groups
+    if last > 0:
+        transitions, groups = unfold_steps(transitions, groups, last)
+    num_states = int(groups.size - 1)
+    num_choices = int(groups[-1])
+    layer_start = last * m.num_states
+    settle = np.zeros(num_states, dtype=bool)
+    settle[layer_start:] = True
+    allowed = np.ones(num_choices, dtype=bool)
+    rewards: dict[int, np.ndarray] = {}
+    for i, bound in bounds.items():
+        q = objectives[i].query
+        assert isinstance(q, RewardQuery)  # noqa: S101
+        base = m.reward_model(q.reward).choice_rewards(m.row_groups)
+        if (base < 0).any():
+            raise UnsupportedError(
+                "multi(...) needs non-negative rewards; this reward structure has negative ones",
+                q.span,
+            )
+        r = layer_rewards(base, last, bound)
+        rewards[i] = -r if objectives[i].minimise else r
+        allowed &= r == 0
+    conditions = tuple(
+        Condition(kind, np.tile(mask, last + 1)) for kind, mask in builder.masks
+    )
+    stop_state, stop_sat = settling_options(
+        transitions, groups, conditions, allowed=allowed, settle=settle
+    )
+    if stop_state.size == 0:
+        raise UnsupportedError(
+            "every path collects reward forever in a total-reward objective of multi(...): the "
+            "expected total rewards are infinite",
+            expr.span,
+        )
+    coefficients = np.zeros((len(objectives), num_choices + stop_state.size))
+    for i, o in enumerate(objectives):
+        if i in condition_of:
+            coefficients[i, num_choices:] = stop_sat[:, condition_of[i]]
+        else:
+            coefficients[i, :num_choices] = rewards[i]
+    lp = OccupationLP.build(transitions, groups, builder.initial, stop_state, coefficients)
+    return lp, num_states
+
+
+# -- the three forms ---------------------------------------------------------------------------
+
+
+def answer_multi(
+    checker: "PropertyChecker", expr: MultiQuery, *, tolerance: float = 1e-6, max_solves: int = 200
+) -> MultiAnswer:
+    """Answer a ``multi(...)`` query on the checker's model (see the module docstring).
+
+    Args:
+        checker: the property checker of an mdp (or dtmc).
+        expr: the query, resolved (constants substituted).
+        tolerance: Pareto queries: a segment of the front is final when no point lies further
+            beyond it than this.
+        max_solves: Pareto queries: at most this many LPs.
+
+    Raises:
+        UnsupportedError: a form outside the fragment (see :mod:`posgmc.semantics.multi`).
+    """
+    if expr.coalition is not None:
+        from posgmc.checking.multi_games import answer_game
+
+        return answer_game(checker, expr)
+    start = time.perf_counter()
+    objectives = _objectives(expr, checker)
+    texts = tuple(format_expr(o.query) for o in objectives)
+    lp, num_states = _lp(expr, objectives, checker)
+    at_least = {i: o.lp_bound() for i, o in enumerate(objectives) if o.bound is not None}
+    queries = [i for i, o in enumerate(objectives) if o.bound is None]
+    if not queries:
+        scale = {i: objectives[i].scale_of_bound for i in at_least}
+        point = lp.slack(at_least, scale)
+        if point.status is not LPStatus.OPTIMAL:
+            raise UnsupportedError(f"the LP solver failed: {point.message}", expr.span)
+        t = point.extra
+        return MultiAnswer(
+            MultiKind.ACHIEVABILITY, texts, achievable=t >= -10 * LP_TOLERANCE,
+            decided=abs(t) >= MARGIN, margin=t, residual=point.residual, states=num_states,
+            seconds=time.perf_counter() - start,
+        )
+    if len(queries) == 1:
+        (i,) = queries
+        weights = np.zeros(len(objectives))
+        weights[i] = 1.0
+        point = lp.maximise(weights, at_least=at_least)
+        if point.status is LPStatus.FAILED:
+            raise UnsupportedError(f"the LP solver failed: {point.message}", expr.span)
+        if point.status is LPStatus.UNBOUNDED:
+            value = objectives[i].reported(np.inf)
+        else:
+            value = objectives[i].reported(float(point.values[i]))
+        return MultiAnswer(
+            MultiKind.NUMERICAL, texts, value=value, residual=point.residual, states=num_states,
+            seconds=time.perf_counter() - start,
+        )
+    first, second = queries
+    raw: ParetoFront = pareto_front(
+        lp, first, second, at_least=at_least, tolerance=tolerance, max_solves=max_solves
+    )
+
+    def units(pts: np.ndarray) -> np.ndarray:
+        out = pts.copy()
+        for axis, i in enumerate((first, second)):
+            out[:, axis] = [objectives[i].reported(v) for v in pts[:, axis]]
+        return out
+
+    directions = tuple(Direction.MIN if objectives[i].minimise else Direction.MAX for i in queries)
+    front = Front(
+        (texts[first], texts[second]), directions, units(raw.points), units(raw.corners),  # type: ignore[arg-type]
+        raw.precision, raw.solves, raw.converged,
+    )
+    return MultiAnswer(MultiKind.PARETO, texts, front=front, states=num_states,
+                       seconds=time.perf_counter() - start)
+
+
+def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name: str | None) -> PropertyResult:
+    """A ``multi(...)`` property as a :class:`PropertyResult` (``multi`` holds the typed answer)."""
+    a = answer_multi(checker, expr)
+    if expr.coalition is not None:
+        return _game_result(a, text=text, name=name)
+    method = "lp (HiGHS)"
+    common = dict(property=text, name=name, seconds=a.seconds, method=method, sound=False, multi=a)
+    if a.kind is MultiKind.ACHIEVABILITY:
+        if a.decided:
+            note = (f"LP: the constraints hold with margin {a.margin:.3g}" if a.achievable
+                    else f"LP: a constraint fails by at least {-a.margin:.3g}")
+        else:
+            note = (f"at the boundary: the LP's answer is within its tolerance of the thresholds "
+                    f"(margin {a.margin:.2g}); not decided with margin {MARGIN:g}")
+        return PropertyResult(kind=ResultKind.BOOLEAN, value=bool(a.achievable), lower=None,
+                              upper=None, note=note, **common)  # type: ignore[arg-type]
+    if a.kind is MultiKind.NUMERICAL:
+        v = a.value
+        if np.isnan(v):
+            note = "the constraints cannot be met together (PRISM: NaN)"
+            lower = upper = v
+        else:
+            eps = max(LP_TOLERANCE * (1.0 + abs(v)), a.residual) if np.isfinite(v) else 0.0
+            lower, upper = v - eps, v + eps
+            note = "LP optimum (floating point, within the LP's tolerance; not a proven bound)"
+        return PropertyResult(kind=ResultKind.NUMBER, value=v, lower=lower, upper=upper,
+                              note=note, **common)  # type: ignore[arg-type]
+    assert a.front is not None  # noqa: S101
+    f = a.front
+    note = (f"Pareto front: {len(f.points)} vertices; over-approximation within {f.precision:.2g} "
+            f"({f.solves} LPs" + ("" if f.converged else ", STOPPED at the LP budget") + ")")
+    if len(f.points) == 0:
+        note = "the constraints cannot be met together: the front is empty"
+    return PropertyResult(kind=ResultKind.PARETO, value=float("nan"), lower=None, upper=None,
+                          note=note, **common)  # type: ignore[arg-type]
+
+
+def _game_result(a: MultiAnswer, *, text: str, name: str | None) -> PropertyResult:
+    """A coalition query on an smg: answers from an under-approximation (multi_games.py)."""
+    common = dict(property=text, name=name, seconds=a.seconds, method="value iteration (sets)",
+                  sound=False, multi=a)
+    if a.kind is MultiKind.ACHIEVABILITY:
+        note = ("the coalition achieves the thresholds (they lie in the under-approximation of "
+                "the achievable set)" if a.achievable else
+                f"not proven: the thresholds lie {-a.margin:.3g} outside the under-approximation "
+                "of the achievable set; its limit might still reach them")
+        return PropertyResult(kind=ResultKind.BOOLEAN, value=bool(a.achievable), lower=None,
+                              upper=None, note=note, **common)  # type: ignore[arg-type]
+    if a.kind is MultiKind.NUMERICAL:
+        note = ("a lower bound: achievable by the coalition (from the under-approximation of the "
+                "achievable set); the optimum may be higher")
+        if np.isnan(a.value):
+            note = "no point of the under-approximation meets the constraint"
+        return PropertyResult(kind=ResultKind.NUMBER, value=a.value, lower=a.value,
+                              upper=math.inf if not np.isnan(a.value) else a.value, note=note,
+                              **common)  # type: ignore[arg-type]
+    assert a.front is not None  # noqa: S101
+    note = (f"Pareto front of the coalition: {len(a.front.points)} vertices of an "
+            "under-approximation (value iteration"
+            + (", converged" if a.front.converged else ", NOT converged") + "); no over-approximation")
+    return PropertyResult(kind=ResultKind.PARETO, value=float("nan"), lower=None, upper=None,
+                          note=note, **common)  # type: ignore[arg-type]

@@ -1,0 +1,30 @@
+"""The enums of the compiled game, defined here so that :mod:`posgmc.model` needs nothing but
+numpy and scipy (the syntax tree names the same model types and imports them from here)."""
+
+from __future__ import annotations
+
+import enum
+
+__all__ = ["ModelType"]
+
+
+class ModelType(enum.Enum):
+    """The model types of the language; ``posg`` is posgmc's extension."""
+
+    DTMC = "dtmc"
+    MDP = "mdp"
+    POMDP = "pomdp"
+    SMG = "smg"
+    POSG = "posg"
+
+    @property
+    def is_game(self) -> bool:
+        return self in (ModelType.SMG, ModelType.POSG)
+
+    @property
+    def is_partially_observable(self) -> bool:
+        return self in (ModelType.POMDP, ModelType.POSG)
+
+    @property
+    def is_nondeterministic(self) -> bool:
+        return self is not ModelType.DTMC
