@@ -40,6 +40,7 @@ from posgmc.semantics import checker as sem
 from posgmc.semantics import operators as ops
 from posgmc.semantics.evaluate import evaluate_constant
 from posgmc.semantics.flat import FlatModel
+from posgmc.semantics.references import inline_property_references
 from posgmc.syntax import parser
 from posgmc.syntax.ast import NO_SPAN, Coalition, ModelFile, Property, PropertiesFile
 from posgmc.strategies.verify import StrategyChecker
@@ -481,16 +482,16 @@ def iter_check(
     )
     checker = _checker(model, options, zero_based_players, strategies,
                        synthesis if synthesising else None)
-    groups: list[tuple[Sequence[Property], SourceText | None]] = [
-        (pf.properties, src) for pf, src in parsed
-    ]
     files = [pf for pf, _ in parsed]
+    sources: list[SourceText | None] = [src for _, src in parsed]
     if cli_props:
-        groups.append((cli_props, None))
         files.append(PropertiesFile(properties=tuple(cli_props)))
-    for (props, src), pf in zip(groups, files):
-        for prop in props:
-            outcome = _check_one(session, built, checker, pf, prop, zero_based_players)
+        sources.append(None)
+    labels = _label_names(built)
+    for pf, src in zip(files, sources):
+        pf, cyclic = inline_property_references(pf, labels)
+        for i, prop in enumerate(pf.properties):
+            outcome = cyclic.get(i) or _check_one(session, built, checker, pf, prop, zero_based_players)
             if isinstance(outcome, PosgmcError):
                 own = src
                 if own is None and outcome.span is not None and outcome.span.file and prop.text:
@@ -501,6 +502,13 @@ def iter_check(
             elif note:
                 outcome = dataclasses.replace(outcome, note=note)
             yield prop, outcome
+
+
+def _label_names(built: BuiltModel) -> set[str]:
+    """The quoted names a property may use as labels (model labels, observables)."""
+    if built.flat is not None:
+        return {name for name, _ in built.flat.labels}
+    return set(built.model.labels)
 
 
 def _checker(

@@ -203,6 +203,12 @@ def convert_user_value(
             f'constant "{name}" is given a range; expand it first (expand_sweep)', span
         )
     shown = f'"{given}"' if isinstance(given, str) else repr(given)
+    if isinstance(given, str) and not _is_literal(given):
+        # PRISM accepts a constant expression as the value: --const p=1/3, N=2*3
+        computed = _expression_value(given)
+        if computed is not None:
+            given = computed
+            shown = f"{shown} (= {computed})"
     if var_type is VarType.BOOL:
         if isinstance(given, bool):
             return given
@@ -238,6 +244,36 @@ def convert_user_value(
         except (ValueError, ZeroDivisionError):
             pass
     raise ConstantError(f'constant "{name}" is a double, but {shown} is not a number', span)
+
+
+def _is_literal(text: str) -> bool:
+    t = text.strip()
+    if t in ("true", "false") or _INT_RE.fullmatch(t):
+        return True
+    try:
+        _parse_number(t)
+    except (ValueError, ZeroDivisionError):
+        return False
+    return True
+
+
+def _expression_value(text: str) -> int | Fraction | bool | None:
+    """The value of a constant expression written as a constant's value, or None when the text
+    is not one (the caller then reports the value as it was given)."""
+    from posgmc.errors import PosgmcError
+    from posgmc.semantics.evaluate import evaluate_constant
+    from posgmc.syntax.parser import parse_expression
+
+    try:
+        value = evaluate_constant(parse_expression(text, model=True))
+    except PosgmcError:
+        return None
+    if isinstance(value, float):
+        try:
+            return Fraction(repr(value))
+        except ValueError:
+            return None
+    return value
 
 
 def _a(t: VarType) -> str:
