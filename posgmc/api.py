@@ -714,7 +714,8 @@ def synthesize(
     memory: int | Sequence[int] | Mapping[str, int | Sequence[int]] | None = None,
     timeout: float = 30.0,
     seed: int = 0,
-    adversaries: int = 50,
+    adversaries: int = 10,
+    jobs: int = 1,
     zero_based_players: bool = False,
     build_options: BuildOptions = BuildOptions(),
     built: BuiltModel | None = None,
@@ -730,12 +731,15 @@ def synthesize(
             with its largest size). Default: 1..3 for the decision maker, 1 for the adversary.
         timeout: seconds for the whole synthesis of the property.
         seed: random seed (the search is deterministic given the seed and a budget it keeps to).
-        adversaries: how many adversary strategies to enumerate (0: none).
+        adversaries: how many of the strongest enumerated adversary strategies the defence is
+            composed against (0: no adversary phases).
+        jobs: worker processes for independent evaluations (the results do not depend on it).
 
     Returns:
         The result: ``guaranteed`` (against every adversary), ``vs_fss_adversary``,
         ``upper_bound``, ``full_observation``, each with proven bounds; ``strategies`` (the
-        decision maker's, then the worst adversary strategy found); ``synthesis`` (statistics).
+        decision maker's, then the worst adversary strategy found, then — when
+        ``vs_fss_adversary`` is about it — the composed defence); ``synthesis`` (statistics).
 
     Raises:
         PosgmcError: the model, the property, or an objective synthesis does not cover.
@@ -748,7 +752,7 @@ def synthesize(
             raise InputError(f"memory sizes must be positive ints, got {v!r}")
         return out
 
-    options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries)
+    options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs)
     if isinstance(memory, Mapping):
         options = dataclasses.replace(
             options, player_memory=tuple(sorted((str(p), sizes(v)) for p, v in memory.items()))

@@ -344,8 +344,12 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
               help="Synthesis: memory sizes of the decision maker's strategy (default auto: 1..3); "
               "PLAYER=... for a named player, e.g. --memory rover=2 --memory attacker=1 (the "
               "adversary's strategies enumerated with that memory). Repeatable.")
-@click.option("--adversaries", type=click.IntRange(min=0), default=50, show_default=True,
-              help="Synthesis: how many adversary strategies to enumerate (0: none).")
+@click.option("--adversaries", type=click.IntRange(min=0), default=10, show_default=True,
+              help="Synthesis: how many of the strongest enumerated adversary strategies the "
+              "defence is composed against (0: no adversary phases).")
+@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Synthesis: worker processes for independent evaluations (results do not "
+              "depend on it).")
 @click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True,
               help="Synthesis: seconds per property (anytime: the best defence so far is verified).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Synthesis: random seed.")
@@ -376,6 +380,7 @@ def check(
     zero_based_players: bool,
     memory: tuple[str, ...],
     adversaries: int,
+    jobs: int,
     timeout: float,
     seed: int,
     export_strategy: str | None,
@@ -430,7 +435,7 @@ def check(
                 full_observation=full_observation,
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
-                synthesis=_synthesis_options(memory, timeout, seed, adversaries),
+                synthesis=_synthesis_options(memory, timeout, seed, adversaries, jobs),
                 on_start=on_start,
                 on_outcome=on_outcome,
             )
@@ -531,7 +536,7 @@ def _memory_sizes(text: str, given: str) -> tuple[int, ...]:
 
 
 def _synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
-                       adversaries: int = 50) -> Any:
+                       adversaries: int = 10, jobs: int = 1) -> Any:
     """``--memory`` settings as memory sizes: ``2``, ``1..3``, ``auto`` (1..3) for the property's
     coalition, or ``PLAYER=...`` for a named player (the decision maker or the adversary)."""
     from posgmc.synthesis.search import SynthesisOptions
@@ -549,19 +554,25 @@ def _synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
         else:
             unnamed = _memory_sizes(given.strip(), given)
     return SynthesisOptions(memory=unnamed, timeout=timeout, seed=seed, adversaries=adversaries,
-                            player_memory=tuple(sorted(named.items())))
+                            jobs=jobs, player_memory=tuple(sorted(named.items())))
 
 
 def _write_synthesised(directory: str, report: Any) -> None:
-    """One posgmc-fss/1 file per synthesised player, <player>.json, in ``directory``."""
+    """One posgmc-fss/1 file per synthesised player, <player>.json, in ``directory``; a second
+    strategy of the same player (the composed defence that ``vs_fss_adversary`` is about, when it
+    is not the reported defence) goes to <player>.vs_fss.json."""
     import os
 
     from posgmc.strategies.files import write_strategy
 
     os.makedirs(directory, exist_ok=True)
     for r in report.results:
+        written: set[str] = set()
         for fss in getattr(r, "strategies", ()):
-            write_strategy(fss, os.path.join(directory, f"{fss.player or 'agent'}.json"))
+            name = fss.player or "agent"
+            write_strategy(fss, os.path.join(directory, f"{name}.vs_fss.json" if name in written
+                                             else f"{name}.json"))
+            written.add(name)
 
 
 def _not_passed(r: Any) -> bool:
@@ -655,6 +666,14 @@ def _print_strategy_numbers(r: Any) -> None:
         phases = ", ".join(f"{k} {v:.2f} s" for k, v in stats["phases"].items())
         click.echo(f"  synthesis: {rounds} (best so far, by policy iteration); {phases}; time budget "
                    f"{stats['timeout']:g} s, seed {stats['seed']}" + ("; PARTIAL: the budget ran out" if stats["partial"] else ""))
+        if "adversaries_enumerated" in stats:
+            click.echo(
+                f"  adversaries: {stats['adversaries_enumerated']} enumerated"
+                + (" (all of them)" if stats["exhaustive"] else "")
+                + f", {stats['adversaries_ranked']} ranked by strength, defence composed against "
+                f"{stats['adversaries_kept']} ({stats['adversaries_added']} added by the double "
+                f"oracle); reported defence: {stats['defence']}'s; vs_fss_adversary over "
+                f"{stats['vs_adversaries']}, of the {stats['vs_fss_defence']} defence")
     if getattr(r, "memory", ()):
         click.echo("  memory: " + ", ".join(f"{p or 'agent'}={k}" for p, k in r.memory))
 
