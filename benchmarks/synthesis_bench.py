@@ -1,6 +1,6 @@
 """Synthesis quality and time against PAYNT, both in the same invocation (issue: synthesis).
 
-Usage: python benchmarks/synthesis_bench.py [--set posmg|pomdp] [--timeout 30] [--paynt-timeout 30] [--only NAME ...]
+Usage: python benchmarks/synthesis_bench.py [--set posmg|pomdp] [--timeout 30] [--paynt-timeout 30] [--only NAME ...] [--shared DIR]
 
 For every POSMG under ../shared/benchmarks/posmg/ with a DRN sketch (or, with --set pomdp, every
 POMDP under ../shared/benchmarks/pomdp/; --only NAME... for a subset): posgmc synthesises the
@@ -9,7 +9,9 @@ memory 1..3 against the omniscient opponent, verified by sound interval iteratio
 --timeout, and PAYNT 0.5.0 (`python -m paynt DIR --sketch sketch.templ --props sketch.props
 --fsc-synthesis --timeout T`, run by /root/refenv/bin/python) within --paynt-timeout. PAYNT's
 value is the last "optimum" it prints. Prints a markdown table: our guaranteed with its proven
-bounds, the full-observation value, our time; PAYNT's value and time; who is better.
+bounds, the full-observation value, vs_fss_adversary and upper_bound, the adversary phases
+(enumerated [all] / ranked / kept / added by the double oracle; which defence is reported), our
+time; PAYNT's value and time; who is better.
 """
 
 from __future__ import annotations
@@ -48,7 +50,14 @@ def ours(directory: Path, timeout: float) -> dict[str, object]:
     if isinstance(outcome, tuple):
         return {"property": prop, "error": outcome[1].message, "seconds": seconds}
     rounds = outcome.synthesis["rounds"] if outcome.synthesis else []
+    stats = outcome.synthesis or {}
+    adversaries = "-"
+    if "adversaries_enumerated" in stats:
+        adversaries = (f"{stats['adversaries_enumerated']}{' (all)' if stats['exhaustive'] else ''}"
+                       f"/{stats['adversaries_ranked']}/{stats['adversaries_kept']}/"
+                       f"{stats['adversaries_added']}; {stats['defence']}")
     return {"property": prop, "guaranteed": outcome.guaranteed, "full": outcome.full_observation,
+            "vs": outcome.vs_fss_adversary, "ub": outcome.upper_bound, "adversaries": adversaries,
             "memory": dict(outcome.memory), "partial": outcome.synthesis["partial"],
             "deterministic": rounds[-1]["deterministic"] if rounds else None, "seconds": seconds}
 
@@ -79,26 +88,31 @@ def main() -> None:
     ap.add_argument("--paynt-timeout", type=float, default=30.0)
     ap.add_argument("--only", nargs="*", default=None)
     ap.add_argument("--set", choices=["posmg", "pomdp"], default="posmg")
+    ap.add_argument("--shared", type=Path, default=SHARED,
+                    help="the shared benchmarks directory (default ../shared/benchmarks)")
     args = ap.parse_args()
-    base = SHARED / args.set
+    base = args.shared / args.set
     dirs = sorted(d for d in base.iterdir() if (d / "sketch.templ").exists() and (d / "sketch.props").exists())
     if args.only:
         dirs = [d for d in dirs if d.name in args.only]
-    print("| model | property | posgmc guaranteed [lower, upper] | full observation | memory | posgmc (s) | "
-          "PAYNT --fsc-synthesis | PAYNT (s) | better |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| model | property | posgmc guaranteed [lower, upper] | full observation | vs_fss_adversary | "
+          "upper_bound | adversaries | memory | posgmc (s) | PAYNT --fsc-synthesis | PAYNT (s) | better |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for d in dirs:
         a = ours(d, args.timeout)
         b = paynt(d, args.paynt_timeout)
         prop = str(a["property"]).replace("|", "\\|")
         if "error" in a:
             mine = f"error: {a['error']}"
-            full = memory = "-"
+            full = memory = vs = ub = adversaries = "-"
             better = "PAYNT" if "value" in b else "-"
         else:
             g = a["guaranteed"]
             mine = f"{g.value:.6f} [{g.lower:.6f}, {g.upper:.6f}]" + (" (partial)" if a["partial"] else "")
             full = f"{a['full'].value:.6f}"
+            vs = f"{a['vs'].value:.6f}" if a["vs"] is not None else "-"
+            ub = f"{a['ub'].value:.6f}" if a["ub"] is not None else "-"
+            adversaries = a["adversaries"]
             memory = ", ".join(f"{k or 'agent'}={v}" for k, v in a["memory"].items())
             if "value" in b:
                 maximize = "max" in prop
@@ -111,7 +125,7 @@ def main() -> None:
                 better = "posgmc (PAYNT fails)"
         theirs = f"{b['value']:.6f}" if "value" in b else f"fails: {b['error']}"
         pt = f"{b['seconds']:.1f}" if "seconds" in b else "-"
-        print(f"| {d.name} | `{prop}` | {mine} | {full} | {memory} | {a['seconds']:.1f} | {theirs} | {pt} | {better} |",
+        print(f"| {d.name} | `{prop}` | {mine} | {full} | {vs} | {ub} | {adversaries} | {memory} | {a['seconds']:.1f} | {theirs} | {pt} | {better} |",
               flush=True)
 
 

@@ -17,13 +17,14 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
 from posgmc.compiler import BuildOptions, build_model
+from posgmc.deep import deep_generator, deep_stack
 from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.errors import (
@@ -40,6 +41,7 @@ from posgmc.semantics import checker as sem
 from posgmc.semantics import operators as ops
 from posgmc.semantics.evaluate import evaluate_constant
 from posgmc.semantics.flat import FlatModel
+from posgmc.semantics.references import inline_property_references
 from posgmc.syntax import parser
 from posgmc.syntax.ast import NO_SPAN, Coalition, ModelFile, Property, PropertiesFile
 from posgmc.strategies.verify import StrategyChecker
@@ -185,6 +187,7 @@ def _typed(value: object, kind: type, what: str) -> None:
         raise InputError(f"{what} must be a {kind.__name__}, got {type(value).__name__}")
 
 
+@deep_stack
 def load(
     path: str | Path | None = None,
     *,
@@ -224,6 +227,7 @@ def load(
         raise _attach(e, source) from None
 
 
+@deep_stack
 def parse_properties(
     session: Session,
     *,
@@ -261,6 +265,7 @@ def parse_properties(
     return parsed, props
 
 
+@deep_stack
 def lint(
     path: str | Path,
     property_files: Sequence[str | Path] = (),
@@ -314,6 +319,7 @@ def lint(
     return errors
 
 
+@deep_stack
 def instantiate(session: Session, *, allow_extra_constants: bool = False) -> FlatModel:
     """Semantic checks and constant substitution: the model ready for the compiler.
 
@@ -337,6 +343,7 @@ class BuiltModel:
     flat: FlatModel | None = None
 
 
+@deep_stack
 def build(
     session: Session, *, options: BuildOptions = BuildOptions(), allow_extra_constants: bool = False
 ) -> BuiltModel:
@@ -442,6 +449,7 @@ def _scalar(expr):  # type: ignore[no-untyped-def]
     return value
 
 
+@deep_generator
 def iter_check(
     session: Session,
     *,
@@ -481,16 +489,16 @@ def iter_check(
     )
     checker = _checker(model, options, zero_based_players, strategies,
                        synthesis if synthesising else None)
-    groups: list[tuple[Sequence[Property], SourceText | None]] = [
-        (pf.properties, src) for pf, src in parsed
-    ]
     files = [pf for pf, _ in parsed]
+    sources: list[SourceText | None] = [src for _, src in parsed]
     if cli_props:
-        groups.append((cli_props, None))
         files.append(PropertiesFile(properties=tuple(cli_props)))
-    for (props, src), pf in zip(groups, files):
-        for prop in props:
-            outcome = _check_one(session, built, checker, pf, prop, zero_based_players)
+        sources.append(None)
+    labels = _label_names(built)
+    for pf, src in zip(files, sources):
+        pf, cyclic = inline_property_references(pf, labels)
+        for i, prop in enumerate(pf.properties):
+            outcome = cyclic.get(i) or _check_one(session, built, checker, pf, prop, zero_based_players)
             if isinstance(outcome, PosgmcError):
                 own = src
                 if own is None and outcome.span is not None and outcome.span.file and prop.text:
@@ -501,6 +509,13 @@ def iter_check(
             elif note:
                 outcome = dataclasses.replace(outcome, note=note)
             yield prop, outcome
+
+
+def _label_names(built: BuiltModel) -> set[str]:
+    """The quoted names a property may use as labels (model labels, observables)."""
+    if built.flat is not None:
+        return {name for name, _ in built.flat.labels}
+    return set(built.model.labels)
 
 
 def _checker(
@@ -561,6 +576,7 @@ def _check_one(
         return e
 
 
+@deep_stack
 def check(
     session: Session | ExplicitModel,
     *,
@@ -573,6 +589,8 @@ def check(
     built: BuiltModel | None = None,
     strategies: Mapping[str, "FiniteStateStrategy | str | Path"] | None = None,
     synthesis: "SynthesisOptions | None" = None,
+    on_start: "Callable[[ExplicitModel, float, tuple[str, ...]], None] | None" = None,
+    on_outcome: "Callable[[PropertyResult | PropertyError], None] | None" = None,
 ) -> CheckReport:
     """Build the model (unless ``built`` is given) and check each property at the initial states.
 
@@ -594,6 +612,10 @@ def check(
         synthesis: how to synthesise strategies for a partially observable model checked
             without ``strategies`` and without ``full_observation`` (memory sizes, time budget,
             seed; :class:`~posgmc.synthesis.search.SynthesisOptions`).
+        on_start: called once the model is built, with the model, its build time and the
+            warnings, before any property is checked (to show progress).
+        on_outcome: called with each outcome (as in ``outcomes``) as soon as it is computed, so
+            a caller can print results while the next property is being checked.
 
     Returns:
         The report; ``errors`` holds (property text, error) for properties that could not be
@@ -619,6 +641,8 @@ def check(
         build_options = dataclasses.replace(build_options, exact=True)
     if built is None:
         _check_constant_names(session, property_files)
+        # unreadable or unparsable property files are reported before anything is built
+        parse_properties(session, files=property_files, texts=properties)
     built = built or build(session, options=build_options, allow_extra_constants=True)
     loaded = load_strategies(strategies) if strategies else None
     warnings: tuple[str, ...] = ()
@@ -626,6 +650,8 @@ def check(
         from posgmc.strategies.binding import bind
 
         warnings = tuple(w for fss in loaded.values() for w in bind(built.model, fss).warnings)
+    if on_start is not None:
+        on_start(built.model, built.seconds, built.warnings + warnings)
     results: list[PropertyResult] = []
     errors: list[PropertyError] = []
     outcomes: list[PropertyResult | PropertyError] = []
@@ -646,6 +672,8 @@ def check(
         else:
             results.append(outcome)
             outcomes.append(outcome)
+        if on_outcome is not None:
+            on_outcome(outcomes[-1])
     return CheckReport(
         built.model,
         built.seconds,
@@ -678,6 +706,7 @@ def _check_constant_names(session: Session, property_files: Sequence[str | Path]
         raise errors[0] if len(errors) == 1 else MultipleErrors(errors)
 
 
+@deep_stack
 def synthesize(
     session: Session,
     prop: str,
@@ -685,7 +714,8 @@ def synthesize(
     memory: int | Sequence[int] | Mapping[str, int | Sequence[int]] | None = None,
     timeout: float = 30.0,
     seed: int = 0,
-    adversaries: int = 50,
+    adversaries: int = 10,
+    jobs: int = 1,
     zero_based_players: bool = False,
     build_options: BuildOptions = BuildOptions(),
     built: BuiltModel | None = None,
@@ -701,12 +731,15 @@ def synthesize(
             with its largest size). Default: 1..3 for the decision maker, 1 for the adversary.
         timeout: seconds for the whole synthesis of the property.
         seed: random seed (the search is deterministic given the seed and a budget it keeps to).
-        adversaries: how many adversary strategies to enumerate (0: none).
+        adversaries: how many of the strongest enumerated adversary strategies the defence is
+            composed against (0: no adversary phases).
+        jobs: worker processes for independent evaluations (the results do not depend on it).
 
     Returns:
         The result: ``guaranteed`` (against every adversary), ``vs_fss_adversary``,
         ``upper_bound``, ``full_observation``, each with proven bounds; ``strategies`` (the
-        decision maker's, then the worst adversary strategy found); ``synthesis`` (statistics).
+        decision maker's, then the worst adversary strategy found, then — when
+        ``vs_fss_adversary`` is about it — the composed defence); ``synthesis`` (statistics).
 
     Raises:
         PosgmcError: the model, the property, or an objective synthesis does not cover.
@@ -719,7 +752,7 @@ def synthesize(
             raise InputError(f"memory sizes must be positive ints, got {v!r}")
         return out
 
-    options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries)
+    options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs)
     if isinstance(memory, Mapping):
         options = dataclasses.replace(
             options, player_memory=tuple(sorted((str(p), sizes(v)) for p, v in memory.items()))
@@ -739,6 +772,7 @@ def synthesize(
     return outcome
 
 
+@deep_stack
 def load_strategies(
     strategies: Mapping[str, "FiniteStateStrategy | str | Path"],
 ) -> dict[str, "FiniteStateStrategy"]:
@@ -781,6 +815,7 @@ def save_strategy(strategy: "FiniteStateStrategy", path: str | Path) -> None:
     write_strategy(strategy, path)
 
 
+@deep_stack
 def simulate(
     session: Session,
     prop: str,

@@ -72,8 +72,10 @@ def error_json(error: PosgmcError) -> list[dict[str, Any]]:
 def _guard(
     debug: bool, fn: Callable[[], int], *, as_json: bool = False, consts: Sequence[str] = ()
 ) -> NoReturn:
+    from posgmc.deep import deep_call
+
     try:
-        code = fn()
+        code = deep_call(fn)
     except PosgmcError as e:
         _show_const_text(e, consts)
         if as_json:  # machines get the errors on stdout too, in the shape of docs/cli.md
@@ -342,8 +344,12 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
               help="Synthesis: memory sizes of the decision maker's strategy (default auto: 1..3); "
               "PLAYER=... for a named player, e.g. --memory rover=2 --memory attacker=1 (the "
               "adversary's strategies enumerated with that memory). Repeatable.")
-@click.option("--adversaries", type=click.IntRange(min=0), default=50, show_default=True,
-              help="Synthesis: how many adversary strategies to enumerate (0: none).")
+@click.option("--adversaries", type=click.IntRange(min=0), default=10, show_default=True,
+              help="Synthesis: how many of the strongest enumerated adversary strategies the "
+              "defence is composed against (0: no adversary phases).")
+@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Synthesis: worker processes for independent evaluations (results do not "
+              "depend on it).")
 @click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True,
               help="Synthesis: seconds per property (anytime: the best defence so far is verified).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Synthesis: random seed.")
@@ -351,6 +357,9 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
               help="Write the optimal memoryless strategy of the (single) property as JSON; for a "
               "synthesised strategy, a directory receiving <player>.json.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (see docs/cli.md).")
+@click.option("--json-lines", "json_lines", is_flag=True,
+              help="Print one JSON object per line as soon as it is known: the model, then each "
+              "result (see docs/cli.md).")
 @click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
               help="Also write a JUnit XML report: one test case per property.")
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
@@ -371,10 +380,12 @@ def check(
     zero_based_players: bool,
     memory: tuple[str, ...],
     adversaries: int,
+    jobs: int,
     timeout: float,
     seed: int,
     export_strategy: str | None,
     as_json: bool,
+    json_lines: bool,
     junit: str | None,
     plot_file: str | None,
     state_limit: int | None,
@@ -403,10 +414,18 @@ def check(
             keep_strategy=export_strategy is not None,
             exact=exact,
         )
+        if as_json and json_lines:
+            raise click.UsageError("give --json or --json-lines, not both")
         rows = []
         code = EXIT_OK
+        # results are shown as they are computed (a killed run keeps what it printed), except
+        # in the one-object --json and in sweep tables
+        streaming = not as_json and len(combos or [{}]) == 1
         for constants in combos or [{}]:
             session = api.load(model, constants=constants)
+            on_start, on_outcome = (
+                _streamers(model, constants, json_lines) if streaming else (None, None)
+            )
             report = api.check(
                 session,
                 property_files=props,
@@ -416,14 +435,17 @@ def check(
                 full_observation=full_observation,
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
-                synthesis=_synthesis_options(memory, timeout, seed, adversaries),
+                synthesis=_synthesis_options(memory, timeout, seed, adversaries, jobs),
+                on_start=on_start,
+                on_outcome=on_outcome,
             )
             if report.errors:
                 code = EXIT_ERROR
             elif code == EXIT_OK and any(_not_passed(r) for r in report.results):
                 code = EXIT_PROPERTY_FALSE
             rows.append((constants, report))
-            if export_strategy is not None:
+            if export_strategy is not None and not report.errors:
+                # a property that failed has said why; "needs exactly one query" would hide it
                 if any(getattr(r, "strategies", ()) for r in report.results):
                     _write_synthesised(export_strategy, report)
                 else:
@@ -436,13 +458,44 @@ def check(
 
             texts = [({n: _const_text(v) for n, v in c.items()}, r) for c, r in rows]
             plot_sweeps(sweeps_of_check(swept[0], texts), plot_file)
-        if as_json:
+        if as_json or (json_lines and not streaming):
             click.echo(json.dumps(_json_report(model, swept, rows)))
-        else:
+        elif not streaming:
             _print_report(model, swept, rows)
         return code
 
-    _guard(debug, run, as_json=as_json, consts=consts)
+    _guard(debug, run, as_json=as_json or json_lines, consts=consts)
+
+
+def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type: ignore[no-untyped-def]
+    """(on_start, on_outcome) callbacks printing the header and each result as it comes."""
+
+    def start(built: Any, seconds: float, warnings: tuple[str, ...]) -> None:
+        stats = built.statistics()
+        if json_lines:
+            click.echo(json.dumps({
+                "model_file": model,
+                "constants": {n: _const_text(v) for n, v in constants.items()},
+                "model": {k: stats[k] for k in ("type", "states", "choices", "transitions")},
+                "build_seconds": round(seconds, 6),
+                "warnings": list(warnings),
+            }))
+            return
+        _print_header(model, stats, seconds, warnings)
+
+    def outcome(r: Any) -> None:
+        if json_lines:
+            click.echo(json.dumps(_outcome_json(r)))
+        else:
+            _print_outcome(r)
+
+    return start, outcome
+
+
+def _outcome_json(r: Any) -> dict[str, Any]:
+    if isinstance(r, tuple):
+        return {"property": r[0], "error": r[1].render()}
+    return r.to_json()  # type: ignore[no-any-return]
 
 
 def _write_check_junit(path: str, model: str, swept: list[str], rows: list[tuple[dict[str, Any], Any]]) -> None:
@@ -483,7 +536,7 @@ def _memory_sizes(text: str, given: str) -> tuple[int, ...]:
 
 
 def _synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
-                       adversaries: int = 50) -> Any:
+                       adversaries: int = 10, jobs: int = 1) -> Any:
     """``--memory`` settings as memory sizes: ``2``, ``1..3``, ``auto`` (1..3) for the property's
     coalition, or ``PLAYER=...`` for a named player (the decision maker or the adversary)."""
     from posgmc.synthesis.search import SynthesisOptions
@@ -501,19 +554,25 @@ def _synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
         else:
             unnamed = _memory_sizes(given.strip(), given)
     return SynthesisOptions(memory=unnamed, timeout=timeout, seed=seed, adversaries=adversaries,
-                            player_memory=tuple(sorted(named.items())))
+                            jobs=jobs, player_memory=tuple(sorted(named.items())))
 
 
 def _write_synthesised(directory: str, report: Any) -> None:
-    """One posgmc-fss/1 file per synthesised player, <player>.json, in ``directory``."""
+    """One posgmc-fss/1 file per synthesised player, <player>.json, in ``directory``; a second
+    strategy of the same player (the composed defence that ``vs_fss_adversary`` is about, when it
+    is not the reported defence) goes to <player>.vs_fss.json."""
     import os
 
     from posgmc.strategies.files import write_strategy
 
     os.makedirs(directory, exist_ok=True)
     for r in report.results:
+        written: set[str] = set()
         for fss in getattr(r, "strategies", ()):
-            write_strategy(fss, os.path.join(directory, f"{fss.player or 'agent'}.json"))
+            name = fss.player or "agent"
+            write_strategy(fss, os.path.join(directory, f"{name}.vs_fss.json" if name in written
+                                             else f"{name}.json"))
+            written.add(name)
 
 
 def _not_passed(r: Any) -> bool:
@@ -576,10 +635,7 @@ def _json_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], 
             "constants": {n: _const_text(v) for n, v in constants.items()},
             "model": {k: stats[k] for k in ("type", "states", "choices", "transitions")},
             "build_seconds": round(report.build_seconds, 6),
-            "results": [
-                r.to_json() if not isinstance(r, tuple) else {"property": r[0], "error": r[1].render()}
-                for r in report.outcomes
-            ],
+            "results": [_outcome_json(r) for r in report.outcomes],
         }
 
     if len(rows) == 1:
@@ -610,6 +666,14 @@ def _print_strategy_numbers(r: Any) -> None:
         phases = ", ".join(f"{k} {v:.2f} s" for k, v in stats["phases"].items())
         click.echo(f"  synthesis: {rounds} (best so far, by policy iteration); {phases}; time budget "
                    f"{stats['timeout']:g} s, seed {stats['seed']}" + ("; PARTIAL: the budget ran out" if stats["partial"] else ""))
+        if "adversaries_enumerated" in stats:
+            click.echo(
+                f"  adversaries: {stats['adversaries_enumerated']} enumerated"
+                + (" (all of them)" if stats["exhaustive"] else "")
+                + f", {stats['adversaries_ranked']} ranked by strength, defence composed against "
+                f"{stats['adversaries_kept']} ({stats['adversaries_added']} added by the double "
+                f"oracle); reported defence: {stats['defence']}'s; vs_fss_adversary over "
+                f"{stats['vs_adversaries']}, of the {stats['vs_fss_defence']} defence")
     if getattr(r, "memory", ()):
         click.echo("  memory: " + ", ".join(f"{p or 'agent'}={k}" for p, k in r.memory))
 
@@ -633,40 +697,48 @@ def _print_multi(r: Any) -> None:
         click.echo(f"  note: {r.note}")
 
 
-def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> None:
-    first = rows[0][1]
-    stats = first.model.statistics()
+def _print_header(model: str, stats: dict[str, Any], seconds: float, warnings: Sequence[str]) -> None:
     click.echo(
         f"Model {model}: {stats['type']}, {stats['states']} states, {stats['choices']} choices, "
-        f"{stats['transitions']} transitions (built in {first.build_seconds:.3f} s)"
+        f"{stats['transitions']} transitions (built in {seconds:.3f} s)"
     )
-    for w in first.warnings:
+    for w in warnings:
         click.echo(f"warning: {w}", err=True)
+
+
+def _print_outcome(r: Any) -> None:
+    """One property's result (or error) as text; click.echo flushes, so it shows at once."""
+    if isinstance(r, tuple):
+        click.echo(f"{r[0]}: ERROR")
+        click.echo(r[1].render(), err=True)
+        return
+    if getattr(r, "multi", None) is not None:
+        _print_multi(r)
+        return
+    line = f"{r.property}: {_fmt(r.value)}"
+    if r.exact is not None:
+        line = f"{r.property}: {format_value(r.exact)}"
+    if r.lower is not None and not isinstance(r.value, bool):
+        line += f"  [{_fmt(r.lower)}, {_fmt(r.upper)}]"
+    line += f"  ({r.method}, {r.iterations} it., {r.seconds:.3f} s)"
+    if r.value is None:
+        line += "  (the proven bounds do not decide it, even after refining)"
+    if not r.converged:
+        line += "  NOT CONVERGED: the iteration cap was hit; the bounds hold but are wider"
+    if not r.sound:
+        line += "  NOT PROVEN: bounds did not separate or the method is unsound"
+    click.echo(line)
+    _print_strategy_numbers(r)
+    if r.note:
+        click.echo(f"  note: {r.note}")
+
+
+def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> None:
+    first = rows[0][1]
+    _print_header(model, first.model.statistics(), first.build_seconds, first.warnings)
     if len(rows) == 1:
         for r in first.outcomes:
-            if isinstance(r, tuple):
-                click.echo(f"{r[0]}: ERROR")
-                click.echo(r[1].render(), err=True)
-                continue
-            if r.multi is not None:
-                _print_multi(r)
-                continue
-            line = f"{r.property}: {_fmt(r.value)}"
-            if r.exact is not None:
-                line = f"{r.property}: {format_value(r.exact)}"
-            if r.lower is not None and not isinstance(r.value, bool):
-                line += f"  [{_fmt(r.lower)}, {_fmt(r.upper)}]"
-            line += f"  ({r.method}, {r.iterations} it., {r.seconds:.3f} s)"
-            if r.value is None:
-                line += "  (the proven bounds do not decide it, even after refining)"
-            if not r.converged:
-                line += "  NOT CONVERGED: the iteration cap was hit; the bounds hold but are wider"
-            if not r.sound:
-                line += "  NOT PROVEN: bounds did not separate or the method is unsound"
-            click.echo(line)
-            _print_strategy_numbers(r)
-            if r.note:
-                click.echo(f"  note: {r.note}")
+            _print_outcome(r)
         return
     for i, r0 in enumerate(first.outcomes):
         click.echo(f"\n{r0[0] if isinstance(r0, tuple) else r0.property}:")

@@ -96,7 +96,7 @@ def test(
                     cases.append(Case(name, where, seconds, skipped="no RESULT line"))
                     continue
                 try:
-                    verdict = grade(exp, outcome, tolerance=tolerance)
+                    verdict = grade(exp, outcome, tolerance=tolerance, constants=texts)
                 except ValueError as e:
                     from posgmc.errors import InputError
 
@@ -131,11 +131,13 @@ def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
     from posgmc.errors import InputError
 
     parsed, _ = api.parse_properties(session, files=props)
+    model_constants = [c.name for c in session.syntax.constants] if session.syntax else []
     for pf, _src in parsed:
+        names = model_constants + [c.name for c in pf.constants]
         for prop in pf.properties:
             for exp in prop.expected:
                 try:
-                    check_form(exp.text.strip())
+                    check_form(exp.text.strip(), names)
                 except ValueError as e:
                     raise InputError(str(e), exp.span) from None
 

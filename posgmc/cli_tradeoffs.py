@@ -26,6 +26,9 @@ __all__ = ["pareto"]
               help="Also draw the front (.png, .svg, .pdf; needs matplotlib: pip install 'posgmc[plot]').")
 @click.option("--strategies", "strategy_dir", type=click.Path(file_okay=False), default=None,
               help="Write each point's strategies to DIR/<constant>=<value>/<player>.json.")
+@click.option("--also", "also", multiple=True, metavar="TEXT",
+              help="A further property checked at every point under its synthesised defence "
+              "(its guaranteed number), e.g. the defence's expected cost; repeatable.")
 @click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation values.")
 @click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
 @click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
@@ -41,6 +44,7 @@ def pareto(
     csv_file: str | None,
     plot_file: str | None,
     strategy_dir: str | None,
+    also: tuple[str, ...],
     full_observation: bool,
     zero_based_players: bool,
     memory: tuple[str, ...],
@@ -64,8 +68,9 @@ def pareto(
                     "a multi(...) query gives its own front: --sweep does not apply to it",
                     hint="drop --sweep, or sweep a single-objective property",
                 )
-            if strategy_dir is not None:
-                raise UnsupportedError("--strategies: a multi(...) front keeps no strategies yet")
+            if strategy_dir is not None or also:
+                raise UnsupportedError("--strategies and --also apply to sweeps; a multi(...) "
+                                       "front keeps no strategies yet")
             return _multi(model, prop_text, consts, csv_file, plot_file)
         if sweep_text is None:
             raise InputError("--sweep is needed (unless --prop is a multi(...) query)",
@@ -89,7 +94,7 @@ def pareto(
         result = sweep(model, prop_text, constant=name, settings=values, constants=others,
                        synthesis=_synthesis_options(memory or ("auto",), timeout, seed),
                        full_observation=full_observation, zero_based_players=zero_based_players,
-                       strategy_dir=strategy_dir)
+                       strategy_dir=strategy_dir, also=also)
         _print(result)
         if csv_file is not None:
             atomic_write_text(csv_file, to_csv(result))
@@ -97,7 +102,9 @@ def pareto(
             from posgmc.tradeoffs.plot import plot_sweep
 
             plot_sweep(result, plot_file)
-        return EXIT_ERROR if any(p.error is not None for p in result.points) else EXIT_OK
+        failed = any(p.error is not None or any(not hasattr(a, "guaranteed") for a in p.also)
+                     for p in result.points)
+        return EXIT_ERROR if failed else EXIT_OK
 
     _guard(debug, run, consts=consts)
 
@@ -151,15 +158,22 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
     return EXIT_OK
 
 
+def _also_cell(a: Any) -> str:
+    g = getattr(a, "guaranteed", None)
+    if g is None:
+        return "Error" if a is not None else "-"
+    return f"{_fmt(g.value)} [{_fmt(g.lower)}, {_fmt(g.upper)}]"
+
+
 def _print(result: Any) -> None:
     click.echo(f"{result.property} against {result.constant}:")
     rows = [(result.constant, "value [lower, upper]", "full_observation", "upper_bound", "memory",
-             "strategies")]
+             "strategies", *result.also)]
     for p in result.points:
         b = p.main_number()
         r = p.result
         if p.error is not None:
-            rows.append((p.setting, "Error", "", "", "", ""))
+            rows.append((p.setting, "Error", "", "", "", "", *("" for _ in result.also)))
             click.echo(p.error.render(), err=True)
             continue
         cell = "-" if b is None else f"{_fmt(b.value)} [{_fmt(b.lower)}, {_fmt(b.upper)}]"
@@ -171,10 +185,16 @@ def _print(result: Any) -> None:
             _fmt(r.upper_bound.value) if r is not None and r.upper_bound else "-",
             ", ".join(f"{n or 'agent'}={k}" for n, k in r.memory) if r is not None and r.memory else "-",
             p.strategy_dir or "-",
+            *(_also_cell(a) for a in (p.also or (None,) * len(result.also))),
         ))
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     for row in rows:
         click.echo("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
     if any(p.result is not None and p.result.guaranteed is not None for p in result.points):
         click.echo("value: what the synthesised strategy of each point guarantees against every "
-                   "adversary (proven bounds)")
+                   "adversary (proven bounds)" + ("; the further columns: what the same strategy "
+                   "guarantees for each --also property" if result.also else ""))
+    for p in result.points:
+        for a in p.also:
+            if not hasattr(a, "guaranteed") and hasattr(a, "render"):
+                click.echo(f"{result.constant}={p.setting}: " + a.render(), err=True)

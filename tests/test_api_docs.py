@@ -30,8 +30,8 @@ EXAMPLES = _examples()
 
 
 def test_the_document_has_its_examples() -> None:
-    assert len(EXAMPLES) == 8
-    assert [h.split(".")[0] for h, _ in EXAMPLES] == [str(i) for i in range(1, 9)]
+    assert len(EXAMPLES) == 9
+    assert [h.split(".")[0] for h, _ in EXAMPLES] == [str(i) for i in range(1, 10)]
 
 
 @pytest.mark.parametrize(("heading", "code"), EXAMPLES, ids=[h.split(".")[0] for h, _ in EXAMPLES])

@@ -22,15 +22,19 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from posgmc.checking import intervals as iv
+from posgmc.checking.ctl import quantified_states
+from posgmc.checking.filters import apply_filter
 from posgmc.checking.intervals import QueryValue
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.checking.states import evaluate_call, evaluate_states
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.steady import long_run_average
 from posgmc.engines.step_bounds import interval_reach_probability
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.syntax.printer import format_expr
 from posgmc.syntax.traversal import any_node
 from posgmc.syntax.ast import (
     NO_SPAN,
@@ -42,8 +46,11 @@ from posgmc.syntax.ast import (
     ComparisonOp,
     Direction,
     Expr,
+    Filter,
+    PathQuantifier,
     MultiQuery,
     ProbQuery,
+    SteadyQuery,
     RewardKind,
     RewardQuery,
     Temporal,
@@ -70,6 +77,14 @@ class CheckOptions:
     keep_values: bool = False
     keep_strategy: bool = False
     exact: bool = False  # PRISM's -exact: rational arithmetic throughout (posgmc.checking.exact)
+
+
+_COMPARISON = {
+    ComparisonOp.GE: BinaryOp.GE,
+    ComparisonOp.GT: BinaryOp.GT,
+    ComparisonOp.LE: BinaryOp.LE,
+    ComparisonOp.LT: BinaryOp.LT,
+}
 
 
 def _flip(q: QueryValue) -> QueryValue:
@@ -180,6 +195,22 @@ class PropertyChecker:
             if expr.threshold is None:
                 return q
             return self._threshold(expr, q)
+        if isinstance(expr, PathQuantifier):
+            return iv.exact(quantified_states(self.model, expr, self._states))
+        if isinstance(expr, SteadyQuery):
+            weight = self._states(expr.operand).astype(np.float64)
+            q = self._long_run(weight)
+            if expr.threshold is None:
+                return q
+            bound = float(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            cmp = _COMPARISON[expr.threshold.op]
+            return iv.binary(cmp, q, iv.exact(np.full(self.model.num_states, bound)))
+        if isinstance(expr, Filter):
+            states = (np.ones(self.model.num_states, dtype=np.bool_) if expr.states is None
+                      else self._states(expr.states))
+            text = format_expr(expr.states) if expr.states is not None else "true"
+            return apply_filter(self.model, expr.op, self.state_value(expr.operand), states,
+                                span=expr.span, states_text=text)
         if not _contains_query(expr):
             return iv.exact(evaluate_states(self.model, expr))
         if isinstance(expr, Unary):
@@ -202,12 +233,7 @@ class PropertyChecker:
         refinement (see :meth:`_refined`)."""
         assert expr.threshold is not None  # noqa: S101 - guaranteed by caller
         bound = float(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
-        cmp = {
-            ComparisonOp.GE: BinaryOp.GE,
-            ComparisonOp.GT: BinaryOp.GT,
-            ComparisonOp.LE: BinaryOp.LE,
-            ComparisonOp.LT: BinaryOp.LT,
-        }[expr.threshold.op]
+        cmp = _COMPARISON[expr.threshold.op]
         threshold = iv.exact(np.full(self.model.num_states, bound))
         decided = iv.binary(cmp, q, threshold)
         init = self.model.initial_states
@@ -411,12 +437,15 @@ class PropertyChecker:
 
         everywhere = self._everywhere  # read before the atoms' own (nested) queries reset it
         atoms = ltl.extract_atoms(path)
-        dfa = ltl.to_dfa(path, atoms)
+        ltl.check_atoms(path, atoms)  # before evaluating them
         if atoms:
             atom_values = np.stack([self._states(a) for a in atoms])
         else:
             atom_values = np.zeros((0, self.model.num_states), dtype=bool)
         starts = np.arange(self.model.num_states) if everywhere else None
+        # the automaton over the letters of this model, in its orders, not all 2**n (issue #13)
+        graph = ltl.letter_graph(self.model, atom_values, starts)
+        dfa = ltl.to_dfa(path, atoms, alphabet=graph)
         return ltl.product(self.model, dfa, atom_values, starts=starts), starts
 
     def _ltl_probability(self, path: Expr, maximize: np.ndarray) -> QueryValue:
@@ -462,6 +491,8 @@ class PropertyChecker:
         objective = expr.objective
         kind = objective.kind
         choice_rewards = rm.choice_rewards(m.row_groups)
+        if kind is RewardKind.STEADY:
+            return self._long_run(choice_rewards)  # a dtmc: one choice per state
         if kind is RewardKind.INSTANTANEOUS:
             k = self._int(objective.bound)
             state_rewards = rm.state if rm.state is not None else np.zeros(m.num_states)
@@ -519,6 +550,13 @@ class PropertyChecker:
         )
         return self._project(prod, _from_engine(r), starts)
 
+    def _long_run(self, weight: np.ndarray) -> QueryValue:
+        """The long-run average of a per-state weight (S, R[S]; dtmcs)."""
+        r = long_run_average(self.model, weight, options=self.options.solver)
+        return QueryValue(r.values, r.lower, r.upper, iterations=r.iterations,
+                          converged=r.converged, sound=r.sound,
+                          method="steady state (exact BSCCs)" if r.sound else "steady state")
+
     def _int(self, e: Expr | None) -> int:
         if e is None:
             raise SemanticError("a step bound is missing")
@@ -559,6 +597,6 @@ def _contains_query(e: Expr) -> bool:
     """Whether a state expression contains a ``P``/``R`` query."""
     return any_node(
         e,
-        lambda n: isinstance(n, (ProbQuery, RewardQuery)),
+        lambda n: isinstance(n, (ProbQuery, RewardQuery, Filter, PathQuantifier, SteadyQuery)),
         into=lambda n: not isinstance(n, (ProbQuery, RewardQuery, Temporal)),
     )

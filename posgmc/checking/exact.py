@@ -30,7 +30,18 @@ from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.checking.states import evaluate_states
 from posgmc.engines.rational import exact_bounded_reach, exact_rational_reach
 from posgmc.errors import LimitError, UnsupportedError
-from posgmc.syntax.ast import ComparisonOp, Expr, ProbQuery, Temporal, TemporalOp
+from posgmc.engines.rational_rewards import exact_reach_reward
+from posgmc.engines.steady import as_fractions, long_run_exact
+from posgmc.syntax.ast import (
+    ComparisonOp,
+    Expr,
+    ProbQuery,
+    RewardKind,
+    RewardQuery,
+    SteadyQuery,
+    Temporal,
+    TemporalOp,
+)
 
 __all__ = ["EXACT_STATE_LIMIT", "ExactChecker"]
 
@@ -38,8 +49,9 @@ EXACT_STATE_LIMIT = 3000
 """The most states exact checking accepts (its linear algebra is dense, over Fractions)."""
 
 _SUPPORTED = (
-    "exact mode answers reachability probabilities (P[ X b ], P[ F b ], P[ a U b ], with upper "
-    "step bounds <=k and with their thresholds) and state formulas"
+    "exact mode answers reachability probabilities (P[ X b ], P[ F b ], P[ G b ], P[ a U b ], with "
+    "upper step bounds <=k and with their thresholds), expected rewards R[F b] (dtmc, mdp), "
+    "steady-state probabilities and long-run rewards on dtmcs (S, R[S]) and state formulas"
 )
 
 _COMPARE = {
@@ -101,6 +113,30 @@ class ExactChecker(PropertyChecker):
                 per_initial=tuple(holds),
                 **common,  # type: ignore[arg-type]
             )
+        if (isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.REACH
+                and expr.objective.target is not None and not _is_temporal(expr.objective.target)
+                and not _contains_query(expr.objective.target)):
+            return self._reach_reward(expr, common, start)
+        steady = self._steady(expr)
+        if steady is not None:
+            at_init = [steady[int(s)] for s in init]
+            threshold = expr.threshold if isinstance(expr, SteadyQuery) else None
+            if threshold is None:
+                lower, upper = _outward(at_init[0])
+                kind = ResultKind.PROBABILITY if isinstance(expr, SteadyQuery) else ResultKind.REWARD
+                return PropertyResult(
+                    kind=kind, value=float(at_init[0]), lower=lower, upper=upper,
+                    seconds=time.perf_counter() - start,
+                    per_initial=tuple(float(v) for v in at_init), exact=at_init[0],
+                    **common,  # type: ignore[arg-type]
+                )
+            bound = Fraction(self.scalar(threshold.value))  # type: ignore[arg-type]
+            holds = [_COMPARE[threshold.op](v, bound) for v in at_init]
+            return PropertyResult(
+                kind=ResultKind.BOOLEAN, value=all(holds), lower=None, upper=None,
+                seconds=time.perf_counter() - start, per_initial=tuple(holds),
+                **common,  # type: ignore[arg-type]
+            )
         if _contains_query(expr):
             raise UnsupportedError(f"{_SUPPORTED}; this property is not one of them", expr.span)
         values_np = evaluate_states(model, expr)
@@ -119,9 +155,80 @@ class ExactChecker(PropertyChecker):
             **common,  # type: ignore[arg-type]
         )
 
+    def _reach_reward(self, expr: RewardQuery, common: dict[str, object],
+                      start: float) -> PropertyResult:
+        """``R[F b]`` (and its thresholds) exactly; infinite values are exact too."""
+        self._check_size()
+        model = self.model
+        assert expr.objective.target is not None  # noqa: S101 - checked by the caller
+        target = self._states(expr.objective.target)
+        rewards = as_fractions(model.reward_model(expr.reward).choice_rewards(model.row_groups))
+        maximize = bool(self._maximize(expr).any())
+        values, infinite = exact_reach_reward(model, rewards, target, maximize=maximize)
+        init = [int(s) for s in model.initial_states]
+        seconds = time.perf_counter() - start
+        if expr.threshold is not None:
+            bound = Fraction(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            above = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
+            # an infinite value is above every threshold
+            holds = [above if infinite[s] else _COMPARE[expr.threshold.op](values[s], bound)
+                     for s in init]
+            return PropertyResult(kind=ResultKind.BOOLEAN, value=all(holds), lower=None,
+                                  upper=None, seconds=seconds, per_initial=tuple(holds),
+                                  **common)  # type: ignore[arg-type]
+        s0 = init[0]
+        if infinite[s0]:
+            return PropertyResult(kind=ResultKind.REWARD, value=float("inf"), lower=float("inf"),
+                                  upper=float("inf"), seconds=seconds,
+                                  per_initial=tuple(float("inf") if infinite[s] else
+                                                    float(values[s]) for s in init),
+                                  **common)  # type: ignore[arg-type]
+        lower, upper = _outward(values[s0])
+        return PropertyResult(kind=ResultKind.REWARD, value=float(values[s0]), lower=lower,
+                              upper=upper, seconds=seconds, exact=values[s0],
+                              per_initial=tuple(float("inf") if infinite[s] else float(values[s])
+                                                for s in init),
+                              **common)  # type: ignore[arg-type]
+
+    def _check_size(self) -> None:
+        if self.model.num_states > EXACT_STATE_LIMIT:
+            raise LimitError(
+                f"exact mode solves models of at most {EXACT_STATE_LIMIT} states; this one has "
+                f"{self.model.num_states}",
+                hint="check without --exact: the default interval method gives proven bounds",
+            )
+
+    def _steady(self, expr: Expr) -> list[Fraction] | None:
+        """``S [ phi ]`` and ``R [ S ]`` per state, exactly (None for other properties)."""
+        if isinstance(expr, SteadyQuery):
+            weight = [Fraction(int(b)) for b in self._states(expr.operand)]
+        elif (isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.STEADY
+              and expr.threshold is None):
+            rm = self.model.reward_model(expr.reward)
+            weight = as_fractions(rm.choice_rewards(self.model.row_groups))
+        else:
+            return None
+        self._check_size()
+        return long_run_exact(self.model, weight)
+
     def _reach(self, expr: ProbQuery) -> list[Fraction]:
         path = expr.path
         bound = getattr(path, "bound", None)
+        if (isinstance(path, Temporal) and path.op is TemporalOp.GLOBALLY
+                and not any(_is_temporal(o) or _contains_query(o) for o in path.operands)
+                and (bound is None or (self._step_interval(bound)[0] == 0
+                                       and self._step_interval(bound)[1] is not None))):
+            # G a = !F !a: the complement, with the opposite optimum (PRISM does the same)
+            self._check_size()
+            bad = ~self._states(path.operands[0])
+            flipped = ~self._maximize(expr)
+            if bound is None:
+                reach = exact_rational_reach(self.model, bad, maximize=flipped)
+            else:
+                steps = int(self._step_interval(bound)[1])  # type: ignore[arg-type]
+                reach = exact_bounded_reach(self.model, bad, remain=None, steps=steps,
+                                            maximize=flipped, next_only=False)
+            return [1 - v for v in reach]
         if (
             not isinstance(path, Temporal)
             or path.op not in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL, TemporalOp.NEXT)
@@ -130,12 +237,7 @@ class ExactChecker(PropertyChecker):
                                        or self._step_interval(bound)[1] is None))
         ):
             raise UnsupportedError(f"{_SUPPORTED}; this path formula is not one of them", expr.span)
-        if self.model.num_states > EXACT_STATE_LIMIT:
-            raise LimitError(
-                f"exact mode solves models of at most {EXACT_STATE_LIMIT} states; this one has "
-                f"{self.model.num_states}",
-                hint="check without --exact: the default interval method gives proven bounds",
-            )
+        self._check_size()
         if path.op is TemporalOp.UNTIL:
             remain, target = self._states(path.operands[0]), self._states(path.operands[1])
         else:

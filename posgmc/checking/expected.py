@@ -2,17 +2,23 @@
 
 A RESULT line holds a number (``0.85``, ``19/15``, ``1e-3``), an interval ``[lo,hi]``, ``true`` or
 ``false``, ``Infinity``/``-Infinity``, ``NaN``, ``Error`` or ``Error:substring`` (the property must
-fail, with that text in its message), or ``?`` (not checked). ``// RESULT (N=4): v`` applies when
+fail, with that text in its message), a Pareto front ``[(x,y),...]`` (multi-objective queries), or
+``?`` (not checked). ``// RESULT (N=4): v`` applies when
 the constant N is 4; ``// RESULT (guaranteed): v`` compares the named number of the result
 (``guaranteed``, ``vs_fss_adversary``, ``upper_bound``, ``full_observation``) instead of its value.
-Numbers pass within a relative tolerance (PRISM: 1e-5; absolute near 0), and an interval when
-the value lies in it.
+Numbers pass within a relative tolerance of the result (PRISM: ``1e-5·|v| + 1e-12``) or within
+the result's proven bounds (PRISM grades with a result's own accuracy when it has one), an
+interval when the value ± that tolerance (or the bounds) meets it; ``~v`` asks only for closeness in exact mode; an
+expected value may be an expression over the constants (``RESULT: 1/N``), as PRISM allows.
+``Error:a,b`` passes when the message contains every comma-separated word. In exact mode the
+fraction must be equal. The rules are PRISM's (``prism/src/prism/ResultTesting.java``), and the
+applicable line is the first whose constants all match (``Property.getExpectedResultString``).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -35,13 +41,23 @@ class Verdict:
 
 
 def expected_for(prop: Property, constants: Mapping[str, str]) -> ExpectedResult | None:
-    """The RESULT line that applies under these constant values (the most specific one)."""
-    best: ExpectedResult | None = None
+    """The RESULT line that applies under these constant values: as PRISM, the first one whose
+    constants all have these values (numbers compared as numbers, so ``x=0.50`` matches 0.5)."""
     for exp in prop.expected:
-        if all(constants.get(k) == v for k, v in exp.constants):
-            if best is None or len(exp.constants) > len(best.constants):
-                best = exp
-    return best
+        if all(_same_constant(constants.get(k), v) for k, v in exp.constants):
+            return exp
+    return None
+
+
+def _same_constant(given: str | None, written: str) -> bool:
+    if given is None:
+        return False
+    if given == written:
+        return True
+    try:
+        return Fraction(given) == Fraction(written)
+    except (ValueError, ZeroDivisionError):
+        return False
 
 
 def _number(text: str) -> float:
@@ -56,12 +72,46 @@ def _number(text: str) -> float:
     return float(Fraction(t))
 
 
+_FLOATING_POINT_ERROR = 1e-12  # PRISM's Accuracy.FLOATING_POINT_ERROR
+
+
+def _slack(value: float, tolerance: float) -> float:
+    """PRISM's error bound around a result: relative to the result, plus floating-point error."""
+    return tolerance * abs(value) + _FLOATING_POINT_ERROR
+
+
 def _close(value: float, expected: float, tolerance: float) -> bool:
-    if math.isnan(expected):
-        return math.isnan(value)
-    if math.isinf(expected):
+    if math.isnan(expected) or math.isnan(value):
+        return math.isnan(value) and math.isnan(expected)
+    if math.isinf(expected) or math.isinf(value):
         return value == expected
-    return abs(value - expected) <= max(tolerance * abs(expected), 1e-10)  # absolute near 0
+    return abs(value - expected) <= _slack(value, tolerance)
+
+
+def _expected_number(text: str, constants: Mapping[str, str] | None) -> float:
+    """A number, a fraction, Infinity/NaN, or (as PRISM) an expression over the constants."""
+    try:
+        return _number(text)
+    except (ValueError, ZeroDivisionError):
+        pass
+    from posgmc.semantics.evaluate import evaluate
+    from posgmc.syntax.parser import parse_expression
+
+    try:
+        expr = parse_expression(text)
+        env = {k: _constant_value(v) for k, v in (constants or {}).items()}
+        return float(evaluate(expr, env))  # type: ignore[arg-type]
+    except (PosgmcError, ValueError, TypeError, KeyError, ZeroDivisionError):
+        raise ValueError(f"RESULT value {text!r} is not a number, interval, true/false, "
+                         "Infinity, NaN, Error, ? or an expression over the constants") from None
+
+
+def _constant_value(text: str) -> int | Fraction | bool:
+    """A constant's value as given on the command line (``4``, ``0.5``, ``1/3``, ``true``)."""
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    value = Fraction(text)
+    return int(value) if value.denominator == 1 and "." not in text else value
 
 
 def _show(value: object) -> str:
@@ -75,7 +125,7 @@ def _show(value: object) -> str:
 
 
 _FORMS = ("a number, an interval [lo, hi], a Pareto front [(x,y),...], true/false, Infinity, "
-          "NaN, Error or ?")
+          "NaN, Error, ? or an expression over the constants")
 
 
 def _interval(text: str) -> tuple[float, float]:
@@ -92,28 +142,41 @@ def _interval(text: str) -> tuple[float, float]:
     return lo, hi
 
 
-def check_form(text: str) -> None:
-    """ValueError unless ``text`` is one of the RESULT forms (see the module docstring)."""
+def check_form(text: str, names: Collection[str] | None = None) -> None:
+    """ValueError unless ``text`` is one of the RESULT forms (see the module docstring); an
+    expression may name only ``names`` (the constants), when given."""
     if text.strip() == "?":
         return
     low = text.lower()
     if low in ("true", "false") or low == "error" or low.startswith("error:"):
         return
-    if text.startswith("[(") and text.endswith("]"):
-        _points(text)  # a Pareto front: [(x,y),...]
+    body = text[1:] if text.startswith("~") else text
+    if body.startswith("[(") and body.endswith("]"):
+        _points(body)  # a Pareto front: [(x,y),...]
         return
-    if text.startswith("[") and text.endswith("]"):
-        _interval(text)
+    if body.startswith("[") and body.endswith("]"):
+        _interval(body)
         return
     try:
-        _number(text)
+        _number(body)
     except (ValueError, ZeroDivisionError):
-        raise ValueError(f"RESULT value {text!r} is not {_FORMS}") from None
+        from posgmc.syntax.parser import parse_expression
+
+        from posgmc.semantics.evaluate import free_names
+
+        try:  # PRISM: an expression over the constants, evaluated when graded
+            unknown = free_names(parse_expression(body)) - set(names if names is not None else ())
+        except PosgmcError:
+            raise ValueError(f"RESULT value {text!r} is not {_FORMS}") from None
+        if names is not None and unknown:
+            raise ValueError(f"RESULT value {text!r} is not {_FORMS} (no constant named "
+                             f"{', '.join(sorted(unknown))})")
 
 
 def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
-          tolerance: float = DEFAULT_TOLERANCE) -> Verdict:
-    """Whether ``outcome`` matches ``expected``.
+          tolerance: float = DEFAULT_TOLERANCE, constants: Mapping[str, str] | None = None) -> Verdict:
+    """Whether ``outcome`` matches ``expected`` (``constants``: the values an expected expression
+    such as ``1/N`` may name).
 
     Raises:
         ValueError: the RESULT text is not one of the forms above (the caller reports it with the
@@ -126,8 +189,10 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
     if isinstance(outcome, PosgmcError):
         actual = f"Error: {outcome.message}"
         if text.lower().startswith("error"):
-            wanted = text.split(":", 1)[1].strip().strip('"') if ":" in text else ""
-            return Verdict(wanted.lower() in outcome.message.lower(), text, actual)
+            words = text.split(":", 1)[1].split(",") if ":" in text else []
+            message = outcome.message.lower()
+            found = all(w.strip().strip('"').lower() in message for w in words)
+            return Verdict(found, text, actual)
         return Verdict(False, text, actual)
     if text.lower().startswith("error"):
         return Verdict(False, text, _show(outcome.value))
@@ -144,26 +209,45 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
         return Verdict(value is (text.lower() == "true"), text, _show(value))
     if isinstance(value, bool) or value is None:
         return Verdict(False, text, _show(value))
+    approximate = text.startswith("~")
+    body = text[1:] if approximate else text
     exact = getattr(outcome, "exact", None) if expected.number is None else None
-    if exact is not None and not text.startswith("["):
-        # exact mode (PRISM's -exact test rule): the fraction must be equal, not close
-        fraction: Fraction | None
+    if exact is not None and not body.startswith("["):
+        # exact mode (PRISM's -exact test rule): the fraction must be equal; "~v" only close
         try:
-            fraction = Fraction(text)
+            wanted = Fraction(body)
         except (ValueError, ZeroDivisionError):
-            fraction = None
-        if fraction is not None:
-            return Verdict(exact == fraction, text, str(exact))
+            wanted = None
+        if wanted is not None and (exact == wanted or not approximate):
+            return Verdict(exact == wanted, text, str(exact))
     v = float(value)  # type: ignore[arg-type]
-    if text.startswith("[") and text.endswith("]"):
-        lo, hi = _interval(text)
-        return Verdict(lo - tolerance * abs(lo) <= v <= hi + tolerance * abs(hi), text, _show(v))
-    try:
-        e = _number(text)
-    except (ValueError, ZeroDivisionError):
-        raise ValueError(f"RESULT value {text!r} is not a number, interval, true/false, "
-                         "Infinity, NaN, Error or ?") from None
-    return Verdict(_close(v, e, tolerance), text, _show(v))
+    proven = _proven_bounds(outcome) if expected.number is None else None
+    if body.startswith("[") and body.endswith("]"):
+        lo, hi = _interval(body)
+        if math.isnan(v):
+            return Verdict(False, text, _show(v))
+        slack = _slack(v, tolerance) if math.isfinite(v) else 0.0
+        meets = v - slack <= hi and lo <= v + slack
+        if proven is not None:
+            meets |= proven[0] - _FLOATING_POINT_ERROR <= hi and lo <= proven[1] + _FLOATING_POINT_ERROR
+        return Verdict(meets, text, _show(v))
+    e = _expected_number(body, constants)
+    close = _close(v, e, tolerance)
+    if proven is not None and math.isfinite(e):
+        # PRISM grades with the result's own accuracy when it has one (ResultTesting's
+        # getTestingAccuracy): posgmc's proven bounds are that accuracy
+        close |= proven[0] - _FLOATING_POINT_ERROR <= e <= proven[1] + _FLOATING_POINT_ERROR
+    return Verdict(close, text, _show(v))
+
+
+def _proven_bounds(outcome: PropertyResult) -> tuple[float, float] | None:
+    """The result's proven bounds, when it has finite ones that hold."""
+    lower, upper = getattr(outcome, "lower", None), getattr(outcome, "upper", None)
+    if not getattr(outcome, "sound", False) or lower is None or upper is None:
+        return None
+    if not (math.isfinite(lower) and math.isfinite(upper)):
+        return None
+    return float(lower), float(upper)
 
 
 def _points(text: str) -> list[tuple[float, ...]]:

@@ -34,6 +34,13 @@ from posgmc.compiler.explore import Exploration
 from posgmc.compiler.options import BuildOptions, ValidationMode
 from posgmc.compiler.program import UNOWNED, Generator, GeneratorKind, Program
 from posgmc.errors import BuildError, SourceSpan, UnsupportedError
+from posgmc.semantics import operators as ops
+from posgmc.model.actions import (
+    action_signatures,
+    conflict_message,
+    labels_of,
+    observation_action_conflict,
+)
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel
 from posgmc.semantics.flat import FlatObservable
 from posgmc.syntax.ast import NO_SPAN, ModelType
@@ -264,7 +271,7 @@ def _rewards(
                 v = program.compile(it.value)
                 if g.constant is not None and v.constant is not None:
                     if g.constant:
-                        per_action[a] += float(v.constant)
+                        per_action[a] += ops.to_float(v.constant)
                 else:
                     varying.append((a, g, v))
             choice = per_action[choice_actions] if per_action.any() else np.zeros(num_choices)
@@ -383,7 +390,7 @@ def _observations(
                 assignments.append((p, flat.observables))
     if not assignments:
         return ()
-    signatures = _action_signatures(choice_actions, row_groups, len(program.action_names))
+    signatures = action_signatures(choice_actions, row_groups, len(program.action_names))
     cache: dict[int, tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = {}
     out = []
     for p, observables in assignments:
@@ -455,29 +462,6 @@ def _observation_ids(
     return ids.astype(np.int32), values, names
 
 
-def _action_signatures(
-    choice_actions: np.ndarray, row_groups: np.ndarray, num_actions: int
-) -> np.ndarray:
-    """int64[S, W]: bit sets of the action labels offered in each state (62 labels per word)."""
-    num_words = max(1, -(-num_actions // 62))
-    starts = row_groups[:-1]
-    out = np.empty((starts.size, num_words), dtype=np.int64)
-    word = choice_actions // 62
-    bit = np.left_shift(np.int64(1), (choice_actions % 62).astype(np.int64))
-    for w in range(num_words):
-        bits = np.where(word == w, bit, 0)
-        out[:, w] = np.bitwise_or.reduceat(bits, starts)
-    return out
-
-
-def _labels_of(signature: np.ndarray, action_names: tuple[str, ...]) -> set[str]:
-    out = set()
-    for a, name in enumerate(action_names):
-        if (int(signature[a // 62]) >> (a % 62)) & 1:
-            out.add(f"[{name}]")
-    return out
-
-
 def _check_same_actions(
     program: Program,
     evaluator: _StateEvaluator,
@@ -491,28 +475,18 @@ def _check_same_actions(
     player_names: tuple[str, ...],
 ) -> None:
     states = np.arange(ids.size) if owned is None else owned
-    if states.size == 0:
+    conflict = observation_action_conflict(ids, states, signatures)
+    if conflict is None:
         return
-    z = ids[states]
-    _, first = np.unique(z, return_index=True)
-    rep_of_z = np.full(int(ids.max()) + 1, -1, dtype=np.int64)
-    rep_of_z[z[first]] = states[first]
-    rep = rep_of_z[z]
-    differ = np.any(signatures[states] != signatures[rep], axis=1)
-    if not differ.any():
-        return
-    k = int(np.flatnonzero(differ)[0])
-    s, t = int(rep[k]), int(states[k])
-    a_s = _labels_of(signatures[s], program.action_names)
-    a_t = _labels_of(signatures[t], program.action_names)
+    s, t = conflict
     who = f"player {player_names[player]}" if player_names else "the agent"
     span = observables[0].span if observables else NO_SPAN
-    raise BuildError(
-        f"states {evaluator.describe(s)} and {evaluator.describe(t)} look the same to {who} "
-        f"(observation {int(ids[s])}) but offer different actions: "
-        f"{', '.join(sorted(a_s - a_t)) or 'none'} only in the first, "
-        f"{', '.join(sorted(a_t - a_s)) or 'none'} only in the second",
-        _span(span),
-        hint="states with the same observation must enable the same action labels; observe more "
-        "or make the commands' guards depend only on observed values",
+    message, hint = conflict_message(
+        evaluator.describe(s),
+        evaluator.describe(t),
+        who,
+        int(ids[s]),
+        labels_of(signatures[s], program.action_names),
+        labels_of(signatures[t], program.action_names),
     )
+    raise BuildError(message, _span(span), hint=hint)

@@ -26,6 +26,7 @@ a :class:`~posgmc.errors.BuildError` naming the state.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import itertools
 import math
@@ -247,6 +248,12 @@ def _join(a: ExprType, b: ExprType) -> ExprType:
 
 _BOOL_OPS = {BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF}
 _COMPARISONS = {BinaryOp.EQ, BinaryOp.NE, BinaryOp.LT, BinaryOp.LE, BinaryOp.GT, BinaryOp.GE}
+_INT_ARITHMETIC: dict[BinaryOp, Callable[[Any, Any], Any]] = {
+    BinaryOp.ADD: lambda a, b: a + b,
+    BinaryOp.SUB: lambda a, b: a - b,
+    BinaryOp.MUL: lambda a, b: a * b,
+}
+_CHECKED_HELPERS = {BinaryOp.ADD: "_iadd", BinaryOp.SUB: "_isub", BinaryOp.MUL: "_imul"}
 _PY_OPS = {
     BinaryOp.EQ: "==",
     BinaryOp.NE: "!=",
@@ -290,12 +297,14 @@ def _fold_binary(op: BinaryOp, a: Scalar, b: Scalar) -> Scalar:
         return a > b
     if op is BinaryOp.GE:
         return a >= b
-    if op is BinaryOp.ADD:
-        return a + b
-    if op is BinaryOp.SUB:
-        return a - b
-    if op is BinaryOp.MUL:
-        return a * b
+    if op in _INT_ARITHMETIC:
+        r = _INT_ARITHMETIC[op](a, b)
+        if type(r) is int:
+            try:
+                ops.check_int(r, f"{a} {_PY_OPS[op]} {b}")
+            except ops.DomainFailure as failure:
+                raise _FoldError(failure.message) from None
+        return r
     # DIV: a double, exact while both are exact and the divisor is not 0
     return ops.scalar_divide(a, b)  # type: ignore[arg-type]
 
@@ -341,6 +350,22 @@ def _rt_mod(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
 
 def _rt_ipow(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
     return _rt(v, span, ops.int_pow, a, b)
+
+
+def _rt_iadd(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
+    return _rt(v, span, ops.int_add, a, b)
+
+
+def _rt_isub(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
+    return _rt(v, span, ops.int_sub, a, b)
+
+
+def _rt_imul(v: Columns, a: Any, b: Any, span: SourceSpan) -> Any:
+    return _rt(v, span, ops.int_mul, a, b)
+
+
+def _rt_ineg(v: Columns, a: Any, span: SourceSpan) -> Any:
+    return _rt(v, span, ops.int_neg, a)
 
 
 def _rt_floor(v: Columns, x: Any, span: SourceSpan) -> Any:
@@ -401,6 +426,10 @@ _RUNTIME: dict[str, Any] = {
     "_mod": _rt_mod,
     "_ipow": _rt_ipow,
     "_fpow": ops.float_pow,
+    "_iadd": _rt_iadd,
+    "_isub": _rt_isub,
+    "_imul": _rt_imul,
+    "_ineg": _rt_ineg,
     "_floor": _rt_floor,
     "_ceil": _rt_ceil,
     "_round": _rt_round,
@@ -420,22 +449,72 @@ _RUNTIME: dict[str, Any] = {
 # ---------------------------------------------------------------------------------------------
 
 
+_MAX_NESTING = 40
+"""Deepest bracket nesting of one generated Python expression. Python's own parser refuses more
+than 200 nested brackets (and its compiler recurses on nesting), so a deeper subexpression is
+hoisted into a local ``_tN = ...`` statement of the function evaluating it."""
+
+
 @dataclass
 class _Code:
-    """A generated subexpression: source text, type, folded value, and whether it can fail."""
+    """A generated subexpression: source text, type, folded value, and whether it can fail.
+
+    ``prelude``: statements (temporaries) that must run before ``text`` in the same function;
+    ``depth``: the bracket nesting of ``text``.
+    """
 
     text: str
     type: ExprType
     constant: Scalar | None = None
     partial: bool = False
     fold_error: str | None = None  # a constant that fails to evaluate
+    prelude: tuple[str, ...] = ()
+    depth: int = 0
+    bounds: tuple[int, int] | None = None  # an int's proven [min, max] over the states
+
+
+def _fits(bounds: tuple[int, int] | None) -> bool:
+    return bounds is not None and ops.INT64_MIN <= bounds[0] and bounds[1] <= ops.INT64_MAX
+
+
+def _clip(bounds: tuple[int, int] | None) -> tuple[int, int] | None:
+    if bounds is None:
+        return None
+    return max(bounds[0], ops.INT64_MIN), min(bounds[1], ops.INT64_MAX)
+
+
+def _int_bounds(op: BinaryOp, a: _Code, b: _Code) -> tuple[int, int] | None:
+    """Interval arithmetic on the operands' bounds (None: unknown)."""
+    if a.bounds is None or b.bounds is None:
+        return None
+    (al, ah), (bl, bh) = a.bounds, b.bounds
+    if op is BinaryOp.ADD:
+        return al + bl, ah + bh
+    if op is BinaryOp.SUB:
+        return al - bh, ah - bl
+    products = (al * bl, al * bh, ah * bl, ah * bh)
+    return min(products), max(products)
+
+
+def _joined(text: str, type_: ExprType, *parts: _Code, partial: bool = False, extra: int = 1) -> _Code:
+    """A new code whose text embeds ``parts`` (their preludes run first, in order)."""
+    prelude: tuple[str, ...] = ()
+    for p in parts:
+        prelude += p.prelude
+    depth = max((p.depth for p in parts), default=0) + extra
+    return _Code(text, type_, partial=partial, prelude=prelude, depth=depth)
 
 
 class _Generator:
     """Turns one expression tree into source text plus auxiliary functions and span constants."""
 
-    def __init__(self, slots: Mapping[str, tuple[int, ExprType]]) -> None:
+    def __init__(
+        self,
+        slots: Mapping[str, tuple[int, ExprType]],
+        ranges: Mapping[str, tuple[int, int]],
+    ) -> None:
         self.slots = slots
+        self.ranges = ranges
         self.variables: set[int] = set()
         self.aux: list[str] = []
         self.env: dict[str, Any] = {}
@@ -452,9 +531,17 @@ class _Generator:
     def function(self, code: _Code) -> str:
         """Wrap ``code`` into an auxiliary ``def _fN(v)`` and return its name."""
         name = self.fresh("_f")
-        body = self.materialize(code)
-        self.aux.append(f"def {name}(v):\n    return {body}\n")
+        self.aux.append(_function_source(name, code.prelude, self.materialize(code)))
         return name
+
+    def hoist(self, code: _Code) -> _Code:
+        """``code`` itself, or a temporary holding it when its text nests too deeply."""
+        if code.depth <= _MAX_NESTING or code.constant is not None:
+            return code
+        name = self.fresh("_t")
+        return dataclasses.replace(
+            code, text=name, prelude=code.prelude + (f"{name} = {code.text}",), depth=0
+        )
 
     def materialize(self, code: _Code) -> str:
         """Source that yields an array of ``v.n`` rows (constants become ``_full``)."""
@@ -477,9 +564,29 @@ class _Generator:
     def const(self, value: Scalar, type_: ExprType) -> _Code:
         if type_ is ExprType.DOUBLE and isinstance(value, int):
             value = Fraction(value)
-        return _Code(self.literal(value, type_), type_, constant=value)
+        bounds = (int(value), int(value)) if type_ is ExprType.INT else None
+        return _Code(self.literal(value, type_), type_, constant=value, bounds=bounds)
 
-    def gen(self, e: Expr) -> _Code:
+    def gen(self, root: Expr) -> _Code:
+        """The code of ``root``, built bottom-up with an explicit stack: no recursion, so an
+        expression nested thousands deep compiles (its text is cut into temporaries)."""
+        out: list[_Code] = []
+        stack: list[tuple[Expr, bool]] = [(root, False)]
+        while stack:
+            e, ready = stack.pop()
+            kids = _operands(e)
+            if not ready and kids:
+                stack.append((e, True))
+                stack.extend((k, False) for k in reversed(kids))
+                continue
+            args = out[len(out) - len(kids):] if kids else []
+            if kids:
+                del out[len(out) - len(kids):]
+            out.append(self.hoist(self.node(e, args)))
+        assert len(out) == 1
+        return out[0]
+
+    def node(self, e: Expr, args: list[_Code]) -> _Code:
         if isinstance(e, BoolLit):
             return self.const(bool(e.value), ExprType.BOOL)
         if isinstance(e, IntLit):
@@ -492,50 +599,83 @@ class _Generator:
         if isinstance(e, Ident):
             index, type_ = self.slots[e.name]
             self.variables.add(index)
-            return _Code(f"v[{index}]", type_)
+            bounds = self.ranges.get(e.name) if type_ is ExprType.INT else None
+            return _Code(f"v[{index}]", type_, depth=1, bounds=bounds)
         if isinstance(e, Unary):
-            return self.unary(e)
+            return self.unary(e, args[0])
         if isinstance(e, Binary):
-            return self.binary(e)
+            return self.binary(e, args[0], args[1])
         if isinstance(e, Ite):
-            return self.ite(e)
+            return self.ite(e, *args)
         if isinstance(e, Call):
-            return self.call(e)
+            return self.call(e, args)
         raise TypeError(f"{type(e).__name__} cannot be compiled: not a model expression")
 
-    def unary(self, e: Unary) -> _Code:
-        a = self.gen(e.operand)
+    def unary(self, e: Unary, a: _Code) -> _Code:
         if e.op is UnaryOp.NOT:
             if a.constant is not None:
                 return self.const(not a.constant, ExprType.BOOL)
-            return _Code(f"(~{a.text})", ExprType.BOOL, partial=a.partial)
+            return _joined(f"(~{a.text})", ExprType.BOOL, a, partial=a.partial)
         if a.constant is not None:
+            if a.type is ExprType.INT and not _fits((-int(a.constant), 0)):
+                return self.failing(
+                    ops.int_overflow_message(f"-({a.constant})", -int(a.constant)), e.span, a.type
+                )
             return self.const(-a.constant, a.type)
-        return _Code(f"(-{a.text})", a.type, partial=a.partial)
+        if a.type is ExprType.INT:
+            bounds = None if a.bounds is None else (-a.bounds[1], -a.bounds[0])
+            if not _fits(bounds):
+                code = _joined(
+                    f"_ineg(v, {a.text}, {self.span_const(e.span)})", a.type, a, partial=True
+                )
+                code.bounds = _clip(bounds)
+                return code
+            code = _joined(f"(-{a.text})", a.type, a, partial=a.partial)
+            code.bounds = bounds
+            return code
+        return _joined(f"(-{a.text})", a.type, a, partial=a.partial)
 
-    def binary(self, e: Binary) -> _Code:
+    def binary(self, e: Binary, a: _Code, b: _Code) -> _Code:
         op = e.op
-        a = self.gen(e.left)
         if op in (BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES):
-            return self.logical(op, a, e.right)
-        b = self.gen(e.right)
+            return self.logical(op, a, b)
         if a.constant is not None and b.constant is not None:
             type_ = (
                 ExprType.BOOL
                 if op in _COMPARISONS or op is BinaryOp.IFF
                 else (ExprType.DOUBLE if op is BinaryOp.DIV else _join(a.type, b.type))
             )
-            return self.const(_fold_binary(op, a.constant, b.constant), type_)
+            try:
+                return self.const(_fold_binary(op, a.constant, b.constant), type_)
+            except _FoldError as err:
+                return self.failing(str(err), e.span, type_)
         partial = a.partial or b.partial
         if op is BinaryOp.IFF:
-            return _Code(f"({a.text} == {b.text})", ExprType.BOOL, partial=partial)
+            return _joined(f"({a.text} == {b.text})", ExprType.BOOL, a, b, partial=partial)
         if op is BinaryOp.DIV:
-            return _Code(f"_np.true_divide({a.text}, {b.text})", ExprType.DOUBLE, partial=partial)
+            return _joined(
+                f"_np.true_divide({a.text}, {b.text})", ExprType.DOUBLE, a, b, partial=partial
+            )
         type_ = ExprType.BOOL if op in _COMPARISONS else _join(a.type, b.type)
-        return _Code(f"({a.text} {_PY_OPS[op]} {b.text})", type_, partial=partial)
+        if type_ is ExprType.INT:
+            # 64-bit ints: numpy wraps silently, so an operation the ranges do not prove safe is
+            # checked and fails with the exact value (docs/language.md)
+            bounds = _int_bounds(op, a, b)
+            if not _fits(bounds):
+                code = _joined(
+                    f"{_CHECKED_HELPERS[op]}(v, {a.text}, {b.text}, {self.span_const(e.span)})",
+                    type_,
+                    a,
+                    b,
+                    partial=True,
+                )
+            else:
+                code = _joined(f"({a.text} {_PY_OPS[op]} {b.text})", type_, a, b, partial=partial)
+            code.bounds = _clip(bounds)
+            return code
+        return _joined(f"({a.text} {_PY_OPS[op]} {b.text})", type_, a, b, partial=partial)
 
-    def logical(self, op: BinaryOp, a: _Code, right: Expr) -> _Code:
-        b = self.gen(right)
+    def logical(self, op: BinaryOp, a: _Code, b: _Code) -> _Code:
         if a.constant is not None:
             # a constant left operand decides or disappears
             lv = bool(a.constant)
@@ -547,43 +687,38 @@ class _Generator:
         left = f"(~{a.text})" if op is BinaryOp.IMPLIES else a.text
         if b.constant is not None:
             rv = bool(b.constant)
-            if op is BinaryOp.AND:
-                return (
-                    _Code(left, ExprType.BOOL, partial=a.partial)
-                    if rv
-                    else self.const(False, ExprType.BOOL)
-                )
-            return (
-                self.const(True, ExprType.BOOL)
-                if rv
-                else _Code(left, ExprType.BOOL, partial=a.partial)
-            )
+            if (op is BinaryOp.AND) is not rv:
+                return self.const(not rv, ExprType.BOOL)
+            return _joined(left, ExprType.BOOL, a, partial=a.partial)
         if b.partial:
             # short-circuit: evaluate the right operand only where it decides the result
             helper = "_lazy_and" if op is BinaryOp.AND else "_lazy_or"
-            return _Code(f"{helper}(v, {left}, {self.function(b)})", ExprType.BOOL, partial=True)
+            return _joined(
+                f"{helper}(v, {left}, {self.function(b)})", ExprType.BOOL, a, partial=True
+            )
         sym = "&" if op is BinaryOp.AND else "|"
-        return _Code(f"({left} {sym} {b.text})", ExprType.BOOL, partial=a.partial)
+        return _joined(f"({left} {sym} {b.text})", ExprType.BOOL, a, b, partial=a.partial)
 
-    def ite(self, e: Ite) -> _Code:
-        c = self.gen(e.cond)
-        a = self.gen(e.then)
-        b = self.gen(e.otherwise)
+    def ite(self, e: Ite, c: _Code, a: _Code, b: _Code) -> _Code:
         type_ = _join(a.type, b.type)
         if c.constant is not None:
             chosen = a if c.constant else b
             if chosen.constant is not None:
                 return self.const(chosen.constant, type_)
             if chosen.type is not type_:
-                return _Code(
-                    f"({chosen.text}).astype({_DTYPE_NAMES[type_]})", type_, partial=chosen.partial
+                return _joined(
+                    f"({chosen.text}).astype({_DTYPE_NAMES[type_]})",
+                    type_,
+                    chosen,
+                    partial=chosen.partial,
                 )
             return chosen
         if a.partial or b.partial or a.fold_error or b.fold_error:
-            return _Code(
+            return _joined(
                 f"_lazy_where(v, {c.text}, {self.function(a)}, {self.function(b)}, "
                 f"{_DTYPE_NAMES[type_]})",
                 type_,
+                c,
                 partial=True,
             )
         at = (
@@ -599,11 +734,14 @@ class _Generator:
         if type_ is ExprType.DOUBLE:
             at = self.literal(a.constant, type_) if a.constant is not None else at
             bt = self.literal(b.constant, type_) if b.constant is not None else bt
-        return _Code(f"_np.where({c.text}, {at}, {bt})", type_, partial=c.partial)
+        code = _joined(
+            f"_np.where({c.text}, {at}, {bt})", type_, c, a, b, partial=c.partial, extra=2
+        )
+        code.bounds = _union(a.bounds, b.bounds) if type_ is ExprType.INT else None
+        return code
 
-    def call(self, e: Call) -> _Code:
+    def call(self, e: Call, args: list[_Code]) -> _Code:
         fn = e.function
-        args = [self.gen(a) for a in e.args]
         if fn in (Function.FLOOR, Function.CEIL, Function.ROUND, Function.MOD):
             type_ = ExprType.INT
         elif fn is Function.LOG:
@@ -623,12 +761,19 @@ class _Generator:
         texts = [a.text for a in args]
         if fn in (Function.MIN, Function.MAX):
             np_fn = "_np.minimum" if fn is Function.MIN else "_np.maximum"
-            acc = texts[0]
-            for t in texts[1:]:
-                acc = f"{np_fn}({acc}, {t})"
+            if len(texts) == 2:
+                acc = f"{np_fn}({texts[0]}, {texts[1]})"
+            else:  # n-ary: one flat reduction, not n nested calls
+                acc = f"{np_fn}.reduce(_np.broadcast_arrays(_full(v, 0, _int), {', '.join(texts)})[1:])"
             if type_ is ExprType.DOUBLE:
                 acc = f"_np.asarray({acc}, dtype=_float)"
-            return _Code(acc, type_, partial=partial)
+            code = _joined(acc, type_, *args, partial=partial, extra=3)
+            if type_ is ExprType.INT and all(a.bounds is not None for a in args):
+                pick = min if fn is Function.MIN else max
+                los = [a.bounds[0] for a in args]  # type: ignore[index]
+                his = [a.bounds[1] for a in args]  # type: ignore[index]
+                code.bounds = (pick(los), pick(his))
+            return code
         if fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
             a = args[0]
             if a.type is ExprType.INT:
@@ -636,28 +781,36 @@ class _Generator:
             helper = {Function.FLOOR: "_floor", Function.CEIL: "_ceil", Function.ROUND: "_round"}[
                 fn
             ]
-            return _Code(
-                f"{helper}(v, {a.text}, {self.span_const(e.span)})", ExprType.INT, partial=True
+            return _joined(
+                f"{helper}(v, {a.text}, {self.span_const(e.span)})", ExprType.INT, a, partial=True
             )
         if fn is Function.MOD:
             a, b = args
             if b.constant is not None and b.constant > 0:
-                return _Code(f"_np.mod({a.text}, {b.text})", ExprType.INT, partial=partial)
-            return _Code(
+                code = _joined(f"_np.mod({a.text}, {b.text})", ExprType.INT, a, b, partial=partial)
+                code.bounds = (0, int(b.constant) - 1)
+                return code
+            return _joined(
                 f"_mod(v, {a.text}, {b.text}, {self.span_const(e.span)})",
                 ExprType.INT,
+                a,
+                b,
                 partial=True,
             )
         if fn is Function.POW:
             a, b = args
             if type_ is ExprType.INT:
-                return _Code(
+                return _joined(
                     f"_ipow(v, {a.text}, {b.text}, {self.span_const(e.span)})",
                     ExprType.INT,
+                    a,
+                    b,
                     partial=True,
                 )
-            return _Code(f"_fpow({a.text}, {b.text})", ExprType.DOUBLE, partial=partial)
-        return _Code(f"_log({texts[0]}, {texts[1]})", ExprType.DOUBLE, partial=partial)
+            return _joined(f"_fpow({a.text}, {b.text})", ExprType.DOUBLE, a, b, partial=partial)
+        return _joined(
+            f"_log({texts[0]}, {texts[1]})", ExprType.DOUBLE, *args, partial=partial
+        )
 
     def failing(self, message: str, span: SourceSpan, type_: ExprType) -> _Code:
         """A constant that fails whenever evaluated (e.g. ``mod(1, 0)`` in a branch)."""
@@ -673,6 +826,30 @@ class _Generator:
 _DTYPE_NAMES = {ExprType.BOOL: "_bool", ExprType.INT: "_int", ExprType.DOUBLE: "_float"}
 
 
+def _union(a: tuple[int, int] | None, b: tuple[int, int] | None) -> tuple[int, int] | None:
+    if a is None or b is None:
+        return None
+    return min(a[0], b[0]), max(a[1], b[1])
+
+
+def _operands(e: Expr) -> tuple[Expr, ...]:
+    """The sub-expressions a model expression's code is generated from, in order."""
+    if isinstance(e, Unary):
+        return (e.operand,)
+    if isinstance(e, Binary):
+        return (e.left, e.right)
+    if isinstance(e, Ite):
+        return (e.cond, e.then, e.otherwise)
+    if isinstance(e, Call):
+        return e.args
+    return ()
+
+
+def _function_source(name: str, prelude: Sequence[str], result: str) -> str:
+    lines = [f"def {name}(v):\n"] + [f"    {line}\n" for line in prelude]
+    return "".join(lines) + f"    return {result}\n"
+
+
 def _constant_function(value: Any) -> Callable[[Columns], Any]:
     def constant(v: Columns) -> Any:
         return value
@@ -680,12 +857,18 @@ def _constant_function(value: Any) -> Callable[[Columns], Any]:
     return constant
 
 
-def compile_expr(expr: Expr, slots: Mapping[str, tuple[int, ExprType]]) -> CompiledExpr:
+def compile_expr(
+    expr: Expr,
+    slots: Mapping[str, tuple[int, ExprType]],
+    ranges: Mapping[str, tuple[int, int]] | None = None,
+) -> CompiledExpr:
     """Compile ``expr`` into a function of a :class:`Columns` batch.
 
     Args:
         expr: a model expression (literals, variables, operators, functions).
         slots: for each variable name, its column index and type (INT or BOOL).
+        ranges: the declared range of int variables; integer ``+ - *`` that these bounds prove
+            within 64 bits compile to plain numpy, any other is checked for overflow.
 
     Returns:
         The compiled expression; for a constant one, ``constant`` holds the folded value.
@@ -693,7 +876,7 @@ def compile_expr(expr: Expr, slots: Mapping[str, tuple[int, ExprType]]) -> Compi
     Raises:
         KeyError: an identifier that is not a variable.
     """
-    gen = _Generator(slots)
+    gen = _Generator(slots, ranges or {})
     code = gen.gen(expr)
     if code.constant is not None:
         value = code.constant
@@ -706,8 +889,7 @@ def compile_expr(expr: Expr, slots: Mapping[str, tuple[int, ExprType]]) -> Compi
             function=_constant_function(plain),
             span=expr.span,
         )
-    body = code.text
-    source = "".join(gen.aux) + f"def _main(v):\n    return {body}\n"
+    source = "".join(gen.aux) + _function_source("_main", code.prelude, code.text)
     namespace: dict[str, Any] = dict(_RUNTIME)
     namespace.update(gen.env)
     exec(compile(source, f"<posgmc expression {expr.span}>", "exec"), namespace)  # noqa: S102

@@ -33,6 +33,7 @@ from posgmc.compiler.options import BuildOptions, ProgressMode
 from posgmc.compiler.program import Assignment, Command, Generator, GeneratorKind, Program
 from posgmc.compiler.state_space import StateIndex, make_index
 from posgmc.errors import BuildError, LimitError, SourceSpan
+from posgmc.semantics import operators as ops
 from posgmc.syntax.ast import (
     NO_SPAN,
     Binary,
@@ -304,9 +305,9 @@ def _static_ok(cmd: Command, tol: float) -> bool:
     to 1 (then the command is an error as soon as it is enabled); True otherwise."""
     if cmd.static_sum is None:
         return True
-    if any(float(u.probability.constant or 0) < 0 for u in cmd.updates):
+    if any((u.probability.constant or 0) < 0 for u in cmd.updates):
         return False
-    return abs(float(cmd.static_sum) - 1.0) <= tol
+    return abs(ops.to_float(cmd.static_sum) - 1.0) <= tol
 
 
 @dataclass
@@ -406,15 +407,15 @@ class _Expander:
             if id(cmd) not in self.bad_static:
                 return
             for up in cmd.updates:
-                if float(up.probability.constant or 0) < 0:
+                if ops.to_float(up.probability.constant or 0) < 0:
                     raise self.fail(
-                        f"update probability {float(up.probability.constant or 0):g} of "
+                        f"update probability {ops.to_float(up.probability.constant or 0):g} of "
                         f"{cmd.text} is negative",
                         up.span,
                         sub.root_row(0),
                     )
-            if abs(float(cmd.static_sum) - 1.0) > self.tol:
-                raise self._sum_error(cmd, float(cmd.static_sum), sub.root_row(0))
+            if abs(ops.to_float(cmd.static_sum) - 1.0) > self.tol:
+                raise self._sum_error(cmd, ops.to_float(cmd.static_sum), sub.root_row(0))
             return
         negative = probs < 0
         if negative.any():

@@ -99,6 +99,7 @@ class Program:
     variable_names: tuple[str, ...]
     variable_types: tuple[ExprType, ...]
     slots: dict[str, tuple[int, ExprType]]
+    ranges: dict[str, tuple[int, int]]  # declared range of each int variable
     encoding: StateEncoding
     action_names: tuple[str, ...]  # [0] == ""
     generators: tuple[Generator, ...]
@@ -106,7 +107,7 @@ class Program:
     module_names: tuple[str, ...]
 
     def compile(self, expr: Expr) -> CompiledExpr:
-        return compile_expr(expr, self.slots)
+        return compile_expr(expr, self.slots, self.ranges)
 
     def describe(self, values: list[int]) -> str:
         """A valuation as PRISM prints it: ``(x=1, b=true)``."""
@@ -123,14 +124,18 @@ def _exact(value: Scalar) -> bool:
 
 
 def _compile_command(
-    flat_cmd: FlatCommand, module: int, action: int, slots: dict[str, tuple[int, ExprType]]
+    flat_cmd: FlatCommand,
+    module: int,
+    action: int,
+    slots: dict[str, tuple[int, ExprType]],
+    ranges: dict[str, tuple[int, int]],
 ) -> Command:
-    guard = compile_expr(flat_cmd.guard, slots)
+    guard = compile_expr(flat_cmd.guard, slots, ranges)
     updates = []
     assigned: set[int] = set()
     consts: list[Scalar | None] = []
     for up in flat_cmd.updates:
-        prob = compile_expr(up.probability, slots)
+        prob = compile_expr(up.probability, slots, ranges)
         consts.append(prob.constant)
         assigns = []
         for a in up.assignments:
@@ -138,7 +143,7 @@ def _compile_command(
             assigned.add(index)
             assigns.append(
                 Assignment(
-                    index, compile_expr(a.value, slots), a.span if a.span != NO_SPAN else up.span
+                    index, compile_expr(a.value, slots, ranges), a.span if a.span != NO_SPAN else up.span
                 )
             )
         updates.append(
@@ -180,6 +185,7 @@ def compile_program(flat: FlatModel) -> Program:
     names = tuple(v.name for v in flat.variables)
     types = tuple(ExprType.BOOL if v.type is VarType.BOOL else ExprType.INT for v in flat.variables)
     slots = {n: (i, t) for i, (n, t) in enumerate(zip(names, types))}
+    ranges = {v.name: (v.low, v.high) for v in flat.variables if v.type is not VarType.BOOL}
     for v in flat.variables:
         if v.low > v.high:
             raise BuildError(f"variable '{v.name}' has an empty range [{v.low}..{v.high}]", v.span)
@@ -213,7 +219,9 @@ def compile_program(flat: FlatModel) -> Program:
     for mi, m in enumerate(flat.modules):
         compiled.append(
             [
-                _compile_command(c, mi, action_id[c.action] if c.action is not None else 0, slots)
+                _compile_command(
+                    c, mi, action_id[c.action] if c.action is not None else 0, slots, ranges
+                )
                 for c in m.commands
             ]
         )
@@ -265,6 +273,7 @@ def compile_program(flat: FlatModel) -> Program:
         variable_names=names,
         variable_types=types,
         slots=slots,
+        ranges=ranges,
         encoding=encoding,
         action_names=action_names,
         generators=tuple(generators),

@@ -218,8 +218,12 @@ class Bounds:
     end_components: bool = False  # the treated player has end components (strategies need a fix)
 
 
-_NOISE = 1e-13
-"""Relative rounding noise tolerated when checking ``F(U) <= U`` (far below any precision)."""
+_NOISE = 4 * float(np.finfo(np.float64).eps)
+"""Relative rounding noise tolerated when checking ``F(U) <= U``: a few ulps of ``U`` itself.
+An absolute tolerance would be unsound: with a slow contraction (a self-loop of probability
+1 - 1e-13) the true ``F(U) - U`` is tiny although ``U`` is far below the value (PRISM's
+``bugfixes/export-precision/rare.nm``: ``Rmin=? [F rare]`` is 1, and a slack of 1e-13 accepted
+an upper bound of 1e-6)."""
 
 
 def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -551,7 +555,7 @@ def solve(
             np.maximum(Xn[:, 0], X[:, 0], out=Xn[:, 0])
             if not verified:
                 # F(U) <= U up to rounding noise (a few ulps; the final widening covers it)
-                slack = _NOISE * np.maximum(1.0, np.abs(X[:, 1]))
+                slack = _NOISE * np.abs(X[:, 1])
                 ok = bool(np.all(Xn[:, 1] <= X[:, 1] + slack))
                 if ok:
                     verified = True

@@ -281,6 +281,15 @@ def _value_checks(analysis: ModelAnalysis, errors: list[PosgmcError]) -> None:
     for v, _module in analysis.resolved.variables:
         if v.type is not VarType.INT or v.low is None or v.high is None:
             continue
+        for bound in (v.low, v.high, v.init):
+            # a bound that fails to evaluate (pow(10, 400)) is an error build would meet too
+            if bound is not None and not any(
+                n not in analysis.constants.values for n in free_names(bound)
+            ):
+                try:
+                    evaluate(bound, analysis.constants.values)
+                except PosgmcError as err:
+                    errors.append(err)
         low, high = analysis.value(v.low), analysis.value(v.high)
         if not (_is_int(low) and _is_int(high)):
             continue

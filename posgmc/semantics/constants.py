@@ -30,7 +30,7 @@ from fractions import Fraction
 from posgmc.errors import ConstantError, PosgmcError, SourceSpan
 from posgmc.semantics.evaluate import Value, evaluate, format_value, free_names, to_double
 from posgmc.semantics.symbols import span_or_none
-from posgmc.syntax.ast import ConstantDecl, Expr, VarType
+from posgmc.syntax.ast import INT64_MAX, INT64_MIN, ConstantDecl, Expr, VarType
 
 __all__ = [
     "ConstRange",
@@ -105,6 +105,8 @@ _NAME_RE = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
 
 def _parse_number(text: str) -> int | Fraction:
     text = text.strip()
+    if len(text) > 400:  # Python converts at most 4300 digits; no sane constant is this long
+        raise ValueError(f"{text[:20]}... has too many digits")
     if _INT_RE.fullmatch(text):
         return int(text)
     return Fraction(text)  # "0.5", "1e-3", "1/3"; ValueError otherwise
@@ -203,6 +205,12 @@ def convert_user_value(
             f'constant "{name}" is given a range; expand it first (expand_sweep)', span
         )
     shown = f'"{given}"' if isinstance(given, str) else repr(given)
+    if isinstance(given, str) and not _is_literal(given):
+        # PRISM accepts a constant expression as the value: --const p=1/3, N=2*3
+        computed = _expression_value(given)
+        if computed is not None:
+            given = computed
+            shown = f"{shown} (= {computed})"
     if var_type is VarType.BOOL:
         if isinstance(given, bool):
             return given
@@ -214,10 +222,19 @@ def convert_user_value(
     if isinstance(given, bool):
         raise ConstantError(f'constant "{name}" is {_a(var_type)}, but {shown} is a Boolean', span)
     if var_type is VarType.INT:
+        value: int | None = None
         if isinstance(given, int):
-            return given
-        if isinstance(given, str) and _INT_RE.fullmatch(given.strip()):
-            return int(given.strip())
+            value = given
+        elif isinstance(given, str) and _INT_RE.fullmatch(given.strip()):
+            value = int(given.strip()) if len(given.strip()) <= 30 else INT64_MAX + 1
+        if value is not None:
+            if not INT64_MIN <= value <= INT64_MAX:
+                raise ConstantError(
+                    f'constant "{name}" is an int, but {shown} is beyond 64-bit integers',
+                    span,
+                    hint=f'declare it "const double {name};" if an approximate value will do',
+                )
+            return value
         raise ConstantError(
             f'constant "{name}" is an int, but {shown} is not an integer',
             span,
@@ -238,6 +255,36 @@ def convert_user_value(
         except (ValueError, ZeroDivisionError):
             pass
     raise ConstantError(f'constant "{name}" is a double, but {shown} is not a number', span)
+
+
+def _is_literal(text: str) -> bool:
+    t = text.strip()
+    if t in ("true", "false") or _INT_RE.fullmatch(t):
+        return True
+    try:
+        _parse_number(t)
+    except (ValueError, ZeroDivisionError):
+        return False
+    return True
+
+
+def _expression_value(text: str) -> int | Fraction | bool | None:
+    """The value of a constant expression written as a constant's value, or None when the text
+    is not one (the caller then reports the value as it was given)."""
+    from posgmc.errors import PosgmcError
+    from posgmc.semantics.evaluate import evaluate_constant
+    from posgmc.syntax.parser import parse_expression
+
+    try:
+        value = evaluate_constant(parse_expression(text, model=True))
+    except PosgmcError:
+        return None
+    if isinstance(value, float):
+        try:
+            return Fraction(repr(value))
+        except ValueError:
+            return None
+    return value
 
 
 def _a(t: VarType) -> str:
@@ -358,6 +405,16 @@ def resolve_constants(
                 unknown.add(name)
                 return
             v = int(v)
+            if not INT64_MIN <= v <= INT64_MAX:
+                errors.append(
+                    ConstantError(
+                        f'int constant "{name}" has the value {format_value(v)}, beyond 64-bit '
+                        "integers",
+                        span_or_none(decl.value.span),
+                    )
+                )
+                unknown.add(name)
+                return
         values[name] = _cast(v, decl.type)
 
     for d in sorted(by_name.values(), key=_pos):

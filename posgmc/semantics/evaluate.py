@@ -195,6 +195,16 @@ def _error(message: str, e: Expr) -> SemanticError:
     return SemanticError(message, span_or_none(e.span))
 
 
+def _int_checked(value: Value, text: str, e: Expr) -> Value:
+    """An int result must be a 64-bit integer (docs/language.md); doubles are unchecked."""
+    if type(value) is int:
+        try:
+            ops.check_int(value, text)
+        except ops.DomainFailure as failure:
+            raise _error(failure.message, e) from None
+    return value
+
+
 def _static_type(e: Expr, env: Mapping[str, Value]) -> Type | None:
     def lookup(name: str) -> Symbol | None:
         if name in env:
@@ -244,7 +254,8 @@ def evaluate(expr: Expr, env: Mapping[str, Value]) -> Value:
         if isinstance(e, Unary):
             if e.op is UnaryOp.NOT:
                 return not boolean(e.operand)
-            return -num(e.operand)
+            a = num(e.operand)
+            return _int_checked(-a, f"-({a})", e)
         if isinstance(e, Binary):
             return binary(e)
         if isinstance(e, Ite):
@@ -284,11 +295,11 @@ def evaluate(expr: Expr, env: Mapping[str, Value]) -> Value:
         if op is BinaryOp.GE:
             return a_n >= b_n
         if op is BinaryOp.ADD:
-            return a_n + b_n
+            return _int_checked(a_n + b_n, f"{a_n} + {b_n}", e)
         if op is BinaryOp.SUB:
-            return a_n - b_n
+            return _int_checked(a_n - b_n, f"{a_n} - {b_n}", e)
         if op is BinaryOp.MUL:
-            return a_n * b_n
+            return _int_checked(a_n * b_n, f"{a_n} * {b_n}", e)
         # DIV: always a double; exact while both are exact, IEEE otherwise
         try:
             return ops.scalar_divide(a_n, b_n)

@@ -34,6 +34,8 @@ from typing import Any
 
 import numpy as np
 
+from posgmc.syntax.ast import INT64_MAX, INT64_MIN
+
 __all__ = [
     "DomainFailure",
     "Partial",
@@ -44,7 +46,14 @@ __all__ = [
     "exact_arithmetic",
     "exact_only",
     "float_pow",
+    "INT64_MAX",
+    "INT64_MIN",
+    "check_int",
+    "int_add",
+    "int_mul",
+    "int_neg",
     "int_pow",
+    "int_sub",
     "log",
     "mod",
     "to_float",
@@ -52,6 +61,18 @@ __all__ = [
 ]
 
 _INT64_MAX = float(np.iinfo(np.int64).max)
+
+
+
+def int_overflow_message(text: str, value: int) -> str:
+    return f"integer overflow: {text} = {value} is beyond 64-bit integers"
+
+
+def check_int(value: int, text: str) -> int:
+    """``value`` if it is a 64-bit integer. Raises DomainFailure naming ``text`` otherwise."""
+    if not INT64_MIN <= value <= INT64_MAX:
+        raise DomainFailure(int_overflow_message(text, value), 0)
+    return value
 
 _EXACT: contextvars.ContextVar[bool] = contextvars.ContextVar("posgmc_exact", default=False)
 
@@ -183,6 +204,52 @@ round_ = _rounding("round", lambda x: np.floor(x + 0.5))
 ROUNDING = {"floor": floor, "ceil": ceil, "round": round_}
 
 
+def _add_overflows(a: Any, b: Any) -> Any:
+    a, b = np.asarray(a, dtype=np.int64), np.asarray(b, dtype=np.int64)
+    with np.errstate(all="ignore"):
+        r = a + b
+    return ((a ^ r) & (b ^ r)) < 0
+
+
+def _sub_overflows(a: Any, b: Any) -> Any:
+    a, b = np.asarray(a, dtype=np.int64), np.asarray(b, dtype=np.int64)
+    with np.errstate(all="ignore"):
+        r = a - b
+    return ((a ^ b) & (a ^ r)) < 0
+
+
+def _mul_overflows(a: Any, b: Any) -> Any:
+    a, b = np.asarray(a, dtype=np.int64), np.asarray(b, dtype=np.int64)
+    with np.errstate(all="ignore"):
+        r = a * b
+        q = np.floor_divide(r, np.where(a == 0, 1, a))
+    return ((a != 0) & (q != b)) | ((a == -1) & (b == INT64_MIN)) | ((b == -1) & (a == INT64_MIN))
+
+
+def _checked(name: str, symbol: str, f: Callable[[Any, Any], Any], overflows: Callable[..., Any]) -> Partial:
+    def compute(a: Any, b: Any, safe: Any = None) -> Any:
+        return f(_pick(a, safe, 0), _pick(b, safe, 0))
+
+    def message(a: Any, b: Any) -> str:
+        exact = {"+": int(a) + int(b), "-": int(a) - int(b), "*": int(a) * int(b)}[symbol]
+        return int_overflow_message(f"{int(a)} {symbol} {int(b)}", exact)
+
+    return Partial(name, overflows, message, compute)
+
+
+int_add = _checked("+", "+", np.add, _add_overflows)
+int_sub = _checked("-", "-", np.subtract, _sub_overflows)
+int_mul = _checked("*", "*", np.multiply, _mul_overflows)
+"""``+ - *`` of int arrays that fail where the exact result leaves 64-bit integers (numpy wraps)."""
+
+int_neg = Partial(
+    "-",
+    lambda a: np.asarray(a) == INT64_MIN,
+    lambda a: int_overflow_message(f"-({int(a)})", -int(a)),
+    lambda a, safe=None: np.negative(_pick(a, safe, 0)),
+)
+
+
 def to_int(x: Any, name: str) -> Any:
     """``floor``/``ceil``/``round`` (``name``) of doubles as int64. Raises DomainFailure."""
     return ROUNDING[name](x)
@@ -213,7 +280,7 @@ def to_float(x: int | Fraction | float) -> float:
     try:
         return float(x)
     except OverflowError:
-        return math.copysign(math.inf, x)
+        return -math.inf if x < 0 else math.inf
 
 
 # -- exact scalar forms (constant folding and the scalar evaluator) ----------------------------------

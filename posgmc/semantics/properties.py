@@ -181,6 +181,22 @@ class _PropsAnalysis:
     errors: list[PosgmcError]
 
 
+def _used_names(exprs: Sequence[Expr], decls: Sequence[ConstantDecl]) -> set[str]:
+    """The identifiers the expressions use, directly or through the definitions of constants."""
+    definitions = {c.name: c.value for c in decls if c.value is not None}
+    used: set[str] = set()
+    todo = [n for e in exprs for n in free_names(e)]
+    while todo:
+        name = todo.pop()
+        if name in used:
+            continue
+        used.add(name)
+        value = definitions.get(name)
+        if value is not None:
+            todo.extend(free_names(value))
+    return used
+
+
 def _analyse(
     props: PropertiesFile | Sequence[Property],
     model: ModelFile,
@@ -601,7 +617,12 @@ def instantiate_properties(
     a = _analyse(props, model, constants, zero_based_players)
     raise_errors(a.errors)
     pf = _as_file(props)
-    undefined = a.model.constants.undefined + a.constants.undefined
+    # PRISM asks only for the properties-file constants the checked properties use
+    # (UndefinedConstants: getUndefinedConstantsUsedInProperties); the model's are always needed
+    used = _used_names([e for _, e, _ in a.props], pf.constants)
+    undefined = list(a.model.constants.undefined) + [
+        c for c in a.constants.undefined if c.name in used
+    ]
     if undefined:
         raise undefined_constants_error(undefined)
 

@@ -25,6 +25,10 @@ from posgmc.syntax.ast import (
     BoolLit,
     Call,
     DoubleLit,
+    Filter,
+    FilterOp,
+    PathQuantifier,
+    SteadyQuery,
     Expr,
     Function,
     Ident,
@@ -135,6 +139,12 @@ class TypeChecker:
             return self._ite(e)
         if isinstance(e, Call):
             return self._call(e)
+        if isinstance(e, Filter):
+            return self._filter(e)
+        if isinstance(e, PathQuantifier):
+            return self._quantifier(e)
+        if isinstance(e, SteadyQuery):
+            return self._steady(e)
         if isinstance(e, LabelRef):
             return self._label(e)
         if isinstance(e, Temporal):
@@ -234,6 +244,37 @@ class TypeChecker:
             return Type.BOOL
         return Type.INT if t1 is Type.INT and t2 is Type.INT else Type.DOUBLE
 
+    def _filter(self, e: Filter) -> Type | None:
+        """PRISM's type rules of filters (``parser/visitor/TypeCheck.java``)."""
+        t = self._type(e.operand)
+        if e.states is not None:
+            ts = self._type(e.states)
+            if ts is not None and ts is not Type.BOOL:
+                self._error(f"the states of a filter must be a Boolean formula, found {_name(ts)}",
+                            e.states.span)
+        if t is None:
+            return None
+        name = e.op.value
+        if t is Type.PATH:
+            self._error(f"filter {name} applies to a state formula, found a path formula",
+                        e.operand.span, hint="write it inside P[...] or R[...]")
+            return None
+        numeric = (FilterOp.MIN, FilterOp.MAX, FilterOp.ARGMIN, FilterOp.ARGMAX, FilterOp.SUM,
+                   FilterOp.AVG, FilterOp.RANGE)
+        if e.op in numeric and not t.is_numeric:
+            self._error(f"filter {name} needs a numeric operand, found {_name(t)}", e.operand.span)
+            return None
+        if e.op in (FilterOp.COUNT, FilterOp.FORALL, FilterOp.EXISTS) and t is not Type.BOOL:
+            self._error(f"filter {name} needs a Boolean operand, found {_name(t)}", e.operand.span)
+            return None
+        if e.op in (FilterOp.ARGMIN, FilterOp.ARGMAX, FilterOp.FORALL, FilterOp.EXISTS):
+            return Type.BOOL
+        if e.op is FilterOp.COUNT:
+            return Type.INT
+        if e.op is FilterOp.AVG:
+            return Type.DOUBLE
+        return t
+
     def _call(self, e: Call) -> Type | None:
         fn = e.function.value
         low, high = FUNCTION_ARITY[e.function]
@@ -327,6 +368,33 @@ class TypeChecker:
             return True
         what = f"the bound of the {name} operator"
         return self.expect(e.threshold.value, Type.DOUBLE, what, constant=what) is not None
+
+    def _steady(self, e: SteadyQuery) -> Type | None:
+        if not self._query_allowed(e, "S"):
+            return None
+        ok = self._threshold(e, "S")  # type: ignore[arg-type]
+        t = self._type(e.operand)
+        if t is not None and t is not Type.BOOL:
+            self._error(f"the S operator needs a Boolean state formula, found {_name(t)}",
+                        e.operand.span)
+            return None
+        if t is None or not ok:
+            return None
+        return Type.DOUBLE if e.threshold is None else Type.BOOL
+
+    def _quantifier(self, e: PathQuantifier) -> Type | None:
+        name = "A" if e.universal else "E"
+        if not self._query_allowed(e, name):
+            return None
+        self._query_depth += 1
+        try:
+            t = self._type(e.path)
+        finally:
+            self._query_depth -= 1
+        if t is not None and not t.is_boolean:
+            self._error(f"the {name} operator needs a path formula, found {_name(t)}", e.path.span)
+            return None
+        return None if t is None else Type.BOOL
 
     def _prob(self, e: ProbQuery) -> Type | None:
         if not self._query_allowed(e, "P"):

@@ -3,7 +3,9 @@ step bounds, coalitions and ``P``/``R`` queries."""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, Sequence
 
@@ -12,6 +14,7 @@ from lark import Token
 from posgmc.errors import ParseError, SourceSpan, UnsupportedError
 from posgmc.syntax.ast import (
     FUNCTION_ARITY,
+    INT64_MAX,
     Binary,
     BinaryOp,
     BoolLit,
@@ -20,19 +23,24 @@ from posgmc.syntax.ast import (
     CoalitionKind,
     ComparisonOp,
     Direction,
+    FILTER_ALIASES,
     DoubleLit,
     Expr,
+    Filter,
+    FilterOp,
     Function,
     Ident,
     IntLit,
     Ite,
     LabelRef,
+    PathQuantifier,
     PlayerRef,
     MultiQuery,
     ProbQuery,
     RewardKind,
     RewardObjective,
     RewardQuery,
+    SteadyQuery,
     Temporal,
     TemporalOp,
     Threshold,
@@ -46,6 +54,38 @@ from posgmc.syntax.placement import contains_temporal
 
 # Decimal exponents beyond this are rejected: doubles overflow long before (1e308).
 _MAX_EXPONENT = 400
+_MAX_DIGITS = 1000
+
+
+def _negate_leftmost(e: Expr, span: SourceSpan) -> Expr:
+    """``-`` written before ``e``: unary minus binds tighter than every binary operator, so it
+    applies to the leftmost operand (``-a + b`` is ``(-a) + b``)."""
+    if isinstance(e, Binary):
+        return dataclasses.replace(e, left=_negate_leftmost(e.left, span))
+    if isinstance(e, Ite):
+        return dataclasses.replace(e, cond=_negate_leftmost(e.cond, span))
+    start = SourceSpan(span.line, span.column, e.span.end_line, e.span.end_column, span.file)
+    return Unary(UnaryOp.NEG, e, span=start)
+
+
+@dataclass(frozen=True)
+class _OldFilter:
+    """PRISM's old ``{states}{min}{max}`` suffix inside a query (``PrismParser.jj``, ``Filter``):
+    a threshold query is checked for all of ``states``; otherwise ``{min}``, ``{max}``, both
+    (the range) or neither (the value in the one state satisfying ``states``)."""
+
+    states: Expr
+    minimum: bool
+    maximum: bool
+
+    def wrap(self, query: ProbQuery | RewardQuery, span: SourceSpan) -> Filter:
+        if query.threshold is not None:
+            op = FilterOp.FORALL
+        elif self.minimum:
+            op = FilterOp.RANGE if self.maximum else FilterOp.MIN
+        else:
+            op = FilterOp.MAX if self.maximum else FilterOp.STATE
+        return Filter(op, query, self.states, span=span)
 
 
 class ExpressionActions(ActionBase):
@@ -58,6 +98,12 @@ class ExpressionActions(ActionBase):
 
     def named_property(self, span: SourceSpan, children: Sequence[Any]) -> PropertyItem:
         return PropertyItem(children[1], str(children[0].value)[1:-1], span)
+
+    def minus_property(self, span: SourceSpan, children: Sequence[Expr]) -> PropertyItem:
+        return PropertyItem(_negate_leftmost(children[0], span), None, span)
+
+    def named_minus_property(self, span: SourceSpan, children: Sequence[Any]) -> PropertyItem:
+        return PropertyItem(_negate_leftmost(children[1], span), str(children[0].value)[1:-1], span)
 
     # --- expressions -----------------------------------------------------------------------------
 
@@ -74,13 +120,32 @@ class ExpressionActions(ActionBase):
         return Unary(UnaryOp.NEG, children[0], span=span)
 
     def int_lit(self, span: SourceSpan, children: Sequence[Token]) -> IntLit:
-        return IntLit(int(children[0].value), span=span)
+        text = str(children[0].value)
+        # ints are 64-bit (docs/language.md); also keeps int() off 5000-digit strings
+        if len(text.lstrip("0")) > 19 or int(text) > INT64_MAX:
+            self._fail(
+                ParseError(
+                    f"the integer {text if len(text) <= 30 else text[:20] + '...'} is beyond "
+                    f"64-bit integers (at most {INT64_MAX})",
+                    span,
+                    hint="write a double (e.g. 1e20) if an approximate value will do",
+                )
+            )
+            return IntLit(0, span=span)
+        return IntLit(int(text), span=span)
 
     def double_lit(self, span: SourceSpan, children: Sequence[Token]) -> DoubleLit:
         text = str(children[0].value)
-        _, _, exponent = text.lower().partition("e")
-        # an exact Fraction of 1e999999999 would be a billion-digit integer
-        if exponent and abs(int(exponent)) > _MAX_EXPONENT:
+        mantissa, _, exponent = text.lower().partition("e")
+        # an exact Fraction of 1e999999999 would be a billion-digit integer, and Python refuses
+        # to convert more than 4300 digits
+        if len(mantissa) > _MAX_DIGITS:
+            shown = text[:20] + "..."
+            self._fail(
+                ParseError(f"the number {shown} has more than {_MAX_DIGITS} digits", span)
+            )
+            return DoubleLit(Fraction(0), span=span)
+        if exponent and abs(_small_int(exponent)) > _MAX_EXPONENT:
             self._fail(
                 ParseError(
                     f"the number {text} is out of range (exponent beyond ±{_MAX_EXPONENT})", span
@@ -135,6 +200,10 @@ class ExpressionActions(ActionBase):
 
     def old_call(self, span: SourceSpan, children: Sequence[Any]) -> Call:
         return self._make_call(children[0], children[1:], span)
+
+    def power(self, span: SourceSpan, children: Sequence[Expr]) -> Call:
+        """``a ^ b`` is PRISM's ``pow(a, b)``: one operator with one meaning."""
+        return Call(Function.POW, (children[0], children[1]), span=span)
 
     # --- temporal operators ----------------------------------------------------------------------
 
@@ -202,7 +271,7 @@ class ExpressionActions(ActionBase):
         refs = []
         for tok in children:
             if tok.type == "INT":
-                refs.append(PlayerRef(number=int(tok.value), span=self._tspan(tok)))
+                refs.append(PlayerRef(number=_small_int(str(tok.value)), span=self._tspan(tok)))
             else:
                 refs.append(PlayerRef(name=str(tok.value), span=self._tspan(tok)))
         return tuple(refs)
@@ -213,7 +282,7 @@ class ExpressionActions(ActionBase):
     def reward_index(self, span: None, children: Sequence[Token]) -> str | int:
         tok = children[0]
         if tok.type == "INT":
-            return int(tok.value)
+            return _small_int(str(tok.value))
         return self._quoted_identifier(tok, "reward structure")
 
     def _reward_of(self, children: Sequence[Any]) -> str | int | None:
@@ -238,6 +307,45 @@ class ExpressionActions(ActionBase):
         coalition = children[0] if isinstance(children[0], Coalition) else None
         op: QueryOp = children[-2]
         return ProbQuery(coalition, op.direction, op.threshold, children[-1], span=span)
+
+    def filter(self, span: SourceSpan, children: Sequence[Any]) -> Filter:
+        token: Token = children[1]
+        name = str(token.value)
+        op = FILTER_ALIASES.get(name)
+        if op is None:
+            try:
+                op = FilterOp(name)
+            except ValueError:
+                names = ", ".join(o.value for o in FilterOp)
+                self._fail(ParseError(f"'{name}' is not a filter operator", self._tspan(token),
+                                      hint=f"the filter operators are {names} (and +, &, |)"))
+        return Filter(op, children[2], children[3] if len(children) > 3 else None, span=span)
+
+    def steady_value(self, span: SourceSpan, children: Sequence[Any]) -> SteadyQuery:
+        return SteadyQuery(None, children[-1], span=span)
+
+    def steady_threshold(self, span: SourceSpan, children: Sequence[Any]) -> SteadyQuery:
+        op, bound, operand = children[-3:]
+        return SteadyQuery(Threshold(op, bound, span=span), operand, span=span)
+
+    def forall_paths(self, span: SourceSpan, children: Sequence[Any]) -> PathQuantifier:
+        return PathQuantifier(True, children[1], span=span)
+
+    def exists_paths(self, span: SourceSpan, children: Sequence[Any]) -> PathQuantifier:
+        return PathQuantifier(False, children[1], span=span)
+
+    def filter_op(self, span: SourceSpan, children: Sequence[Any]) -> Token:
+        return children[0]  # type: ignore[no-any-return]
+
+    def old_filter(self, span: SourceSpan, children: Sequence[Any]) -> _OldFilter:
+        mods = {str(t.value) for t in children[1:]}
+        return _OldFilter(children[0], "min" in mods, "max" in mods)
+
+    def prob_query_old_filter(self, span: SourceSpan, children: Sequence[Any]) -> Filter:
+        return children[-1].wrap(self.prob_query(span, children[:-1]), span)
+
+    def reward_query_old_filter(self, span: SourceSpan, children: Sequence[Any]) -> Filter:
+        return children[-1].wrap(self.reward_query(span, children[:-1]), span)
 
     def reward_query(self, span: SourceSpan, children: Sequence[Any]) -> RewardQuery:
         coalition = children[0] if isinstance(children[0], Coalition) else None
@@ -294,13 +402,7 @@ class ExpressionActions(ActionBase):
         ):
             return RewardObjective(RewardKind.REACH, target=path.operands[0], span=span)
         if isinstance(path, Ident) and path.name == "S":
-            self._fail(
-                UnsupportedError(
-                    "long-run average rewards (R[S]) are not supported",
-                    path.span,
-                    hint="use a reachability (F), cumulative (C<=k) or total (C) reward objective",
-                )
-            )
+            return RewardObjective(RewardKind.STEADY, span=span)
         return RewardObjective(RewardKind.LTL, target=path, span=span)
 
 
@@ -313,3 +415,11 @@ def _fraction(text: str) -> Fraction:
     # Fraction(str) parses with a regular expression; generated models repeat a few literals
     # (0.5, 0.1, ...) thousands of times, and a Fraction is immutable, so one may be shared.
     return Fraction(text)
+
+
+def _small_int(text: str) -> int:
+    """``int(text)`` for an index or exponent; beyond 18 digits it is just "too large" (and
+    Python refuses to convert more than 4300 digits at all)."""
+    sign = -1 if text.startswith("-") else 1
+    digits = text.lstrip("+-").lstrip("0") or "0"
+    return sign * (int(digits) if len(digits) <= 18 else 10**18)

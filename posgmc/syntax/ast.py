@@ -44,9 +44,14 @@ class Expr:
     span: SourceSpan = _span()
 
 
+INT64_MIN = -(2**63)
+INT64_MAX = 2**63 - 1
+"""The int type of the language is 64-bit signed, as Storm's (docs/language.md)."""
+
+
 @dataclass(frozen=True)
 class IntLit(Expr):
-    value: int
+    value: int  # within [INT64_MIN, INT64_MAX]
 
 
 @dataclass(frozen=True)
@@ -152,6 +157,58 @@ class Call(Expr):
     args: tuple[Expr, ...]
 
 
+class FilterOp(enum.Enum):
+    """PRISM's filter operators (``prism/src/parser/ast/ExpressionFilter.java``)."""
+
+    MIN = "min"
+    MAX = "max"
+    ARGMIN = "argmin"
+    ARGMAX = "argmax"
+    COUNT = "count"
+    SUM = "sum"
+    AVG = "avg"
+    FIRST = "first"
+    RANGE = "range"
+    FORALL = "forall"
+    EXISTS = "exists"
+    PRINT = "print"
+    PRINTALL = "printall"
+    STATE = "state"
+
+
+FILTER_ALIASES = {"+": FilterOp.SUM, "&": FilterOp.FORALL, "|": FilterOp.EXISTS}
+"""PRISM's symbolic names of filter operators."""
+
+
+@dataclass(frozen=True)
+class Filter(Expr):
+    """``filter(op, operand, states)``: ``op`` over the operand's values in the states satisfying
+    ``states`` (all states when None). PRISM's old form ``P=? [ ... {states}{min} ]`` is a filter
+    too."""
+
+    op: FilterOp
+    operand: Expr
+    states: Expr | None = None
+
+
+@dataclass(frozen=True)
+class SteadyQuery(Expr):
+    """PRISM's steady-state operator ``S=? [ phi ]`` / ``S>=p [ phi ]``: the long-run fraction of
+    time spent in states satisfying ``phi`` (dtmcs)."""
+
+    threshold: "Threshold | None"
+    operand: Expr
+
+
+@dataclass(frozen=True)
+class PathQuantifier(Expr):
+    """CTL's ``A [ path ]`` (every path satisfies it) and ``E [ path ]`` (some path does), over the
+    underlying graph of the model (PRISM: ``ExpressionForAll`` / ``ExpressionExists``)."""
+
+    universal: bool
+    path: Expr
+
+
 # --- temporal operators (only inside P/R operators) ------------------------------------------
 
 
@@ -252,6 +309,7 @@ class RewardKind(enum.Enum):
     INSTANTANEOUS = "I="  # R[I=k]
     DISCOUNTED_TOTAL = "Cdiscount="  # R[Cdiscount=g]: sum_t g^t r_t (Storm's syntax)
     DISCOUNTED_REACH = "Fdiscount="  # R[Fdiscount=g phi]: discounted cost collected until phi
+    STEADY = "S"  # R[S]: long-run average reward (dtmcs)
     LTL = "LTL"  # R[ co-safe LTL ]: reward until the co-safe formula is satisfied
 
 

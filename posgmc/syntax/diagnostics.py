@@ -58,14 +58,14 @@ _REGEX_NAMES: dict[str, str] = {
 _EXPRESSION_STARTS = frozenset(
     {
         "INT", "DOUBLE", "IDENT", "PIDENT", "TRUE", "FALSE", "LPAR", "MINUS", "BANG", "MIN", "MAX",
-        "CALLNAME", "FUNC", "STRING", "P", "PMIN", "PMAX", "R", "RMIN", "RMAX", "LSQB", "F", "G",
-        "X", "MULTI",
+        "CALLNAME", "FILTER", "CTL_A", "CTL_E", "STEADY", "FUNC", "STRING", "P", "PMIN", "PMAX",
+        "R", "RMIN", "RMAX", "LSQB", "F", "G", "X", "MULTI",
     }
 )  # fmt: skip
 
 # Binary operators (by their text): listed only when nothing else would do.
 _OPERATOR_TEXTS = frozenset(
-    {"+", "-", "*", "/", "&", "|", "=", "!=", "<", "<=", ">", ">=", "=>", "<=>", "?", "U", "W", "R"}
+    {"+", "-", "*", "/", "^", "&", "|", "=", "!=", "<", "<=", ">", ">=", "=>", "<=>", "?", "U", "W", "R"}
 )
 
 # Top-level keywords of a model file (a model type, or the start of a declaration).
@@ -240,6 +240,10 @@ def describe_expected(expected: Iterable[str], terminals: dict[str, TerminalDef]
     temporal = {n for n in names if _terminal_text(n, terminals) in ("U", "W", "R")}
     if temporal and (names - temporal or phrases):
         names -= temporal
+    # PRISM's old filter form `P=? [ F a {s=1} ]` is possible before every ']': rarely meant
+    texts = {n: _terminal_text(n, terminals) for n in names}
+    if "]" in texts.values():
+        names -= {n for n, t in texts.items() if t == "{"}
     rest = sorted(names, key=lambda n: (n == "$END", _describe_terminal(n, terminals)))
     phrases.extend(_describe_terminal(n, terminals) for n in rest)
     return _join(phrases) if phrases else "something else"

@@ -14,7 +14,9 @@ from posgmc.syntax.ast import (
     BinaryOp,
     Call,
     Expr,
+    Filter,
     Ite,
+    PathQuantifier,
     MultiQuery,
     ProbQuery,
     RewardKind,
@@ -41,6 +43,8 @@ def _state_children(expr: Expr) -> Iterable[Expr]:
         return (expr.cond, expr.then, expr.otherwise)
     if isinstance(expr, Call):
         return expr.args
+    if isinstance(expr, Filter):
+        return (expr.operand,) if expr.states is None else (expr.operand, expr.states)
     if isinstance(expr, Temporal):
         return expr.operands
     if isinstance(expr, MultiQuery):
@@ -75,6 +79,9 @@ def check_temporal_placement(expr: Expr, *, allowed: bool) -> None:
     if isinstance(expr, ProbQuery):
         if expr.threshold is not None:
             check_temporal_placement(expr.threshold.value, allowed=False)
+        check_temporal_placement(expr.path, allowed=True)
+        return
+    if isinstance(expr, PathQuantifier):
         check_temporal_placement(expr.path, allowed=True)
         return
     if isinstance(expr, RewardQuery):

@@ -19,15 +19,18 @@ from posgmc.syntax.ast import (
     CoalitionKind,
     DoubleLit,
     Expr,
+    Filter,
     Ident,
     IntLit,
     Ite,
     LabelRef,
+    PathQuantifier,
     MultiQuery,
     ProbQuery,
     RewardKind,
     RewardObjective,
     RewardQuery,
+    SteadyQuery,
     Temporal,
     TemporalOp,
     Threshold,
@@ -133,6 +136,8 @@ def format_objective(objective: RewardObjective) -> str:
         return "C<=" + _fmt(_required(objective.bound), _ITE)
     if kind is RewardKind.TOTAL:
         return "C"
+    if kind is RewardKind.STEADY:
+        return "S"
     if kind is RewardKind.INSTANTANEOUS:
         return "I=" + _fmt(_required(objective.bound), _ITE)
     if kind is RewardKind.DISCOUNTED_TOTAL:
@@ -212,6 +217,15 @@ def _bare(expr: Expr) -> str:
     if isinstance(expr, Call):
         args = ", ".join(_fmt(a, _ITE) for a in expr.args)
         return f"{expr.function.value}({args})"
+    if isinstance(expr, Filter):
+        # the old form P=? [ ... {states}{min} ] prints as the filter it means
+        states = f", {_fmt(expr.states, _ITE)}" if expr.states is not None else ""
+        return f"filter({expr.op.value}, {_fmt(expr.operand, _ITE)}{states})"
+    if isinstance(expr, SteadyQuery):
+        op = _operator("S", None, None, expr.threshold)
+        return f"{op} [ {_fmt(expr.operand, _ITE)} ]"
+    if isinstance(expr, PathQuantifier):
+        return f"{'A' if expr.universal else 'E'} [ {_fmt(expr.path, _PATH_BINARY)} ]"
     if isinstance(expr, Temporal):
         return _temporal(expr)
     if isinstance(expr, MultiQuery):

@@ -7,16 +7,28 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from contextlib import closing
+from dataclasses import dataclass
 
-from posgmc.checking.dispatch import CheckOptions, CoalitionResolver, ScalarEvaluator
+from posgmc.checking.dispatch import CheckOptions, CoalitionResolver, PropertyChecker, ScalarEvaluator
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.synthesis.adversaries import enumerate_adversaries, versus_adversaries
-from posgmc.synthesis.search import SynthesisOptions, synthesize
+from posgmc.checking.results import Bound
+from posgmc.strategies.fss import FiniteStateStrategy
+from posgmc.strategies.verify import StrategyChecker
+from posgmc.synthesis.compose import RESPONSE_EXHAUSTIVE, VersusJob, one_sided, verified_numbers
+from posgmc.synthesis.jobs import POLICY, Executor, Problem, executor_for
+from posgmc.synthesis.objectives import lift, needs_product
+from posgmc.synthesis.search import SynthesisOptions, SynthesisResult, _better, problem_of, synthesize
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
 
 __all__ = ["SynthesisChecker"]
+
+_GAIN = 1e-7
+"""How much better (relative) the composed defence must be, by policy iteration, before the
+sound engines check it: a gain below this is numerical noise, and a randomised strategy's sound
+check can be slow."""
 
 
 class SynthesisChecker:
@@ -41,6 +53,105 @@ class SynthesisChecker:
             )
         return next(iter(players))
 
+    def _adversary_phases(self, problem: Problem, executor: Executor, result: SynthesisResult,
+                          settings: SynthesisOptions, deadline: float) -> "_AdversaryOutcome":
+        """Enumerate, rank and keep the adversary's strategies, compose the defence against them
+        and run the double oracle (:mod:`posgmc.synthesis.compose`); then choose the reported
+        defence — the search's or the composed one, whichever proves the better ``guaranteed``
+        (the headline; so it is never worse than the search's) — and verify the numbers."""
+        found = one_sided(problem, executor, defence=result.strategy, keep=settings.adversaries,
+                          adversary_memory=settings.adversary_memory,
+                          enumeration_limit=settings.enumeration_limit,
+                          restarts=settings.compose_restarts, oracle_rounds=settings.oracle_rounds,
+                          iterations=settings.iterations, learning_rate=settings.learning_rate,
+                          seed=settings.seed, deadline=deadline)
+        t0 = time.perf_counter()
+        maximize = problem.maximize
+        defence, g = result.strategy, result.guaranteed
+        composed = found.composed.strategy if found.composed is not None else None
+        if composed is not None and composed is result.strategy:
+            composed = None  # composing kept the search's defence
+        sign = problem.sign
+        g_composed: Bound | None = None
+        if composed is not None:
+            # policy iteration first (cheap); the sound engines only for a real gain, since a
+            # randomised strategy's near-deterministic loops make interval iteration slow
+            rough = StrategyChecker(self.model, {composed.player: composed},
+                                    coalition_of=problem.coalition_of, scalar=problem.scalar,
+                                    options=POLICY).check(problem.query, text="composed").guaranteed
+            assert rough is not None  # noqa: S101 - the decision maker's strategy is given
+            if sign * rough.value > sign * g.value + _GAIN * max(1.0, abs(g.value)):
+                g_composed = StrategyChecker(self.model, {composed.player: composed},
+                                             coalition_of=problem.coalition_of, scalar=problem.scalar,
+                                             options=self.options).check(problem.query, text="composed").guaranteed
+                assert g_composed is not None  # noqa: S101 - as above
+                if _better(g_composed, g, maximize):
+                    defence, g = composed, g_composed
+        enumerated = found.enumeration.strategies
+        ranked_all = found.all_ranked
+        # against every enumerated adversary when there are few enough, else the kept ones
+        small = found.enumeration.exhaustive and ranked_all and len(enumerated) <= RESPONSE_EXHAUSTIVE
+        pool = tuple(enumerated) + tuple(a for a in found.kept if not any(a is e for e in enumerated)) \
+            if small else found.kept
+        vs_from_composed = False
+        if composed is not None and composed is not defence and pool:
+            # vs_fss_adversary of the composed defence when it is clearly better there
+            mine = min(executor.map([VersusJob(defence, a) for a in pool]), key=lambda v: sign * v)
+            theirs = min(executor.map([VersusJob(composed, a) for a in pool]), key=lambda v: sign * v)
+            if sign * theirs > sign * mine + _GAIN * max(1.0, abs(mine)):
+                if g_composed is None:
+                    g_composed = StrategyChecker(
+                        self.model, {composed.player: composed}, coalition_of=problem.coalition_of,
+                        scalar=problem.scalar, options=self.options).check(problem.query, text="composed").guaranteed
+                vs_from_composed = g_composed is not None
+        shown, shown_g = (composed, g_composed) if vs_from_composed else (defence, g)
+        assert shown is not None and shown_g is not None  # noqa: S101 - set together
+        vs, worst, ub = verified_numbers(problem, executor, shown, shown_g, pool, found.ranked,
+                                         check_options=self.options)
+        phases = dict(found.phases)
+        phases["adversaries: verification"] = time.perf_counter() - t0
+        stats: dict[str, object] = {
+            "adversaries_enumerated": len(enumerated),
+            "adversaries_ranked": len(found.ranked),
+            "adversaries_kept": len(found.kept),
+            "adversaries_added": found.added,
+            "vs_adversaries": len(pool),
+            "exhaustive": bool(small),
+            "defence": "composed" if composed is not None and defence is composed else "search",
+            "vs_fss_defence": "composed" if vs_from_composed or (composed is not None and defence is composed)
+            else "search",
+            "composed_value": None if found.composed is None else found.composed.value,
+            "oracle": [{"response_value": v, "exhaustive": e} for v, e in found.responses],
+        }
+        return _AdversaryOutcome(defence, g, vs, ub, worst,
+                                 composed if vs_from_composed else None, vs_from_composed,
+                                 found.partial, phases, stats)
+
+    def _on_product(self, expr: ProbQuery | RewardQuery, *, text: str,
+                    name: str | None) -> PropertyResult:
+        """Co-safe LTL and step bounds: synthesis on the product with the formula's automaton
+        (:mod:`posgmc.synthesis.objectives`: the strategies observe the game, not the
+        automaton, so they are strategies of the game); the defence's ``guaranteed`` is then
+        recomputed on the game itself, as ``--strategy`` would."""
+        lifted, query = lift(self.model, expr, PropertyChecker(
+            self.model, coalition_of=self.coalition_of, scalar=self.scalar))
+        inner = SynthesisChecker(lifted, coalition_of=self.coalition_of, scalar=self.scalar,
+                                 options=self.options, synthesis=self.synthesis)
+        result = inner.check(query, text=text, name=name)
+        defence = result.strategies[0]
+        bare = expr if expr.threshold is None else dataclasses.replace(
+            expr, threshold=None, direction=Direction.MAX if expr.threshold.op in (
+                ComparisonOp.GE, ComparisonOp.GT) else Direction.MIN)
+        g = StrategyChecker(self.model, {defence.player: defence}, coalition_of=self.coalition_of,
+                            scalar=self.scalar, options=self.options).check(bare, text=text).guaranteed
+        assert g is not None  # noqa: S101 - the decision maker's strategy is given
+        note = (result.note or "") + ("; synthesised on the product with the formula's automaton, "
+                                      "whose state the strategies do not observe")
+        if expr.threshold is not None:
+            return dataclasses.replace(result, guaranteed=g, note=note)
+        return dataclasses.replace(result, guaranteed=g, value=g.value, lower=g.lower, upper=g.upper,
+                                   per_initial=(g.value,), sound=result.sound and g.sound, note=note)
+
     def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
         """Synthesise and verify. A threshold holds when ``guaranteed`` meets it, fails when the
         full-observation value cannot, and is unknown in between."""
@@ -51,13 +162,15 @@ class SynthesisChecker:
                 hint="give strategies with --strategy, or use --full-observation",
             )
         player = self._player(expr)
+        if needs_product(expr):
+            return self._on_product(expr, text=text, name=name)
         bare = expr
         if expr.threshold is not None:
             maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
             bare = dataclasses.replace(expr, threshold=None,
                                        direction=Direction.MAX if maximize else Direction.MIN)
         # the time budget: 4/5 for the search (its verification is quick: candidates are
-        # sharpened), the rest for the adversaries; at least a second each
+        # sharpened), the rest for the adversary phases; at least a second each
         started = time.perf_counter()
         others = [p for p in range(len(self.model.player_names)) if p != player]
         names = self.model.player_names
@@ -65,27 +178,25 @@ class SynthesisChecker:
             names[player] if names else "", names[others[0]] if len(others) == 1 else None,
             tuple(names) if names else ("",),
         )
-        search = dataclasses.replace(settings, timeout=settings.timeout * 0.8)
-        result = synthesize(self.model, bare, player=player, coalition_of=self.coalition_of,
-                            scalar=self.scalar, options=search, check_options=self.options)
-        g, full = result.guaranteed, result.full_observation
-        maximizing = bare.direction is Direction.MAX or (
-            bare.direction is None and expr.threshold is not None
-            and expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT))
+        adversary = others[0] if len(others) == 1 else None
+        problem = problem_of(self.model, bare, player=player, adversary=adversary,
+                             coalition_of=self.coalition_of, scalar=self.scalar)
+        with closing(executor_for(problem, settings.jobs)) as executor:
+            search = dataclasses.replace(settings, timeout=settings.timeout * 0.8)
+            result = synthesize(self.model, bare, player=player, coalition_of=self.coalition_of,
+                                scalar=self.scalar, options=search, check_options=self.options,
+                                executor=executor)
+            adversaries = None
+            if adversary is not None and settings.adversaries > 0:
+                deadline = max(started + self.synthesis.timeout, time.perf_counter() + 1.0)
+                adversaries = self._adversary_phases(problem, executor, result, settings, deadline)
+        defence, g, full = adversaries.defence if adversaries else result.strategy, \
+            adversaries.guaranteed if adversaries else result.guaranteed, result.full_observation
+        maximizing = problem.maximize
         vs = ub = worst = None
-        enumeration = None
-        if len(others) == 1 and settings.adversaries > 0:
-            # the one-sided view: the adversary's deterministic memoryless strategies, within
-            # what is left of the time budget
-            t0 = time.perf_counter()
-            deadline = max(started + self.synthesis.timeout, t0 + 1.0)
-            enumeration = enumerate_adversaries(self.model, others[0], memory=settings.adversary_memory,
-                                                limit=settings.adversaries, deadline=deadline)
-            vs, ub, evaluated, worst = versus_adversaries(
-                self.model, bare, result.strategy, enumeration.strategies, maximize=maximizing,
-                coalition_of=self.coalition_of, scalar=self.scalar, deadline=deadline,
-            )
-            result.phases["adversaries"] = time.perf_counter() - t0
+        if adversaries is not None:
+            vs, ub, worst = adversaries.vs, adversaries.ub, adversaries.worst
+            result.phases.update(adversaries.phases)
         value: float | bool | None = g.value
         kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
         lower: float | None = g.lower
@@ -107,8 +218,8 @@ class SynthesisChecker:
         note = (f"guaranteed: the synthesised strategy of {player_name or 'the agent'!s} ensures "
                 f"{direction} this against every adversary (checked by {result.method}); "
                 f"full_observation: the value if it saw everything")
-        stats = {
-            "partial": result.partial,
+        stats: dict[str, object] = {
+            "partial": result.partial or bool(adversaries and adversaries.partial),
             "phases": {k: round(v, 3) for k, v in result.phases.items()},
             "rounds": [
                 {"memory": r.memory, "value_policy_iteration": r.guaranteed.value,
@@ -118,22 +229,43 @@ class SynthesisChecker:
             "timeout": self.synthesis.timeout,
             "seed": self.synthesis.seed,
         }
-        if enumeration is not None:
-            exhaustive = enumeration.exhaustive and evaluated == len(enumeration.strategies)
-            stats["adversaries_kept"] = evaluated
-            stats["exhaustive"] = exhaustive
+        extra: tuple = ()  # type: ignore[type-arg]
+        if adversaries is not None:
+            stats.update(adversaries.stats)
             stats["adversary_memory"] = settings.adversary_memory
             adversary_kind = ("memoryless" if settings.adversary_memory == 1
-                    else f"{settings.adversary_memory}-node finite-state")
-            note += ("; vs_fss_adversary: its worst value against the adversary's deterministic "
-                     f"{adversary_kind} strategies enumerated" + (" (all of them)" if exhaustive
-                     else f" (the first {evaluated})") + "; upper_bound: no "
-                     "defence does better against those adversaries")
+                              else f"{settings.adversary_memory}-node finite-state")
+            counted = adversaries.stats["vs_adversaries"]
+            note += ("; vs_fss_adversary: the " + ("composed" if adversaries.vs_from_composed else
+                     "synthesised") + " strategy's worst value against the adversary's "
+                     f"deterministic {adversary_kind} strategies"
+                     + (" (all of them)" if adversaries.stats["exhaustive"] else
+                        f" (the {counted} strongest found)")
+                     + "; upper_bound: no defence does better against the strongest of them")
+            if adversaries.vs_from_composed and adversaries.composed is not None:
+                extra = (adversaries.composed,)
         return PropertyResult(
             property=text, name=name, kind=kind, value=value, lower=lower, upper=upper,
             seconds=sum(result.phases.values()), method=f"synthesis ({result.method})",
             converged=True, sound=g.sound, note=note, per_initial=(value,),
             guaranteed=g, vs_fss_adversary=vs, upper_bound=ub,
-            memory=((player_name, result.strategy.memory_size),),
-            full_observation=full, synthesis=stats, strategies=(result.strategy,) + ((worst,) if worst is not None else ()),
+            memory=((player_name, defence.memory_size),),
+            full_observation=full, synthesis=stats,
+            strategies=(defence,) + ((worst,) if worst is not None else ()) + extra,
         )
+
+
+@dataclass(frozen=True)
+class _AdversaryOutcome:
+    """The reported defence after the adversary phases, its proven numbers and statistics."""
+
+    defence: FiniteStateStrategy
+    guaranteed: Bound
+    vs: Bound | None
+    ub: Bound | None
+    worst: FiniteStateStrategy | None
+    composed: FiniteStateStrategy | None
+    vs_from_composed: bool
+    partial: bool
+    phases: dict[str, float]
+    stats: dict[str, object]

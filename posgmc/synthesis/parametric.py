@@ -43,7 +43,50 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.syntax.ast import ProbQuery, RewardQuery
 
-__all__ = ["Parametrisation", "Evaluation"]
+__all__ = ["Parametrisation", "Evaluation", "Layout", "game_views"]
+
+
+def game_views(model: ExplicitModel, product: ExplicitModel, state_of: np.ndarray) -> ExplicitModel:
+    """``product`` (of ``model`` with strategies or an automaton; ``state_of``: int64[P], the
+    model state of each product state) with every player viewing it as it views ``model``: a
+    fully observing player gets an explicit observation of the model state, where it would
+    otherwise see the product state (memory nodes or automaton state included). So a strategy
+    laid out on ``model`` (:class:`Layout`) means the same on the product."""
+    import dataclasses
+
+    from posgmc.model.explicit import Observation
+
+    observations = [dataclasses.replace(o, state_ids=o.state_ids[state_of]) for o in model.observations]
+    for p in range(max(len(model.player_names), 1)):
+        if model.observation_of(p) is None:
+            view = player_view(model, p)
+            observations.append(Observation(p, view.state_obs[state_of].astype(np.int32),
+                                            view.observables, view.obs_values))
+    return dataclasses.replace(product, observations=tuple(observations))
+
+
+@dataclass(frozen=True, eq=False)
+class Layout:
+    """Which parameters a player's FSS has: ``used_obs`` int64[Zu], the observation ids of the
+    player's states; ``used_actions`` int64[Au], the labels offered there; ``mask`` bool[Zu, Au],
+    the labels each observation offers. Taken from the whole model, so that one parameter vector
+    means the same strategy on every product of the model with an adversary's strategy (the
+    product keeps only the states reachable under that adversary)."""
+
+    used_obs: np.ndarray
+    used_actions: np.ndarray
+    mask: np.ndarray
+
+    @staticmethod
+    def of(model: ExplicitModel, player: int) -> "Layout":
+        view = player_view(model, player)
+        owned = (model.state_players == player) if model.player_names else np.ones(model.num_states, bool)
+        rows = np.flatnonzero(owned[model.choice_states])
+        offered = np.zeros((view.num_observations, len(model.action_names)), dtype=bool)
+        offered[view.state_obs[model.choice_states[rows]], model.choice_actions[rows]] = True
+        used_obs = np.flatnonzero(offered.any(axis=1))
+        used_actions = np.flatnonzero(offered.any(axis=0))
+        return Layout(used_obs, used_actions, offered[np.ix_(used_obs, used_actions)])
 
 
 @dataclass(frozen=True)
@@ -70,7 +113,8 @@ class Parametrisation:
 
     def __init__(self, model: ExplicitModel, player: int, memory: int, query: ProbQuery | RewardQuery,
                  target: np.ndarray, remain: np.ndarray, *, coalition_of, scalar,  # type: ignore[no-untyped-def]
-                 rewards: np.ndarray | None = None, discount: float = 1.0) -> None:
+                 rewards: np.ndarray | None = None, discount: float = 1.0,
+                 layout: "Layout | None" = None) -> None:
         self.model, self.player, self.k, self.query = model, player, memory, query
         self.rewards, self.discount = rewards, discount  # discounted cost: reward per choice
         self.coalition_of, self.scalar = coalition_of, scalar
@@ -78,13 +122,11 @@ class Parametrisation:
         self.view = player_view(model, player)
         owned = (model.state_players == player) if model.player_names else np.ones(model.num_states, bool)
         self.owned = owned
-        rows = np.flatnonzero(owned[model.choice_states])
         Z, A = self.view.num_observations, len(model.action_names)
-        offered = np.zeros((Z, A), dtype=bool)
-        offered[self.view.state_obs[model.choice_states[rows]], model.choice_actions[rows]] = True
-        self.used_obs = np.flatnonzero(offered.any(axis=1))  # observations of the player's states
-        self.used_actions = np.flatnonzero(offered.any(axis=0))
-        self.mask = offered[np.ix_(self.used_obs, self.used_actions)]  # [Zu, Au]
+        if layout is None:
+            layout = Layout.of(model, player)
+        self.layout = layout
+        self.used_obs, self.used_actions, self.mask = layout.used_obs, layout.used_actions, layout.mask
         self.obs_index = np.full(Z, -1, dtype=np.int64)
         self.obs_index[self.used_obs] = np.arange(self.used_obs.size)
         self.act_index = np.full(A, -1, dtype=np.int64)
@@ -92,6 +134,10 @@ class Parametrisation:
         self.maximize = query.direction is None or query.direction.name == "MAX"
         # (state_of, memory_of, best response) of the last evaluation: the next one's warm start
         self._last_response: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def forget_response(self) -> None:
+        """Drop the warm start: the next evaluation solves the adversary's MDP from scratch."""
+        self._last_response = None
 
     # -- θ <-> strategies --------------------------------------------------------------------------
 
@@ -160,13 +206,16 @@ class Parametrisation:
             last[1], prod.memory_of
         ):
             initial = last[2]
-        solver = SolverOptions(method=Method.POLICY, initial_strategy=initial, prove=False)
-        checker = PropertyChecker(pm, coalition_of=self.coalition_of, scalar=self.scalar,
-                                  options=CheckOptions(solver=solver, keep_strategy=True))
-        q = checker.query(self.query)
-        strategy = q.engine.strategy if q.engine is not None else None
-        if strategy is not None:
-            self._last_response = (prod.state_of, prod.memory_of, strategy)
+        strategy = None
+        if pm.transitions.shape[0] > pm.num_states:  # someone still chooses: the best response
+            solver = SolverOptions(method=Method.POLICY, initial_strategy=initial,
+                                   prove=False)
+            checker = PropertyChecker(pm, coalition_of=self.coalition_of, scalar=self.scalar,
+                                      options=CheckOptions(solver=solver, keep_strategy=True))
+            q = checker.query(self.query)
+            strategy = q.engine.strategy if q.engine is not None else None
+            if strategy is not None:
+                self._last_response = (prod.state_of, prod.memory_of, strategy)
         rows = pm.row_groups[:-1].copy()
         if strategy is not None:
             rows = np.where(strategy >= 0, strategy, rows)

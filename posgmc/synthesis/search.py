@@ -15,6 +15,7 @@ deterministic given the seed; the time budget makes the search anytime (``partia
 from __future__ import annotations
 
 import time
+from contextlib import closing
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -26,14 +27,15 @@ from posgmc.errors import InputError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
+from posgmc.synthesis.ascent import LOGIT, ascend
+from posgmc.synthesis.jobs import Executor, Problem, executor_for
 from posgmc.synthesis.parametric import Parametrisation
 from posgmc.syntax.ast import Direction, Expr, ProbQuery, RewardKind, RewardQuery, Temporal, TemporalOp
 
 __all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
 
 _POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY, prove=False))  # ranking only
-_LOGIT = 4.0
-"""Logits stay in [-_LOGIT, _LOGIT]."""
+_LOGIT = LOGIT
 
 
 @dataclass(frozen=True)
@@ -41,11 +43,15 @@ class SynthesisOptions:
     """``memory``: the memory sizes to try in order; ``timeout``: seconds for the whole search;
     ``restarts``: random starts per memory size; ``iterations``: gradient steps per start;
     ``verify``: how many of the best candidates (by float value) the sound engines verify;
-    ``adversaries``: how many of the adversary's deterministic strategies to enumerate for
-    ``vs_fss_adversary`` and ``upper_bound`` (:mod:`posgmc.synthesis.adversaries`), with
-    ``adversary_memory`` nodes. ``player_memory``: memory sizes by player name (``--memory
-    rover=1..3 --memory attacker=2``); the decision maker's entry replaces ``memory``, the
-    adversary's (its largest size) ``adversary_memory``."""
+    ``adversaries``: M, how many of the strongest enumerated adversary strategies (deterministic,
+    ``adversary_memory`` nodes; :mod:`posgmc.synthesis.adversaries`) the defence is composed
+    against (0: no adversary phases); ``enumeration_limit``: how many are enumerated and ranked
+    at most; ``compose_restarts``: random starts of the composition besides the search's defence;
+    ``oracle_rounds``: double-oracle rounds at most (:mod:`posgmc.synthesis.compose`).
+    ``player_memory``: memory sizes by player name (``--memory rover=1..3 --memory
+    attacker=2``); the decision maker's entry replaces ``memory``, the adversary's (its largest
+    size) ``adversary_memory``. ``jobs``: worker processes for independent evaluations
+    (:mod:`posgmc.synthesis.jobs`; results do not depend on it)."""
 
     memory: tuple[int, ...] = (1, 2, 3)
     timeout: float = 30.0
@@ -54,9 +60,13 @@ class SynthesisOptions:
     iterations: int = 60
     learning_rate: float = 0.3
     verify: int = 3
-    adversaries: int = 50
+    adversaries: int = 10
     adversary_memory: int = 1
     player_memory: tuple[tuple[str, tuple[int, ...]], ...] = ()
+    jobs: int = 1
+    enumeration_limit: int = 1000
+    compose_restarts: int = 1
+    oracle_rounds: int = 8
 
     def for_players(self, decision_maker: str, adversary: str | None,
                     players: tuple[str, ...]) -> "SynthesisOptions":
@@ -117,6 +127,11 @@ def _objective(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: Pro
             if path.op is TemporalOp.UNTIL:
                 return checker._states(path.operands[1]), checker._states(path.operands[0]), None, 1.0
             return checker._states(path.operands[0]), np.ones(model.num_states, dtype=bool), None, 1.0
+    if isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.DISCOUNTED_TOTAL:
+        # R[Cdiscount=g]: x = r + g P x everywhere (a target that is never reached)
+        rewards = model.reward_model(expr.reward).choice_rewards(model.row_groups)
+        never = np.zeros(model.num_states, dtype=bool)
+        return never, ~never, rewards, checker._discount(expr.objective.discount)
     if isinstance(expr, RewardQuery) and expr.objective.kind in (RewardKind.DISCOUNTED_REACH,
                                                                   RewardKind.REACH):
         assert expr.objective.target is not None  # noqa: S101 - F and Fdiscount have a target
@@ -126,9 +141,9 @@ def _objective(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: Pro
         return (checker._states(expr.objective.target), np.ones(model.num_states, dtype=bool),
                 rewards, discount)
     raise UnsupportedError(
-        "synthesis supports <<d>> Pmax/Pmin=? [ F b ] or [ a U b ], the expected reward "
-        "<<d>> R{\"c\"}min/max=? [ F b ] and the discounted cost <<d>> R{\"c\"}min/max=? "
-        "[ Fdiscount=g b ] so far",
+        "synthesis supports <<d>> Pmax/Pmin=? of F b, a U b and co-safe LTL (step bounds "
+        "included), the expected reward <<d>> R{\"c\"}min/max=? [ F b ] or until a co-safe "
+        "formula, and the discounted costs R[ Fdiscount=g b ] and R[ Cdiscount=g ]",
         expr.span,
         hint="check other objectives under a given strategy (--strategy PLAYER=FILE)",
     )
@@ -143,6 +158,7 @@ def synthesize(
     scalar,  # type: ignore[no-untyped-def]
     options: SynthesisOptions = SynthesisOptions(),
     check_options: CheckOptions = CheckOptions(),
+    executor: Executor | None = None,
 ) -> SynthesisResult:
     """A finite-state strategy for ``player`` (the property's coalition) and what it guarantees.
 
@@ -156,14 +172,20 @@ def synthesize(
     """
     started = time.perf_counter()
     deadline = started + options.timeout
-    if not isinstance(expr, (ProbQuery, RewardQuery)) or expr.threshold is not None:
-        raise UnsupportedError("synthesis takes one P or R query with min or max (=?)", expr.span,
-                               hint="write <<player>> Pmax=? [ F \"goal\" ]")
+    if executor is None:
+        others = [p for p in range(len(model.player_names)) if p != player]
+        problem = problem_of(model, expr, player=player, adversary=others[0] if len(others) == 1 else None,
+                             coalition_of=coalition_of, scalar=scalar)
+        with closing(executor_for(problem, options.jobs)) as own:
+            return synthesize(model, expr, player=player, coalition_of=coalition_of,
+                              scalar=scalar, options=options, check_options=check_options,
+                              executor=own)
+    problem = executor.problem
     base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar,
                            options=CheckOptions(keep_strategy=True))
-    direction = base.direction_of(expr)
-    query = replace(expr, direction=direction)
-    target, remain, rewards, discount = _objective(model, query, base)
+    query = problem.query
+    direction = query.direction
+    target, remain, rewards, discount = problem.target, problem.remain, problem.rewards, problem.discount
     maximize = direction is Direction.MAX
     sign = 1.0 if maximize else -1.0
     phases: dict[str, float] = {}
@@ -212,7 +234,7 @@ def synthesize(
                                        ld0 + 2.0 * rng.normal(size=ld0.shape)))
             for _ in range(options.restarts):
                 starts.append((rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])))
-            found, n_eval, seconds = _round(par, starts, sign, options, deadline, model, query,
+            found, n_eval, seconds = _round(par, starts, sign, options, deadline, executor, model, query,
                                             coalition_of, scalar, maximize)
             evaluations += n_eval
             t_search += seconds[0]
@@ -262,7 +284,7 @@ _MAX_PASSES = 4
 
 
 def _round(par: Parametrisation, starts: list[tuple[np.ndarray, np.ndarray]], sign: float,
-           options: SynthesisOptions, deadline: float, model: ExplicitModel, query: Expr,
+           options: SynthesisOptions, deadline: float, executor: Executor, model: ExplicitModel, query: Expr,
            coalition_of, scalar, maximize: bool,  # type: ignore[no-untyped-def]
            ) -> tuple[tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None,
                       int, tuple[float, float]]:
@@ -272,15 +294,18 @@ def _round(par: Parametrisation, starts: list[tuple[np.ndarray, np.ndarray]], si
     evaluations = 0
     t0 = time.perf_counter()
     candidates: list[tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]] = []
-    for la, ld in starts:
-        (la, ld), n_eval = _ascend(par, la, ld, sign, options, deadline)
+    # the starts are independent jobs (run in parallel with --jobs); each begins without a warm
+    # start, so the results do not depend on where or in which order they run
+    jobs = [AscendJob(par.k, la, ld, options.iterations, options.learning_rate, deadline)
+            for la, ld in starts]
+    for i, ((la, ld), n_eval) in enumerate(executor.map(jobs)):
+        if i and not n_eval:
+            continue  # the budget ran out before this start moved
         evaluations += n_eval
         g, d = par.probabilities(la, ld)
         candidates.append((*par.sharpened(g, d), (la, ld)))
         candidates.append((*par.hardened(g, d), (la, ld)))
         candidates.append((g, d, (la, ld)))
-        if time.perf_counter() > deadline:
-            break
     # deterministic neighbours of the best hardened candidate: one rule changed at a time
     hard = candidates[1::3]
     if hard and time.perf_counter() < deadline:
@@ -317,34 +342,61 @@ def _better(a: Bound, b: Bound, maximize: bool) -> bool:
     return a.lower > b.lower + margin if maximize else a.upper < b.upper - margin
 
 
-def _ascend(par: Parametrisation, la: np.ndarray, ld: np.ndarray, sign: float,
-            options: SynthesisOptions, deadline: float) -> tuple[tuple[np.ndarray, np.ndarray], int]:
-    """Adam on the logits, following sign * gradient; returns the best iterate seen."""
-    best_val, best = -np.inf, (la.copy(), ld.copy())
-    ma, va = np.zeros_like(la), np.zeros_like(la)
-    md, vd = np.zeros_like(ld), np.zeros_like(ld)
-    b1, b2, eps = 0.9, 0.999, 1e-8
-    n = 0
-    for t in range(1, options.iterations + 1):
-        if time.perf_counter() > deadline:
-            break
-        g, d = par.probabilities(la, ld)
-        ev = par.evaluate(g, d)
-        n += 1
-        if sign * ev.value > best_val:
-            best_val, best = sign * ev.value, (la.copy(), ld.copy())
-        ga, gd = par.logit_gradient(ev, g, d)
-        ga, gd = sign * ga, sign * gd
-        ma = b1 * ma + (1 - b1) * ga
-        va = b2 * va + (1 - b2) * ga * ga
-        md = b1 * md + (1 - b1) * gd
-        vd = b2 * vd + (1 - b2) * gd * gd
-        step = options.learning_rate * np.sqrt(1 - b2**t) / (1 - b1**t)
-        # bounded logits keep every probability above ~e^-2L: the sound check of the result then
-        # converges (near-deterministic loops make interval iteration crawl)
-        la = np.clip(la + step * ma / (np.sqrt(va) + eps), -_LOGIT, _LOGIT)
-        ld = np.clip(ld + step * md / (np.sqrt(vd) + eps), -_LOGIT, _LOGIT)
-    return best, n
+@dataclass(frozen=True, eq=False)
+class AscendJob:
+    """One start of the gradient search against the omniscient adversary: the defence's memory
+    size, the start logits, Adam's settings and the deadline. ``run`` returns the best iterate's
+    logits and the number of evaluations."""
+
+    memory: int
+    logits_action: np.ndarray
+    logits_update: np.ndarray
+    iterations: int
+    learning_rate: float
+    deadline: float | None
+
+    def run(self, problem: Problem) -> tuple[tuple[np.ndarray, np.ndarray], int]:
+        par = parametrisation(problem, self.memory)
+        sign = problem.sign
+
+        def step(a: np.ndarray, d: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+            g, dd = par.probabilities(a, d)
+            ev = par.evaluate(g, dd)
+            ga, gd = par.logit_gradient(ev, g, dd)
+            return sign * ev.value, sign * ga, sign * gd
+
+        best, _, n = ascend(step, self.logits_action, self.logits_update,
+                            iterations=self.iterations, learning_rate=self.learning_rate,
+                            deadline=self.deadline)
+        return best, n
+
+
+def parametrisation(problem: Problem, memory: int) -> Parametrisation:
+    """The decision maker's k-node FSSs against the omniscient adversary of ``problem``."""
+    return Parametrisation(problem.model, problem.player, memory, problem.query, problem.target,
+                           problem.remain, coalition_of=problem.coalition_of,
+                           scalar=problem.scalar, rewards=problem.rewards,
+                           discount=problem.discount)
+
+
+def problem_of(model: ExplicitModel, expr: Expr, *, player: int, adversary: int | None,
+               coalition_of, scalar) -> Problem:  # type: ignore[no-untyped-def]
+    """The picklable description of synthesising ``player``'s strategy for ``expr`` (a P or R
+    query with min or max).
+
+    Raises:
+        UnsupportedError: a threshold, or an objective synthesis does not cover.
+    """
+    if not isinstance(expr, (ProbQuery, RewardQuery)) or expr.threshold is not None:
+        raise UnsupportedError("synthesis takes one P or R query with min or max (=?)", expr.span,
+                               hint="write <<player>> Pmax=? [ F \"goal\" ]")
+    base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar)
+    query = replace(expr, direction=base.direction_of(expr))
+    target, remain, rewards, discount = _objective(model, query, base)
+    coalition = coalition_of(query.coalition)
+    return Problem(model, query, player, adversary,
+                   frozenset() if coalition is None else frozenset(coalition),
+                   target, remain, rewards, float(discount), scalar)
 
 
 def _local_search(par: Parametrisation, gamma: np.ndarray, delta: np.ndarray, sign: float,

@@ -29,13 +29,16 @@ __all__ = ["Sweep", "SweepPoint", "sweep", "sweeps_of_check", "to_csv"]
 class SweepPoint:
     """One point: the swept constant's ``setting`` (as given, e.g. ``"2"``), its numeric ``x``,
     and the property's result there (or the error that stopped it); ``strategy_dir`` holds the
-    point's ``<player>.json`` files when strategies were written."""
+    point's ``<player>.json`` files when strategies were written. ``also`` holds the further
+    properties of the sweep (:func:`sweep`'s ``also``), each checked under the point's
+    synthesised strategy: their ``guaranteed`` numbers."""
 
     setting: str
     x: float
     result: PropertyResult | None
     error: PosgmcError | None = None
     strategy_dir: str | None = None
+    also: tuple[PropertyResult | PosgmcError, ...] = ()
 
     def main_number(self) -> Bound | None:
         """What the point is worth to the decision maker: ``guaranteed`` when strategies are
@@ -57,6 +60,7 @@ class Sweep:
     constant: str
     property: str
     points: tuple[SweepPoint, ...]
+    also: tuple[str, ...] = ()
 
 
 def sweep(
@@ -70,6 +74,7 @@ def sweep(
     full_observation: bool = False,
     zero_based_players: bool = False,
     strategy_dir: str | Path | None = None,
+    also: Sequence[str] = (),
 ) -> Sweep:
     """Check (or synthesise for) ``prop`` at every value of ``constant``.
 
@@ -82,6 +87,10 @@ def sweep(
         synthesis: :class:`~posgmc.synthesis.search.SynthesisOptions` for partially observable
             models (default options when None).
         strategy_dir: where to write each point's strategies, as ``<dir>/<constant>=<v>/``.
+        also: further properties, each checked at every point under the decision maker's
+            synthesised strategy of that point (its ``guaranteed`` number against every
+            adversary): e.g. the expected cost of the defence that maximises the mission's
+            success, so that every point of the front carries both verified numbers.
 
     Returns:
         The sweep; a point whose property fails keeps its error (the others go on, as in PRISM).
@@ -111,8 +120,40 @@ def sweep(
             os.makedirs(where, exist_ok=True)
             for fss in outcome.strategies:
                 write_strategy(fss, os.path.join(where, f"{fss.player or 'agent'}.json"))
-        points.append(SweepPoint(text, _number(text), outcome, None, where))
-    return Sweep(constant, prop, tuple(points))
+        points.append(SweepPoint(text, _number(text), outcome, None, where,
+                                 _also(session, also, outcome)))
+    return Sweep(constant, prop, tuple(points), tuple(also))
+
+
+def _also(session: Any, props: Sequence[str], outcome: PropertyResult) -> tuple[Any, ...]:
+    """The ``also`` properties under the decision maker's synthesised strategy of a point."""
+    from posgmc import api
+    from posgmc.errors import UnsupportedError
+
+    if not props:
+        return ()
+    if not outcome.strategies:
+        error = UnsupportedError("no synthesised strategy at this point to evaluate further "
+                                 "properties under (--also needs a pomdp/posg sweep)")
+        return tuple(error for _ in props)
+    defence = outcome.strategies[0]  # the decision maker's; the others are adversaries found
+    name = defence.player or "agent"
+    out: list[Any] = []
+    for text in props:
+        try:
+            report = api.check(session, properties=[text], strategies={name: defence})
+            o = report.outcomes[0]
+            out.append(o.error if isinstance(o, api.PropertyError) else o)
+        except PosgmcError as e:
+            out.append(e)
+    return tuple(out)
+
+
+def _also_cells(a: Any) -> list[str]:
+    g = getattr(a, "guaranteed", None)
+    if g is None:
+        return ["", "", ""]
+    return [repr(g.value), repr(g.lower), repr(g.upper)]
 
 
 def sweeps_of_check(constant: str, rows: Sequence[tuple[Mapping[str, str], Any]]) -> list[Sweep]:
@@ -151,7 +192,7 @@ def to_csv(s: Sweep) -> str:
     synthesised points, the optimum otherwise."""
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
-    w.writerow(_COLUMNS)
+    w.writerow(list(_COLUMNS) + [f"{a} {part}" for a in s.also for part in ("guaranteed", "lower", "upper")])
     for p in s.points:
         b = p.main_number()
         r = p.result
@@ -162,5 +203,6 @@ def to_csv(s: Sweep) -> str:
         w.writerow([s.constant, p.setting,
                     "" if b is None else repr(b.value), "" if b is None else repr(b.lower),
                     "" if b is None else repr(b.upper), full, ub, memory, partial,
-                    p.strategy_dir or "", "" if p.error is None else p.error.message])
+                    p.strategy_dir or "", "" if p.error is None else p.error.message]
+                   + [x for a in (p.also or (None,) * len(s.also)) for x in _also_cells(a)])
     return out.getvalue()

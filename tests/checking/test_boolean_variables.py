@@ -28,3 +28,11 @@ def test_products_keep_the_variable_boolean() -> None:
     report = api.check(api.load(text=MODEL, constants={"flag": False}),
                        properties=["Pmin=? [ (X b) & (F b) ]"])
     assert report.results[0].value == 1.0
+
+
+@pytest.mark.parametrize("flag", [False, True])
+def test_boolean_constant_as_property(flag: bool) -> None:
+    # issue #14: a Boolean constant as a property printed the number 0.0 instead of false
+    report = api.check(api.load(text=MODEL, constants={"flag": flag}), properties=["flag", "!flag"])
+    first, negated = report.results
+    assert first.value is flag and negated.value is (not flag)

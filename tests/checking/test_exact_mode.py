@@ -125,7 +125,8 @@ def test_probabilities_must_sum_to_exactly_one() -> None:
 
 
 def test_what_exact_mode_cannot_answer_is_refused_not_approximated() -> None:
-    (reward,) = exact_results(MDP + 'rewards true : 1; endrewards\n', 'Rmax=? [ F "goal" ]')
+    # (R[F] is answered exactly since tests/engines/test_rational_rewards.py; C<=k is not)
+    (reward,) = exact_results(MDP + 'rewards true : 1; endrewards\n', 'Rmax=? [ C<=2 ]')
     assert isinstance(reward, PosgmcError) and "exact mode answers" in reward.message
 
 

@@ -45,7 +45,7 @@ def test_threshold_is_judged_on_guaranteed() -> None:
 
 
 def test_partially_observable_unsupported_objective_says_what_to_do() -> None:
-    r = run("check", ROVER, "--prop", '<<rover>> Pmax=? [ F<=20 "goal" ]', "--timeout", "5")
+    r = run("check", ROVER, "--prop", '<<rover>> R{"steps"}max=? [ I=5 ]', "--timeout", "5")
     assert r.exit_code == 2
     assert "synthesis supports" in r.output and "--strategy" in r.output
 

@@ -116,9 +116,11 @@ def tiny_smg() -> ExplicitModel:
 
 
 def tiny_posg(*, same_observations: bool = True) -> ExplicitModel:
-    """tiny_smg with observations: p1 cannot tell 0 from 2; p2 (if not same) sees everything."""
+    """tiny_smg with observations: p1 cannot tell 1 from 2 (it owns 2, p2 owns 1: p1's own states
+    with one observation offer the same actions, as every input must); p2 (if not same) sees
+    everything."""
     smg = tiny_smg()
-    ids1 = np.array([0, 1, 0], dtype=np.int32)
+    ids1 = np.array([0, 1, 1], dtype=np.int32)
     ids2 = ids1 if same_observations else np.array([0, 1, 2], dtype=np.int32)
     return make_model(
         ModelType.POSG,

@@ -69,7 +69,7 @@ def test_game_owners_are_shapes() -> None:
 def test_observations_are_shown() -> None:
     assert '  s1 [label="1\\nz=1", shape=circle];' in dot_text(tiny_pomdp())
     text = dot_text(tiny_posg(same_observations=False))
-    assert '  s2 [label="2\\nz_p1=0\\nz_p2=2\\ngoal", shape=circle, tooltip="player p1"];' in text
+    assert '  s2 [label="2\\nz_p1=1\\nz_p2=2\\ngoal", shape=circle, tooltip="player p1"];' in text
 
 
 def test_quotes_and_backslashes_are_escaped() -> None:

@@ -503,3 +503,63 @@ def test_edits_parse_or_fail_with_position(text: str) -> None:
         e.render()
     else:
         model.validate()
+
+
+_CONFLICT = """@type: POMDP
+@parameters
+
+@reward_models
+
+@nr_states
+3
+@nr_choices
+4
+@model
+state 0 {0} init
+\taction A0
+\t\t1 : 1
+\taction B0
+\t\t2 : 1
+state 1 {1}
+\taction A1
+\t\t1 : 1
+state 2 {1}
+\taction B1
+\t\t2 : 1
+"""
+
+
+def _conflict(**actions: str) -> str:
+    text = _CONFLICT
+    for key, name in actions.items():
+        text = text.replace(key.upper(), name)
+    return text
+
+
+def test_same_observation_different_actions_is_refused_as_in_prism() -> None:
+    # issue #13: accepted from DRN while the same POMDP written in PRISM was an error
+    from posgmc.errors import ModelFormatError
+
+    text = _conflict(a0="a", b0="b", a1="a", b1="b")
+    with pytest.raises(ModelFormatError) as info:
+        parse_drn(text)
+    assert info.value.span is not None and info.value.span.line == 19  # "state 2 {1}"
+    assert info.value.message == (
+        "states 1 and 2 look the same to the agent (observation 1) but offer different actions: "
+        "[a] only in the first, [b] only in the second"
+    )
+    # with no action labels (Storm's numbering), the number of choices must agree
+    unlabelled = _conflict(a0="0", b0="1", a1="0", b1="0").replace("state 2 {1}", "state 2 {0}")
+    with pytest.raises(ModelFormatError, match="states 0 and 2 .* 2 choices"):
+        parse_drn(unlabelled)
+    assert parse_drn(_conflict(a0="a", b0="b", a1="a", b1="a")).num_states == 3
+
+
+def test_a_nul_character_is_a_positioned_error() -> None:
+    # found by the long fuzz run (issue #13): numpy's strings dropped it and int() failed later
+    from posgmc.errors import ModelFormatError
+
+    text = _conflict(a0="a", b0="b", a1="a", b1="a").replace("state 1 {1}", "state 1\x00 {1}")
+    with pytest.raises(ModelFormatError, match="NUL character") as info:
+        parse_drn(text)
+    assert info.value.span is not None and (info.value.span.line, info.value.span.column) == (16, 8)

@@ -10,9 +10,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from posgmc import api
 from posgmc.errors import UnsupportedError, InputError
 from posgmc.io._text import format_values
 from posgmc.io.drn import drn_text, parse_drn, read_drn, write_drn
+
+ROOT = Path(__file__).resolve().parents[2]
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
 from posgmc.syntax.ast import ModelType
 from tests.io.helpers import (
@@ -114,7 +117,7 @@ def test_posg_with_different_observations_needs_an_observer() -> None:
         drn_text(model)
     assert "observe the game differently" in info.value.message
     assert info.value.hint is not None and "observer=" in info.value.hint
-    for observer, ids in (("p1", [0, 1, 0]), (1, [0, 1, 2])):
+    for observer, ids in (("p1", [0, 1, 1]), (1, [0, 1, 2])):
         again = parse_drn(drn_text(model, observer=observer))
         assert again.observations[0].state_ids.tolist() == ids
     with pytest.raises(UnsupportedError):
@@ -225,7 +228,16 @@ def random_models(draw: st.DrawFn) -> ExplicitModel:
     player_names = ("p1", "p2") if game else ()
     observations: tuple[Observation, ...] = ()
     if model_type.is_partially_observable:
-        ids = np.array([draw(st.integers(0, 2)) for _ in range(num_states)], dtype=np.int32)
+        # states sharing an observation offer the same actions (the rule every input obeys)
+        drawn = [draw(st.integers(0, 2)) for _ in range(num_states)]
+        offered = [
+            (frozenset(choice_actions[row_groups[i] : row_groups[i + 1]]), per_state[i])
+            for i in range(num_states)
+        ]
+        keys: dict[object, int] = {}
+        ids = np.array(
+            [keys.setdefault((z, sig), len(keys)) for z, sig in zip(drawn, offered)], dtype=np.int32
+        )
         values = np.zeros((int(ids.max()) + 1, 0), dtype=np.int64)
         observers = (0, 1) if game else (0,)
         observations = tuple(Observation(p, ids, (), values) for p in observers)
@@ -279,3 +291,17 @@ def test_written_files_get_ordinary_permissions(tmp_path: Path) -> None:
     path.chmod(0o640)
     write_drn(tiny_mdp(), path)
     assert path.stat().st_mode & 0o777 == 0o640
+
+
+@pytest.mark.parametrize("chunk", [1, 2, 3, 7, 1000])
+def test_chunked_text_equals_the_whole(chunk: int) -> None:
+    # issue #13: the writer streams chunks of states; any chunking gives the same text
+    from posgmc.io.drn.writer import iter_drn
+
+    for path in ("models/rover.smg", "models/rover.posg"):
+        model = api.build(api.load(ROOT / path)).model
+        whole = "".join(iter_drn(model, valuations=True, chunk_entries=10**9))
+        pieces = list(iter_drn(model, valuations=True, chunk_entries=chunk))
+        assert "".join(pieces) == whole
+        if chunk < 10:
+            assert len(pieces) > 2

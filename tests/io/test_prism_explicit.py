@@ -129,7 +129,7 @@ def test_posg() -> None:
         "(p1,p2)",
         "0:(0,0)",
         "1:(1,1)",
-        "2:(0,2)",
+        "2:(1,2)",
     ]
     assert files["m.p1.obs"].splitlines() == ["# Observations", "()", "0:()", "1:()"]
     assert files["m.p2.obs"].splitlines()[-1] == "2:()"

@@ -91,7 +91,12 @@ def test_double_literals_are_exact(text: str, value: Fraction) -> None:
 
 
 def test_int_and_bool_literals() -> None:
-    assert parse_expression("123456789012345678901") == IntLit(123456789012345678901)
+    # ints are 64-bit (docs/language.md): the largest literal is 2^63 - 1
+    assert parse_expression("9223372036854775807") == IntLit(2**63 - 1)
+    for text in ("9223372036854775808", "123456789012345678901", "1" * 5000):
+        with pytest.raises(ParseError, match="beyond 64-bit integers") as info:
+            parse_expression(text)
+        assert info.value.span is not None and info.value.span.column == 1
     assert parse_expression("true") == BoolLit(True)
     assert parse_expression("false", model=True) == BoolLit(False)
 
@@ -228,3 +233,11 @@ def test_model_expressions_reject_labels() -> None:
     with pytest.raises(ParseError) as info:
         parse_expression('"goal" & x', model=True)
     assert (info.value.span.line, info.value.span.column) == (1, 1)  # type: ignore[union-attr]
+
+
+@pytest.mark.parametrize("text", ["0." + "0" * 6000 + "1", "1" * 6000 + ".5"])
+def test_a_double_with_thousands_of_digits_is_a_positioned_error(text: str) -> None:
+    # issue #13 (fuzzing): Python refuses to convert more than 4300 digits ("internal error")
+    with pytest.raises(ParseError, match="has more than 1000 digits") as info:
+        parse_expression(text)
+    assert info.value.span is not None and info.value.span.column == 1

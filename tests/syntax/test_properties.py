@@ -6,7 +6,7 @@ from fractions import Fraction
 
 import pytest
 
-from posgmc.errors import ParseError, SourceSpan, UnsupportedError
+from posgmc.errors import ParseError, SourceSpan
 from posgmc.syntax.ast import (
     Binary,
     BinaryOp,
@@ -201,10 +201,9 @@ class TestRewardQueries:
             None, reward, direction, threshold, RewardObjective(RewardKind.TOTAL)
         )
 
-    def test_long_run_average_is_unsupported(self) -> None:
-        with pytest.raises(UnsupportedError) as info:
-            parse_property("R=? [ S ]", file="<prop>")
-        assert info.value.span == SourceSpan(1, 7, 1, 8, "<prop>")
+    def test_long_run_average(self) -> None:
+        prop = parse_property('R{"r"}=? [ S ]', file="<prop>")
+        assert isinstance(prop.expr, RewardQuery) and prop.expr.objective.kind is RewardKind.STEADY
 
 
 class TestFileLayout:

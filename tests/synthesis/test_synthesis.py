@@ -128,12 +128,6 @@ def test_cli_synthesises_exports_and_the_file_rechecks(tmp_path: Path) -> None:
     assert json.loads(again.output)["results"][0]["guaranteed"] == res["guaranteed"]
 
 
-def test_unsupported_objective_is_refused_with_position() -> None:
-    r = CliRunner().invoke(main, ["check", str(ROOT / "models" / "rover.posg"), "--prop",
-                                  '<<rover>> Pmax=? [ F<=20 "goal" ]', "--timeout", "5"])
-    assert r.exit_code == 2 and "synthesis supports <<d>> Pmax/Pmin=? [ F b ]" in r.output
-
-
 def test_discounted_cost_gradient_matches_finite_differences() -> None:
     """The seed paper's cost form, R[Fdiscount=g target]: x = r + g P x off the target."""
     from dataclasses import replace

@@ -108,3 +108,27 @@ def test_check_sweep_draws_a_plot(tmp_path: Path) -> None:
                                   "--plot", str(tmp_path / "none.svg")])
     assert r.exit_code == 2 and "one swept constant" in r.output
     assert not (tmp_path / "none.svg").exists()
+
+
+def test_also_properties_are_verified_under_each_points_defence(budget_model: Path, tmp_path: Path) -> None:
+    # the sweep's own property as an --also property: under the same defence it must guarantee
+    # the same number (the same strategy, verified a second time); a second objective (mission
+    # over within 6 steps) gets its own verified number
+    s = sweep(budget_model, PROP, constant="B", settings=["1"],
+              synthesis=SynthesisOptions(memory=(2,), timeout=20),
+              also=[PROP, '<<rover>> Pmax=? [ F<=6 "over" ]'])
+    (p,) = s.points
+    same, bounded = p.also
+    assert same.guaranteed.lower == pytest.approx(p.result.guaranteed.lower, abs=1e-9)
+    assert 0.0 <= bounded.guaranteed.lower <= bounded.guaranteed.upper <= 1.0
+    header = next(csv.reader(io.StringIO(to_csv(s))))
+    assert header[-3:] == ['<<rover>> Pmax=? [ F<=6 "over" ] guaranteed',
+                           '<<rover>> Pmax=? [ F<=6 "over" ] lower', '<<rover>> Pmax=? [ F<=6 "over" ] upper']
+
+
+def test_also_needs_a_synthesised_defence(tmp_path: Path) -> None:
+    path = tmp_path / "chain.prism"
+    path.write_text(CHAIN)
+    s = sweep(path, "P=? [ F x=1 ]", constant="p", settings=["0.5"], also=["P=? [ F x=2 ]"])
+    (error,) = s.points[0].also
+    assert "no synthesised strategy" in error.message

@@ -28,6 +28,22 @@ Construction:
 4. minimise (Moore's partition refinement, one ``np.unique`` over state signatures per round, on
    the alphabet compressed to classes of letters with identical columns).
 
+**The model's letters.** A product only ever reads the letters that occur in the model, in the
+orders the model's transitions allow. Given a :class:`LetterGraph` (the distinct letters of the
+model's states, those of the start states, and which letter can follow which), steps 2-4 run
+over those letters only: the table has one column per occurring letter, and exploration follows
+only letter sequences the graph allows (a DFA state entered by letter ``a`` is progressed only on
+the letters that can follow ``a``); for each state only the distinct values of ``letter &
+(atoms it reads)`` are progressed. Table entries no allowed sequence reaches point to the
+``false`` state: the product never reads them (so minimisation and the rejecting sink stay
+correct for every word the model produces). A conjunction of 13 ``F`` atoms, whose automaton over
+all 2**13 letters has 2**13 states and a 2**26-entry table, then costs the states the model can
+drive it through (169 on a 13-state ring). Without ``alphabet`` the
+table is over all ``2**n`` letters (at most :data:`DEFAULT_MAX_ATOMS` atoms); with it, letters
+are int64 bit sets of at most :data:`MAX_ALPHABET_ATOMS` atoms. Either way exploration stops with
+a :class:`~posgmc.errors.LimitError` stating the measured size beyond ``max_states`` automaton
+states or :data:`DEFAULT_MAX_TABLE` table entries.
+
 After minimisation there is at most one accepting state and at most one rejecting sink (a state
 from which no accepting state is reachable), since each is a language-equivalence class.
 """
@@ -38,9 +54,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 
-from posgmc.errors import LimitError, UnsupportedError
-from posgmc.syntax.ast import Expr
 from posgmc.engines.ltl.cosafe import (
     BoundEvaluator,
     FormulaTable,
@@ -48,11 +63,31 @@ from posgmc.engines.ltl.cosafe import (
     extract_atoms,
     translate,
 )
+from posgmc.errors import LimitError, UnsupportedError
+from posgmc.syntax.ast import Expr
 
-__all__ = ["Dfa", "to_dfa", "minimise"]
+__all__ = ["Dfa", "LetterGraph", "check_atoms", "minimise", "to_dfa"]
 
 DEFAULT_MAX_ATOMS = 16
+MAX_ALPHABET_ATOMS = 62
 DEFAULT_MAX_STATES = 100_000
+DEFAULT_MAX_TABLE = 20_000_000
+"""Successor-table entries (states x letters) allowed before minimisation: 80 MB of int32."""
+
+
+@dataclass(frozen=True, eq=False)
+class LetterGraph:
+    """The letters a model can produce and their possible orders.
+
+    ``alphabet``: int64[K], sorted distinct letters of the model's states.
+    ``starts``: bool[K], the letters of the states paths start in.
+    ``follow``: bool CSR [K, K], ``follow[a, b]`` when a state with letter ``alphabet[b]`` is a
+    successor of one with letter ``alphabet[a]``.
+    """
+
+    alphabet: np.ndarray
+    starts: np.ndarray
+    follow: sp.csr_matrix
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,6 +100,9 @@ class Dfa:
     i of sigma says whether ``atoms[i]`` holds.
     ``atoms``: the atoms the letters are made of.
     ``rejecting_sink``: the state from which no accepting state is reachable, or None.
+    ``alphabet``: None when ``delta`` has a column for every letter; otherwise int64[K], sorted,
+    the only letters it reads (the model's), ``delta[:, k]`` being the column of
+    ``alphabet[k]`` (see :meth:`columns`).
     ``state_formulas``: for each state, the (progressed, NNF) formula it stands for, with atoms
     written ``a0``, ``a1``, ...: for reports and debugging only.
     """
@@ -76,6 +114,7 @@ class Dfa:
     atoms: tuple[Expr, ...]
     rejecting_sink: int | None
     state_formulas: tuple[str, ...] = ()
+    alphabet: np.ndarray | None = None
 
     @property
     def num_atoms(self) -> int:
@@ -85,11 +124,27 @@ class Dfa:
     def num_letters(self) -> int:
         return int(self.delta.shape[1])
 
+    def columns(self, letters: np.ndarray) -> np.ndarray:
+        """int64: the column of ``delta`` for each letter.
+
+        Raises:
+            ValueError: a letter outside ``alphabet`` (a caller bug: the alphabet is the model's).
+        """
+        letters = np.asarray(letters, dtype=np.int64)
+        if self.alphabet is None:
+            return letters
+        cols = np.searchsorted(self.alphabet, letters)
+        if letters.size and (
+            cols.max() >= self.alphabet.size or np.any(self.alphabet[cols] != letters)
+        ):
+            raise ValueError("a letter outside the automaton's alphabet")
+        return cols.astype(np.int64)
+
     def run(self, word: Iterable[int]) -> int:
         """The state reached from ``initial`` after reading ``word`` (a sequence of letters)."""
         q = self.initial
         for letter in word:
-            q = int(self.delta[q, letter])
+            q = int(self.delta[q, int(self.columns(np.array([letter]))[0])])
         return q
 
     def accepts(self, word: Iterable[int]) -> bool:
@@ -180,43 +235,127 @@ def minimise(
 
 
 def _explore(
-    table: FormulaTable, root: int, num_atoms: int, *, max_states: int, path: Expr
+    table: FormulaTable,
+    root: int,
+    alphabet: np.ndarray,
+    *,
+    max_states: int,
+    max_table: int,
+    path: Expr,
 ) -> tuple[np.ndarray, list[int]]:
-    """Breadth-first progression from ``root``: (delta int32[Q, 2**n], formula of each state)."""
-    letters = np.arange(1 << num_atoms, dtype=np.int64)
+    """Breadth-first progression from ``root`` over the letters ``alphabet``:
+    (delta int32[Q, len(alphabet)], formula of each state)."""
     index = {root: 0}
     formulas = [root]
     rows: list[np.ndarray] = []
     i = 0
     while i < len(formulas):
         f = formulas[i]
-        mask = table.current_mask(f)
-        bits = [b for b in range(num_atoms) if (mask >> b) & 1]
-        # only the atoms progression reads at f are enumerated; other letters share the result
-        successors = np.empty(1 << len(bits), dtype=np.int32)
-        for sub in range(1 << len(bits)):
-            full = 0
-            for k, b in enumerate(bits):
-                full |= ((sub >> k) & 1) << b
-            g = table.progress(f, full)
+        # only the atoms progression reads at f matter; letters agreeing on them share the result
+        distinct, inverse = np.unique(alphabet & table.current_mask(f), return_inverse=True)
+        successors = np.empty(distinct.size, dtype=np.int32)
+        for k, letter in enumerate(distinct.tolist()):
+            g = table.progress(f, letter)
             j = index.get(g)
             if j is None:
-                if len(formulas) >= max_states:
-                    raise LimitError(
-                        f"the automaton of this formula has more than {max_states} states",
-                        path.span,
-                        hint="use smaller step bounds or raise the automaton state limit",
-                    )
                 j = len(formulas)
                 index[g] = j
                 formulas.append(g)
-            successors[sub] = j
-        sub_of_letter = np.zeros(letters.size, dtype=np.int64)
-        for k, b in enumerate(bits):
-            sub_of_letter |= ((letters >> b) & 1) << k
-        rows.append(successors[sub_of_letter])
+            successors[k] = j
+        rows.append(successors[inverse.reshape(-1)])
         i += 1
+        error = _too_large(len(formulas), i, alphabet.size, max_states, max_table, path)
+        if error is not None:
+            raise error
     return np.vstack(rows), formulas
+
+
+def check_atoms(path: Expr, atoms: tuple[Expr, ...], max_atoms: int = MAX_ALPHABET_ATOMS) -> None:
+    """Raises UnsupportedError when ``path`` has more atoms than letters can hold."""
+    max_atoms = min(max_atoms, MAX_ALPHABET_ATOMS)
+    if len(atoms) > max_atoms:
+        raise UnsupportedError(
+            f"the formula has {len(atoms)} distinct atoms; at most {max_atoms} are supported",
+            path.span,
+            hint="combine state predicates into fewer labels",
+        )
+
+
+def _too_large(
+    num_states: int, explored: int, num_letters: int, max_states: int, max_table: int, path: Expr
+) -> LimitError | None:
+    if num_states <= max_states and num_states * num_letters <= max_table:
+        return None
+    return LimitError(
+        f"the automaton of this formula is too large: {num_states} states found so far "
+        f"({explored} explored) over {num_letters} letters; the limits are {max_states} states "
+        f"and {max_table} table entries (states x letters)",
+        path.span,
+        hint="split the formula into several properties, use fewer distinct atoms or smaller "
+        "step bounds",
+    )
+
+
+def _explore_model_letters(
+    table: FormulaTable,
+    root: int,
+    graph: LetterGraph,
+    *,
+    max_states: int,
+    max_table: int,
+    path: Expr,
+) -> tuple[np.ndarray, list[int]]:
+    """Progression from ``root`` along the letter sequences ``graph`` allows (module docstring):
+    (delta int32[Q, K], formula of each state); unreached entries point to ``false``."""
+    alphabet = graph.alphabet
+    K = alphabet.size
+    index = {root: 0}
+    formulas = [root]
+    rows = [np.full(K, -1, dtype=np.int64)]
+    entered = [np.zeros(K, dtype=bool)]  # letters by which each state has been entered
+    pending: dict[int, np.ndarray] = {}
+    work: list[tuple[int, np.ndarray]] = [(0, np.asarray(graph.starts, dtype=bool))]
+    explored = 0
+
+    def state(g: int) -> int:
+        j = index.get(g)
+        if j is None:
+            j = len(formulas)
+            index[g] = j
+            formulas.append(g)
+            rows.append(np.full(K, -1, dtype=np.int64))
+            entered.append(np.zeros(K, dtype=bool))
+        return j
+
+    while work:
+        q, nexts = work.pop()
+        explored += 1
+        row, f = rows[q], formulas[q]
+        need = np.flatnonzero(nexts & (row < 0))
+        if need.size:
+            distinct, inverse = np.unique(alphabet[need] & table.current_mask(f), return_inverse=True)
+            successors = np.array([state(table.progress(f, int(r))) for r in distinct])
+            row[need] = successors[inverse.reshape(-1)]
+            error = _too_large(len(formulas), explored, K, max_states, max_table, path)
+            if error is not None:
+                raise error
+        cols = np.flatnonzero(nexts)
+        targets = row[cols]
+        for j in np.unique(targets).tolist():
+            new = cols[(targets == j) & ~entered[j][cols]]
+            if new.size:
+                entered[j][new] = True
+                pending[j] = np.union1d(pending.get(j, new), new)
+        while pending and not work:
+            j, letters = pending.popitem()
+            follow_mask = np.zeros(K, dtype=bool)
+            follow_mask[graph.follow[letters].indices] = True
+            work.append((j, follow_mask))
+    false_state = state(FormulaTable.FALSE)
+    delta = np.vstack(rows)
+    delta[delta < 0] = false_state
+    delta[false_state] = false_state
+    return delta.astype(np.int32), formulas
 
 
 def to_dfa(
@@ -224,10 +363,12 @@ def to_dfa(
     atoms: tuple[Expr, ...] | None = None,
     *,
     bound_value: BoundEvaluator | None = None,
-    max_atoms: int = DEFAULT_MAX_ATOMS,
+    max_atoms: int | None = None,
     max_states: int = DEFAULT_MAX_STATES,
+    max_table: int = DEFAULT_MAX_TABLE,
     exact_good_prefixes: bool = False,
     minimal: bool = True,
+    alphabet: np.ndarray | LetterGraph | None = None,
 ) -> Dfa:
     """The DFA of the good prefixes of a co-safe LTL path formula (see the module docstring).
 
@@ -235,8 +376,13 @@ def to_dfa(
         path: the path formula (``Temporal``, ``!``, ``&``, ``|``, ``=>``, ``<=>`` over atoms).
         atoms: the atoms, in letter-bit order; :func:`extract_atoms` of ``path`` when None.
         bound_value: evaluates step bounds; by default integer literal arithmetic only.
-        max_atoms: refuse formulas with more atoms (the alphabet has ``2**n`` letters).
+        max_atoms: refuse formulas with more atoms (default :data:`DEFAULT_MAX_ATOMS` for the
+            full alphabet of ``2**n`` letters, :data:`MAX_ALPHABET_ATOMS` with ``alphabet``).
         max_states: refuse automata with more states before minimisation.
+        max_table: refuse automata whose successor table (states x letters) grows beyond this.
+        alphabet: the letters that can occur (e.g. those of a model's states), or a
+            :class:`LetterGraph` that also says in which orders; the automaton is built over
+            them only (see the module docstring). None: every letter.
         exact_good_prefixes: accept at the first good prefix (True), or only when progression
             has reached ``true`` (False, the default: PRISM's rule, which decides where
             ``R[co-safe]`` stops collecting reward; probabilities are the same either way).
@@ -249,22 +395,31 @@ def to_dfa(
         UnsupportedError: the formula is not syntactically co-safe (pointing at the operator that
             becomes an unbounded G/R), has too many atoms, or is not an LTL formula over atoms.
         SemanticError: a negative step bound or an empty step interval.
-        LimitError: the automaton exceeds ``max_states``.
+        LimitError: the automaton exceeds ``max_states`` or ``max_table`` (the message gives the
+            size measured so far).
     """
     atoms = extract_atoms(path) if atoms is None else tuple(atoms)
-    if len(atoms) > max_atoms:
-        raise UnsupportedError(
-            f"the formula has {len(atoms)} distinct atoms; at most {max_atoms} are supported",
-            path.span,
-            hint="combine state predicates into fewer labels",
-        )
+    if max_atoms is None:
+        max_atoms = DEFAULT_MAX_ATOMS if alphabet is None else MAX_ALPHABET_ATOMS
+    check_atoms(path, atoms, max_atoms)
     translation = translate(path, atoms, bound_value=bound_value)
     table = translation.table
     if table.unbounded_releases(translation.root):
         raise cosafe_error(path, translation.non_cosafe_origin())
-    delta, formulas = _explore(
-        table, translation.root, len(atoms), max_states=max_states, path=path
-    )
+    if isinstance(alphabet, LetterGraph):
+        letters = alphabet.alphabet
+        delta, formulas = _explore_model_letters(
+            table, translation.root, alphabet, max_states=max_states, max_table=max_table, path=path
+        )
+    else:
+        letters = (
+            np.arange(1 << len(atoms), dtype=np.int64)
+            if alphabet is None
+            else np.unique(np.asarray(alphabet, dtype=np.int64))
+        )
+        delta, formulas = _explore(
+            table, translation.root, letters, max_states=max_states, max_table=max_table, path=path
+        )
     accepting = np.array([f == FormulaTable.TRUE for f in formulas], dtype=bool)
     if exact_good_prefixes:
         accepting = _good_prefix_closure(delta, accepting)
@@ -291,6 +446,7 @@ def to_dfa(
         atoms=atoms,
         rejecting_sink=sink,
         state_formulas=tuple(descriptions),
+        alphabet=None if alphabet is None else letters,
     )
 
 

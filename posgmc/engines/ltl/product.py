@@ -36,10 +36,10 @@ from types import MappingProxyType
 import numpy as np
 import scipy.sparse as sp
 
-from posgmc.engines.ltl.dfa import Dfa
+from posgmc.engines.ltl.dfa import Dfa, LetterGraph
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
 
-__all__ = ["Product", "product", "pack_letters"]
+__all__ = ["Product", "letter_graph", "pack_letters", "product"]
 
 DFA_VARIABLE = "_dfa"
 """Name of the state-value / observation column holding the DFA state (made unique if taken)."""
@@ -88,9 +88,35 @@ def pack_letters(atom_values: np.ndarray) -> np.ndarray:
     """
     values = np.asarray(atom_values, dtype=bool)
     letters = np.zeros(values.shape[1], dtype=np.int64)
-    for i in range(values.shape[0]):  # one pass per atom, at most 16
+    for i in range(values.shape[0]):  # one pass per atom, at most 62
         letters |= values[i].astype(np.int64) << i
     return letters
+
+
+def letter_graph(
+    model: ExplicitModel, atom_values: np.ndarray, starts: np.ndarray | None = None
+) -> LetterGraph:
+    """The letters of ``model``'s states and which can follow which (for
+    :func:`~posgmc.engines.ltl.dfa.to_dfa`: the automaton is then built for this model only).
+
+    Args:
+        model: the model.
+        atom_values: bool[n, S], as for :func:`product`.
+        starts: the states paths start in (default: the initial states).
+    """
+    letters = pack_letters(atom_values)
+    alphabet, column = np.unique(letters, return_inverse=True)
+    column = column.reshape(-1)
+    K = alphabet.size
+    graph = _state_graph(model).tocoo()
+    follow = sp.csr_matrix(
+        (np.ones(graph.row.size, dtype=bool), (column[graph.row], column[graph.col])), shape=(K, K)
+    )
+    follow.sum_duplicates()
+    start_states = model.initial_states if starts is None else np.asarray(starts, dtype=np.int64)
+    start_mask = np.zeros(K, dtype=bool)
+    start_mask[column[start_states]] = True
+    return LetterGraph(alphabet=alphabet, starts=start_mask, follow=follow)
 
 
 def _expand_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
@@ -199,7 +225,7 @@ def product(
         raise ValueError(
             f"atom_values has shape {values.shape}, expected {(dfa.num_atoms, S)}"
         )
-    letters = pack_letters(values)
+    letters = dfa.columns(pack_letters(values))  # the delta column of each state's letter
     delta = dfa.delta.astype(np.int64)
 
     # -- discovery, breadth-first over frontiers of keys s * Q + q ------------------------------

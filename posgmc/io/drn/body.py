@@ -265,8 +265,9 @@ def valuations(body: Body, state_idx: np.ndarray) -> tuple[tuple[str, ...], np.n
         if np.all(equals == "="):
             is_true, is_false = value == "true", value == "false"
             numbers = np.where(is_true | is_false, np.array("0", dtype=STR), value)
-            if not np.all(np.strings.isdecimal(np.strings.lstrip(numbers, "-"))):
-                return (), None
+            digits = np.strings.lstrip(numbers, "-")
+            if not np.all(np.strings.isdecimal(digits)) or np.any(np.strings.str_len(digits) > 18):
+                return (), None  # not Storm's valuation comment (or beyond 64-bit integers)
             column = np.where(is_true, 1, numbers.astype(np.int64))
         elif np.all(equals == ""):
             negated = np.strings.startswith(item, "!")

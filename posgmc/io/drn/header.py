@@ -72,7 +72,7 @@ def _value_line(drn: DrnText, index: int) -> tuple[str, int] | None:
 
 def _header_int(drn: DrnText, index: int, keyword: str) -> tuple[int, int]:
     value = _value_line(drn, index)
-    if value is None or not value[0].strip().isdecimal():
+    if value is None or not value[0].strip().isdecimal() or len(value[0].strip()) > 18:
         line = index + 2 if value is not None else index + 1
         raise drn.whole_line_error(
             f"expected a non-negative integer on the line after {keyword}", line

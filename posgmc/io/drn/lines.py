@@ -76,10 +76,12 @@ def _int_group(drn: DrnText, raw: str, pos: int, ln: int, close: str, what: str)
             start + 1,
             start + len(inner) + 1,
         )
-    value = int(m.group(1))
+    digits = m.group(1).lstrip("0") or "0"
+    value = int(digits) if len(digits) <= 18 else 2**63
     if value >= 2**31:
         end = start + len(inner) + 1
-        raise drn.error(f"the {what} {value} is too large", ln, start + 1, end)
+        shown = m.group(1) if len(m.group(1)) <= 30 else m.group(1)[:20] + "..."
+        raise drn.error(f"the {what} {shown} is too large", ln, start + 1, end)
     return value, after
 
 
@@ -116,9 +118,9 @@ def parse_state_line(
             m.start(1) + 1,
             m.end(1) + 1,
         )
-    if int(token) != expected:
+    if len(token) > 18 or int(token) != expected:
         raise drn.error(
-            f"expected state {expected}, found state {int(token)}",
+            f"expected state {expected}, found state {token if len(token) <= 30 else token[:20] + '...'}",
             ln,
             m.start(1) + 1,
             m.end(1) + 1,

@@ -30,6 +30,7 @@ import numpy as np
 
 from posgmc.io._text import STR
 from posgmc.io.drn.body import (
+    Body,
     States,
     check_state_count,
     classify,
@@ -41,7 +42,14 @@ from posgmc.io.drn.header import PLAYERS_PREFIX, Header, read_header
 from posgmc.io.drn.lines import NOLABEL
 from posgmc.io.drn.rewards import parse_reward_models
 from posgmc.io.drn.source import DrnText
+from posgmc.io.reading import read_text
 from posgmc.io.drn.transitions import dtmc_choices, nondeterministic_choices, parse_transitions
+from posgmc.model.actions import (
+    action_signatures,
+    conflict_message,
+    labels_of,
+    observation_action_conflict,
+)
 from posgmc.model.explicit import ExplicitModel, ModelInvariantError, Observation, make_model
 from posgmc.syntax.ast import ModelType
 
@@ -66,7 +74,7 @@ def read_drn(source: str | os.PathLike[str], *, file: str | None = None) -> Expl
     if isinstance(source, str) and "\n" in source:
         return parse_drn(source, file=file)
     path = Path(source)
-    text = path.read_text(encoding="utf-8")
+    text = read_text(path)  # UTF-8 problems as file:line:col errors
     return parse_drn(text, file=file if file is not None else str(path))
 
 
@@ -84,7 +92,13 @@ def parse_drn(text: str, *, file: str | None = None) -> ExplicitModel:
         ModelFormatError: the text is not valid DRN (with line and column).
         UnsupportedError: valid DRN this build does not handle.
     """
-    return _read(DrnText(text, file))
+    drn = DrnText(text, file)
+    nul = text.find("\x00")
+    if nul >= 0:  # never valid in DRN, and numpy's strings would drop it silently
+        line = text.count("\n", 0, nul) + 1
+        column = nul - (text.rfind("\n", 0, nul) + 1) + 1
+        raise drn.error("a NUL character is not allowed in a DRN file", line, column, column + 1)
+    return _read(drn)
 
 
 def _read(drn: DrnText) -> ExplicitModel:
@@ -114,6 +128,11 @@ def _read(drn: DrnText) -> ExplicitModel:
     reward_models = parse_reward_models(drn, header, model_type, states, actions, choices)
     players, player_names = _players(drn, states, model_type, header)
     variable_names, state_values = valuations(body, state_idx)
+    observations = _observations(states, model_type, player_names)
+    _check_observed_actions(
+        drn, body, state_idx, observations, players, player_names, model_type,
+        choice_actions, choices.row_groups, action_names,
+    )
     try:
         return make_model(
             model_type,
@@ -124,7 +143,7 @@ def _read(drn: DrnText) -> ExplicitModel:
             action_names=action_names,
             state_players=players,
             player_names=player_names,
-            observations=_observations(states, model_type, player_names),
+            observations=observations,
             labels=labels,
             reward_models=reward_models,
             variable_names=variable_names,
@@ -133,6 +152,47 @@ def _read(drn: DrnText) -> ExplicitModel:
         )
     except ModelInvariantError as e:  # pragma: no cover - every invariant is checked above
         raise drn.whole_line_error(f"invalid model: {e.message}", header.model_line) from None
+
+
+def _check_observed_actions(
+    drn: DrnText,
+    body: Body,
+    state_idx: np.ndarray,
+    observations: tuple[Observation, ...],
+    players: np.ndarray,
+    player_names: tuple[str, ...],
+    model_type: ModelType,
+    choice_actions: np.ndarray,
+    row_groups: np.ndarray,
+    action_names: tuple[str, ...],
+) -> None:
+    """States a player cannot tell apart offer the same actions, as in a PRISM model
+    (:mod:`posgmc.model.actions`); with no action labels at all, the same number of choices."""
+    if not observations:
+        return
+    if action_names == ("",):
+        signatures = np.diff(row_groups).astype(np.int64).reshape(-1, 1)
+    else:
+        signatures = action_signatures(choice_actions, row_groups, len(action_names))
+    for obs in observations:
+        owned = (
+            np.flatnonzero(players == obs.player)
+            if model_type.is_game
+            else np.arange(players.size)
+        )
+        conflict = observation_action_conflict(obs.state_ids, owned, signatures)
+        if conflict is None:
+            continue
+        s, t = conflict
+        if action_names == ("",):
+            a_s = {f"{int(signatures[s, 0])} choices"}
+            a_t = {f"{int(signatures[t, 0])} choices"}
+        else:
+            a_s = labels_of(signatures[s], action_names)
+            a_t = labels_of(signatures[t], action_names)
+        who = f"player {player_names[obs.player]}" if model_type.is_game else "the agent"
+        message, hint = conflict_message(str(s), str(t), who, int(obs.state_ids[s]), a_s, a_t)
+        raise drn.whole_line_error(message, body.line(state_idx[t]), hint=hint)
 
 
 def _players(

@@ -163,6 +163,13 @@ def parse_transitions(
     if bad.size:
         k = int(bad[0])
         raise target_error(k, f'the target state must be a state number, found "{lhs[k]}"')
+    # more than 18 digits cannot be a state number (and would not fit int64)
+    too_long = np.flatnonzero(np.strings.str_len(np.strings.lstrip(lhs, "0")) > 18)
+    if too_long.size:
+        k = int(too_long[0])
+        raise target_error(
+            k, f"target state {lhs[k]} does not exist (the model has states 0 to {num_states - 1})"
+        )
     targets = lhs.astype(np.int64)
     out = np.flatnonzero(targets >= num_states)
     if out.size:

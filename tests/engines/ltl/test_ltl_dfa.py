@@ -314,8 +314,18 @@ def test_too_many_atoms() -> None:
 
 
 def test_state_limit() -> None:
-    with pytest.raises(LimitError, match="more than 10 states"):
+    with pytest.raises(LimitError, match="too large: 11 states found so far .* the limits are 10 states"):
         to_dfa(F(a, le=50), max_states=10)
+
+
+def test_table_limit_states_the_measured_size() -> None:
+    # F a & F b & ... over all 2**8 letters: the table passes 1000 entries at the 4th state
+    atoms = [LabelRef(f"l{i}") for i in range(8)]
+    path = F(atoms[0])
+    for x in atoms[1:]:
+        path = And(path, F(x))
+    with pytest.raises(LimitError, match=r"over 256 letters; the limits are 100000 states and 1000 table"):
+        to_dfa(path, max_table=1000)
 
 
 def test_subsumption_keeps_bounded_obligations_small() -> None:

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ltl_reference import And, F, Not, Or, U, X, a, b
-from posgmc.engines.ltl import Dfa, extract_atoms, pack_letters, product, to_dfa
+from posgmc.engines.ltl import Dfa, extract_atoms, letter_graph, pack_letters, product, to_dfa
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
 from posgmc.errors import UnsupportedError
 from posgmc.syntax.ast import (
@@ -426,3 +426,65 @@ def test_robot_props_files(benchmarks: Path, file: str, reward: bool) -> None:
             assert value == float("inf"), prop.text
         else:
             assert value == pytest.approx(float(Fraction(expected)), abs=1e-9), prop.text
+
+
+# -- the automaton over a model's own letters (issue #13) ------------------------------------------
+
+
+@given(random_models(), st.sampled_from(FORMULAS))
+@settings(max_examples=60, deadline=None)
+def test_model_letter_automaton_agrees_with_the_full_one(model: ExplicitModel, formula: Expr) -> None:
+    # along every path of the model, both automata accept at the same steps: a joint breadth-first
+    # walk over (model state, full DFA state, model-letter DFA state)
+    full = to_dfa(formula)
+    values = atom_values(model, full)
+    own = to_dfa(formula, alphabet=letter_graph(model, values))
+    letters = pack_letters(values)
+    cols = own.columns(letters)
+    graph = [set(model.transitions[c].indices.tolist()) for c in range(model.num_choices)]
+    seen = set()
+    todo = [
+        (int(s), int(full.delta[full.initial, letters[s]]), int(own.delta[own.initial, cols[s]]))
+        for s in model.initial_states
+    ]
+    while todo:
+        s, p, q = todo.pop()
+        if (s, p, q) in seen:
+            continue
+        seen.add((s, p, q))
+        assert full.accepting[p] == own.accepting[q]
+        if full.rejecting_sink is not None and p == full.rejecting_sink:
+            assert q == own.rejecting_sink
+        for c in range(model.row_groups[s], model.row_groups[s + 1]):
+            for t in graph[c]:
+                todo.append((t, int(full.delta[p, letters[t]]), int(own.delta[q, cols[t]])))
+    assert own.num_states <= full.num_states + 1  # + the "false" filler
+
+
+def ring(n: int) -> tuple[ExplicitModel, Expr]:
+    """A dtmc cycling through n states (stay or move on, 1/2 each), atom i true in state i, and
+    the conjunction of F over all atoms (issue #13: 13 atoms took 110 s and 4.4 GB)."""
+    rows = [[0.0] * n for _ in range(n)]
+    for i in range(n):
+        rows[i][i] += 0.5
+        rows[i][(i + 1) % n] += 0.5
+    labels = {f"l{i}": [j == i for j in range(n)] for i in range(n)}
+    model = make_model(ModelType.DTMC, list(range(n + 1)), rows, labels=labels)
+    formula: Expr = F(LabelRef("l0"))
+    for i in range(1, n):
+        formula = And(formula, F(LabelRef(f"l{i}")))
+    return model, formula
+
+
+def test_conjunction_of_13_eventualities_on_a_ring_is_small() -> None:
+    model, formula = ring(13)
+    atoms = extract_atoms(formula)
+    values = np.array([model.label(x.name) for x in atoms])  # type: ignore[attr-defined]
+    dfa = to_dfa(formula, atoms, alphabet=letter_graph(model, values))
+    # from state 0 the visited atoms form an arc 0..k of the ring: the initial formula, the 12
+    # arcs k < 12 still waiting, "true" and the "false" filler (hand count; the minimal automaton
+    # over all letters has 2**13 states)
+    assert dfa.num_states == 15 and dfa.delta.shape == (dfa.num_states, 13)
+    prod = product(model, dfa, values)
+    # (i, arc 0..i) for i = 0..12, then (i, true) for the 12 states after the arc closed at 12
+    assert prod.model.num_states == 25 and prod.accepting.sum() == 13

@@ -1,0 +1,84 @@
+"""Which actions each state offers, and the rule that states a player cannot tell apart offer the
+same ones (PRISM's POMDP check: "states with the same observation must have the same actions").
+
+One definition for every input: the PRISM compiler (:mod:`posgmc.compiler.assemble`) and the DRN
+reader (:mod:`posgmc.io.drn.reader`) both call :func:`observation_action_conflict` and word the
+error with :func:`conflict_message`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["action_signatures", "conflict_message", "labels_of", "observation_action_conflict"]
+
+
+def action_signatures(
+    choice_actions: np.ndarray, row_groups: np.ndarray, num_actions: int
+) -> np.ndarray:
+    """int64[S, W]: bit sets of the action labels offered in each state (62 labels per word).
+
+    Args:
+        choice_actions: int[C], the action id of each choice (0: unlabelled).
+        row_groups: int[S + 1], the choices of state s are ``row_groups[s]:row_groups[s+1]``.
+        num_actions: the number of action ids.
+    """
+    num_words = max(1, -(-num_actions // 62))
+    starts = row_groups[:-1]
+    out = np.empty((starts.size, num_words), dtype=np.int64)
+    word = choice_actions // 62
+    bit = np.left_shift(np.int64(1), (choice_actions % 62).astype(np.int64))
+    for w in range(num_words):
+        bits = np.where(word == w, bit, 0)
+        out[:, w] = np.bitwise_or.reduceat(bits, starts)
+    return out
+
+
+def labels_of(signature: np.ndarray, action_names: tuple[str, ...]) -> set[str]:
+    """The action labels (``[name]``) set in one state's signature."""
+    out = set()
+    for a, name in enumerate(action_names):
+        if (int(signature[a // 62]) >> (a % 62)) & 1:
+            out.add(f"[{name}]")
+    return out
+
+
+def observation_action_conflict(
+    ids: np.ndarray, states: np.ndarray, signatures: np.ndarray
+) -> tuple[int, int] | None:
+    """The first pair (s, t) of ``states`` with the same observation id and different action
+    signatures (s the first state of that observation), or None.
+
+    Args:
+        ids: int[S], each state's observation id.
+        states: the states the check covers (a player's own states in a game).
+        signatures: int64[S, W] from :func:`action_signatures` (or any per-state rows to compare).
+    """
+    if states.size == 0:
+        return None
+    z = ids[states]
+    _, first = np.unique(z, return_index=True)
+    rep_of_z = np.full(int(ids.max()) + 1, -1, dtype=np.int64)
+    rep_of_z[z[first]] = states[first]
+    rep = rep_of_z[z]
+    differ = np.any(signatures[states] != signatures[rep], axis=1)
+    if not differ.any():
+        return None
+    k = int(np.flatnonzero(differ)[0])
+    return int(rep[k]), int(states[k])
+
+
+def conflict_message(
+    s_text: str, t_text: str, who: str, observation: int, a_s: set[str], a_t: set[str]
+) -> tuple[str, str]:
+    """(message, hint) of an observation-action conflict between states s and t."""
+    message = (
+        f"states {s_text} and {t_text} look the same to {who} (observation {observation}) but "
+        f"offer different actions: {', '.join(sorted(a_s - a_t)) or 'none'} only in the first, "
+        f"{', '.join(sorted(a_t - a_s)) or 'none'} only in the second"
+    )
+    hint = (
+        "states with the same observation must enable the same action labels; observe more "
+        "or make the commands' guards depend only on observed values"
+    )
+    return message, hint

@@ -1,0 +1,139 @@
+"""The job boundary of synthesis: a picklable description of the problem and of each independent
+evaluation, and executors that run a batch of them (in this process, or in a local process pool).
+
+A :class:`Problem` holds everything an evaluation needs (the model, the property, the objective's
+arrays, who decides); a job is a frozen dataclass whose ``run(problem)`` returns numbers and
+strategies and depends on nothing else (no warm start carried between jobs, no clock except the
+job's own ``deadline``). So a batch gives the same results in any order and in any process:
+``--jobs N`` is bit-identical to ``--jobs 1`` for a given ``--seed`` (as long as no deadline is
+hit). :class:`ProcessPool` ships the problem to each worker once (the pool's initializer) and then
+only the small job descriptions; a distributed executor (Ray, Dask) would put the problem in its
+object store once and map :func:`run_job` over the jobs, without touching the algorithm.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from posgmc.checking.dispatch import CheckOptions
+from posgmc.engines.options import Method, SolverOptions
+from posgmc.model.explicit import ExplicitModel
+from posgmc.syntax.ast import Coalition, Direction, ProbQuery, RewardQuery
+
+__all__ = ["Problem", "Job", "Executor", "InProcess", "ProcessPool", "executor_for", "run_job"]
+
+POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY, prove=False))
+"""Exact linear solves (policy iteration): how candidates are ranked, never what is reported."""
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """One synthesis problem. ``query``: the bare query with its direction set; ``player``: the
+    decision maker; ``adversary``: the other player (None for a pomdp); ``coalition``: the
+    players the query's coalition names; ``target``/``remain``: bool[S] (where ``b`` and ``a`` of
+    ``a U b`` hold); ``rewards``: float64[C] per choice (None for a probability); ``discount``:
+    1 unless the objective is discounted; ``scalar``: a picklable constant evaluator."""
+
+    model: ExplicitModel
+    query: ProbQuery | RewardQuery
+    player: int
+    adversary: int | None
+    coalition: frozenset[int]
+    target: np.ndarray
+    remain: np.ndarray
+    rewards: np.ndarray | None
+    discount: float
+    scalar: Callable[[Any], Any]
+
+    @property
+    def maximize(self) -> bool:
+        return self.query.direction is Direction.MAX
+
+    @property
+    def sign(self) -> float:
+        """+1 when the decision maker maximises, -1 when it minimises."""
+        return 1.0 if self.maximize else -1.0
+
+    def coalition_of(self, coalition: Coalition | None) -> frozenset[int] | None:
+        """The coalition resolver of this problem's one query."""
+        return None if coalition is None else self.coalition
+
+
+class Job(Protocol):
+    """An independent evaluation: ``run(problem)`` -> numbers and strategies."""
+
+    def run(self, problem: Problem) -> Any: ...
+
+
+class Executor(Protocol):
+    """Runs a batch of jobs on one problem; results in the jobs' order."""
+
+    problem: Problem
+
+    def map(self, jobs: Sequence[Job]) -> list[Any]: ...
+
+    def close(self) -> None: ...
+
+
+class InProcess:
+    """Runs the jobs one after the other in this process."""
+
+    def __init__(self, problem: Problem) -> None:
+        self.problem = problem
+
+    def map(self, jobs: Sequence[Job]) -> list[Any]:
+        return [job.run(self.problem) for job in jobs]
+
+    def close(self) -> None:
+        pass
+
+
+_INSTALLED: list[Problem] = []
+"""The problem of this worker process (set once by the pool's initializer)."""
+
+
+def _install(problem: Problem) -> None:
+    _INSTALLED[:] = [problem]
+
+
+def run_job(job: Job) -> Any:
+    """Run one job on the problem installed in this worker."""
+    return job.run(_INSTALLED[0])
+
+
+class ProcessPool:
+    """A local pool of ``workers`` processes (forked where the platform allows), each given the
+    problem once; a batch of one job runs in this process (no pickling)."""
+
+    def __init__(self, problem: Problem, workers: int) -> None:
+        self.problem = problem
+        methods = multiprocessing.get_all_start_methods()
+        context = multiprocessing.get_context("fork" if "fork" in methods else None)
+        self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                                         initializer=_install, initargs=(problem,))
+
+    def map(self, jobs: Sequence[Job]) -> list[Any]:
+        if len(jobs) <= 1:
+            return [job.run(self.problem) for job in jobs]
+        return list(self._pool.map(run_job, jobs))
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+def executor_for(problem: Problem, jobs: int) -> InProcess | ProcessPool:
+    """``jobs`` = 1: in this process; more: a local process pool of that many workers."""
+    return InProcess(problem) if jobs <= 1 else ProcessPool(problem, jobs)
+
+
+def expired(deadline: float | None) -> bool:
+    """Whether ``deadline`` (a ``time.perf_counter()`` value: CLOCK_MONOTONIC on Linux, the same
+    clock in every process of the machine) has passed."""
+    return deadline is not None and time.perf_counter() > deadline
