@@ -39,6 +39,7 @@ import numpy as np
 
 from posgmc.errors import SourceSpan
 from posgmc.semantics import operators as ops
+from posgmc.syntax.traversal import children
 from posgmc.syntax.ast import (
     NO_SPAN,
     Binary,
@@ -574,7 +575,7 @@ class _Generator:
         stack: list[tuple[Expr, bool]] = [(root, False)]
         while stack:
             e, ready = stack.pop()
-            kids = _operands(e)
+            kids = children(e)  # the one traversal of the tree (syntax/traversal.py)
             if not ready and kids:
                 stack.append((e, True))
                 stack.extend((k, False) for k in reversed(kids))
@@ -830,19 +831,6 @@ def _union(a: tuple[int, int] | None, b: tuple[int, int] | None) -> tuple[int, i
     if a is None or b is None:
         return None
     return min(a[0], b[0]), max(a[1], b[1])
-
-
-def _operands(e: Expr) -> tuple[Expr, ...]:
-    """The sub-expressions a model expression's code is generated from, in order."""
-    if isinstance(e, Unary):
-        return (e.operand,)
-    if isinstance(e, Binary):
-        return (e.left, e.right)
-    if isinstance(e, Ite):
-        return (e.cond, e.then, e.otherwise)
-    if isinstance(e, Call):
-        return e.args
-    return ()
 
 
 def _function_source(name: str, prelude: Sequence[str], result: str) -> str:
