@@ -8,7 +8,8 @@ from typing import TYPE_CHECKING
 
 from posgmc.errors import InputError, UnsupportedError
 from posgmc.io.atomic import atomic_open
-from posgmc.tradeoffs.sweep import Sweep
+from posgmc.checking.results import Bound
+from posgmc.tradeoffs.sweep import Sweep, SweepPoint
 
 if TYPE_CHECKING:
     from posgmc.checking.multi import Front
@@ -32,6 +33,25 @@ def _save(fig, plt, path: str | Path) -> None:  # type: ignore[no-untyped-def]
     with atomic_open(path, "wb", encoding=None) as handle:  # never a half-written picture
         fig.savefig(handle, format=suffix[1:])
     plt.close(fig)
+
+
+def _drawn(s: Sweep) -> list[tuple[SweepPoint, Bound]]:
+    """The points of a sweep that have a number to draw, with that number."""
+    out = []
+    for p in s.points:
+        b = p.main_number()
+        if b is not None and not math.isnan(p.x):
+            out.append((p, b))
+    return out
+
+
+def _error_bars(
+    drawn: list[tuple[SweepPoint, Bound]],
+) -> tuple[list[float], list[float], list[float], list[float]]:
+    """x, value, and the distances down to the lower and up to the upper proven bound."""
+    return ([p.x for p, _ in drawn], [b.value for _, b in drawn],
+            [max(0.0, b.value - b.lower) for _, b in drawn],
+            [max(0.0, b.upper - b.value) for _, b in drawn])
 
 
 def _check_suffix(path: str | Path) -> None:
@@ -97,29 +117,15 @@ def plot_sweep(s: Sweep, path: str | Path, *, title: str | None = None) -> None:
         UnsupportedError: matplotlib is not installed.
         InputError: no point has a number to draw, or an unknown file type.
     """
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise UnsupportedError("plots need matplotlib", hint="pip install 'posgmc[plot]'") from None
-    suffix = Path(path).suffix.lower()
-    if suffix not in (".png", ".svg", ".pdf"):
-        raise InputError(f"{path}: a plot is written as .png, .svg or .pdf")
-    xs, ys, lo, hi, full, ub, labels = [], [], [], [], [], [], []
-    for p in s.points:
-        b = p.main_number()
-        if b is None or math.isnan(p.x):
-            continue
-        xs.append(p.x)
-        ys.append(b.value)
-        lo.append(max(0.0, b.value - b.lower))
-        hi.append(max(0.0, b.upper - b.value))
-        r = p.result
-        full.append(r.full_observation.value if r is not None and r.full_observation else math.nan)
-        ub.append(r.upper_bound.value if r is not None and r.upper_bound else math.nan)
-        labels.append(f"{b.value:.4g}")
+    plt = _pyplot()
+    _check_suffix(path)
+    drawn = _drawn(s)
+    xs, ys, lo, hi = _error_bars(drawn)
+    full = [p.result.full_observation.value if p.result is not None and p.result.full_observation
+            else math.nan for p, _ in drawn]
+    ub = [p.result.upper_bound.value if p.result is not None and p.result.upper_bound else math.nan
+          for p, _ in drawn]
+    labels = [f"{y:.4g}" for y in ys]
     if not xs:
         raise InputError("no point of the sweep has a number to plot")
     synthesised = any(p.result is not None and p.result.guaranteed is not None for p in s.points)
@@ -140,9 +146,7 @@ def plot_sweep(s: Sweep, path: str | Path, *, title: str | None = None) -> None:
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    with atomic_open(path, "wb", encoding=None) as handle:  # never a half-written picture
-        fig.savefig(handle, format=suffix[1:])
-    plt.close(fig)
+    _save(fig, plt, path)
 
 
 def plot_sweeps(sweeps: "list[Sweep]", path: str | Path) -> None:
@@ -162,15 +166,7 @@ def plot_sweeps(sweeps: "list[Sweep]", path: str | Path) -> None:
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     drawn, full_drawn = 0, False
     for s in sweeps:
-        xs, ys, lo, hi = [], [], [], []
-        for p in s.points:
-            b = p.main_number()
-            if b is None or math.isnan(p.x):
-                continue
-            xs.append(p.x)
-            ys.append(b.value)
-            lo.append(max(0.0, b.value - b.lower))
-            hi.append(max(0.0, b.upper - b.value))
+        xs, ys, lo, hi = _error_bars(_drawn(s))
         if xs:
             drawn += 1
             ax.errorbar(xs, ys, yerr=[lo, hi], marker="o", capsize=4, label=s.property)
