@@ -21,7 +21,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from posgmc.compiler import BuildOptions, build_model
 from posgmc.deep import deep_generator, deep_stack
@@ -133,39 +133,33 @@ def _attach(error: PosgmcError, source: SourceText) -> PosgmcError:
     return error
 
 
-def _paths(value: object, what: str) -> tuple[str | Path, ...]:
-    """One path or a sequence of them (a single string is one path, never its characters)."""
+def _one_or_many(value: object, kinds: tuple[type, ...], expected: str) -> tuple[Any, ...]:
+    """One item of ``kinds`` or a sequence of them (a single string is one item, never its
+    characters); None is none. ``expected`` completes the error message."""
     if value is None:
         return ()
-    if isinstance(value, (str, Path)):
+    if isinstance(value, kinds):
         return (value,)
-    if isinstance(value, Sequence) and all(isinstance(v, (str, Path)) for v in value):
+    if isinstance(value, Sequence) and all(isinstance(v, kinds) for v in value):
         return tuple(value)
-    raise InputError(f"{what} must be a path or a list of paths, got {type(value).__name__}")
+    raise InputError(f"{expected}, got {type(value).__name__}")
+
+
+def _paths(value: object, what: str) -> tuple[str | Path, ...]:
+    """One path or a sequence of them."""
+    return _one_or_many(value, (str, Path), f"{what} must be a path or a list of paths")
 
 
 def _texts(value: object, what: str) -> tuple[str, ...]:
     """One text or a sequence of them."""
-    if value is None:
-        return ()
-    if isinstance(value, str):
-        return (value,)
-    if isinstance(value, Sequence) and all(isinstance(v, str) for v in value):
-        return tuple(value)
-    raise InputError(f"{what} must be a string or a list of strings, got {type(value).__name__}")
+    return _one_or_many(value, (str,), f"{what} must be a string or a list of strings")
 
 
 def _property_items(value: object) -> tuple[str | Property, ...]:
     """One property (text or parsed) or a sequence of them."""
-    if value is None:
-        return ()
-    if isinstance(value, (str, Property)):
-        return (value,)
-    if isinstance(value, Sequence) and all(isinstance(v, (str, Property)) for v in value):
-        return tuple(value)
-    raise InputError(
-        "properties must be a string or a list of strings or parsed properties, "
-        f"got {type(value).__name__}"
+    return _one_or_many(
+        value, (str, Property),
+        "properties must be a string or a list of strings or parsed properties",
     )
 
 
