@@ -236,11 +236,17 @@ def _solve_system(
         )
     certifiable = ec is not EndComponents.INFLATE and not unbounded
 
-    def policy(start: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, int, _Solved | None]:
+    def policy(
+        start: np.ndarray | None, prove: bool = True
+    ) -> tuple[np.ndarray, np.ndarray, int, _Solved | None]:
+        """Policy iteration; with ``prove`` a certified result or None, else an unproven one."""
         x, rows, rounds = _policy_solution(
             sys, ex.grouped(sys), start, outer_max=outer_max, idle_min=idle_min,
             unbounded=unbounded, is_chain=is_chain, max_rounds=options.max_iterations,
         )
+        best, cand = _candidates(sys, rows, num_choices)
+        if not prove:
+            return x, rows, rounds, _Solved(x, x.copy(), rounds, True, False, best, cand, estimate=x)
         proven = (
             certify(sys, x, rows, cap=cap, precision=options.precision, relative=options.relative)
             if certifiable else None
@@ -248,18 +254,10 @@ def _solve_system(
         if proven is None:
             return x, rows, rounds, None
         lower, upper = _widen(*proven)
-        best, cand = _candidates(sys, rows, num_choices)
         return x, rows, rounds, _Solved(lower, upper, rounds, True, True, best, cand, estimate=x)
 
     if options.method in (Method.EXACT, Method.POLICY):
-        if not options.prove:
-            x, rows, rounds = _policy_solution(
-                sys, ex.grouped(sys), initial_rows, outer_max=outer_max, idle_min=idle_min,
-                unbounded=unbounded, is_chain=is_chain, max_rounds=options.max_iterations,
-            )
-            best, cand = _candidates(sys, rows, num_choices)
-            return _Solved(x, x.copy(), rounds, True, False, best, cand, estimate=x)
-        x, rows, rounds, solved = policy(initial_rows)
+        x, rows, rounds, solved = policy(initial_rows, prove=options.prove)
         if solved is not None:
             return solved
         # No certificate (end components, infinite values, a gap above the precision): the same
