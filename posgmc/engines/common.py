@@ -4,7 +4,7 @@ assembly of an :class:`~posgmc.engines.result.EngineResult`, and the attractor-b
 * :func:`maximize_mask` turns a query's direction and coalition into the per-state optimisation
   direction the objectives take; ``_bool``/``_directions``/``_check_rewards`` check the arguments
   (rewards are per choice: state reward + action reward, :meth:`RewardModel.choice_rewards`);
-* ``_solve_system`` solves the :class:`~posgmc.engines.iteration.System` on the unknown states by
+* ``_solve_system`` solves the :class:`~posgmc.engines.system.System` on the unknown states by
   the chosen :class:`~posgmc.engines.options.Method` (sound interval iteration, plain value
   iteration, or policy iteration / direct solves, see :mod:`posgmc.engines.exact`) and returns a
   ``_Solved``;
@@ -28,7 +28,8 @@ import numpy as np
 from posgmc.engines import exact as ex
 from posgmc.engines.graph import Structure, attractor
 from posgmc.engines.certify import certify
-from posgmc.engines.iteration import Bounds, EndComponents, System, _widen, choose, solve
+from posgmc.engines.iteration import Bounds, EndComponents, solve, widen
+from posgmc.engines.system import System, choose
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.topological import solve_topological
 from posgmc.engines.result import EngineResult
@@ -253,7 +254,7 @@ def _solve_system(
         )
         if proven is None:
             return x, rows, rounds, None
-        lower, upper = _widen(*proven)
+        lower, upper = widen(*proven)
         return x, rows, rounds, _Solved(lower, upper, rounds, True, True, best, cand, estimate=x)
 
     if options.method in (Method.EXACT, Method.POLICY):

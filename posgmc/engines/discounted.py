@@ -22,7 +22,8 @@ from posgmc.engines.common import (
     _solve_system,
 )
 from posgmc.engines.graph import structure_of
-from posgmc.engines.iteration import EndComponents, build_system, solve_discounted
+from posgmc.engines.iteration import EndComponents, solve_discounted
+from posgmc.engines.system import build_system
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.errors import PosgmcError

@@ -1,6 +1,6 @@
 """Exact solution by linear algebra: direct solves for chains, policy iteration for mdps and games.
 
-A strategy (one row per unknown state) turns a :class:`~posgmc.engines.iteration.System` into a
+A strategy (one row per unknown state) turns a :class:`~posgmc.engines.system.System` into a
 linear system ``x = b_sigma + A_sigma x``. :func:`evaluate` solves it with a sparse LU
 (``scipy.sparse.linalg.spsolve``) after settling by graph search the states that never leave the
 unknowns: there the value is 0 if no row with a positive constant is reachable inside, and infinite
@@ -28,7 +28,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from posgmc.engines.graph import Structure, almost_sure_reach, attractor, positive_buchi
-from posgmc.engines.iteration import System
+from posgmc.engines.system import System
 
 __all__ = ["Grouped", "grouped", "evaluate", "policy_iteration", "policy_values_to_rows"]
 

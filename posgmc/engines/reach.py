@@ -2,7 +2,7 @@
 
 Unbounded until: graph precomputation settles the states with probability 0 or 1 exactly (for
 games the attractor-based versions, see :mod:`posgmc.engines.graph`); the rest is solved as a
-:class:`~posgmc.engines.iteration.System` (see :mod:`posgmc.engines.common`), and the strategy
+:class:`~posgmc.engines.system.System` (see :mod:`posgmc.engines.common`), and the strategy
 comes from the almost-sure attractor, the minimiser's avoiding choices and the attractor fix.
 Step-bounded ``U<=k`` and ``X`` are exact up to floating point: k Bellman steps (lower step bounds
 are in :mod:`posgmc.engines.step_bounds`).
@@ -25,7 +25,8 @@ from posgmc.engines.common import (
     _solve_system,
 )
 from posgmc.engines.graph import Structure, almost_sure_reach, positive_reach, structure_of
-from posgmc.engines.iteration import EndComponents, argopt_rows, bellman, build_system, reduce_rows
+from posgmc.engines.iteration import EndComponents
+from posgmc.engines.system import argopt_rows, bellman, build_system, reduce_rows
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.stepped import bellman_steps
 from posgmc.engines.result import EngineResult

@@ -18,7 +18,7 @@ from posgmc.engines.graph import (
     safe_region,
     structure_of,
 )
-from posgmc.engines.iteration import bellman, build_system, choice_values, choose
+from posgmc.engines.system import bellman, build_system, choice_values, choose
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.syntax.ast import ModelType
 

@@ -9,7 +9,7 @@ import pytest
 
 from engine_models import game_prism, smg_example
 from posgmc.engines import objectives as obj
-from posgmc.engines.iteration import bellman, build_system
+from posgmc.engines.system import bellman, build_system
 from posgmc.engines.graph import structure_of
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.errors import PosgmcError

@@ -15,7 +15,7 @@ from posgmc import api
 from posgmc.checking.dispatch import CheckOptions
 from posgmc.engines import objectives as obj
 from posgmc.engines.graph import structure_of
-from posgmc.engines.iteration import build_system
+from posgmc.engines.system import build_system
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.engines.signed import proper_region, solve_proper, start_bounds
