@@ -78,7 +78,7 @@ def main() -> None:
             product = strategy_product(model, [bind(model, fss)])
             builds.append(time.perf_counter() - t0)
             checker = StrategyChecker(model, {"rover": fss},
-                                      coalition_of=api._coalition_resolver(model, False),
+                                      coalition_of=api._resolver(model, False).coalition_of,
                                       scalar=api._scalar)
             t0 = time.perf_counter()
             r = checker.check(expr, text=prop)

@@ -32,7 +32,6 @@ from posgmc.errors import (
     LimitError,
     MultipleErrors,
     PosgmcError,
-    SemanticError,
     SourceText,
     UnsupportedError,
 )
@@ -41,9 +40,10 @@ from posgmc.semantics import checker as sem
 from posgmc.semantics import operators as ops
 from posgmc.semantics.evaluate import evaluate_constant
 from posgmc.semantics.flat import FlatModel
+from posgmc.semantics.properties import QueryResolver, resolve_queries
 from posgmc.semantics.references import inline_property_references
 from posgmc.syntax import parser
-from posgmc.syntax.ast import NO_SPAN, Coalition, ModelFile, Property, PropertiesFile
+from posgmc.syntax.ast import NO_SPAN, ModelFile, Property, PropertiesFile
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.printer import format_expr
 
@@ -398,42 +398,16 @@ class CheckReport:
     outcomes: tuple[PropertyResult | PropertyError, ...] = ()  # all, in order
 
 
-def _coalition_resolver(model: ExplicitModel, zero_based: bool):  # type: ignore[no-untyped-def]
-    names = model.player_names
-
-    def resolve(c: Coalition | None) -> frozenset[int] | None:
-        if c is None:
-            return None
-        if c.all_players:
-            return frozenset(range(len(names)))
-        out: set[int] = set()
-        for p in c.players:
-            if p.name is not None:
-                if p.name not in names:
-                    raise SemanticError(f"no player named '{p.name}'", p.span)
-                out.add(names.index(p.name))
-            else:
-                assert p.number is not None  # noqa: S101 - a PlayerRef is a name or a number
-                index = p.number if zero_based else p.number - 1
-                if not 0 <= index < len(names):
-                    listing = ", ".join(
-                        f"\"{n}\" = <<{i + 1}>> (<<{i}>> with --zero-based-players)"
-                        for i, n in enumerate(names)
-                    )
-                    raise SemanticError(
-                        f"no player number {p.number}: "
-                        + ("numbers count from 0 here" if zero_based else
-                           "PRISM-games numbers players from 1, Storm and PAYNT from 0"),
-                        p.span,
-                        hint=(f"the players are {listing}; " if names else "the model has no players; ")
-                        + ("drop --zero-based-players for 1-based numbers" if zero_based else
-                           "read numbers from 0 as PAYNT's files do with --zero-based-players "
-                           "(zero_based_players=True in Python)"),
-                    )
-                out.add(index)
-        return frozenset(out)
-
-    return resolve
+def _resolver(model: ExplicitModel, zero_based: bool) -> QueryResolver:
+    """The semantic stage's resolution of coalitions and reward structures against the compiled
+    model's players and reward structures: the FlatModel's for PRISM input (where the semantic
+    stage has already resolved every query), the only ones for DRN input."""
+    return QueryResolver(
+        model.model_type,
+        tuple(model.player_names),
+        tuple(rm.name for rm in model.reward_models),
+        zero_based,
+    )
 
 
 def _scalar(expr):  # type: ignore[no-untyped-def]
@@ -519,7 +493,7 @@ def _checker(
     strategies: Mapping[str, "FiniteStateStrategy"] | None,
     synthesis: "SynthesisOptions | None" = None,
 ) -> "PropertyChecker | StrategyChecker | SynthesisChecker":
-    coalition_of = _coalition_resolver(model, zero_based_players)
+    coalition_of = _resolver(model, zero_based_players).coalition_of
     if options.exact:
         from posgmc.checking.exact import ExactChecker
 
@@ -557,6 +531,10 @@ def _check_one(
                 zero_based_players=zero_based_players,
             )
             expr = cp.expr
+        else:
+            # no semantic stage for an explicit model: its queries' references resolved here,
+            # by the same resolver, before any engine runs
+            resolve_queries(expr, _resolver(built.model, zero_based_players))
         text = prop.text or format_expr(prop.expr)
         return checker.check(expr, text=text, name=prop.name)
     except MultipleErrors as e:
@@ -850,9 +828,12 @@ def simulate(
                 constants=session.constants, zero_based_players=zero_based_players,
             )
             expr = cp.expr
+        resolver = _resolver(built.model, zero_based_players)
+        if expr is parsed.expr:
+            resolve_queries(expr, resolver)  # an explicit model: see _check_one
         return run(
             built.model, expr, loaded, text=prop,
-            coalition_of=_coalition_resolver(built.model, zero_based_players), scalar=_scalar,
+            coalition_of=resolver.coalition_of, scalar=_scalar,
             runs=runs, seed=seed, max_steps=max_steps, opponent=opponent, trace=trace,
         )
     except MultipleErrors as e:

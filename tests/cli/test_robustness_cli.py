@@ -182,7 +182,9 @@ def test_unknown_constant_is_reported_once_before_building(tmp_path: Path) -> No
 def test_zero_player_number_on_drn_names_the_option() -> None:
     r = run("check", _test_game(), "--prop", '<<0>> Pmax=? [F "goal"]', "--full-observation")
     assert r.exit_code == 2
-    assert "no player number 0: PRISM-games numbers players from 1, Storm and PAYNT from 0" in r.output
+    # the semantic stage's message (one resolution of coalitions for PRISM and DRN input)
+    assert ("player number 0 does not exist: PRISM-games numbers players from 1, while Storm and "
+            "PAYNT number them from 0") in r.output
     assert '"0" = <<1>> (<<0>> with --zero-based-players)' in r.output
     ok = run("check", _test_game(), "--prop", '<<0>> Pmax=? [F "goal"]', "--full-observation",
              "--zero-based-players")

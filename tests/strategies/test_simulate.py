@@ -34,12 +34,12 @@ def test_estimate_agrees_with_the_exact_profile_value(seed: int) -> None:
     model, p0, p1 = _game(seed)
     prop = '<<p0>> Pmax=? [ F "goal" ]'
     exact = StrategyChecker(model, {"p0": p0, "p1": p1},
-                            coalition_of=api._coalition_resolver(model, False), scalar=api._scalar)
+                            coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar)
     v = exact.check(parser.parse_property(prop).expr, text=prop).vs_fss_adversary.value
     from posgmc.strategies.simulate import simulate
 
     sim = simulate(model, parser.parse_property(prop).expr, {"p0": p0, "p1": p1}, text=prop,
-                   coalition_of=api._coalition_resolver(model, False), scalar=api._scalar,
+                   coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar,
                    runs=20_000, seed=seed, max_steps=2_000)
     se = math.sqrt(max(v * (1 - v), 1e-4) / sim.runs)
     assert abs(sim.estimate - v) <= 4 * se + sim.undecided / sim.runs

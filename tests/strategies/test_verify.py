@@ -341,7 +341,7 @@ def test_guaranteed_le_value_le_upper_bound(game: tuple, direction: str) -> None
     model, p0, p1 = game
     prop = f'<<p0>> P{direction}=? [ F "goal" ]'
     checker = StrategyChecker(model, {"p0": p0, "p1": p1},
-                              coalition_of=api._coalition_resolver(model, False), scalar=api._scalar)
+                              coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar)
     r = checker.check(parser.parse_property(prop).expr, text=prop)
     g, v, u = r.guaranteed, r.vs_fss_adversary, r.upper_bound
     eps = 1e-6

@@ -49,7 +49,7 @@ def _labels_by_observation(model, player: int, ids: np.ndarray) -> list[list[str
 @pytest.mark.parametrize("seed", [0, 1, 2, 3, 4, 5, 6, 7])
 def test_brute_force_max_min_is_below_upper_bound(seed: int) -> None:
     model, _, _ = _game(seed)
-    coalition = api._coalition_resolver(model, False)
+    coalition = api._resolver(model, False).coalition_of
     q = parser.parse_property(PROP).expr
     # player 0 sees one bit (ids 0/1), player 1 everything (the state number s)
     obs0 = model.observation_of(0)
@@ -95,7 +95,7 @@ def test_adversaries_with_memory_include_the_memoryless_ones(seed: int) -> None:
     memoryless one; every enumerated strategy is distinct on the reachable part (no two give the
     same product); and enumeration is exhaustive on these small games."""
     model, _, _ = _game(seed)
-    coalition = api._coalition_resolver(model, False)
+    coalition = api._resolver(model, False).coalition_of
     q = parser.parse_property(PROP).expr
     one = enumerate_adversaries(model, 1, limit=10_000)
     two = enumerate_adversaries(model, 1, memory=2, limit=10_000)

@@ -76,13 +76,13 @@ def random_posg(seed: int):  # type: ignore[no-untyped-def]
 
 
 def _problem(model):  # type: ignore[no-untyped-def]
-    coalition = api._coalition_resolver(model, False)
+    coalition = api._resolver(model, False).coalition_of
     return problem_of(model, parser.parse_property(PROP).expr, player=0, adversary=1,
                       coalition_of=coalition, scalar=api._scalar)
 
 
 def _synthesised(model, options: SynthesisOptions = SMALL):  # type: ignore[no-untyped-def]
-    checker = SynthesisChecker(model, coalition_of=api._coalition_resolver(model, False),
+    checker = SynthesisChecker(model, coalition_of=api._resolver(model, False).coalition_of,
                                scalar=api._scalar, synthesis=options)
     return checker.check(parser.parse_property(PROP).expr, text=PROP)
 
@@ -147,7 +147,7 @@ def test_pipeline_invariants_on_random_posgs(seed: int, tmp_path_factory) -> Non
     * the same seed gives the same result, bit for bit.
     """
     model = random_posg(seed)
-    coalition = api._coalition_resolver(model, False)
+    coalition = api._resolver(model, False).coalition_of
     q = parser.parse_property(PROP).expr
     r = _synthesised(model)
     assert r.guaranteed is not None and r.upper_bound is not None and r.vs_fss_adversary is not None

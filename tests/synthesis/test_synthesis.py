@@ -28,7 +28,7 @@ def _game(name: str):  # type: ignore[no-untyped-def]
     if not path.exists():
         pytest.skip("shared benchmarks not present")
     model = api.build(api.load(path)).model
-    return model, api._coalition_resolver(model, True)
+    return model, api._resolver(model, True).coalition_of
 
 
 def _query(text: str):  # type: ignore[no-untyped-def]
@@ -43,7 +43,7 @@ def test_gradient_matches_finite_differences(k: int) -> None:
     model = api.build(api.load(ROOT / "models" / "rover.posg")).model
     q = _query('<<rover>> Pmax=? [ !"crash" U "goal" ]')
     par = Parametrisation(model, 0, k, q, model.label("goal"), ~model.label("crash"),
-                          coalition_of=api._coalition_resolver(model, False), scalar=api._scalar)
+                          coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar)
     rng = np.random.default_rng(k)
     la, ld = rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])
     g, d = par.probabilities(la, ld)
@@ -69,7 +69,7 @@ def test_full_observation_memoryless_reproduces_the_optimum() -> None:
     (0.9876561794, the exact value: tests/engines/test_step_fixpoint.py's fixpoint of F<=k)."""
     model = api.build(api.load(ROOT / "models" / "rover.smg")).model
     r = synthesize(model, parser.parse_property('<<rover>> Pmax=? [ !"crash" U "goal" ]').expr,
-                   player=0, coalition_of=api._coalition_resolver(model, False), scalar=api._scalar,
+                   player=0, coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar,
                    options=SynthesisOptions(memory=(1,), restarts=0, iterations=5, timeout=30))
     assert r.guaranteed.lower - 1e-6 <= 0.9876561794 <= r.guaranteed.upper + 1e-6
     assert r.full_observation.lower <= r.guaranteed.upper + 1e-9
@@ -137,7 +137,7 @@ def test_discounted_cost_gradient_matches_finite_differences() -> None:
                 direction=Direction.MIN)
     rewards = model.reward_model("steps").choice_rewards(model.row_groups)
     par = Parametrisation(model, 0, 2, q, model.label("over"), np.ones(model.num_states, bool),
-                          coalition_of=api._coalition_resolver(model, False), scalar=api._scalar,
+                          coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar,
                           rewards=rewards, discount=0.9)
     rng = np.random.default_rng(3)
     la, ld = rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])
@@ -162,7 +162,7 @@ def test_discounted_cost_synthesis_reaches_the_full_observation_optimum() -> Non
     the full-observation optimum of rover.smg (3.8826229, the interval engine's value)."""
     model = api.build(api.load(ROOT / "models" / "rover.posg")).model
     r = synthesize(model, parser.parse_property('<<rover>> R{"steps"}min=? [ Fdiscount=0.9 "over" ]').expr,
-                   player=0, coalition_of=api._coalition_resolver(model, False), scalar=api._scalar,
+                   player=0, coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar,
                    options=SynthesisOptions(memory=(1,), restarts=0, iterations=10, timeout=30))
     assert r.guaranteed.lower - 1e-6 <= 3.8826229 <= r.guaranteed.upper + 1e-6
     assert r.full_observation.lower <= r.guaranteed.upper + 1e-9
