@@ -35,7 +35,7 @@ from posgmc.engines.topological import solve_topological
 from posgmc.engines.result import EngineResult
 from posgmc.errors import PosgmcError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import Direction, ModelType
+from posgmc.model.types import Direction, ModelType
 
 __all__ = ["maximize_mask"]
 

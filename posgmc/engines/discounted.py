@@ -28,7 +28,7 @@ from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["discounted_total_reward", "discounted_reach_reward"]
 

@@ -18,7 +18,7 @@ import numpy as np
 from posgmc.engines.graph import almost_sure_reach, positive_reach, structure_of
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["exact_rational_reach"]
 

@@ -32,7 +32,7 @@ from posgmc.engines.stepped import bellman_steps
 from posgmc.engines.result import EngineResult
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["reach_probability", "bounded_reach_probability", "next_probability"]
 

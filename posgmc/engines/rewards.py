@@ -48,7 +48,7 @@ from posgmc.engines.total import _total
 from posgmc.engines.zero_reward import _reach_reward_zero
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["ReachRewardMode", "expected_reach_reward"]
 

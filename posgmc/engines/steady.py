@@ -34,7 +34,7 @@ from posgmc.engines.options import SolverOptions
 from posgmc.engines.rational import _solve_dense, exact_rational_reach
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["EXACT_LIMIT", "LongRun", "as_fractions", "bsccs", "long_run_average", "long_run_exact"]
 

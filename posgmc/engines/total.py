@@ -29,7 +29,7 @@ from posgmc.engines.system import build_system
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["total_reward"]
 

@@ -25,7 +25,7 @@ from posgmc.engines.result import EngineResult
 from posgmc.engines.total import _total
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__: list[str] = []
 

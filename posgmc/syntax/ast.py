@@ -16,7 +16,9 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 from posgmc.errors import SourceSpan
-from posgmc.model.types import ModelType as ModelType  # the compiled game's enum, named here too
+# the compiled game's enums, named here too
+from posgmc.model.types import Direction as Direction
+from posgmc.model.types import ModelType as ModelType
 
 NO_SPAN = SourceSpan(0, 0)
 
@@ -242,11 +244,6 @@ class Temporal(Expr):
 
 
 # --- queries ------------------------------------------------------------------------------------
-
-
-class Direction(enum.Enum):
-    MIN = "min"
-    MAX = "max"
 
 
 class ComparisonOp(enum.Enum):
