@@ -53,6 +53,13 @@ if TYPE_CHECKING:
     from posgmc.synthesis.search import SynthesisOptions
     from posgmc.strategies.simulate import Simulation
 
+StrategySources = (
+    Mapping[str, "FiniteStateStrategy | str | Path"]
+    | Mapping[str | None, "FiniteStateStrategy | str | Path"]
+)
+"""Strategies by player name, as objects or ``posgmc-fss/1`` files; the key None stands for a
+file's own player (``--strategy FILE``)."""
+
 ConstantValues = Mapping[str, object]
 
 
@@ -559,7 +566,7 @@ def check(
     full_observation: bool = False,
     zero_based_players: bool = False,
     built: BuiltModel | None = None,
-    strategies: Mapping[str, "FiniteStateStrategy | str | Path"] | None = None,
+    strategies: StrategySources | None = None,
     synthesis: "SynthesisOptions | None" = None,
     on_start: "Callable[[ExplicitModel, float, tuple[str, ...]], None] | None" = None,
     on_outcome: "Callable[[PropertyResult | PropertyError], None] | None" = None,
@@ -746,7 +753,7 @@ def synthesize(
 
 @deep_stack
 def load_strategies(
-    strategies: Mapping[str, "FiniteStateStrategy | str | Path"],
+    strategies: StrategySources,
 ) -> dict[str, "FiniteStateStrategy"]:
     """Strategies by player name, files read (a file's own player must be the one it is given for).
 
@@ -792,7 +799,7 @@ def simulate(
     session: Session,
     prop: str,
     *,
-    strategies: Mapping[str, "FiniteStateStrategy | str | Path"] | None = None,
+    strategies: StrategySources | None = None,
     runs: int = 10_000,
     seed: int = 0,
     max_steps: int = 10_000,

@@ -14,14 +14,18 @@ from __future__ import annotations
 import json
 import sys
 import traceback
-from collections.abc import Callable, Sequence
-from typing import Any, NoReturn, TypeVar
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 import click
 
 from posgmc import __version__
 from posgmc.errors import InputError, MultipleErrors, PosgmcError
 from posgmc.semantics.evaluate import format_value
+
+if TYPE_CHECKING:
+    from posgmc.api import CheckReport
+    from posgmc.semantics.constants import ConstRange, ConstSetting, UserConstant
 
 EXIT_OK = 0
 EXIT_PROPERTY_FALSE = 1
@@ -97,7 +101,9 @@ def _guard(
 # -- constants: PRISM's --const N=4,p=0.9 and sweeps N=1:1:5 -----------------------------------
 
 
-def expand_constants(values: Sequence[str]) -> tuple[list[str], list[dict[str, Any]]]:
+def expand_constants(
+    values: Sequence[str],
+) -> tuple[list[str], list[dict[str, ConstSetting | UserConstant]]]:
     """``("N=4,p=0.9", "k=0:5")`` -> (swept names, one name->setting dict per combination).
 
     Raises:
@@ -106,7 +112,7 @@ def expand_constants(values: Sequence[str]) -> tuple[list[str], list[dict[str, A
     from posgmc.errors import ConstantError
     from posgmc.semantics.constants import ConstRange, expand_sweep, parse_const_assignments
 
-    merged: dict[str, Any] = {}
+    merged: dict[str, ConstSetting | ConstRange] = {}
     for i, text in enumerate(values):
         source = "--const" if len(values) == 1 else f"--const #{i + 1}"
         for name, setting in parse_const_assignments(text, source=source).items():
@@ -628,8 +634,10 @@ def _write_strategy(path: str, report: Any) -> None:
     atomic_write_text(path, json.dumps(doc, indent=1))
 
 
-def _json_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> dict[str, Any]:
-    def one(constants: dict[str, str], report: Any) -> dict[str, Any]:
+def _json_report(
+    model: str, swept: list[str], rows: Sequence[tuple[Mapping[str, object], CheckReport]]
+) -> dict[str, Any]:
+    def one(constants: Mapping[str, object], report: CheckReport) -> dict[str, Any]:
         stats = report.model.statistics()
         return {
             "constants": {n: _const_text(v) for n, v in constants.items()},
@@ -733,7 +741,9 @@ def _print_outcome(r: Any) -> None:
         click.echo(f"  note: {r.note}")
 
 
-def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> None:
+def _print_report(
+    model: str, swept: list[str], rows: Sequence[tuple[Mapping[str, object], CheckReport]]
+) -> None:
     first = rows[0][1]
     _print_header(model, first.model.statistics(), first.build_seconds, first.warnings)
     if len(rows) == 1:

@@ -76,9 +76,10 @@ def pareto(
             raise InputError("--sweep is needed (unless --prop is a multi(...) query)",
                              hint="e.g. --sweep B=0:4")
         swept = parse_const_assignments(sweep_text, source="--sweep")
-        if len(swept) != 1 or not isinstance(next(iter(swept.values())), ConstRange):
+        rng = next(iter(swept.values())) if len(swept) == 1 else None
+        if not isinstance(rng, ConstRange):
             raise InputError("--sweep takes one constant with a range, e.g. --sweep B=0:4")
-        (name, rng), = swept.items()
+        name = next(iter(swept))
         others: dict[str, Any] = {}
         for i, text in enumerate(consts):
             for n, setting in parse_const_assignments(

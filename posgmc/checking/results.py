@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import builtins
 import enum
 import math
 from collections.abc import Mapping
@@ -89,7 +90,7 @@ class PropertyResult:
     property: str
     name: str | None
     kind: ResultKind
-    value: float | bool
+    value: float | bool | None  # None: a Boolean left undecided by the proven bounds
     lower: float | None
     upper: float | None
     seconds: float
@@ -98,7 +99,7 @@ class PropertyResult:
     converged: bool = True
     sound: bool = True
     note: str | None = None
-    per_initial: tuple[float | bool, ...] = ()
+    per_initial: tuple[float | bool | None, ...] = ()
     values: np.ndarray | None = field(default=None, repr=False)
     strategy: np.ndarray | None = field(default=None, repr=False)
     guaranteed: Bound | None = None
@@ -111,7 +112,7 @@ class PropertyResult:
     exact: Fraction | None = None
     multi: Any = field(default=None, repr=False)
 
-    @property
+    @builtins.property  # the field ``property`` shadows the builtin in the class body
     def front(self) -> Any:
         """The Pareto front of a ``multi(...)`` Pareto query
         (:class:`~posgmc.checking.multi.Front`), else None."""

@@ -249,7 +249,7 @@ def _expand_modules(
     for m in model.modules:
         by_name.setdefault(m.name, m)
     done: dict[int, Module] = {}  # by position in model.modules
-    first_index = {}
+    first_index: dict[str, int] = {}
     for i, m in enumerate(model.modules):
         first_index.setdefault(m.name, i)
     active: set[int] = set()
@@ -430,9 +430,9 @@ def resolve_model(model: ModelFile, errors: list[PosgmcError]) -> ResolvedModel:
 
     actions: dict[str, None] = {}
     for m in modules:
-        for c in m.commands:
-            if c.action is not None:
-                actions.setdefault(c.action, None)
+        for command in m.commands:
+            if command.action is not None:
+                actions.setdefault(command.action, None)
 
     variables: list[tuple[VariableDecl, str | None]] = [(v, None) for v in globals_]
     for m in modules:

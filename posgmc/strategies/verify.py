@@ -155,10 +155,19 @@ class StrategyChecker:
         )
         sound = headline.sound and all(b.sound for b in numbers.values())
         return dataclasses.replace(
-            headline, note=note, memory=memory, sound=sound, values=None, strategy=None, **numbers
+            headline,
+            note=note,
+            memory=memory,
+            sound=sound,
+            values=None,
+            strategy=None,
+            guaranteed=numbers.get("guaranteed", headline.guaranteed),
+            vs_fss_adversary=numbers.get("vs_fss_adversary", headline.vs_fss_adversary),
+            upper_bound=numbers.get("upper_bound", headline.upper_bound),
         )
 
 
 def _bound(r: PropertyResult) -> Bound:
-    assert r.lower is not None and r.upper is not None  # noqa: S101 - a numeric query's result
+    # a numeric query's result
+    assert r.value is not None and r.lower is not None and r.upper is not None  # noqa: S101
     return Bound(float(r.value), r.lower, r.upper, r.sound and r.converged)

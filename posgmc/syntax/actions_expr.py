@@ -319,6 +319,7 @@ class ExpressionActions(ActionBase):
                 names = ", ".join(o.value for o in FilterOp)
                 self._fail(ParseError(f"'{name}' is not a filter operator", self._tspan(token),
                                       hint=f"the filter operators are {names} (and +, &, |)"))
+                op = FilterOp.FORALL  # a stand-in: the parse goes on, the error ends it
         return Filter(op, children[2], children[3] if len(children) > 3 else None, span=span)
 
     def steady_value(self, span: SourceSpan, children: Sequence[Any]) -> SteadyQuery:
@@ -335,17 +336,20 @@ class ExpressionActions(ActionBase):
         return PathQuantifier(False, children[1], span=span)
 
     def filter_op(self, span: SourceSpan, children: Sequence[Any]) -> Token:
-        return children[0]  # type: ignore[no-any-return]
+        token: Token = children[0]
+        return token
 
     def old_filter(self, span: SourceSpan, children: Sequence[Any]) -> _OldFilter:
         mods = {str(t.value) for t in children[1:]}
         return _OldFilter(children[0], "min" in mods, "max" in mods)
 
     def prob_query_old_filter(self, span: SourceSpan, children: Sequence[Any]) -> Filter:
-        return children[-1].wrap(self.prob_query(span, children[:-1]), span)
+        old: _OldFilter = children[-1]
+        return old.wrap(self.prob_query(span, children[:-1]), span)
 
     def reward_query_old_filter(self, span: SourceSpan, children: Sequence[Any]) -> Filter:
-        return children[-1].wrap(self.reward_query(span, children[:-1]), span)
+        old: _OldFilter = children[-1]
+        return old.wrap(self.reward_query(span, children[:-1]), span)
 
     def reward_query(self, span: SourceSpan, children: Sequence[Any]) -> RewardQuery:
         coalition = children[0] if isinstance(children[0], Coalition) else None

@@ -271,7 +271,7 @@ def _token_span(token: Token, file: str | None) -> SourceSpan:
     return SourceSpan(line, col, end_line, end_col, file)
 
 
-def _parser_state(exc: UnexpectedInput) -> ParserState | None:
+def _parser_state(exc: UnexpectedInput) -> ParserState[int] | None:
     ip = getattr(exc, "interactive_parser", None)
     if ip is not None and isinstance(ip.parser_state, ParserState):
         return ip.parser_state
@@ -279,7 +279,7 @@ def _parser_state(exc: UnexpectedInput) -> ParserState | None:
     return state if isinstance(state, ParserState) else None
 
 
-def _exact_accepts(state: ParserState) -> set[str]:
+def _exact_accepts(state: ParserState[int]) -> set[str]:
     """The terminals that can really follow the parser's stack.
 
     An LALR state's table merges the lookaheads of every context with the same items, so its

@@ -206,7 +206,7 @@ def _scanner(state: int) -> _Scanner:
 _NO_SCANNER = _Scanner(lambda text, pos: None, {}, frozenset(), frozenset())
 
 
-def _tokens(text: str, state: ParserState) -> Iterator[Token]:
+def _tokens(text: str, state: ParserState[int]) -> Iterator[Token]:
     """The tokens of ``text`` as lark's contextual lexer makes them for the parser in ``state``,
     then lark's ``$END`` token.
 
@@ -244,10 +244,13 @@ def _tokens(text: str, state: ParserState) -> Iterator[Token]:
         yield token
     if pos < size:
         # lark's lexer continues from here (and raises its error where nothing matches)
-        counter = lexer.state.line_ctr
+        lexer_state = lexer.state
+        if lexer_state is None:  # pragma: no cover - LexerThread.from_text always gives one
+            raise RuntimeError("lark's lexer thread has no text")
+        counter = lexer_state.line_ctr
         counter.char_pos, counter.line, counter.line_start_pos = pos, line, line_start
         counter.column = pos - line_start + 1
-        lexer.state.last_token = token
+        lexer_state.last_token = token
         for token in lexer.lex(state):
             yield token
     yield Token.new_borrow_pos("$END", "", token) if token else Token("$END", "", 0, 1, 1)
