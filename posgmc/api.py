@@ -38,12 +38,12 @@ from posgmc.errors import (
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics import checker as sem
 from posgmc.semantics import operators as ops
-from posgmc.semantics.evaluate import evaluate_constant
+from posgmc.semantics.evaluate import Value, evaluate_constant
 from posgmc.semantics.flat import FlatModel
 from posgmc.semantics.properties import QueryResolver, resolve_queries
 from posgmc.semantics.references import inline_property_references
 from posgmc.syntax import parser
-from posgmc.syntax.ast import NO_SPAN, ModelFile, Property, PropertiesFile
+from posgmc.syntax.ast import NO_SPAN, Expr, ModelFile, Property, PropertiesFile
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.printer import format_expr
 
@@ -417,7 +417,8 @@ def _resolver(model: ExplicitModel, zero_based: bool) -> QueryResolver:
     )
 
 
-def _scalar(expr):  # type: ignore[no-untyped-def]
+def _scalar(expr: Expr) -> Value:
+    """A constant expression's value, a whole Fraction as an int."""
     value = evaluate_constant(expr)
     if isinstance(value, Fraction):
         return value if value.denominator != 1 else int(value)

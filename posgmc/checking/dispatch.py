@@ -34,6 +34,7 @@ from posgmc.engines.steady import long_run_average
 from posgmc.engines.step_bounds import interval_reach_probability
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.semantics.evaluate import Value
 from posgmc.syntax.printer import format_expr
 from posgmc.syntax.traversal import any_node
 from posgmc.syntax.ast import (
@@ -65,7 +66,7 @@ __all__ = ["CheckOptions", "PropertyChecker", "QueryValue"]
 CoalitionResolver = Callable[[Coalition | None], frozenset[int] | None]
 """Maps a query's coalition to 0-based player indices (None: no coalition written)."""
 
-ScalarEvaluator = Callable[[Expr], object]
+ScalarEvaluator = Callable[[Expr], Value]
 """Evaluates a constant expression (a bound, a threshold, a discount factor) to a Python value."""
 
 
@@ -202,7 +203,7 @@ class PropertyChecker:
             q = self._long_run(weight)
             if expr.threshold is None:
                 return q
-            bound = float(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            bound = float(self.scalar(expr.threshold.value))
             cmp = _COMPARISON[expr.threshold.op]
             return iv.binary(cmp, q, iv.exact(np.full(self.model.num_states, bound)))
         if isinstance(expr, Filter):
@@ -232,7 +233,7 @@ class PropertyChecker:
         are below, undecided (``lower < upper``) where the interval straddles it after
         refinement (see :meth:`_refined`)."""
         assert expr.threshold is not None  # noqa: S101 - guaranteed by caller
-        bound = float(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+        bound = float(self.scalar(expr.threshold.value))
         cmp = _COMPARISON[expr.threshold.op]
         threshold = iv.exact(np.full(self.model.num_states, bound))
         decided = iv.binary(cmp, q, threshold)
@@ -568,7 +569,7 @@ class PropertyChecker:
     def _discount(self, e: Expr | None) -> float:
         if e is None:
             raise SemanticError("a discount factor is missing")
-        g = float(self.scalar(e))  # type: ignore[arg-type]
+        g = float(self.scalar(e))
         if not 0.0 <= g < 1.0:
             raise SemanticError(f"the discount factor {g:g} is not in [0, 1)", e.span)
         return g

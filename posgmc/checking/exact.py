@@ -22,6 +22,7 @@ from __future__ import annotations
 import operator
 import time
 from fractions import Fraction
+from typing import TypedDict
 
 import numpy as np
 
@@ -70,6 +71,14 @@ def _outward(v: Fraction) -> tuple[float, float]:
     return lower, upper
 
 
+class _Common(TypedDict):
+    """The fields every result of exact checking shares."""
+
+    property: str
+    name: str | None
+    method: str
+
+
 class ExactChecker(PropertyChecker):
     """Checks properties exactly on a model built in exact mode (see the module docstring)."""
 
@@ -86,7 +95,7 @@ class ExactChecker(PropertyChecker):
                 f"exact mode does not cover partially observable models ({model.model_type.value})"
             )
         init = model.initial_states
-        common = {"property": text, "name": name, "method": "exact (rational)"}
+        common: _Common = {"property": text, "name": name, "method": "exact (rational)"}
         if isinstance(expr, ProbQuery):
             values = self._reach(expr)
             at_init = [values[int(s)] for s in init]
@@ -100,9 +109,9 @@ class ExactChecker(PropertyChecker):
                     seconds=time.perf_counter() - start,
                     per_initial=tuple(float(v) for v in at_init),
                     exact=at_init[0],
-                    **common,  # type: ignore[arg-type]
+                    **common,
                 )
-            bound = Fraction(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            bound = Fraction(self.scalar(expr.threshold.value))
             holds = [_COMPARE[expr.threshold.op](v, bound) for v in at_init]
             return PropertyResult(
                 kind=ResultKind.BOOLEAN,
@@ -111,7 +120,7 @@ class ExactChecker(PropertyChecker):
                 upper=None,
                 seconds=time.perf_counter() - start,
                 per_initial=tuple(holds),
-                **common,  # type: ignore[arg-type]
+                **common,
             )
         if (isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.REACH
                 and expr.objective.target is not None and not _is_temporal(expr.objective.target)
@@ -128,14 +137,14 @@ class ExactChecker(PropertyChecker):
                     kind=kind, value=float(at_init[0]), lower=lower, upper=upper,
                     seconds=time.perf_counter() - start,
                     per_initial=tuple(float(v) for v in at_init), exact=at_init[0],
-                    **common,  # type: ignore[arg-type]
+                    **common,
                 )
-            bound = Fraction(self.scalar(threshold.value))  # type: ignore[arg-type]
+            bound = Fraction(self.scalar(threshold.value))
             holds = [_COMPARE[threshold.op](v, bound) for v in at_init]
             return PropertyResult(
                 kind=ResultKind.BOOLEAN, value=all(holds), lower=None, upper=None,
                 seconds=time.perf_counter() - start, per_initial=tuple(holds),
-                **common,  # type: ignore[arg-type]
+                **common,
             )
         if _contains_query(expr):
             raise UnsupportedError(f"{_SUPPORTED}; this property is not one of them", expr.span)
@@ -152,10 +161,10 @@ class ExactChecker(PropertyChecker):
             upper=None,
             seconds=time.perf_counter() - start,
             per_initial=tuple(holds),
-            **common,  # type: ignore[arg-type]
+            **common,
         )
 
-    def _reach_reward(self, expr: RewardQuery, common: dict[str, object],
+    def _reach_reward(self, expr: RewardQuery, common: _Common,
                       start: float) -> PropertyResult:
         """``R[F b]`` (and its thresholds) exactly; infinite values are exact too."""
         self._check_size()
@@ -168,27 +177,27 @@ class ExactChecker(PropertyChecker):
         init = [int(s) for s in model.initial_states]
         seconds = time.perf_counter() - start
         if expr.threshold is not None:
-            bound = Fraction(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            bound = Fraction(self.scalar(expr.threshold.value))
             above = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
             # an infinite value is above every threshold
             holds = [above if infinite[s] else _COMPARE[expr.threshold.op](values[s], bound)
                      for s in init]
             return PropertyResult(kind=ResultKind.BOOLEAN, value=all(holds), lower=None,
                                   upper=None, seconds=seconds, per_initial=tuple(holds),
-                                  **common)  # type: ignore[arg-type]
+                                  **common)
         s0 = init[0]
         if infinite[s0]:
             return PropertyResult(kind=ResultKind.REWARD, value=float("inf"), lower=float("inf"),
                                   upper=float("inf"), seconds=seconds,
                                   per_initial=tuple(float("inf") if infinite[s] else
                                                     float(values[s]) for s in init),
-                                  **common)  # type: ignore[arg-type]
+                                  **common)
         lower, upper = _outward(values[s0])
         return PropertyResult(kind=ResultKind.REWARD, value=float(values[s0]), lower=lower,
                               upper=upper, seconds=seconds, exact=values[s0],
                               per_initial=tuple(float("inf") if infinite[s] else float(values[s])
                                                 for s in init),
-                              **common)  # type: ignore[arg-type]
+                              **common)
 
     def _check_size(self) -> None:
         if self.model.num_states > EXACT_STATE_LIMIT:

@@ -100,7 +100,7 @@ def _expected_number(text: str, constants: Mapping[str, str] | None) -> float:
     try:
         expr = parse_expression(text)
         env = {k: _constant_value(v) for k, v in (constants or {}).items()}
-        return float(evaluate(expr, env))  # type: ignore[arg-type]
+        return float(evaluate(expr, env))
     except (PosgmcError, ValueError, TypeError, KeyError, ZeroDivisionError):
         raise ValueError(f"RESULT value {text!r} is not a number, interval, true/false, "
                          "Infinity, NaN, Error, ? or an expression over the constants") from None

@@ -35,7 +35,7 @@ import enum
 import math
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 
@@ -170,7 +170,7 @@ def _objectives(expr: MultiQuery, checker: "PropertyChecker") -> list[_Objective
             raise SemanticError("each argument of multi(...) must be a P or R query", q.span)
         if q.threshold is not None:
             minimise = q.threshold.op in (ComparisonOp.LE, ComparisonOp.LT)
-            bound = float(checker.scalar(q.threshold.value))  # type: ignore[arg-type]
+            bound = float(checker.scalar(q.threshold.value))
         else:
             if q.direction is None:
                 raise SemanticError("=? in multi(...) needs a direction", q.span,
@@ -410,7 +410,8 @@ def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name
     if expr.coalition is not None:
         return _game_result(a, text=text, name=name)
     method = "lp (HiGHS)"
-    common = dict(property=text, name=name, seconds=a.seconds, method=method, sound=False, multi=a)
+    common = _Common(property=text, name=name, seconds=a.seconds, method=method, sound=False,
+                     multi=a)
     if a.kind is MultiKind.ACHIEVABILITY:
         if a.decided:
             note = (f"LP: the constraints hold with margin {a.margin:.3g}" if a.achievable
@@ -419,7 +420,7 @@ def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name
             note = (f"at the boundary: the LP's answer is within its tolerance of the thresholds "
                     f"(margin {a.margin:.2g}); not decided with margin {MARGIN:g}")
         return PropertyResult(kind=ResultKind.BOOLEAN, value=bool(a.achievable), lower=None,
-                              upper=None, note=note, **common)  # type: ignore[arg-type]
+                              upper=None, note=note, **common)
     if a.kind is MultiKind.NUMERICAL:
         v = a.value
         if np.isnan(v):
@@ -430,7 +431,7 @@ def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name
             lower, upper = v - eps, v + eps
             note = "LP optimum (floating point, within the LP's tolerance; not a proven bound)"
         return PropertyResult(kind=ResultKind.NUMBER, value=v, lower=lower, upper=upper,
-                              note=note, **common)  # type: ignore[arg-type]
+                              note=note, **common)
     assert a.front is not None  # noqa: S101
     f = a.front
     note = (f"Pareto front: {len(f.points)} vertices; over-approximation within {f.precision:.2g} "
@@ -438,20 +439,31 @@ def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name
     if len(f.points) == 0:
         note = "the constraints cannot be met together: the front is empty"
     return PropertyResult(kind=ResultKind.PARETO, value=float("nan"), lower=None, upper=None,
-                          note=note, **common)  # type: ignore[arg-type]
+                          note=note, **common)
+
+
+class _Common(TypedDict):
+    """The fields every result of a ``multi(...)`` query shares."""
+
+    property: str
+    name: str | None
+    seconds: float
+    method: str
+    sound: bool
+    multi: MultiAnswer
 
 
 def _game_result(a: MultiAnswer, *, text: str, name: str | None) -> PropertyResult:
     """A coalition query on an smg: answers from an under-approximation (multi_games.py)."""
-    common = dict(property=text, name=name, seconds=a.seconds, method="value iteration (sets)",
-                  sound=False, multi=a)
+    common = _Common(property=text, name=name, seconds=a.seconds,
+                     method="value iteration (sets)", sound=False, multi=a)
     if a.kind is MultiKind.ACHIEVABILITY:
         note = ("the coalition achieves the thresholds (they lie in the under-approximation of "
                 "the achievable set)" if a.achievable else
                 f"not proven: the thresholds lie {-a.margin:.3g} outside the under-approximation "
                 "of the achievable set; its limit might still reach them")
         return PropertyResult(kind=ResultKind.BOOLEAN, value=bool(a.achievable), lower=None,
-                              upper=None, note=note, **common)  # type: ignore[arg-type]
+                              upper=None, note=note, **common)
     if a.kind is MultiKind.NUMERICAL:
         note = ("a lower bound: achievable by the coalition (from the under-approximation of the "
                 "achievable set); the optimum may be higher")
@@ -459,10 +471,10 @@ def _game_result(a: MultiAnswer, *, text: str, name: str | None) -> PropertyResu
             note = "no point of the under-approximation meets the constraint"
         return PropertyResult(kind=ResultKind.NUMBER, value=a.value, lower=a.value,
                               upper=math.inf if not np.isnan(a.value) else a.value, note=note,
-                              **common)  # type: ignore[arg-type]
+                              **common)
     assert a.front is not None  # noqa: S101
     note = (f"Pareto front of the coalition: {len(a.front.points)} vertices of an "
             "under-approximation (value iteration"
             + (", converged" if a.front.converged else ", NOT converged") + "); no over-approximation")
     return PropertyResult(kind=ResultKind.PARETO, value=float("nan"), lower=None, upper=None,
-                          note=note, **common)  # type: ignore[arg-type]
+                          note=note, **common)

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 
@@ -38,6 +38,14 @@ if TYPE_CHECKING:
 __all__ = ["answer_game"]
 
 
+class _Statistics(TypedDict):
+    """What every answer of a coalition query reports about its computation."""
+
+    residual: float
+    states: int
+    seconds: float
+
+
 def _terminal(model) -> np.ndarray:  # type: ignore[no-untyped-def]
     """States whose every choice loops on the state with probability 1."""
     t = model.transitions
@@ -45,7 +53,8 @@ def _terminal(model) -> np.ndarray:  # type: ignore[no-untyped-def]
     single = np.diff(t.indptr) == 1
     loops = np.zeros(model.num_choices, dtype=bool)
     loops[single] = t.indices[t.indptr[:-1][single]] == owner[single]
-    return np.bincount(owner, weights=(~loops).astype(float), minlength=model.num_states) == 0
+    out: np.ndarray = np.bincount(owner, weights=(~loops).astype(float), minlength=model.num_states) == 0
+    return out
 
 
 def answer_game(checker: "PropertyChecker", expr: MultiQuery) -> "MultiAnswer":
@@ -111,25 +120,26 @@ def answer_game(checker: "PropertyChecker", expr: MultiQuery) -> "MultiAnswer":
     result = coalition_sets(m.transitions, m.row_groups, rewards, mine, terminal, builder.initial)
     chain = result.chain
     seconds = time.perf_counter() - start
-    common = dict(residual=0.0, states=m.num_states, seconds=seconds)
+    common = _Statistics(residual=0.0, states=m.num_states, seconds=seconds)
     bounds = [o.bound for o in objectives]
     queries = [i for i, b in enumerate(bounds) if b is None]
     if not queries:
         target = np.zeros(2)
-        target[: len(bounds)] = bounds  # type: ignore[assignment]
+        target[: len(bounds)] = bounds
         inside = polygon.contains(chain, target, tolerance=1e-12)
         margin = _margin(chain, target)
         return MultiAnswer(MultiKind.ACHIEVABILITY, texts, achievable=inside, decided=inside,
-                           margin=margin, **common)  # type: ignore[arg-type]
+                           margin=margin, **common)
     if len(queries) == 1:
         (i,) = queries
         other = 1 - i
-        floor = bounds[other] if other < len(bounds) and bounds[other] is not None else -math.inf
+        given = bounds[other] if other < len(bounds) else None
+        floor = given if given is not None else -math.inf
         return MultiAnswer(MultiKind.NUMERICAL, texts, value=_best(chain, i, floor),
-                           **common)  # type: ignore[arg-type]
+                           **common)
     front = Front((texts[0], texts[1]), (Direction.MAX, Direction.MAX), chain, np.zeros((0, 2)),
                   math.inf, result.iterations, result.converged)
-    return MultiAnswer(MultiKind.PARETO, texts, front=front, **common)  # type: ignore[arg-type]
+    return MultiAnswer(MultiKind.PARETO, texts, front=front, **common)
 
 
 def _margin(chain: np.ndarray, target: np.ndarray) -> float:

@@ -249,7 +249,7 @@ def _join(a: ExprType, b: ExprType) -> ExprType:
 
 _BOOL_OPS = {BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF}
 _COMPARISONS = {BinaryOp.EQ, BinaryOp.NE, BinaryOp.LT, BinaryOp.LE, BinaryOp.GT, BinaryOp.GE}
-_INT_ARITHMETIC: dict[BinaryOp, Callable[[Any, Any], Any]] = {
+_INT_ARITHMETIC: dict[BinaryOp, Callable[[Scalar, Scalar], Scalar]] = {
     BinaryOp.ADD: lambda a, b: a + b,
     BinaryOp.SUB: lambda a, b: a - b,
     BinaryOp.MUL: lambda a, b: a * b,
@@ -307,7 +307,7 @@ def _fold_binary(op: BinaryOp, a: Scalar, b: Scalar) -> Scalar:
                 raise _FoldError(failure.message) from None
         return r
     # DIV: a double, exact while both are exact and the divisor is not 0
-    return ops.scalar_divide(a, b)  # type: ignore[arg-type]
+    return ops.scalar_divide(a, b)
 
 
 def _fold_call(fn: Function, args: list[Scalar], result_type: ExprType) -> Scalar:
@@ -318,15 +318,15 @@ def _fold_call(fn: Function, args: list[Scalar], result_type: ExprType) -> Scala
         return r
     try:
         if fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
-            return ops.scalar_to_int(args[0], fn.value)  # type: ignore[arg-type]
+            return ops.scalar_to_int(args[0], fn.value)
         a, b = args
         if fn is Function.MOD:
             return ops.scalar_mod(int(a), int(b))
         if fn is Function.POW:
             if result_type is ExprType.INT:
                 return ops.scalar_int_pow(int(a), int(b))
-            return ops.scalar_pow(a, b)  # type: ignore[arg-type]
-        return ops.scalar_log(a, b)  # type: ignore[arg-type]
+            return ops.scalar_pow(a, b)
+        return ops.scalar_log(a, b)
     except ops.DomainFailure as failure:
         raise _FoldError(failure.message) from None
 

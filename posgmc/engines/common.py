@@ -267,9 +267,10 @@ def _solve_system(
             bounds = _interval(sys, replace(options, method=Method.INTERVAL), cap=cap, ec=ec)
         else:
             bounds = interval()
-        best, cand = _candidates(sys, rows, num_choices)
+        best, candidates = _candidates(sys, rows, num_choices)
         return _Solved(bounds.lower, bounds.upper, rounds + bounds.iterations, bounds.converged,
-                       bounds.sound, best, cand, estimate=np.clip(x, bounds.lower, bounds.upper))
+                       bounds.sound, best, candidates,
+                       estimate=np.clip(x, bounds.lower, bounds.upper))
     if (options.method is Method.INTERVAL and certifiable and n <= _STIFF_LIMIT
             and options.max_iterations > _STIFF_STEPS):
         bounds = _interval(sys, replace(options, max_iterations=_STIFF_STEPS), cap=cap, ec=ec)

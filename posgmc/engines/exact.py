@@ -134,7 +134,8 @@ def _row_values(gr: Grouped, x: np.ndarray) -> np.ndarray:
     if not finite.all():
         hits_inf = np.asarray(gr.matrix @ (~finite).astype(np.float64)) > 0
         y = np.where(hits_inf, np.inf, y)
-    return y
+    out: np.ndarray = y
+    return out
 
 
 def _improve(
@@ -298,4 +299,5 @@ def policy_iteration(
 
 def policy_values_to_rows(gr: Grouped, rows: np.ndarray) -> np.ndarray:
     """The rows of the original :class:`System` for grouped row indices."""
-    return gr.source[rows]
+    out: np.ndarray = gr.source[rows]
+    return out

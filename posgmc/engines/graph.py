@@ -108,7 +108,8 @@ def concat_ranges(starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
     if total == 0:
         return np.zeros(0, dtype=np.int64)
     offsets = np.cumsum(lengths) - lengths
-    return np.arange(total, dtype=np.int64) + np.repeat(starts - offsets, lengths)
+    out: np.ndarray = np.arange(total, dtype=np.int64) + np.repeat(starts - offsets, lengths)
+    return out
 
 
 def row_of_entries(matrix: sp.csr_matrix) -> np.ndarray:
@@ -586,7 +587,8 @@ def end_components(
         owners = row_owner[sub_rows]
         np.subtract.at(count, owners, 1)
         owners = np.unique(owners)
-        return owners[count[owners] == 0]
+        out: np.ndarray = owners[count[owners] == 0]
+        return out
 
     while True:
         keep = on[entry_row]

@@ -72,7 +72,8 @@ def components(transitions: sp.csr_matrix, row_groups: np.ndarray) -> np.ndarray
     )
     graph.sum_duplicates()  # several choices into one successor (the routine needs no duplicates)
     _, labels = connected_components(graph, directed=True, connection="strong")
-    return labels
+    out: np.ndarray = labels
+    return out
 
 
 def topological_blocks(

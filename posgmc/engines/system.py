@@ -169,7 +169,8 @@ def _block_of(layer: np.ndarray) -> np.ndarray:
     size = -(-lay.size // _MAX_BLOCKS)
     first = (np.cumsum(counts) - counts) // size  # the chunk where each layer starts
     _, block_of_layer = np.unique(first, return_inverse=True)
-    return block_of_layer[lay]
+    out: np.ndarray = block_of_layer[lay]
+    return out
 
 
 def build_system(

@@ -187,7 +187,7 @@ def _labels(model: ExplicitModel, *, headers: bool) -> str:
         acc = np.strings.add(acc, token)
     has = np.strings.str_len(acc) > 0
     states = np.flatnonzero(has)
-    body = np.strings.add(np.strings.add(_ints(states), ":"), acc[has])
+    body = np.strings.add(np.strings.add(_ints(states), ":"), acc[has])  # type: ignore[arg-type]  # numpy stubs: str_ only, not StringDType
     return _lines(head, body)
 
 

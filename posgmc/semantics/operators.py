@@ -307,7 +307,7 @@ def scalar_int_pow(a: int, b: int) -> int:
         )
     if a not in (-1, 0, 1) and b * math.log2(abs(a)) >= 63:
         raise DomainFailure("pow() of two ints overflows 64-bit integers", 0)
-    r = a**b
+    r: int = a**b
     if abs(r) > _INT64_MAX:
         raise DomainFailure("pow() of two ints overflows 64-bit integers", 0)
     return r

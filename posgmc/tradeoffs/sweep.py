@@ -48,7 +48,7 @@ class SweepPoint:
             return None
         if r.guaranteed is not None:
             return r.guaranteed
-        if isinstance(r.value, bool) or r.lower is None or r.upper is None:
+        if isinstance(r.value, bool) or r.value is None or r.lower is None or r.upper is None:
             return None
         return Bound(float(r.value), float(r.lower), float(r.upper), r.sound)
 

@@ -26,11 +26,12 @@ callers report LP numbers as such (not as proven bounds).
 from __future__ import annotations
 
 import enum
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.optimize import linprog
+from scipy.optimize import OptimizeResult, linprog
 
 __all__ = ["OccupationLP", "LPPoint", "LPStatus", "LP_TOLERANCE"]
 
@@ -140,7 +141,14 @@ class OccupationLP:
         point = self._point(res, [], {}, x=res.x[:n])
         return LPPoint(point.status, point.values, point.x, point.residual, float(res.x[-1]))
 
-    def _solve(self, c, a_ub, b_ub, flow, bounds):  # type: ignore[no-untyped-def]
+    def _solve(
+        self,
+        c: np.ndarray,
+        a_ub: np.ndarray | None,
+        b_ub: np.ndarray | None,
+        flow: sp.csr_matrix,
+        bounds: tuple[float | None, float | None] | Sequence[tuple[float | None, float | None]],
+    ) -> OptimizeResult:
         return linprog(
             c,
             A_ub=a_ub,

@@ -221,7 +221,7 @@ def _drn_lines(
     for name, token_text in zip(label_names, quoted):
         token = np.full(num_states, "", dtype=STR)
         token[np.asarray(model.labels[name], dtype=bool)[s0:s1]] = " " + token_text
-        state_line = np.strings.add(state_line, token)
+        state_line = np.strings.add(state_line, token)  # type: ignore[arg-type]  # numpy stubs: str_ only, not StringDType
 
     # -- action lines ----------------------------------------------------------------------------
     action_line = np.strings.add("\taction ", action_tokens[model.choice_actions[c0:c1]])
