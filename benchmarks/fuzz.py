@@ -25,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from tests.fuzz.mutate import (
+from tests.fuzz.mutate import (  # noqa: E402 - after the path is set
     OracleFailure,
     check_model_text,
     check_properties_text,

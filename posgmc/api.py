@@ -23,10 +23,10 @@ from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-from posgmc.compiler import BuildOptions, build_model
-from posgmc.deep import deep_generator, deep_stack
 from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
+from posgmc.compiler import BuildOptions, build_model
+from posgmc.deep import deep_generator, deep_stack
 from posgmc.errors import (
     InputError,
     LimitError,
@@ -42,16 +42,16 @@ from posgmc.semantics.evaluate import Value, evaluate_constant
 from posgmc.semantics.flat import FlatModel
 from posgmc.semantics.properties import QueryResolver, resolve_queries
 from posgmc.semantics.references import inline_property_references
-from posgmc.syntax import parser
-from posgmc.syntax.ast import NO_SPAN, Expr, ModelFile, Property, PropertiesFile
 from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax import parser
+from posgmc.syntax.ast import NO_SPAN, Expr, ModelFile, PropertiesFile, Property
 from posgmc.syntax.printer import format_expr
 
 if TYPE_CHECKING:
     from posgmc.strategies.fss import FiniteStateStrategy
+    from posgmc.strategies.simulate import Simulation
     from posgmc.synthesis.checker import SynthesisChecker
     from posgmc.synthesis.search import SynthesisOptions
-    from posgmc.strategies.simulate import Simulation
 
 StrategySources = (
     Mapping[str, "FiniteStateStrategy | str | Path"]
@@ -103,7 +103,7 @@ class Session:
 
     def with_constants(
         self, constants: ConstantValues | None = None, /, **values: object
-    ) -> "Session":
+    ) -> Session:
         """The same parsed model with other constant values (added to, or replacing, this
         session's), without reading or parsing the file again: what a sweep needs per point.
 
@@ -116,7 +116,7 @@ class Session:
         return dataclasses.replace(self, constants={**self.constants, **(constants or {}), **values})
 
     @classmethod
-    def of_model(cls, model: ExplicitModel, *, name: str | None = None) -> "Session":
+    def of_model(cls, model: ExplicitModel, *, name: str | None = None) -> Session:
         """A session around a compiled model (read from DRN or built by hand with
         :func:`~posgmc.model.explicit.make_model`), so that :func:`check` can take it."""
         if not isinstance(model, ExplicitModel):
@@ -170,7 +170,7 @@ def _property_items(value: object) -> tuple[str | Property, ...]:
     )
 
 
-def _session(value: object) -> "Session":
+def _session(value: object) -> Session:
     if isinstance(value, Session):
         return value
     if isinstance(value, ExplicitModel):
@@ -366,7 +366,7 @@ def _check_explicit(session: Session, options: BuildOptions) -> ExplicitModel:
     """A model read from DRN obeys the same options as a built one: the state limit holds, and
     constants (which a DRN file cannot have) are an error rather than silently ignored."""
     model = session.explicit
-    assert model is not None  # noqa: S101 - the caller checked
+    assert model is not None
     if session.constants:
         raise InputError(
             f"{session.path or 'the model'} is an explicit (DRN) model: it has no constants to set "
@@ -435,8 +435,8 @@ def iter_check(
     full_observation: bool = False,
     zero_based_players: bool = False,
     built: BuiltModel,
-    strategies: Mapping[str, "FiniteStateStrategy"] | None = None,
-    synthesis: "SynthesisOptions | None" = None,
+    strategies: Mapping[str, FiniteStateStrategy] | None = None,
+    synthesis: SynthesisOptions | None = None,
 ) -> Iterator[tuple[Property, PropertyResult | PosgmcError]]:
     """Check each property in turn; a property that fails yields its error and the others go on
     (as PRISM does). Errors that concern the whole input (unparsable files) are raised.
@@ -498,9 +498,9 @@ def _checker(
     model: ExplicitModel,
     options: CheckOptions,
     zero_based_players: bool,
-    strategies: Mapping[str, "FiniteStateStrategy"] | None,
-    synthesis: "SynthesisOptions | None" = None,
-) -> "PropertyChecker | StrategyChecker | SynthesisChecker":
+    strategies: Mapping[str, FiniteStateStrategy] | None,
+    synthesis: SynthesisOptions | None = None,
+) -> PropertyChecker | StrategyChecker | SynthesisChecker:
     coalition_of = _resolver(model, zero_based_players).coalition_of
     if options.exact:
         from posgmc.checking.exact import ExactChecker
@@ -521,7 +521,7 @@ def _checker(
 def _check_one(
     session: Session,
     built: BuiltModel,
-    checker: "PropertyChecker | StrategyChecker | SynthesisChecker",
+    checker: PropertyChecker | StrategyChecker | SynthesisChecker,
     pf: PropertiesFile,
     prop: Property,
     zero_based_players: bool,
@@ -568,9 +568,9 @@ def check(
     zero_based_players: bool = False,
     built: BuiltModel | None = None,
     strategies: StrategySources | None = None,
-    synthesis: "SynthesisOptions | None" = None,
-    on_start: "Callable[[ExplicitModel, float, tuple[str, ...]], None] | None" = None,
-    on_outcome: "Callable[[PropertyResult | PropertyError], None] | None" = None,
+    synthesis: SynthesisOptions | None = None,
+    on_start: Callable[[ExplicitModel, float, tuple[str, ...]], None] | None = None,
+    on_outcome: Callable[[PropertyResult | PropertyError], None] | None = None,
 ) -> CheckReport:
     """Build the model (unless ``built`` is given) and check each property at the initial states.
 
@@ -755,7 +755,7 @@ def synthesize(
 @deep_stack
 def load_strategies(
     strategies: StrategySources,
-) -> dict[str, "FiniteStateStrategy"]:
+) -> dict[str, FiniteStateStrategy]:
     """Strategies by player name, files read (a file's own player must be the one it is given for).
 
     Raises:
@@ -781,14 +781,14 @@ def load_strategies(
 # -- strategies: files, simulation ------------------------------------------------------------
 
 
-def load_strategy(path: str | Path) -> "FiniteStateStrategy":
+def load_strategy(path: str | Path) -> FiniteStateStrategy:
     """Read a ``posgmc-fss/1`` strategy file (errors carry the file and JSON path)."""
     from posgmc.strategies.files import read_strategy
 
     return read_strategy(path)
 
 
-def save_strategy(strategy: "FiniteStateStrategy", path: str | Path) -> None:
+def save_strategy(strategy: FiniteStateStrategy, path: str | Path) -> None:
     """Write a strategy as a ``posgmc-fss/1`` file (atomically)."""
     from posgmc.strategies.files import write_strategy
 
@@ -808,7 +808,7 @@ def simulate(
     trace: bool = False,
     zero_based_players: bool = False,
     build_options: BuildOptions = BuildOptions(),
-) -> "Simulation":
+) -> Simulation:
     """Estimate a property by simulation under the given strategies (see
     :mod:`posgmc.strategies.simulate`); players without one play uniformly, or their
     full-observation optimum with ``opponent="best"``.
@@ -817,7 +817,8 @@ def simulate(
         InputError, StrategyError: bad model, property or strategy files.
         UnsupportedError: a property simulation does not estimate.
     """
-    from posgmc.strategies.simulate import Simulation, simulate as run  # noqa: F401
+    from posgmc.strategies.simulate import Simulation  # noqa: F401
+    from posgmc.strategies.simulate import simulate as run
 
     session = _session(session)
     if not isinstance(runs, int) or runs < 1:

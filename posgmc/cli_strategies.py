@@ -62,9 +62,9 @@ def test(
     import time
 
     from posgmc import api
-    from posgmc.compiler.options import BuildOptions
     from posgmc.checking.dispatch import CheckOptions
     from posgmc.checking.expected import expected_for, grade
+    from posgmc.compiler.options import BuildOptions
     from posgmc.io.junit import Case, write_junit
 
     def run() -> int:

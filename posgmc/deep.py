@@ -78,7 +78,7 @@ def deep_call(fn: Callable[[], T]) -> T:
                 f"(more than about {MAX_FRAMES // 6} levels)",
                 hint="split the expression with formulas or constants",
             )
-        except BaseException as e:  # noqa: BLE001 - re-raised in the caller's thread below
+        except BaseException as e:
             box["error"] = e
         finally:
             _restore_limit()  # by the worker itself: balanced even if the caller was interrupted

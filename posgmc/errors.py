@@ -58,7 +58,7 @@ class PosgmcError(Exception):
         self.hint = hint
         self.source = source
 
-    def with_source(self, source: SourceText) -> "PosgmcError":
+    def with_source(self, source: SourceText) -> PosgmcError:
         """Attach the source text (and file name, if the span has none) for rendering."""
         if self.source is None:
             self.source = source

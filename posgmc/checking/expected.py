@@ -160,9 +160,8 @@ def check_form(text: str, names: Collection[str] | None = None) -> None:
     try:
         _number(body)
     except (ValueError, ZeroDivisionError):
-        from posgmc.syntax.parser import parse_expression
-
         from posgmc.semantics.evaluate import free_names
+        from posgmc.syntax.parser import parse_expression
 
         try:  # PRISM: an expression over the constants, evaluated when graded
             unknown = free_names(parse_expression(body)) - set(names if names is not None else ())
@@ -170,7 +169,7 @@ def check_form(text: str, names: Collection[str] | None = None) -> None:
             raise ValueError(f"RESULT value {text!r} is not {_FORMS}") from None
         if names is not None and unknown:
             raise ValueError(f"RESULT value {text!r} is not {_FORMS} (no constant named "
-                             f"{', '.join(sorted(unknown))})")
+                             f"{', '.join(sorted(unknown))})") from None
 
 
 def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,

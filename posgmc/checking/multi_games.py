@@ -57,14 +57,21 @@ def _terminal(model) -> np.ndarray:  # type: ignore[no-untyped-def]
     return out
 
 
-def answer_game(checker: "PropertyChecker", expr: MultiQuery) -> "MultiAnswer":
+def answer_game(checker: PropertyChecker, expr: MultiQuery) -> MultiAnswer:
     """Answer ``<<C>> (q1 & q2)`` on an smg (see the module docstring).
 
     Raises:
         UnsupportedError: the game is not stopping, an objective is outside the fragment, or the
             model has several initial states.
     """
-    from posgmc.checking.multi import Front, MultiAnswer, MultiKind, _Builder, _is_temporal, _objectives
+    from posgmc.checking.multi import (
+        Front,
+        MultiAnswer,
+        MultiKind,
+        _Builder,
+        _is_temporal,
+        _objectives,
+    )
     from posgmc.engines import ltl
 
     start = time.perf_counter()
@@ -96,7 +103,7 @@ def answer_game(checker: "PropertyChecker", expr: MultiQuery) -> "MultiAnswer":
             rewards[:, i] = np.where(acc[m.choice_states], 0.0, into)
         else:
             q = o.query
-            assert isinstance(q, RewardQuery)  # noqa: S101
+            assert isinstance(q, RewardQuery)
             r = m.reward_model(q.reward).choice_rewards(m.row_groups)
             if (r < 0).any():
                 raise UnsupportedError("multi-objective game rewards must be non-negative", q.span)

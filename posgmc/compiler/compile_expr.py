@@ -39,7 +39,6 @@ import numpy as np
 
 from posgmc.errors import SourceSpan
 from posgmc.semantics import operators as ops
-from posgmc.syntax.traversal import children
 from posgmc.syntax.ast import (
     NO_SPAN,
     Binary,
@@ -55,6 +54,7 @@ from posgmc.syntax.ast import (
     Unary,
     UnaryOp,
 )
+from posgmc.syntax.traversal import children
 
 __all__ = [
     "Columns",
@@ -880,7 +880,7 @@ def compile_expr(
     source = "".join(gen.aux) + _function_source("_main", code.prelude, code.text)
     namespace: dict[str, Any] = dict(_RUNTIME)
     namespace.update(gen.env)
-    exec(compile(source, f"<posgmc expression {expr.span}>", "exec"), namespace)  # noqa: S102
+    exec(compile(source, f"<posgmc expression {expr.span}>", "exec"), namespace)
     return CompiledExpr(
         type=code.type,
         constant=None,

@@ -26,13 +26,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from posgmc.engines import exact as ex
-from posgmc.engines.graph import Structure, attractor
 from posgmc.engines.certify import certify
+from posgmc.engines.graph import Structure, attractor
 from posgmc.engines.iteration import Bounds, EndComponents, solve, widen
-from posgmc.engines.system import System, choose
 from posgmc.engines.options import Method, SolverOptions
-from posgmc.engines.topological import solve_topological
 from posgmc.engines.result import EngineResult
+from posgmc.engines.system import System, choose
+from posgmc.engines.topological import solve_topological
 from posgmc.errors import PosgmcError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.model.types import Direction, ModelType
@@ -318,7 +318,6 @@ def _result(
     started: float,
     strategy: np.ndarray | None,
 ) -> EngineResult:
-    S = model.num_states
     lower = np.where(known, known_values, 0.0).astype(np.float64)
     upper = lower.copy()
     values = lower.copy()

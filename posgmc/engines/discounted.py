@@ -23,9 +23,9 @@ from posgmc.engines.common import (
 )
 from posgmc.engines.graph import structure_of
 from posgmc.engines.iteration import EndComponents, solve_discounted
-from posgmc.engines.system import build_system
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.system import build_system
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.model.types import ModelType

@@ -55,7 +55,7 @@ class Grouped:
     def n(self) -> int:
         return int(self.row_groups.size - 1)
 
-    def restrict(self, keep: np.ndarray) -> "Grouped":
+    def restrict(self, keep: np.ndarray) -> Grouped:
         """The rows with ``keep`` (every state must keep at least one)."""
         idx = np.flatnonzero(keep)
         counts = np.bincount(self.row_state[idx], minlength=self.n)

@@ -19,17 +19,17 @@ from posgmc.engines.common import (
     _directions,
     _exact_result,
     _first_choices,
+    _local_rows,
     _reacher_fix,
     _result,
-    _local_rows,
     _solve_system,
 )
 from posgmc.engines.graph import Structure, almost_sure_reach, positive_reach, structure_of
 from posgmc.engines.iteration import EndComponents
-from posgmc.engines.system import argopt_rows, bellman, build_system, reduce_rows
 from posgmc.engines.options import SolverOptions
-from posgmc.engines.stepped import bellman_steps
 from posgmc.engines.result import EngineResult
+from posgmc.engines.stepped import bellman_steps
+from posgmc.engines.system import argopt_rows, build_system, reduce_rows
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.model.types import ModelType

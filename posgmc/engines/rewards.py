@@ -40,10 +40,10 @@ from posgmc.engines.graph import (
     structure_of,
 )
 from posgmc.engines.iteration import Bounds, EndComponents
-from posgmc.engines.system import System, build_system, choose
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.engines.signed import proper_region, solve_proper, start_bounds, value_iteration
+from posgmc.engines.system import System, build_system, choose
 from posgmc.engines.total import _total
 from posgmc.engines.zero_reward import _reach_reward_zero
 from posgmc.errors import UnsupportedError

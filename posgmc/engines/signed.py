@@ -30,8 +30,8 @@ import numpy as np
 
 from posgmc.engines.graph import Structure, almost_sure_reach, attractor
 from posgmc.engines.iteration import Bounds, EndComponents, gap_ok, max_change, solve
-from posgmc.engines.system import System, bellman, build_system
 from posgmc.engines.options import Method, SolverOptions
+from posgmc.engines.system import System, bellman, build_system
 
 __all__ = ["proper_region", "start_bounds", "solve_proper", "value_iteration"]
 

@@ -13,9 +13,9 @@ import numpy as np
 
 from posgmc.engines.common import _check_rewards, _directions, _exact_result
 from posgmc.engines.graph import structure_of
-from posgmc.engines.system import System, bellman, build_system
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.system import System, bellman, build_system
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
 

@@ -25,9 +25,9 @@ from posgmc.engines.common import (
 )
 from posgmc.engines.graph import almost_sure_reach, positive_buchi, safe_region, structure_of
 from posgmc.engines.iteration import EndComponents
-from posgmc.engines.system import build_system
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.system import build_system
 from posgmc.model.explicit import ExplicitModel
 from posgmc.model.types import ModelType
 

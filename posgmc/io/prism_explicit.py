@@ -92,7 +92,7 @@ def prism_explicit_texts(
         files[Path(base + ".sta")] = _states(model, headers=headers)
     files[Path(base + ".lab")] = _labels(model, headers=headers)
     many = len(model.reward_models) > 1
-    for r, rm in enumerate(model.reward_models):
+    for r in range(len(model.reward_models)):
         stem = f"{base}{r + 1}" if many else base
         files[Path(stem + ".srew")] = _state_rewards(model, r, headers=headers)
         files[Path(stem + ".trew")] = _transition_rewards(model, r, headers=headers)

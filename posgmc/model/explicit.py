@@ -225,7 +225,7 @@ class ExplicitModel:
 
     def _validate_exact(self) -> None:
         exact = self.exact_probabilities
-        assert exact is not None  # noqa: S101 - the caller checked
+        assert exact is not None
         T = self.transitions
         if exact.shape != (T.nnz,):
             raise ModelInvariantError("exact_probabilities needs one entry per transition")
@@ -238,7 +238,7 @@ class ExplicitModel:
                 f"choice {int(bad[0])} has exact probabilities not summing to 1"
             )
 
-    def validate(self, *, tolerance: float = 1e-9) -> "ExplicitModel":
+    def validate(self, *, tolerance: float = 1e-9) -> ExplicitModel:
         """Check every invariant of the module docstring; raise :class:`ModelInvariantError`."""
         S = self.num_states
         rg = self.row_groups

@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from posgmc.errors import PosgmcError, SourceSpan
 from posgmc.semantics.constants import find_cycles
 from posgmc.semantics.evaluate import free_names, substitute
-from posgmc.syntax.traversal import map_children
 from posgmc.semantics.symbols import Symbol, SymbolKind, Type, line_of, report
 from posgmc.syntax.ast import (
     Assignment,
@@ -48,6 +47,7 @@ from posgmc.syntax.ast import (
     Update,
     VariableDecl,
 )
+from posgmc.syntax.traversal import map_children
 
 __all__ = [
     "RESERVED_LABELS",

@@ -178,7 +178,7 @@ class FiniteStateStrategy:
         action: np.ndarray,
         update: np.ndarray | None = None,
         initial_memory: int = 0,
-    ) -> "FiniteStateStrategy":
+    ) -> FiniteStateStrategy:
         """A strategy from its arrays; ``update`` None keeps the memory (δ(n, z, a) = n).
 
         The memory size is ``action.shape[0]``."""

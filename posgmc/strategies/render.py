@@ -56,7 +56,7 @@ def _quote(text: str) -> str:
 def strategy_dot(fss: FiniteStateStrategy) -> str:
     """A DOT digraph: memory nodes, and an edge per rule, action and next node."""
     lines = [f"digraph {_quote('fss ' + fss.player)} {{", "  rankdir=LR;",
-             "  node [shape=circle];", f"  start [shape=point];", f"  start -> n{fss.initial_memory};"]
+             "  node [shape=circle];", "  start [shape=point];", f"  start -> n{fss.initial_memory};"]
     for n in range(fss.memory_size):
         lines.append(f"  n{n} [label={_quote(str(n))}];")
     for n, z, played in _rules(fss):

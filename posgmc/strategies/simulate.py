@@ -105,7 +105,7 @@ def _objective(expr: Expr) -> tuple[str, Expr | None, Expr, int | None, RewardQu
                 remain = path.operands[0] if path.op is TemporalOp.UNTIL else None
                 return "probability", remain, path.operands[-1], None, None
     if isinstance(expr, RewardQuery) and expr.threshold is None and expr.objective.kind is RewardKind.REACH:
-        assert expr.objective.target is not None  # noqa: S101 - F has a target
+        assert expr.objective.target is not None
         return "reward", None, expr.objective.target, None, expr
     raise UnsupportedError(
         "simulation estimates P=? [ F φ ], P=? [ a U b ], their step-bounded forms, and "

@@ -23,15 +23,19 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 
-from posgmc.checking.dispatch import CheckOptions, CoalitionResolver, PropertyChecker, ScalarEvaluator
+from posgmc.checking.dispatch import (
+    CheckOptions,
+    CoalitionResolver,
+    PropertyChecker,
+    ScalarEvaluator,
+)
 from posgmc.checking.results import Bound, PropertyResult, strategy_meaning
-from posgmc.syntax.ast import Direction
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import BoundStrategy, bind
 from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 from posgmc.strategies.product import strategy_product
-from posgmc.syntax.ast import Expr, ProbQuery, RewardQuery
+from posgmc.syntax.ast import Direction, Expr, ProbQuery, RewardQuery
 
 __all__ = ["StrategyChecker"]
 
@@ -169,5 +173,5 @@ class StrategyChecker:
 
 def _bound(r: PropertyResult) -> Bound:
     # a numeric query's result
-    assert r.value is not None and r.lower is not None and r.upper is not None  # noqa: S101
+    assert r.value is not None and r.lower is not None and r.upper is not None
     return Bound(float(r.value), r.lower, r.upper, r.sound and r.converged)

@@ -5,14 +5,17 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any, Sequence
+from typing import Any
 
 from lark import Token
 
-from posgmc.errors import ParseError, SourceSpan, UnsupportedError
+from posgmc.errors import ParseError, SourceSpan
+from posgmc.syntax.actions_base import ActionBase
 from posgmc.syntax.ast import (
+    FILTER_ALIASES,
     FUNCTION_ARITY,
     INT64_MAX,
     Binary,
@@ -23,7 +26,6 @@ from posgmc.syntax.ast import (
     CoalitionKind,
     ComparisonOp,
     Direction,
-    FILTER_ALIASES,
     DoubleLit,
     Expr,
     Filter,
@@ -33,9 +35,9 @@ from posgmc.syntax.ast import (
     IntLit,
     Ite,
     LabelRef,
+    MultiQuery,
     PathQuantifier,
     PlayerRef,
-    MultiQuery,
     ProbQuery,
     RewardKind,
     RewardObjective,
@@ -48,7 +50,6 @@ from posgmc.syntax.ast import (
     Unary,
     UnaryOp,
 )
-from posgmc.syntax.actions_base import ActionBase
 from posgmc.syntax.items import AllPlayers, PropertyItem, QueryOp
 from posgmc.syntax.placement import contains_temporal
 

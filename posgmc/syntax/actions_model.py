@@ -3,11 +3,13 @@ rewards, ``init``, observables and players."""
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 from lark import Token
 
 from posgmc.errors import ParseError, SourceSpan, UnsupportedError
+from posgmc.syntax.actions_base import ActionBase
 from posgmc.syntax.ast import (
     ActionRef,
     Assignment,
@@ -33,7 +35,6 @@ from posgmc.syntax.ast import (
     VariableDecl,
     VarType,
 )
-from posgmc.syntax.actions_base import ActionBase
 from posgmc.syntax.items import (
     ActionLabel,
     GlobalItem,

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 from posgmc.errors import SourceSpan
+
 # the compiled game's enums, named here too
 from posgmc.model.types import Direction as Direction
 from posgmc.model.types import ModelType as ModelType
@@ -199,7 +200,7 @@ class SteadyQuery(Expr):
     """PRISM's steady-state operator ``S=? [ phi ]`` / ``S>=p [ phi ]``: the long-run fraction of
     time spent in states satisfying ``phi`` (dtmcs)."""
 
-    threshold: "Threshold | None"
+    threshold: Threshold | None
     operand: Expr
 
 

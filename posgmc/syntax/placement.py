@@ -4,9 +4,7 @@ path formulas there), checked on the syntax tree as PRISM's parser does."""
 from __future__ import annotations
 
 import dataclasses
-import operator
-from typing import Iterable
-
+from collections.abc import Iterable
 
 from posgmc.errors import ParseError
 from posgmc.syntax.ast import (
@@ -16,8 +14,8 @@ from posgmc.syntax.ast import (
     Expr,
     Filter,
     Ite,
-    PathQuantifier,
     MultiQuery,
+    PathQuantifier,
     ProbQuery,
     RewardKind,
     RewardQuery,

@@ -19,7 +19,8 @@ This module puts them together and binds them to the grammar's rules.
 from __future__ import annotations
 
 import operator
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from lark import Token
 from lark.grammar import Rule, Terminal

@@ -30,9 +30,17 @@ import numpy as np
 
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.syntax.ast import (
+    Expr,
+    LabelRef,
+    ProbQuery,
+    RewardKind,
+    RewardObjective,
+    RewardQuery,
+    Temporal,
+    TemporalOp,
+)
 from posgmc.synthesis.parametric import game_views
-from posgmc.syntax.ast import (Expr, LabelRef, ProbQuery, RewardKind, RewardObjective, RewardQuery,
-                               Temporal, TemporalOp)
 
 __all__ = ["needs_product", "lift"]
 
@@ -75,7 +83,7 @@ def lift(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker,  # type: 
     from posgmc.engines import ltl
 
     path = expr.path if isinstance(expr, ProbQuery) else expr.objective.target
-    assert path is not None  # noqa: S101 - an LTL objective has its formula
+    assert path is not None
     if not ltl.is_cosafe(path):
         raise UnsupportedError(
             "synthesis takes co-safe LTL (X, F, U, step bounds, bounded G, boolean connectives)",

@@ -105,7 +105,7 @@ def test_compiled_code_never_nests_deeply() -> None:
 def _nesting(line: str) -> int:
     depth = deepest = 0
     for ch in line:
-        depth += ch in "([" 
+        depth += ch in "(["
         depth -= ch in ")]"
         deepest = max(deepest, depth)
     return deepest

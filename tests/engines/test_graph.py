@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+from engine_models import small_models, smg_example
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from engine_models import small_models, smg_example
 from posgmc.engines.graph import (
     Structure,
     almost_sure_reach,

@@ -14,10 +14,10 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
+from engine_models import as_floats, chain_reward, game_value
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from engine_models import as_floats, chain_reward, game_value
 from posgmc.engines import objectives as obj
 from posgmc.engines import scc
 from posgmc.engines import topological as topo

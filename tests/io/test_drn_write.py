@@ -11,11 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.errors import UnsupportedError, InputError
+from posgmc.errors import InputError, UnsupportedError
 from posgmc.io._text import format_values
 from posgmc.io.drn import drn_text, parse_drn, read_drn, write_drn
-
-ROOT = Path(__file__).resolve().parents[2]
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
 from posgmc.syntax.ast import ModelType
 from tests.io.helpers import (
@@ -27,6 +25,8 @@ from tests.io.helpers import (
     tiny_smg,
 )
 from tests.io.test_drn_read import BENCHMARK_SIZES
+
+ROOT = Path(__file__).resolve().parents[2]
 
 TINY = [tiny_dtmc, tiny_mdp, tiny_pomdp, tiny_smg, tiny_posg]
 

@@ -88,7 +88,6 @@ def test_memoryless_strategy_agrees_with_storm(name: str, tmp_path: Path) -> Non
     chosen = _first_actions(text)
 
     session = api.load(drn)
-    model = api.build(session).model
     obs_ids = np.array(sorted(chosen))
     as_label = {a: "" if a == "__NOLABEL__" else a for a in chosen.values()}  # DRN's unlabelled
     labels = tuple(sorted(set(as_label.values())))

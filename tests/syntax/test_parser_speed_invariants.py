@@ -28,9 +28,10 @@ import hashlib
 import os
 import re
 import sys
+from collections.abc import Iterator
 from fractions import Fraction
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import pytest
 
@@ -269,8 +270,7 @@ def _nodes(value: Any) -> Iterator[Any]:
 
 def _children(node: Any) -> Iterator[Any]:
     for f in dataclasses.fields(node):
-        for child in _nodes(getattr(node, f.name)):
-            yield child
+        yield from _nodes(getattr(node, f.name))
 
 
 class _Text:

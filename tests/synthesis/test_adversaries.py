@@ -12,9 +12,9 @@ import pytest
 from posgmc import api
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import enumerate_adversaries, versus_adversaries
 from posgmc.synthesis.search import SynthesisOptions, synthesize
-from posgmc.syntax import parser
 from tests.strategies.test_simulate import _game
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "posmg"

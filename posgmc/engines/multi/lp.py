@@ -82,7 +82,7 @@ class OccupationLP:
         initial_state: int,
         stop_state: np.ndarray,
         coefficients: np.ndarray,
-    ) -> "OccupationLP":
+    ) -> OccupationLP:
         """The LP of an MDP (``transitions`` csr [C, S] grouped by ``row_groups``) from state
         ``initial_state``, with settling options at ``stop_state`` (int64[K]) and objective rows
         ``coefficients`` (float64[n, C + K])."""

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
 from ltl_reference import And, F, Not, Or, U, X, a, b
+
 from posgmc.engines.ltl import Dfa, extract_atoms, letter_graph, pack_letters, product, to_dfa
-from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
 from posgmc.errors import UnsupportedError
+from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
 from posgmc.syntax.ast import (
     Binary,
     BinaryOp,
