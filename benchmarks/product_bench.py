@@ -61,8 +61,10 @@ def main() -> None:
     started = time.perf_counter()
     model = api.build(session).model
     build = time.perf_counter() - started
-    print(f"model N={args.n}, B={args.budget}: {model.num_states:,} states, "
-          f"{model.num_choices:,} choices, {model.num_transitions:,} transitions (built in {build:.2f} s)")
+    print(
+        f"model N={args.n}, B={args.budget}: {model.num_states:,} states, "
+        f"{model.num_choices:,} choices, {model.num_transitions:,} transitions (built in {build:.2f} s)"
+    )
     prop = PROP.format(steps=8 * args.n)
     print(f"property: {prop}")
     print()

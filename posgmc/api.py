@@ -113,7 +113,9 @@ class Session:
             raise InputError(
                 f"constants must be a mapping of names to values, got {type(constants).__name__}"
             )
-        return dataclasses.replace(self, constants={**self.constants, **(constants or {}), **values})
+        return dataclasses.replace(
+            self, constants={**self.constants, **(constants or {}), **values}
+        )
 
     @classmethod
     def of_model(cls, model: ExplicitModel, *, name: str | None = None) -> Session:
@@ -212,7 +214,9 @@ def load(
     if path is None and text is None:
         raise InputError("give the model's path or its text (text=...)")
     if constants is not None and not isinstance(constants, Mapping):
-        raise InputError(f"constants must be a mapping of names to values, got {type(constants).__name__}")
+        raise InputError(
+            f"constants must be a mapping of names to values, got {type(constants).__name__}"
+        )
     name = str(path) if path is not None else None
     content = text if text is not None else _read(path)  # type: ignore[arg-type]
     source = SourceText(content, name)
@@ -292,7 +296,9 @@ def lint(
         extra = bool(property_files or property_texts)  # property-file constants share --const
         errors += [
             _attach(e, src)
-            for e in sem.check_model(session.syntax, constants=constants, allow_extra_constants=extra)
+            for e in sem.check_model(
+                session.syntax, constants=constants, allow_extra_constants=extra
+            )
         ]
     for f in property_files:
         try:
@@ -474,7 +480,9 @@ def iter_check(
     for pf, src in zip(files, sources):
         pf, cyclic = inline_property_references(pf, labels)
         for i, prop in enumerate(pf.properties):
-            outcome = cyclic.get(i) or _check_one(session, built, checker, pf, prop, zero_based_players)
+            outcome = cyclic.get(i) or _check_one(
+                session, built, checker, pf, prop, zero_based_players
+            )
             if isinstance(outcome, PosgmcError):
                 own = src
                 if own is None and outcome.span is not None and outcome.span.file and prop.text:
@@ -610,7 +618,9 @@ def check(
     property_files = _paths(property_files, "property_files")
     properties = _property_items(properties)
     if strategies is not None and not isinstance(strategies, Mapping):
-        raise InputError(f"strategies must map player names to strategies, got {type(strategies).__name__}")
+        raise InputError(
+            f"strategies must map player names to strategies, got {type(strategies).__name__}"
+        )
     if options.exact:
         if strategies or full_observation:
             raise InputError(

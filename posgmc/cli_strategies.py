@@ -35,12 +35,18 @@ __all__ = ["test", "simulate", "show_strategy"]
               help="Relative tolerance for numbers (PRISM's test mode: 1e-5).")
 @click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
               help="Also write a JUnit XML report (one test case per checked property).")
-@click.option("--exact", is_flag=True, help="PRISM's -exact: rational arithmetic, results compared exactly.")
+@click.option(
+    "--exact", is_flag=True, help="PRISM's -exact: rational arithmetic, results compared exactly."
+)
 @click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation value.")
 @click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE")
-@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
+@click.option(
+    "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
+)
 @click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto")
-@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True)
+@click.option(
+    "--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True
+)
 @click.option("--seed", type=int, default=0, show_default=True)
 @_common
 def test(
@@ -78,7 +84,9 @@ def test(
             session = api.load(model, constants=constants)
             if i == 0:
                 _check_result_lines(session, props)  # before any work: nothing half-reported
-            built = api.build(session, allow_extra_constants=True, options=BuildOptions(exact=exact))
+            built = api.build(
+                session, allow_extra_constants=True, options=BuildOptions(exact=exact)
+            )
             loaded = api.load_strategies(strategies) if strategies else None
             started = time.perf_counter()
             for prop, outcome in api.iter_check(
@@ -151,11 +159,20 @@ def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
 @click.option("--runs", type=click.IntRange(min=1), default=10_000, show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--max-steps", type=click.IntRange(min=0), default=10_000, show_default=True)
-@click.option("--opponent", type=click.Choice(["uniform", "best"]), default="uniform", show_default=True,
-              help="How players without a strategy play: uniformly, or their full-observation optimum.")
+@click.option(
+    "--opponent",
+    type=click.Choice(["uniform", "best"]),
+    default="uniform",
+    show_default=True,
+    help="How players without a strategy play: uniformly, or their full-observation optimum.",
+)
 @click.option("--trace", is_flag=True, help="Also print one sampled path, step by step.")
-@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
-@click.option("--json", "as_json", is_flag=True, help='Print {"estimate", "lower", "upper", "runs", ...}.')
+@click.option(
+    "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
+)
+@click.option(
+    "--json", "as_json", is_flag=True, help='Print {"estimate", "lower", "upper", "runs", ...}.'
+)
 @_common
 def simulate(
     model: str,
@@ -177,7 +194,9 @@ def simulate(
     def run() -> int:
         _, combos = expand_constants(consts)
         if len(combos) > 1:
-            raise click.BadParameter("simulate takes single constant values", param_hint="'--const'")
+            raise click.BadParameter(
+                "simulate takes single constant values", param_hint="'--const'"
+            )
         session = api.load(model, constants=combos[0] if combos else {})
         result = api.simulate(
             session, prop_text, strategies=strategy_options(strategy_files) or None, runs=runs,

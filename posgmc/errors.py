@@ -64,7 +64,11 @@ class PosgmcError(Exception):
             self.source = source
         if self.span is not None and self.span.file is None and source.file is not None:
             self.span = SourceSpan(
-                self.span.line, self.span.column, self.span.end_line, self.span.end_column, source.file
+                self.span.line,
+                self.span.column,
+                self.span.end_line,
+                self.span.end_column,
+                source.file,
             )
         return self
 

@@ -120,7 +120,13 @@ def _show(value: object) -> str:
     if value is None:
         return "unknown"
     if isinstance(value, float):
-        return "Infinity" if value == math.inf else "-Infinity" if value == -math.inf else f"{value:.10g}"
+        return (
+            "Infinity"
+            if value == math.inf
+            else "-Infinity"
+            if value == -math.inf
+            else f"{value:.10g}"
+        )
     return str(value)
 
 
@@ -172,8 +178,13 @@ def check_form(text: str, names: Collection[str] | None = None) -> None:
                              f"{', '.join(sorted(unknown))})") from None
 
 
-def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
-          tolerance: float = DEFAULT_TOLERANCE, constants: Mapping[str, str] | None = None) -> Verdict:
+def grade(
+    expected: ExpectedResult,
+    outcome: PropertyResult | PosgmcError,
+    *,
+    tolerance: float = DEFAULT_TOLERANCE,
+    constants: Mapping[str, str] | None = None,
+) -> Verdict:
     """Whether ``outcome`` matches ``expected`` (``constants``: the values an expected expression
     such as ``1/N`` may name).
 
@@ -228,7 +239,9 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
         slack = _slack(v, tolerance) if math.isfinite(v) else 0.0
         meets = v - slack <= hi and lo <= v + slack
         if proven is not None:
-            meets |= proven[0] - _FLOATING_POINT_ERROR <= hi and lo <= proven[1] + _FLOATING_POINT_ERROR
+            meets |= (
+                proven[0] - _FLOATING_POINT_ERROR <= hi and lo <= proven[1] + _FLOATING_POINT_ERROR
+            )
         return Verdict(meets, text, _show(v))
     e = _expected_number(body, constants)
     close = _close(v, e, tolerance)

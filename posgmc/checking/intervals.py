@@ -56,7 +56,9 @@ def exact(values: np.ndarray, *, method: str = "exact") -> QueryValue:
     return QueryValue(values, values, values, method=method)
 
 
-def _join(values: np.ndarray, lower: np.ndarray, upper: np.ndarray, *parts: QueryValue) -> QueryValue:
+def _join(
+    values: np.ndarray, lower: np.ndarray, upper: np.ndarray, *parts: QueryValue
+) -> QueryValue:
     """A result's record; a NaN bound (no bound holds there) is judged where it is read."""
     return QueryValue(
         values=values,

@@ -53,7 +53,9 @@ def _terminal(model) -> np.ndarray:  # type: ignore[no-untyped-def]
     single = np.diff(t.indptr) == 1
     loops = np.zeros(model.num_choices, dtype=bool)
     loops[single] = t.indices[t.indptr[:-1][single]] == owner[single]
-    out: np.ndarray = np.bincount(owner, weights=(~loops).astype(float), minlength=model.num_states) == 0
+    out: np.ndarray = (
+        np.bincount(owner, weights=(~loops).astype(float), minlength=model.num_states) == 0
+    )
     return out
 
 
@@ -77,7 +79,9 @@ def answer_game(checker: PropertyChecker, expr: MultiQuery) -> MultiAnswer:
     start = time.perf_counter()
     model = checker.model
     if model.initial_states.size != 1:
-        raise UnsupportedError("a multi-objective game query needs a single initial state", expr.span)
+        raise UnsupportedError(
+            "a multi-objective game query needs a single initial state", expr.span
+        )
     objectives = _objectives(expr, checker)
     texts = tuple(format_expr(o.query) for o in objectives)
     builder = _Builder(checker)
@@ -123,7 +127,11 @@ def answer_game(checker: PropertyChecker, expr: MultiQuery) -> MultiAnswer:
         raise UnsupportedError("a terminal state collects reward: the total rewards are infinite",
                                expr.span)
     players = checker.coalition_of(expr.coalition)
-    mine = np.isin(m.state_players, sorted(players)) if players is not None else np.ones(m.num_states, bool)
+    mine = (
+        np.isin(m.state_players, sorted(players))
+        if players is not None
+        else np.ones(m.num_states, bool)
+    )
     result = coalition_sets(m.transitions, m.row_groups, rewards, mine, terminal, builder.initial)
     chain = result.chain
     seconds = time.perf_counter() - start

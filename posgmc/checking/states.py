@@ -127,7 +127,8 @@ def evaluate_states(
             return queries(e)
         if isinstance(e, Temporal):
             raise UnsupportedError(
-                f"the temporal operator {e.op.value} may only appear inside a P or R operator", e.span
+                f"the temporal operator {e.op.value} may only appear inside a P or R operator",
+                e.span,
             )
         raise UnsupportedError(f"cannot evaluate {type(e).__name__} over states", e.span)
 

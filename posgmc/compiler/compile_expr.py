@@ -497,7 +497,9 @@ def _int_bounds(op: BinaryOp, a: _Code, b: _Code) -> tuple[int, int] | None:
     return min(products), max(products)
 
 
-def _joined(text: str, type_: ExprType, *parts: _Code, partial: bool = False, extra: int = 1) -> _Code:
+def _joined(
+    text: str, type_: ExprType, *parts: _Code, partial: bool = False, extra: int = 1
+) -> _Code:
     """A new code whose text embeds ``parts`` (their preludes run first, in order)."""
     prelude: tuple[str, ...] = ()
     for p in parts:

@@ -174,7 +174,10 @@ def explore_exact(
         LimitError: more than ``options.state_limit`` states.
     """
     ev = _Evaluator(program)
-    init = [tuple(int(x) for x in row) for row in program.encoding.decode_values(initial_keys(program, options))]
+    init = [
+        tuple(int(x) for x in row)
+        for row in program.encoding.decode_values(initial_keys(program, options))
+    ]
     number: dict[State, int] = {s: i for i, s in enumerate(init)}
     states: list[State] = list(init)
     counts: list[int] = []
@@ -277,8 +280,12 @@ def exact_model(
     data = [p for row in rows for _, p in sorted(row.items())]
     columns = [t for row in rows for t in sorted(row)]
     matrix = model.transitions
-    if len(data) != matrix.nnz or not np.array_equal(matrix.indices, np.array(columns, dtype=matrix.indices.dtype)):
-        raise BuildError("internal: the exact probabilities do not line up with the transition matrix")
+    if len(data) != matrix.nnz or not np.array_equal(
+        matrix.indices, np.array(columns, dtype=matrix.indices.dtype)
+    ):
+        raise BuildError(
+            "internal: the exact probabilities do not line up with the transition matrix"
+        )
     ev = _Evaluator(program)
     labels = dict(model.labels)
     with ops.exact_arithmetic():

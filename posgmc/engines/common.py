@@ -247,7 +247,12 @@ def _solve_system(
         )
         best, cand = _candidates(sys, rows, num_choices)
         if not prove:
-            return x, rows, rounds, _Solved(x, x.copy(), rounds, True, False, best, cand, estimate=x)
+            return (
+                x,
+                rows,
+                rounds,
+                _Solved(x, x.copy(), rounds, True, False, best, cand, estimate=x),
+            )
         proven = (
             certify(sys, x, rows, cap=cap, precision=options.precision, relative=options.relative)
             if certifiable else None

@@ -125,7 +125,9 @@ def _discounted(
         best = sys.rows[best_local]
     lower[sys.states] = lo
     upper[sys.states] = hi
-    x[sys.states] = 0.5 * (lo + hi) if solved is None or solved.estimate is None else solved.estimate
+    x[sys.states] = (
+        0.5 * (lo + hi) if solved is None or solved.estimate is None else solved.estimate
+    )
     if strategy is not None and best is not None:
         strategy[sys.states] = best
     return EngineResult(

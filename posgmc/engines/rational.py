@@ -236,7 +236,9 @@ def exact_bounded_reach(
         out = []
         for s in range(S):
             vals = [
-                sum((exact[k] * x[indices[k]] for k in range(indptr[c], indptr[c + 1])), Fraction(0))
+                sum(
+                    (exact[k] * x[indices[k]] for k in range(indptr[c], indptr[c + 1])), Fraction(0)
+                )
                 for c in range(int(groups[s]), int(groups[s + 1]))
             ]
             out.append(max(vals) if mx[s] else min(vals))

@@ -193,7 +193,9 @@ def long_run_average(model: ExplicitModel, weight: np.ndarray, *,
         if states.size == S:
             reach_lo = reach_hi = reach = np.ones(S)
         else:
-            r = obj.reach_probability(model, target, remain=None, maximize=everyone, options=options)
+            r = obj.reach_probability(
+                model, target, remain=None, maximize=everyone, options=options
+            )
             reach, reach_lo, reach_hi = r.values, r.lower, r.upper
             sound &= r.sound
             converged &= r.converged
@@ -202,5 +204,7 @@ def long_run_average(model: ExplicitModel, weight: np.ndarray, *,
         corners = np.stack([reach_lo * g_lo, reach_lo * g_hi, reach_hi * g_lo, reach_hi * g_hi])
         lower += corners.min(axis=0)
         upper += corners.max(axis=0)
-    slack = 4 * np.finfo(np.float64).eps * (np.abs(lower) + np.abs(upper)) * max(1, len(bsccs(model)))
+    slack = (
+        4 * np.finfo(np.float64).eps * (np.abs(lower) + np.abs(upper)) * max(1, len(bsccs(model)))
+    )
     return LongRun(values, lower - slack, upper + slack, sound, iterations, converged)

@@ -14,7 +14,9 @@ from posgmc.errors import InputError
 
 
 @contextlib.contextmanager
-def atomic_open(path: str | Path, mode: str = "w", *, encoding: str | None = "utf-8") -> Iterator[IO]:  # type: ignore[type-arg]
+def atomic_open(
+    path: str | Path, mode: str = "w", *, encoding: str | None = "utf-8"
+) -> Iterator[IO]:  # type: ignore[type-arg]
     """Open a temporary file beside ``path``; on success it replaces ``path``, on error it is removed.
 
     Raises:

@@ -299,7 +299,9 @@ class _Labels:
 
     def hint(self, name: str, symbols: Mapping[str, Symbol]) -> str | None:
         """What to say about an unknown quoted name."""
-        known = list(self.model_labels) + [n for n in self.observables if n not in self.model_labels]
+        known = list(self.model_labels) + [
+            n for n in self.observables if n not in self.model_labels
+        ]
         known += [n for n in self.declared if n not in known]
         if name in symbols:
             return f'"{name}" is a {symbols[name].kind.value}; write it without quotes'

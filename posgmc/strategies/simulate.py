@@ -104,7 +104,11 @@ def _objective(expr: Expr) -> tuple[str, Expr | None, Expr, int | None, RewardQu
             if bound is None or (bound.lower is None and bound.upper is not None):
                 remain = path.operands[0] if path.op is TemporalOp.UNTIL else None
                 return "probability", remain, path.operands[-1], None, None
-    if isinstance(expr, RewardQuery) and expr.threshold is None and expr.objective.kind is RewardKind.REACH:
+    if (
+        isinstance(expr, RewardQuery)
+        and expr.threshold is None
+        and expr.objective.kind is RewardKind.REACH
+    ):
         assert expr.objective.target is not None
         return "reward", None, expr.objective.target, None, expr
     raise UnsupportedError(
@@ -227,7 +231,11 @@ def simulate(
             estimate = float(total.mean())
             half = Z95 * float(total.std(ddof=1)) / math.sqrt(runs) if runs > 1 else math.inf
             lower, upper = estimate - half, estimate + half
-    path = _trace(model, prod, choice, target, remain, alive, horizon, rng, bound_strategies) if trace else ()
+    path = (
+        _trace(model, prod, choice, target, remain, alive, horizon, rng, bound_strategies)
+        if trace
+        else ()
+    )
     return Simulation(text, kind, estimate, lower, upper, runs, undecided, seed, path)
 
 
@@ -254,7 +262,9 @@ def _choices(
         bare = replace(expr, path=replace(expr.path, bound=None))
     q = checker.query(bare)  # type: ignore[arg-type]
     strategy = q.engine.strategy if q.engine is not None else None
-    return np.asarray(strategy, dtype=np.int64) if strategy is not None else np.full(S, -1, np.int64)
+    return (
+        np.asarray(strategy, dtype=np.int64) if strategy is not None else np.full(S, -1, np.int64)
+    )
 
 
 def _trace(

@@ -65,7 +65,27 @@ _EXPRESSION_STARTS = frozenset(
 
 # Binary operators (by their text): listed only when nothing else would do.
 _OPERATOR_TEXTS = frozenset(
-    {"+", "-", "*", "/", "^", "&", "|", "=", "!=", "<", "<=", ">", ">=", "=>", "<=>", "?", "U", "W", "R"}
+    {
+        "+",
+        "-",
+        "*",
+        "/",
+        "^",
+        "&",
+        "|",
+        "=",
+        "!=",
+        "<",
+        "<=",
+        ">",
+        ">=",
+        "=>",
+        "<=>",
+        "?",
+        "U",
+        "W",
+        "R",
+    }
 )
 
 # Top-level keywords of a model file (a model type, or the start of a declaration).

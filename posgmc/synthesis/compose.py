@@ -318,8 +318,17 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
         t_compose += time.perf_counter() - t0
     phases["adversaries: composition"] = t_compose
     phases["adversaries: double oracle"] = t_oracle
-    return OneSided(enumeration, all_ranked, tuple(ranked), tuple(kept), added, composed, tuple(responses),
-                    partial or expired(deadline), phases)
+    return OneSided(
+        enumeration,
+        all_ranked,
+        tuple(ranked),
+        tuple(kept),
+        added,
+        composed,
+        tuple(responses),
+        partial or expired(deadline),
+        phases,
+    )
 
 
 def _batched(executor: Executor, jobs: list, deadline: float) -> list:  # type: ignore[type-arg]
@@ -397,8 +406,13 @@ def verified_numbers(problem: Problem, executor: Executor, defence: FiniteStateS
     worst: FiniteStateStrategy | None = None
 
     def proven(given: dict[str, FiniteStateStrategy], number: str) -> Bound:
-        r = StrategyChecker(problem.model, given, coalition_of=problem.coalition_of,
-                            scalar=problem.scalar, options=check_options).check(problem.query, text=number)
+        r = StrategyChecker(
+            problem.model,
+            given,
+            coalition_of=problem.coalition_of,
+            scalar=problem.scalar,
+            options=check_options,
+        ).check(problem.query, text=number)
         return getattr(r, number)  # type: ignore[no-any-return]
 
     if adversaries:
@@ -415,7 +429,11 @@ def verified_numbers(problem: Problem, executor: Executor, defence: FiniteStateS
         else:
             far = min(vs.lower, guaranteed.lower) if sign > 0 else max(vs.upper, guaranteed.upper)
             sound = vs.sound and guaranteed.sound
-        vs = Bound(vs.value, far, vs.upper, sound) if sign > 0 else Bound(vs.value, vs.lower, far, sound)
+        vs = (
+            Bound(vs.value, far, vs.upper, sound)
+            if sign > 0
+            else Bound(vs.value, vs.lower, far, sound)
+        )
     ub: Bound | None = None
     if strengths:
         strongest = strengths[0][0]  # ranked strongest first

@@ -102,8 +102,11 @@ def lift(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker,  # type: 
     # a fully observing player observes the model state (game_views), and the valuations are
     # the model state's
     lifted = dataclasses.replace(
-        game_views(model, pm, prod.state_of), labels=labels, variable_names=model.variable_names,
-        state_values=model.state_values[prod.state_of] if model.state_values.shape[0] == model.num_states
+        game_views(model, pm, prod.state_of),
+        labels=labels,
+        variable_names=model.variable_names,
+        state_values=model.state_values[prod.state_of]
+        if model.state_values.shape[0] == model.num_states
         else model.state_values,
     )
     target = Temporal(TemporalOp.EVENTUALLY, (LabelRef(name, span=path.span),), span=path.span)

@@ -33,5 +33,7 @@ def test_globally_in_exact_mode(model: str, prop: str, expected: Fraction) -> No
     session = api.load(text=model)
     built = api.build(session, options=BuildOptions(exact=True))
     assert built.model.num_states == 2
-    (r,) = api.check(session, properties=[prop], built=built, options=CheckOptions(exact=True)).results
+    (r,) = api.check(
+        session, properties=[prop], built=built, options=CheckOptions(exact=True)
+    ).results
     assert r.exact == expected

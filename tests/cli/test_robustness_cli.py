@@ -127,7 +127,9 @@ def test_drn_with_a_byte_order_mark(tmp_path: Path) -> None:
 def test_error_shows_the_right_line_after_a_form_feed(tmp_path: Path, breaker: str) -> None:
     # str.splitlines counts these as line breaks; PRISM (and posgmc) count "\n" only
     model = tmp_path / "ff.prism"
-    model.write_text(f"dtmc // page{breaker}break\nmodule m x : [0..1] init 0;\n  [] x=0 -> (yy'=1);\nendmodule\n")
+    model.write_text(
+        f"dtmc // page{breaker}break\nmodule m x : [0..1] init 0;\n  [] x=0 -> (yy'=1);\nendmodule\n"
+    )
     r = run("lint", str(model))
     assert r.exit_code == 2
     lines = r.output.splitlines()
@@ -211,7 +213,9 @@ def test_conjunction_of_13_eventualities_takes_seconds(tmp_path: Path) -> None:
     assert '"value": 1' in r.output.replace("1.0", "1")
 
 
-def test_each_result_is_printed_before_the_next_property_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_each_result_is_printed_before_the_next_property_runs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     # issue #13: killed after the first result, nothing had been printed; now the first line is
     # out before the second property starts (here the second is interrupted: exit 130)
     real = api._check_one
@@ -235,7 +239,9 @@ def test_each_result_is_printed_before_the_next_property_runs(monkeypatch: pytes
 def test_json_lines_prints_one_object_per_line() -> None:
     import json
 
-    r = run("check", ROVER, "--prop", REACH, "--prop", '<<rover>> Pmin=? [ F "goal" ]', "--json-lines")
+    r = run(
+        "check", ROVER, "--prop", REACH, "--prop", '<<rover>> Pmin=? [ F "goal" ]', "--json-lines"
+    )
     assert r.exit_code == 0, r.output
     lines = [json.loads(line) for line in r.output.splitlines()]
     assert lines[0]["model"]["states"] > 0 and [x["property"] for x in lines[1:]] == [
@@ -263,11 +269,16 @@ def test_hitting_the_iteration_cap_says_so_and_fails(monkeypatch: pytest.MonkeyP
 @pytest.mark.parametrize(
     "content, where",
     [
-        (b"mdp\nmodule m\n  x : [0..1] init 0; // caf\xe9\n  [] true -> true;\nendmodule\n", ":3:28:"),
+        (
+            b"mdp\nmodule m\n  x : [0..1] init 0; // caf\xe9\n  [] true -> true;\nendmodule\n",
+            ":3:28:",
+        ),
         (b"mdp\n\xff\xfe", ":2:1:"),
     ],
 )
-def test_a_file_that_is_not_utf8_gets_line_and_column(tmp_path: Path, content: bytes, where: str) -> None:
+def test_a_file_that_is_not_utf8_gets_line_and_column(
+    tmp_path: Path, content: bytes, where: str
+) -> None:
     # issue #13: "at byte 11" without a position
     model = tmp_path / "m.prism"
     model.write_bytes(content)

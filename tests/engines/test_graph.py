@@ -183,7 +183,9 @@ def test_one_player_almost_sure_reach_equals_the_nested_fixpoint(model, data) ->
     allowed = None
     if data.draw(st.booleans()):
         allowed = np.array(
-            data.draw(st.lists(st.booleans(), min_size=model.num_choices, max_size=model.num_choices))
+            data.draw(
+                st.lists(st.booleans(), min_size=model.num_choices, max_size=model.num_choices)
+            )
         )
         allowed[model.row_groups[:-1]] = True  # every state keeps a choice
     everyone = np.ones(S, bool)

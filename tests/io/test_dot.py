@@ -33,7 +33,9 @@ def assert_well_formed(text: str) -> None:
         assert _STATEMENT.fullmatch(line), line
 
 
-@pytest.mark.parametrize("build", [tiny_dtmc, tiny_mdp, tiny_pomdp, tiny_smg, tiny_posg], ids=lambda f: f.__name__)
+@pytest.mark.parametrize(
+    "build", [tiny_dtmc, tiny_mdp, tiny_pomdp, tiny_smg, tiny_posg], ids=lambda f: f.__name__
+)
 def test_well_formed_with_every_state(build: object) -> None:
     model = build()  # type: ignore[operator]
     text = dot_text(model)

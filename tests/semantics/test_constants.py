@@ -62,7 +62,11 @@ def test_parse_const_assignment_errors(text: str, message: str, column: int) -> 
         parse_const_assignments(text)
     assert exc.value.message == message
     assert exc.value.span is not None
-    assert (exc.value.span.file, exc.value.span.line, exc.value.span.column) == ("--const", 1, column)
+    assert (exc.value.span.file, exc.value.span.line, exc.value.span.column) == (
+        "--const",
+        1,
+        column,
+    )
 
 
 def test_ranges_and_sweeps() -> None:
@@ -139,7 +143,12 @@ def test_user_value_errors_point_at_the_setting_or_the_declaration() -> None:
     settings = parse_const_assignments("N=0.5,p=1,b=true,M=4,Q=1")
     assert lint(MODEL, constants=settings) == [
         ("ConstantError", 'constant "N" is an int, but "0.5" is not an integer', 1, 1),
-        ("ConstantError", 'constant "M" is already defined in the file, so it cannot be given a value', 1, 18),
+        (
+            "ConstantError",
+            'constant "M" is already defined in the file, so it cannot be given a value',
+            1,
+            18,
+        ),
         ("ConstantError", '"Q" is not a constant of the model', 1, 22),
     ]
     # plain Python values have no position: the declaration is shown instead

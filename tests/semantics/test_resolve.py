@@ -86,7 +86,9 @@ module m
 endmodule
 """
     # reported once, at the first formula of the cycle; uses of it cause no follow-up errors
-    assert lint(text) == [("SemanticError", 'cyclic definition of formula "a" (a -> b -> c -> a)', 2, 1)]
+    assert lint(text) == [
+        ("SemanticError", 'cyclic definition of formula "a" (a -> b -> c -> a)', 2, 1)
+    ]
 
 
 def test_update_of_another_modules_variable() -> None:

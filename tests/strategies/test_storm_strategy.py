@@ -94,8 +94,13 @@ def test_memoryless_strategy_agrees_with_storm(name: str, tmp_path: Path) -> Non
     gamma = np.zeros((1, obs_ids.size, len(labels)))
     for i, z in enumerate(obs_ids.tolist()):
         gamma[0, i, labels.index(as_label[chosen[z]])] = 1.0
-    fss = FiniteStateStrategy.from_arrays(player="0", observables=(), observation_values=obs_ids[:, None],
-                                          actions=labels, action=gamma)
+    fss = FiniteStateStrategy.from_arrays(
+        player="0",
+        observables=(),
+        observation_values=obs_ids[:, None],
+        actions=labels,
+        action=gamma,
+    )
     report = api.check(session, properties=[prop], strategies={"0": fss}, zero_based_players=True)
     assert not report.errors, report.errors[0][1].render()
     g = report.results[0].guaranteed

@@ -106,7 +106,10 @@ def dump(value: Any) -> str:
         fields = ", ".join(
             f"{f.name}={dump(getattr(value, f.name))}"
             for f in sorted(dataclasses.fields(value), key=lambda f: f.name)
-            if not ((type(value).__name__, f.name) in ADDED_LATER and getattr(value, f.name) == f.default)
+            if not (
+                (type(value).__name__, f.name) in ADDED_LATER
+                and getattr(value, f.name) == f.default
+            )
         )
         return f"{type(value).__name__}({fields})"
     if isinstance(value, tuple):

@@ -68,9 +68,14 @@ def test_full_observation_memoryless_reproduces_the_optimum() -> None:
     """On rover.smg the rover sees everything: synthesis (k = 1) guarantees the engines' optimum
     (0.9876561794, the exact value: tests/engines/test_step_fixpoint.py's fixpoint of F<=k)."""
     model = api.build(api.load(ROOT / "models" / "rover.smg")).model
-    r = synthesize(model, parser.parse_property('<<rover>> Pmax=? [ !"crash" U "goal" ]').expr,
-                   player=0, coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar,
-                   options=SynthesisOptions(memory=(1,), restarts=0, iterations=5, timeout=30))
+    r = synthesize(
+        model,
+        parser.parse_property('<<rover>> Pmax=? [ !"crash" U "goal" ]').expr,
+        player=0,
+        coalition_of=api._resolver(model, False).coalition_of,
+        scalar=api._scalar,
+        options=SynthesisOptions(memory=(1,), restarts=0, iterations=5, timeout=30),
+    )
     assert r.guaranteed.lower - 1e-6 <= 0.9876561794 <= r.guaranteed.upper + 1e-6
     assert r.full_observation.lower <= r.guaranteed.upper + 1e-9
 
@@ -122,8 +127,19 @@ def test_cli_synthesises_exports_and_the_file_rechecks(tmp_path: Path) -> None:
     assert r.exit_code == 0, r.output
     res = json.loads(r.output)["results"][0]
     assert set(res) >= {"guaranteed", "full_observation", "memory", "partial", "phases", "rounds"}
-    again = CliRunner().invoke(main, ["check", str(TEST_GAME), "--prop", '<<0>> Pmax=? [F "goal"]',
-                                      "--zero-based-players", "--strategy", str(out / "0.json"), "--json"])
+    again = CliRunner().invoke(
+        main,
+        [
+            "check",
+            str(TEST_GAME),
+            "--prop",
+            '<<0>> Pmax=? [F "goal"]',
+            "--zero-based-players",
+            "--strategy",
+            str(out / "0.json"),
+            "--json",
+        ],
+    )
     assert again.exit_code == 0, again.output
     assert json.loads(again.output)["results"][0]["guaranteed"] == res["guaranteed"]
 
@@ -161,9 +177,14 @@ def test_discounted_cost_synthesis_reaches_the_full_observation_optimum() -> Non
     """Hurrying forward needs no observation: the rover's memoryless synthesised strategy matches
     the full-observation optimum of rover.smg (3.8826229, the interval engine's value)."""
     model = api.build(api.load(ROOT / "models" / "rover.posg")).model
-    r = synthesize(model, parser.parse_property('<<rover>> R{"steps"}min=? [ Fdiscount=0.9 "over" ]').expr,
-                   player=0, coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar,
-                   options=SynthesisOptions(memory=(1,), restarts=0, iterations=10, timeout=30))
+    r = synthesize(
+        model,
+        parser.parse_property('<<rover>> R{"steps"}min=? [ Fdiscount=0.9 "over" ]').expr,
+        player=0,
+        coalition_of=api._resolver(model, False).coalition_of,
+        scalar=api._scalar,
+        options=SynthesisOptions(memory=(1,), restarts=0, iterations=10, timeout=30),
+    )
     assert r.guaranteed.lower - 1e-6 <= 3.8826229 <= r.guaranteed.upper + 1e-6
     assert r.full_observation.lower <= r.guaranteed.upper + 1e-9
 

@@ -64,7 +64,9 @@ def write_drn(
             found before anything is written.
         OSError: the file cannot be written (nothing is left behind).
     """
-    chunks = iter_drn(model, header_comment=header_comment, valuations=valuations, observer=observer)
+    chunks = iter_drn(
+        model, header_comment=header_comment, valuations=valuations, observer=observer
+    )
     if is_stream(target):
         for chunk in chunks:
             target.write(chunk)  # type: ignore[union-attr]
@@ -207,12 +209,16 @@ def _drn_lines(
         )
     if model.model_type.is_game:
         state_line = np.strings.add(
-            np.strings.add(np.strings.add(state_line, " <"), model.state_players[s0:s1].astype(STR)),
+            np.strings.add(
+                np.strings.add(state_line, " <"), model.state_players[s0:s1].astype(STR)
+            ),
             ">",
         )
     if model.reward_models:
         columns = [
-            format_values(rm.state[s0:s1] if rm.state is not None else np.zeros(num_states), what="reward")
+            format_values(
+                rm.state[s0:s1] if rm.state is not None else np.zeros(num_states), what="reward"
+            )
             for rm in model.reward_models
         ]
         state_line = np.strings.add(
@@ -250,7 +256,9 @@ def _drn_lines(
     states = np.arange(num_states, dtype=np.int64)
     state_pos = states * per_state + local_rg[:-1] + indptr[local_rg[:-1]]
     choices = np.arange(num_choices, dtype=np.int64)
-    action_pos = (model.choice_states[c0:c1].astype(np.int64) - s0 + 1) * per_state + choices + indptr[:-1]
+    action_pos = (
+        (model.choice_states[c0:c1].astype(np.int64) - s0 + 1) * per_state + choices + indptr[:-1]
+    )
     trans_choice = np.repeat(choices, np.diff(indptr))
     trans_pos = action_pos[trans_choice] + 1 + (np.arange(nnz) - indptr[trans_choice])
     lines = np.empty(num_states * per_state + num_choices + nnz, dtype=STR)

@@ -433,7 +433,9 @@ def test_robot_props_files(benchmarks: Path, file: str, reward: bool) -> None:
 
 @given(random_models(), st.sampled_from(FORMULAS))
 @settings(max_examples=60, deadline=None)
-def test_model_letter_automaton_agrees_with_the_full_one(model: ExplicitModel, formula: Expr) -> None:
+def test_model_letter_automaton_agrees_with_the_full_one(
+    model: ExplicitModel, formula: Expr
+) -> None:
     # along every path of the model, both automata accept at the same steps: a joint breadth-first
     # walk over (model state, full DFA state, model-letter DFA state)
     full = to_dfa(formula)
