@@ -6,12 +6,12 @@ Usage::
                                      [--markdown docs/compatibility.md] [--only SUBSTRING]
 
 ``PRISM_CHECKOUT`` is a checkout of ``prismmodelchecker/prism`` (or just its ``prism-tests/``
-folder, or that folder's parent); nothing is fetched. The runner follows PRISM's ``prism-auto -t -m``
-(``prism/etc/scripts/prism-auto``): in each folder of the scope, every model file
+folder, or that folder's parent); nothing is fetched. The runner follows PRISM's ``prism-auto -t
+-m`` (``prism/etc/scripts/prism-auto``): in each folder of the scope, every model file
 (``.prism``/``.nm``/``.pm``/``.sm``) is run once per line of its ``.args`` file with every
-properties file whose name starts with the model's (``.props``/``.pctl``/``.csl``), once per line
-of that file's ``.args``. Argument lines that differ only in PRISM's engine switches (``-ex``,
-``-s``, ``-valiter``, ...) ask posgmc the same question and are run once; ``-const`` (ranges too),
+properties file whose name starts with the model's (``.props``/``.pctl``/``.csl``), once per line of
+that file's ``.args``. Argument lines that differ only in PRISM's engine switches (``-ex``, ``-s``,
+``-valiter``, ...) ask posgmc the same question and are run once; ``-const`` (ranges too),
 ``-exact`` and ``-prop`` are honoured; ``-param`` (parametric), ``-ctmc``, ``-fair`` and model-type
 overrides are out of scope and skipped with a reason, as are ctmc/pta/interval models.
 
@@ -621,7 +621,8 @@ def markdown(records: list[dict[str, Any]], skipped: list[tuple[Run, int]], *, c
     for r in wrong:
         lines.append(
             f"- `{r['props']}:{r['line']}` `{r['property']}`"
-            f"{' (' + r['consts'] + ')' if r['consts'] else ''}{' ' + r['args'] if r['args'] else ''}:"
+            f"{' (' + r['consts'] + ')' if r['consts'] else ''}"
+            f"{' ' + r['args'] if r['args'] else ''}:"
             f" PRISM {r['expected']}, posgmc {r['actual']}"
         )
     deliberate = [r for r in records if r["class"] == "deliberate difference"]

@@ -1,6 +1,8 @@
 """Synthesis quality and time against PAYNT, both in the same invocation (issue: synthesis).
 
-Usage: python benchmarks/synthesis_bench.py [--set posmg|pomdp] [--timeout 30] [--paynt-timeout 30] [--only NAME ...] [--shared DIR]
+Usage:
+    python benchmarks/synthesis_bench.py [--set posmg|pomdp] [--timeout 30] [--paynt-timeout 30]
+        [--only NAME ...] [--shared DIR]
 
 For every POSMG under ../shared/benchmarks/posmg/ with a DRN sketch (or, with --set pomdp, every
 POMDP under ../shared/benchmarks/pomdp/; --only NAME... for a subset): posgmc synthesises the
@@ -102,8 +104,9 @@ def main() -> None:
     if args.only:
         dirs = [d for d in dirs if d.name in args.only]
     print(
-        "| model | property | posgmc guaranteed [lower, upper] | full observation | vs_fss_adversary | "
-        "upper_bound | adversaries | memory | posgmc (s) | PAYNT --fsc-synthesis | PAYNT (s) | better |"
+        "| model | property | posgmc guaranteed [lower, upper] | full observation "
+        "| vs_fss_adversary | upper_bound | adversaries | memory | posgmc (s) "
+        "| PAYNT --fsc-synthesis | PAYNT (s) | better |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for d in dirs:
@@ -136,7 +139,8 @@ def main() -> None:
         theirs = f"{b['value']:.6f}" if "value" in b else f"fails: {b['error']}"
         pt = f"{b['seconds']:.1f}" if "seconds" in b else "-"
         print(
-            f"| {d.name} | `{prop}` | {mine} | {full} | {vs} | {ub} | {adversaries} | {memory} | {a['seconds']:.1f} | {theirs} | {pt} | {better} |",
+            f"| {d.name} | `{prop}` | {mine} | {full} | {vs} | {ub} | {adversaries} | {memory} "
+            f"| {a['seconds']:.1f} | {theirs} | {pt} | {better} |",
             flush=True,
         )
 

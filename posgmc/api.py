@@ -464,8 +464,8 @@ def iter_check(
         )
     synthesising = partial and not full_observation and not strategies
     note = (
-        "full-observation value: an upper bound for a maximising and a lower bound for a minimising "
-        "partially observing player"
+        "full-observation value: an upper bound for a maximising and a lower bound for a "
+        "minimising partially observing player"
         if partial and full_observation
         else None
     )

@@ -1,5 +1,6 @@
 """The commands about results and strategies: ``test`` (PRISM's RESULT convention for CI),
-``simulate`` and ``show-strategy``. Thin, like :mod:`posgmc.cli`, whose group and helpers they use."""
+``simulate`` and ``show-strategy``. Thin, like :mod:`posgmc.cli`, whose group and helpers they
+use."""
 
 from __future__ import annotations
 
@@ -211,7 +212,8 @@ def simulate(
             return EXIT_OK
         interval = "Wilson 95 %" if result.kind == "probability" else "normal 95 %, an estimate"
         click.echo(
-            f"{result.property}: {_fmt(result.estimate)}  [{_fmt(result.lower)}, {_fmt(result.upper)}]"
+            f"{result.property}: {_fmt(result.estimate)}  "
+            f"[{_fmt(result.lower)}, {_fmt(result.upper)}]"
             f"  ({interval}; {result.runs} runs, seed {result.seed})"
         )
         if result.undecided:

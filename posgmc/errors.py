@@ -114,7 +114,8 @@ class ConstantError(InputError):
 
 
 class BuildError(InputError):
-    """The model is invalid in a way only exploration shows (e.g. probabilities not summing to 1)."""
+    """The model is invalid in a way only exploration shows (e.g. probabilities not summing
+    to 1)."""
 
 
 class ModelFormatError(InputError):
@@ -122,7 +123,8 @@ class ModelFormatError(InputError):
 
 
 class UnsupportedError(PosgmcError):
-    """The input is valid but asks for something this build does not do; the hint says what to do instead."""
+    """The input is valid but asks for something this build does not do; the hint says what to do
+    instead."""
 
 
 class LimitError(PosgmcError):

@@ -1,4 +1,5 @@
-"""The Python API validates its arguments and raises documented PosgmcError subclasses (issue #13)."""
+"""The Python API validates its arguments and raises documented PosgmcError subclasses (issue
+#13)."""
 
 from __future__ import annotations
 

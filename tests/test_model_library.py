@@ -21,7 +21,8 @@ from posgmc.cli import main
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 
-# (folder, model, props, extra arguments, passed, skipped); strategy files are relative to the folder
+# (folder, model, props, extra arguments, passed, skipped); strategy files are relative to the
+# folder
 CASES = [
     ("maze", "maze.pomdp", "full_observation.props", ["--full-observation"], 2, 0),
     ("maze", "maze.pomdp", "maze.props", ["--memory", "2", "--timeout", "4"], 1, 0),
@@ -155,7 +156,9 @@ for path, constants, prop, kind in json.loads(sys.argv[1]):
     model = stormpy.build_model(program, properties)
     value = None
     if kind == "pomdp":
-        result = stormpy.pomdp.verify_with_belief_unfolding(model, properties[0], max_exploration_time=60)
+        result = stormpy.pomdp.verify_with_belief_unfolding(
+            model, properties[0], max_exploration_time=60
+        )
         value = [result.value, bool(result.completed_exploration)]
     out.append([model.nr_states, model.nr_choices, model.nr_transitions, value])
 print(json.dumps(out))

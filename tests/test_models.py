@@ -186,7 +186,8 @@ def test_secure_autonomy_synthesis_gates() -> None:
 
 
 def test_beacon_memory_helps_and_never_hurts() -> None:
-    """guaranteed for k = 1, 2, 3: 0.5, 0.9, 0.9 (derived in models/beacon/README.md): non-decreasing
+    """guaranteed for k = 1, 2, 3: 0.5, 0.9, 0.9 (derived in models/beacon/README.md):
+    non-decreasing
     and strictly higher with memory."""
     from posgmc.synthesis.search import SynthesisOptions
 

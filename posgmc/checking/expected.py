@@ -3,16 +3,16 @@
 A RESULT line holds a number (``0.85``, ``19/15``, ``1e-3``), an interval ``[lo,hi]``, ``true`` or
 ``false``, ``Infinity``/``-Infinity``, ``NaN``, ``Error`` or ``Error:substring`` (the property must
 fail, with that text in its message), a Pareto front ``[(x,y),...]`` (multi-objective queries), or
-``?`` (not checked). ``// RESULT (N=4): v`` applies when
-the constant N is 4; ``// RESULT (guaranteed): v`` compares the named number of the result
-(``guaranteed``, ``vs_fss_adversary``, ``upper_bound``, ``full_observation``) instead of its value.
-Numbers pass within a relative tolerance of the result (PRISM: ``1e-5·|v| + 1e-12``) or within
-the result's proven bounds (PRISM grades with a result's own accuracy when it has one), an
-interval when the value ± that tolerance (or the bounds) meets it; ``~v`` asks only for closeness in exact mode; an
-expected value may be an expression over the constants (``RESULT: 1/N``), as PRISM allows.
-``Error:a,b`` passes when the message contains every comma-separated word. In exact mode the
-fraction must be equal. The rules are PRISM's (``prism/src/prism/ResultTesting.java``), and the
-applicable line is the first whose constants all match (``Property.getExpectedResultString``).
+``?`` (not checked). ``// RESULT (N=4): v`` applies when the constant N is 4; ``// RESULT
+(guaranteed): v`` compares the named number of the result (``guaranteed``, ``vs_fss_adversary``,
+``upper_bound``, ``full_observation``) instead of its value. Numbers pass within a relative
+tolerance of the result (PRISM: ``1e-5·|v| + 1e-12``) or within the result's proven bounds (PRISM
+grades with a result's own accuracy when it has one), an interval when the value ± that tolerance
+(or the bounds) meets it; ``~v`` asks only for closeness in exact mode; an expected value may be an
+expression over the constants (``RESULT: 1/N``), as PRISM allows. ``Error:a,b`` passes when the
+message contains every comma-separated word. In exact mode the fraction must be equal. The rules are
+PRISM's (``prism/src/prism/ResultTesting.java``), and the applicable line is the first whose
+constants all match (``Property.getExpectedResultString``).
 """
 
 from __future__ import annotations

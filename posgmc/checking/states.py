@@ -57,7 +57,8 @@ def evaluate_states(
     short-circuit, so ``x > 0 & mod(y, x) = 0`` is fine where ``x = 0``.
 
     Args:
-        model: the explicit model (its ``state_values``, ``variable_names`` and ``labels`` are used).
+        model: the explicit model (its ``state_values``, ``variable_names`` and ``labels`` are
+        used).
         expr: a resolved state expression (constants already replaced by literals).
         queries: callback giving the per-state values of nested ``P``/``R`` queries.
 

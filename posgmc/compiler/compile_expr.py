@@ -767,7 +767,8 @@ class _Generator:
             if len(texts) == 2:
                 acc = f"{np_fn}({texts[0]}, {texts[1]})"
             else:  # n-ary: one flat reduction, not n nested calls
-                acc = f"{np_fn}.reduce(_np.broadcast_arrays(_full(v, 0, _int), {', '.join(texts)})[1:])"
+                operands = ", ".join(texts)
+                acc = f"{np_fn}.reduce(_np.broadcast_arrays(_full(v, 0, _int), {operands})[1:])"
             if type_ is ExprType.DOUBLE:
                 acc = f"_np.asarray({acc}, dtype=_float)"
             code = _joined(acc, type_, *args, partial=partial, extra=3)

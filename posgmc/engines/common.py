@@ -175,7 +175,8 @@ def _policy_solution(
     is_chain: bool,
     max_rounds: int,
 ) -> tuple[np.ndarray, np.ndarray, int]:
-    """Policy iteration (a direct solve for a chain): values, the local row of each state, rounds."""
+    """Policy iteration (a direct solve for a chain): values, the local row of each state,
+    rounds."""
     if initial_rows is None:
         start = gr.row_groups[:-1].copy()
     else:

@@ -1,7 +1,8 @@
 """Step-bounded rewards: ``R[C<=k]`` (cumulative) and ``R[I=k]`` (instantaneous).
 
 Both are exact up to floating point: k Bellman steps over all states, optimised per state and per
-remaining step, cut short when the iteration reaches an exact fixpoint (:func:`bellman_steps`). Their optimal strategies need a step counter, so none is returned (step-bounded
+remaining step, cut short when the iteration reaches an exact fixpoint (:func:`bellman_steps`).
+Their optimal strategies need a step counter, so none is returned (step-bounded
 probabilities are in :mod:`posgmc.engines.reach` and :mod:`posgmc.engines.step_bounds`).
 """
 

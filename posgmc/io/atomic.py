@@ -17,7 +17,8 @@ from posgmc.errors import InputError
 def atomic_open(
     path: str | Path, mode: str = "w", *, encoding: str | None = "utf-8"
 ) -> Iterator[IO]:  # type: ignore[type-arg]
-    """Open a temporary file beside ``path``; on success it replaces ``path``, on error it is removed.
+    """Open a temporary file beside ``path``; on success it replaces ``path``, on error it is
+    removed.
 
     Raises:
         InputError: the file cannot be written (no such directory, no permission, disk full),

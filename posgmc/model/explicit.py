@@ -17,7 +17,8 @@ model_type          ModelType                    dtmc: one choice per state
 initial_states      int64[k], k >= 1             sorted, distinct, each in [0, S)
 row_groups          int64[S + 1]                 row_groups[0] = 0, row_groups[S] = C, strictly
                                                  increasing (every state has >= 1 choice); the
-                                                 choices of state s are rows row_groups[s]:row_groups[s+1]
+                                                 choices of state s are rows
+                                                 row_groups[s]:row_groups[s+1]
 transitions         csr_matrix float64 [C, S]    every row sums to 1 (within 1e-9), entries > 0,
                                                  sorted column indices, no duplicates
 choice_actions      int32[C]                     index into ``action_names``

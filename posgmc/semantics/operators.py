@@ -3,10 +3,10 @@
 ``mod``, ``pow`` of two ints, and ``floor``/``ceil``/``round`` are the operators of the language
 that can fail (``parser/ast/ExpressionFunc.java``: ``evaluateMod``, ``evaluatePow``,
 ``evaluateFloor``...). The exploration code generator (:mod:`posgmc.compiler.compile_expr`) and the
-state-formula evaluator (:mod:`posgmc.checking.states`) both call the functions below, so a model and
-a property give the same value or the same error for the same expression. Each function returns the
-result array or raises :class:`DomainFailure` with the message and the first offending position; the
-caller turns it into a positioned error naming the state.
+state-formula evaluator (:mod:`posgmc.checking.states`) both call the functions below, so a model
+and a property give the same value or the same error for the same expression. Each function returns
+the result array or raises :class:`DomainFailure` with the message and the first offending position;
+the caller turns it into a positioned error naming the state.
 
 * ``mod(i, n)`` needs ``n > 0`` and is never negative (``mod(-1, 3) = 2``);
 * ``pow(i, j)`` of two ints needs ``j >= 0`` and a result that fits in 64 bits;
@@ -288,7 +288,7 @@ def to_float(x: int | Fraction | float) -> float:
         return -math.inf if x < 0 else math.inf
 
 
-# -- exact scalar forms (constant folding and the scalar evaluator) ----------------------------------
+# -- exact scalar forms (constant folding and the scalar evaluator) --------------------------------
 
 Exact = int | Fraction | float
 """A scalar number: int for ints, Fraction for a double while exact, float once inexact."""
@@ -307,7 +307,8 @@ def scalar_int_pow(a: int, b: int) -> int:
     """``pow(a, b)`` of two ints. Raises DomainFailure for ``b < 0`` or beyond 64-bit integers."""
     if b < 0:
         raise DomainFailure(
-            f"negative exponent {b} in pow() of two ints; write pow({a}.0, {b}) for a double result",
+            f"negative exponent {b} in pow() of two ints; "
+            f"write pow({a}.0, {b}) for a double result",
             0,
         )
     if a not in (-1, 0, 1) and b * math.log2(abs(a)) >= 63:

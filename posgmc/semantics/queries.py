@@ -73,7 +73,7 @@ class QueryResolver:
             raise errors[0]
         return out
 
-    # -- collecting forms, for the semantic stage ---------------------------------------------------
+    # -- collecting forms, for the semantic stage --------------------------------------------------
 
     def resolve(self, q: ProbQuery | RewardQuery, errors: list[PosgmcError]) -> ResolvedQuery:
         """The record of one query; its errors are appended to ``errors``."""

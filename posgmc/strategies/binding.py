@@ -311,8 +311,9 @@ def memoryless_strategy(
     if np.any(chosen[z] != acts):
         s = int(states[np.argmax(chosen[z] != acts)])
         raise StrategyError(
-            f"the choices are not observation-based: state {_state_text(model, s)} and another state "
-            f"with the observation {view.describe(int(view.state_obs[s]))} play different actions"
+            f"the choices are not observation-based: state {_state_text(model, s)} and another "
+            f"state with the observation {view.describe(int(view.state_obs[s]))} play different "
+            "actions"
         )
     # where no decision matters (-1), the observation's first state plays its first choice
     rest = np.flatnonzero(owned & (choices < 0))

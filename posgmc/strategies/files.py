@@ -22,7 +22,8 @@
 
 Every error names the file and the JSON path of what is wrong (``rules[3].action.via1``), or the
 line and column for text that is not JSON. Writing sorts rules by memory and observation, and
-actions by label, and prints probabilities with ``repr``, so reading a written file gives back the same arrays.
+actions by label, and prints probabilities with ``repr``, so reading a written file gives back the
+same arrays.
 """
 
 from __future__ import annotations

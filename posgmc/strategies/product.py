@@ -260,7 +260,8 @@ def _missing_rule_error(
     n = (m // stride) % b.memory_size
     fss = b.fss
     raise StrategyError(
-        f"no rule for memory {n} under the observation {b.view.describe(int(b.view.state_obs[s]))}, "
+        f"no rule for memory {n} under the observation "
+        f"{b.view.describe(int(b.view.state_obs[s]))}, "
         f"which player {b.view.name!r} reaches under the strategies (e.g. in state "
         f"{_state_text(model, s)})",
         path="rules",

@@ -148,7 +148,8 @@ class StrategyChecker:
                 f"strategy for {', '.join(map(repr, missing))}"
                 if expr.threshold is not None
                 else "the given strategies determine no number for this property: give the "
-                f"decision maker's strategy ({', '.join(repr(names[p]) for p in sorted(deciders))}) "
+                "decision maker's strategy "
+                f"({', '.join(repr(names[p]) for p in sorted(deciders))}) "
                 "or the adversary's",
                 hint="--strategy PLAYER=FILE, once per player",
             )

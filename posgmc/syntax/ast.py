@@ -155,7 +155,8 @@ FUNCTION_ARITY: dict[Function, tuple[int, int | None]] = {
 
 @dataclass(frozen=True)
 class Call(Expr):
-    """``min(a, b, ...)``, ``pow(x, y)``, ``mod(i, n)``, ``log(x, base)``, ... (also ``func(min, a, b)``)."""
+    """``min(a, b, ...)``, ``pow(x, y)``, ``mod(i, n)``, ``log(x, base)``, ...; also written
+    ``func(min, a, b)``."""
 
     function: Function
     args: tuple[Expr, ...]
@@ -237,7 +238,8 @@ class TimeBound(Node):
 
 @dataclass(frozen=True)
 class Temporal(Expr):
-    """A temporal operator: ``X a``, ``F a``, ``G a`` (one operand) or ``a U b``, ``a W b``, ``a R b``."""
+    """A temporal operator: ``X a``, ``F a``, ``G a`` (one operand) or ``a U b``, ``a W b``,
+    ``a R b``."""
 
     op: TemporalOp
     operands: tuple[Expr, ...]
@@ -269,7 +271,8 @@ class CoalitionKind(enum.Enum):
 
 @dataclass(frozen=True)
 class PlayerRef(Node):
-    """A player in a coalition: a name, or a number as written (1-based unless the user said 0-based)."""
+    """A player in a coalition: a name, or a number as written (1-based unless the user said
+    0-based)."""
 
     name: str | None = None
     number: int | None = None
@@ -311,7 +314,8 @@ class RewardKind(enum.Enum):
 @dataclass(frozen=True)
 class RewardObjective(Node):
     """What an ``R`` query accumulates. ``target`` is the state/path formula where one is needed,
-    ``bound`` the step count of ``C<=k``/``I=k``, ``discount`` the factor of the discounted forms."""
+    ``bound`` the step count of ``C<=k``/``I=k``, ``discount`` the factor of the discounted
+    forms."""
 
     kind: RewardKind
     target: Expr | None = None
@@ -321,7 +325,8 @@ class RewardObjective(Node):
 
 @dataclass(frozen=True)
 class RewardQuery(Expr):
-    """``<<C>> R{"cost"}min=? [ objective ]``; ``reward`` is a name, a 1-based index, or None (first)."""
+    """``<<C>> R{"cost"}min=? [ objective ]``; ``reward`` is a name, a 1-based index, or None
+    (first)."""
 
     coalition: Coalition | None
     reward: str | int | None
@@ -380,7 +385,8 @@ class Assignment(Node):
 
 @dataclass(frozen=True)
 class Update(Node):
-    """``p : (x'=..)&(y'=..)``; ``true`` is an update with no assignments; probability 1 if omitted."""
+    """``p : (x'=..)&(y'=..)``; ``true`` is an update with no assignments; probability 1 if
+    omitted."""
 
     probability: Expr | None
     assignments: tuple[Assignment, ...]

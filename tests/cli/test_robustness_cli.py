@@ -128,7 +128,8 @@ def test_error_shows_the_right_line_after_a_form_feed(tmp_path: Path, breaker: s
     # str.splitlines counts these as line breaks; PRISM (and posgmc) count "\n" only
     model = tmp_path / "ff.prism"
     model.write_text(
-        f"dtmc // page{breaker}break\nmodule m x : [0..1] init 0;\n  [] x=0 -> (yy'=1);\nendmodule\n"
+        f"dtmc // page{breaker}break\nmodule m x : [0..1] init 0;\n"
+        "  [] x=0 -> (yy'=1);\nendmodule\n"
     )
     r = run("lint", str(model))
     assert r.exit_code == 2

@@ -20,7 +20,8 @@ _QUOTED = r'"(?:[^"\\\n]|\\.)*"'
 _ATTRIBUTE = rf"\w+=(?:{_QUOTED}|[\w.]+)"
 _ATTRIBUTES = rf"\[{_ATTRIBUTE}(?:, {_ATTRIBUTE})*\]"
 _STATEMENT = re.compile(
-    rf"  (?:(?:node|edge) {_ATTRIBUTES}|rankdir=LR|[sc]\d+ {_ATTRIBUTES}|[sc]\d+ -> s\d+ {_ATTRIBUTES}"
+    rf"  (?:(?:node|edge) {_ATTRIBUTES}|rankdir=LR|[sc]\d+ {_ATTRIBUTES}"
+    rf"|[sc]\d+ -> s\d+ {_ATTRIBUTES}"
     rf"|s\d+ -> c\d+ {_ATTRIBUTES});"
 )
 

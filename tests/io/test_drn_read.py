@@ -85,7 +85,8 @@ def test_pomdp_observation_counts(benchmarks: Path) -> None:
 
 
 def test_test_game_details(benchmarks: Path) -> None:
-    """posmg/test-game, read off the file: 'state 0 {0} <1> init', actions odd/even, then dbl/add."""
+    """posmg/test-game, read off the file: 'state 0 {0} <1> init', actions odd/even, then
+    dbl/add."""
     model = read_drn(benchmarks / "posmg/test-game/sketch.templ")
     assert model.player_names == ("0", "1")
     assert model.state_players.tolist() == [1, 0, 0, 0, 0, 0, 1, 1]

@@ -97,7 +97,10 @@ def test_player_numbers_out_of_range() -> None:
 
 
 def test_coalitions_resolve_to_zero_based_indices() -> None:
-    props = '<<1>> Pmax=? [F "goal"]\n<<p2>> Pmin=? [F "goal"]\n<<*>> Pmax=? [F "goal"]\n[[p1,2]] Pmax=? [F "goal"]\nPmax=? [F "goal"]\n'
+    props = (
+        '<<1>> Pmax=? [F "goal"]\n<<p2>> Pmin=? [F "goal"]\n<<*>> Pmax=? [F "goal"]\n'
+        '[[p1,2]] Pmax=? [F "goal"]\nPmax=? [F "goal"]\n'
+    )
     got = [(q.coalition, q.coalition_kind) for p in checked(props) for q in p.queries]
     assert got == [
         (frozenset({0}), CoalitionKind.ANGLE),

@@ -1,4 +1,5 @@
-"""posgmc-fss/1 files: exact round trips, and one clear error per kind of bad file (file + JSON path)."""
+"""posgmc-fss/1 files: exact round trips, and one clear error per kind of bad file (file + JSON
+path)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,7 @@
 """A memoryless strategy on PAYNT's POSMG files: posgmc's `guaranteed` against Storm on the model
 restricted by hand (issue #8). Skipped without stormpy; run it in the reference environment:
-``/root/refenv/bin/python -m pytest tests/strategies/test_storm_strategy.py`` (benchmarks/README.md).
+``/root/refenv/bin/python -m pytest tests/strategies/test_storm_strategy.py``
+(benchmarks/README.md).
 
 The independent path: the DRN text itself is rewritten here, keeping for each of player 0's states
 only the choice the strategy picks (first enabled action of its observation, in file order) and

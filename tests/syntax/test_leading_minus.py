@@ -10,7 +10,10 @@ from posgmc.errors import ParseError
 from posgmc.syntax.parser import parse_properties, parse_property
 from posgmc.syntax.printer import format_expr
 
-MODEL = "dtmc\nmodule m\n  s : [0..1] init 0;\n  [] s=0 -> 0.25:(s'=1) + 0.75:(s'=0);\n  [] s=1 -> true;\nendmodule\n"
+MODEL = (
+    "dtmc\nmodule m\n  s : [0..1] init 0;\n"
+    "  [] s=0 -> 0.25:(s'=1) + 0.75:(s'=0);\n  [] s=1 -> true;\nendmodule\n"
+)
 
 
 def test_minus_binds_to_the_leftmost_operand() -> None:

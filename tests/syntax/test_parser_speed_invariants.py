@@ -1,5 +1,6 @@
-"""The fast parse loop (actions run during the LALR parse, own lexing loop, collector paused, grammar
-analysis cached) builds exactly the trees, spans and errors of the tree-building parser it replaced.
+"""The fast parse loop (actions run during the LALR parse, own lexing loop, collector paused,
+grammar analysis cached) builds exactly the trees, spans and errors of the tree-building parser it
+replaced.
 
 Evidence, strongest first:
 

@@ -299,7 +299,7 @@ def test_parse_property_single() -> None:
     assert prop.expected == ()
 
 
-# -- Storm's unparenthesised temporal operands (Storm's FormulaParser accepts them; PRISM does not) --
+# -- Storm's unparenthesised temporal operands (Storm's FormulaParser accepts; PRISM does not) --
 
 
 @pytest.mark.parametrize(

@@ -65,7 +65,8 @@ def test_step_bound_and_ltl_on_beacon(prop: str, tmp_path: Path) -> None:
 def test_step_bound_is_below_the_unbounded_value(tmp_path: Path) -> None:
     """A bounded reachability is at most the unbounded one, for the same strategy: the F<=12
     defence synthesised on rover.posg guarantees no more for F<=12 than for F (checked on the game
-    with --strategy), and no more than the full-observation F<=12 value (the goal is 4 moves away, every other step the attacker's)."""
+    with --strategy), and no more than the full-observation F<=12 value (the goal is 4 moves away,
+    every other step the attacker's)."""
     res, _ = _run(ROVER, '<<rover>> Pmax=? [ F<=12 "goal" ]', tmp_path, "1")
     again = CliRunner().invoke(
         main,

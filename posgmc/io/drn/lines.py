@@ -120,7 +120,8 @@ def parse_state_line(
         )
     if len(token) > 18 or int(token) != expected:
         raise drn.error(
-            f"expected state {expected}, found state {token if len(token) <= 30 else token[:20] + '...'}",
+            f"expected state {expected}, found state "
+            f"{token if len(token) <= 30 else token[:20] + '...'}",
             ln,
             m.start(1) + 1,
             m.end(1) + 1,
