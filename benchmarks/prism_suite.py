@@ -477,7 +477,7 @@ def _guarded(pairs: Iterator[tuple[Any, Any]], parsed: Sequence[Any],
         for prop, outcome in pairs:
             done.add(prop.span.line)
             yield prop, outcome
-    except Exception as bug:
+    except Exception as bug:  # noqa: BLE001 - reported as an internal error, never swallowed
         for prop in parsed:
             if prop.span.line in plan and prop.span.line not in done:
                 yield prop, bug

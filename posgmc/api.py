@@ -218,7 +218,11 @@ def load(
             f"constants must be a mapping of names to values, got {type(constants).__name__}"
         )
     name = str(path) if path is not None else None
-    content = text if text is not None else _read(path)  # type: ignore[arg-type]
+    if text is not None:
+        content = text
+    else:
+        assert path is not None  # noqa: S101 - one of them is given (checked above)
+        content = _read(path)
     source = SourceText(content, name)
     try:
         if _is_drn(content, name):
@@ -372,7 +376,7 @@ def _check_explicit(session: Session, options: BuildOptions) -> ExplicitModel:
     """A model read from DRN obeys the same options as a built one: the state limit holds, and
     constants (which a DRN file cannot have) are an error rather than silently ignored."""
     model = session.explicit
-    assert model is not None
+    assert model is not None  # noqa: S101 - the caller checked
     if session.constants:
         raise InputError(
             f"{session.path or 'the model'} is an explicit (DRN) model: it has no constants to set "

@@ -36,4 +36,4 @@ def test_the_document_has_its_examples() -> None:
 @pytest.mark.parametrize(("heading", "code"), EXAMPLES, ids=[h.split(".")[0] for h, _ in EXAMPLES])
 def test_example_runs(heading: str, code: str, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(ROOT)
-    exec(compile(code, f"docs/api.md: {heading}", "exec"), {"__name__": "__example__"})
+    exec(compile(code, f"docs/api.md: {heading}", "exec"), {"__name__": "__example__"})  # noqa: S102

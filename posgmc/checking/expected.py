@@ -21,10 +21,14 @@ import math
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import TYPE_CHECKING
 
 from posgmc.checking.results import PropertyResult
 from posgmc.errors import PosgmcError
 from posgmc.syntax.ast import ExpectedResult, Property
+
+if TYPE_CHECKING:
+    from posgmc.checking.multi import Front
 
 __all__ = ["Verdict", "check_form", "expected_for", "grade", "DEFAULT_TOLERANCE"]
 
@@ -209,7 +213,7 @@ def grade(
     front = getattr(outcome, "front", None)
     if front is not None or text.startswith("[("):
         return _grade_front(text, front, tolerance)
-    value: object = outcome.value
+    value: float | bool | None = outcome.value
     if expected.number is not None:
         number = getattr(outcome, expected.number, None)
         if number is None:
@@ -230,7 +234,7 @@ def grade(
             wanted = None
         if wanted is not None and (exact == wanted or not approximate):
             return Verdict(exact == wanted, text, str(exact))
-    v = float(value)  # type: ignore[arg-type]
+    v = float(value)
     proven = _proven_bounds(outcome) if expected.number is None else None
     if body.startswith("[") and body.endswith("]"):
         lo, hi = _interval(body)
@@ -272,17 +276,17 @@ def _points(text: str) -> list[tuple[float, ...]]:
     return [tuple(_number(x) for x in g.split(",")) for g in groups]
 
 
-def _grade_front(text: str, front: object, tolerance: float) -> Verdict:
+def _grade_front(text: str, front: Front | None, tolerance: float) -> Verdict:
     """A Pareto RESULT passes when the same vertices were found: every expected point is close to
     a vertex of the computed front and every vertex close to an expected point (relative
     ``tolerance``, absolute 1e-6 near 0)."""
     if front is None:
         return Verdict(False, text, "not a Pareto front")
     if not text.startswith("[("):
-        return Verdict(False, text, front.text())  # type: ignore[attr-defined]
+        return Verdict(False, text, front.text())
     wanted = _points(text)
-    got = [tuple(float(v) for v in p) for p in front.points]  # type: ignore[attr-defined]
-    actual = front.text()  # type: ignore[attr-defined]
+    got = [tuple(float(v) for v in p) for p in front.points]
+    actual = front.text()
 
     def near(p: tuple[float, ...], q: tuple[float, ...]) -> bool:
         return len(p) == len(q) and all(

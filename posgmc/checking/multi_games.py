@@ -28,6 +28,7 @@ from posgmc.engines.graph import end_components
 from posgmc.engines.multi import polygon
 from posgmc.engines.multi.games import coalition_sets
 from posgmc.errors import UnsupportedError
+from posgmc.model.explicit import ExplicitModel
 from posgmc.syntax.ast import Direction, MultiQuery, ProbQuery, RewardQuery
 from posgmc.syntax.printer import format_expr
 
@@ -46,7 +47,7 @@ class _Statistics(TypedDict):
     seconds: float
 
 
-def _terminal(model) -> np.ndarray:  # type: ignore[no-untyped-def]
+def _terminal(model: ExplicitModel) -> np.ndarray:
     """States whose every choice loops on the state with probability 1."""
     t = model.transitions
     owner = model.choice_states
@@ -107,7 +108,7 @@ def answer_game(checker: PropertyChecker, expr: MultiQuery) -> MultiAnswer:
             rewards[:, i] = np.where(acc[m.choice_states], 0.0, into)
         else:
             q = o.query
-            assert isinstance(q, RewardQuery)
+            assert isinstance(q, RewardQuery)  # noqa: S101
             r = m.reward_model(q.reward).choice_rewards(m.row_groups)
             if (r < 0).any():
                 raise UnsupportedError("multi-objective game rewards must be non-negative", q.span)

@@ -40,7 +40,7 @@ from posgmc.semantics.flat import FlatModel
 __all__ = ["BuildOptions", "BuildResult", "ProgressMode", "ValidationMode", "build_model"]
 
 
-def build_model(flat: FlatModel, *, options: BuildOptions = BuildOptions()) -> BuildResult:
+def build_model(flat: FlatModel, *, options: BuildOptions = BuildOptions()) -> BuildResult:  # noqa: B008
     """Build the explicit model of an instantiated model.
 
     Args:

@@ -753,9 +753,10 @@ class _Generator:
             type_ = args[0].type
             for a in args[1:]:
                 type_ = _join(type_, a.type)
-        if all(a.constant is not None for a in args):
+        constants = [a.constant for a in args if a.constant is not None]
+        if len(constants) == len(args):
             try:
-                return self.const(_fold_call(fn, [a.constant for a in args], type_), type_)  # type: ignore[misc]
+                return self.const(_fold_call(fn, constants, type_), type_)
             except _FoldError as err:
                 # never fold away a failure: it may sit in a branch that is never taken
                 code = self.failing(str(err), e.span, type_)
@@ -772,11 +773,10 @@ class _Generator:
             if type_ is ExprType.DOUBLE:
                 acc = f"_np.asarray({acc}, dtype=_float)"
             code = _joined(acc, type_, *args, partial=partial, extra=3)
-            if type_ is ExprType.INT and all(a.bounds is not None for a in args):
+            bounds = [a.bounds for a in args if a.bounds is not None]
+            if type_ is ExprType.INT and len(bounds) == len(args):
                 pick = min if fn is Function.MIN else max
-                los = [a.bounds[0] for a in args]  # type: ignore[index]
-                his = [a.bounds[1] for a in args]  # type: ignore[index]
-                code.bounds = (pick(los), pick(his))
+                code.bounds = (pick(lo for lo, _ in bounds), pick(hi for _, hi in bounds))
             return code
         if fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
             a = args[0]
@@ -883,7 +883,7 @@ def compile_expr(
     source = "".join(gen.aux) + _function_source("_main", code.prelude, code.text)
     namespace: dict[str, Any] = dict(_RUNTIME)
     namespace.update(gen.env)
-    exec(compile(source, f"<posgmc expression {expr.span}>", "exec"), namespace)
+    exec(compile(source, f"<posgmc expression {expr.span}>", "exec"), namespace)  # noqa: S102
     return CompiledExpr(
         type=code.type,
         constant=None,

@@ -226,7 +226,7 @@ class ExplicitModel:
 
     def _validate_exact(self) -> None:
         exact = self.exact_probabilities
-        assert exact is not None
+        assert exact is not None  # noqa: S101 - the caller checked
         T = self.transitions
         if exact.shape != (T.nnz,):
             raise ModelInvariantError("exact_probabilities needs one entry per transition")

@@ -7,6 +7,8 @@ action, the next memory node(s). The graph has one node per memory node and one 
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from posgmc.strategies.fss import FiniteStateStrategy
@@ -18,7 +20,8 @@ def _p(x: float) -> str:
     return f"{x:.6g}"
 
 
-def _rules(fss: FiniteStateStrategy):  # type: ignore[no-untyped-def]
+def _rules(fss: FiniteStateStrategy) -> Iterator[tuple[int, int, list[int]]]:
+    """(memory node, observation, the actions played) of every rule, in observation order."""
     order = np.lexsort(fss.observation_values.T[::-1]) if fss.num_observations else np.zeros(0, int)
     for n in range(fss.memory_size):
         for z in order.tolist():

@@ -109,7 +109,7 @@ def _objective(expr: Expr) -> tuple[str, Expr | None, Expr, int | None, RewardQu
         and expr.threshold is None
         and expr.objective.kind is RewardKind.REACH
     ):
-        assert expr.objective.target is not None
+        assert expr.objective.target is not None  # noqa: S101 - F has a target
         return "reward", None, expr.objective.target, None, expr
     raise UnsupportedError(
         "simulation estimates P=? [ F φ ], P=? [ a U b ], their step-bounded forms, and "

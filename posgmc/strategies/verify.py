@@ -174,5 +174,5 @@ class StrategyChecker:
 
 def _bound(r: PropertyResult) -> Bound:
     # a numeric query's result
-    assert r.value is not None and r.lower is not None and r.upper is not None
+    assert r.value is not None and r.lower is not None and r.upper is not None  # noqa: S101
     return Bound(float(r.value), r.lower, r.upper, r.sound and r.converged)

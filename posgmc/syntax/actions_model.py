@@ -135,13 +135,16 @@ class ModelActions(ActionBase):
         return list(items)
 
     def single_property(self, span: None, children: Sequence[Any]) -> PropertyItem:
-        return children[0]  # type: ignore[no-any-return]
+        item: PropertyItem = children[0]
+        return item
 
     def single_expression(self, span: None, children: Sequence[Any]) -> Expr:
-        return children[0]  # type: ignore[no-any-return]
+        expr: Expr = children[0]
+        return expr
 
     def single_model_expression(self, span: None, children: Sequence[Any]) -> Expr:
-        return children[0]  # type: ignore[no-any-return]
+        expr: Expr = children[0]
+        return expr
 
     # --- declarations --------------------------------------------------------------------------
 

@@ -229,7 +229,9 @@ def _tokens(text: str, state: ParserState[int]) -> Iterator[Token]:
         if match is None:
             break
         value = match.group()
-        kind: str = match.lastgroup  # type: ignore[assignment]
+        kind = match.lastgroup
+        if kind is None:  # pragma: no cover - every alternative is a named group
+            break  # (lark's lexer takes over from here)
         start, start_line, start_column = pos, line, pos - line_start + 1
         if kind in scanner.newlines:
             newlines = value.count("\n")

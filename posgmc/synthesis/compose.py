@@ -67,7 +67,7 @@ class RankJob:
         r = StrategyChecker(problem.model, {self.adversary.player: self.adversary},
                             coalition_of=problem.coalition_of, scalar=problem.scalar,
                             options=POLICY).check(problem.query, text="rank")
-        assert r.upper_bound is not None
+        assert r.upper_bound is not None  # noqa: S101 - the adversary's strategy is given
         return float(r.upper_bound.value)
 
 
@@ -83,7 +83,7 @@ class VersusJob:
                                             self.adversary.player: self.adversary},
                             coalition_of=problem.coalition_of, scalar=problem.scalar,
                             options=POLICY).check(problem.query, text="versus")
-        assert r.vs_fss_adversary is not None
+        assert r.vs_fss_adversary is not None  # noqa: S101 - both strategies are given
         return float(r.vs_fss_adversary.value)
 
 
@@ -146,7 +146,7 @@ class ComposeJob:
             n += len(pars)
             if best is None or v > best[0] + 1e-6 * max(1.0, abs(best[0])):
                 best = (v, gg, dd)
-        assert best is not None
+        assert best is not None  # noqa: S101 - three candidates
         return Composed(pars[0].strategy(best[1], best[2]), (la, ld), sign * best[0], n)
 
 
@@ -164,7 +164,7 @@ class ResponseJob:
     deadline: float | None
 
     def run(self, problem: Problem) -> tuple[FiniteStateStrategy, float]:
-        assert problem.adversary is not None
+        assert problem.adversary is not None  # noqa: S101 - only asked in a game
         model = problem.model
         prod = strategy_product(model, [bind(model, self.defence)])
         par = _on_product(problem, prod, problem.adversary, self.memory,
@@ -185,7 +185,7 @@ class ResponseJob:
             v = sign * par.evaluate(gg, dd, gradient=False).value
             if best is None or round(v, 7) > round(best[0], 7):
                 best = (v, gg, dd)
-        assert best is not None
+        assert best is not None  # noqa: S101 - three candidates
         return par.strategy(best[1], best[2]), sign * best[0]
 
 
@@ -255,7 +255,7 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
     """Enumerate, rank and keep the adversary's strategies, compose the defence against them
     (starting from ``defence``, the search's) and run the double oracle (see the module
     docstring), within ``deadline`` (a ``time.perf_counter()`` value)."""
-    assert problem.adversary is not None
+    assert problem.adversary is not None  # noqa: S101 - only asked in a game
     phases: dict[str, float] = {}
     sign = problem.sign
     t0 = time.perf_counter()
@@ -372,7 +372,7 @@ def _best_response(problem: Problem, executor: Executor, defence: FiniteStateStr
         values = executor.map([VersusJob(defence, a) for a in enumeration.strategies])
         i = min(range(len(values)), key=lambda j: sign * values[j])
         return enumeration.strategies[i], values[i]
-    assert problem.adversary is not None
+    assert problem.adversary is not None  # noqa: S101 - only asked in a game
     layout = Layout.of(problem.model, problem.adversary)
     shapes = ((memory, *layout.mask.shape), (memory, *layout.mask.shape, memory))
     values = executor.map([VersusJob(defence, a) for a in kept])

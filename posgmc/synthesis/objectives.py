@@ -83,7 +83,7 @@ def lift(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker,  # type: 
     from posgmc.engines import ltl
 
     path = expr.path if isinstance(expr, ProbQuery) else expr.objective.target
-    assert path is not None
+    assert path is not None  # noqa: S101 - an LTL objective has its formula
     if not ltl.is_cosafe(path):
         raise UnsupportedError(
             "synthesis takes co-safe LTL (X, F, U, step bounds, bounded G, boolean connectives)",

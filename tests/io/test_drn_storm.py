@@ -25,7 +25,7 @@ STORM_READABLE_BENCHMARKS = ("pomdp/4x3-95/sketch.templ", "pomdp/query-s2/sketch
 
 def storm_view(path: str) -> dict[str, Any]:
     """What stormpy builds from a DRN file, as plain data."""
-    import stormpy
+    import stormpy  # noqa: PLC0415 - optional dependency, imported only when present
 
     options_class = getattr(stormpy, "DirectEncodingParserOptions", None)
     if options_class is None:  # stormpy 2.0 keeps it here

@@ -26,7 +26,7 @@ callers report LP numbers as such (not as proven bounds).
 from __future__ import annotations
 
 import enum
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -164,7 +164,14 @@ class OccupationLP:
             },
         )
 
-    def _point(self, res, rows, at_least, *, x=None) -> LPPoint:  # type: ignore[no-untyped-def]
+    def _point(
+        self,
+        res: OptimizeResult,
+        rows: Sequence[int],
+        at_least: Mapping[int, float],
+        *,
+        x: np.ndarray | None = None,
+    ) -> LPPoint:
         if res.status == 2:
             return LPPoint(LPStatus.INFEASIBLE, np.full(self.num_objectives, np.nan), None,
                            0.0, message=res.message)

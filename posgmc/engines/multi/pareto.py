@@ -104,7 +104,7 @@ def pareto_front(
         empty = np.zeros((0, 2))
         return ParetoFront(empty, np.zeros((0, 3)), empty, 0.0, solves, True)
     b, wb = extreme(1)
-    assert b is not None
+    assert b is not None  # noqa: S101 - feasible for one weight, feasible for all
     facets = [np.array([wa[0], wa[1], float(wa @ a)]), np.array([wb[0], wb[1], float(wb @ b)])]
     points = [a, b]
     queue = [(a, b)] if np.linalg.norm(a - b) > tolerance else []
@@ -120,7 +120,7 @@ def pareto_front(
             continue
         w = w / norm
         c = solve(w, {})
-        assert c is not None
+        assert c is not None  # noqa: S101
         facets.append(np.array([w[0], w[1], float(w @ c)]))
         if float(w @ c) - float(w @ p) > tolerance:
             points.append(c)

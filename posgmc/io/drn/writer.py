@@ -19,7 +19,7 @@ from typing import IO
 import numpy as np
 
 from posgmc.errors import UnsupportedError
-from posgmc.io._text import STR, format_values, is_stream, join_columns
+from posgmc.io._text import STR, format_values, join_columns
 from posgmc.io.drn.header import PLAYERS_PREFIX
 from posgmc.io.drn.lines import NOLABEL
 from posgmc.model.explicit import ExplicitModel
@@ -67,13 +67,13 @@ def write_drn(
     chunks = iter_drn(
         model, header_comment=header_comment, valuations=valuations, observer=observer
     )
-    if is_stream(target):
+    if not isinstance(target, (str, os.PathLike)):  # an open stream (anything with write)
         for chunk in chunks:
-            target.write(chunk)  # type: ignore[union-attr]
+            target.write(chunk)
         return
     from posgmc.io.atomic import atomic_open
 
-    with atomic_open(target) as handle:  # type: ignore[arg-type]
+    with atomic_open(target) as handle:
         for chunk in chunks:
             handle.write(chunk)
 
