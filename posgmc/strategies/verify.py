@@ -126,14 +126,14 @@ class StrategyChecker:
         if deciders <= given:
             fixed = frozenset(deciders)
             r = self._checker(fixed).check(numeric, text=text, name=name)
-            numbers["guaranteed"] = _bound(r)
+            numbers["guaranteed"] = bound_of(r)
             headline = self._checker(fixed).check(expr, text=text, name=name) \
                 if expr.threshold is not None else r
         if adversaries and players <= given:
-            numbers["vs_fss_adversary"] = _bound(self._checker(players).check(numeric, text=text))
+            numbers["vs_fss_adversary"] = bound_of(self._checker(players).check(numeric, text=text))
         if adversaries and adversaries <= given:
             r = self._checker(frozenset(adversaries)).check(numeric, text=text, name=name)
-            numbers["upper_bound"] = _bound(r)
+            numbers["upper_bound"] = bound_of(r)
             if headline is None and expr.threshold is None:
                 headline = r
             if headline is None and "vs_fss_adversary" in numbers:
@@ -172,7 +172,9 @@ class StrategyChecker:
         )
 
 
-def _bound(r: PropertyResult) -> Bound:
+def bound_of(r: PropertyResult) -> Bound:
+    """A numeric result as a :class:`Bound`: its value, proven bounds, and whether they are proven
+    and converged."""
     # a numeric query's result
     assert r.value is not None and r.lower is not None and r.upper is not None  # noqa: S101
     return Bound(float(r.value), r.lower, r.upper, r.sound and r.converged)
