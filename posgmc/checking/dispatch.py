@@ -35,31 +35,32 @@ from posgmc.engines.step_bounds import interval_reach_probability
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics.evaluate import Value
-from posgmc.syntax.printer import format_expr
-from posgmc.syntax.traversal import any_node
+from posgmc.semantics.queries import reward_structure
 from posgmc.syntax.ast import (
     NO_SPAN,
     Binary,
     BinaryOp,
     Call,
-    Ite,
     Coalition,
     ComparisonOp,
     Direction,
     Expr,
     Filter,
-    PathQuantifier,
+    Ite,
     MultiQuery,
+    PathQuantifier,
     ProbQuery,
-    SteadyQuery,
     RewardKind,
     RewardQuery,
+    SteadyQuery,
     Temporal,
     TemporalOp,
     TimeBound,
     Unary,
     UnaryOp,
 )
+from posgmc.syntax.printer import format_expr
+from posgmc.syntax.traversal import any_node
 
 __all__ = ["CheckOptions", "PropertyChecker", "QueryValue"]
 
@@ -488,7 +489,7 @@ class PropertyChecker:
 
     def _reward(self, expr: RewardQuery, maximize: np.ndarray) -> QueryValue:
         m, opts = self.model, self.options.solver
-        rm = m.reward_model(expr.reward)
+        rm = reward_structure(m, expr)
         objective = expr.objective
         kind = objective.kind
         choice_rewards = rm.choice_rewards(m.row_groups)
@@ -543,7 +544,7 @@ class PropertyChecker:
                 hint="use X, F, U and bounded G (a finite prefix must decide the formula)",
             )
         prod, starts = self._ltl_product(path)
-        rm = prod.model.reward_model(expr.reward)
+        rm = reward_structure(prod.model, expr)
         rewards = rm.choice_rewards(prod.model.row_groups)
         pmax = maximize[prod.state_of]
         r = obj.expected_reach_reward(

@@ -30,9 +30,10 @@ from posgmc.checking.dispatch import PropertyChecker, _contains_query, _is_tempo
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.checking.states import evaluate_states
 from posgmc.engines.rational import exact_bounded_reach, exact_rational_reach
-from posgmc.errors import LimitError, UnsupportedError
 from posgmc.engines.rational_rewards import exact_reach_reward
 from posgmc.engines.steady import as_fractions, long_run_exact
+from posgmc.errors import LimitError, UnsupportedError
+from posgmc.semantics.queries import reward_structure
 from posgmc.syntax.ast import (
     ComparisonOp,
     Expr,
@@ -171,7 +172,7 @@ class ExactChecker(PropertyChecker):
         model = self.model
         assert expr.objective.target is not None  # noqa: S101 - checked by the caller
         target = self._states(expr.objective.target)
-        rewards = as_fractions(model.reward_model(expr.reward).choice_rewards(model.row_groups))
+        rewards = as_fractions(reward_structure(model, expr).choice_rewards(model.row_groups))
         maximize = bool(self._maximize(expr).any())
         values, infinite = exact_reach_reward(model, rewards, target, maximize=maximize)
         init = [int(s) for s in model.initial_states]
@@ -213,7 +214,7 @@ class ExactChecker(PropertyChecker):
             weight = [Fraction(int(b)) for b in self._states(expr.operand)]
         elif (isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.STEADY
               and expr.threshold is None):
-            rm = self.model.reward_model(expr.reward)
+            rm = reward_structure(self.model, expr)
             weight = as_fractions(rm.choice_rewards(self.model.row_groups))
         else:
             return None

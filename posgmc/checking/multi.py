@@ -46,6 +46,7 @@ from posgmc.engines.multi.settle import Condition, ConditionKind, settling_optio
 from posgmc.engines.multi.unfold import layer_rewards, unfold_steps
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.semantics.queries import reward_structure
 from posgmc.syntax.ast import (
     NO_SPAN,
     ComparisonOp,
@@ -299,7 +300,7 @@ def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecke
     for i, bound in bounds.items():
         q = objectives[i].query
         assert isinstance(q, RewardQuery)  # noqa: S101
-        base = m.reward_model(q.reward).choice_rewards(m.row_groups)
+        base = reward_structure(m, q).choice_rewards(m.row_groups)
         if (base < 0).any():
             raise UnsupportedError(
                 "multi(...) needs non-negative rewards; this reward structure has negative ones",

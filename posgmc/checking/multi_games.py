@@ -29,6 +29,7 @@ from posgmc.engines.multi import polygon
 from posgmc.engines.multi.games import coalition_sets
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.semantics.queries import reward_structure
 from posgmc.syntax.ast import Direction, MultiQuery, ProbQuery, RewardQuery
 from posgmc.syntax.printer import format_expr
 
@@ -109,7 +110,7 @@ def answer_game(checker: PropertyChecker, expr: MultiQuery) -> MultiAnswer:
         else:
             q = o.query
             assert isinstance(q, RewardQuery)  # noqa: S101
-            r = m.reward_model(q.reward).choice_rewards(m.row_groups)
+            r = reward_structure(m, q).choice_rewards(m.row_groups)
             if (r < 0).any():
                 raise UnsupportedError("multi-objective game rewards must be non-negative", q.span)
             rewards[:, i] = r

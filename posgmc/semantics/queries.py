@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from posgmc.errors import PosgmcError
+from posgmc.model.explicit import ExplicitModel, RewardModel
 from posgmc.semantics.symbols import model_type_phrase, report
 from posgmc.syntax.ast import (
     Coalition,
@@ -29,7 +30,7 @@ from posgmc.syntax.ast import (
     RewardQuery,
 )
 
-__all__ = ["QueryResolver", "ResolvedQuery"]
+__all__ = ["QueryResolver", "ResolvedQuery", "reward_structure"]
 
 
 @dataclass(frozen=True)
@@ -195,3 +196,20 @@ class QueryResolver:
         )
         return None
 
+
+def reward_structure(model: ExplicitModel, q: RewardQuery) -> RewardModel:
+    """The reward structure ``q`` refers to in ``model``, resolved by :class:`QueryResolver` as
+    in the semantic stage (a model derived from the checked one, a product or a lifted game, keeps
+    the reward structures in their order and with their names).
+
+    Raises:
+        PosgmcError: the reference names none of the model's reward structures (the semantic
+            stage has reported that before any engine runs).
+    """
+    names = tuple(rm.name for rm in model.reward_models)
+    resolver = QueryResolver(model.model_type, tuple(model.player_names), names)
+    errors: list[PosgmcError] = []
+    index = resolver.reward_index(q, errors)
+    if index is None:
+        raise errors[0]
+    return model.reward_models[index]

@@ -33,6 +33,7 @@ from posgmc.checking.states import evaluate_states
 from posgmc.engines.graph import positive_reach, structure_of
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.semantics.queries import reward_structure
 from posgmc.strategies.binding import BoundStrategy, bind
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import StrategyProduct, strategy_product
@@ -190,7 +191,7 @@ def simulate(
     cum = np.cumsum(T.data)
     rewards = None
     if reward_q is not None:
-        rm = pm.reward_model(reward_q.reward)
+        rm = reward_structure(pm, reward_q)
         rewards = rm.choice_rewards(pm.row_groups)
 
     rng = np.random.default_rng(seed)
