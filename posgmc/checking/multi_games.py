@@ -27,6 +27,7 @@ import numpy as np
 from posgmc.engines.graph import end_components
 from posgmc.engines.multi import polygon
 from posgmc.engines.multi.games import coalition_sets
+from posgmc.engines.multi.settle import ConditionKind
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics.queries import reward_structure
@@ -98,7 +99,9 @@ def answer_game(checker: PropertyChecker, expr: MultiQuery) -> MultiAnswer:
                     o.query.span,
                 )
             acc = builder._product(path)  # replaces builder.masks by the lifted list
-            builder.masks.append(("accepting", acc))  # type: ignore[arg-type]
+            # kept in the builder's list so that later products lift it too (only the set is
+            # read below: reaching it is the objective)
+            builder.masks.append((ConditionKind.MEETS, acc))
             accepting[i] = len(builder.masks) - 1
     m = builder.model
     rewards = np.zeros((m.num_choices, 2))

@@ -253,15 +253,17 @@ def _choices(
         return np.full(S, -1, dtype=np.int64)
     if opponent != "best":
         raise UnsupportedError(f"unknown opponent {opponent!r}: use uniform or best")
+    if not isinstance(expr, (ProbQuery, RewardQuery)):  # (_objective accepts only these)
+        raise UnsupportedError("the best opponent is defined for P and R queries", expr.span)
     checker = PropertyChecker(pm, coalition_of=coalition_of, scalar=scalar,
                               options=CheckOptions(keep_strategy=True))
-    bare = expr
+    bare: ProbQuery | RewardQuery = expr
     if isinstance(expr, ProbQuery) and isinstance(expr.path, Temporal) and expr.path.bound:
         # step-bounded optima need a step counter: play the unbounded optimum instead
         from dataclasses import replace
 
         bare = replace(expr, path=replace(expr.path, bound=None))
-    q = checker.query(bare)  # type: ignore[arg-type]
+    q = checker.query(bare)
     strategy = q.engine.strategy if q.engine is not None else None
     return (
         np.asarray(strategy, dtype=np.int64) if strategy is not None else np.full(S, -1, np.int64)

@@ -25,6 +25,7 @@ What the players observe on the product — the soundness question:
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -41,6 +42,9 @@ from posgmc.syntax.ast import (
     TemporalOp,
 )
 from posgmc.synthesis.parametric import game_views
+
+if TYPE_CHECKING:
+    from posgmc.checking.dispatch import PropertyChecker
 
 __all__ = ["needs_product", "lift"]
 
@@ -68,8 +72,9 @@ def needs_product(expr: Expr) -> bool:
     return isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.LTL
 
 
-def lift(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker,  # type: ignore[no-untyped-def]
-         ) -> tuple[ExplicitModel, ProbQuery | RewardQuery]:
+def lift(
+    model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: PropertyChecker
+) -> tuple[ExplicitModel, ProbQuery | RewardQuery]:
     """The product of ``model`` with the automaton of ``expr``'s formula, and the reachability
     query that answers ``expr`` on it (see the module docstring for what each player observes).
 
