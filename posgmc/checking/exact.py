@@ -9,9 +9,12 @@ Fractions). What is answered exactly:
   (:func:`posgmc.engines.rational.exact_rational_reach`; step bounds by backward induction,
   :func:`~posgmc.engines.rational.exact_bounded_reach`), and their thresholds ``P>=p [ ... ]``,
   compared with the threshold as a fraction (``P>1/2`` on a value of ``1/2 + 10^-33`` is true);
+* LTL probabilities on dtmcs and mdps (``P=? [ G F a ]``, ...), through the product with the
+  formula's limit-deterministic automaton, reachability of its accepting end components in
+  rational arithmetic;
 * state formulas without queries.
 
-Everything else (rewards, step bounds, LTL, arithmetic over queries, partially observable models)
+Everything else (rewards, step bounds, LTL on games, arithmetic over queries, partially observable models)
 is refused with a message that names the supported fragment: an answer computed in floating point
 must not be printed as exact. Dense Gaussian elimination over Fractions: at most
 :data:`EXACT_STATE_LIMIT` states with an undecided value.
@@ -50,7 +53,7 @@ EXACT_STATE_LIMIT = 3000
 
 _SUPPORTED = (
     "exact mode answers reachability probabilities (P[ X b ], P[ F b ], P[ G b ], P[ a U b ], with "
-    "upper step bounds <=k and with their thresholds), expected rewards R[F b] (dtmc, mdp), "
+    "upper step bounds <=k and with their thresholds), LTL probabilities on dtmcs and mdps, expected rewards R[F b] (dtmc, mdp), "
     "steady-state probabilities and long-run rewards on dtmcs (S, R[S]) and state formulas"
 )
 
@@ -190,6 +193,23 @@ class ExactChecker(PropertyChecker):
                                                 for s in init),
                               **common)  # type: ignore[arg-type]
 
+    def _ltl(self, expr: ProbQuery) -> list[Fraction | None]:
+        """An LTL probability exactly: the LDBA product's maximal probability of reaching an
+        accepting end component in rational arithmetic (a dtmc's, or an mdp's ``max``), ``min``
+        as ``1 - max`` of the negation (:mod:`posgmc.engines.ltl.omega`). Values at the
+        initial states only (None elsewhere)."""
+        fractions = self._omega_fractions(
+            expr.path, self._maximize(expr), limit=EXACT_STATE_LIMIT, everywhere=False
+        )
+        if fractions is None:
+            raise LimitError(
+                f"exact mode solves models of at most {EXACT_STATE_LIMIT} states; the product of "
+                "this model with the formula's automaton has more",
+                expr.span,
+                hint="check without --exact: the default interval method gives proven bounds",
+            )
+        return fractions
+
     def _check_size(self) -> None:
         if self.model.num_states > EXACT_STATE_LIMIT:
             raise LimitError(
@@ -236,6 +256,8 @@ class ExactChecker(PropertyChecker):
             or (bound is not None and (path.op is TemporalOp.NEXT or self._step_interval(bound)[0] != 0
                                        or self._step_interval(bound)[1] is None))
         ):
+            if _is_temporal(path) and not _contains_query(path):
+                return self._ltl(expr)
             raise UnsupportedError(f"{_SUPPORTED}; this path formula is not one of them", expr.span)
         self._check_size()
         if path.op is TemporalOp.UNTIL:

@@ -100,6 +100,20 @@ def test_mdp_min_and_max_and_step_bounds_are_exact() -> None:
     assert nxt.exact == Fraction(1, 7)
 
 
+def test_ltl_is_exact_through_the_automaton_product() -> None:
+    """G F and F G (not co-safe): s=1 and s=2 absorb, so G F "goal" = F "goal" and
+    F G s=2 = F s=2: Pmax/Pmin of F "goal" above (1/2, 1/7), of failing 1 - those (6/7, 1/2)."""
+    gf_max, gf_min, fg_max, fg_min = exact_results(
+        MDP, 'Pmax=? [ G F "goal" ]', 'Pmin=? [ G F "goal" ]', "Pmax=? [ F G s=2 ]",
+        "Pmin=? [ F G s=2 ]"
+    )
+    assert (gf_max.exact, gf_min.exact) == (Fraction(1, 2), Fraction(1, 7))
+    assert (fg_max.exact, fg_min.exact) == (Fraction(6, 7), Fraction(1, 2))
+    assert gf_max.method == "exact (rational)"
+    (literal,) = exact_results(LITERAL, "P=? [ G F s=1 ]")
+    assert literal.exact == Fraction(1, 10) + Fraction(1, 10**25)
+
+
 def test_a_fractional_power_is_a_positioned_error_even_when_the_root_is_rational() -> None:
     text = "dtmc\nmodule m\n  s : [0..2] init 0;\n  [] s=0 -> pow(1/4,1/2):(s'=1) + 1-pow(1/4,1/2):(s'=2);\nendmodule\n"
     with pytest.raises(BuildError) as info:

@@ -23,7 +23,8 @@ Exploration is breadth-first over frontier arrays as in :mod:`posgmc.engines.ltl
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from fractions import Fraction
 
 import numpy as np
 import scipy.sparse as sp
@@ -136,13 +137,20 @@ def omega_product(
     jump_targets = jump_to[_expand_ranges(jump_ptr[q_of], jumps)]
     cols_j = index.lookup(np.repeat(state_of, jumps) * Q + jump_targets)
     num_rows = int(row_groups[-1])
-    transitions = sp.csr_matrix(
+    # the source of each product entry: a model entry, or -1 for a jump (probability 1); a row
+    # never has two entries to one column (distinct model successors, distinct jump targets)
+    source = np.concatenate([entries, np.full(jump_rows.size, -1, dtype=np.int64)])
+    order = sp.csr_matrix(
         (
-            np.concatenate([T.data[entries], np.ones(jump_rows.size)]),
+            np.arange(1, source.size + 1, dtype=np.float64),
             (np.concatenate([rows_m, jump_rows]), np.concatenate([cols_m, cols_j])),
         ),
         shape=(num_rows, P),
     )
+    order.sort_indices()
+    source = source[order.data.astype(np.int64) - 1]  # in the csr's entry order
+    probabilities = np.where(source >= 0, T.data[np.maximum(source, 0)], 1.0)
+    transitions = sp.csr_matrix((probabilities, order.indices, order.indptr), shape=(num_rows, P))
     initial_map = index.lookup(init_keys)
     product_model = make_model(
         ModelType.MDP,
@@ -152,6 +160,10 @@ def omega_product(
         variable_names=("_state", "_automaton"),
         state_values=np.column_stack([state_of, q_of]).astype(np.int64),
     )
+    if model.exact_probabilities is not None:  # exact mode: the fractions follow the entries
+        exact = np.empty(source.size, dtype=object)
+        exact[:] = [Fraction(1) if k < 0 else model.exact_probabilities[k] for k in source.tolist()]
+        product_model = replace(product_model, exact_probabilities=exact)
     return OmegaProduct(
         model=product_model,
         state_of=state_of.astype(np.int64),
