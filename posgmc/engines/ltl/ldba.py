@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -56,7 +57,7 @@ from posgmc.engines.ltl.dfa import letter_columns
 from posgmc.errors import LimitError
 from posgmc.syntax.ast import Expr
 
-__all__ = ["Ldba", "MAX_GUESS_FORMULAS", "to_ldba"]
+__all__ = ["MAX_GUESS_FORMULAS", "Ldba", "to_ldba"]
 
 MAX_GUESS_FORMULAS = 12
 """At most this many unbounded U/R sub-formulas in one residual (2**n guesses are tried)."""
@@ -221,7 +222,18 @@ def _unbounded(tab: FormulaTable, f: int) -> tuple[list[int], list[int]]:
     return sorted(mus), sorted(nus)
 
 
-_Key = tuple[object, ...]
+class _Monitored(NamedTuple):
+    """An accepting-component state (module docstring)."""
+
+    safe: int
+    pending: tuple[int, ...]
+    chis: tuple[int, ...]
+    awaiting: int
+    wrapped: bool
+
+
+_Key = tuple[str, int] | _Monitored
+"""("sink", 0), ("init", residual formula) or an accepting-component state."""
 
 
 class _Builder:
@@ -235,7 +247,7 @@ class _Builder:
         self.sub = _Substitution(tab)
         self.index: dict[_Key, int] = {}
         self.keys: list[_Key] = []
-        self.sink = self.state(("sink",))
+        self.sink = self.state(("sink", 0))
 
     def state(self, key: _Key) -> int:
         found = self.index.get(key)
@@ -261,10 +273,11 @@ class _Builder:
         for k, letter in enumerate(distinct.tolist()):
             g = tab.progress(f, letter)
             succ[k] = self.sink if g == tab.FALSE else self.state(("init", g))
-        return succ[inverse.reshape(-1)]
+        out: np.ndarray = succ[inverse.reshape(-1)]
+        return out
 
     def jumps(self, f: int) -> list[int]:
-        tab, sub = self.tab, self.sub
+        tab = self.tab
         if f == tab.FALSE:
             return []
         mus, nus = _unbounded(tab, f)
@@ -302,40 +315,37 @@ class _Builder:
             if chi != tab.TRUE:  # G F true holds: no monitor needed
                 chis.append(chi)
         chis_t = tuple(sorted(set(chis)))
-        return self.state(("acc", safe, (tab.FALSE,) * len(chis_t), chis_t, 0, False))
+        return self.state(_Monitored(safe, (tab.FALSE,) * len(chis_t), chis_t, 0, False))
 
     # -- the accepting component --------------------------------------------------------------
 
-    def accepting_row(self, key: _Key) -> np.ndarray:
+    def accepting_row(self, key: _Monitored) -> np.ndarray:
         tab = self.tab
-        _, safe, zs, chis, j, _wrapped = key
-        pending = [tab.or_([z, chi]) for z, chi in zip(zs, chis)]  # type: ignore[arg-type]
-        mask = tab.current_mask(safe)  # type: ignore[arg-type]
+        pending = [tab.or_([z, chi]) for z, chi in zip(key.pending, key.chis)]
+        mask = tab.current_mask(key.safe)
         for p in pending:
             mask |= tab.current_mask(p)
         distinct, inverse = np.unique(self.alphabet & mask, return_inverse=True)
         succ = np.empty(distinct.size, dtype=np.int64)
-        k = len(chis)  # type: ignore[arg-type]
+        k = len(key.chis)
         for i, letter in enumerate(distinct.tolist()):
-            safe2 = tab.progress(safe, letter)  # type: ignore[arg-type]
-            if safe2 == tab.FALSE:
+            safe = tab.progress(key.safe, letter)
+            if safe == tab.FALSE:
                 succ[i] = self.sink
                 continue
-            new_z = []
-            success = []
-            for p in pending:
-                z2 = tab.progress(p, letter)
-                success.append(z2 == tab.TRUE)
-                new_z.append(tab.FALSE if z2 == tab.TRUE else z2)
+            progressed = [tab.progress(p, letter) for p in pending]
+            success = [z == tab.TRUE for z in progressed]
+            renewed = tuple(tab.FALSE if z == tab.TRUE else z for z in progressed)
             if k == 0:
-                j2, wrapped = 0, True
-            elif success[j]:  # type: ignore[index]
-                j2 = (j + 1) % k  # type: ignore[operator]
-                wrapped = j2 == 0
+                awaiting, wrapped = 0, True
+            elif success[key.awaiting]:
+                awaiting = (key.awaiting + 1) % k
+                wrapped = awaiting == 0
             else:
-                j2, wrapped = j, False
-            succ[i] = self.state(("acc", safe2, tuple(new_z), chis, j2, wrapped))
-        return succ[inverse.reshape(-1)]
+                awaiting, wrapped = key.awaiting, False
+            succ[i] = self.state(_Monitored(safe, renewed, key.chis, awaiting, wrapped))
+        out: np.ndarray = succ[inverse.reshape(-1)]
+        return out
 
 
 def to_ldba(
@@ -373,12 +383,11 @@ def to_ldba(
     q = 0
     while q < len(builder.keys):
         key = builder.keys[q]
-        if key[0] == "init":
-            f = key[1]
-            rows[q] = builder.initial_row(f)  # type: ignore[arg-type]
-            jumps[q] = builder.jumps(f)  # type: ignore[arg-type]
-        elif key[0] == "acc":
+        if isinstance(key, _Monitored):
             rows[q] = builder.accepting_row(key)
+        elif key[0] == "init":
+            rows[q] = builder.initial_row(key[1])
+            jumps[q] = builder.jumps(key[1])
         q += 1
     num = len(builder.keys)
     delta = np.vstack([rows[i] for i in range(num)]).astype(np.int32)
@@ -387,8 +396,12 @@ def to_ldba(
     jump_to = np.array(
         [t for i in range(num) for t in jumps.get(i, ())], dtype=np.int64
     )
-    accepting = np.array([k[0] == "acc" and bool(k[5]) for k in builder.keys], dtype=bool)
-    initial_component = np.array([k[0] == "init" for k in builder.keys], dtype=bool)
+    accepting = np.array(
+        [isinstance(k, _Monitored) and k.wrapped for k in builder.keys], dtype=bool
+    )
+    initial_component = np.array(
+        [not isinstance(k, _Monitored) and k[0] == "init" for k in builder.keys], dtype=bool
+    )
     descriptions = tuple(_describe(tab, k) for k in builder.keys)
     return Ldba(
         num_states=num,
@@ -406,14 +419,10 @@ def to_ldba(
 
 
 def _describe(tab: FormulaTable, key: _Key) -> str:
-    if key[0] == "sink":
-        return "false"
-    if key[0] == "init":
-        return tab.render(key[1])  # type: ignore[arg-type]
-    _, safe, zs, chis, j, wrapped = key
+    if not isinstance(key, _Monitored):
+        return "false" if key[0] == "sink" else tab.render(key[1])
     monitors = ", ".join(
-        f"GF({tab.render(c)}) pending {tab.render(z)}"  # type: ignore[arg-type]
-        for z, c in zip(zs, chis)  # type: ignore[call-overload]
+        f"GF({tab.render(c)}) pending {tab.render(z)}" for z, c in zip(key.pending, key.chis)
     )
-    mark = " *" if wrapped else ""
-    return f"safe {tab.render(safe)}; [{monitors}] awaiting {j}{mark}"  # type: ignore[arg-type]
+    mark = " *" if key.wrapped else ""
+    return f"safe {tab.render(key.safe)}; [{monitors}] awaiting {key.awaiting}{mark}"

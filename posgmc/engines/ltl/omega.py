@@ -187,7 +187,8 @@ def accepting_end_components(prod: OmegaProduct) -> np.ndarray:
     good = np.zeros(num_mecs, dtype=bool)
     hit = mec_of[prod.accepting & (mec_of >= 0)]
     good[hit] = True
-    return (mec_of >= 0) & good[np.maximum(mec_of, 0)]
+    region: np.ndarray = (mec_of >= 0) & good[np.maximum(mec_of, 0)]
+    return region
 
 
 def accepting_cycles(prod: OmegaProduct) -> np.ndarray:
@@ -212,7 +213,7 @@ def accepting_cycles(prod: OmegaProduct) -> np.ndarray:
     goal = cyclic[comp] & accepting_comp[comp]
     # backward reachability of the goal
     back = graph.T.tocsr()
-    reach = goal.copy()
+    reach: np.ndarray = goal.copy()
     frontier = np.flatnonzero(reach)
     while frontier.size:
         preds = back.indices[_expand_ranges(back.indptr[frontier].astype(np.int64),

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
 from ltl_reference import FORMULAS, And, F, G, Implies, Not, Or, R, U, W, X, a, b, c, satisfies
+
 from posgmc.engines import objectives as obj
 from posgmc.engines.ltl import (
     accepting_cycles,
