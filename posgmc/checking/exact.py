@@ -1,7 +1,7 @@
 """Exact checking (PRISM's ``-exact``): values as fractions, thresholds decided on them.
 
-The model must be built in exact mode (:mod:`posgmc.compiler.exact`: its transition probabilities are
-Fractions). What is answered exactly:
+The model must be built in exact mode (:mod:`posgmc.compiler.exact`: its transition probabilities
+are Fractions). What is answered exactly:
 
 * next, step-bounded and unbounded reachability and until probabilities, ``P=? [ X b ]``,
   ``P=? [ F<=k b ]``, ``P=? [ a U<=k b ]``, ``P=? [ F b ]``, ``P=? [ a U b ]``, with
@@ -15,9 +15,9 @@ Fractions). What is answered exactly:
   rational arithmetic;
 * state formulas without queries.
 
-Everything else (rewards, step bounds, LTL on games, arithmetic over queries, partially observable models)
-is refused with a message that names the supported fragment: an answer computed in floating point
-must not be printed as exact. Dense Gaussian elimination over Fractions: at most
+Everything else (rewards, step bounds, LTL on games, arithmetic over queries, partially observable
+models) is refused with a message that names the supported fragment: an answer computed in floating
+point must not be printed as exact. Dense Gaussian elimination over Fractions: at most
 :data:`EXACT_STATE_LIMIT` states with an undecided value.
 """
 
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import operator
 import time
+from collections.abc import Sequence
 from fractions import Fraction
 from typing import TypedDict
 
@@ -81,6 +82,18 @@ def _outward(v: Fraction) -> tuple[float, float]:
     return lower, upper
 
 
+def _at(values: Sequence[Fraction | None], states: np.ndarray) -> list[Fraction]:
+    """The values at ``states`` (the initial states, where every exact answer has its value; an
+    LTL one has it only there)."""
+    out: list[Fraction] = []
+    for s in states.tolist():
+        v = values[s]
+        if v is None:  # pragma: no cover - see above
+            raise RuntimeError("exact checking found no value at an initial state")
+        out.append(v)
+    return out
+
+
 class _Common(TypedDict):
     """The fields every result of exact checking shares."""
 
@@ -98,7 +111,8 @@ class ExactChecker(PropertyChecker):
         if model.exact_probabilities is None:
             raise UnsupportedError(
                 "exact checking needs a model built in exact mode (its probabilities as fractions)",
-                hint="a model read from DRN has floating-point probabilities; check it without --exact",
+                hint="a model read from DRN has floating-point probabilities; check it without "
+                     "--exact",
             )
         if model.model_type.is_partially_observable or model.observations:
             raise UnsupportedError(
@@ -107,8 +121,7 @@ class ExactChecker(PropertyChecker):
         init = model.initial_states
         common: _Common = {"property": text, "name": name, "method": "exact (rational)"}
         if isinstance(expr, ProbQuery):
-            values = self._reach(expr)
-            at_init = [values[int(s)] for s in init]
+            at_init = _at(self._reach(expr), init)
             if expr.threshold is None:
                 lower, upper = _outward(at_init[0])
                 return PropertyResult(
@@ -144,7 +157,9 @@ class ExactChecker(PropertyChecker):
             threshold = expr.threshold if isinstance(expr, SteadyQuery) else None
             if threshold is None:
                 lower, upper = _outward(at_init[0])
-                kind = ResultKind.PROBABILITY if isinstance(expr, SteadyQuery) else ResultKind.REWARD
+                kind = (
+                    ResultKind.PROBABILITY if isinstance(expr, SteadyQuery) else ResultKind.REWARD
+                )
                 return PropertyResult(
                     kind=kind, value=float(at_init[0]), lower=lower, upper=upper,
                     seconds=time.perf_counter() - start,
@@ -273,7 +288,7 @@ class ExactChecker(PropertyChecker):
         self._check_size()
         return long_run_exact(self.model, weight)
 
-    def _reach(self, expr: ProbQuery) -> list[Fraction]:
+    def _reach(self, expr: ProbQuery) -> Sequence[Fraction | None]:
         path = expr.path
         bound = getattr(path, "bound", None)
         if (isinstance(path, Temporal) and path.op is TemporalOp.GLOBALLY
@@ -295,8 +310,14 @@ class ExactChecker(PropertyChecker):
             not isinstance(path, Temporal)
             or path.op not in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL, TemporalOp.NEXT)
             or any(_is_temporal(o) or _contains_query(o) for o in path.operands)
-            or (bound is not None and (path.op is TemporalOp.NEXT or self._step_interval(bound)[0] != 0
-                                       or self._step_interval(bound)[1] is None))
+            or (
+                bound is not None
+                and (
+                    path.op is TemporalOp.NEXT
+                    or self._step_interval(bound)[0] != 0
+                    or self._step_interval(bound)[1] is None
+                )
+            )
         ):
             if _is_temporal(path) and not _contains_query(path):
                 return self._ltl(expr)
