@@ -228,6 +228,11 @@ class SynthesisChecker:
             ],
             "timeout": self.synthesis.timeout,
             "seed": self.synthesis.seed,
+            "deterministic": [
+                {"memory": d.memory, "value": d.value, "exhaustive": d.exhaustive,
+                 "families": d.families, "seconds": round(d.seconds, 3)}
+                for d in result.deterministic
+            ],
         }
         extra: tuple = ()  # type: ignore[type-arg]
         if adversaries is not None:
