@@ -187,7 +187,6 @@ member's (the candidates) at 1e-10: rankings, not proofs."""
 _MAX_SWEEPS = 20_000
 
 
-
 def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: Problem, *,
            cutoff: float | None = None, precision: float = 1e-10,
            deadline: float | None = None) -> _Solved:
@@ -367,6 +366,31 @@ def _split(allowed: np.ndarray, keys: np.ndarray, counts: np.ndarray, first: np.
     return left, right
 
 
+def _consistent(keys: np.ndarray, num_options: int) -> bool:
+    """Whether σ uses one option per hole."""
+    holes = keys // num_options
+    return bool(np.unique(holes).size == holes.size)
+
+
+def _split_member(allowed: np.ndarray, member: np.ndarray, keys: np.ndarray, first: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray] | None:
+    """When σ is consistent but its member falls short of the bound (value iteration's choices
+    at end components): split the hole met first that still has a choice, the member's option
+    against the rest; None when the family is one member."""
+    O = allowed.shape[1]
+    wide = allowed.sum(axis=1) > 1
+    if not wide.any():
+        return None
+    met = np.full(allowed.shape[0], np.iinfo(np.int64).max)
+    np.minimum.at(met, keys // O, first)
+    met[~wide] = np.iinfo(np.int64).max
+    h = int(np.argmin(met)) if np.any(met < np.iinfo(np.int64).max) else int(np.flatnonzero(wide)[0])
+    left, right = allowed.copy(), allowed.copy()
+    left[h] = member[h] & allowed[h]
+    right[h] = allowed[h] & ~member[h]
+    return left, right
+
+
 @dataclass(frozen=True, eq=False)
 class DeterministicResult:
     """The best deterministic k-FSS found: ``gamma`` float64[k, Zu, Au] and ``delta``
@@ -402,7 +426,13 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
     if incumbent is not None and incumbent.memory <= memory:
         best = (incumbent.value, _member_of(q, incumbent.gamma, incumbent.delta))
     root = q.offered.copy()
-    top = _solve(q, root, _optimistic(q, problem), problem, precision=_FAMILY_PRECISION,
+    # a parent's values start its sub-families where they lie on the decision maker's good side
+    # and iterating from there converges to the value: for a minimiser (from below, the least
+    # fixed point) and for discounted costs (a contraction). A maximiser of a probability
+    # iterates from below instead (from above the iteration may stop at a larger fixed point,
+    # end components), so its bounds are the values as value iteration approximates them
+    warm = not (problem.maximize and q.rewards is None)
+    top = _solve(q, root, _optimistic(q, problem) if warm else None, problem, precision=_FAMILY_PRECISION,
                  deadline=deadline)
     if top.cut:  # out of time before the first bound
         return None if incumbent is None else dataclasses.replace(incumbent, exhaustive=False)
@@ -432,6 +462,8 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
         keys, counts, first = _used(q, allowed, solved.strategy)
         halves = _split(allowed, keys, counts, first)
         member = _member(q, allowed, keys, counts)
+        if halves is None:
+            halves = _split_member(allowed, member, keys, first)
         # the member from the family's values: optimistic for the member too (cut when it
         # cannot beat the incumbent), except for a maximiser, whose iterates from above may stop
         # at a fixed point above the member's value (end components): from below for it
@@ -441,16 +473,16 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
         if not checked.cut and better(checked.value):
             best = (checked.value, member)
         if halves is None:
-            # σ is a member: unless value iteration's choice missed the optimum (ties at
-            # end components), the family's optimum is found
-            if checked.cut and expired(deadline):
-                exhaustive = False
-            elif not checked.cut and abs(checked.value - solved.value) > 1e-7 * max(1.0, abs(solved.value)):
-                exhaustive = False
-            continue
+            continue  # one member left
+        if checked.cut and expired(deadline):
+            exhaustive = False
+        elif (_consistent(keys, q.num_options) and not checked.cut
+              and abs(checked.value - solved.value) <= 1e-7 * max(1.0, abs(solved.value))):
+            continue  # σ is a member and achieves the bound: the family's optimum is found
         children = []
         for half in reversed(halves):
-            child = _solve(q, half, solved.values, problem, cutoff=cutoff(),
+            child = _solve(q, half, solved.values if warm else None, problem,
+                           cutoff=cutoff() if warm else None,
                            precision=_FAMILY_PRECISION, deadline=deadline)
             families += 1
             if child.cut and expired(deadline):
