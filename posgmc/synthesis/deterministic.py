@@ -46,6 +46,7 @@ from scipy.sparse import csgraph
 
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import Method, SolverOptions
+from posgmc.engines.system import _HAVE_KERNELS, _kernels
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.strategies.binding import player_view
 from posgmc.syntax.ast import ModelType
@@ -213,16 +214,28 @@ def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: 
     base = base[rows]
     x = fixed_values.copy() if start is None else np.where(fixed, fixed_values, start)
     starts = rg[:-1]
-    # one maximum per state: the minimising states' rows negated
+    # one maximum per state: the minimising states' rows negated (folded into the matrix, with
+    # the discount): v = flip * (base + g T x)
     flip = np.where(np.repeat(mx, counts), 1.0, -1.0)
     state_flip = np.where(mx, 1.0, -1.0)
+    A = T.copy()
+    A.data *= gamma * np.repeat(flip, np.diff(A.indptr))
+    offset = flip * base
+    v = np.empty(rows.size)
+
+    def row_values(x: np.ndarray) -> np.ndarray:
+        if _HAVE_KERNELS:  # scipy's kernel without the operator's dispatch (the engines' way)
+            v[:] = offset
+            _kernels.csr_matvec(A.shape[0], A.shape[1], A.indptr, A.indices, A.data, x, v)
+            return v
+        return offset + A @ x
+
     free = ~fixed
     sign = problem.sign
     init = q.initial
     cut = False
     for sweep in range(_MAX_SWEEPS):
-        v = base + gamma * (T @ x)
-        y = np.maximum.reduceat(flip * v, starts) * state_flip
+        y = np.maximum.reduceat(row_values(x), starts) * state_flip
         y[fixed] = fixed_values[fixed]
         if cutoff is not None and sign * y[init] <= sign * cutoff + 1e-12:
             x, cut = y, True
@@ -234,7 +247,7 @@ def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: 
         if sweep % 256 == 255 and expired(deadline):
             cut = True
             break
-    v = flip * (base + gamma * (T @ x))
+    v = row_values(x).copy()
     best = np.maximum.reduceat(v, starts)
     # among the rows within the precision of the optimum, the one whose (hole, option) is
     # optimal in the most states of its hole (ties: the first row), so that σ is consistent
@@ -476,9 +489,11 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
             continue  # one member left
         if checked.cut and expired(deadline):
             exhaustive = False
-        elif (_consistent(keys, q.num_options) and not checked.cut
-              and abs(checked.value - solved.value) <= 1e-7 * max(1.0, abs(solved.value))):
-            continue  # σ is a member and achieves the bound: the family's optimum is found
+        elif _consistent(keys, q.num_options) and (
+                checked.cut or abs(checked.value - solved.value) <= 1e-7 * max(1.0, abs(solved.value))):
+            # σ is a member and achieves the bound (or, cut, provably not the incumbent's): the
+            # family's optimum is known
+            continue
         children = []
         for half in reversed(halves):
             child = _solve(q, half, solved.values if warm else None, problem,
@@ -555,12 +570,13 @@ class DeterministicJob:
 
 def deterministic_phase(executor: Executor, memory: tuple[int, ...], deadline: float
                         ) -> dict[int, DeterministicResult]:
-    """Run the deterministic search over ``memory`` until ``deadline``: the first size gets a
-    fifth of the time, every further size two (the first is small and often exhaustive early,
-    handing its time on). Returns the best defence with at most k nodes, by k."""
+    """Run the deterministic search over ``memory`` until ``deadline``: the time is cut in parts,
+    one for the first size, three for the second, two for each further one (the first is small
+    and often exhaustive at once, handing its time on; the second is where memory first helps).
+    Returns the best defence with at most k nodes, by k."""
     now = time.perf_counter()
     span = max(deadline - now, 0.0)
-    weights = np.array([1.0] + [2.0] * (len(memory) - 1))
+    weights = np.array([1.0] + [3.0] + [2.0] * (len(memory) - 2))[: len(memory)]
     ends = tuple(now + span * float(c) for c in np.cumsum(weights) / weights.sum())
     results = executor.map([DeterministicJob(tuple(memory), ends)])[0]
     return {r.memory: r for r in results}

@@ -306,6 +306,8 @@ def synthesize(
     phases["verification"] = time.perf_counter() - t0
     assert final.guaranteed is not None  # noqa: S101 - the decision maker's strategy is given
     guaranteed, method = final.guaranteed, final.method
+    # a check stopped by the caller's deadline (check_options) proves wider bounds: partial
+    partial = partial or not final.converged
     return SynthesisResult(best[0], guaranteed, full_bound, tuple(rounds), partial, phases, method,
                            tuple(deterministic[k] for k in sorted(deterministic)))
 
