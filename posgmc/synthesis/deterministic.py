@@ -187,6 +187,10 @@ member's (the candidates) at 1e-10: rankings, not proofs."""
 
 _MAX_SWEEPS = 20_000
 
+_ENGINE_LIMIT = 2_000
+"""Undiscounted expected rewards are solved by the engines' policy iteration, which knows no
+deadline: the search runs on them only for quotients up to this many states."""
+
 
 def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: Problem, *,
            cutoff: float | None = None, precision: float = 1e-10,
@@ -432,7 +436,8 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
     it are pruned from the start."""
     started = time.perf_counter()
     q = quotient_of(problem, memory)
-    if q is None:
+    if q is None or (q.rewards is not None and problem.discount >= 1.0
+                     and q.model.num_states > _ENGINE_LIMIT):
         return None
     sign = problem.sign
     best: tuple[float, np.ndarray] | None = None
