@@ -151,17 +151,22 @@ class SynthesisChecker:
         (:mod:`posgmc.synthesis.objectives`: the strategies observe the game, not the
         automaton, so they are strategies of the game); the defence's ``guaranteed`` is then
         recomputed on the game itself, as ``--strategy`` would."""
+        started = time.perf_counter()
         lifted, query = lift(self.model, expr, PropertyChecker(
             self.model, coalition_of=self.coalition_of, scalar=self.scalar))
+        # the budget: the synthesis on the product, then the last tenth for the recomputation
+        budget = self.synthesis.timeout
         inner = SynthesisChecker(lifted, coalition_of=self.coalition_of, scalar=self.scalar,
-                                 options=self.options, synthesis=self.synthesis)
+                                 options=self.options, synthesis=dataclasses.replace(
+                                     self.synthesis, timeout=0.9 * budget))
         result = inner.check(query, text=text, name=name)
         defence = result.strategies[0]
         bare = expr if expr.threshold is None else dataclasses.replace(
             expr, threshold=None, direction=Direction.MAX if expr.threshold.op in (
                 ComparisonOp.GE, ComparisonOp.GT) else Direction.MIN)
         g = StrategyChecker(self.model, {defence.player: defence}, coalition_of=self.coalition_of,
-                            scalar=self.scalar, options=self.options).check(bare, text=text).guaranteed
+                            scalar=self.scalar, options=_until(self.options, started + budget)
+                            ).check(bare, text=text).guaranteed
         assert g is not None  # noqa: S101 - the decision maker's strategy is given
         note = (result.note or "") + ("; synthesised on the product with the formula's automaton, "
                                       "whose state the strategies do not observe")
