@@ -208,7 +208,10 @@ class SynthesisChecker:
                              coalition_of=self.coalition_of, scalar=self.scalar)
         with closing(executor_for(problem, settings.jobs)) as executor:
             budget = self.synthesis.timeout
-            search = dataclasses.replace(settings, timeout=budget * _SEARCH_SHARE)
+            phases_follow = adversary is not None and settings.adversaries > 0
+            # without adversary phases the search has their time too
+            search = dataclasses.replace(
+                settings, timeout=budget * (_SEARCH_SHARE if phases_follow else _ADVERSARY_END))
             result = synthesize(self.model, bare, player=player, coalition_of=self.coalition_of,
                                 scalar=self.scalar, options=search,
                                 check_options=_until(self.options, started + budget * _ADVERSARY_END),
