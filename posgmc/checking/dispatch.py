@@ -183,7 +183,8 @@ class PropertyChecker:
             seconds=seconds,
             method=q.method,
             iterations=q.iterations,
-            converged=q.converged,
+            # a Boolean decided on proven bounds is final, however far the iteration got
+            converged=q.converged or (q.is_boolean and value is not None),
             sound=q.sound,
             per_initial=per_initial,
             values=q.values if self.options.keep_values else None,

@@ -64,6 +64,7 @@ verification both bounds share one pass over the matrix.
 from __future__ import annotations
 
 import enum
+import time
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -248,6 +249,11 @@ def max_change(new: np.ndarray, old: np.ndarray, relative: bool) -> float:
     return float(np.max(d, initial=0.0))
 
 
+def _late(deadline: float | None, iters: int) -> bool:
+    """Whether the caller's deadline has passed (looked at every 64 iterations; 0: now)."""
+    return deadline is not None and iters % 64 == 0 and time.perf_counter() > deadline
+
+
 def _lower_phase(
     sys: System,
     lower: np.ndarray,
@@ -256,6 +262,7 @@ def _lower_phase(
     iters: int,
     max_it: int,
     inflation: _Family | None,
+    deadline: float | None = None,
 ) -> tuple[np.ndarray, int]:
     """Value iteration from ``lower`` until it looks converged to within ``tau``.
 
@@ -294,6 +301,8 @@ def _lower_phase(
         q = max(ratios)
         if d <= tau and d * q / (1.0 - q) <= tau:
             break
+        if _late(deadline, iters):
+            break
         fresh += 1
         if fresh >= 64 or not HAVE_KERNELS:
             multiply_into(sys, x, y)
@@ -311,6 +320,7 @@ def _lower_phase_blocks(
     iters: int,
     max_it: int,
     inner: int = 1,
+    deadline: float | None = None,
 ) -> tuple[np.ndarray, int]:
     """:func:`_lower_phase` by Gauss-Seidel sweeps over the blocks (same stopping rule).
 
@@ -356,6 +366,8 @@ def _lower_phase_blocks(
         previous = d
         q = max(ratios)
         if d <= tau and d * q / (1.0 - q) <= tau:
+            break
+        if _late(deadline, iters):
             break
     return x, iters
 
@@ -498,6 +510,8 @@ def _value_iteration(sys: System, options: SolverOptions, treatment: _Treatment)
         if d <= options.precision:
             converged = True
             break
+        if _late(options.deadline, iters):
+            break
     return Bounds(lower, lower.copy(), iters, converged, False, treatment.found)
 
 
@@ -552,13 +566,23 @@ def _interval_iteration(
         _raised_upper(sys, options, run, cap)
     run.X[:, 0] = lower
     run.X[:, 1] = run.proven_upper
-    while run.iters < max_it and not run.converged and not run.stalled:
+    deadline = options.deadline
+    while (
+        run.iters < max_it
+        and not run.converged
+        and not run.stalled
+        and not _late(deadline, 0)
+    ):
         phase_start = run.iters
         if sys.num_blocks > 1 and not treatment.inflating and HAVE_KERNELS:
-            lower, run.iters = _lower_phase_blocks(sys, lower, tau, rel, run.iters, max_it, inner)
+            lower, run.iters = _lower_phase_blocks(
+                sys, lower, tau, rel, run.iters, max_it, inner, deadline
+            )
         else:
             family = treatment.family if treatment.inflating else None
-            lower, run.iters = _lower_phase(sys, lower, tau, rel, run.iters, max_it, family)
+            lower, run.iters = _lower_phase(
+                sys, lower, tau, rel, run.iters, max_it, family, deadline
+            )
         if rel:
             guess = lower + (prec + spread) * np.abs(lower)
             guess[lower == 0] += prec + spread
@@ -661,6 +685,8 @@ def _verify(
         if run.verified and treatment.refresh and treatment.needed and since_refresh >= 32:
             treatment.recompute(sys, X[:, 0].copy(), X[:, 1].copy())
             since_refresh = 0
+        if _late(options.deadline, run.iters):
+            return  # out of time: the bounds so far stay proven (converged = False)
         if run.verified and steps % 1000 == 0:
             # give up when the gap no longer shrinks (bounds stay proven; converged = False)
             gap = float(np.max(X[:, 1] - X[:, 0]))
