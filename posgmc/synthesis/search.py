@@ -210,19 +210,29 @@ def synthesize(
     best_of: dict[int, tuple[FiniteStateStrategy, Bound]] = {}
     seconds_of: dict[int, float] = {}
     evaluations_of: dict[int, int] = {}
+    # a memory range that does not start at 1 is warm-started from a memoryless defence (a k-FSS
+    # embeds into k+1 nodes): --memory 2 searches k = 1 first and never reports less than it
+    sizes = _with_warm_up(options.memory)
     for pass_no in range(_MAX_PASSES):
         improved = False
-        for k in options.memory:
+        for i, k in enumerate(sizes):
             if time.perf_counter() > deadline and best is not None:
                 partial = True
                 break
             round_start = time.perf_counter()
+            # the first pass shares the budget equally among the sizes still to come, so that on
+            # a large model the first size does not use it all; later passes use what is left
+            round_deadline = deadline if pass_no else \
+                round_start + (deadline - round_start) / (len(sizes) - i)
             if k not in params:
                 params[k] = Parametrisation(model, player, k, query, target, remain,
                                             coalition_of=coalition_of, scalar=scalar,
                                             rewards=rewards, discount=discount)
             par = params[k]
-            starts = [_projected(par, full, model)] if pass_no == 0 else []
+            # the best smaller defence first (when the round's time runs out, the starts that
+            # build on what is known have run), then the projected full-observation optimum,
+            # then random logits
+            starts = []
             if best_logits is not None and best is not None and best[0].memory_size <= k:
                 la0, ld0 = _embedded(par, *best_logits)
                 starts.append((la0, ld0))
@@ -232,15 +242,18 @@ def synthesize(
                     for _ in range(2):
                         starts.append((la0 + rng.normal(size=la0.shape),
                                        ld0 + 2.0 * rng.normal(size=ld0.shape)))
+            if pass_no == 0:
+                starts.append(_projected(par, full, model))
+                starts.append(_qmdp(par, full, model, rewards, discount, sign))
             for _ in range(options.restarts):
                 starts.append((rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])))
-            found, n_eval, seconds = _round(par, starts, sign, options, deadline, executor, model, query,
-                                            coalition_of, scalar, maximize)
+            found, n_eval, seconds = _round(par, starts, sign, options, round_deadline, executor, model,
+                                            query, coalition_of, scalar, maximize)
             evaluations += n_eval
             t_search += seconds[0]
             t_verify += seconds[1]
-            if time.perf_counter() > deadline:
-                partial = True
+            if time.perf_counter() > round_deadline:
+                partial = True  # the budget (or this round's share of it) cut the round short
             if found is not None and (best is None or _better(found[1], best[1], maximize)):
                 best = (found[0], found[1])
                 best_logits = found[2]
@@ -256,7 +269,7 @@ def synthesize(
     # per memory size: the best defence with at most that many nodes (a smaller one embeds)
     rounds = []
     upto: tuple[FiniteStateStrategy, Bound] | None = None
-    for k in options.memory:
+    for k in sizes:
         if k not in best_of:
             continue
         if upto is None or _better(best_of[k][1], upto[1], maximize):
@@ -266,6 +279,10 @@ def synthesize(
     phases["gradient search"] = t_search
     phases["candidates (policy iteration)"] = t_verify
     assert best is not None  # noqa: S101 - the first memory size always runs
+    if best[0].memory_size < min(options.memory):
+        # the warm-up's defence won: report it with the memory asked for (the new nodes are
+        # never entered, so it guarantees exactly as much)
+        best = (_embed_strategy(best[0], min(options.memory)), best[1])
     # the reported number: the chosen defence checked by the caller's method (sound interval
     # iteration by default). Policy iteration ranked the candidates, but its floating-point
     # solves of nearly singular systems are no proof (it can exceed the full-observation value
@@ -277,6 +294,12 @@ def synthesize(
     assert final.guaranteed is not None  # noqa: S101 - the decision maker's strategy is given
     guaranteed, method = final.guaranteed, final.method
     return SynthesisResult(best[0], guaranteed, full_bound, tuple(rounds), partial, phases, method)
+
+
+def _with_warm_up(memory: tuple[int, ...]) -> tuple[int, ...]:
+    """The memory sizes searched for ``memory``: a memoryless warm-up first when the smallest
+    size asked for is larger (its defence embeds into every larger size)."""
+    return memory if min(memory) <= 1 else (1,) + tuple(memory)
 
 
 _MAX_PASSES = 4
@@ -443,6 +466,40 @@ def _projected(par: Parametrisation, full, model: ExplicitModel) -> tuple[np.nda
         best = votes.argmax(axis=1)
         has = votes.max(axis=1) > 0
         la[:, np.flatnonzero(has), best[has]] = _LOGIT
+    ld = np.zeros(par.shapes[1])
+    k = par.k
+    ld[np.arange(k), :, :, np.arange(k)] = _LOGIT
+    return la, ld
+
+
+def _qmdp(par: Parametrisation, full, model: ExplicitModel, rewards: np.ndarray | None,  # type: ignore[no-untyped-def]
+          discount: float, sign: float) -> tuple[np.ndarray, np.ndarray]:
+    """Logits favouring, in each observation, the action of the best average full-observation
+    Q-value over the decision maker's states with that observation (QMDP: as if the state were
+    revealed after this step); memory stays put. Where :func:`_projected` lets each state vote
+    for its own optimal action, this weighs how much each action loses in each state."""
+    la = np.zeros(par.shapes[0])
+    values = np.asarray(full.values, dtype=np.float64)
+    finite = np.isfinite(values)
+    big = 10.0 * (float(np.abs(values[finite]).max(initial=0.0)) + 1.0)
+    values = np.where(finite, values, np.copysign(big, values))
+    states = np.flatnonzero(par.owned)
+    counts = np.diff(model.row_groups)[states]
+    c = np.repeat(model.row_groups[states], counts) + (
+        np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts))
+    q = discount * np.asarray(model.transitions[c] @ values).ravel()
+    if rewards is not None:
+        q = q + rewards[c]
+    z = par.obs_index[par.view.state_obs[model.choice_states[c]]]
+    a = par.act_index[model.choice_actions[c]]
+    total = np.zeros(par.shapes[0][1:])
+    seen = np.zeros(par.shapes[0][1:])
+    np.add.at(total, (z, a), sign * q)
+    np.add.at(seen, (z, a), 1.0)
+    score = np.where(par.mask & (seen > 0), total / np.maximum(seen, 1.0), -np.inf)
+    has = np.isfinite(score).any(axis=1)
+    best = score.argmax(axis=1)
+    la[:, np.flatnonzero(has), best[has]] = _LOGIT
     ld = np.zeros(par.shapes[1])
     k = par.k
     ld[np.arange(k), :, :, np.arange(k)] = _LOGIT
