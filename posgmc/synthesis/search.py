@@ -29,7 +29,7 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.jobs import Executor, Problem, executor_for
-from posgmc.synthesis.parametric import Parametrisation
+from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
 from posgmc.syntax.ast import Direction, Expr, ProbQuery, RewardKind, RewardQuery, Temporal, TemporalOp
 
 __all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
@@ -230,8 +230,8 @@ def synthesize(
                                             rewards=rewards, discount=discount)
             par = params[k]
             # the best smaller defence first (when the round's time runs out, the starts that
-            # build on what is known have run), then the projected full-observation optimum,
-            # then random logits
+            # build on what is known have run), then the full-observation optimum projected
+            # two ways (pessimistic QMDP, majority vote), then random logits
             starts = []
             if best_logits is not None and best is not None and best[0].memory_size <= k:
                 la0, ld0 = _embedded(par, *best_logits)
@@ -243,8 +243,8 @@ def synthesize(
                         starts.append((la0 + rng.normal(size=la0.shape),
                                        ld0 + 2.0 * rng.normal(size=ld0.shape)))
             if pass_no == 0:
-                starts.append(_projected(par, full, model))
                 starts.append(_qmdp(par, full, model, rewards, discount, sign))
+                starts.append(_projected(par, full, model))
             for _ in range(options.restarts):
                 starts.append((rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])))
             found, n_eval, seconds = _round(par, starts, sign, options, round_deadline, executor, model,
@@ -346,7 +346,10 @@ def _round(par: Parametrisation, starts: list[tuple[np.ndarray, np.ndarray]], si
         key=lambda c: round(-sign * par.evaluate(c[0], c[1], gradient=False).value, 7),
     )
     best: tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None = None
-    for g, d, logits in scored[: options.verify]:
+    # on a large model one candidate only: a policy-iteration check of its product costs LU
+    # factorisations of 10^5 unknowns (seconds each), and the float ranking rarely errs
+    large = model.num_states * par.k >= ITERATIVE_STATES
+    for g, d, logits in scored[: 1 if large else options.verify]:
         fss = par.strategy(g, d)
         r = StrategyChecker(model, {fss.player: fss}, coalition_of=coalition_of, scalar=scalar,
                             options=_POLICY).check(query, text="synthesis")
@@ -474,10 +477,15 @@ def _projected(par: Parametrisation, full, model: ExplicitModel) -> tuple[np.nda
 
 def _qmdp(par: Parametrisation, full, model: ExplicitModel, rewards: np.ndarray | None,  # type: ignore[no-untyped-def]
           discount: float, sign: float) -> tuple[np.ndarray, np.ndarray]:
-    """Logits favouring, in each observation, the action of the best average full-observation
-    Q-value over the decision maker's states with that observation (QMDP: as if the state were
-    revealed after this step); memory stays put. Where :func:`_projected` lets each state vote
-    for its own optimal action, this weighs how much each action loses in each state."""
+    """Logits favouring, in each observation, the actions whose full-observation Q-value is best
+    in the worst of the decision maker's states with that observation (a pessimistic QMDP: as if
+    the state were revealed after this step, and the state the observation hides were the least
+    favourable one); every action within 1e-9 of the best is favoured alike; memory stays put.
+
+    Where :func:`_projected` lets each state vote for its own optimal action (with full
+    observation the planner never gathers information, so that vote says "act now" everywhere),
+    the worst case over an observation's states refuses an action that is fatal in one of them:
+    information-gathering moves win until the observation pins the state down."""
     la = np.zeros(par.shapes[0])
     values = np.asarray(full.values, dtype=np.float64)
     finite = np.isfinite(values)
@@ -492,14 +500,13 @@ def _qmdp(par: Parametrisation, full, model: ExplicitModel, rewards: np.ndarray 
         q = q + rewards[c]
     z = par.obs_index[par.view.state_obs[model.choice_states[c]]]
     a = par.act_index[model.choice_actions[c]]
-    total = np.zeros(par.shapes[0][1:])
-    seen = np.zeros(par.shapes[0][1:])
-    np.add.at(total, (z, a), sign * q)
-    np.add.at(seen, (z, a), 1.0)
-    score = np.where(par.mask & (seen > 0), total / np.maximum(seen, 1.0), -np.inf)
-    has = np.isfinite(score).any(axis=1)
-    best = score.argmax(axis=1)
-    la[:, np.flatnonzero(has), best[has]] = _LOGIT
+    worst = np.full(par.shapes[0][1:], np.inf)
+    np.minimum.at(worst, (z, a), sign * q)
+    score = np.where(par.mask & np.isfinite(worst), worst, -np.inf)
+    top = score.max(axis=1, keepdims=True)
+    has = np.isfinite(top[:, 0])
+    favoured = has[:, None] & np.isfinite(score) & (score >= top - 1e-9 * np.maximum(1.0, np.abs(top)))
+    la[:, favoured] = _LOGIT
     ld = np.zeros(par.shapes[1])
     k = par.k
     ld[np.arange(k), :, :, np.arange(k)] = _LOGIT
