@@ -323,7 +323,7 @@ class Parametrisation:
         value, and the undiscounted expected reward has infinite values)."""
         if self.rewards is not None:
             return self.discount < 1.0
-        return self.maximize
+        return self.maximize or len(self.model.player_names) <= 1
 
     def _evaluate_iterative(self, prod, gamma: np.ndarray, delta: np.ndarray, *,  # type: ignore[no-untyped-def]
                             gradient: bool) -> Evaluation:
