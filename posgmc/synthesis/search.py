@@ -329,10 +329,21 @@ def _round(par: Parametrisation, starts: list[tuple[np.ndarray, np.ndarray]], si
         candidates.append((*par.sharpened(g, d), (la, ld)))
         candidates.append((*par.hardened(g, d), (la, ld)))
         candidates.append((g, d, (la, ld)))
-    # deterministic neighbours of the best hardened candidate: one rule changed at a time
+    # each candidate's float value, computed once (on a large model each is a cold iterative
+    # solve: a hardened or sharpened candidate's product has its own structure)
+    floats: dict[int, float] = {}
+
+    def value_of(c: tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]) -> float:
+        if id(c) not in floats:
+            floats[id(c)] = sign * par.evaluate(c[0], c[1], gradient=False).value
+        return floats[id(c)]
+
+    large = model.num_states * par.k >= ITERATIVE_STATES
+    # deterministic neighbours of the best hardened candidate: one rule changed at a time (not on
+    # a large model, where each neighbour costs a full evaluation and thousands of rules exist)
     hard = candidates[1::3]
-    if hard and time.perf_counter() < deadline:
-        g, d, logits = max(hard, key=lambda c: sign * par.evaluate(c[0], c[1], gradient=False).value)
+    if hard and not large and time.perf_counter() < deadline:
+        g, d, logits = max(hard, key=value_of)
         (g, d), n_eval = _local_search(par, g, d, sign, deadline)
         evaluations += n_eval
         candidates.append((g, d, logits))
@@ -341,14 +352,10 @@ def _round(par: Parametrisation, starts: list[tuple[np.ndarray, np.ndarray]], si
     # to 1e-7, so that on a near-tie the stable sort keeps the sharpened (or deterministic)
     # version, which is simpler and verified far faster than the softmax's near-deterministic one
     t0 = time.perf_counter()
-    scored = sorted(
-        candidates,
-        key=lambda c: round(-sign * par.evaluate(c[0], c[1], gradient=False).value, 7),
-    )
+    scored = sorted(candidates, key=lambda c: round(-value_of(c), 7))
     best: tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None = None
     # on a large model one candidate only: a policy-iteration check of its product costs LU
     # factorisations of 10^5 unknowns (seconds each), and the float ranking rarely errs
-    large = model.num_states * par.k >= ITERATIVE_STATES
     for g, d, logits in scored[: 1 if large else options.verify]:
         fss = par.strategy(g, d)
         r = StrategyChecker(model, {fss.player: fss}, coalition_of=coalition_of, scalar=scalar,
