@@ -1,9 +1,10 @@
 """Synthesis of the decision maker's finite-state strategy against an omniscient adversary:
 gradient ascent of `guaranteed` over randomised k-FSSs, memory escalation, verified results.
 
-For each memory size k in turn: start from (i) the full-observation optimum projected onto the
-decision maker's observations, (ii) the best (k-1)-node defence embedded into k nodes, (iii)
-seeded random logits; follow the exact (sub)gradient of the value against the adversary's best
+For each memory size k in turn (a memoryless warm-up first when k = 1 is not asked for): start
+from (i) the best smaller defence embedded into k nodes (and perturbed copies), (ii) the
+full-observation optimum projected onto the decision maker's observations (pessimistic QMDP,
+then majority vote), (iii) seeded random logits; follow the exact (sub)gradient of the value against the adversary's best
 response (:mod:`posgmc.synthesis.parametric`) with Adam; keep the best iterate and its hardened
 (deterministic) version. Every candidate is then verified by the sound product check
 (:class:`~posgmc.strategies.verify.StrategyChecker`), and the reported number is that check's
@@ -22,6 +23,7 @@ import numpy as np
 
 from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import Bound
+from posgmc.engines.graph import concat_ranges
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.errors import InputError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
@@ -499,9 +501,7 @@ def _qmdp(par: Parametrisation, full, model: ExplicitModel, rewards: np.ndarray 
     big = 10.0 * (float(np.abs(values[finite]).max(initial=0.0)) + 1.0)
     values = np.where(finite, values, np.copysign(big, values))
     states = np.flatnonzero(par.owned)
-    counts = np.diff(model.row_groups)[states]
-    c = np.repeat(model.row_groups[states], counts) + (
-        np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts))
+    c = concat_ranges(model.row_groups[states], model.row_groups[states + 1])
     q = discount * np.asarray(model.transitions[c] @ values).ravel()
     if rewards is not None:
         q = q + rewards[c]
