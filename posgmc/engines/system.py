@@ -205,11 +205,7 @@ def build_system(
         raise ValueError("every unknown state needs at least one allowed choice")
     is_max = maximize[unk]
     kmax = int(counts.max()) if counts.size else 0
-    if layer is not None and unk.size >= _MIN_BLOCKED_STATES:
-        block = _block_of(layer[unk])
-    else:
-        block = np.zeros(unk.size, dtype=np.int64)
-    band_of_block = None
+    found = None
     if topological and unk.size:
         found = topological_blocks(
             g.transitions,
@@ -218,8 +214,13 @@ def build_system(
             layer=None if layer is None else layer[unk],
             band_states=band_states,
         )
-        if found is not None:
-            block, band_of_block = found
+    band_of_block = None
+    if found is not None:
+        block, band_of_block = found
+    elif layer is not None and unk.size >= _MIN_BLOCKED_STATES:
+        block = _block_of(layer[unk])
+    else:
+        block = np.zeros(unk.size, dtype=np.int64)
     nb = int(block.max()) + 1 if block.size else 1
     # maximisers first, then by block, then by decreasing number of rows; a stable sort on a small
     # integer key (numpy uses radix sort for 16-bit keys)
