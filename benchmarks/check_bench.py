@@ -71,7 +71,7 @@ PROPERTIES = {
         '<<rover>> Rmin=? [ F "goal" ]',
     ],
 }
-DEFAULT = ["two_robots=32", "pursuit=30", "rover=2000", "rover_wind=500"]
+DEFAULT = ["rover=2000", "rover_wind=500", "two_robots=32", "pursuit=30"]
 
 
 def worker(path: str, n: int, prop: str, constant: str = "N") -> dict[str, Any]:
