@@ -222,15 +222,24 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
     if fm is not None and fc is not None:
         click.echo(f"full observation (no partially observing defence does better): mission "
                    f"{_fmt(fm.value)}, cost {_fmt(fc.value)}")
-    for c, i in front.budgets:
-        if i is None:
-            click.echo(f"cost <= {_fmt(c)}: no verified defence meets it")
+    def weight(i: int) -> str:
+        w = front.points[i].weight
+        return "inf" if math.isinf(w) else f"{w:g}"
+
+    for answer in front.budgets:
+        p = answer.point
+        if p is None or p.mission is None or p.cost is None:
+            click.echo(f"cost <= {_fmt(answer.budget)}: no verified defence meets it")
+            continue
+        if answer.mixed is not None:
+            i, j, alpha = answer.mixed
+            how = (f"the mixture of w={weight(j)} (probability {alpha:.6g}) and w={weight(i)}, "
+                   "verified itself")
         else:
-            p = front.points[i]
-            assert p.mission is not None and p.cost is not None  # noqa: S101 - verified
-            click.echo(f"cost <= {_fmt(c)}: mission >= {_fmt(p.mission.lower)} (proven), by the "
-                       f"defence of w={'inf' if math.isinf(p.weight) else f'{p.weight:g}'} "
-                       f"(cost <= {_fmt(p.cost.upper)})")
+            how = f"the defence of w={weight(answer.pure)}"  # type: ignore[arg-type]
+        click.echo(f"cost <= {_fmt(answer.budget)}: mission >= {_fmt(p.mission.lower)} (proven), "
+                   f"by {how} (cost <= {_fmt(p.cost.upper)})"
+                   + (f" -> {p.strategy_file}" if p.strategy_file and answer.mixed else ""))
     click.echo("each row: one synthesised defence, both numbers proven for it against every "
                "adversary; * = on the front (no other defence found is better on both proven "
                "bounds). The front is what was found, a lower bound on the best trade-off.")

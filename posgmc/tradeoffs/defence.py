@@ -45,8 +45,8 @@ import numpy as np
 from posgmc.checking.results import Bound
 from posgmc.errors import InputError, PosgmcError, UnsupportedError
 
-__all__ = ["DefencePoint", "DefenceFront", "defence_front", "defence_front_to_csv",
-           "SCALARISED_REWARD"]
+__all__ = ["DefencePoint", "DefenceFront", "BudgetAnswer", "defence_front",
+           "defence_front_to_csv", "SCALARISED_REWARD"]
 
 SCALARISED_REWARD = "__posgmc_scalarised"
 """The name of the reward structure the scalarised objective is written over (on a copy of the
@@ -77,18 +77,31 @@ class DefencePoint:
 
 
 @dataclass(frozen=True, eq=False)
+class BudgetAnswer:
+    """The answer to "max guaranteed mission s.t. guaranteed cost <= ``budget``": ``point`` the
+    defence (None: no verified defence meets it), ``pure`` the index of the best single verified
+    point that meets it, ``mixed`` ``(i, j, alpha)`` when ``point`` is the mixture playing point
+    ``j`` with probability ``alpha`` and point ``i`` otherwise (:mod:`posgmc.strategies.mixture`),
+    verified itself and better than ``pure``."""
+
+    budget: float
+    point: DefencePoint | None
+    pure: int | None
+    mixed: tuple[int, int, float] | None = None
+
+
+@dataclass(frozen=True, eq=False)
 class DefenceFront:
     """The points of a scalarisation sweep; ``front`` indexes the non-dominated verified ones
-    (sorted by cost), ``budgets`` pairs each cost constraint ``c`` with the index of the point that
-    answers it (None: no verified point meets it). ``mission_direction``/``cost_direction`` are
-    "max"/"min" as in the queries; ``full_observation`` is the mission's and the cost's
-    full-observation bound (proven; no partially observing defence beats them)."""
+    (sorted by cost), ``budgets`` answers each cost constraint. ``full_observation`` is the
+    mission's and the cost's full-observation bound (proven; no partially observing defence beats
+    them)."""
 
     mission: str
     cost: str
     points: tuple[DefencePoint, ...]
     front: tuple[int, ...]
-    budgets: tuple[tuple[float, int | None], ...] = ()
+    budgets: tuple[BudgetAnswer, ...] = ()
     full_observation: tuple[Bound | None, Bound | None] = (None, None)
     seconds: float = 0.0
 
@@ -225,9 +238,47 @@ def defence_front(
         points.append(_point(session, built, m, c, w, memory=memory, timeout=timeout, seed=seed,
                              strategy_dir=strategy_dir, write=write_strategy))
     front = pareto_indices(points)
-    return DefenceFront(m.text, c.text, tuple(points), front,
-                        tuple((float(b), best_under(points, float(b))) for b in budgets),
-                        full, time.perf_counter() - start)
+    answers = tuple(_answer(session, built, m, c, points, float(b), strategy_dir, write_strategy)
+                    for b in budgets)
+    return DefenceFront(m.text, c.text, tuple(points), front, answers, full,
+                        time.perf_counter() - start)
+
+
+def _answer(session: Any, built: Any, mission: Any, cost: Any, points: Sequence[DefencePoint],
+            budget: float, strategy_dir: str | Path | None, write: Any) -> BudgetAnswer:
+    """The best single point under the budget and, when a mixture of a cheaper and a dearer
+    verified point promises more mission within the budget, that mixture, verified."""
+    from posgmc.strategies.mixture import mix
+
+    pure = best_under(points, budget)
+    ok = [i for i, p in enumerate(points) if p.verified]
+    best: tuple[float, int, int, float] | None = None
+    floor = -math.inf if pure is None else points[pure].mission.lower  # type: ignore[union-attr]
+    for i in ok:
+        for j in ok:
+            pi, pj = points[i], points[j]
+            assert pi.mission and pi.cost and pj.mission and pj.cost  # noqa: S101 - verified
+            if not (pi.cost.upper <= budget < pj.cost.upper and pj.mission.lower > pi.mission.lower):
+                continue
+            # leave room for the bounds' width: the mixture's own check has its own intervals
+            margin = 1e-9 + (pi.cost.upper - pi.cost.lower) + (pj.cost.upper - pj.cost.lower)
+            alpha = (budget - margin - pi.cost.upper) / (pj.cost.upper - pi.cost.upper)
+            if alpha <= 0:
+                continue
+            promise = (1 - alpha) * pi.mission.lower + alpha * pj.mission.lower
+            if promise > floor + 1e-9 and (best is None or promise > best[0]):
+                best = (promise, i, j, alpha)
+    pure_point = None if pure is None else points[pure]
+    if best is None:
+        return BudgetAnswer(budget, pure_point, pure)
+    _, i, j, alpha = best
+    mixed = mix(points[j].strategy, points[i].strategy, alpha)
+    point = _verify(session, built, mission, cost, mixed, math.nan, strategy_dir,
+                    f"budget={budget:g}", write, time.perf_counter(), partial=False)
+    if point.verified and point.cost.upper <= budget and (  # type: ignore[union-attr]
+            pure_point is None or point.mission.lower > pure_point.mission.lower):  # type: ignore[union-attr]
+        return BudgetAnswer(budget, point, pure, (i, j, alpha))
+    return BudgetAnswer(budget, pure_point, pure)
 
 
 def _full_observation(session: Any, built: Any, mission: str, cost: str) -> tuple[Bound | None, Bound | None]:
@@ -256,14 +307,27 @@ def _point(session: Any, built: Any, mission: Any, cost: Any, weight: float, *, 
             model, text = _scalarised(built.model, mission, cost, weight)
             result = api.synthesize(api.Session.of_model(model, name=session.path), text,
                                     memory=memory, timeout=timeout, seed=seed)
-        defence = result.strategies[0]
-        name = defence.player or "agent"
+    except PosgmcError as e:
+        return DefencePoint(weight, None, None, seconds=time.perf_counter() - t0, error=e)
+    return _verify(session, built, mission, cost, result.strategies[0], weight, strategy_dir,
+                   f"w={_fmt_weight(weight)}", write, t0,
+                   partial=bool(result.synthesis and result.synthesis.get("partial")))
+
+
+def _verify(session: Any, built: Any, mission: Any, cost: Any, defence: Any, weight: float,
+            strategy_dir: str | Path | None, folder_name: str, write: Any, t0: float, *,
+            partial: bool) -> DefencePoint:
+    """Both objectives under ``defence`` (from its file when ``strategy_dir`` is given), by the
+    sound engines on the original model."""
+    from posgmc import api
+
+    try:
         given: Any = defence
         where = None
         if strategy_dir is not None:
-            folder = os.path.join(str(strategy_dir), f"w={_fmt_weight(weight)}")
+            folder = os.path.join(str(strategy_dir), folder_name)
             os.makedirs(folder, exist_ok=True)
-            where = os.path.join(folder, f"{name}.json")
+            where = os.path.join(folder, f"{defence.player or 'agent'}.json")
             write(defence, where)
             given = where  # verified from the file, as a user deploying it would
         report = api.check(session, properties=[mission.text, cost.text], built=built,
@@ -274,13 +338,14 @@ def _point(session: Any, built: Any, mission: Any, cost: Any, weight: float, *, 
                 raise o.error
             numbers.append(o.guaranteed)
         return DefencePoint(weight, numbers[0], numbers[1], defence, where, defence.memory_size,
-                            time.perf_counter() - t0,
-                            bool(result.synthesis and result.synthesis.get("partial")))
+                            time.perf_counter() - t0, partial)
     except PosgmcError as e:
         return DefencePoint(weight, None, None, seconds=time.perf_counter() - t0, error=e)
 
 
 def _fmt_weight(w: float) -> str:
+    if math.isnan(w):
+        return "mix"
     return "inf" if math.isinf(w) else repr(w).removesuffix(".0") if w == int(w) else repr(w)
 
 
@@ -288,8 +353,9 @@ def defence_front_to_csv(front: DefenceFront) -> str:
     """One row per point: ``weight, mission, mission_lower, mission_upper, cost, cost_lower,
     cost_upper, on_front, memory, partial, strategy, error`` (mission/cost: ``guaranteed``), then
     one ``budget`` row per constraint: its ``cost`` is the constraint ``c``, the other cells those
-    of the point that answers it (``cost_upper``: its proven cost), or an error "no verified point
-    meets it"."""
+    of the defence that answers it (``cost_lower``/``cost_upper``: its proven cost; ``weight`` the
+    point's weight, or ``mix(wj:alpha, wi)`` for the mixture playing the point of weight ``wj``
+    with probability ``alpha``), or an error "no verified point meets it"."""
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
     w.writerow(["kind", "weight", "mission", "mission_lower", "mission_upper", "cost",
@@ -301,14 +367,17 @@ def defence_front_to_csv(front: DefenceFront) -> str:
                      repr(p.cost.value), repr(p.cost.lower), repr(p.cost.upper)]
         w.writerow(["point", _fmt_weight(p.weight), *cells, i in front.front, p.memory,
                     p.partial, p.strategy_file or "", "" if p.error is None else p.error.message])
-    for c, i in front.budgets:
-        if i is None:
-            w.writerow(["budget", "", "", "", "", repr(c), "", "", "", "", "", "",
+    for answer in front.budgets:
+        p = answer.point
+        if p is None or p.mission is None or p.cost is None:
+            w.writerow(["budget", "", "", "", "", repr(answer.budget), "", "", "", "", "", "",
                         "no verified point meets it"])
             continue
-        p = front.points[i]
-        assert p.mission is not None and p.cost is not None  # noqa: S101 - best_under: verified
-        w.writerow(["budget", _fmt_weight(p.weight), repr(p.mission.value), repr(p.mission.lower),
-                    repr(p.mission.upper), repr(c), "", repr(p.cost.upper), True, p.memory,
-                    p.partial, p.strategy_file or "", ""])
+        how = "" if answer.mixed is None else "mix({1}:{2!r}, {0})".format(
+            *(_fmt_weight(front.points[answer.mixed[k]].weight) if k < 2 else answer.mixed[2]
+              for k in range(3)))
+        w.writerow(["budget", how or _fmt_weight(p.weight), repr(p.mission.value),
+                    repr(p.mission.lower), repr(p.mission.upper), repr(answer.budget),
+                    repr(p.cost.lower), repr(p.cost.upper), True, p.memory, p.partial,
+                    p.strategy_file or "", ""])
     return out.getvalue()

@@ -109,15 +109,27 @@ def test_every_weight_gives_the_defence_derived_by_hand(pomdp_front) -> None:  #
 
 
 def test_constraints_are_answered_from_proven_bounds_only(pomdp_front) -> None:  # type: ignore[no-untyped-def]
-    assert pomdp_front.budgets == ((0.5, None), (5.0, 0), (10.5, 2))
+    none, five, more = pomdp_front.budgets
+    assert (none.budget, none.point, none.pure) == (0.5, None, None)
+    assert (more.pure, more.mixed, more.point) == (2, None, pomdp_front.points[2])
     # cost <= 10 is not proven by the interval [10 - 1e-9, 10 + 1e-9] of the safe defence
     assert pomdp_front.points[2].cost.upper > 10
     assert best_under(pomdp_front.points, 10.0) == 0
+    # cost <= 5: safe with probability alpha, cheap otherwise, 1 + 9 alpha = 5: alpha = 4/9 and
+    # mission 1/2 + 0.4 * 4/9 = 0.6777..., the constrained optimum (randomising in s=0), up to
+    # the margin left for the bounds' width
+    assert five.pure == 0 and five.mixed is not None
+    i, j, alpha = five.mixed
+    assert (i, j) in {(0, 2), (0, 3), (1, 2), (1, 3)} and alpha == pytest.approx(4 / 9, abs=1e-8)
+    assert five.point.verified and five.point.cost.upper <= 5
+    assert _within(five.point.mission, 0.5 + 0.4 * alpha)
+    assert five.point.mission.lower == pytest.approx(0.5 + 0.4 * 4 / 9, abs=1e-8)
+    assert five.point.strategy.memory_size == 3  # undecided + one node of each
 
 
 def test_every_point_reverifies_from_its_exported_file(choice: Path, pomdp_front) -> None:  # type: ignore[no-untyped-def]
     session = api.load(choice)
-    for p in pomdp_front.points:
+    for p in (*pomdp_front.points, pomdp_front.budgets[1].point):
         assert p.strategy_file is not None and Path(p.strategy_file).is_file()
         report = api.check(session, properties=[MISSION, COST], strategies={"": p.strategy_file})
         mission, cost = (r.guaranteed for r in report.results)
@@ -131,6 +143,7 @@ def test_the_csv_has_one_row_per_point_and_per_budget(pomdp_front) -> None:  # t
     assert [r["on_front"] for r in rows[:4]] == ["True", "False", "True", "False"]
     assert float(rows[2]["mission_lower"]) == pomdp_front.points[2].mission.lower
     assert rows[4]["error"] == "no verified point meets it"
+    assert rows[5]["weight"].startswith("mix(") and float(rows[5]["cost_upper"]) <= 5
     assert rows[6]["weight"] == "30" and float(rows[6]["cost"]) == 10.5
 
 
@@ -172,7 +185,8 @@ def test_the_cli_prints_the_front_and_writes_csv_and_plot(choice: Path, tmp_path
         "--budget", "5", "--timeout", "2", "--csv", str(tmp_path / "f.csv"),
         "--plot", str(tmp_path / "f.png"), "--strategies", str(tmp_path / "s")])
     assert out.exit_code == 0, out.output
-    assert "cost <= 5: mission >= 0.4999999999 (proven), by the defence of w=0" in out.output
+    assert "cost <= 5: mission >= 0.67777777" in out.output
+    assert "by the mixture of w=30 (probability 0.444444" in out.output
     assert (tmp_path / "f.png").stat().st_size > 0
     assert (tmp_path / "s" / "w=30" / "agent.json").is_file()
 
