@@ -160,15 +160,17 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
         return EXIT_OK
     click.echo(f"{prop_text}: Pareto front, {len(front.points)} vertices "
                f"({front.solves} LPs over {answer.states} states, {answer.seconds:.3f} s)")
-    rows = [("", front.objectives[0] + f" ({front.directions[0].value})",
-             front.objectives[1] + f" ({front.directions[1].value})")]
-    rows += [("achievable", _fmt(float(x)), _fmt(float(y))) for x, y in front.points]
-    rows += [("over-approximation", _fmt(float(x)), _fmt(float(y))) for x, y in front.corners]
-    widths = [max(len(row[i]) for row in rows) for i in range(3)]
+    rows = [("", *(o + f" ({d.value})" for o, d in zip(front.objectives, front.directions)))]
+    rows += [("achievable", *(_fmt(float(v)) for v in p)) for p in front.points]
+    rows += [("over-approximation", *(_fmt(float(v)) for v in p)) for p in front.corners]
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     for row in rows:
         click.echo("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
+    how = ("" if len(front.objectives) == 2 else
+           " (shifted by that much in every objective at once)")
     click.echo(f"precision: every point of the over-approximation is within {front.precision:.3g} "
-               "of an achievable one" + ("" if front.converged else " (STOPPED at the LP budget)"))
+               f"of an achievable one{how}"
+               + ("" if front.converged else " (STOPPED at the LP budget)"))
     click.echo("achievable: the vertices of the under-approximation (each point of their convex "
                "hull, and anything worse, is achieved by a strategy); LP values in floating point")
     if csv_file is not None:
@@ -176,6 +178,10 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
     if plot_file is not None:
         from posgmc.tradeoffs.plot import plot_front
 
+        if len(front.objectives) != 2:
+            click.echo(f"--plot: a front of {len(front.objectives)} objectives is not drawn (the "
+                       "plot is 2-D); the table and --csv have every objective", err=True)
+            return EXIT_ERROR
         plot_front(front, plot_file, title=prop_text)
     return EXIT_OK
 

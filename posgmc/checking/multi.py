@@ -42,6 +42,7 @@ import numpy as np
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.engines.multi.lp import LP_TOLERANCE, LPStatus, OccupationLP
 from posgmc.engines.multi.pareto import ParetoFront, pareto_front
+from posgmc.engines.multi.pareto_nd import pareto_front_nd
 from posgmc.engines.multi.settle import Condition, ConditionKind, settling_options
 from posgmc.engines.multi.unfold import layer_rewards, unfold_steps
 from posgmc.errors import SemanticError, UnsupportedError
@@ -80,16 +81,19 @@ class MultiKind(enum.Enum):
 
 @dataclass(frozen=True, eq=False)
 class Front:
-    """A two-objective Pareto front in the objectives' own units (a minimised one as itself).
+    """A Pareto front of n >= 2 objectives in the objectives' own units (a minimised one as
+    itself).
 
-    ``points``: float64[m, 2], achievable vertices (the under-approximation is their convex
-    hull, closed towards the worse values); ``corners``: float64[k, 2], the vertices of the
+    ``points``: float64[m, n], achievable vertices (the under-approximation is their convex
+    hull, closed towards the worse values); ``corners``: float64[k, n], the vertices of the
     over-approximation (no strategy achieves a point beyond it); ``precision``: the largest
-    distance between the two; ``converged``: every segment was closed within the tolerance.
+    distance between the two (Euclidean for n = 2; for n >= 3 the largest uniform shift of a
+    corner, in every objective at once, into the under-approximation); ``converged``: every
+    segment (facet) was closed within the tolerance.
     """
 
-    objectives: tuple[str, str]
-    directions: tuple[Direction, Direction]
+    objectives: tuple[str, ...]
+    directions: tuple[Direction, ...]
     points: np.ndarray
     corners: np.ndarray
     precision: float
@@ -97,8 +101,9 @@ class Front:
     converged: bool
 
     def text(self) -> str:
-        """PRISM's form: ``[(x1,y1),(x2,y2)]``."""
-        return "[" + ",".join(f"({x:.10g},{y:.10g})" for x, y in self.points) + "]"
+        """PRISM's form: ``[(x1,y1),(x2,y2)]`` (n numbers per point for n objectives)."""
+        return "[" + ",".join("(" + ",".join(f"{v:.10g}" for v in p) + ")"
+                              for p in self.points) + "]"
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -384,20 +389,24 @@ def answer_multi(
             MultiKind.NUMERICAL, texts, value=value, residual=point.residual, states=num_states,
             seconds=time.perf_counter() - start,
         )
-    first, second = queries
-    raw: ParetoFront = pareto_front(
-        lp, first, second, at_least=at_least, tolerance=tolerance, max_solves=max_solves
-    )
+    if len(queries) == 2:
+        raw: ParetoFront = pareto_front(
+            lp, queries[0], queries[1], at_least=at_least, tolerance=tolerance,
+            max_solves=max_solves,
+        )
+    else:
+        raw = pareto_front_nd(lp, tuple(queries), at_least=at_least, tolerance=tolerance,
+                              max_solves=max_solves)
 
     def units(pts: np.ndarray) -> np.ndarray:
         out = pts.copy()
-        for axis, i in enumerate((first, second)):
+        for axis, i in enumerate(queries):
             out[:, axis] = [objectives[i].reported(v) for v in pts[:, axis]]
         return out
 
     directions = tuple(Direction.MIN if objectives[i].minimise else Direction.MAX for i in queries)
     front = Front(
-        (texts[first], texts[second]), directions, units(raw.points), units(raw.corners),  # type: ignore[arg-type]
+        tuple(texts[i] for i in queries), directions, units(raw.points), units(raw.corners),
         raw.precision, raw.solves, raw.converged,
     )
     return MultiAnswer(MultiKind.PARETO, texts, front=front, states=num_states,
