@@ -155,8 +155,15 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
                 hint="--csv and --plot need a Pareto query: two objectives with =?",
             )
         value = answer.achievable if answer.kind.value == "achievability" else answer.value
-        click.echo(f"{prop_text}: {_fmt(value)}  (lp (HiGHS), {answer.seconds:.3f} s; LP value: "
-                   "floating point, not a proven bound)")
+        if answer.kind.value == "achievability":
+            what = ("proven: the LP's strategy, re-checked by interval iteration, meets every "
+                    "threshold" if answer.proven else "LP verdict, not proven")
+        elif answer.certified == answer.certified:  # not NaN
+            what = (f"LP value; proven: the optimum is {'at most' if answer.minimised else 'at least'}"
+                    f" {_fmt(answer.certified)}")
+        else:
+            what = "LP value: floating point, not a proven bound"
+        click.echo(f"{prop_text}: {_fmt(value)}  (lp (HiGHS), {answer.seconds:.3f} s; {what})")
         return EXIT_OK
     click.echo(f"{prop_text}: Pareto front, {len(front.points)} vertices "
                f"({front.solves} LPs over {answer.states} states, {answer.seconds:.3f} s)")
