@@ -475,21 +475,23 @@ def _certified_optimum(lp: OccupationLP, parts: _Parts, objectives: list[_Object
                        weights: np.ndarray, at_least: dict[int, float], x: np.ndarray | None) -> float:
     """A proven bound on the optimum of objective ``i`` (a lower bound when it is maximised, an
     upper bound when minimised), in its own units, from a strategy whose values the sound
-    engines re-check; NaN when the check proves nothing. The constraints are first tightened by
-    1e-6 (relative to ``max(1, |bound|)`` for rewards) so that the strategy meets them with room
-    beyond the engines' precision; without room, the LP's own solution is tried."""
-    tries = []
+    engines re-check; NaN when the check proves nothing. The LP's own solution is tried first;
+    when its re-checked values miss a constraint (a binding one, by rounding), the constraints
+    are tightened by 1e-6 (relative to ``max(1, |bound|)`` for rewards) and the LP solved again,
+    so that the strategy meets them with room beyond the engines' precision."""
+    def proven(candidate: np.ndarray) -> float:
+        lower = _certify(parts, objectives, candidate)
+        if all(lower[k] >= v for k, v in at_least.items()) and np.isfinite(lower[i]):
+            return objectives[i].reported(float(lower[i]))
+        return math.nan
+
+    if x is not None and not math.isnan(found := proven(x)):
+        return found
     if at_least:
         room = {k: v + MARGIN * objectives[k].scale_of_bound for k, v in at_least.items()}
         tight = lp.maximise(weights, at_least=room)
         if tight.status is LPStatus.OPTIMAL and tight.x is not None:
-            tries.append(tight.x)
-    if x is not None:
-        tries.append(x)
-    for candidate in tries:
-        lower = _certify(parts, objectives, candidate)
-        if all(lower[k] >= v for k, v in at_least.items()) and np.isfinite(lower[i]):
-            return objectives[i].reported(float(lower[i]))
+            return proven(tight.x)
     return math.nan
 
 
