@@ -240,8 +240,8 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
         return "inf" if math.isinf(w) else f"{w:g}"
 
     for answer in front.budgets:
-        p = answer.point
-        if p is None or p.mission is None or p.cost is None:
+        q = answer.point
+        if q is None or q.mission is None or q.cost is None:
             click.echo(f"cost <= {_fmt(answer.budget)}: no verified defence meets it")
             continue
         if answer.mixed is not None:
@@ -250,9 +250,9 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
                    "verified itself")
         else:
             how = f"the defence of w={weight(answer.pure)}"  # type: ignore[arg-type]
-        click.echo(f"cost <= {_fmt(answer.budget)}: mission >= {_fmt(p.mission.lower)} (proven), "
-                   f"by {how} (cost <= {_fmt(p.cost.upper)})"
-                   + (f" -> {p.strategy_file}" if p.strategy_file and answer.mixed else ""))
+        click.echo(f"cost <= {_fmt(answer.budget)}: mission >= {_fmt(q.mission.lower)} (proven), "
+                   f"by {how} (cost <= {_fmt(q.cost.upper)})"
+                   + (f" -> {q.strategy_file}" if q.strategy_file and answer.mixed else ""))
     click.echo("each row: one synthesised defence, both numbers proven for it against every "
                "adversary; * = on the front (no other defence found is better on both proven "
                "bounds). The front is what was found, a lower bound on the best trade-off.")

@@ -117,7 +117,7 @@ def pareto_indices(points: Sequence[DefencePoint]) -> tuple[int, ...]:
     as high and proven cost upper bound at most as high, one strictly), sorted by cost; of equal
     points the first is kept."""
     ok = [i for i, p in enumerate(points) if p.verified]
-    keep = []
+    keep: list[int] = []
     for i in ok:
         if any(_dominates(points[j], points[i]) for j in ok if j != i):
             continue
@@ -287,7 +287,7 @@ def _full_observation(session: Any, built: Any, mission: str, cost: str) -> tupl
     out: list[Bound | None] = []
     report = api.check(session, properties=[mission, cost], built=built, full_observation=True)
     for o in report.outcomes:
-        if isinstance(o, api.PropertyError) or o.lower is None:
+        if isinstance(o, api.PropertyError) or o.lower is None or o.upper is None:
             out.append(None)
         else:
             out.append(Bound(float(o.value), float(o.lower), float(o.upper), o.sound))
@@ -368,16 +368,18 @@ def defence_front_to_csv(front: DefenceFront) -> str:
         w.writerow(["point", _fmt_weight(p.weight), *cells, i in front.front, p.memory,
                     p.partial, p.strategy_file or "", "" if p.error is None else p.error.message])
     for answer in front.budgets:
-        p = answer.point
-        if p is None or p.mission is None or p.cost is None:
+        q = answer.point
+        if q is None or q.mission is None or q.cost is None:
             w.writerow(["budget", "", "", "", "", repr(answer.budget), "", "", "", "", "", "",
                         "no verified point meets it"])
             continue
-        how = "" if answer.mixed is None else "mix({1}:{2!r}, {0})".format(
-            *(_fmt_weight(front.points[answer.mixed[k]].weight) if k < 2 else answer.mixed[2]
-              for k in range(3)))
-        w.writerow(["budget", how or _fmt_weight(p.weight), repr(p.mission.value),
-                    repr(p.mission.lower), repr(p.mission.upper), repr(answer.budget),
-                    repr(p.cost.lower), repr(p.cost.upper), True, p.memory, p.partial,
-                    p.strategy_file or "", ""])
+        how = _fmt_weight(q.weight)
+        if answer.mixed is not None:
+            i, j, alpha = answer.mixed
+            how = (f"mix({_fmt_weight(front.points[j].weight)}:{alpha!r}, "
+                   f"{_fmt_weight(front.points[i].weight)})")
+        w.writerow(["budget", how, repr(q.mission.value),
+                    repr(q.mission.lower), repr(q.mission.upper), repr(answer.budget),
+                    repr(q.cost.lower), repr(q.cost.upper), True, q.memory, q.partial,
+                    q.strategy_file or "", ""])
     return out.getvalue()

@@ -8,7 +8,6 @@ import csv
 import io
 
 import numpy as np
-import pytest
 from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st

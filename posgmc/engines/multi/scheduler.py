@@ -27,7 +27,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from posgmc.engines.multi.settle import Settling
-from posgmc.model.explicit import ExplicitModel, ModelType, make_model
+from posgmc.model.explicit import ExplicitModel, make_model
+from posgmc.model.types import ModelType
 
 __all__ = ["InducedChain", "induced_chain"]
 
@@ -85,7 +86,8 @@ def induced_chain(
     keys = all_block * num_states + all_state
 
     def copy(block: np.ndarray, state: np.ndarray) -> np.ndarray:
-        return num_states + np.searchsorted(keys, block * num_states + state)
+        found: np.ndarray = num_states + np.searchsorted(keys, block * num_states + state)
+        return found
 
     # before settling: sum_c py[c] P(c, .) + sum_k pz[k] e_{copy(block k, s)}
     pick = sp.csr_matrix((py, (owner, np.arange(num_choices))), shape=(num_states, num_choices))
