@@ -195,3 +195,12 @@ def test_the_cli_refuses_weights_without_a_cost(choice: Path) -> None:
     out = CliRunner().invoke(main, ["pareto", str(choice), "--prop", MISSION, "--weights", "0,1"])
     assert out.exit_code == 2
     assert "--weights and --budget go with --cost" in out.output
+
+
+def test_the_cli_refuses_bad_weights_and_mixing_with_a_sweep(choice: Path) -> None:
+    out = CliRunner().invoke(main, ["pareto", str(choice), "--prop", MISSION, "--cost", COST,
+                                    "--weights", "0,x"])
+    assert out.exit_code == 2 and "comma-separated list of numbers" in out.output
+    out = CliRunner().invoke(main, ["pareto", str(choice), "--prop", MISSION, "--cost", COST,
+                                    "--sweep", "B=0:1"])
+    assert out.exit_code == 2 and "do not apply" in out.output
