@@ -138,3 +138,18 @@ def test_vertices_are_achievable_and_the_extremes_are_the_single_optima(model: s
                                    for v, t in zip(p, targets)) + ")"
         assert api.check(session, properties=[ach]).results[0].value is True
     assert f.precision <= 1e-5
+
+
+@settings(max_examples=15, deadline=None)
+@given(_mdps())
+def test_a_constant_third_objective_leaves_the_two_objective_front(model: str) -> None:
+    """P(true) = 1 for every strategy: the three-objective front is the two-objective one (the
+    engine of pareto.py) with a 1 appended to every vertex."""
+    session = api.load(text=model)
+    two, three = api.check(session, properties=[
+        "multi(Pmax=? [ F s=1 ], Pmax=? [ F s=2 ])",
+        "multi(Pmax=? [ F s=1 ], Pmax=? [ F s=2 ], Pmax=? [ true ])",
+    ]).results
+    f2, f3 = two.multi.front, three.multi.front
+    assert np.allclose(f3.points[:, 2], 1.0, atol=1e-7)
+    assert _rows(f3.points[:, :2]) == _rows(f2.points)
