@@ -422,7 +422,7 @@ def answer_multi(
         if t >= -10 * LP_TOLERANCE and point.x is not None:
             # the slack LP's solution keeps the largest room: re-check its strategy
             lower = _certify(parts, objectives, point.x)
-            proven = all(lower[i] >= at_least[i] for i in at_least)
+            proven = _meets(objectives, lower, at_least)
         return MultiAnswer(
             MultiKind.ACHIEVABILITY, texts, achievable=t >= -10 * LP_TOLERANCE,
             decided=abs(t) >= MARGIN or proven, margin=t, residual=point.residual,
@@ -471,6 +471,16 @@ def answer_multi(
                        seconds=time.perf_counter() - start)
 
 
+def _meets(objectives: list[_Objective], lower: np.ndarray, at_least: dict[int, float]) -> bool:
+    """Every threshold holds for the proven lower bounds (strictly for ``>``/``<``)."""
+    for k, v in at_least.items():
+        t = objectives[k].query.threshold
+        strict = t is not None and t.op in (ComparisonOp.GT, ComparisonOp.LT)
+        if not (lower[k] > v if strict else lower[k] >= v):
+            return False
+    return True
+
+
 def _certified_optimum(lp: OccupationLP, parts: _Parts, objectives: list[_Objective], i: int,
                        weights: np.ndarray, at_least: dict[int, float], x: np.ndarray | None) -> float:
     """A proven bound on the optimum of objective ``i`` (a lower bound when it is maximised, an
@@ -481,7 +491,7 @@ def _certified_optimum(lp: OccupationLP, parts: _Parts, objectives: list[_Object
     so that the strategy meets them with room beyond the engines' precision."""
     def proven(candidate: np.ndarray) -> float:
         lower = _certify(parts, objectives, candidate)
-        if all(lower[k] >= v for k, v in at_least.items()) and np.isfinite(lower[i]):
+        if _meets(objectives, lower, at_least) and np.isfinite(lower[i]):
             return objectives[i].reported(float(lower[i]))
         return math.nan
 
