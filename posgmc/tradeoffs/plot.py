@@ -193,14 +193,32 @@ def plot_sweeps(sweeps: "list[Sweep]", path: str | Path) -> None:
     _save(fig, plt, path)
 
 
+def _upper_hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """The concave upper hull of (cost, mission) points sorted by cost ascending: what mixing
+    two neighbours reaches (mission at least, cost at most, the mixtures of their bounds)."""
+    hull: list[tuple[float, float]] = []
+    for p in sorted(points):
+        while len(hull) >= 2:
+            (x1, y1), (x2, y2) = hull[-2], hull[-1]
+            if (x2 - x1) * (p[1] - y1) - (y2 - y1) * (p[0] - x1) >= 0:
+                hull.pop()  # the middle point lies on or below the chord
+            else:
+                break
+        hull.append(p)
+    return hull
+
+
 def plot_defence_fronts(fronts: "list[tuple[str, DefenceFront]]", path: str | Path, *,
                         title: str | None = None) -> None:
     """Defender trade-off fronts (:class:`~posgmc.tradeoffs.defence.DefenceFront`), each with a
     label (e.g. ``"k◦=1"``): every verified defence as a point at (its guaranteed cost, its
     guaranteed mission) with both proven bounds as error bars, the non-dominated ones joined as a
     staircase (what the front guarantees: a defence at least this good for at most this cost),
-    each annotated with its weight; the full-observation point (no partially observing defence
-    does better on either axis) as a star.
+    each annotated with its weight; dashed, the upper hull of the front, which randomised
+    mixtures of two neighbouring defences reach (their proven bounds mix linearly: against the
+    worst adversary a mixture does at least as well); crosses, the verified mixtures that answer
+    ``--budget`` constraints; the full-observation point (no partially observing defence does
+    better on either axis) as a star.
 
     Raises:
         UnsupportedError: matplotlib is not installed.
@@ -234,6 +252,15 @@ def plot_defence_fronts(fronts: "list[tuple[str, DefenceFront]]", path: str | Pa
             sx.append(x)
             sy.append(y)
         ax.plot(sx, sy, color=colour, linewidth=1.5, label=f"{label + ': ' if label else ''}front (proven bounds)")
+        hull = _upper_hull(list(zip(xs, ys)))
+        if len(hull) > 1:
+            ax.plot([x for x, _ in hull], [y for _, y in hull], color=colour, linestyle="--",
+                    linewidth=1, label=f"{label + ': ' if label else ''}randomised mixtures of two")
+        answered = [a.point for a in f.budgets if a.point is not None and a.mixed is not None]
+        if answered:
+            ax.plot([p.cost.upper for p in answered], [p.mission.lower for p in answered],  # type: ignore[union-attr]
+                    marker="x", linestyle="none", color=colour, markersize=8,
+                    label=f"{label + ': ' if label else ''}--budget answers (verified mixtures)")
         for p in best:
             w = "inf" if math.isinf(p.weight) else f"{p.weight:g}"
             ax.annotate(f"w={w}: ({p.cost.value:.4g}, {p.mission.value:.4g})",  # type: ignore[union-attr]

@@ -204,3 +204,11 @@ def test_the_cli_refuses_bad_weights_and_mixing_with_a_sweep(choice: Path) -> No
     out = CliRunner().invoke(main, ["pareto", str(choice), "--prop", MISSION, "--cost", COST,
                                     "--sweep", "B=0:1"])
     assert out.exit_code == 2 and "do not apply" in out.output
+
+
+def test_the_plotted_mixture_hull_drops_points_below_a_chord() -> None:
+    from posgmc.tradeoffs.plot import _upper_hull
+
+    # (5, 0.6) lies below the chord from (1, 0.5) to (10, 0.9) (0.678 there): not on the hull
+    assert _upper_hull([(10, 0.9), (1, 0.5), (5, 0.6)]) == [(1, 0.5), (10, 0.9)]
+    assert _upper_hull([(1, 0.5), (5, 0.8), (10, 0.9)]) == [(1, 0.5), (5, 0.8), (10, 0.9)]
