@@ -725,7 +725,8 @@ def _print_outcome(r: Any) -> None:
     if r.value is None:
         line += "  (the proven bounds do not decide it, even after refining)"
     if not r.converged:
-        line += "  NOT CONVERGED: the iteration cap was hit; the bounds hold but are wider"
+        line += ("  NOT CONVERGED: the bounds hold but are wider than the precision (iteration"
+                 " cap, or rounding of the model's numbers along very long expected paths)")
     if not r.sound:
         line += "  NOT PROVEN: bounds did not separate or the method is unsound"
     click.echo(line)

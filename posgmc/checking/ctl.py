@@ -5,7 +5,12 @@
 * ``F b`` is ``true U b``; ``G a`` is ``!(true U !a)`` with the other quantifier;
 * ``a W b`` is ``!(!b U (!a & !b))`` and ``a R b`` is ``!(!a U !b)``, with the other quantifier.
 
-What PRISM does not check either (bounded operators, LTL under ``A``/``E``) is refused.
+Any other path formula is LTL (``E [ G F a ]``, ``A [ a U (b U c) ]``): ``E [ phi ]`` holds where
+some path of the graph satisfies ``phi``, found as an accepting cycle of the product with the
+formula's limit-deterministic Büchi automaton (:mod:`posgmc.engines.ltl.omega`), and
+``A [ phi ] = !E [ !phi ]``: PRISM's ``NonProbModelChecker`` (``checkExistsLTL``) semantics.
+
+What PRISM does not check either (step-bounded operators under ``A``/``E``) is refused.
 """
 
 from __future__ import annotations
@@ -17,8 +22,9 @@ import numpy as np
 from posgmc.engines import ctl
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import Expr, PathQuantifier, Temporal, TemporalOp
+from posgmc.syntax.ast import Expr, PathQuantifier, Temporal, TemporalOp, Unary, UnaryOp
 from posgmc.syntax.placement import contains_temporal
+from posgmc.syntax.traversal import any_node
 
 __all__ = ["quantified_states"]
 
@@ -38,16 +44,21 @@ def quantified_states(
     """
     path, universal = expr.path, expr.universal
     name = "A" if universal else "E"
-    if not isinstance(path, Temporal):
-        if contains_temporal(path):
-            raise _not_ctl(name, expr)
+    if not isinstance(path, Temporal) and not contains_temporal(path):
         return states(path)
-    if path.bound is not None:
+    bounded = any_node(
+        path,
+        lambda n: isinstance(n, Temporal) and n.bound is not None,
+        into=lambda n: contains_temporal(n),
+    )
+    if bounded:
         raise UnsupportedError(
             f"step-bounded temporal operators inside {name}[...] are not supported (nor are they "
             "in PRISM)", path.span, hint="ask P>0 [...] or P>=1 [...] with the bound instead")
-    if any(contains_temporal(o) for o in path.operands):
-        raise _not_ctl(name, expr)
+    if not isinstance(path, Temporal) or any(contains_temporal(o) for o in path.operands):
+        if universal:  # A [ phi ] = ! E [ !phi ]
+            return ~_exists_ltl(model, Unary(UnaryOp.NOT, path, span=path.span), states)
+        return _exists_ltl(model, path, states)
     ops = [states(o) for o in path.operands]
     every = np.ones(model.num_states, dtype=np.bool_)
     exists_until = ctl.exists_until
@@ -71,8 +82,24 @@ def quantified_states(
     raise _not_ctl(name, expr)
 
 
+def _exists_ltl(
+    model: ExplicitModel, path: Expr, states: Callable[[Expr], np.ndarray]
+) -> np.ndarray:
+    """bool[S]: where some path satisfies the LTL formula ``path`` (an accepting lasso of the
+    product with its LDBA, probabilities ignored)."""
+    from posgmc.engines import ltl
+
+    atoms = ltl.extract_atoms(path)
+    ltl.check_atoms(path, atoms)
+    S = model.num_states
+    values = (np.stack([states(a) for a in atoms]) if atoms
+              else np.zeros((0, S), dtype=np.bool_))
+    ldba = ltl.to_ldba(path, atoms, alphabet=np.unique(ltl.pack_letters(values)))
+    prod = ltl.omega_product(model, ldba, values, starts=np.arange(S))
+    return ltl.accepting_cycles(prod)[prod.initial_map]
+
+
 def _not_ctl(name: str, expr: PathQuantifier) -> UnsupportedError:
     return UnsupportedError(
-        f"{name}[...] is checked for CTL path formulas only: one of X, F, G, U, W, R over state "
-        "formulas", expr.span,
-        hint="for LTL use P>0 [...] (some path, for a dtmc) or P>=1 [...] (almost all paths)")
+        f"{name}[...] is checked for CTL path formulas and LTL over state formulas", expr.span,
+        hint="temporal operators may be combined with !, &, |, => and <=> only")

@@ -8,9 +8,11 @@ This module owns the meaning of queries on fully observable models:
   minimising scheduler reaches ``p``; for ``<<C>> P>=p`` when ``C`` can ensure it (``C`` maximises).
 * ``G``, ``W``, ``R`` and negated path formulas are answered through the complement,
   ``P_max(G a) = 1 - P_min(F !a)``, flipping every state's optimisation direction.
-* Any other path formula is co-safe LTL: translated to a DFA, solved as reachability on the product.
-  If the formula is not co-safe but its negation is, the complement is used; otherwise the query
-  is rejected (PRISM-games' ``Error:co-safe``).
+* Any other path formula is LTL. A co-safe one is translated to a DFA and solved as reachability
+  on the product; if the formula is not co-safe but its negation is, the complement is used.
+  Otherwise (``G F a``, ``F G a``, ...) a dtmc or mdp gets the limit-deterministic Büchi
+  automaton of :mod:`posgmc.engines.ltl.ldba`: the maximal probability of reaching an accepting
+  end component of the product, and ``Pmin(phi) = 1 - Pmax(!phi)``; games refuse it.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from fractions import Fraction
 
 import numpy as np
 
@@ -178,7 +181,8 @@ class PropertyChecker:
             seconds=seconds,
             method=q.method,
             iterations=q.iterations,
-            converged=q.converged,
+            # a Boolean decided on proven bounds is final, however far the iteration got
+            converged=q.converged or (q.is_boolean and value is not None),
             sound=q.sound,
             per_initial=per_initial,
             values=q.values if self.options.keep_values else None,
@@ -277,6 +281,20 @@ class PropertyChecker:
 
         path = expr.path if isinstance(expr, ProbQuery) else None
         if (
+            path is not None
+            and self.model.num_states <= _RATIONAL_LIMIT
+            and _is_temporal(path)
+            and not _is_simple_path(path)
+        ):
+            if self.model.model_type.is_game:
+                return None
+            fractions = self._omega_fractions(
+                path, self._maximize(expr), limit=_RATIONAL_LIMIT, everywhere=True
+            )
+            if fractions is None:
+                return None
+            return _outward_values(fractions)
+        if (
             path is None
             or self.model.num_states > _RATIONAL_LIMIT
             or not isinstance(path, Temporal)
@@ -292,13 +310,7 @@ class PropertyChecker:
         values = exact_rational_reach(
             self.model, target, remain=remain, maximize=self._maximize(expr)
         )
-        # each fraction rounded outwards to the floats around it: bounds that hold
-        nearest = np.array([float(v) for v in values])
-        below = np.array([float(v) > v for v in values])
-        above = np.array([float(v) < v for v in values])
-        lower = np.where(below, np.nextafter(nearest, -np.inf), nearest)
-        upper = np.where(above, np.nextafter(nearest, np.inf), nearest)
-        return QueryValue((lower + upper) / 2, lower, upper, method="exact (rational)")
+        return _outward_values(values)
 
     # -- queries -------------------------------------------------------------------------------
 
@@ -430,7 +442,7 @@ class PropertyChecker:
             )
         return _from_engine(r)
 
-    # -- co-safe LTL -----------------------------------------------------------------------------
+    # -- LTL -------------------------------------------------------------------------------
 
     def _ltl_product(self, path: Expr):  # type: ignore[no-untyped-def]
         from posgmc.engines import ltl
@@ -438,10 +450,7 @@ class PropertyChecker:
         everywhere = self._everywhere  # read before the atoms' own (nested) queries reset it
         atoms = ltl.extract_atoms(path)
         ltl.check_atoms(path, atoms)  # before evaluating them
-        if atoms:
-            atom_values = np.stack([self._states(a) for a in atoms])
-        else:
-            atom_values = np.zeros((0, self.model.num_states), dtype=bool)
+        atom_values = self._atom_values(atoms)
         starts = np.arange(self.model.num_states) if everywhere else None
         # the automaton over the letters of this model, in its orders, not all 2**n (issue #13)
         graph = ltl.letter_graph(self.model, atom_values, starts)
@@ -455,16 +464,86 @@ class PropertyChecker:
             negated = Unary(UnaryOp.NOT, path, span=path.span)
             if ltl.is_cosafe(negated):
                 return _flip(self._ltl_probability(negated, ~maximize))
-            raise UnsupportedError(
-                "this path formula is not co-safe LTL (nor is its negation)",
-                path.span,
-                hint="use X, F, U, bounded G and boolean connectives (co-safe), or G of a state "
-                "formula (safety)",
-            )
+            return self._omega_probability(path, maximize)
         prod, starts = self._ltl_product(path)
         pmax = maximize[prod.state_of]
         r = obj.reach_probability(prod.model, prod.accepting, maximize=pmax, options=self.options.solver)
         return self._project(prod, _from_engine(r), starts)
+
+    def _omega_probability(self, path: Expr, maximize: np.ndarray) -> QueryValue:
+        """General (not co-safe) LTL on a dtmc or mdp: the LDBA product's maximal probability of
+        reaching an accepting end component; a minimum through the negation, ``Pmin(phi) =
+        1 - Pmax(!phi)`` (:mod:`posgmc.engines.ltl.omega`)."""
+        from posgmc.engines import ltl
+
+        if self._omega_minimises(path, maximize):
+            negated = Unary(UnaryOp.NOT, path, span=path.span)
+            return _flip(self._omega_probability(negated, ~maximize))
+        prod, starts = self._omega_product(path)
+        goal = ltl.accepting_end_components(prod)
+        everyone = np.ones(prod.num_states, dtype=bool)
+        r = obj.reach_probability(prod.model, goal, maximize=everyone, options=self.options.solver)
+        q = _from_engine(r)
+        return self._project(prod, replace(q, method=f"LTL via LDBA ({q.method})"), starts)
+
+    def _omega_minimises(self, path: Expr, maximize: np.ndarray) -> bool:
+        """Whether a general LTL query asks a minimum (answered as ``1 - Pmax(!phi)``).
+
+        Raises:
+            UnsupportedError: on a game (the LDBA is good for one optimiser only)."""
+        if self.model.model_type.is_game:
+            raise UnsupportedError(
+                f"LTL that is neither co-safe nor safety is not supported on "
+                f"{_article(self.model.model_type.value)}; on games posgmc checks co-safe LTL "
+                "(X, F, U, bounded G) and its negation",
+                path.span,
+                hint="non-co-safe LTL (G F, F G, ...) is supported on dtmcs and mdps",
+            )
+        return self.model.model_type.is_nondeterministic and not bool(np.all(maximize))
+
+    def _omega_fractions(
+        self, path: Expr, maximize: np.ndarray, *, limit: int, everywhere: bool
+    ) -> list[Fraction | None] | None:
+        """A general LTL probability in rational arithmetic: per state (None where the product
+        did not start), or None when the product has more than ``limit`` states."""
+        from posgmc.engines import ltl
+        from posgmc.engines.rational import exact_rational_reach
+
+        minimise = self._omega_minimises(path, maximize)
+        if minimise:
+            path = Unary(UnaryOp.NOT, path, span=path.span)
+        prod, starts = self._omega_product(path, everywhere=everywhere)
+        if prod.num_states > limit:
+            return None
+        goal = ltl.accepting_end_components(prod)
+        reach = exact_rational_reach(
+            prod.model, goal, maximize=np.ones(prod.num_states, dtype=bool)
+        )
+        out: list[Fraction | None] = [None] * self.model.num_states
+        origin = self.model.initial_states if starts is None else starts
+        for s, p in zip(origin.tolist(), prod.initial_map.tolist()):
+            out[s] = 1 - reach[p] if minimise else reach[p]
+        return out
+
+    def _omega_product(self, path: Expr, *, everywhere: bool | None = None):  # type: ignore[no-untyped-def]
+        """The product of the model with the LDBA of ``path`` (over the model's letters), from
+        every state (``everywhere``; default: as the current query needs) or the initial ones."""
+        from posgmc.engines import ltl
+
+        everywhere = self._everywhere if everywhere is None else everywhere
+        atoms = ltl.extract_atoms(path)
+        ltl.check_atoms(path, atoms)
+        atom_values = self._atom_values(atoms)
+        starts = np.arange(self.model.num_states) if everywhere else None
+        alphabet = np.unique(ltl.pack_letters(atom_values))
+        ldba = ltl.to_ldba(path, atoms, alphabet=alphabet)
+        return ltl.omega_product(self.model, ldba, atom_values, starts=starts), starts
+
+    def _atom_values(self, atoms: tuple[Expr, ...]) -> np.ndarray:
+        """bool[len(atoms), S]: where each atom holds."""
+        if atoms:
+            return np.stack([self._states(a) for a in atoms])
+        return np.zeros((0, self.model.num_states), dtype=bool)
 
     def _project(self, prod, q: QueryValue, starts: np.ndarray | None) -> QueryValue:  # type: ignore[no-untyped-def]
         """Values of the original states: those of the product state each starts in.
@@ -576,6 +655,22 @@ class PropertyChecker:
 
 _RATIONAL_LIMIT = 300
 """Models up to this many states may be solved in rational arithmetic to decide a threshold."""
+
+
+def _outward_values(values: list[Fraction] | list[Fraction | None]) -> QueryValue:
+    """Fractions rounded outwards to the floats around them: bounds that hold (None: NaN, a
+    state the computation did not cover)."""
+    nearest = np.array([np.nan if v is None else float(v) for v in values])
+    below = np.array([v is not None and float(v) > v for v in values])
+    above = np.array([v is not None and float(v) < v for v in values])
+    lower = np.where(below, np.nextafter(nearest, -np.inf), nearest)
+    upper = np.where(above, np.nextafter(nearest, np.inf), nearest)
+    return QueryValue((lower + upper) / 2, lower, upper, method="exact (rational)")
+
+
+def _is_simple_path(path: Expr) -> bool:
+    """One temporal operator over state formulas (what the reachability engines answer)."""
+    return isinstance(path, Temporal) and not any(_is_temporal(o) for o in path.operands)
 
 
 def _article(model_type: str) -> str:

@@ -9,9 +9,13 @@ Fractions). What is answered exactly:
   (:func:`posgmc.engines.rational.exact_rational_reach`; step bounds by backward induction,
   :func:`~posgmc.engines.rational.exact_bounded_reach`), and their thresholds ``P>=p [ ... ]``,
   compared with the threshold as a fraction (``P>1/2`` on a value of ``1/2 + 10^-33`` is true);
+* cumulative rewards ``R[ C<=k ]`` by backward induction;
+* LTL probabilities on dtmcs and mdps (``P=? [ G F a ]``, ...), through the product with the
+  formula's limit-deterministic automaton, reachability of its accepting end components in
+  rational arithmetic;
 * state formulas without queries.
 
-Everything else (rewards, step bounds, LTL, arithmetic over queries, partially observable models)
+Everything else (rewards, step bounds, LTL on games, arithmetic over queries, partially observable models)
 is refused with a message that names the supported fragment: an answer computed in floating point
 must not be printed as exact. Dense Gaussian elimination over Fractions: at most
 :data:`EXACT_STATE_LIMIT` states with an undecided value.
@@ -28,7 +32,11 @@ import numpy as np
 from posgmc.checking.dispatch import PropertyChecker, _contains_query, _is_temporal
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.checking.states import evaluate_states
-from posgmc.engines.rational import exact_bounded_reach, exact_rational_reach
+from posgmc.engines.rational import (
+    exact_bounded_reach,
+    exact_cumulative_reward,
+    exact_rational_reach,
+)
 from posgmc.errors import LimitError, UnsupportedError
 from posgmc.engines.rational_rewards import exact_reach_reward
 from posgmc.engines.steady import as_fractions, long_run_exact
@@ -50,8 +58,9 @@ EXACT_STATE_LIMIT = 3000
 
 _SUPPORTED = (
     "exact mode answers reachability probabilities (P[ X b ], P[ F b ], P[ G b ], P[ a U b ], with "
-    "upper step bounds <=k and with their thresholds), expected rewards R[F b] (dtmc, mdp), "
-    "steady-state probabilities and long-run rewards on dtmcs (S, R[S]) and state formulas"
+    "upper step bounds <=k and with their thresholds), LTL probabilities on dtmcs and mdps, "
+    "expected rewards R[F b] (dtmc, mdp) and R[C<=k], steady-state probabilities and long-run "
+    "rewards on dtmcs (S, R[S]) and state formulas"
 )
 
 _COMPARE = {
@@ -117,6 +126,8 @@ class ExactChecker(PropertyChecker):
                 and expr.objective.target is not None and not _is_temporal(expr.objective.target)
                 and not _contains_query(expr.objective.target)):
             return self._reach_reward(expr, common, start)
+        if isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.CUMULATIVE:
+            return self._cumulative_reward(expr, common, start)
         steady = self._steady(expr)
         if steady is not None:
             at_init = [steady[int(s)] for s in init]
@@ -155,6 +166,30 @@ class ExactChecker(PropertyChecker):
             **common,  # type: ignore[arg-type]
         )
 
+    def _cumulative_reward(self, expr: RewardQuery, common: dict[str, object],
+                           start: float) -> PropertyResult:
+        """``R[ C<=k ]`` (and its thresholds) exactly, by backward induction."""
+        self._check_size()
+        model = self.model
+        rewards = as_fractions(model.reward_model(expr.reward).choice_rewards(model.row_groups))
+        steps = self._int(expr.objective.bound)
+        values = exact_cumulative_reward(
+            model, rewards, steps=steps, maximize=self._maximize(expr)
+        )
+        at_init = [values[int(s)] for s in model.initial_states]
+        seconds = time.perf_counter() - start
+        if expr.threshold is not None:
+            bound = Fraction(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            holds = [_COMPARE[expr.threshold.op](v, bound) for v in at_init]
+            return PropertyResult(kind=ResultKind.BOOLEAN, value=all(holds), lower=None,
+                                  upper=None, seconds=seconds, per_initial=tuple(holds),
+                                  **common)  # type: ignore[arg-type]
+        lower, upper = _outward(at_init[0])
+        return PropertyResult(kind=ResultKind.REWARD, value=float(at_init[0]), lower=lower,
+                              upper=upper, seconds=seconds, exact=at_init[0],
+                              per_initial=tuple(float(v) for v in at_init),
+                              **common)  # type: ignore[arg-type]
+
     def _reach_reward(self, expr: RewardQuery, common: dict[str, object],
                       start: float) -> PropertyResult:
         """``R[F b]`` (and its thresholds) exactly; infinite values are exact too."""
@@ -189,6 +224,23 @@ class ExactChecker(PropertyChecker):
                               per_initial=tuple(float("inf") if infinite[s] else float(values[s])
                                                 for s in init),
                               **common)  # type: ignore[arg-type]
+
+    def _ltl(self, expr: ProbQuery) -> list[Fraction | None]:
+        """An LTL probability exactly: the LDBA product's maximal probability of reaching an
+        accepting end component in rational arithmetic (a dtmc's, or an mdp's ``max``), ``min``
+        as ``1 - max`` of the negation (:mod:`posgmc.engines.ltl.omega`). Values at the
+        initial states only (None elsewhere)."""
+        fractions = self._omega_fractions(
+            expr.path, self._maximize(expr), limit=EXACT_STATE_LIMIT, everywhere=False
+        )
+        if fractions is None:
+            raise LimitError(
+                f"exact mode solves models of at most {EXACT_STATE_LIMIT} states; the product of "
+                "this model with the formula's automaton has more",
+                expr.span,
+                hint="check without --exact: the default interval method gives proven bounds",
+            )
+        return fractions
 
     def _check_size(self) -> None:
         if self.model.num_states > EXACT_STATE_LIMIT:
@@ -236,6 +288,8 @@ class ExactChecker(PropertyChecker):
             or (bound is not None and (path.op is TemporalOp.NEXT or self._step_interval(bound)[0] != 0
                                        or self._step_interval(bound)[1] is None))
         ):
+            if _is_temporal(path) and not _contains_query(path):
+                return self._ltl(expr)
             raise UnsupportedError(f"{_SUPPORTED}; this path formula is not one of them", expr.span)
         self._check_size()
         if path.op is TemporalOp.UNTIL:

@@ -20,7 +20,7 @@ from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.syntax.ast import ModelType
 
-__all__ = ["exact_rational_reach"]
+__all__ = ["exact_bounded_reach", "exact_cumulative_reward", "exact_rational_reach"]
 
 _Row = tuple[Fraction, dict[int, Fraction]]  # (mass into value-1 states, mass into unknowns)
 
@@ -248,4 +248,47 @@ def exact_bounded_reach(
     for _ in range(steps):
         y = step(x)
         x = [Fraction(1) if tgt[s] else (y[s] if rem[s] else Fraction(0)) for s in range(S)]
+    return x
+
+
+def exact_cumulative_reward(
+    model: ExplicitModel,
+    choice_rewards: list[Fraction],
+    *,
+    steps: int,
+    maximize: np.ndarray,
+) -> list[Fraction]:
+    """The exact expected reward collected in the first ``steps`` steps (``R[ C<=steps ]``) per
+    state, by backward induction in rational arithmetic on a model built in exact mode:
+    ``x_0 = 0``, ``x_{i+1}(s) = opt_c ( r(c) + sum_t P(c, t) x_i(t) )``, each state's owner
+    maximising (``maximize``) or minimising.
+
+    Args:
+        model: a dtmc, mdp or smg with ``exact_probabilities``.
+        choice_rewards: one Fraction per choice (state reward plus action reward).
+        steps: the step bound k >= 0.
+        maximize: bool[S].
+
+    Raises:
+        PosgmcError: the model was not built in exact mode.
+    """
+    exact = model.exact_probabilities
+    if exact is None:
+        raise PosgmcError("exact cumulative rewards need a model built in exact mode")
+    S = model.num_states
+    mx = [True] * S if model.model_type is ModelType.DTMC else [bool(v) for v in maximize]
+    T = model.transitions
+    indptr, indices, groups = T.indptr, T.indices, model.row_groups
+    x = [Fraction(0)] * S
+    for _ in range(steps):
+        y = []
+        for s in range(S):
+            vals = [
+                choice_rewards[c]
+                + sum((exact[k] * x[indices[k]] for k in range(indptr[c], indptr[c + 1])),
+                      Fraction(0))
+                for c in range(int(groups[s]), int(groups[s + 1]))
+            ]
+            y.append(max(vals) if mx[s] else min(vals))
+        x = y
     return x

@@ -100,6 +100,31 @@ def test_mdp_min_and_max_and_step_bounds_are_exact() -> None:
     assert nxt.exact == Fraction(1, 7)
 
 
+def test_ltl_is_exact_through_the_automaton_product() -> None:
+    """G F and F G (not co-safe): s=1 and s=2 absorb, so G F "goal" = F "goal" and
+    F G s=2 = F s=2: Pmax/Pmin of F "goal" above (1/2, 1/7), of failing 1 - those (6/7, 1/2)."""
+    gf_max, gf_min, fg_max, fg_min = exact_results(
+        MDP, 'Pmax=? [ G F "goal" ]', 'Pmin=? [ G F "goal" ]', "Pmax=? [ F G s=2 ]",
+        "Pmin=? [ F G s=2 ]"
+    )
+    assert (gf_max.exact, gf_min.exact) == (Fraction(1, 2), Fraction(1, 7))
+    assert (fg_max.exact, fg_min.exact) == (Fraction(6, 7), Fraction(1, 2))
+    assert gf_max.method == "exact (rational)"
+    (literal,) = exact_results(LITERAL, "P=? [ G F s=1 ]")
+    assert literal.exact == Fraction(1, 10) + Fraction(1, 10**25)
+
+
+def test_cumulative_rewards_are_exact() -> None:
+    """Reward 1 per step spent in s=0: the first step always pays; a second one only if the
+    first step stayed in s=0, which [a] does with 1/3 and [b] never: Rmax = 4/3, Rmin = 1."""
+    text = MDP + "rewards s=0 : 1; endrewards\n"
+    rmax, rmin, above = exact_results(
+        text, "Rmax=? [ C<=2 ]", "Rmin=? [ C<=2 ]", "R>=4/3 [ C<=2 ]"
+    )
+    assert (rmax.exact, rmin.exact) == (Fraction(4, 3), Fraction(1))
+    assert above.value is False  # R>=4/3 on an mdp: for all schedulers (the minimum is 1)
+
+
 def test_a_fractional_power_is_a_positioned_error_even_when_the_root_is_rational() -> None:
     text = "dtmc\nmodule m\n  s : [0..2] init 0;\n  [] s=0 -> pow(1/4,1/2):(s'=1) + 1-pow(1/4,1/2):(s'=2);\nendmodule\n"
     with pytest.raises(BuildError) as info:
@@ -125,8 +150,9 @@ def test_probabilities_must_sum_to_exactly_one() -> None:
 
 
 def test_what_exact_mode_cannot_answer_is_refused_not_approximated() -> None:
-    # (R[F] is answered exactly since tests/engines/test_rational_rewards.py; C<=k is not)
-    (reward,) = exact_results(MDP + 'rewards true : 1; endrewards\n', 'Rmax=? [ C<=2 ]')
+    # (R[F] is answered exactly since tests/engines/test_rational_rewards.py, C<=k since
+    # test_cumulative_rewards_are_exact; I=k is not)
+    (reward,) = exact_results(MDP + 'rewards true : 1; endrewards\n', 'Rmax=? [ I=2 ]')
     assert isinstance(reward, PosgmcError) and "exact mode answers" in reward.message
 
 

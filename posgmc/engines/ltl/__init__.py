@@ -1,4 +1,5 @@
-"""Co-safe LTL: atoms, syntactic co-safety, DFA by progression, and the product with a model.
+"""LTL: atoms, syntactic co-safety, DFA by progression for co-safe formulas, LDBA for the others,
+and the products with a model.
 
 Typical use (the caller evaluates the atoms over the model)::
 
@@ -20,19 +21,32 @@ from posgmc.engines.ltl.dfa import (
     minimise,
     to_dfa,
 )
+from posgmc.engines.ltl.ldba import Ldba, to_ldba
+from posgmc.engines.ltl.omega import (
+    OmegaProduct,
+    accepting_cycles,
+    accepting_end_components,
+    omega_product,
+)
 from posgmc.engines.ltl.product import Product, letter_graph, pack_letters, product
 
 __all__ = [
     "MAX_ALPHABET_ATOMS",
     "Dfa",
+    "Ldba",
     "LetterGraph",
+    "OmegaProduct",
     "Product",
+    "accepting_cycles",
+    "accepting_end_components",
     "check_atoms",
     "extract_atoms",
     "is_cosafe",
     "letter_graph",
     "minimise",
+    "omega_product",
     "pack_letters",
     "product",
     "to_dfa",
+    "to_ldba",
 ]

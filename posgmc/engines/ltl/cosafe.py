@@ -52,9 +52,12 @@ from posgmc.syntax.ast import (
     BinaryOp,
     BoolLit,
     Expr,
+    Filter,
     IntLit,
+    PathQuantifier,
     ProbQuery,
     RewardQuery,
+    SteadyQuery,
     Temporal,
     TemporalOp,
     TimeBound,
@@ -74,6 +77,9 @@ __all__ = [
 BoundEvaluator = Callable[[Expr], int]
 """Evaluates a step-bound expression to an integer (e.g. with the property file's constants)."""
 
+_NESTED_QUERIES = (ProbQuery, RewardQuery, PathQuantifier, SteadyQuery, Filter)
+"""State formulas with their own path formula inside: atoms of the enclosing LTL formula."""
+
 _BOOLEAN_CONNECTIVES = (BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF)
 
 COSAFE_MESSAGE = (
@@ -87,10 +93,11 @@ COSAFE_MESSAGE = (
 
 
 def _contains_temporal(expr: Any) -> bool:
-    """Whether ``expr`` has a temporal operator at path level (nested queries are opaque)."""
+    """Whether ``expr`` has a temporal operator at path level (nested queries, ``A``/``E``,
+    ``S`` and filters, are opaque)."""
     if isinstance(expr, Temporal):
         return True
-    if isinstance(expr, (ProbQuery, RewardQuery)) or not isinstance(expr, Expr):
+    if isinstance(expr, _NESTED_QUERIES) or not isinstance(expr, Expr):
         return False
     for f in dataclasses.fields(expr):
         value = getattr(expr, f.name)

@@ -66,7 +66,7 @@ from posgmc.engines.ltl.cosafe import (
 from posgmc.errors import LimitError, UnsupportedError
 from posgmc.syntax.ast import Expr
 
-__all__ = ["Dfa", "LetterGraph", "check_atoms", "minimise", "to_dfa"]
+__all__ = ["Dfa", "LetterGraph", "check_atoms", "letter_columns", "minimise", "to_dfa"]
 
 DEFAULT_MAX_ATOMS = 16
 MAX_ALPHABET_ATOMS = 62
@@ -130,15 +130,9 @@ class Dfa:
         Raises:
             ValueError: a letter outside ``alphabet`` (a caller bug: the alphabet is the model's).
         """
-        letters = np.asarray(letters, dtype=np.int64)
         if self.alphabet is None:
-            return letters
-        cols = np.searchsorted(self.alphabet, letters)
-        if letters.size and (
-            cols.max() >= self.alphabet.size or np.any(self.alphabet[cols] != letters)
-        ):
-            raise ValueError("a letter outside the automaton's alphabet")
-        return cols.astype(np.int64)
+            return np.asarray(letters, dtype=np.int64)
+        return letter_columns(self.alphabet, letters)
 
     def run(self, word: Iterable[int]) -> int:
         """The state reached from ``initial`` after reading ``word`` (a sequence of letters)."""
@@ -150,6 +144,19 @@ class Dfa:
     def accepts(self, word: Iterable[int]) -> bool:
         """Whether ``word`` has a good prefix (equivalently, is one: acceptance is absorbing)."""
         return bool(self.accepting[self.run(word)])
+
+
+def letter_columns(alphabet: np.ndarray, letters: np.ndarray) -> np.ndarray:
+    """int64: the index of each letter in the sorted ``alphabet``.
+
+    Raises:
+        ValueError: a letter outside ``alphabet`` (a caller bug: the alphabet is the model's).
+    """
+    letters = np.asarray(letters, dtype=np.int64)
+    cols = np.searchsorted(alphabet, letters)
+    if letters.size and (cols.max() >= alphabet.size or np.any(alphabet[cols] != letters)):
+        raise ValueError("a letter outside the automaton's alphabet")
+    return cols.astype(np.int64)
 
 
 def _reachable(delta: np.ndarray, initial: int) -> np.ndarray:

@@ -10,6 +10,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from functools import lru_cache
 
+from hypothesis import strategies as st
+
 from posgmc.engines.ltl import Dfa
 from posgmc.syntax.ast import (
     Binary,
@@ -225,3 +227,33 @@ def same_language(d1: Dfa, d2: Dfa) -> bool:
                 seen.add(nxt)
                 stack.append(nxt)
     return True
+
+
+# -- random formulas (hypothesis) -----------------------------------------------------------
+
+_BOUNDS = st.one_of(st.none(), st.integers(0, 3))
+
+
+def _extend(children: st.SearchStrategy[Expr]) -> st.SearchStrategy[Expr]:
+    return st.one_of(
+        st.builds(Not, children),
+        st.builds(And, children, children),
+        st.builds(Or, children, children),
+        st.builds(Implies, children, children),
+        st.builds(Iff, children, children),
+        st.builds(X, children),
+        st.builds(F, children, _BOUNDS),
+        st.builds(G, children, _BOUNDS),
+        st.builds(U, children, children, _BOUNDS),
+        st.builds(W, children, children, _BOUNDS),
+        st.builds(R, children, children, _BOUNDS),
+    )
+
+
+FORMULAS = st.recursive(
+    st.one_of(
+        st.sampled_from([a, b, c]), st.sampled_from([a, b]), st.builds(BoolLit, st.booleans())
+    ),
+    _extend,
+    max_leaves=8,
+)

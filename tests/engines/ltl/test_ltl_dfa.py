@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ltl_reference import (
+    FORMULAS,
     And,
     F,
     G,
@@ -345,32 +346,6 @@ def test_atoms_may_be_given_in_another_order() -> None:
 
 # -- random formulas -----------------------------------------------------------------------
 
-_BOUNDS = st.one_of(st.none(), st.integers(0, 3))
-
-
-def _extend(children: st.SearchStrategy[Expr]) -> st.SearchStrategy[Expr]:
-    return st.one_of(
-        st.builds(Not, children),
-        st.builds(And, children, children),
-        st.builds(Or, children, children),
-        st.builds(Implies, children, children),
-        st.builds(Iff, children, children),
-        st.builds(X, children),
-        st.builds(F, children, _BOUNDS),
-        st.builds(G, children, _BOUNDS),
-        st.builds(U, children, children, _BOUNDS),
-        st.builds(W, children, children, _BOUNDS),
-        st.builds(R, children, children, _BOUNDS),
-    )
-
-
-FORMULAS = st.recursive(
-    st.one_of(
-        st.sampled_from([a, b, c]), st.sampled_from([a, b]), st.builds(BoolLit, st.booleans())
-    ),
-    _extend,
-    max_leaves=8,
-)
 LETTERS = st.integers(0, 7)  # masked to the alphabet in the tests
 
 
