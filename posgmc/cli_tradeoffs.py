@@ -135,17 +135,9 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
            plot_file: str | None) -> int:
     """``pareto --prop 'multi(...)'``: the answer; for a Pareto query the front as a table."""
     from posgmc.io.atomic import atomic_write_text
-    from posgmc.semantics.constants import ConstRange, parse_const_assignments
     from posgmc.tradeoffs.front import front_to_csv, multi_objective
 
-    constants: dict[str, Any] = {}
-    for i, text in enumerate(consts):
-        for n, setting in parse_const_assignments(
-            text, source="--const" if len(consts) == 1 else f"--const #{i + 1}"
-        ).items():
-            if isinstance(setting, ConstRange):
-                raise InputError(f"--const {n}: a multi(...) query takes single values", setting.span)
-            constants[n] = setting
+    constants = _single(consts, what="a multi(...) query")
     answer = multi_objective(model, prop_text, constants=constants)
     front = answer.front
     if front is None:
@@ -266,8 +258,8 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
     return EXIT_ERROR if failed else EXIT_OK
 
 
-def _single(consts: tuple[str, ...]) -> dict[str, Any]:
-    """``--const`` settings without ranges."""
+def _single(consts: tuple[str, ...], *, what: str = "a front") -> dict[str, Any]:
+    """``--const`` settings without ranges (``what`` names the command's object in the error)."""
     from posgmc.semantics.constants import ConstRange, parse_const_assignments
 
     constants: dict[str, Any] = {}
@@ -276,7 +268,7 @@ def _single(consts: tuple[str, ...]) -> dict[str, Any]:
             text, source="--const" if len(consts) == 1 else f"--const #{i + 1}"
         ).items():
             if isinstance(setting, ConstRange):
-                raise InputError(f"--const {n}: a front takes single values", setting.span)
+                raise InputError(f"--const {n}: {what} takes single values", setting.span)
             constants[n] = setting
     return constants
 
