@@ -686,11 +686,12 @@ def _print_multi(r: Any) -> None:
         click.echo(f"{r.property}: Pareto front {front.text()}  ({r.method}, {r.seconds:.3f} s)")
         click.echo(f"  under-approximation (achievable vertices): {front.text()}")
         if len(front.corners):
-            corners = ",".join(f"({x:.10g},{y:.10g})" for x, y in front.corners)
+            corners = ",".join("(" + ",".join(f"{v:.10g}" for v in c) + ")" for c in front.corners)
             click.echo(f"  over-approximation vertices: [{corners}]; precision {front.precision:.3g}")
     else:
         line = f"{r.property}: {'NaN' if r.value != r.value else _fmt(r.value)}"
-        what = ("LP value: floating point, not a proven bound" if r.method.startswith("lp")
+        what = ("proven (see the note)" if r.sound else
+                "LP value: floating point, see the note" if r.method.startswith("lp")
                 else "from an under-approximation, see the note")
         line += f"  ({r.method}, {r.seconds:.3f} s)  {what}"
         click.echo(line)
@@ -725,7 +726,8 @@ def _print_outcome(r: Any) -> None:
     if r.value is None:
         line += "  (the proven bounds do not decide it, even after refining)"
     if not r.converged:
-        line += "  NOT CONVERGED: the iteration cap was hit; the bounds hold but are wider"
+        line += ("  NOT CONVERGED: the bounds hold but are wider than the precision (iteration"
+                 " cap, or rounding of the model's numbers along very long expected paths)")
     if not r.sound:
         line += "  NOT PROVEN: bounds did not separate or the method is unsound"
     click.echo(line)

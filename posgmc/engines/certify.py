@@ -34,6 +34,23 @@ slow contraction (the reason interval iteration's check allows only a few ulps).
 widens the bounds as it widens iterated ones: proven up to floating-point error, like every
 float-based checker's.
 
+*Exact, for tiny systems.* Along a count of 10^13 steps (a loop left with probability 1e-13)
+no float residual is small enough. With at most :data:`_EXACT_LIMIT` unknowns the certificate is
+redone in rational arithmetic on the floats as stored: with the maximiser on ``sigma`` the
+minimiser's exact best response (a few rounds of strict switches; every solve nonsingular since
+``t_l`` is finite) gives values ``q`` that satisfy both inequalities above with ``d = tau = 0``
+when no maximiser row beats them, so ``q`` is the least fixpoint itself; its bounds are ``q``
+rounded outwards.
+
+*Input rounding.* The stored floats are the written model rounded (``1 - p`` with p = 1e-13
+keeps three digits of the exit probability ``p``): each probability and constant within
+:data:`_INPUT` of its own size. Perturbing a row by ``dA_r``, ``db_r`` moves the fixpoint by at
+most the count times ``max_r |dA_r x + db_r| <= _INPUT (max|x| + max|b|)``, negligible for
+modest counts and decisive for huge ones: both certificates widen by it along ``t_u`` / ``t_l``,
+so the bounds hold for the model as written, not only as stored (rare.nm's value 1, where the
+stored model's is 0.99969). The exact certificate is returned however wide that makes it: no
+method on the stored floats could prove more about the written model.
+
 Where a certificate cannot be had (an infinite count: end components of either player; infinite
 values; a gap above the requested precision), :func:`certify` returns None and the caller solves
 by interval iteration instead.
@@ -41,15 +58,82 @@ by interval iteration instead.
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 import numpy as np
 
 from posgmc.engines import exact as ex
 from posgmc.engines.iteration import System, choice_values, reduce_rows
+from posgmc.engines.rational import solve_dense
 
 __all__ = ["certify"]
 
 _ULPS = 8 * float(np.finfo(np.float64).eps)
 """A few ulps (relative): room left above x for rounding, and the rounding allowance of a check."""
+
+
+_INPUT = 4 * float(np.finfo(np.float64).eps)
+"""Relative rounding of a stored probability or constant against the written model's."""
+
+_EXACT_LIMIT = 24
+"""Up to this many unknowns a float certificate that is too wide is redone in exact arithmetic
+(dense Gauss-Jordan over fractions with 53-bit denominators: cubic, with growing integers)."""
+
+_EXACT_ROUNDS = 8
+"""Rounds of exact strategy switches before the exact certificate gives up."""
+
+
+def _outward(q: list[Fraction]) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest floats below and above each rational."""
+    mid = np.array([float(v) for v in q])
+    lower = np.array([f if Fraction(f) <= v else np.nextafter(f, -np.inf) for f, v in zip(mid, q)])
+    upper = np.array([f if Fraction(f) >= v else np.nextafter(f, np.inf) for f, v in zip(mid, q)])
+    return lower, upper
+
+
+def _input_allowance(sys: System, x: np.ndarray) -> float:
+    """A bound on how far one Bellman step moves when every input moves by its rounding."""
+    scale = float(np.max(np.abs(x), initial=0.0)) + float(np.max(np.abs(sys.offset), initial=0.0))
+    return _INPUT * scale
+
+
+def _exact_certificate(sys: System, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The exact least fixpoint of a tiny system, rounded outwards, or None (module docstring).
+
+    The maximiser keeps ``sigma``, whose count ``t_l`` the caller proved finite: every minimiser
+    profile against it leaves the unknowns, so each solve is nonsingular, and the minimiser's
+    exact best response (strict switches) makes ``q`` the least fixpoint of ``B'``: a lower
+    bound. If then no maximiser row beats ``q`` either, ``B(q) <= q``: an upper bound too."""
+    n, k = sys.n, sys.num_max
+    csr = sys.matrix.tocsr()
+    rows = [
+        (Fraction(float(sys.offset[r])),
+         {int(c): Fraction(float(v)) for c, v in zip(csr.indices[csr.indptr[r]:csr.indptr[r + 1]],
+                                                     csr.data[csr.indptr[r]:csr.indptr[r + 1]])})
+        for r in range(sys.m)
+    ]
+    owner = [int(s) for s in sys.row_state]
+    choice = [int(r) for r in sigma]
+
+    def value(r: int, q: list[Fraction]) -> Fraction:
+        b, out = rows[r]
+        return b + sum((p * q[t] for t, p in out.items()), Fraction(0))
+
+    for _ in range(_EXACT_ROUNDS):
+        a = [[Fraction(int(i == j)) for j in range(n)] for i in range(n)]  # I - A_sigma
+        for s, r in enumerate(choice):
+            for t, p in rows[r][1].items():
+                a[s][t] -= p
+        q = solve_dense(a, [rows[r][0] for r in choice])
+        better = [r for r in range(sys.m) if owner[r] >= k and value(r, q) < q[owner[r]]]
+        if better:  # the minimiser improves: switch and solve again
+            for r in better:
+                choice[owner[r]] = r
+            continue
+        if any(value(r, q) > q[owner[r]] for r in range(sys.m) if owner[r] < k):
+            return None  # sigma is not exactly optimal for the maximiser
+        return _outward(q)
+    return None
 
 
 def _max_steps(gr: ex.Grouped, keep: np.ndarray) -> np.ndarray:
@@ -88,7 +172,9 @@ def certify(
         x: float64[n], the values of the profile ``sigma``.
         sigma: int64[n], the profile's row per state (local row indices of ``sys``).
         cap: an a-priori upper bound on every value (1 for probabilities, inf if none).
-        precision, relative: the requested half-width; a wider certificate returns None.
+        precision, relative: the requested half-width; a wider float certificate returns None
+            (interval iteration may do better), an exact one is returned however wide (its
+            width is the input rounding along the counts: see the module docstring).
     """
     n = sys.n
     if n == 0:
@@ -110,8 +196,9 @@ def certify(
     scale = float(np.max(np.abs(x), initial=1.0))
     d_up = max(float(np.max(gap[keep_up], initial=0.0)), 0.0) * 1.01 + _ULPS * scale
     d_low = max(float(np.max(-gap[keep_low], initial=0.0)), 0.0) * 1.01 + _ULPS * scale
-    upper = x + d_up * t_up
-    lower = x - d_low * t_low
+    allow = _input_allowance(sys, x)
+    upper = x + (d_up + allow) * t_up
+    lower = x - (d_low + allow) * t_low
 
     # The checks that make them bounds. What rounding leaves of B(u) - u (resp. l - B'(l)),
     # tau, is absorbed by one more step along the counts: t >= 1 + A_r t on every row they
@@ -132,5 +219,12 @@ def certify(
     half = 0.5 * (upper - lower)
     limit = precision * 0.5 * (np.abs(upper) + np.abs(lower)) if relative else precision
     if np.any(half > limit):
+        if n <= _EXACT_LIMIT and sys.offset_upper is None:
+            exact = _exact_certificate(sys, sigma)
+            if exact is not None:
+                allow = _input_allowance(sys, exact[1])
+                low = exact[0] - allow * t_low
+                return (np.maximum(low, 0.0) if np.all(sys.offset >= 0) else low,
+                        np.minimum(exact[1] + allow * t_up, cap))
         return None
     return lower, upper

@@ -28,7 +28,9 @@ import numpy as np
 from posgmc.engines import exact as ex
 from posgmc.engines.graph import Structure, attractor
 from posgmc.engines.certify import certify
-from posgmc.engines.iteration import Bounds, EndComponents, System, _widen, choose, solve
+from posgmc.engines.iteration import (
+    Bounds, EndComponents, System, _gap_ok, _widen, choose, solve,
+)
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.topological import solve_topological
 from posgmc.engines.result import EngineResult
@@ -234,7 +236,10 @@ def _solve_system(
         return _Solved(
             z, z.copy(), 0, True, options.method is not Method.VALUE, np.zeros(0, np.int64), None
         )
-    certifiable = ec is not EndComponents.INFLATE and not unbounded
+    # An objective whose minimiser's end components count as infinite (INFLATE) is still a least
+    # fixpoint wherever the certificate applies: it needs finite step counts, i.e. no end
+    # components of either player among the unknowns (certify returns None otherwise).
+    certifiable = not unbounded
 
     def policy(
         start: np.ndarray | None, prove: bool = True
@@ -254,7 +259,9 @@ def _solve_system(
         if proven is None:
             return x, rows, rounds, None
         lower, upper = _widen(*proven)
-        return x, rows, rounds, _Solved(lower, upper, rounds, True, True, best, cand, estimate=x)
+        met = _gap_ok(lower, upper, options.precision, options.relative)
+        return x, rows, rounds, _Solved(lower, upper, rounds, met, True, best, cand,
+                                        estimate=np.clip(x, lower, upper))
 
     if options.method in (Method.EXACT, Method.POLICY):
         x, rows, rounds, solved = policy(initial_rows, prove=options.prove)

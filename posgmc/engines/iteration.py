@@ -63,6 +63,8 @@ verification both bounds share one pass over the matrix.
 
 from __future__ import annotations
 
+import time
+
 import enum
 from dataclasses import dataclass, replace
 
@@ -257,6 +259,11 @@ def _diff(new: np.ndarray, old: np.ndarray, relative: bool) -> float:
     return float(np.max(d, initial=0.0))
 
 
+def _late(deadline: float | None, iters: int) -> bool:
+    """Whether the caller's deadline has passed (looked at every 64 iterations; 0: now)."""
+    return deadline is not None and iters % 64 == 0 and time.perf_counter() > deadline
+
+
 def _lower_phase(
     sys: System,
     lower: np.ndarray,
@@ -265,6 +272,7 @@ def _lower_phase(
     iters: int,
     max_it: int,
     inflation: _Family | None,
+    deadline: float | None = None,
 ) -> tuple[np.ndarray, int]:
     """Value iteration from ``lower`` until it looks converged to within ``tau``.
 
@@ -303,6 +311,8 @@ def _lower_phase(
         q = max(ratios)
         if d <= tau and d * q / (1.0 - q) <= tau:
             break
+        if _late(deadline, iters):
+            break
         fresh += 1
         if fresh >= 64 or not _HAVE_KERNELS:
             _multiply(sys, x, y)
@@ -320,6 +330,7 @@ def _lower_phase_blocks(
     iters: int,
     max_it: int,
     inner: int = 1,
+    deadline: float | None = None,
 ) -> tuple[np.ndarray, int]:
     """:func:`_lower_phase` by Gauss-Seidel sweeps over the blocks (same stopping rule).
 
@@ -337,6 +348,7 @@ def _lower_phase_blocks(
     y = np.empty(sys.m)
     x = np.ascontiguousarray(lower, dtype=np.float64).copy()
     tmp = np.empty(n)
+    step = np.empty(n)  # scratch for the absolute change (new >= old, so no abs is needed)
     plan = sys.plan
     ratios = [0.0, 0.0]
     previous = np.inf
@@ -354,7 +366,11 @@ def _lower_phase_blocks(
                         continue
                     new, old = tmp[lo : lo + cnt], x[lo : lo + cnt]
                     np.maximum(new, old, out=new)
-                    dk = max(dk, _diff(new, old, rel))
+                    if rel:
+                        dk = max(dk, _diff(new, old, rel))
+                    else:
+                        change = np.subtract(new, old, out=step[lo : lo + cnt])
+                        dk = max(dk, float(change.max()))
                     old[:] = new
                 if k == 0:
                     d = max(d, dk)
@@ -365,6 +381,8 @@ def _lower_phase_blocks(
         previous = d
         q = max(ratios)
         if d <= tau and d * q / (1.0 - q) <= tau:
+            break
+        if _late(deadline, iters):
             break
     return x, iters
 
@@ -428,6 +446,7 @@ def solve(
     prec = options.precision
     rel = options.relative
     max_it = options.max_iterations
+    deadline = options.deadline
     mixed = 0 < sys.num_max < n
     has_max = sys.num_max > 0
     has_min = sys.num_max < n
@@ -486,6 +505,8 @@ def solve(
             if d <= prec:
                 converged = True
                 break
+            if _late(deadline, iters):
+                break
         return Bounds(lower, lower.copy(), iters, converged, False, family is not None or refresh)
 
     # -- optimistic interval iteration ---------------------------------------------------------
@@ -514,14 +535,14 @@ def solve(
         proven_upper = first.upper.copy()
         verified = bool(np.all(np.isfinite(proven_upper)))
     stalled = False
-    while iters < max_it and not converged and not stalled:
+    while iters < max_it and not converged and not stalled and not _late(deadline, 0):
         # 1. lower bound by value iteration until it stalls
         phase_start = iters
         if sys.num_blocks > 1 and not inflating and _HAVE_KERNELS:
-            lower, iters = _lower_phase_blocks(sys, lower, tau, rel, iters, max_it, inner)
+            lower, iters = _lower_phase_blocks(sys, lower, tau, rel, iters, max_it, inner, deadline)
         else:
             lower, iters = _lower_phase(
-                sys, lower, tau, rel, iters, max_it, family if inflating else None
+                sys, lower, tau, rel, iters, max_it, family if inflating else None, deadline
             )
         # 2. guess an upper bound
         if rel:
@@ -583,6 +604,8 @@ def solve(
             if verified and refresh and needed and since_refresh >= 32:
                 family = refresh_family(X[:, 0].copy(), X[:, 1].copy())
                 since_refresh = 0
+            if _late(deadline, iters):
+                break  # out of time: the bounds so far stay proven (converged = False)
             if verified and steps % 1000 == 0:
                 # give up when the gap no longer shrinks (bounds stay proven; converged = False)
                 gap = float(np.max(X[:, 1] - X[:, 0]))

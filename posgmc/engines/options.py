@@ -53,6 +53,10 @@ class SolverOptions:
     """``POLICY``/``EXACT``: prove the bounds (a certificate, else interval iteration). False
     returns policy iteration's float values as they are (``sound=False``): for searches that
     only rank candidates and verify the winner afterwards."""
+    deadline: float | None = field(default=None, compare=False, repr=False)
+    """A ``time.perf_counter()`` value after which interval and value iteration stop as if
+    ``max_iterations`` were reached (``converged=False``; interval bounds stay proven): for
+    callers with a time budget (synthesis)."""
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.precision) and self.precision > 0):

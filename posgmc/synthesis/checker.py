@@ -31,6 +31,22 @@ sound engines check it: a gain below this is numerical noise, and a randomised s
 check can be slow."""
 
 
+_SEARCH_SHARE = 0.7
+"""The part of the budget for the search (deterministic and gradient)."""
+
+_ADVERSARY_END = 0.85
+"""Where in the budget the adversary phases end; the rest is for the sound checks."""
+
+
+def _until(options: CheckOptions, deadline: float) -> CheckOptions:
+    """``options`` whose iterative solves stop at ``deadline`` (their bounds stay proven), with
+    at least a little time when it has passed already: a check that cannot iterate at all proves
+    only the trivial bounds."""
+    floor = time.perf_counter() + 0.2
+    return dataclasses.replace(options, solver=dataclasses.replace(
+        options.solver, deadline=max(deadline, floor)))
+
+
 class SynthesisChecker:
     """Checks each property by synthesising the decision maker's strategy (same interface as
     :class:`~posgmc.checking.dispatch.PropertyChecker`)."""
@@ -54,11 +70,13 @@ class SynthesisChecker:
         return next(iter(players))
 
     def _adversary_phases(self, problem: Problem, executor: Executor, result: SynthesisResult,
-                          settings: SynthesisOptions, deadline: float) -> "_AdversaryOutcome":
+                          settings: SynthesisOptions, deadline: float,
+                          verify: CheckOptions) -> "_AdversaryOutcome":
         """Enumerate, rank and keep the adversary's strategies, compose the defence against them
         and run the double oracle (:mod:`posgmc.synthesis.compose`); then choose the reported
         defence — the search's or the composed one, whichever proves the better ``guaranteed``
-        (the headline; so it is never worse than the search's) — and verify the numbers."""
+        (the headline; so it is never worse than the search's) — and verify the numbers (with
+        ``verify``, whose solver deadline ends the budget)."""
         found = one_sided(problem, executor, defence=result.strategy, keep=settings.adversaries,
                           adversary_memory=settings.adversary_memory,
                           enumeration_limit=settings.enumeration_limit,
@@ -83,7 +101,7 @@ class SynthesisChecker:
             if sign * rough.value > sign * g.value + _GAIN * max(1.0, abs(g.value)):
                 g_composed = StrategyChecker(self.model, {composed.player: composed},
                                              coalition_of=problem.coalition_of, scalar=problem.scalar,
-                                             options=self.options).check(problem.query, text="composed").guaranteed
+                                             options=verify).check(problem.query, text="composed").guaranteed
                 assert g_composed is not None  # noqa: S101 - as above
                 if _better(g_composed, g, maximize):
                     defence, g = composed, g_composed
@@ -102,12 +120,12 @@ class SynthesisChecker:
                 if g_composed is None:
                     g_composed = StrategyChecker(
                         self.model, {composed.player: composed}, coalition_of=problem.coalition_of,
-                        scalar=problem.scalar, options=self.options).check(problem.query, text="composed").guaranteed
+                        scalar=problem.scalar, options=verify).check(problem.query, text="composed").guaranteed
                 vs_from_composed = g_composed is not None
         shown, shown_g = (composed, g_composed) if vs_from_composed else (defence, g)
         assert shown is not None and shown_g is not None  # noqa: S101 - set together
         vs, worst, ub = verified_numbers(problem, executor, shown, shown_g, pool, found.ranked,
-                                         check_options=self.options)
+                                         check_options=verify)
         phases = dict(found.phases)
         phases["adversaries: verification"] = time.perf_counter() - t0
         stats: dict[str, object] = {
@@ -133,17 +151,22 @@ class SynthesisChecker:
         (:mod:`posgmc.synthesis.objectives`: the strategies observe the game, not the
         automaton, so they are strategies of the game); the defence's ``guaranteed`` is then
         recomputed on the game itself, as ``--strategy`` would."""
+        started = time.perf_counter()
         lifted, query = lift(self.model, expr, PropertyChecker(
             self.model, coalition_of=self.coalition_of, scalar=self.scalar))
+        # the budget: the synthesis on the product, then the last tenth for the recomputation
+        budget = self.synthesis.timeout
         inner = SynthesisChecker(lifted, coalition_of=self.coalition_of, scalar=self.scalar,
-                                 options=self.options, synthesis=self.synthesis)
+                                 options=self.options, synthesis=dataclasses.replace(
+                                     self.synthesis, timeout=0.9 * budget))
         result = inner.check(query, text=text, name=name)
         defence = result.strategies[0]
         bare = expr if expr.threshold is None else dataclasses.replace(
             expr, threshold=None, direction=Direction.MAX if expr.threshold.op in (
                 ComparisonOp.GE, ComparisonOp.GT) else Direction.MIN)
         g = StrategyChecker(self.model, {defence.player: defence}, coalition_of=self.coalition_of,
-                            scalar=self.scalar, options=self.options).check(bare, text=text).guaranteed
+                            scalar=self.scalar, options=_until(self.options, started + budget)
+                            ).check(bare, text=text).guaranteed
         assert g is not None  # noqa: S101 - the decision maker's strategy is given
         note = (result.note or "") + ("; synthesised on the product with the formula's automaton, "
                                       "whose state the strategies do not observe")
@@ -169,8 +192,10 @@ class SynthesisChecker:
             maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
             bare = dataclasses.replace(expr, threshold=None,
                                        direction=Direction.MAX if maximize else Direction.MIN)
-        # the time budget: 4/5 for the search (its verification is quick: candidates are
-        # sharpened), the rest for the adversary phases; at least a second each
+        # the time budget T: 7/10 for the search (the deterministic search, then the gradient
+        # search), up to 17/20 for the adversary phases, the rest for the sound checks of the
+        # reported numbers, which stop at the end of the budget (interval iteration stopped
+        # early: bounds still proven, only wider; the result then says partial)
         started = time.perf_counter()
         others = [p for p in range(len(self.model.player_names)) if p != player]
         names = self.model.player_names
@@ -182,14 +207,22 @@ class SynthesisChecker:
         problem = problem_of(self.model, bare, player=player, adversary=adversary,
                              coalition_of=self.coalition_of, scalar=self.scalar)
         with closing(executor_for(problem, settings.jobs)) as executor:
-            search = dataclasses.replace(settings, timeout=settings.timeout * 0.8)
+            budget = self.synthesis.timeout
+            phases_follow = adversary is not None and settings.adversaries > 0
+            # without adversary phases the search has their time too
+            search = dataclasses.replace(
+                settings, timeout=budget * (_SEARCH_SHARE if phases_follow else _ADVERSARY_END))
             result = synthesize(self.model, bare, player=player, coalition_of=self.coalition_of,
-                                scalar=self.scalar, options=search, check_options=self.options,
+                                scalar=self.scalar, options=search,
+                                check_options=_until(self.options, started + budget * _ADVERSARY_END),
                                 executor=executor)
             adversaries = None
             if adversary is not None and settings.adversaries > 0:
-                deadline = max(started + self.synthesis.timeout, time.perf_counter() + 1.0)
-                adversaries = self._adversary_phases(problem, executor, result, settings, deadline)
+                deadline = started + budget * _ADVERSARY_END
+                adversaries = self._adversary_phases(problem, executor, result, settings, deadline,
+                                                     _until(self.options, started + budget))
+        # the sound checks stopped at the end of the budget: wider (still proven) bounds
+        late = time.perf_counter() > started + self.synthesis.timeout
         defence, g, full = adversaries.defence if adversaries else result.strategy, \
             adversaries.guaranteed if adversaries else result.guaranteed, result.full_observation
         maximizing = problem.maximize
@@ -219,7 +252,7 @@ class SynthesisChecker:
                 f"{direction} this against every adversary (checked by {result.method}); "
                 f"full_observation: the value if it saw everything")
         stats: dict[str, object] = {
-            "partial": result.partial or bool(adversaries and adversaries.partial),
+            "partial": result.partial or bool(adversaries and adversaries.partial) or late,
             "phases": {k: round(v, 3) for k, v in result.phases.items()},
             "rounds": [
                 {"memory": r.memory, "value_policy_iteration": r.guaranteed.value,
@@ -228,6 +261,11 @@ class SynthesisChecker:
             ],
             "timeout": self.synthesis.timeout,
             "seed": self.synthesis.seed,
+            "deterministic": [
+                {"memory": d.memory, "value": d.value, "exhaustive": d.exhaustive,
+                 "families": d.families, "seconds": round(d.seconds, 3)}
+                for d in result.deterministic
+            ],
         }
         extra: tuple = ()  # type: ignore[type-arg]
         if adversaries is not None:

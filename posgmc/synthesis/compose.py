@@ -39,6 +39,7 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.synthesis.adversaries import Enumeration, enumerate_adversaries
+from posgmc.synthesis import milp
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.jobs import POLICY, Executor, Problem, expired
 from posgmc.synthesis.parametric import Layout, Parametrisation, game_views
@@ -286,6 +287,7 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
     t_compose = t_oracle = 0.0
     t0 = time.perf_counter()
     composed = _compose(executor, kept, k, defence, starts, iterations, learning_rate, deadline)
+    composed = _with_milp(problem, kept, composed, k, deadline)
     t_compose += time.perf_counter() - t0
     responses: list[tuple[float, bool]] = []
     added = 0
@@ -315,6 +317,7 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
         again = [composed.logits, (rng.normal(size=shapes[0]), rng.normal(size=shapes[1]))]
         composed = _compose(executor, kept, k, composed.strategy, again, iterations, learning_rate,
                             deadline)
+        composed = _with_milp(problem, kept, composed, k, deadline)
         t_compose += time.perf_counter() - t0
     phases["adversaries: composition"] = t_compose
     phases["adversaries: double oracle"] = t_oracle
@@ -349,6 +352,32 @@ def _compose(executor: Executor, adversaries: list[FiniteStateStrategy], memory:
         if round(sign * r.value, 7) > round(sign * best.value, 7):
             best = r
     return best
+
+
+MILP_LIMIT = 20_000
+"""The MILP composition runs when the products with the kept adversaries have at most this many
+states in all (a variable per product state)."""
+
+
+def _with_milp(problem: Problem, kept: list[FiniteStateStrategy], composed: Composed, memory: int,
+               deadline: float) -> Composed:
+    """``composed``, or the MILP's deterministic memoryless defence (:mod:`posgmc.synthesis.milp`,
+    exact over those defences) when the objective allows it and it is better against ``kept``
+    (by more than 1e-7)."""
+    if not milp.supported(problem) or expired(deadline) or problem.adversary is None:
+        return composed
+    if sum(strategy_product(problem.model, [bind(problem.model, a)]).model.num_states
+           for a in kept) > MILP_LIMIT:
+        return composed
+    found = milp.compose_milp(problem, kept, memory=memory, deadline=deadline)
+    if found is None:
+        return composed
+    sign = problem.sign
+    if round(sign * found.value, 7) > round(sign * composed.value, 7):
+        logits = logits_of(found.strategy, Layout.of(problem.model, problem.player))
+        assert logits is not None  # noqa: S101 - laid out by the same Layout
+        return Composed(found.strategy, logits, found.value, 0)
+    return composed
 
 
 def _best_response(problem: Problem, executor: Executor, defence: FiniteStateStrategy,

@@ -30,6 +30,7 @@ from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.synthesis.ascent import LOGIT, ascend
+from posgmc.synthesis.deterministic import DeterministicResult, deterministic_phase
 from posgmc.synthesis.jobs import Executor, Problem, executor_for
 from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
 from posgmc.syntax.ast import Direction, Expr, ProbQuery, RewardKind, RewardQuery, Temporal, TemporalOp
@@ -115,6 +116,8 @@ class SynthesisResult:
     partial: bool
     phases: dict[str, float] = field(default_factory=dict)
     method: str = "interval"
+    deterministic: tuple[DeterministicResult, ...] = ()
+    """The deterministic search's best defence per memory size (:mod:`posgmc.synthesis.deterministic`)."""
 
 
 def _objective(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: PropertyChecker):  # type: ignore[no-untyped-def]
@@ -197,6 +200,14 @@ def synthesize(
     init = model.initial_states[0]
     full_bound = Bound(float(full.values[init]), float(full.lower[init]), float(full.upper[init]), full.sound)
     phases["full observation"] = time.perf_counter() - t0
+    # the direct search over deterministic FSSs first (abstraction refinement, its share of the
+    # budget): its best defence per memory size joins that size's candidates and starts
+    t0 = time.perf_counter()
+    share = DETERMINISTIC_SHARE if executor.problem.adversary is not None else DETERMINISTIC_SHARE_POMDP
+    deterministic = deterministic_phase(
+        executor, options.memory, started + share * options.timeout
+    ) if share > 0 else {}
+    phases["deterministic search"] = time.perf_counter() - t0
 
     verifier = StrategyChecker  # built per candidate (its products are cached per checker)
     rng = np.random.default_rng(options.seed)
@@ -235,6 +246,9 @@ def synthesize(
             # build on what is known have run), then the full-observation optimum projected
             # two ways (pessimistic QMDP, majority vote), then random logits
             starts = []
+            found_det = deterministic.get(k) if pass_no == 0 else None
+            if found_det is not None:  # the deterministic search's best, first of all
+                starts.append(_hard_logits(found_det.gamma, found_det.delta))
             if best_logits is not None and best is not None and best[0].memory_size <= k:
                 la0, ld0 = _embedded(par, *best_logits)
                 starts.append((la0, ld0))
@@ -250,7 +264,9 @@ def synthesize(
             for _ in range(options.restarts):
                 starts.append((rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])))
             found, n_eval, seconds = _round(par, starts, sign, options, round_deadline, executor, model,
-                                            query, coalition_of, scalar, maximize)
+                                            query, coalition_of, scalar, maximize,
+                                            extra=() if found_det is None else
+                                            ((found_det.gamma, found_det.delta),))
             evaluations += n_eval
             t_search += seconds[0]
             t_verify += seconds[1]
@@ -268,6 +284,21 @@ def synthesize(
             evaluations_of[k] = evaluations
         if partial or not improved:
             break
+    # the deterministic search's defences of the memory sizes the gradient rounds never reached
+    for k, found_det in sorted(deterministic.items()):
+        if k in best_of:
+            continue
+        fss = params[k].strategy(found_det.gamma, found_det.delta) if k in params else \
+            Parametrisation(model, player, k, query, target, remain, coalition_of=coalition_of,
+                            scalar=scalar, rewards=rewards, discount=discount
+                            ).strategy(found_det.gamma, found_det.delta)
+        bound = StrategyChecker(model, {fss.player: fss}, coalition_of=coalition_of, scalar=scalar,
+                                options=_POLICY).check(query, text="synthesis").guaranteed
+        assert bound is not None  # noqa: S101 - the decision maker's strategy is given
+        best_of[k] = (fss, bound)
+        seconds_of[k], evaluations_of[k] = 0.0, evaluations
+        if best is None or _better(bound, best[1], maximize):
+            best = (fss, bound)
     # per memory size: the best defence with at most that many nodes (a smaller one embeds)
     rounds = []
     upto: tuple[FiniteStateStrategy, Bound] | None = None
@@ -295,7 +326,21 @@ def synthesize(
     phases["verification"] = time.perf_counter() - t0
     assert final.guaranteed is not None  # noqa: S101 - the decision maker's strategy is given
     guaranteed, method = final.guaranteed, final.method
-    return SynthesisResult(best[0], guaranteed, full_bound, tuple(rounds), partial, phases, method)
+    # a check stopped by the caller's deadline (check_options) proves wider bounds: partial
+    partial = partial or not final.converged
+    return SynthesisResult(best[0], guaranteed, full_bound, tuple(rounds), partial, phases, method,
+                           tuple(deterministic[k] for k in sorted(deterministic)))
+
+
+DETERMINISTIC_SHARE = 0.5
+"""The part of the search budget the deterministic search gets (before the gradient search) in a
+game (PAYNT's POSMG setting, where deterministic FSSs did best: attacker-one-defender)."""
+
+DETERMINISTIC_SHARE_POMDP = 0.0
+"""The same for a pomdp: none. There the gradient search alone reached at least PAYNT's value on
+every shared POMDP (docs/performance.md), and giving the deterministic search part of the budget
+cost refuel-06 its best defence (0.4264 with the whole budget for the gradient search, 0.3985
+with a fifth, 0.3985 with half; the deterministic search's best there, 0.3500, is PAYNT's)."""
 
 
 def _with_warm_up(memory: tuple[int, ...]) -> tuple[int, ...]:
@@ -311,10 +356,12 @@ _MAX_PASSES = 4
 def _round(par: Parametrisation, starts: list[tuple[np.ndarray, np.ndarray]], sign: float,
            options: SynthesisOptions, deadline: float, executor: Executor, model: ExplicitModel, query: Expr,
            coalition_of, scalar, maximize: bool,  # type: ignore[no-untyped-def]
+           extra: tuple[tuple[np.ndarray, np.ndarray], ...] = (),
            ) -> tuple[tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None,
                       int, tuple[float, float]]:
     """Gradient ascent from each start, a local search around the best deterministic candidate,
-    and the most promising candidates checked by policy iteration on their products. Returns the
+    the ``extra`` candidates (the deterministic search's, as γ and δ), and the most promising
+    candidates checked by policy iteration on their products. Returns the
     best (strategy, its bound, its logits), the number of evaluations and (search, check) seconds."""
     evaluations = 0
     t0 = time.perf_counter()
@@ -349,6 +396,8 @@ def _round(par: Parametrisation, starts: list[tuple[np.ndarray, np.ndarray]], si
         (g, d), n_eval = _local_search(par, g, d, sign, deadline)
         evaluations += n_eval
         candidates.append((g, d, logits))
+    for g, d in extra:
+        candidates.append((g, d, _hard_logits(g, d)))
     t_search = time.perf_counter() - t0
     # verify the most promising candidates (by their float value) with policy iteration; rounded
     # to 1e-7, so that on a near-tie the stable sort keeps the sharpened (or deterministic)
@@ -518,6 +567,11 @@ def _qmdp(par: Parametrisation, full, model: ExplicitModel, rewards: np.ndarray 
     k = par.k
     ld[np.arange(k), :, :, np.arange(k)] = _LOGIT
     return la, ld
+
+
+def _hard_logits(gamma: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Logits of a deterministic FSS: +LOGIT on its choices, -LOGIT elsewhere."""
+    return np.where(gamma > 0, _LOGIT, -_LOGIT), np.where(delta > 0, _LOGIT, -_LOGIT)
 
 
 def _embedded(par: Parametrisation, la: np.ndarray, ld: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

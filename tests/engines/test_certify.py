@@ -102,3 +102,60 @@ def test_stiff_interval_iteration_switches_to_the_certificate() -> None:
     res = obj.reach_probability(model, goal, maximize=np.full(3, True))
     assert res.sound and res.converged and res.iterations < 3_000
     assert res.lower[0] <= 0.3 <= res.upper[0] and res.upper[0] - res.lower[0] <= 2e-6
+
+
+def _rare(p: float, model_type: ModelType) -> ExplicitModel:
+    """PRISM's ``bugfixes/export-precision/rare.nm`` shape: state 0 loops with 1 - p and reaches
+    the target 1 with p (the floats as a PRISM model stores them: ``1 - p`` is rounded)."""
+    return make_model(
+        model_type,
+        row_groups=[0, 1, 2],
+        transitions=[[1.0 - p, p], [0.0, 1.0]],
+        labels={"rare": [False, True]},
+    )
+
+
+def test_a_loop_left_with_1e_13_is_certified_exactly() -> None:
+    """A count of 10^13 expected steps amplifies every float residual past any precision, and
+    interval iteration would need ~10^13 steps: the certificate is redone in rationals, widened by
+    the rounding of the model's numbers along the count. Reference (hand derivation): a reward p
+    per step until the target gives p * (1/p) = 1 for the written model and
+    p / (1 - fl(1 - p)) = 0.99968915... for the stored floats (``1 - p`` kept three digits of
+    p); the bounds hold for both, in a few thousand steps, not converged to 1e-6 (no method on the
+    stored floats can say more). Both for the mdp's Rmin and the dtmc's R."""
+    p = 1e-13
+    stored = Fraction(p) / (1 - Fraction(1.0 - p))
+    assert abs(stored - Fraction(99968915, 10**8)) < Fraction(1, 10**8)
+    for model_type in (ModelType.MDP, ModelType.DTMC):
+        model = _rare(p, model_type)
+        rare = model.label("rare")
+        res = obj.expected_reach_reward(
+            model, np.array([p, 1.0 - p]), rare, maximize=np.zeros(2, bool)
+        )
+        assert res.sound and res.iterations < 3_000 and not res.converged
+        assert Fraction(res.lower[0]) <= min(stored, Fraction(1))
+        assert max(stored, Fraction(1)) <= Fraction(res.upper[0])
+        assert 0.99 < res.lower[0] and res.upper[0] < 1.01
+        prob = obj.reach_probability(model, rare, maximize=np.ones(2, bool))
+        assert prob.sound and prob.lower[0] <= 1.0 <= prob.upper[0]
+
+
+def test_an_end_component_of_the_minimiser_gets_no_certificate() -> None:
+    """R[F] counts a path that never reaches the target as infinite: a minimiser that may idle
+    forever at no cost in state 0 must still leave through state 1 (reward 2) to the target 2,
+    so Rmin = 2, while the least fixpoint of the Bellman operator is 0 (idle). The idle loop is
+    an end component: the step counts are infinite and no certificate, exact or not, may answer
+    (hand derivation)."""
+    model = make_model(
+        ModelType.MDP,
+        row_groups=[0, 2, 3, 4],
+        transitions=[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]],
+        labels={"t": [False, False, True]},
+    )
+    for options in (SolverOptions(), POLICY):
+        res = obj.expected_reach_reward(
+            model, np.array([0.0, 0.0, 2.0, 0.0]), model.label("t"), maximize=np.zeros(3, bool),
+            options=options,
+        )
+        assert res.sound and res.lower[0] <= 2.0 <= res.upper[0]
+        assert res.upper[0] - res.lower[0] <= 2e-6

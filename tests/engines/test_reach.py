@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 from fractions import Fraction
 
 import numpy as np
@@ -292,6 +294,27 @@ def test_iteration_cap_keeps_bounds_sound() -> None:
         [float(v) for v in obj.exact_rational_reach(m, goal, maximize=np.ones(30, dtype=bool))]
     )
     assert np.all(res.lower <= exact + 1e-12) and np.all(exact <= res.upper + 1e-12)
+
+
+@pytest.mark.parametrize("method", [Method.INTERVAL, Method.VALUE])
+def test_a_deadline_stops_the_iteration_and_keeps_bounds_sound(method: Method) -> None:
+    """SolverOptions.deadline (synthesis's time budget): a deadline already passed stops the
+    iteration at its next look at the clock, unconverged, with bounds that still hold. (200
+    states: on small systems the policy-iteration certificate proves the value at once.)"""
+    m = _random_walk(200, p=0.45)
+    goal = np.zeros(200, dtype=bool)
+    goal[199] = True
+    everywhere = np.ones(200, dtype=bool)
+    res = obj.reach_probability(
+        m, goal, maximize=everywhere,
+        options=SolverOptions(method=method, precision=1e-12, deadline=time.perf_counter() - 1.0),
+    )
+    full = obj.reach_probability(m, goal, maximize=everywhere,
+                                 options=SolverOptions(method=method, precision=1e-12))
+    assert not res.converged and res.iterations <= 128  # the clock is read every 64 iterations
+    assert full.converged and full.iterations > 1000
+    if method is Method.INTERVAL:  # proven bounds: they hold (the converged ones as reference)
+        assert np.all(res.lower <= full.upper) and np.all(full.lower <= res.upper)
 
 
 def test_value_method_is_flagged_unsound() -> None:

@@ -90,6 +90,8 @@ def _synthesised(model, options: SynthesisOptions = SMALL):  # type: ignore[no-u
 def _without_times(doc: dict) -> dict:  # type: ignore[type-arg]
     out = {k: v for k, v in doc.items() if k not in ("seconds", "phases")}
     out["rounds"] = [{k: v for k, v in r.items() if k != "seconds"} for r in doc["rounds"]]
+    out["deterministic"] = [{k: v for k, v in r.items() if k != "seconds"}
+                            for r in doc.get("deterministic", [])]
     return out
 
 
