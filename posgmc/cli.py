@@ -341,7 +341,8 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
 )
 @click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
 @click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
-              help="Synthesis: memory sizes of the decision maker's strategy (default auto: 1..3); "
+              help="Synthesis: memory sizes of the decision maker's strategy (default auto: 1..3; "
+              "sizes above 1 alone, e.g. 2, are warm-started from a memoryless defence); "
               "PLAYER=... for a named player, e.g. --memory rover=2 --memory attacker=1 (the "
               "adversary's strategies enumerated with that memory). Repeatable.")
 @click.option("--adversaries", type=click.IntRange(min=0), default=10, show_default=True,
