@@ -8,7 +8,7 @@ through ``benchmarks/storm_check.py`` in the reference environment with its soun
 
 Usage::
 
-    python benchmarks/check_bench.py --repeat 3            # the default jobs below
+    python benchmarks/check_bench.py --repeat 3            # the default jobs: the whole table
     python benchmarks/check_bench.py --jobs two_robots=10 --repeat 1 --no-storm
 
 Besides the check times, every row gives the whole-process ratio (a fresh interpreter that imports,
@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import os
 import resource
 import statistics
 import sys
@@ -35,7 +36,17 @@ from _worker import run_worker  # benchmarks/_worker.py (this folder is on sys.p
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-SCALE = (ROOT.parent / "shared" / "benchmarks" / "scale").resolve()
+# the shared scale models sit next to the checkout (/work/main -> /work/shared), or one level up
+# from a git worktree (/work/wt/NAME -> /work/shared)
+SCALE = next(
+    (
+        p.resolve()
+        for p in (ROOT.parent / "shared" / "benchmarks" / "scale",
+                  ROOT.parent.parent / "shared" / "benchmarks" / "scale")
+        if p.is_dir()
+    ),
+    (ROOT.parent / "shared" / "benchmarks" / "scale").resolve(),
+)
 STORM_PYTHON = Path("/root/refenv/bin/python")
 
 OWN = HERE / "models"
@@ -60,7 +71,7 @@ PROPERTIES = {
         '<<rover>> Rmin=? [ F "goal" ]',
     ],
 }
-DEFAULT = ["two_robots=32", "pursuit=30", "rover=2000", "rover_wind=500"]
+DEFAULT = ["rover=2000", "rover_wind=500", "two_robots=32", "pursuit=30"]
 
 
 def worker(path: str, n: int, prop: str, constant: str = "N") -> dict[str, Any]:
@@ -143,6 +154,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     storm = None if args.no_storm or not STORM_PYTHON.exists() else _storm_module()
+    started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    loads = [os.getloadavg()[0]]
     rows = [
         "| model | N | property | states | posgmc check (s) | posgmc value [lower, upper] "
         "| Storm check (s) | Storm value | check ratio | process ratio | peak memory ratio |",
@@ -196,6 +209,15 @@ def main(argv: list[str] | None = None) -> int:
                     cells += ["-", "-", "-", "-", "-"]
                 rows.append("| " + " | ".join(cells) + " |")
                 print(rows[-1], file=sys.stderr)
+                loads.append(os.getloadavg()[0])
+    # provenance for docs/performance.md: when, and how busy the machine was (1-minute load
+    # average sampled at the start and after every row)
+    print(
+        f"Started {started}, ended {time.strftime('%H:%M UTC', time.gmtime())}; "
+        f"load average (1 min) {min(loads):.1f}-{max(loads):.1f}, median "
+        f"{statistics.median(loads):.1f}, on {os.cpu_count()} cores."
+    )
+    print()
     print("\n".join(rows))
     return 0
 

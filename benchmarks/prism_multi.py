@@ -13,7 +13,9 @@ files also hold properties of other features), each with its RESULT line. The fi
 from the checkout, never copied into this repository.
 
 Prints one line per failure (all lines with ``--verbose``) and a summary:
-``N multi(...) lines: P passed, F failed, E errors; T s``.
+``N multi(...) lines: P passed, F failed, E errors; T s``, then how many numerical answers carry
+a proven bound from the LP's strategy re-checked by the sound engines, and how many ``true``
+achievability verdicts are proven that way.
 """
 
 from __future__ import annotations
@@ -59,6 +61,7 @@ def main(argv: list[str] | None = None) -> int:
     tests = root / "prism-tests" if (root / "prism-tests").is_dir() else root
     files = sorted(p for p in tests.rglob("*.props") if re.search(r"multi\s*\(", p.read_text()))
     passed = failed = errors = 0
+    numerical = certified = close = achievable = proven = 0
     start = time.perf_counter()
     for props in files:
         model = props.with_suffix("")
@@ -78,6 +81,17 @@ def main(argv: list[str] | None = None) -> int:
             finally:
                 Path(tmp.name).unlink()
             verdict = grade(ExpectedResult(result), outcome)
+            multi = getattr(outcome, "multi", None)
+            if multi is not None and multi.kind.value == "numerical" and multi.value == multi.value:
+                numerical += 1
+                if multi.certified == multi.certified:
+                    certified += 1
+                    close += abs(multi.certified - multi.value) <= 1e-5 * max(1.0, abs(multi.value))
+                elif args.verbose:
+                    print(f"      not certified: {where}")
+            if multi is not None and multi.kind.value == "achievability" and multi.achievable:
+                achievable += 1
+                proven += bool(multi.proven)
             if isinstance(outcome, PosgmcError) and not result.lower().startswith("error"):
                 errors += 1
                 print(f"ERROR {where}: {text}\n      {outcome.message}")
@@ -91,6 +105,9 @@ def main(argv: list[str] | None = None) -> int:
     total = passed + failed + errors
     seconds = time.perf_counter() - start
     print(f"{total} multi(...) lines: {passed} passed, {failed} failed, {errors} errors; {seconds:.1f} s")
+    print(f"numerical answers with a proven bound from the LP's re-checked strategy: {certified} "
+          f"of {numerical} ({close} within 1e-5 relative of the LP value); achievable verdicts "
+          f"proven: {proven} of {achievable}")
     return 0 if passed == total else 1
 
 

@@ -347,7 +347,8 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
 )
 @click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
 @click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
-              help="Synthesis: memory sizes of the decision maker's strategy (default auto: 1..3); "
+              help="Synthesis: memory sizes of the decision maker's strategy (default auto: 1..3; "
+              "sizes above 1 alone, e.g. 2, are warm-started from a memoryless defence); "
               "PLAYER=... for a named player, e.g. --memory rover=2 --memory attacker=1 (the "
               "adversary's strategies enumerated with that memory). Repeatable.")
 @click.option("--adversaries", type=click.IntRange(min=0), default=10, show_default=True,
@@ -693,11 +694,12 @@ def _print_multi(r: Any) -> None:
         click.echo(f"{r.property}: Pareto front {front.text()}  ({r.method}, {r.seconds:.3f} s)")
         click.echo(f"  under-approximation (achievable vertices): {front.text()}")
         if len(front.corners):
-            corners = ",".join(f"({x:.10g},{y:.10g})" for x, y in front.corners)
+            corners = ",".join("(" + ",".join(f"{v:.10g}" for v in c) + ")" for c in front.corners)
             click.echo(f"  over-approximation vertices: [{corners}]; precision {front.precision:.3g}")
     else:
         line = f"{r.property}: {'NaN' if r.value != r.value else _fmt(r.value)}"
-        what = ("LP value: floating point, not a proven bound" if r.method.startswith("lp")
+        what = ("proven (see the note)" if r.sound else
+                "LP value: floating point, see the note" if r.method.startswith("lp")
                 else "from an under-approximation, see the note")
         line += f"  ({r.method}, {r.seconds:.3f} s)  {what}"
         click.echo(line)

@@ -29,6 +29,16 @@ __all__ = ["pareto"]
 @click.option("--also", "also", multiple=True, metavar="TEXT",
               help="A further property checked at every point under its synthesised defence "
               "(its guaranteed number), e.g. the defence's expected cost; repeatable.")
+@click.option("--cost", "cost_text", default=None, metavar="TEXT",
+              help="pomdp/posg: a defender front of --prop (the mission, <<C>> Pmax=? [ F G ]) "
+              "against this cost (<<C>> R{..}min=? [ ... ]), one synthesised, verified defence per "
+              "--weights value.")
+@click.option("--weights", "weights_text", default=None, metavar="W1,W2,...",
+              help="With --cost: the scalarisation weights (cost - w * mission), each >= 0 "
+              "[default: 0,1,2,5,10,20]; the mission alone is always added (w=inf).")
+@click.option("--budget", "budgets", multiple=True, type=float, metavar="C",
+              help="With --cost: answer 'max guaranteed mission s.t. guaranteed cost <= C' from "
+              "the verified defences; repeatable.")
 @click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation values.")
 @click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
 @click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
@@ -45,6 +55,9 @@ def pareto(
     plot_file: str | None,
     strategy_dir: str | None,
     also: tuple[str, ...],
+    cost_text: str | None,
+    weights_text: str | None,
+    budgets: tuple[float, ...],
     full_observation: bool,
     zero_based_players: bool,
     memory: tuple[str, ...],
@@ -62,6 +75,15 @@ def pareto(
     def run() -> int:
         if plot_file is not None and not plot_file.lower().endswith((".png", ".svg", ".pdf")):
             raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
+        if cost_text is None and (weights_text is not None or budgets):
+            raise InputError("--weights and --budget go with --cost (a defender front)",
+                             hint="add --cost '<<C>> R{\"cost\"}min=? [ ... ]'")
+        if cost_text is not None:
+            if sweep_text is not None or also or full_observation:
+                raise UnsupportedError("--cost draws a defender front of its own: --sweep, "
+                                       "--also and --full-observation do not apply to it")
+            return _defence(model, prop_text, cost_text, weights_text, budgets, consts,
+                            memory, timeout, seed, csv_file, plot_file, strategy_dir)
         if prop_text.lstrip().startswith("multi"):
             if sweep_text is not None:
                 raise UnsupportedError(
@@ -114,17 +136,9 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
            plot_file: str | None) -> int:
     """``pareto --prop 'multi(...)'``: the answer; for a Pareto query the front as a table."""
     from posgmc.io.atomic import atomic_write_text
-    from posgmc.semantics.constants import ConstRange, parse_const_assignments
     from posgmc.tradeoffs.front import front_to_csv, multi_objective
 
-    constants: dict[str, Any] = {}
-    for i, text in enumerate(consts):
-        for n, setting in parse_const_assignments(
-            text, source="--const" if len(consts) == 1 else f"--const #{i + 1}"
-        ).items():
-            if isinstance(setting, ConstRange):
-                raise InputError(f"--const {n}: a multi(...) query takes single values", setting.span)
-            constants[n] = setting
+    constants = _single(consts, what="a multi(...) query")
     answer = multi_objective(model, prop_text, constants=constants)
     front = answer.front
     if front is None:
@@ -134,20 +148,29 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
                 hint="--csv and --plot need a Pareto query: two objectives with =?",
             )
         value = answer.achievable if answer.kind.value == "achievability" else answer.value
-        click.echo(f"{prop_text}: {_fmt(value)}  (lp (HiGHS), {answer.seconds:.3f} s; LP value: "
-                   "floating point, not a proven bound)")
+        if answer.kind.value == "achievability":
+            what = ("proven: the LP's strategy, re-checked by interval iteration, meets every "
+                    "threshold" if answer.proven else "LP verdict, not proven")
+        elif answer.certified == answer.certified:  # not NaN
+            what = (f"LP value; proven: the optimum is {'at most' if answer.minimised else 'at least'}"
+                    f" {_fmt(answer.certified)}")
+        else:
+            what = "LP value: floating point, not a proven bound"
+        click.echo(f"{prop_text}: {_fmt(value)}  (lp (HiGHS), {answer.seconds:.3f} s; {what})")
         return EXIT_OK
     click.echo(f"{prop_text}: Pareto front, {len(front.points)} vertices "
                f"({front.solves} LPs over {answer.states} states, {answer.seconds:.3f} s)")
-    rows = [("", front.objectives[0] + f" ({front.directions[0].value})",
-             front.objectives[1] + f" ({front.directions[1].value})")]
-    rows += [("achievable", _fmt(float(x)), _fmt(float(y))) for x, y in front.points]
-    rows += [("over-approximation", _fmt(float(x)), _fmt(float(y))) for x, y in front.corners]
-    widths = [max(len(row[i]) for row in rows) for i in range(3)]
+    rows = [("", *(o + f" ({d.value})" for o, d in zip(front.objectives, front.directions)))]
+    rows += [("achievable", *(_fmt(float(v)) for v in p)) for p in front.points]
+    rows += [("over-approximation", *(_fmt(float(v)) for v in p)) for p in front.corners]
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     for row in rows:
         click.echo("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
+    how = ("" if len(front.objectives) == 2 else
+           " (shifted by that much in every objective at once)")
     click.echo(f"precision: every point of the over-approximation is within {front.precision:.3g} "
-               "of an achievable one" + ("" if front.converged else " (STOPPED at the LP budget)"))
+               f"of an achievable one{how}"
+               + ("" if front.converged else " (STOPPED at the LP budget)"))
     click.echo("achievable: the vertices of the under-approximation (each point of their convex "
                "hull, and anything worse, is achieved by a strategy); LP values in floating point")
     if csv_file is not None:
@@ -155,8 +178,100 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
     if plot_file is not None:
         from posgmc.tradeoffs.plot import plot_front
 
+        if len(front.objectives) != 2:
+            click.echo(f"--plot: a front of {len(front.objectives)} objectives is not drawn (the "
+                       "plot is 2-D); the table and --csv have every objective", err=True)
+            return EXIT_ERROR
         plot_front(front, plot_file, title=prop_text)
     return EXIT_OK
+
+
+def _defence(model: str, mission: str, cost: str, weights_text: str | None,
+             budgets: tuple[float, ...], consts: tuple[str, ...], memory: tuple[str, ...],
+             timeout: float, seed: int, csv_file: str | None, plot_file: str | None,
+             strategy_dir: str | None) -> int:
+    """``pareto --prop MISSION --cost COST``: the defender front (:mod:`posgmc.tradeoffs.defence`)."""
+    import math
+
+    from posgmc.io.atomic import atomic_write_text
+    from posgmc.tradeoffs.defence import defence_front, defence_front_to_csv
+
+    try:
+        weights = [float(w) for w in (weights_text or "0,1,2,5,10,20").split(",")]
+    except ValueError:
+        raise InputError(f"--weights {weights_text}: a comma-separated list of numbers >= 0",
+                         hint="e.g. --weights 0,5,10,20") from None
+    options = _synthesis_options(memory or ("1",), timeout, seed)
+    sizes: Any = dict(options.player_memory) if options.player_memory else options.memory
+    front = defence_front(model, mission, cost, weights=weights, constants=_single(consts),
+                          memory=sizes, timeout=timeout, seed=seed, budgets=budgets,
+                          strategy_dir=strategy_dir)
+    click.echo(f"defender front: {front.mission} against {front.cost} "
+               f"({len(front.points)} defences, {front.seconds:.1f} s)")
+    rows = [("w", "mission: guaranteed [lower, upper]", "cost: guaranteed [lower, upper]",
+             "front", "memory", "strategy")]
+    for i, p in enumerate(front.points):
+        w = "inf" if math.isinf(p.weight) else f"{p.weight:g}"
+        if p.mission is None or p.cost is None:
+            rows.append((w, "Error", "", "", "", ""))
+            if p.error is not None:
+                click.echo(f"w={w}: " + p.error.render(), err=True)
+            continue
+        rows.append((w, f"{_fmt(p.mission.value)} [{_fmt(p.mission.lower)}, {_fmt(p.mission.upper)}]"
+                     + (" (partial)" if p.partial else ""),
+                     f"{_fmt(p.cost.value)} [{_fmt(p.cost.lower)}, {_fmt(p.cost.upper)}]",
+                     "*" if i in front.front else "", str(p.memory), p.strategy_file or "-"))
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    for row in rows:
+        click.echo("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
+    fm, fc = front.full_observation
+    if fm is not None and fc is not None:
+        click.echo(f"full observation (no partially observing defence does better): mission "
+                   f"{_fmt(fm.value)}, cost {_fmt(fc.value)}")
+    def weight(i: int) -> str:
+        w = front.points[i].weight
+        return "inf" if math.isinf(w) else f"{w:g}"
+
+    for answer in front.budgets:
+        q = answer.point
+        if q is None or q.mission is None or q.cost is None:
+            click.echo(f"cost <= {_fmt(answer.budget)}: no verified defence meets it")
+            continue
+        if answer.mixed is not None:
+            i, j, alpha = answer.mixed
+            how = (f"the mixture of w={weight(j)} (probability {alpha:.6g}) and w={weight(i)}, "
+                   "verified itself")
+        else:
+            how = f"the defence of w={weight(answer.pure)}"  # type: ignore[arg-type]
+        click.echo(f"cost <= {_fmt(answer.budget)}: mission >= {_fmt(q.mission.lower)} (proven), "
+                   f"by {how} (cost <= {_fmt(q.cost.upper)})"
+                   + (f" -> {q.strategy_file}" if q.strategy_file and answer.mixed else ""))
+    click.echo("each row: one synthesised defence, both numbers proven for it against every "
+               "adversary; * = on the front (no other defence found is better on both proven "
+               "bounds). The front is what was found, a lower bound on the best trade-off.")
+    if csv_file is not None:
+        atomic_write_text(csv_file, defence_front_to_csv(front))
+    if plot_file is not None:
+        from posgmc.tradeoffs.plot import plot_defence_fronts
+
+        plot_defence_fronts([("", front)], plot_file)
+    failed = any(p.error is not None for p in front.points)
+    return EXIT_ERROR if failed else EXIT_OK
+
+
+def _single(consts: tuple[str, ...], *, what: str = "a front") -> dict[str, Any]:
+    """``--const`` settings without ranges (``what`` names the command's object in the error)."""
+    from posgmc.semantics.constants import ConstRange, parse_const_assignments
+
+    constants: dict[str, Any] = {}
+    for i, text in enumerate(consts):
+        for n, setting in parse_const_assignments(
+            text, source="--const" if len(consts) == 1 else f"--const #{i + 1}"
+        ).items():
+            if isinstance(setting, ConstRange):
+                raise InputError(f"--const {n}: {what} takes single values", setting.span)
+            constants[n] = setting
+    return constants
 
 
 def _also_cell(a: Any) -> str:

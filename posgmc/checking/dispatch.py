@@ -138,6 +138,13 @@ class PropertyChecker:
 
     def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
         """Check one property and report its value at the initial states."""
+        if self.options.solver.want_strategy and not self.options.keep_strategy:
+            # the report drops the strategy, so the engines need not compute it (on a game of
+            # infinite reward its positive-Büchi strategy costs many times the value itself)
+            lean = replace(self.options, solver=replace(self.options.solver, want_strategy=False))
+            return PropertyChecker(
+                self.model, coalition_of=self.coalition_of, scalar=self.scalar, options=lean
+            ).check(expr, text=text, name=name)
         if isinstance(expr, MultiQuery):
             from posgmc.checking.multi import check_multi
 

@@ -38,11 +38,13 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
+import scipy.sparse as sp
 
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.engines.multi.lp import LP_TOLERANCE, LPStatus, OccupationLP
 from posgmc.engines.multi.pareto import ParetoFront, pareto_front
-from posgmc.engines.multi.settle import Condition, ConditionKind, settling_options
+from posgmc.engines.multi.pareto_nd import pareto_front_nd
+from posgmc.engines.multi.settle import Condition, ConditionKind, Settling, settling
 from posgmc.engines.multi.unfold import layer_rewards, unfold_steps
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
@@ -81,16 +83,19 @@ class MultiKind(enum.Enum):
 
 @dataclass(frozen=True, eq=False)
 class Front:
-    """A two-objective Pareto front in the objectives' own units (a minimised one as itself).
+    """A Pareto front of n >= 2 objectives in the objectives' own units (a minimised one as
+    itself).
 
-    ``points``: float64[m, 2], achievable vertices (the under-approximation is their convex
-    hull, closed towards the worse values); ``corners``: float64[k, 2], the vertices of the
+    ``points``: float64[m, n], achievable vertices (the under-approximation is their convex
+    hull, closed towards the worse values); ``corners``: float64[k, n], the vertices of the
     over-approximation (no strategy achieves a point beyond it); ``precision``: the largest
-    distance between the two; ``converged``: every segment was closed within the tolerance.
+    distance between the two (Euclidean for n = 2; for n >= 3 the largest uniform shift of a
+    corner, in every objective at once, into the under-approximation); ``converged``: every
+    segment (facet) was closed within the tolerance.
     """
 
-    objectives: tuple[str, str]
-    directions: tuple[Direction, Direction]
+    objectives: tuple[str, ...]
+    directions: tuple[Direction, ...]
     points: np.ndarray
     corners: np.ndarray
     precision: float
@@ -98,8 +103,9 @@ class Front:
     converged: bool
 
     def text(self) -> str:
-        """PRISM's form: ``[(x1,y1),(x2,y2)]``."""
-        return "[" + ",".join(f"({x:.10g},{y:.10g})" for x, y in self.points) + "]"
+        """PRISM's form: ``[(x1,y1),(x2,y2)]`` (n numbers per point for n objectives)."""
+        return "[" + ",".join("(" + ",".join(f"{v:.10g}" for v in p) + ")"
+                              for p in self.points) + "]"
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -122,6 +128,11 @@ class MultiAnswer:
     that much). ``value`` (numerical): the optimum in the objective's units (NaN: the constraints
     cannot be met). ``front`` (Pareto). ``residual``: the largest violation of the LP's equations
     by the solution reported. ``states``: the size of the LP's MDP (product and unfolding).
+    ``proven`` (achievability): ``true`` is proven: the strategy of the LP's solution, re-checked
+    by the sound engines on the chain it induces, meets every threshold. ``certified``
+    (numerical): a proven bound on the optimum from such a re-checked strategy, a lower bound for
+    a maximised objective, an upper bound for a minimised one (``minimised``; NaN: nothing
+    proven).
     """
 
     kind: MultiKind
@@ -134,6 +145,9 @@ class MultiAnswer:
     residual: float = 0.0
     states: int = 0
     seconds: float = 0.0
+    proven: bool = False
+    certified: float = float("nan")
+    minimised: bool = False
 
 
 @dataclass(frozen=True)
@@ -266,8 +280,21 @@ class _Builder:
         return len(self.masks) - 1
 
 
-def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecker") -> tuple[OccupationLP, int]:
-    """The occupation LP of the query (objective ``i`` is row ``i``) and its number of states."""
+@dataclass(frozen=True, eq=False)
+class _Parts:
+    """The LP's MDP, kept to re-check an LP solution's strategy (:func:`_certify`)."""
+
+    transitions: sp.csr_matrix
+    groups: np.ndarray
+    initial: int
+    settling: Settling
+    rewards: dict[int, np.ndarray]  # objective -> its non-negative choice rewards (own sense)
+    condition_of: dict[int, int]  # probability objective -> its condition
+
+
+def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecker") -> tuple[OccupationLP, int, _Parts]:
+    """The occupation LP of the query (objective ``i`` is row ``i``), its number of states and
+    the parts its strategy is re-checked on."""
     model = checker.model
     if model.initial_states.size != 1:
         raise UnsupportedError(
@@ -297,6 +324,7 @@ def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecke
     settle[layer_start:] = True
     allowed = np.ones(num_choices, dtype=bool)
     rewards: dict[int, np.ndarray] = {}
+    plain: dict[int, np.ndarray] = {}
     for i, bound in bounds.items():
         q = objectives[i].query
         assert isinstance(q, RewardQuery)  # noqa: S101
@@ -307,14 +335,14 @@ def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecke
                 q.span,
             )
         r = layer_rewards(base, last, bound)
+        plain[i] = r
         rewards[i] = -r if objectives[i].minimise else r
         allowed &= r == 0
     conditions = tuple(
         Condition(kind, np.tile(mask, last + 1)) for kind, mask in builder.masks
     )
-    stop_state, stop_sat = settling_options(
-        transitions, groups, conditions, allowed=allowed, settle=settle
-    )
+    found = settling(transitions, groups, conditions, allowed=allowed, settle=settle)
+    stop_state, stop_sat = found.stop_state, found.stop_sat
     if stop_state.size == 0:
         raise UnsupportedError(
             "every path collects reward forever in a total-reward objective of multi(...): the "
@@ -328,7 +356,33 @@ def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecke
         else:
             coefficients[i, :num_choices] = rewards[i]
     lp = OccupationLP.build(transitions, groups, builder.initial, stop_state, coefficients)
-    return lp, num_states
+    return lp, num_states, _Parts(transitions, groups, builder.initial, found, plain, condition_of)
+
+
+def _certify(parts: _Parts, objectives: list[_Objective], x: np.ndarray) -> np.ndarray:
+    """Proven lower bounds, in the LP's maximising sense, on every objective's value under the
+    strategy of the LP solution ``x`` (:mod:`posgmc.engines.multi.scheduler`): sound interval
+    iteration on the chain it induces. A bound is ``-inf`` where nothing is proven."""
+    from posgmc.engines.multi.scheduler import induced_chain
+    from posgmc.engines.reach import reach_probability
+    from posgmc.engines.total import total_reward
+
+    chain = induced_chain(parts.transitions, parts.groups, parts.initial, parts.settling, x,
+                          parts.rewards)
+    m = chain.model
+    s0 = int(m.initial_states[0])
+    yes = np.ones(m.num_states, dtype=bool)
+    out = np.full(len(objectives), -np.inf)
+    for i, o in enumerate(objectives):
+        if i in parts.condition_of:
+            r = reach_probability(m, m.label(f"sat{parts.condition_of[i]}"), maximize=yes)
+            if r.sound:
+                out[i] = float(r.lower[s0])
+        else:
+            r = total_reward(m, chain.rewards[i], maximize=yes)
+            if r.sound:
+                out[i] = -float(r.upper[s0]) if o.minimise else float(r.lower[s0])
+    return out
 
 
 # -- the three forms ---------------------------------------------------------------------------
@@ -356,7 +410,7 @@ def answer_multi(
     start = time.perf_counter()
     objectives = _objectives(expr, checker)
     texts = tuple(format_expr(o.query) for o in objectives)
-    lp, num_states = _lp(expr, objectives, checker)
+    lp, num_states, parts = _lp(expr, objectives, checker)
     at_least = {i: o.lp_bound() for i, o in enumerate(objectives) if o.bound is not None}
     queries = [i for i, o in enumerate(objectives) if o.bound is None]
     if not queries:
@@ -365,10 +419,15 @@ def answer_multi(
         if point.status is not LPStatus.OPTIMAL:
             raise UnsupportedError(f"the LP solver failed: {point.message}", expr.span)
         t = point.extra
+        proven = False
+        if t >= -10 * LP_TOLERANCE and point.x is not None:
+            # the slack LP's solution keeps the largest room: re-check its strategy
+            lower = _certify(parts, objectives, point.x)
+            proven = _meets(objectives, lower, at_least)
         return MultiAnswer(
             MultiKind.ACHIEVABILITY, texts, achievable=t >= -10 * LP_TOLERANCE,
-            decided=abs(t) >= MARGIN, margin=t, residual=point.residual, states=num_states,
-            seconds=time.perf_counter() - start,
+            decided=abs(t) >= MARGIN or proven, margin=t, residual=point.residual,
+            states=num_states, seconds=time.perf_counter() - start, proven=proven,
         )
     if len(queries) == 1:
         (i,) = queries
@@ -377,32 +436,74 @@ def answer_multi(
         point = lp.maximise(weights, at_least=at_least)
         if point.status is LPStatus.FAILED:
             raise UnsupportedError(f"the LP solver failed: {point.message}", expr.span)
+        certified = math.nan
         if point.status is LPStatus.UNBOUNDED:
             value = objectives[i].reported(np.inf)
         else:
             value = objectives[i].reported(float(point.values[i]))
+            if point.status is LPStatus.OPTIMAL:
+                certified = _certified_optimum(lp, parts, objectives, i, weights, at_least, point.x)
         return MultiAnswer(
             MultiKind.NUMERICAL, texts, value=value, residual=point.residual, states=num_states,
-            seconds=time.perf_counter() - start,
+            seconds=time.perf_counter() - start, certified=certified,
+            minimised=objectives[i].minimise,
         )
-    first, second = queries
-    raw: ParetoFront = pareto_front(
-        lp, first, second, at_least=at_least, tolerance=tolerance, max_solves=max_solves
-    )
+    if len(queries) == 2:
+        raw: ParetoFront = pareto_front(
+            lp, queries[0], queries[1], at_least=at_least, tolerance=tolerance,
+            max_solves=max_solves,
+        )
+    else:
+        raw = pareto_front_nd(lp, tuple(queries), at_least=at_least, tolerance=tolerance,
+                              max_solves=max_solves)
 
     def units(pts: np.ndarray) -> np.ndarray:
         out = pts.copy()
-        for axis, i in enumerate((first, second)):
+        for axis, i in enumerate(queries):
             out[:, axis] = [objectives[i].reported(v) for v in pts[:, axis]]
         return out
 
     directions = tuple(Direction.MIN if objectives[i].minimise else Direction.MAX for i in queries)
     front = Front(
-        (texts[first], texts[second]), directions, units(raw.points), units(raw.corners),  # type: ignore[arg-type]
+        tuple(texts[i] for i in queries), directions, units(raw.points), units(raw.corners),
         raw.precision, raw.solves, raw.converged,
     )
     return MultiAnswer(MultiKind.PARETO, texts, front=front, states=num_states,
                        seconds=time.perf_counter() - start)
+
+
+def _meets(objectives: list[_Objective], lower: np.ndarray, at_least: dict[int, float]) -> bool:
+    """Every threshold holds for the proven lower bounds (strictly for ``>``/``<``)."""
+    for k, v in at_least.items():
+        t = objectives[k].query.threshold
+        strict = t is not None and t.op in (ComparisonOp.GT, ComparisonOp.LT)
+        if not (lower[k] > v if strict else lower[k] >= v):
+            return False
+    return True
+
+
+def _certified_optimum(lp: OccupationLP, parts: _Parts, objectives: list[_Objective], i: int,
+                       weights: np.ndarray, at_least: dict[int, float], x: np.ndarray | None) -> float:
+    """A proven bound on the optimum of objective ``i`` (a lower bound when it is maximised, an
+    upper bound when minimised), in its own units, from a strategy whose values the sound
+    engines re-check; NaN when the check proves nothing. The LP's own solution is tried first;
+    when its re-checked values miss a constraint (a binding one, by rounding), the constraints
+    are tightened by 1e-6 (relative to ``max(1, |bound|)`` for rewards) and the LP solved again,
+    so that the strategy meets them with room beyond the engines' precision."""
+    def proven(candidate: np.ndarray) -> float:
+        lower = _certify(parts, objectives, candidate)
+        if _meets(objectives, lower, at_least) and np.isfinite(lower[i]):
+            return objectives[i].reported(float(lower[i]))
+        return math.nan
+
+    if x is not None and not math.isnan(found := proven(x)):
+        return found
+    if at_least:
+        room = {k: v + MARGIN * objectives[k].scale_of_bound for k, v in at_least.items()}
+        tight = lp.maximise(weights, at_least=room)
+        if tight.status is LPStatus.OPTIMAL and tight.x is not None:
+            return proven(tight.x)
+    return math.nan
 
 
 def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name: str | None) -> PropertyResult:
@@ -414,9 +515,14 @@ def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name
     common = _Common(property=text, name=name, seconds=a.seconds, method=method, sound=False,
                      multi=a)
     if a.kind is MultiKind.ACHIEVABILITY:
-        if a.decided:
-            note = (f"LP: the constraints hold with margin {a.margin:.3g}" if a.achievable
-                    else f"LP: a constraint fails by at least {-a.margin:.3g}")
+        if a.proven:
+            note = ("proven: the LP's strategy, re-checked by interval iteration on the chain it "
+                    f"induces, meets every threshold (LP margin {a.margin:.3g})")
+            common["sound"] = True
+        elif a.decided:
+            note = (f"LP: the constraints hold with margin {a.margin:.3g} (not re-proven)"
+                    if a.achievable else f"LP: a constraint fails by at least {-a.margin:.3g} "
+                    "(the LP's estimate; infeasibility is not certified)")
         else:
             note = (f"at the boundary: the LP's answer is within its tolerance of the thresholds "
                     f"(margin {a.margin:.2g}); not decided with margin {MARGIN:g}")
@@ -431,6 +537,15 @@ def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name
             eps = max(LP_TOLERANCE * (1.0 + abs(v)), a.residual) if np.isfinite(v) else 0.0
             lower, upper = v - eps, v + eps
             note = "LP optimum (floating point, within the LP's tolerance; not a proven bound)"
+            if not np.isnan(a.certified):
+                side = "at most" if a.minimised else "at least"
+                note = (f"LP optimum (floating point); proven: the optimum is {side} "
+                        f"{a.certified:.10g} (the LP's strategy, re-checked by interval iteration "
+                        "on the chain it induces); the other side is the LP's estimate")
+                if side == "at least":
+                    lower = min(lower, a.certified)
+                else:
+                    upper = max(upper, a.certified)
         return PropertyResult(kind=ResultKind.NUMBER, value=v, lower=lower, upper=upper,
                               note=note, **common)
     assert a.front is not None  # noqa: S101

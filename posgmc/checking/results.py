@@ -156,5 +156,9 @@ class PropertyResult:
             if self.front is not None:
                 out["front"] = self.front.to_json()
             elif self.kind is ResultKind.BOOLEAN:
-                out["multi"].update(decided=self.multi.decided, margin=num(self.multi.margin))
+                out["multi"].update(decided=self.multi.decided, margin=num(self.multi.margin),
+                                    proven=self.multi.proven)
+            else:
+                out["multi"].update(certified=num(self.multi.certified),
+                                    minimised=self.multi.minimised)
         return out

@@ -36,10 +36,11 @@ float-based checker's.
 
 *Exact, for tiny systems.* Along a count of 10^13 steps (a loop left with probability 1e-13)
 no float residual is small enough. With at most :data:`_EXACT_LIMIT` unknowns the certificate is
-redone in rational arithmetic on the floats as stored: the profile's values ``q`` solve
-``q = b_sigma + A_sigma q`` exactly (nonsingular: the counts are finite), a few rounds of exact
-switches improve ``sigma`` where a row beats it, and the two inequalities above hold with
-``d = tau = 0``, so ``q`` is the least fixpoint itself; its bounds are ``q`` rounded outwards.
+redone in rational arithmetic on the floats as stored: with the maximiser on ``sigma`` the
+minimiser's exact best response (a few rounds of strict switches; every solve nonsingular since
+``t_l`` is finite) gives values ``q`` that satisfy both inequalities above with ``d = tau = 0``
+when no maximiser row beats them, so ``q`` is the least fixpoint itself; its bounds are ``q``
+rounded outwards.
 
 *Input rounding.* The stored floats are the written model rounded (``1 - p`` with p = 1e-13
 keeps three digits of the exit probability ``p``): each probability and constant within
@@ -62,6 +63,7 @@ from fractions import Fraction
 import numpy as np
 
 from posgmc.engines import exact as ex
+from posgmc.engines.rational import solve_dense
 from posgmc.engines.system import System, choice_values, reduce_rows
 
 __all__ = ["certify"]
@@ -81,24 +83,6 @@ _EXACT_ROUNDS = 8
 """Rounds of exact strategy switches before the exact certificate gives up."""
 
 
-def _solve_fractions(a: list[list[Fraction]], b: list[Fraction]) -> list[Fraction] | None:
-    """Gauss-Jordan elimination: the solution of ``(I - a) q = b``, or None if singular."""
-    n = len(b)
-    m = [[(1 if i == j else 0) - a[i][j] for j in range(n)] + [b[i]] for i in range(n)]
-    for col in range(n):
-        pivot = next((r for r in range(col, n) if m[r][col] != 0), None)
-        if pivot is None:
-            return None
-        m[col], m[pivot] = m[pivot], m[col]
-        inv = 1 / m[col][col]
-        m[col] = [v * inv for v in m[col]]
-        for r in range(n):
-            if r != col and m[r][col] != 0:
-                f = m[r][col]
-                m[r] = [v - f * w for v, w in zip(m[r], m[col])]
-    return [m[i][n] for i in range(n)]
-
-
 def _outward(q: list[Fraction]) -> tuple[np.ndarray, np.ndarray]:
     """The nearest floats below and above each rational."""
     mid = np.array([float(v) for v in q])
@@ -114,9 +98,12 @@ def _input_allowance(sys: System, x: np.ndarray) -> float:
 
 
 def _exact_certificate(sys: System, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """The exact least fixpoint of a tiny system, rounded outwards, or None (see the module
-    docstring); the caller has proven both counts finite, so every profile reached by switching
-    rows inside them keeps ``I - A_sigma`` nonsingular or is rejected here."""
+    """The exact least fixpoint of a tiny system, rounded outwards, or None (module docstring).
+
+    The maximiser keeps ``sigma``, whose count ``t_l`` the caller proved finite: every minimiser
+    profile against it leaves the unknowns, so each solve is nonsingular, and the minimiser's
+    exact best response (strict switches) makes ``q`` the least fixpoint of ``B'``: a lower
+    bound. If then no maximiser row beats ``q`` either, ``B(q) <= q``: an upper bound too."""
     n, k = sys.n, sys.num_max
     csr = sys.matrix.tocsr()
     rows = [
@@ -133,22 +120,19 @@ def _exact_certificate(sys: System, sigma: np.ndarray) -> tuple[np.ndarray, np.n
         return b + sum((p * q[t] for t, p in out.items()), Fraction(0))
 
     for _ in range(_EXACT_ROUNDS):
-        a = [[Fraction(0)] * n for _ in range(n)]
+        a = [[Fraction(int(i == j)) for j in range(n)] for i in range(n)]  # I - A_sigma
         for s, r in enumerate(choice):
             for t, p in rows[r][1].items():
-                a[s][t] += p
-        q = _solve_fractions(a, [rows[r][0] for r in choice])
-        if q is None:
-            return None
-        switched = False
-        for r in range(sys.m):
-            s = owner[r]
-            v = value(r, q)
-            if (v > q[s]) if s < k else (v < q[s]):
-                choice[s] = r  # a strictly better row: switch and solve again
-                switched = True
-        if not switched:  # B(q) <= q and q <= B'(q) hold exactly: q = lfp B
-            return _outward(q)
+                a[s][t] -= p
+        q = solve_dense(a, [rows[r][0] for r in choice])
+        better = [r for r in range(sys.m) if owner[r] >= k and value(r, q) < q[owner[r]]]
+        if better:  # the minimiser improves: switch and solve again
+            for r in better:
+                choice[owner[r]] = r
+            continue
+        if any(value(r, q) > q[owner[r]] for r in range(sys.m) if owner[r] < k):
+            return None  # sigma is not exactly optimal for the maximiser
+        return _outward(q)
     return None
 
 

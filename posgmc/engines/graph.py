@@ -156,7 +156,7 @@ def attractor(
     if allowed is None:
         allowed_count = g.num_choices
     else:
-        allowed_count = np.add.reduceat(allowed.astype(np.int64), g.row_groups[:-1])
+        allowed_count = np.add.reduceat(allowed, g.row_groups[:-1], dtype=np.int64)
     all_existential = bool(existential.all())
     need = np.where(existential, 1, allowed_count)
     open_ = candidates & ~inside & (allowed_count > 0)
@@ -172,6 +172,8 @@ def attractor(
     extra = None if initial_choices is None else np.flatnonzero(initial_choices)
     if layer is not None:
         layer[frontier] = 0
+    if not open_.any():  # nobody can join: no search (its first layer could be the whole model)
+        return inside, witness
     level = 0
     while True:
         level += 1
@@ -348,7 +350,7 @@ def _almost_sure_reach_nested(
         rounds += 1
         safe = usable & ~_unsafe_choices(g, region)
         # a universal state with a choice leaving the region cannot be in it
-        leaks = np.add.reduceat((~safe & usable).astype(np.int64), g.row_groups[:-1]) > 0
+        leaks = np.logical_or.reduceat(~safe & usable, g.row_groups[:-1])
         new, witness = attractor(
             g,
             target,

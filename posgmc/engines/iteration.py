@@ -338,6 +338,7 @@ def _lower_phase_blocks(
     y = np.empty(sys.m)
     x = np.ascontiguousarray(lower, dtype=np.float64).copy()
     tmp = np.empty(n)
+    step = np.empty(n)  # scratch for the absolute change (new >= old, so no abs is needed)
     plan = sys.plan
     ratios = [0.0, 0.0]
     previous = np.inf
@@ -355,7 +356,11 @@ def _lower_phase_blocks(
                         continue
                     new, old = tmp[lo : lo + cnt], x[lo : lo + cnt]
                     np.maximum(new, old, out=new)
-                    dk = max(dk, max_change(new, old, rel))
+                    if rel:
+                        dk = max(dk, max_change(new, old, rel))
+                    else:
+                        change = np.subtract(new, old, out=step[lo : lo + cnt])
+                        dk = max(dk, float(change.max()))
                     old[:] = new
                 if k == 0:
                     d = max(d, dk)

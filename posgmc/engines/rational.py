@@ -20,12 +20,12 @@ from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.model.types import ModelType
 
-__all__ = ["exact_bounded_reach", "exact_cumulative_reward", "exact_rational_reach"]
+__all__ = ["exact_bounded_reach", "exact_cumulative_reward", "exact_rational_reach", "solve_dense"]
 
 _Row = tuple[Fraction, dict[int, Fraction]]  # (mass into value-1 states, mass into unknowns)
 
 
-def _solve_dense(matrix: list[list[Fraction]], rhs: list[Fraction]) -> list[Fraction]:
+def solve_dense(matrix: list[list[Fraction]], rhs: list[Fraction]) -> list[Fraction]:
     """Gauss-Jordan elimination for a nonsingular system."""
     n = len(rhs)
     a = [row[:] + [rhs[i]] for i, row in enumerate(matrix)]
@@ -66,7 +66,7 @@ def _evaluate(states: list[int], rows: dict[int, _Row]) -> dict[int, Fraction]:
         for t, p in rows[s][1].items():
             if t in index:
                 matrix[i][index[t]] -= p
-    sol = _solve_dense(matrix, rhs) if n else []
+    sol = solve_dense(matrix, rhs) if n else []
     out = {s: Fraction(0) for s in states}
     for s in live:
         out[s] = sol[index[s]]

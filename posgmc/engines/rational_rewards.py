@@ -24,7 +24,7 @@ from fractions import Fraction
 import numpy as np
 
 from posgmc.engines.graph import almost_sure_reach, structure_of
-from posgmc.engines.rational import _solve_dense
+from posgmc.engines.rational import solve_dense
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.model.types import ModelType
@@ -103,7 +103,7 @@ def exact_reach_reward(
                 j = index.get(succ)
                 if j is not None:
                     a[i][j] -= p
-        solved = _solve_dense(a, b)
+        solved = solve_dense(a, b)
         values = dict(zip(states, solved))
         switched = False
         for s in states:

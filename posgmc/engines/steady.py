@@ -31,7 +31,7 @@ from scipy.sparse.csgraph import connected_components
 
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import SolverOptions
-from posgmc.engines.rational import _solve_dense, exact_rational_reach
+from posgmc.engines.rational import solve_dense, exact_rational_reach
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.model.types import ModelType
@@ -102,7 +102,7 @@ def _stationary_exact(p: sp.csr_matrix, states: np.ndarray,
         a[i][i] -= 1
     a[k - 1] = [Fraction(1)] * k
     rhs = [Fraction(0)] * (k - 1) + [Fraction(1)]
-    return _solve_dense(a, rhs)
+    return solve_dense(a, rhs)
 
 
 def _stationary_float(p: sp.csr_matrix, states: np.ndarray) -> np.ndarray:

@@ -173,6 +173,24 @@ def _block_of(layer: np.ndarray) -> np.ndarray:
     return out
 
 
+_COMPACT_CHUNK = 1 << 20
+"""Entries moved per step of :func:`_compact` (its only temporary)."""
+
+
+def _compact(keep: np.ndarray, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``a[keep]`` for each array, computed in place: the kept entries move to the front of each
+    array chunk by chunk (a kept entry never moves right, and each chunk is read into a temporary
+    before it is written), so no second full-size copy exists. Returns views of the fronts."""
+    total = 0
+    for lo in range(0, keep.size, _COMPACT_CHUNK):
+        k = keep[lo : lo + _COMPACT_CHUNK]
+        count = int(np.count_nonzero(k))
+        for a in arrays:
+            a[total : total + count] = a[lo : lo + _COMPACT_CHUNK][k]
+        total += count
+    return tuple(a[:total] for a in arrays)
+
+
 def build_system(
     g: Structure,
     unknown: np.ndarray,
@@ -221,11 +239,7 @@ def build_system(
         raise ValueError("every unknown state needs at least one allowed choice")
     is_max = maximize[unk]
     kmax = int(counts.max()) if counts.size else 0
-    if layer is not None and unk.size >= _MIN_BLOCKED_STATES:
-        block = _block_of(layer[unk])
-    else:
-        block = np.zeros(unk.size, dtype=np.int64)
-    band_of_block = None
+    found = None
     if topological and unk.size:
         found = topological_blocks(
             g.transitions,
@@ -234,8 +248,13 @@ def build_system(
             layer=None if layer is None else layer[unk],
             band_states=band_states,
         )
-        if found is not None:
-            block, band_of_block = found
+    band_of_block = None
+    if found is not None:
+        block, band_of_block = found
+    elif layer is not None and unk.size >= _MIN_BLOCKED_STATES:
+        block = _block_of(layer[unk])
+    else:
+        block = np.zeros(unk.size, dtype=np.int64)
     nb = int(block.max()) + 1 if block.size else 1
     # maximisers first, then by block, then by decreasing number of rows; a stable sort on a small
     # integer key (numpy uses radix sort for 16-bit keys)
@@ -289,10 +308,13 @@ def build_system(
     ).ravel()  # [nb, 2, kmax]
     state_base = (block * 2 + player) * kmax
     pos = table[state_base[loc] + rank] + loc
+    del rank, row_st, start_of, state_base, key, order, player
     rows = np.empty(rows_global.size, dtype=np.int64)
     rows[pos] = rows_global
-    row_state = np.empty(rows_global.size, dtype=np.int64)
+    del rows_global
+    row_state = np.empty(rows.size, dtype=np.int64)
     row_state[pos] = loc
+    del pos, loc  # the row gather below is the peak: no layout temporary outlives its use
     # matrix restricted to the unknown columns; the rest goes into the offset. ``sub`` is this
     # call's own copy of the rows, so its arrays are reused in place where the dtypes allow
     T = g.transitions
@@ -323,7 +345,8 @@ def build_system(
         indptr = np.zeros(rows.size + 1, dtype=index_dtype)
         np.cumsum(per_row, out=indptr[1:])
         stays = per_row == np.diff(sub.indptr)
-        data, indices = sub.data[inside], loc[inside]
+        del per_row
+        data, indices = _compact(inside, sub.data, loc)
     del sub, loc, inside
     matrix = sp.csr_matrix((data, indices, indptr), shape=(rows.size, n), copy=False)
     bands = None

@@ -12,7 +12,8 @@ Checked here, each error at the offending argument:
 * the model is an mdp or a dtmc (smg, pomdp and posg are answered elsewhere or refused);
 * each argument is a ``P``/``R`` query without a coalition; ``=?`` has ``min`` or ``max``;
 * reward objectives are total ``[C]`` or cumulative ``[C<=k]`` (PRISM's fragment);
-* at most two ``=?`` arguments (posgmc's Pareto fronts are two-dimensional);
+* at most :data:`MAX_PARETO_OBJECTIVES` ``=?`` arguments (a front of three or more is found in
+  that many dimensions, :mod:`posgmc.engines.multi.pareto_nd`);
 * PRISM-games' ``<<C>> (q1 & q2)`` on smgs: one or two objectives the coalition maximises
   (``P>=p``/``Pmax=?`` of co-safe formulas, ``R>=r``/``Rmax=?`` of total rewards ``[C]``).
 
@@ -36,6 +37,10 @@ from posgmc.syntax.ast import (
 )
 
 __all__ = ["check_multi", "MULTI_REWARD_KINDS", "MULTI_MODEL_TYPES"]
+
+MAX_PARETO_OBJECTIVES = 5
+"""The most ``=?`` objectives of a Pareto query (the facets of the front grow fast with the
+dimension)."""
 
 MULTI_REWARD_KINDS = (RewardKind.TOTAL, RewardKind.CUMULATIVE)
 """The reward objectives a ``multi(...)`` query may hold."""
@@ -112,12 +117,13 @@ def check_multi(expr: Expr, *, model_type: ModelType, errors: list[PosgmcError])
                     "from the target on, and [C]",
                 )
             )
-    if queries > 2:
+    if queries > MAX_PARETO_OBJECTIVES:
         errors.append(
             UnsupportedError(
-                f"a Pareto query has at most two objectives (=?) here, found {queries}",
+                f"a Pareto query has at most {MAX_PARETO_OBJECTIVES} objectives (=?) here, found "
+                f"{queries}",
                 top.span,
-                hint="turn all but two into constraints (P>=p, R<=r)",
+                hint="turn some into constraints (P>=p, R<=r)",
             )
         )
 

@@ -1,9 +1,10 @@
 """Synthesis of the decision maker's finite-state strategy against an omniscient adversary:
 gradient ascent of `guaranteed` over randomised k-FSSs, memory escalation, verified results.
 
-For each memory size k in turn: start from (i) the full-observation optimum projected onto the
-decision maker's observations, (ii) the best (k-1)-node defence embedded into k nodes, (iii)
-seeded random logits; follow the exact (sub)gradient of the value against the adversary's best
+For each memory size k in turn (a memoryless warm-up first when k = 1 is not asked for): start
+from (i) the best smaller defence embedded into k nodes (and perturbed copies), (ii) the
+full-observation optimum projected onto the decision maker's observations (pessimistic QMDP,
+then majority vote), (iii) seeded random logits; follow the exact (sub)gradient of the value against the adversary's best
 response (:mod:`posgmc.synthesis.parametric`) with Adam; keep the best iterate and its hardened
 (deterministic) version. Every candidate is then verified by the sound product check
 (:class:`~posgmc.strategies.verify.StrategyChecker`), and the reported number is that check's
@@ -22,6 +23,7 @@ import numpy as np
 
 from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import Bound
+from posgmc.engines.graph import concat_ranges
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.errors import InputError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
@@ -30,7 +32,7 @@ from posgmc.strategies.verify import StrategyChecker
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.deterministic import DeterministicResult, deterministic_phase
 from posgmc.synthesis.jobs import Executor, Problem, executor_for
-from posgmc.synthesis.parametric import Parametrisation
+from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
 from posgmc.syntax.ast import Direction, Expr, ProbQuery, RewardKind, RewardQuery, Temporal, TemporalOp
 
 __all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
@@ -221,21 +223,31 @@ def synthesize(
     best_of: dict[int, tuple[FiniteStateStrategy, Bound]] = {}
     seconds_of: dict[int, float] = {}
     evaluations_of: dict[int, int] = {}
+    # a memory range that does not start at 1 is warm-started from a memoryless defence (a k-FSS
+    # embeds into k+1 nodes): --memory 2 searches k = 1 first and never reports less than it
+    sizes = _with_warm_up(options.memory)
     for pass_no in range(_MAX_PASSES):
         improved = False
-        for k in options.memory:
+        for i, k in enumerate(sizes):
             if time.perf_counter() > deadline and best is not None:
                 partial = True
                 break
             round_start = time.perf_counter()
+            # the first pass shares the budget equally among the sizes still to come, so that on
+            # a large model the first size does not use it all; later passes use what is left
+            round_deadline = deadline if pass_no else \
+                round_start + (deadline - round_start) / (len(sizes) - i)
             if k not in params:
                 params[k] = Parametrisation(model, player, k, query, target, remain,
                                             coalition_of=coalition_of, scalar=scalar,
                                             rewards=rewards, discount=discount)
             par = params[k]
-            starts = [_projected(par, full, model)] if pass_no == 0 else []
+            # the best smaller defence first (when the round's time runs out, the starts that
+            # build on what is known have run), then the full-observation optimum projected
+            # two ways (pessimistic QMDP, majority vote), then random logits
+            starts = []
             found_det = deterministic.get(k) if pass_no == 0 else None
-            if found_det is not None:
+            if found_det is not None:  # the deterministic search's best, first of all
                 starts.append(_hard_logits(found_det.gamma, found_det.delta))
             if best_logits is not None and best is not None and best[0].memory_size <= k:
                 la0, ld0 = _embedded(par, *best_logits)
@@ -246,17 +258,20 @@ def synthesize(
                     for _ in range(2):
                         starts.append((la0 + rng.normal(size=la0.shape),
                                        ld0 + 2.0 * rng.normal(size=ld0.shape)))
+            if pass_no == 0:
+                starts.append(_qmdp(par, full, model, rewards, discount, sign))
+                starts.append(_projected(par, full, model))
             for _ in range(options.restarts):
                 starts.append((rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])))
-            found, n_eval, seconds = _round(par, starts, sign, options, deadline, executor, model, query,
-                                            coalition_of, scalar, maximize,
+            found, n_eval, seconds = _round(par, starts, sign, options, round_deadline, executor, model,
+                                            query, coalition_of, scalar, maximize,
                                             extra=() if found_det is None else
                                             ((found_det.gamma, found_det.delta),))
             evaluations += n_eval
             t_search += seconds[0]
             t_verify += seconds[1]
-            if time.perf_counter() > deadline:
-                partial = True
+            if time.perf_counter() > round_deadline:
+                partial = True  # the budget (or this round's share of it) cut the round short
             if found is not None and (best is None or _better(found[1], best[1], maximize)):
                 best = (found[0], found[1])
                 best_logits = found[2]
@@ -287,7 +302,7 @@ def synthesize(
     # per memory size: the best defence with at most that many nodes (a smaller one embeds)
     rounds = []
     upto: tuple[FiniteStateStrategy, Bound] | None = None
-    for k in options.memory:
+    for k in sizes:
         if k not in best_of:
             continue
         if upto is None or _better(best_of[k][1], upto[1], maximize):
@@ -297,6 +312,10 @@ def synthesize(
     phases["gradient search"] = t_search
     phases["candidates (policy iteration)"] = t_verify
     assert best is not None  # noqa: S101 - the first memory size always runs
+    if best[0].memory_size < min(options.memory):
+        # the warm-up's defence won: report it with the memory asked for (the new nodes are
+        # never entered, so it guarantees exactly as much)
+        best = (_embed_strategy(best[0], min(options.memory)), best[1])
     # the reported number: the chosen defence checked by the caller's method (sound interval
     # iteration by default). Policy iteration ranked the candidates, but its floating-point
     # solves of nearly singular systems are no proof (it can exceed the full-observation value
@@ -322,6 +341,12 @@ DETERMINISTIC_SHARE_POMDP = 0.0
 every shared POMDP (docs/performance.md), and giving the deterministic search part of the budget
 cost refuel-06 its best defence (0.4264 with the whole budget for the gradient search, 0.3985
 with a fifth, 0.3985 with half; the deterministic search's best there, 0.3500, is PAYNT's)."""
+
+
+def _with_warm_up(memory: tuple[int, ...]) -> tuple[int, ...]:
+    """The memory sizes searched for ``memory``: a memoryless warm-up first when the smallest
+    size asked for is larger (its defence embeds into every larger size)."""
+    return memory if min(memory) <= 1 else (1,) + tuple(memory)
 
 
 _MAX_PASSES = 4
@@ -353,10 +378,21 @@ def _round(par: Parametrisation, starts: list[tuple[np.ndarray, np.ndarray]], si
         candidates.append((*par.sharpened(g, d), (la, ld)))
         candidates.append((*par.hardened(g, d), (la, ld)))
         candidates.append((g, d, (la, ld)))
-    # deterministic neighbours of the best hardened candidate: one rule changed at a time
+    # each candidate's float value, computed once (on a large model each is a cold iterative
+    # solve: a hardened or sharpened candidate's product has its own structure)
+    floats: dict[int, float] = {}
+
+    def value_of(c: tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]) -> float:
+        if id(c) not in floats:
+            floats[id(c)] = sign * par.evaluate(c[0], c[1], gradient=False).value
+        return floats[id(c)]
+
+    large = model.num_states * par.k >= ITERATIVE_STATES
+    # deterministic neighbours of the best hardened candidate: one rule changed at a time (not on
+    # a large model, where each neighbour costs a full evaluation and thousands of rules exist)
     hard = candidates[1::3]
-    if hard and time.perf_counter() < deadline:
-        g, d, logits = max(hard, key=lambda c: sign * par.evaluate(c[0], c[1], gradient=False).value)
+    if hard and not large and time.perf_counter() < deadline:
+        g, d, logits = max(hard, key=value_of)
         (g, d), n_eval = _local_search(par, g, d, sign, deadline)
         evaluations += n_eval
         candidates.append((g, d, logits))
@@ -367,12 +403,11 @@ def _round(par: Parametrisation, starts: list[tuple[np.ndarray, np.ndarray]], si
     # to 1e-7, so that on a near-tie the stable sort keeps the sharpened (or deterministic)
     # version, which is simpler and verified far faster than the softmax's near-deterministic one
     t0 = time.perf_counter()
-    scored = sorted(
-        candidates,
-        key=lambda c: round(-sign * par.evaluate(c[0], c[1], gradient=False).value, 7),
-    )
+    scored = sorted(candidates, key=lambda c: round(-value_of(c), 7))
     best: tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None = None
-    for g, d, logits in scored[: options.verify]:
+    # on a large model one candidate only: a policy-iteration check of its product costs LU
+    # factorisations of 10^5 unknowns (seconds each), and the float ranking rarely errs
+    for g, d, logits in scored[: 1 if large else options.verify]:
         fss = par.strategy(g, d)
         r = StrategyChecker(model, {fss.player: fss}, coalition_of=coalition_of, scalar=scalar,
                             options=_POLICY).check(query, text="synthesis")
@@ -492,6 +527,42 @@ def _projected(par: Parametrisation, full, model: ExplicitModel) -> tuple[np.nda
         best = votes.argmax(axis=1)
         has = votes.max(axis=1) > 0
         la[:, np.flatnonzero(has), best[has]] = _LOGIT
+    ld = np.zeros(par.shapes[1])
+    k = par.k
+    ld[np.arange(k), :, :, np.arange(k)] = _LOGIT
+    return la, ld
+
+
+def _qmdp(par: Parametrisation, full, model: ExplicitModel, rewards: np.ndarray | None,  # type: ignore[no-untyped-def]
+          discount: float, sign: float) -> tuple[np.ndarray, np.ndarray]:
+    """Logits favouring, in each observation, the actions whose full-observation Q-value is best
+    in the worst of the decision maker's states with that observation (a pessimistic QMDP: as if
+    the state were revealed after this step, and the state the observation hides were the least
+    favourable one); every action within 1e-9 of the best is favoured alike; memory stays put.
+
+    Where :func:`_projected` lets each state vote for its own optimal action (with full
+    observation the planner never gathers information, so that vote says "act now" everywhere),
+    the worst case over an observation's states refuses an action that is fatal in one of them:
+    information-gathering moves win until the observation pins the state down."""
+    la = np.zeros(par.shapes[0])
+    values = np.asarray(full.values, dtype=np.float64)
+    finite = np.isfinite(values)
+    big = 10.0 * (float(np.abs(values[finite]).max(initial=0.0)) + 1.0)
+    values = np.where(finite, values, np.copysign(big, values))
+    states = np.flatnonzero(par.owned)
+    c = concat_ranges(model.row_groups[states], model.row_groups[states + 1])
+    q = discount * np.asarray(model.transitions[c] @ values).ravel()
+    if rewards is not None:
+        q = q + rewards[c]
+    z = par.obs_index[par.view.state_obs[model.choice_states[c]]]
+    a = par.act_index[model.choice_actions[c]]
+    worst = np.full(par.shapes[0][1:], np.inf)
+    np.minimum.at(worst, (z, a), sign * q)
+    score = np.where(par.mask & np.isfinite(worst), worst, -np.inf)
+    top = score.max(axis=1, keepdims=True)
+    has = np.isfinite(top[:, 0])
+    favoured = has[:, None] & np.isfinite(score) & (score >= top - 1e-9 * np.maximum(1.0, np.abs(top)))
+    la[:, favoured] = _LOGIT
     ld = np.zeros(par.shapes[1])
     k = par.k
     ld[np.arange(k), :, :, np.arange(k)] = _LOGIT

@@ -52,15 +52,15 @@ def multi_objective(
 
 
 def front_to_csv(front: Front) -> str:
-    """A front as CSV: a header ``kind,<objective 1>,<objective 2>``, then one row per achievable
-    vertex (``achievable``) and per vertex of the over-approximation (``over_approximation``),
-    and a last row ``precision,<distance>,``."""
+    """A front as CSV: a header ``kind,<objective 1>,...,<objective n>``, then one row per
+    achievable vertex (``achievable``) and per vertex of the over-approximation
+    (``over_approximation``), and a last row ``precision,<distance>,`` (empty cells after it)."""
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
     w.writerow(["kind", *front.objectives])
-    for x, y in front.points:
-        w.writerow(["achievable", repr(float(x)), repr(float(y))])
-    for x, y in front.corners:
-        w.writerow(["over_approximation", repr(float(x)), repr(float(y))])
-    w.writerow(["precision", repr(float(front.precision)), ""])
+    for p in front.points:
+        w.writerow(["achievable", *(repr(float(v)) for v in p)])
+    for p in front.corners:
+        w.writerow(["over_approximation", *(repr(float(v)) for v in p)])
+    w.writerow(["precision", repr(float(front.precision)), *([""] * (len(front.objectives) - 1))])
     return out.getvalue()

@@ -13,8 +13,9 @@ from posgmc.tradeoffs.sweep import Sweep, SweepPoint
 
 if TYPE_CHECKING:
     from posgmc.checking.multi import Front
+    from posgmc.tradeoffs.defence import DefenceFront
 
-__all__ = ["plot_sweep", "plot_sweeps", "plot_front"]
+__all__ = ["plot_sweep", "plot_sweeps", "plot_front", "plot_defence_fronts"]
 
 
 def _pyplot():  # type: ignore[no-untyped-def]
@@ -186,6 +187,97 @@ def plot_sweeps(sweeps: "list[Sweep]", path: str | Path) -> None:
         ax.set_xticks(xs_all)
     ax.set_xlabel(sweeps[0].constant)
     ax.set_ylabel("value (proven bounds)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, plt, path)
+
+
+def _upper_hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """The concave upper hull of (cost, mission) points sorted by cost ascending: what mixing
+    two neighbours reaches (mission at least, cost at most, the mixtures of their bounds)."""
+    hull: list[tuple[float, float]] = []
+    for p in sorted(points):
+        while len(hull) >= 2:
+            (x1, y1), (x2, y2) = hull[-2], hull[-1]
+            if (x2 - x1) * (p[1] - y1) - (y2 - y1) * (p[0] - x1) >= 0:
+                hull.pop()  # the middle point lies on or below the chord
+            else:
+                break
+        hull.append(p)
+    return hull
+
+
+def plot_defence_fronts(fronts: "list[tuple[str, DefenceFront]]", path: str | Path, *,
+                        title: str | None = None) -> None:
+    """Defender trade-off fronts (:class:`~posgmc.tradeoffs.defence.DefenceFront`), each with a
+    label (e.g. ``"k◦=1"``): every verified defence as a point at (its guaranteed cost, its
+    guaranteed mission) with both proven bounds as error bars, the non-dominated ones joined as a
+    staircase (what the front guarantees: a defence at least this good for at most this cost),
+    each annotated with its weight; dashed, the upper hull of the front, which randomised
+    mixtures of two neighbouring defences reach (their proven bounds mix linearly: against the
+    worst adversary a mixture does at least as well); crosses, the verified mixtures that answer
+    ``--budget`` constraints; the full-observation point (no partially observing defence does
+    better on either axis) as a star.
+
+    Raises:
+        UnsupportedError: matplotlib is not installed.
+        InputError: no front has a verified point, or an unknown file type.
+    """
+    _check_suffix(path)
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    drawn, full_drawn = 0, False
+    for label, f in fronts:
+        ok = [p for p in f.points if p.verified]
+        if not ok:
+            continue
+        drawn += 1
+        line = ax.errorbar([p.cost.value for p in ok], [p.mission.value for p in ok],  # type: ignore[union-attr]
+                           xerr=[[p.cost.value - p.cost.lower for p in ok],  # type: ignore[union-attr]
+                                 [p.cost.upper - p.cost.value for p in ok]],  # type: ignore[union-attr]
+                           yerr=[[p.mission.value - p.mission.lower for p in ok],  # type: ignore[union-attr]
+                                 [p.mission.upper - p.mission.value for p in ok]],  # type: ignore[union-attr]
+                           linestyle="none", marker="o", capsize=3, alpha=0.55,
+                           label=f"{label + ': ' if label else ''}verified defences")
+        colour = line[0].get_color()
+        best = [f.points[i] for i in f.front]
+        xs = [p.cost.upper for p in best]  # type: ignore[union-attr]
+        ys = [p.mission.lower for p in best]  # type: ignore[union-attr]
+        sx, sy = [], []
+        for i, (x, y) in enumerate(zip(xs, ys)):
+            if i:
+                sx.append(x)
+                sy.append(ys[i - 1])
+            sx.append(x)
+            sy.append(y)
+        ax.plot(sx, sy, color=colour, linewidth=1.5, label=f"{label + ': ' if label else ''}front (proven bounds)")
+        hull = _upper_hull(list(zip(xs, ys)))
+        if len(hull) > 1:
+            ax.plot([x for x, _ in hull], [y for _, y in hull], color=colour, linestyle="--",
+                    linewidth=1, label=f"{label + ': ' if label else ''}randomised mixtures of two")
+        answered = [a.point for a in f.budgets if a.point is not None and a.mixed is not None]
+        if answered:
+            ax.plot([p.cost.upper for p in answered], [p.mission.lower for p in answered],  # type: ignore[union-attr]
+                    marker="x", linestyle="none", color=colour, markersize=8,
+                    label=f"{label + ': ' if label else ''}--budget answers (verified mixtures)")
+        for p in best:
+            w = "inf" if math.isinf(p.weight) else f"{p.weight:g}"
+            ax.annotate(f"w={w}: ({p.cost.value:.4g}, {p.mission.value:.4g})",  # type: ignore[union-attr]
+                        (p.cost.value, p.mission.value), textcoords="offset points",  # type: ignore[union-attr]
+                        xytext=(6, 6 + 8 * (drawn - 1)), fontsize=7, color=colour)
+        fm, fc = f.full_observation
+        if fm is not None and fc is not None and not full_drawn:
+            full_drawn = True
+            ax.plot([fc.value], [fm.value], marker="*", markersize=12, color="grey",
+                    linestyle="none", label="full observation (bound on both)")
+    if not drawn:
+        plt.close(fig)
+        raise InputError("no front has a verified point to plot")
+    first = fronts[0][1]
+    ax.set_xlabel(f"guaranteed {first.cost}  (lower is better)", fontsize=8)
+    ax.set_ylabel(f"guaranteed {first.mission}", fontsize=8)
+    ax.set_title(title or "defender trade-off: mission against cost", fontsize=9)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()

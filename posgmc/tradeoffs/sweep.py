@@ -137,7 +137,7 @@ def _also(session: Any, props: Sequence[str], outcome: PropertyResult) -> tuple[
                                  "properties under (--also needs a pomdp/posg sweep)")
         return tuple(error for _ in props)
     defence = outcome.strategies[0]  # the decision maker's; the others are adversaries found
-    name = defence.player or "agent"
+    name = defence.player  # "" for a pomdp's agent, as load_strategies keys it
     out: list[Any] = []
     for text in props:
         try:

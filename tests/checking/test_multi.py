@@ -176,7 +176,8 @@ def test_pareto_points_are_achievable() -> None:
         ("1 + multi(Pmax=? [ F s=1 ])", "must be a whole property", 5),
         ('multi(Pmax=? [ F s=1 ], R{"cost"}<=1 [ F s=2 ])', "total [C] and cumulative", 40),
         ("multi(P=? [ F s=1 ])", "needs a direction", 7),
-        ("multi(Pmax=? [F s=1], Pmax=? [F s=2], Pmin=? [F s=0])", "at most two objectives", 1),
+        ("multi(Pmax=? [F s=1], Pmax=? [F s=2], Pmin=? [F s=0], Pmax=? [F s=1], "
+         "Pmax=? [F s=2], Pmin=? [F s=0])", "at most 5 objectives", 1),
         ("multi(s=1)", "must be a P or R query", 7),
     ],
 )

@@ -137,3 +137,24 @@ def test_reach_probability_uses_blocks_on_a_long_chain(monkeypatch: pytest.Monke
     assert res.iterations <= 5
     monkeypatch.setattr(it, "_MIN_BLOCKED_STATES", 10**9)
     assert obj.reach_probability(model, target, maximize=np.ones(S, bool)).iterations > k
+
+
+@given(
+    keep=st.lists(st.booleans(), min_size=0, max_size=40),
+    chunk=st.integers(min_value=1, max_value=7),
+)
+@SETTINGS
+def test_in_place_compaction_equals_boolean_indexing(keep: list[bool], chunk: int) -> None:
+    """``_compact`` (the layout's in-place filter of the matrix entries) gives ``a[keep]`` for
+    every chunk size, for arrays of different dtypes at once (definition: numpy's boolean index)."""
+    mask = np.array(keep, dtype=bool)
+    data = np.arange(mask.size, dtype=np.float64) * 0.5
+    cols = np.arange(mask.size, dtype=np.int32)[::-1].copy()
+    want_data, want_cols = data[mask], cols[mask]
+    old = it._COMPACT_CHUNK
+    it._COMPACT_CHUNK = chunk  # hypothesis runs this body many times: no fixture, restore below
+    try:
+        got_data, got_cols = it._compact(mask, data, cols)
+    finally:
+        it._COMPACT_CHUNK = old
+    assert np.array_equal(got_data, want_data) and np.array_equal(got_cols, want_cols)

@@ -56,8 +56,10 @@ def test_library_numerical_and_errors(model: Path) -> None:
     assert multi_objective(model, 'multi(R{"r"}max=? [ C ], P>=0.9 [ F "goal" ])').value == pytest.approx(0.6)
     with pytest.raises(InputError):
         multi_objective(model, 'Pmax=? [ F "goal" ]')
-    with pytest.raises(UnsupportedError, match="at most two"):
-        multi_objective(model, 'multi(R{"r"}max=? [ C ], Pmax=? [ F "goal" ], Pmin=? [ F "goal" ])')
+    three = multi_objective(model, 'multi(R{"r"}max=? [ C ], Pmax=? [ F "goal" ], Pmin=? [ F "goal" ])')
+    assert three.front is not None and three.front.points.shape[1] == 3
+    with pytest.raises(UnsupportedError, match="at most 5"):
+        multi_objective(model, "multi(" + ", ".join(['Pmax=? [ F "goal" ]'] * 6) + ")")
 
 
 def test_pareto_command_prints_writes_and_draws(model: Path, tmp_path: Path) -> None:

@@ -421,9 +421,11 @@ class FormulaTable:
 
     # -- queries -------------------------------------------------------------------------------
 
-    def unbounded_releases(self, f: int) -> list[int]:
-        """The unbounded ``R`` nodes in ``f`` (empty iff ``f`` is syntactically co-safe)."""
-        found: list[int] = []
+    def unbounded(self, f: int) -> tuple[list[int], list[int]]:
+        """(the unbounded ``U`` nodes, the unbounded ``R`` nodes) among the sub-formulas of
+        ``f``, each sorted: the one walk over a formula's sub-formulas."""
+        mus: set[int] = set()
+        nus: set[int] = set()
         seen: set[int] = set()
         stack = [f]
         while stack:
@@ -438,10 +440,14 @@ class FormulaTable:
             elif kind is Kind.NEXT:
                 stack.append(node[1])
             elif kind in (Kind.UNTIL, Kind.RELEASE):
-                if kind is Kind.RELEASE and node[4] is None:
-                    found.append(g)
+                if node[4] is None:
+                    (mus if kind is Kind.UNTIL else nus).add(g)
                 stack.extend((node[1], node[2]))
-        return sorted(found)
+        return sorted(mus), sorted(nus)
+
+    def unbounded_releases(self, f: int) -> list[int]:
+        """The unbounded ``R`` nodes in ``f`` (empty iff ``f`` is syntactically co-safe)."""
+        return self.unbounded(f)[1]
 
     def render(self, f: int, atom_names: tuple[str, ...] | None = None) -> str:
         """A readable form of ``f`` (atoms as ``a0``, ``a1``, ... unless names are given)."""

@@ -198,30 +198,6 @@ def normalise(tab: FormulaTable, f: int, memo: dict[int, int] | None = None) -> 
     return out
 
 
-def _unbounded(tab: FormulaTable, f: int) -> tuple[list[int], list[int]]:
-    """(unbounded U nodes, unbounded R nodes) among the sub-formulas of f, sorted."""
-    mus: set[int] = set()
-    nus: set[int] = set()
-    seen: set[int] = set()
-    stack = [f]
-    while stack:
-        g = stack.pop()
-        if g in seen:
-            continue
-        seen.add(g)
-        node = tab.node(g)
-        kind = node[0]
-        if kind in (Kind.AND, Kind.OR):
-            stack.extend(node[1])
-        elif kind is Kind.NEXT:
-            stack.append(node[1])
-        elif kind in (Kind.UNTIL, Kind.RELEASE):
-            if node[4] is None:
-                (mus if kind is Kind.UNTIL else nus).add(g)
-            stack.extend((node[1], node[2]))
-    return sorted(mus), sorted(nus)
-
-
 class _Monitored(NamedTuple):
     """An accepting-component state (module docstring)."""
 
@@ -280,7 +256,7 @@ class _Builder:
         tab = self.tab
         if f == tab.FALSE:
             return []
-        mus, nus = _unbounded(tab, f)
+        mus, nus = tab.unbounded(f)
         if len(mus) + len(nus) > MAX_GUESS_FORMULAS:
             raise LimitError(
                 f"this LTL formula has {len(mus) + len(nus)} unbounded temporal sub-formulas in "

@@ -32,12 +32,7 @@ from scipy.sparse.csgraph import connected_components
 
 from posgmc.engines.graph import end_components, row_of_entries
 from posgmc.engines.ltl.ldba import Ldba
-from posgmc.engines.ltl.product import (
-    _expand_ranges,
-    _PairIndex,
-    _state_graph,
-    pack_letters,
-)
+from posgmc.engines.ltl.product import _expand_ranges, pack_letters, reachable_pairs
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
 
@@ -97,21 +92,8 @@ def omega_product(
     jump_ptr, jump_to = ldba.jump_ptr, ldba.jump_to
     jump_count = np.diff(jump_ptr)
 
-    init_s = model.initial_states if starts is None else np.asarray(starts, dtype=np.int64)
-    init_keys = init_s * Q + delta_flat[ldba.initial * K + letters[init_s]]
-    graph = _state_graph(model)
-    degree = np.diff(graph.indptr)
-    index = _PairIndex(S * Q)
-    frontier = index.discover(init_keys)
-    while frontier.size:
-        s, q = np.divmod(frontier, Q)
-        counts = degree[s]
-        t = graph.indices[_expand_ranges(graph.indptr[s], counts)].astype(np.int64)
-        q_next = delta_flat[np.repeat(q * K, counts) + letters[t]]
-        jumps = jump_count[q]
-        js = np.repeat(s, jumps)
-        jq = jump_to[_expand_ranges(jump_ptr[q], jumps)]
-        frontier = index.discover(np.concatenate([t * Q + q_next, js * Q + jq]))
+    index, init_keys = reachable_pairs(model, ldba.delta, ldba.initial, letters, starts=starts,
+                                       jump_ptr=jump_ptr, jump_to=jump_to)
     keys = index.keys()
     state_of, q_of = np.divmod(keys, Q)
     P = keys.size

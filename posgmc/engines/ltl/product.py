@@ -188,6 +188,51 @@ class _PairIndex:
         return order[np.searchsorted(all_keys[order], keys)]
 
 
+def reachable_pairs(
+    model: ExplicitModel,
+    delta: np.ndarray,
+    initial: int,
+    letters: np.ndarray,
+    *,
+    starts: np.ndarray | None = None,
+    jump_ptr: np.ndarray | None = None,
+    jump_to: np.ndarray | None = None,
+) -> tuple[_PairIndex, np.ndarray]:
+    """The product states reachable from the starts, as keys ``s * Q + q``: their index (sorted
+    keys, lookup) and the initial keys.
+
+    Breadth-first over frontiers of keys: a model step reads the successor's letter
+    (``delta[q, letters[t]]``); with ``jump_ptr``/``jump_to`` (CSR over automaton states) an
+    automaton state also moves without a model step (an LDBA's epsilon jumps).
+
+    Args:
+        model: the explicit model; ``delta``: int[Q, letters] the automaton's moves;
+        initial: its initial state; letters: int64[S] the delta column of each model state;
+        starts: the model states paths start in (default: the initial states).
+    """
+    S, Q = model.num_states, delta.shape[0]
+    num_letters = delta.shape[1]
+    delta_flat = delta.astype(np.int64).reshape(-1)  # delta[q, l] = delta_flat[q * L + l]
+    init_s = model.initial_states if starts is None else np.asarray(starts, dtype=np.int64)
+    init_keys = init_s * Q + delta_flat[initial * num_letters + letters[init_s]]
+    graph = _state_graph(model)
+    degree = np.diff(graph.indptr)
+    index = _PairIndex(S * Q)
+    frontier = index.discover(init_keys)
+    while frontier.size:
+        s, q = np.divmod(frontier, Q)
+        counts = degree[s]
+        t = graph.indices[_expand_ranges(graph.indptr[s], counts)].astype(np.int64)
+        q_next = delta_flat[np.repeat(q * num_letters, counts) + letters[t]]
+        found = t * Q + q_next
+        if jump_ptr is not None and jump_to is not None:
+            jumps = np.diff(jump_ptr)[q]
+            jq = jump_to[_expand_ranges(jump_ptr[q], jumps)]
+            found = np.concatenate([found, np.repeat(s, jumps) * Q + jq])
+        frontier = index.discover(found)
+    return index, init_keys
+
+
 def _unique_name(name: str, taken: tuple[str, ...]) -> str:
     while name in taken:
         name = "_" + name
@@ -229,22 +274,10 @@ def product(
     letters = dfa.columns(pack_letters(values))  # the delta column of each state's letter
     delta = dfa.delta.astype(np.int64)
 
-    # -- discovery, breadth-first over frontiers of keys s * Q + q ------------------------------
+    index, init_keys = reachable_pairs(model, delta, dfa.initial, letters, starts=starts)
+    keys = index.keys()
     num_letters = dfa.delta.shape[1]
     delta_flat = delta.reshape(-1)  # delta[q, letter] = delta_flat[q * num_letters + letter]
-    init_s = model.initial_states if starts is None else np.asarray(starts, dtype=np.int64)
-    init_keys = init_s * Q + delta[dfa.initial, letters[init_s]]
-    graph = _state_graph(model)
-    degree = np.diff(graph.indptr)
-    index = _PairIndex(S * Q)
-    frontier = index.discover(init_keys)
-    while frontier.size:
-        s, q = np.divmod(frontier, Q)
-        counts = degree[s]
-        t = graph.indices[_expand_ranges(graph.indptr[s], counts)].astype(np.int64)
-        q_next = delta_flat[np.repeat(q * num_letters, counts) + letters[t]]
-        frontier = index.discover(t * Q + q_next)
-    keys = index.keys()
     state_of, dfa_state_of = np.divmod(keys, Q)
     P = keys.size
 

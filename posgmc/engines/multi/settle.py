@@ -32,7 +32,8 @@ import scipy.sparse as sp
 from posgmc.engines.graph import end_components
 from posgmc.errors import LimitError
 
-__all__ = ["ConditionKind", "Condition", "settling_options", "MAX_INSIDE_CONDITIONS"]
+__all__ = ["ConditionKind", "Condition", "Settling", "settling_options", "settling",
+           "MAX_INSIDE_CONDITIONS"]
 
 MAX_INSIDE_CONDITIONS = 10
 """At most this many ``INSIDE`` conditions (their subsets are enumerated)."""
@@ -56,6 +57,23 @@ class Condition:
         return Condition(kind, ~self.states)
 
 
+@dataclass(frozen=True, eq=False)
+class Settling:
+    """The settling options with the end components they settle in.
+
+    ``stop_state``: int64[K], ``stop_sat``: bool[K, n] (as :func:`settling_options`);
+    ``stop_block``: int64[K], the component option k settles in; ``block_states[b]`` (int64[])
+    are the states of component b and
+    ``block_choices[b]`` (int64[]) its internal allowed choices (every one of their successors is
+    in the component; under them, played uniformly, the component is one closed class)."""
+
+    stop_state: np.ndarray
+    stop_sat: np.ndarray
+    stop_block: np.ndarray
+    block_states: tuple[np.ndarray, ...]
+    block_choices: tuple[np.ndarray, ...]
+
+
 def settling_options(
     transitions: sp.csr_matrix,
     row_groups: np.ndarray,
@@ -64,6 +82,19 @@ def settling_options(
     allowed: np.ndarray,
     settle: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
+    """``(stop_state, stop_sat)`` of :func:`settling`."""
+    found = settling(transitions, row_groups, conditions, allowed=allowed, settle=settle)
+    return found.stop_state, found.stop_sat
+
+
+def settling(
+    transitions: sp.csr_matrix,
+    row_groups: np.ndarray,
+    conditions: tuple[Condition, ...],
+    *,
+    allowed: np.ndarray,
+    settle: np.ndarray,
+) -> Settling:
     """The settling options of an MDP.
 
     Args:
@@ -74,7 +105,8 @@ def settling_options(
             step-unfolded model).
 
     Returns:
-        ``(stop_state, stop_sat)``: int64[K] and bool[K, len(conditions)].
+        The :class:`Settling`: ``stop_state`` int64[K], ``stop_sat`` bool[K, len(conditions)],
+        and the component of each option.
 
     Raises:
         LimitError: more than :data:`MAX_INSIDE_CONDITIONS` ``INSIDE`` conditions.
@@ -90,6 +122,9 @@ def settling_options(
     masks = np.array([c.states for c in conditions], dtype=bool).reshape(len(conditions), num_states)
     found_state: list[np.ndarray] = []
     found_sat: list[np.ndarray] = []
+    found_block: list[np.ndarray] = []
+    block_states: list[np.ndarray] = []
+    block_choices: list[np.ndarray] = []
     for size in range(len(inside) + 1):
         for subset in combinations(inside, size):
             region = settle.copy()
@@ -100,11 +135,22 @@ def settling_options(
             ok = allowed & region[owner] & ~leaves
             if not ok.any():
                 continue
-            mec_of, num_mecs, _ = end_components(transitions, owner, ok)
+            mec_of, num_mecs, internal = end_components(transitions, owner, ok)
             members = np.flatnonzero(mec_of >= 0)
             if members.size == 0:
                 continue
             comp = mec_of[members]
+            rows = np.flatnonzero(internal)
+            rows = rows[mec_of[owner[rows]] >= 0]
+            by_state = np.argsort(comp, kind="stable")
+            by_row = np.argsort(mec_of[owner[rows]], kind="stable")
+            state_cuts = np.searchsorted(comp[by_state], np.arange(num_mecs + 1))
+            row_cuts = np.searchsorted(mec_of[owner[rows]][by_row], np.arange(num_mecs + 1))
+            offset = len(block_states)
+            for m in range(num_mecs):
+                block_states.append(members[by_state[state_cuts[m]:state_cuts[m + 1]]])
+                block_choices.append(rows[by_row[row_cuts[m]:row_cuts[m + 1]]])
+            found_block.append(offset + comp)
             size_of = np.bincount(comp, minlength=num_mecs)
             sat = np.zeros((num_mecs, len(conditions)), dtype=bool)
             for i, cond in enumerate(conditions):
@@ -113,20 +159,23 @@ def settling_options(
             found_state.append(members)
             found_sat.append(sat[comp])
     if not found_state:
-        return np.zeros(0, dtype=np.int64), np.zeros((0, len(conditions)), dtype=bool)
+        empty = np.zeros(0, dtype=np.int64)
+        return Settling(empty, np.zeros((0, len(conditions)), dtype=bool), empty, (), ())
     states = np.concatenate(found_state)
     sats = np.concatenate(found_sat)
-    return _maximal(states, sats)
+    blocks = np.concatenate(found_block)
+    stop_state, stop_sat, first = _maximal(states, sats)
+    return Settling(stop_state, stop_sat, blocks[first], tuple(block_states), tuple(block_choices))
 
 
-def _maximal(states: np.ndarray, sats: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _maximal(states: np.ndarray, sats: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Distinct (state, set) pairs, without sets strictly contained in another set of the same
-    state."""
+    state; and for each the index of its first occurrence in the input."""
     n = sats.shape[1]
     packed = (sats.astype(np.int64) << np.arange(n, dtype=np.int64)).sum(axis=1) if n else \
         np.zeros(states.size, dtype=np.int64)
     width = np.int64(1) << n
-    keys = np.unique(states.astype(np.int64) * width + packed)
+    keys, first = np.unique(states.astype(np.int64) * width + packed, return_index=True)
     state, bits = keys // width, keys % width
     dominated = np.zeros(keys.size, dtype=bool)
     values = np.unique(bits)
@@ -135,6 +184,6 @@ def _maximal(states: np.ndarray, sats: np.ndarray) -> tuple[np.ndarray, np.ndarr
             if v != w and (w & v) == v:  # w is a strict superset of v
                 rows = np.flatnonzero(bits == v)
                 dominated[rows] |= np.isin(state[rows] * width + w, keys)
-    state, bits = state[~dominated], bits[~dominated]
+    state, bits, first = state[~dominated], bits[~dominated], first[~dominated]
     sat = ((bits[:, None] >> np.arange(n, dtype=np.int64)) & 1).astype(bool)
-    return state, sat.reshape(state.size, n)
+    return state, sat.reshape(state.size, n), first

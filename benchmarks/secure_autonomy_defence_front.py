@@ -1,0 +1,101 @@
+"""The secure-autonomy defender front: guaranteed mission success against guaranteed expected
+discounted time, for defences of memory k◦ = 1 and 2 (models/secure_autonomy/README.md shows it).
+
+Usage::
+
+    python benchmarks/secure_autonomy_defence_front.py [--n 3] [--flash true] [--budget 0,1]
+        [--weights 0,5,10,20,40] [--memory 1 --memory 2] [--timeout 30,60] [--max-cost 14,16]
+        [--out models/secure_autonomy/defence_front] [--strategies DIR]
+
+For every take-down budget B (``--budget``), series (``--memory``) and weight one defence is synthesised by scalarisation
+(:func:`posgmc.tradeoffs.defence.defence_front`: minimise discounted time minus ``w`` times the
+discounted probability of retrieving; ``w = inf`` is the mission itself) and verified: its
+``guaranteed`` P(retrieved) and its ``guaranteed`` expected discounted time, each with proven
+bounds against every adversary, from its exported ``posgmc-fss/1`` file. Writes ``OUT.png`` (both
+series) and ``OUT.csv`` (one row per point), prints each series' points and time, and the answer
+to "max guaranteed P(retrieved) s.t. guaranteed discounted time <= c" for each ``--max-cost c``
+(a single defence, or a verified mixture of two).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+MODEL = ROOT / "models" / "secure_autonomy" / "secure_autonomy.posg"
+MISSION = '<<planner>> Pmax=? [ F "retrieved" ]'
+COST = '<<planner>> R{"time"}min=? [ Fdiscount=0.95 "retrieved" ]'
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", default="3")
+    parser.add_argument("--flash", default="true")
+    parser.add_argument("--budget", default="0", help="the adversary's take-down budgets B")
+    parser.add_argument("--weights", default="0,5,10,20,40")
+    parser.add_argument("--max-cost", default="", help="cost constraints c to answer")
+    parser.add_argument("--memory", action="append", type=int, default=None)
+    parser.add_argument("--timeout", default="30,60", help="seconds per point, per series")
+    parser.add_argument("--out", type=Path,
+                        default=ROOT / "models" / "secure_autonomy" / "defence_front")
+    parser.add_argument("--strategies", type=Path, default=None)
+    args = parser.parse_args(argv)
+
+    from posgmc.io.atomic import atomic_write_text
+    from posgmc.tradeoffs.defence import defence_front
+    from posgmc.tradeoffs.plot import plot_defence_fronts
+
+    weights = [float(w) for w in args.weights.split(",")]
+    max_costs = [float(c) for c in args.max_cost.split(",") if c]
+    timeouts = [float(t) for t in args.timeout.split(",")]
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    w.writerow(["B", "series", "weight", "mission", "mission_lower", "mission_upper", "cost",
+                "cost_lower", "cost_upper", "on_front", "seconds"])
+    fronts = []
+    total = time.perf_counter()
+    for budget in args.budget.split(","):
+        for k, timeout in zip(args.memory or [1, 2], timeouts):
+            start = time.perf_counter()
+            where = args.strategies / f"B={budget}" / f"k={k}" if args.strategies else None
+            f = defence_front(MODEL, MISSION, COST, weights=weights,
+                              constants={"N": args.n, "flash": args.flash, "B": budget},
+                              memory=k, timeout=timeout, budgets=max_costs, strategy_dir=where)
+            print(f"B={budget}, k={k}: {len(f.points)} defences in "
+                  f"{time.perf_counter() - start:.0f} s (timeout {timeout:g} s per point)")
+            for i, p in enumerate(f.points):
+                if p.error is not None or p.mission is None or p.cost is None:
+                    print(f"  w={p.weight:g}: error: {p.error.message if p.error else 'unverified'}")
+                    continue
+                print(f"  w={p.weight:g}: P(retrieved) {p.mission.value:.10g} "
+                      f"[{p.mission.lower:.10g}, {p.mission.upper:.10g}], discounted time "
+                      f"{p.cost.value:.10g} [{p.cost.lower:.10g}, {p.cost.upper:.10g}]"
+                      f"{'  (front)' if i in f.front else ''}  {p.seconds:.0f} s")
+                w.writerow([budget, k, p.weight, p.mission.value, p.mission.lower,
+                            p.mission.upper, p.cost.value, p.cost.lower, p.cost.upper,
+                            i in f.front, f"{p.seconds:.1f}"])
+            for a in f.budgets:
+                p = a.point
+                if p is None or p.mission is None or p.cost is None:
+                    print(f"  time <= {a.budget:g}: no verified defence meets it")
+                    continue
+                how = (f"mixture of w={f.points[a.mixed[1]].weight:g} (prob. {a.mixed[2]:.4g}) and "
+                       f"w={f.points[a.mixed[0]].weight:g}" if a.mixed else f"w={p.weight:g}")
+                print(f"  time <= {a.budget:g}: P(retrieved) >= {p.mission.lower:.10g} by the "
+                      f"{how} (time <= {p.cost.upper:.10g})")
+            fronts.append((f"B={budget}, k◦={k}", f))
+    atomic_write_text(str(args.out) + ".csv", out.getvalue())
+    plot_defence_fronts(fronts, str(args.out) + ".png",
+                        title=f"secure autonomy N={args.n}, flash={args.flash}: defences, "
+                        "mission against discounted time")
+    print(f"wrote {args.out}.png and {args.out}.csv in {time.perf_counter() - total:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
