@@ -251,7 +251,9 @@ class PropertyChecker:
         decided = iv.binary(cmp, q, threshold)
         init = self.model.initial_states
         if not np.all(decided.decided[init]):
-            q = self._refined(expr, q, lambda r: bool(np.all(iv.binary(cmp, r, threshold).decided[init])))
+            q = self._refined(
+                expr, q, lambda r: bool(np.all(iv.binary(cmp, r, threshold).decided[init]))
+            )
             decided = iv.binary(cmp, q, threshold)
         return replace(decided, engine=q.engine, method=q.method)
 
@@ -273,7 +275,9 @@ class PropertyChecker:
         precision, q = solver.precision, None
         while precision > 1e-12:
             precision = max(precision / 100, 1e-12)
-            finer = replace(self.options, solver=replace(solver, precision=precision, relative=False))
+            finer = replace(
+                self.options, solver=replace(solver, precision=precision, relative=False)
+            )
             checker = PropertyChecker(
                 self.model, coalition_of=self.coalition_of, scalar=self.scalar, options=finer
             )
@@ -476,7 +480,9 @@ class PropertyChecker:
             return self._omega_probability(path, maximize)
         prod, starts = self._ltl_product(path)
         pmax = maximize[prod.state_of]
-        r = obj.reach_probability(prod.model, prod.accepting, maximize=pmax, options=self.options.solver)
+        r = obj.reach_probability(
+            prod.model, prod.accepting, maximize=pmax, options=self.options.solver
+        )
         return self._project(prod, _from_engine(r), starts)
 
     def _omega_probability(self, path: Expr, maximize: np.ndarray) -> QueryValue:
@@ -569,7 +575,9 @@ class PropertyChecker:
             out[ok] = a[start[ok]]
             return out
 
-        return replace(q, values=pick(q.values), lower=pick(q.lower), upper=pick(q.upper), engine=q.engine)
+        return replace(
+            q, values=pick(q.values), lower=pick(q.lower), upper=pick(q.upper), engine=q.engine
+        )
 
     # -- rewards -------------------------------------------------------------------------------
 
@@ -589,20 +597,28 @@ class PropertyChecker:
             )
         if kind is RewardKind.CUMULATIVE:
             k = self._int(objective.bound)
-            return _from_engine(obj.cumulative_reward(m, choice_rewards, steps=k, maximize=maximize, options=opts))
+            return _from_engine(
+                obj.cumulative_reward(m, choice_rewards, steps=k, maximize=maximize, options=opts)
+            )
         if kind is RewardKind.TOTAL:
-            return _from_engine(obj.total_reward(m, choice_rewards, maximize=maximize, options=opts))
+            return _from_engine(
+                obj.total_reward(m, choice_rewards, maximize=maximize, options=opts)
+            )
         if kind is RewardKind.DISCOUNTED_TOTAL:
             g = self._discount(objective.discount)
             return _from_engine(
-                obj.discounted_total_reward(m, choice_rewards, discount=g, maximize=maximize, options=opts)
+                obj.discounted_total_reward(
+                    m, choice_rewards, discount=g, maximize=maximize, options=opts
+                )
             )
         assert objective.target is not None  # noqa: S101 - the parser gives F/F0/Fc/LTL a target
         if kind is RewardKind.DISCOUNTED_REACH:
             g = self._discount(objective.discount)
             t = self._states(objective.target)
             return _from_engine(
-                obj.discounted_reach_reward(m, choice_rewards, t, discount=g, maximize=maximize, options=opts)
+                obj.discounted_reach_reward(
+                    m, choice_rewards, t, discount=g, maximize=maximize, options=opts
+                )
             )
         mode = {
             RewardKind.REACH: obj.ReachRewardMode.INFINITY,
@@ -615,11 +631,13 @@ class PropertyChecker:
             return self._ltl_reward(expr, target_expr, maximize, mode)
         t = self._states(target_expr)
         return _from_engine(
-            obj.expected_reach_reward(m, choice_rewards, t, maximize=maximize, mode=mode, options=opts)
+            obj.expected_reach_reward(
+                m, choice_rewards, t, maximize=maximize, mode=mode, options=opts
+            )
         )
 
     def _ltl_reward(
-        self, expr: RewardQuery, path: Expr, maximize: np.ndarray, mode: "obj.ReachRewardMode"
+        self, expr: RewardQuery, path: Expr, maximize: np.ndarray, mode: obj.ReachRewardMode
     ) -> QueryValue:
         from posgmc.engines import ltl
 
@@ -634,7 +652,12 @@ class PropertyChecker:
         rewards = rm.choice_rewards(prod.model.row_groups)
         pmax = maximize[prod.state_of]
         r = obj.expected_reach_reward(
-            prod.model, rewards, prod.accepting, maximize=pmax, mode=mode, options=self.options.solver
+            prod.model,
+            rewards,
+            prod.accepting,
+            maximize=pmax,
+            mode=mode,
+            options=self.options.solver,
         )
         return self._project(prod, _from_engine(r), starts)
 

@@ -7,7 +7,8 @@ sought for the single initial state that meets every objective **at once**:
 * numerical ``multi(Pmax=? [F "goal"], R{"cost"}<=20 [C])``: the optimum of the ``=?`` objective
   over the strategies meeting the constraints (NaN when none does, as PRISM);
 * Pareto ``multi(Pmax=? [...], R{"cost"}min=? [...])``: the front of the two ``=?`` objectives
-  over those strategies, as an under- and an over-approximation (:mod:`posgmc.engines.multi.pareto`).
+  over those strategies, as an under- and an over-approximation
+  (:mod:`posgmc.engines.multi.pareto`).
 
 A threshold ``P>=p`` here means "some strategy achieves it" (not "every scheduler", as alone).
 Strict and non-strict thresholds are read alike (the LP's closure; PRISM does the same).
@@ -178,7 +179,7 @@ class _Objective:
         return 1.0 if self.is_probability or self.bound is None else max(1.0, abs(self.bound))
 
 
-def _objectives(expr: MultiQuery, checker: "PropertyChecker") -> list[_Objective]:
+def _objectives(expr: MultiQuery, checker: PropertyChecker) -> list[_Objective]:
     out = []
     for q in expr.objectives:
         if not isinstance(q, (ProbQuery, RewardQuery)):  # pragma: no cover - semantics reject it
@@ -218,17 +219,19 @@ def _unary_chain(path: Expr, outer: TemporalOp, inner: TemporalOp) -> Expr | Non
 class _Builder:
     """The product MDP grown objective by objective, with each condition's mask kept current."""
 
-    def __init__(self, checker: "PropertyChecker") -> None:
+    def __init__(self, checker: PropertyChecker) -> None:
         self.base = checker
         self.model: ExplicitModel = checker.model
         self.initial = int(checker.model.initial_states[0])
         self.masks: list[tuple[ConditionKind, np.ndarray]] = []
 
-    def _checker(self) -> "PropertyChecker":
+    def _checker(self) -> PropertyChecker:
         from posgmc.checking.dispatch import PropertyChecker
 
         b = self.base
-        return PropertyChecker(self.model, coalition_of=b.coalition_of, scalar=b.scalar, options=b.options)
+        return PropertyChecker(
+            self.model, coalition_of=b.coalition_of, scalar=b.scalar, options=b.options
+        )
 
     def _states(self, e: Expr) -> np.ndarray:
         values = self._checker().state_value(e).values
@@ -292,7 +295,9 @@ class _Parts:
     condition_of: dict[int, int]  # probability objective -> its condition
 
 
-def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecker") -> tuple[OccupationLP, int, _Parts]:
+def _lp(
+    expr: MultiQuery, objectives: list[_Objective], checker: PropertyChecker
+) -> tuple[OccupationLP, int, _Parts]:
     """The occupation LP of the query (objective ``i`` is row ``i``), its number of states and
     the parts its strategy is re-checked on."""
     model = checker.model
@@ -303,7 +308,9 @@ def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecke
             hint="add an init ... endinit block, or initial values, that pick one state",
         )
     builder = _Builder(checker)
-    condition_of = {i: builder.add_probability(o) for i, o in enumerate(objectives) if o.is_probability}
+    condition_of = {
+        i: builder.add_probability(o) for i, o in enumerate(objectives) if o.is_probability
+    }
     m = builder.model
     last = 0
     bounds: dict[int, int | None] = {}
@@ -350,7 +357,7 @@ def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecke
             expr.span,
         )
     coefficients = np.zeros((len(objectives), num_choices + stop_state.size))
-    for i, o in enumerate(objectives):
+    for i in range(len(objectives)):
         if i in condition_of:
             coefficients[i, num_choices:] = stop_sat[:, condition_of[i]]
         else:
@@ -389,7 +396,7 @@ def _certify(parts: _Parts, objectives: list[_Objective], x: np.ndarray) -> np.n
 
 
 def answer_multi(
-    checker: "PropertyChecker", expr: MultiQuery, *, tolerance: float = 1e-6, max_solves: int = 200
+    checker: PropertyChecker, expr: MultiQuery, *, tolerance: float = 1e-6, max_solves: int = 200
 ) -> MultiAnswer:
     """Answer a ``multi(...)`` query on the checker's model (see the module docstring).
 
@@ -482,8 +489,15 @@ def _meets(objectives: list[_Objective], lower: np.ndarray, at_least: dict[int, 
     return True
 
 
-def _certified_optimum(lp: OccupationLP, parts: _Parts, objectives: list[_Objective], i: int,
-                       weights: np.ndarray, at_least: dict[int, float], x: np.ndarray | None) -> float:
+def _certified_optimum(
+    lp: OccupationLP,
+    parts: _Parts,
+    objectives: list[_Objective],
+    i: int,
+    weights: np.ndarray,
+    at_least: dict[int, float],
+    x: np.ndarray | None,
+) -> float:
     """A proven bound on the optimum of objective ``i`` (a lower bound when it is maximised, an
     upper bound when minimised), in its own units, from a strategy whose values the sound
     engines re-check; NaN when the check proves nothing. The LP's own solution is tried first;
@@ -506,7 +520,9 @@ def _certified_optimum(lp: OccupationLP, parts: _Parts, objectives: list[_Object
     return math.nan
 
 
-def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name: str | None) -> PropertyResult:
+def check_multi(
+    checker: PropertyChecker, expr: MultiQuery, *, text: str, name: str | None
+) -> PropertyResult:
     """A ``multi(...)`` property as a :class:`PropertyResult` (``multi`` holds the typed answer)."""
     a = answer_multi(checker, expr)
     if expr.coalition is not None:
@@ -589,8 +605,11 @@ def _game_result(a: MultiAnswer, *, text: str, name: str | None) -> PropertyResu
                               upper=math.inf if not np.isnan(a.value) else a.value, note=note,
                               **common)
     assert a.front is not None  # noqa: S101
-    note = (f"Pareto front of the coalition: {len(a.front.points)} vertices of an "
-            "under-approximation (value iteration"
-            + (", converged" if a.front.converged else ", NOT converged") + "); no over-approximation")
+    note = (
+        f"Pareto front of the coalition: {len(a.front.points)} vertices of an "
+        "under-approximation (value iteration"
+        + (", converged" if a.front.converged else ", NOT converged")
+        + "); no over-approximation"
+    )
     return PropertyResult(kind=ResultKind.PARETO, value=float("nan"), lower=None, upper=None,
                           note=note, **common)

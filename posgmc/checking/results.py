@@ -51,7 +51,8 @@ def strategy_meaning(key: str, *, maximizing: bool) -> str:
     return {
         "guaranteed": f"the decision maker's strategy ensures {best} this against every adversary "
         "(an omniscient one)",
-        "vs_fss_adversary": "the exact value of the decision maker's strategy against this adversary "
+        "vs_fss_adversary": "the exact value of the decision maker's strategy against this "
+                            "adversary "
         "strategy",
         "upper_bound": f"no decision-maker strategy gets {worse} than this against this adversary "
         "strategy (not even one that sees everything)",

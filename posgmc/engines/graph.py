@@ -72,7 +72,7 @@ class Structure:
         return int(self.row_groups[-1])
 
     @staticmethod
-    def build(transitions: sp.csr_matrix, row_groups: np.ndarray) -> "Structure":
+    def build(transitions: sp.csr_matrix, row_groups: np.ndarray) -> Structure:
         """The structure of a csr matrix whose rows are grouped by ``row_groups``."""
         counts = np.diff(row_groups)
         return Structure(
@@ -89,7 +89,7 @@ class Structure:
 
 # The transpose of a large model costs about a second; models are frozen, so one structure per
 # model object is kept for as long as the model lives (a cache, not configuration).
-_STRUCTURES: "weakref.WeakKeyDictionary[ExplicitModel, Structure]" = weakref.WeakKeyDictionary()
+_STRUCTURES: weakref.WeakKeyDictionary[ExplicitModel, Structure] = weakref.WeakKeyDictionary()
 
 
 def structure_of(model: ExplicitModel) -> Structure:

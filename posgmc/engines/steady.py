@@ -31,7 +31,7 @@ from scipy.sparse.csgraph import connected_components
 
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import SolverOptions
-from posgmc.engines.rational import solve_dense, exact_rational_reach
+from posgmc.engines.rational import exact_rational_reach, solve_dense
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.model.types import ModelType

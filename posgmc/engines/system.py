@@ -54,10 +54,12 @@ __all__ = [
 
 
 SlotEntry = tuple[int, int, int, int, int, int]
-"""One row of the slot table, ``(row_lo, max_lo, a, min_lo, b, slot)`` (see :attr:`System.slots`)."""
+"""One row of the slot table, ``(row_lo, max_lo, a, min_lo, b, slot)`` (see
+:attr:`System.slots`)."""
 
 Block = tuple[int, int, int, int, int, int, tuple[SlotEntry, ...]]
-"""One Gauss-Seidel block, ``(row_lo, row_hi, max_lo, a, min_lo, b, entries)`` (:attr:`System.plan`)."""
+"""One Gauss-Seidel block, ``(row_lo, row_hi, max_lo, a, min_lo, b, entries)``
+(:attr:`System.plan`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,7 +126,8 @@ class System:
     def entries(self) -> tuple[SlotEntry, ...]:
         """The slot table as Python ints (the reduction loops read it every step)."""
         return tuple(
-            (int(rs), int(ml), int(a), int(nl), int(b), int(j)) for rs, ml, a, nl, b, j in self.slots
+            (int(rs), int(ml), int(a), int(nl), int(b), int(j))
+            for rs, ml, a, nl, b, j in self.slots
         )
 
     @cached_property

@@ -33,13 +33,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from posgmc.checking.dispatch import CheckOptions
 from posgmc.checking.results import Bound
 from posgmc.strategies.binding import bind
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.strategies.verify import StrategyChecker
-from posgmc.synthesis.adversaries import Enumeration, enumerate_adversaries
 from posgmc.synthesis import milp
+from posgmc.synthesis.adversaries import Enumeration, enumerate_adversaries
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.jobs import POLICY, Executor, Problem, expired
 from posgmc.synthesis.parametric import Layout, Parametrisation, game_views
@@ -411,13 +412,14 @@ def _best_response(problem: Problem, executor: Executor, defence: FiniteStateStr
     found = executor.map([ResponseJob(defence, memory, s, iterations, learning_rate, deadline)
                           for s in starts])
     found.append((kept[worst], values[worst]))
-    return min(found, key=lambda r: sign * r[1])
+    best: tuple[FiniteStateStrategy, float] = min(found, key=lambda r: sign * r[1])
+    return best
 
 
 def verified_numbers(problem: Problem, executor: Executor, defence: FiniteStateStrategy,
                      guaranteed: Bound, adversaries: tuple[FiniteStateStrategy, ...],
                      strengths: tuple[tuple[FiniteStateStrategy, float], ...], *,
-                     check_options, check_all: int = 4,  # type: ignore[no-untyped-def]
+                     check_options: CheckOptions, check_all: int = 4,
                      ) -> tuple[Bound | None, FiniteStateStrategy | None, Bound | None]:
     """(vs_fss_adversary of ``defence`` over ``adversaries``, the adversary achieving it,
     upper_bound over the ranked ``strengths``), proven by the sound engines (``check_options``).

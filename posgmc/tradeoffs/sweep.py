@@ -192,7 +192,10 @@ def to_csv(s: Sweep) -> str:
     synthesised points, the optimum otherwise."""
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
-    w.writerow(list(_COLUMNS) + [f"{a} {part}" for a in s.also for part in ("guaranteed", "lower", "upper")])
+    w.writerow(
+        list(_COLUMNS)
+        + [f"{a} {part}" for a in s.also for part in ("guaranteed", "lower", "upper")]
+    )
     for p in s.points:
         b = p.main_number()
         r = p.result
