@@ -41,7 +41,7 @@ def main() -> None:
                        constants={"N": args.n, "flash": "false", "B": "1"})
     model = api.build(session).model
     expr = parser.parse_property('<<planner>> Pmax=? [ F "retrieved" ]').expr
-    coalition_of = api._coalition_resolver(model, False)
+    coalition_of = api._resolver(model, False).coalition_of
     player = next(iter(coalition_of(expr.coalition)))
     problem = problem_of(model, expr, player=player, adversary=1 - player,
                          coalition_of=coalition_of, scalar=api._scalar)

@@ -23,7 +23,7 @@ SHARED = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "posmg"
 
 
 def _problem(model, prop: str):  # type: ignore[no-untyped-def]
-    coalition = api._coalition_resolver(model, False)
+    coalition = api._resolver(model, False).coalition_of
     return problem_of(model, parser.parse_property(prop).expr, player=0, adversary=1,
                       coalition_of=coalition, scalar=api._scalar)
 
@@ -118,7 +118,7 @@ def test_test_game_deterministic_optima_match_paynt() -> None:
     and the best 2-node one 0.439453 (RESULTS.md; both exhaustive there as here)."""
     session = api.load(SHARED / "test-game" / "sketch.templ")
     model = api.build(session).model
-    coalition = api._coalition_resolver(model, True)
+    coalition = api._resolver(model, True).coalition_of
     problem = problem_of(model, parser.parse_property('<<0>> Pmax=? [F "goal"]').expr, player=0,
                          adversary=1, coalition_of=coalition, scalar=api._scalar)
     one = search(problem, 1, deadline=None)

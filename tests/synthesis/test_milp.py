@@ -21,7 +21,7 @@ from tests.synthesis.test_compose import random_posg
 
 def _problem(model, prop: str):  # type: ignore[no-untyped-def]
     return problem_of(model, parser.parse_property(prop).expr, player=0, adversary=1,
-                      coalition_of=api._coalition_resolver(model, False), scalar=api._scalar)
+                      coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar)
 
 
 @pytest.mark.parametrize("full_observation", [False, True])

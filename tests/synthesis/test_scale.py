@@ -33,7 +33,7 @@ def _problem(path: Path, prop: str, constants: dict[str, str] | None = None,
              zero_based: bool = False):  # type: ignore[no-untyped-def]
     session = api.load(path, constants=constants)
     model = api.build(session).model
-    coalition_of = api._coalition_resolver(model, zero_based)
+    coalition_of = api._resolver(model, zero_based).coalition_of
     expr = parser.parse_property(prop).expr
     players = coalition_of(expr.coalition)
     player = next(iter(players)) if players else 0
