@@ -94,8 +94,10 @@ def main() -> None:
         print(json.dumps(fn(n, None if target == "-" else target)))
         return
     script = Path(__file__)
-    print("| N | states | posgmc build peak (MB) | posgmc export peak (MB) | export / build | "
-          "write (s) | file (MB) | Storm build peak (MB) | Storm export peak (MB) | Storm write (s) |")
+    print(
+        "| N | states | posgmc build peak (MB) | posgmc export peak (MB) | export / build | "
+        "write (s) | file (MB) | Storm build peak (MB) | Storm export peak (MB) | Storm write (s) |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for n in args.sizes:
         with tempfile.TemporaryDirectory() as tmp:
@@ -104,7 +106,9 @@ def main() -> None:
             os.unlink(f"{tmp}/m.drn") if os.path.exists(f"{tmp}/m.drn") else None
             storm: dict[str, object] = {}
             if not args.no_storm and STORM_PYTHON.exists():
-                storm = run_worker(script, str(STORM_PYTHON), ["storm", str(n), f"{tmp}/s.drn"], 3600)
+                storm = run_worker(
+                    script, str(STORM_PYTHON), ["storm", str(n), f"{tmp}/s.drn"], 3600
+                )
         if "error" in build or "error" in export:
             print(f"| {n} | error: {build.get('error') or export.get('error')} |")
             continue

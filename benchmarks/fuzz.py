@@ -25,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from tests.fuzz.mutate import (
+from tests.fuzz.mutate import (  # noqa: E402 - after the path is set
     OracleFailure,
     check_model_text,
     check_properties_text,
@@ -40,7 +40,9 @@ def one(i: int, seed: int, models: list[Path], pairs: list[tuple[Path, Path]], t
     rng = random.Random(seed * 1_000_003 + i)
     if pairs and rng.random() < 0.3:
         model, props = rng.choice(pairs)
-        check_properties_text(model, mutate(props.read_text(encoding="utf-8"), rng, rng.randint(1, 3)), tmp)
+        check_properties_text(
+            model, mutate(props.read_text(encoding="utf-8"), rng, rng.randint(1, 3)), tmp
+        )
         return "properties"
     path = rng.choice(models)
     outcome = check_model_text(
@@ -54,7 +56,9 @@ def main() -> int:
     parser.add_argument("--count", type=int, default=100_000)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--seconds", type=float, default=float("inf"))
-    parser.add_argument("--replay", type=int, default=None, help="run only input I, with a traceback")
+    parser.add_argument(
+        "--replay", type=int, default=None, help="run only input I, with a traceback"
+    )
     args = parser.parse_args()
     models, pairs = corpus()
     print(f"corpus: {len(models)} models, {len(pairs)} properties files", flush=True)

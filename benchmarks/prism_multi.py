@@ -75,7 +75,9 @@ def main(argv: list[str] | None = None) -> int:
             with tempfile.NamedTemporaryFile("w", suffix=".props", delete=False) as tmp:
                 tmp.write(text + "\n")
             try:
-                (_, outcome), = list(api.iter_check(session, property_files=[tmp.name], built=built))
+                ((_, outcome),) = list(
+                    api.iter_check(session, property_files=[tmp.name], built=built)
+                )
             except PosgmcError as e:
                 outcome = e
             finally:
@@ -101,10 +103,16 @@ def main(argv: list[str] | None = None) -> int:
                     print(f"PASS  {where}: {text} = {verdict.actual}")
             else:
                 failed += 1
-                print(f"FAIL  {where}: {text}\n      expected {verdict.expected}, got {verdict.actual}")
+                print(
+                    f"FAIL  {where}: {text}\n      expected {verdict.expected}, got "
+                    f"{verdict.actual}"
+                )
     total = passed + failed + errors
     seconds = time.perf_counter() - start
-    print(f"{total} multi(...) lines: {passed} passed, {failed} failed, {errors} errors; {seconds:.1f} s")
+    print(
+        f"{total} multi(...) lines: {passed} passed, {failed} failed, {errors} errors; "
+        f"{seconds:.1f} s"
+    )
     print(f"numerical answers with a proven bound from the LP's re-checked strategy: {certified} "
           f"of {numerical} ({close} within 1e-5 relative of the LP value); achievable verdicts "
           f"proven: {proven} of {achievable}")

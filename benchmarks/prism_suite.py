@@ -6,12 +6,12 @@ Usage::
                                      [--markdown docs/compatibility.md] [--only SUBSTRING]
 
 ``PRISM_CHECKOUT`` is a checkout of ``prismmodelchecker/prism`` (or just its ``prism-tests/``
-folder, or that folder's parent); nothing is fetched. The runner follows PRISM's ``prism-auto -t -m``
-(``prism/etc/scripts/prism-auto``): in each folder of the scope, every model file
+folder, or that folder's parent); nothing is fetched. The runner follows PRISM's ``prism-auto -t
+-m`` (``prism/etc/scripts/prism-auto``): in each folder of the scope, every model file
 (``.prism``/``.nm``/``.pm``/``.sm``) is run once per line of its ``.args`` file with every
-properties file whose name starts with the model's (``.props``/``.pctl``/``.csl``), once per line
-of that file's ``.args``. Argument lines that differ only in PRISM's engine switches (``-ex``,
-``-s``, ``-valiter``, ...) ask posgmc the same question and are run once; ``-const`` (ranges too),
+properties file whose name starts with the model's (``.props``/``.pctl``/``.csl``), once per line of
+that file's ``.args``. Argument lines that differ only in PRISM's engine switches (``-ex``, ``-s``,
+``-valiter``, ...) ask posgmc the same question and are run once; ``-const`` (ranges too),
 ``-exact`` and ``-prop`` are honoured; ``-param`` (parametric), ``-ctmc``, ``-fair`` and model-type
 overrides are out of scope and skipped with a reason, as are ctmc/pta/interval models.
 
@@ -62,16 +62,28 @@ CLASSES = ("pass", "wrong answer", "parser refusal", "unsupported", "semantic re
 # posgmc's answer is pinned by a regression test (docs/compatibility.md says why). Only an
 # expected "Error" line can be listed here, and only a value posgmc proves.
 DELIBERATE: dict[tuple[str, int], str] = {
-    ("functionality/verify/close_bounds.prism.props", 11):
-        "PRISM's floating-point engines cannot decide a threshold this close; posgmc refines to "
-        "an exact solve (tests/checking/test_close_thresholds.py)",
-    ("functionality/verify/close_bounds.prism.props", 15):
-        "as above (tests/checking/test_close_thresholds.py)",
-    ("bugfixes/supersimple.pm.boundedltl.props", 15):
-        "PRISM has no step-bounded LTL; the nested query is a state formula with a defined "
-        "value (tests/checking/test_nested_ltl.py)",
-    ("bugfixes/supersimple.pm.boundedltl.props", 17): "as above (tests/checking/test_nested_ltl.py)",
-    ("bugfixes/supersimple.pm.boundedltl.props", 19): "as above (tests/checking/test_nested_ltl.py)",
+    (
+        "functionality/verify/close_bounds.prism.props",
+        11,
+    ): "PRISM's floating-point engines cannot decide a threshold this close; posgmc refines to "
+    "an exact solve (tests/checking/test_close_thresholds.py)",
+    (
+        "functionality/verify/close_bounds.prism.props",
+        15,
+    ): "as above (tests/checking/test_close_thresholds.py)",
+    (
+        "bugfixes/supersimple.pm.boundedltl.props",
+        15,
+    ): "PRISM has no step-bounded LTL; the nested query is a state formula with a defined "
+    "value (tests/checking/test_nested_ltl.py)",
+    (
+        "bugfixes/supersimple.pm.boundedltl.props",
+        17,
+    ): "as above (tests/checking/test_nested_ltl.py)",
+    (
+        "bugfixes/supersimple.pm.boundedltl.props",
+        19,
+    ): "as above (tests/checking/test_nested_ltl.py)",
 }
 
 _MODEL = re.compile(r".+\.(prism|nm|pm|sm)$")
@@ -143,7 +155,9 @@ def _model_type(text: str) -> str:
     return kind
 
 
-def _canonical(model: Path, args: Sequence[str]) -> tuple[tuple[str, ...], bool, str | None, str | None]:
+def _canonical(
+    model: Path, args: Sequence[str]
+) -> tuple[tuple[str, ...], bool, str | None, str | None]:
     """(consts, exact, prop, skip reason) from a PRISM argument list."""
     consts: list[str] = []
     exact = False
@@ -193,7 +207,9 @@ def discover(tests: Path) -> list[Run]:
         for model_name in (f for f in files if _MODEL.match(f) and (folder / f).is_file()):
             model = folder / model_name
             for margs in _args_lines(model):
-                for props_name in (f for f in files if _PROPS.match(f) and f.startswith(model_name)):
+                for props_name in (
+                    f for f in files if _PROPS.match(f) and f.startswith(model_name)
+                ):
                     props = folder / props_name
                     for pargs in _args_lines(props):
                         consts, exact, prop, skip = _canonical(model, [*margs, *pargs])
@@ -355,9 +371,17 @@ def worker(spec: dict[str, Any]) -> None:
                 if exp is None or exp.text.strip() == "?":
                     continue
                 verdict = grade(exp, r.error, constants=texts)
-                _emit({**base, "line": r.line, "property": r.text, "expected": exp.text,
-                       "class": "pass" if verdict.passed else _classify(r.error),
-                       "actual": verdict.actual, "message": _message(r.error, str(tmp), str(props))})
+                _emit(
+                    {
+                        **base,
+                        "line": r.line,
+                        "property": r.text,
+                        "expected": exp.text,
+                        "class": "pass" if verdict.passed else _classify(r.error),
+                        "actual": verdict.actual,
+                        "message": _message(r.error, str(tmp), str(props)),
+                    }
+                )
             if not plan:
                 continue
             try:
@@ -528,7 +552,10 @@ FEATURES: tuple[tuple[str, str], ...] = (
     ("old {states}{min} filter form", r"\]\s*\{[^}]*\}\s*\{"),
     ("CTL A[...] / E[...]", r"(^|[^\w])[AE]\s*\["),
     ("steady state S / R[S]", r"(^|[^\w])S\s*(=\s*\?|[<>]=?)|\[\s*S\s*\]"),
-    ("non-co-safe LTL (G F, F G, ...)", r"\bG\s*\(?\s*F\b|\bF\s*\(?\s*G\b|\bG\s*!?\s*\(?\s*\"|\bG\s*\("),
+    (
+        "non-co-safe LTL (G F, F G, ...)",
+        r"\bG\s*\(?\s*F\b|\bF\s*\(?\s*G\b|\bG\s*!?\s*\(?\s*\"|\bG\s*\(",
+    ),
     ("power operator ^", r"\^"),
     ("property reference by name", r"^\s*\"[^\"]+\"\s*$|[^:]\s\"[^\"]+\"\s*[;)|&]"),
 )
@@ -580,7 +607,9 @@ def markdown(records: list[dict[str, Any]], skipped: list[tuple[Run, int]], *, c
     ]
     for folder in sorted(by_folder):
         c = by_folder[folder]
-        lines.append(f"| {folder} | {sum(c.values())} | " + " | ".join(str(c[k]) for k in CLASSES) + " |")
+        lines.append(
+            f"| {folder} | {sum(c.values())} | " + " | ".join(str(c[k]) for k in CLASSES) + " |"
+        )
     n = sum(total.values())
     lines.append(f"| **all** | **{n}** | " + " | ".join(f"**{total[k]}**" for k in CLASSES) + " |")
     if n:
@@ -590,9 +619,12 @@ def markdown(records: list[dict[str, Any]], skipped: list[tuple[Run, int]], *, c
     if not wrong:
         lines.append("None.")
     for r in wrong:
-        lines.append(f"- `{r['props']}:{r['line']}` `{r['property']}`"
-                     f"{' (' + r['consts'] + ')' if r['consts'] else ''}{' ' + r['args'] if r['args'] else ''}:"
-                     f" PRISM {r['expected']}, posgmc {r['actual']}")
+        lines.append(
+            f"- `{r['props']}:{r['line']}` `{r['property']}`"
+            f"{' (' + r['consts'] + ')' if r['consts'] else ''}"
+            f"{' ' + r['args'] if r['args'] else ''}:"
+            f" PRISM {r['expected']}, posgmc {r['actual']}"
+        )
     deliberate = [r for r in records if r["class"] == "deliberate difference"]
     lines += ["", "### Deliberate differences", ""]
     if not deliberate:

@@ -4,10 +4,10 @@ the `guaranteed` check on it, for k = 1, 2, 4 (issue: finite-state strategies).
 Usage: python benchmarks/product_bench.py [--n 80] [--budget 4] [--repeat 3] [--seed 0]
 
 The model is benchmarks/models/jammer_grid.posg (the rover observes its cell only). For each k a
-random randomised strategy is drawn (seeded): in every (memory, observation) a distribution over
-the labels the observation offers (staying put 20 times less likely) and over next memory nodes. Prints a markdown table with the
-product's size, the product build time, the check time and the value with its bounds (medians of
---repeat runs in this process).
+random randomised strategy is drawn (seeded): in every (memory, observation) a distribution over the
+labels the observation offers (staying put 20 times less likely) and over next memory nodes. Prints
+a markdown table with the product's size, the product build time, the check time and the value with
+its bounds (medians of --repeat runs in this process).
 """
 
 from __future__ import annotations
@@ -61,8 +61,11 @@ def main() -> None:
     started = time.perf_counter()
     model = api.build(session).model
     build = time.perf_counter() - started
-    print(f"model N={args.n}, B={args.budget}: {model.num_states:,} states, "
-          f"{model.num_choices:,} choices, {model.num_transitions:,} transitions (built in {build:.2f} s)")
+    print(
+        f"model N={args.n}, B={args.budget}: {model.num_states:,} states, "
+        f"{model.num_choices:,} choices, {model.num_transitions:,} transitions "
+        f"(built in {build:.2f} s)"
+    )
     prop = PROP.format(steps=8 * args.n)
     print(f"property: {prop}")
     print()
@@ -78,7 +81,7 @@ def main() -> None:
             product = strategy_product(model, [bind(model, fss)])
             builds.append(time.perf_counter() - t0)
             checker = StrategyChecker(model, {"rover": fss},
-                                      coalition_of=api._coalition_resolver(model, False),
+                                      coalition_of=api._resolver(model, False).coalition_of,
                                       scalar=api._scalar)
             t0 = time.perf_counter()
             r = checker.check(expr, text=prop)

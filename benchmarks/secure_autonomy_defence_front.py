@@ -7,14 +7,14 @@ Usage::
         [--weights 0,5,10,20,40] [--memory 1 --memory 2] [--timeout 30,60] [--max-cost 14,16]
         [--out models/secure_autonomy/defence_front] [--strategies DIR]
 
-For every take-down budget B (``--budget``), series (``--memory``) and weight one defence is synthesised by scalarisation
-(:func:`posgmc.tradeoffs.defence.defence_front`: minimise discounted time minus ``w`` times the
-discounted probability of retrieving; ``w = inf`` is the mission itself) and verified: its
-``guaranteed`` P(retrieved) and its ``guaranteed`` expected discounted time, each with proven
-bounds against every adversary, from its exported ``posgmc-fss/1`` file. Writes ``OUT.png`` (both
-series) and ``OUT.csv`` (one row per point), prints each series' points and time, and the answer
-to "max guaranteed P(retrieved) s.t. guaranteed discounted time <= c" for each ``--max-cost c``
-(a single defence, or a verified mixture of two).
+For every take-down budget B (``--budget``), series (``--memory``) and weight one defence is
+synthesised by scalarisation (:func:`posgmc.tradeoffs.defence.defence_front`: minimise discounted
+time minus ``w`` times the discounted probability of retrieving; ``w = inf`` is the mission itself)
+and verified: its ``guaranteed`` P(retrieved) and its ``guaranteed`` expected discounted time, each
+with proven bounds against every adversary, from its exported ``posgmc-fss/1`` file. Writes
+``OUT.png`` (both series) and ``OUT.csv`` (one row per point), prints each series' points and time,
+and the answer to "max guaranteed P(retrieved) s.t. guaranteed discounted time <= c" for each
+``--max-cost c`` (a single defence, or a verified mixture of two).
 """
 
 from __future__ import annotations
@@ -70,7 +70,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"{time.perf_counter() - start:.0f} s (timeout {timeout:g} s per point)")
             for i, p in enumerate(f.points):
                 if p.error is not None or p.mission is None or p.cost is None:
-                    print(f"  w={p.weight:g}: error: {p.error.message if p.error else 'unverified'}")
+                    print(
+                        f"  w={p.weight:g}: error: {p.error.message if p.error else 'unverified'}"
+                    )
                     continue
                 print(f"  w={p.weight:g}: P(retrieved) {p.mission.value:.10g} "
                       f"[{p.mission.lower:.10g}, {p.mission.upper:.10g}], discounted time "

@@ -73,8 +73,10 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"  B={p.setting}: error: {p.error.message}")
             else:
                 used = ",".join(f"{n}={m}" for n, m in p.result.memory)
-                print(f"  B={p.setting}: guaranteed {b.value:.10g} [{b.lower:.10g}, {b.upper:.10g}], "
-                      f"full observation {full}, memory {used}")
+                print(
+                    f"  B={p.setting}: guaranteed {b.value:.10g} [{b.lower:.10g}, {b.upper:.10g}], "
+                    f"full observation {full}, memory {used}"
+                )
             w.writerow([k, p.setting, *(("", "", "") if b is None else (b.value, b.lower, b.upper)),
                         full, f"{p.result.seconds:.1f}" if p.result else ""])
         series.append(Sweep("B", f"k◦={k}: guaranteed (proven bounds)", s.points))

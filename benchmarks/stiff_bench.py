@@ -42,7 +42,9 @@ def _rover() -> tuple[str, Callable[[], tuple[int, float, float]]]:
     prop = '<<rover>> Pmax=? [ !"crash" U "goal" ]'
 
     def run() -> tuple[int, float, float]:
-        r = posgmc.check(session, properties=[prop], strategies={"rover": fss}, built=built).results[0]
+        r = posgmc.check(
+            session, properties=[prop], strategies={"rover": fss}, built=built
+        ).results[0]
         assert r.guaranteed is not None
         return r.iterations, r.guaranteed.lower, r.guaranteed.upper
 
@@ -64,7 +66,9 @@ def _chain(p: float) -> tuple[str, Callable[[], tuple[int, float, float]]]:
     return f"chain left with p = {p:g}, Pmax (exact 0.3)", run
 
 
-def _measure(run: Callable[[], tuple[int, float, float]], repeat: int) -> tuple[float, tuple[int, float, float]]:
+def _measure(
+    run: Callable[[], tuple[int, float, float]], repeat: int
+) -> tuple[float, tuple[int, float, float]]:
     times = []
     out = run()
     for _ in range(repeat):

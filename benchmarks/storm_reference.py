@@ -809,7 +809,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     header = {
         "command": f"cd {shlex.quote(os.getcwd())} && {shlex.join([sys.executable, *sys.argv])}",
-        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "benchmarks": str(benchmarks),
         "storm_version": stormpy.info.storm_version(),
         "storm_long_version": stormpy.info.storm_long_version(),

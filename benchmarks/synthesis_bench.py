@@ -1,6 +1,8 @@
 """Synthesis quality and time against PAYNT, both in the same invocation (issue: synthesis).
 
-Usage: python benchmarks/synthesis_bench.py [--set posmg|pomdp] [--timeout 30] [--paynt-timeout 30] [--only NAME ...] [--shared DIR]
+Usage:
+    python benchmarks/synthesis_bench.py [--set posmg|pomdp] [--timeout 30] [--paynt-timeout 30]
+        [--only NAME ...] [--shared DIR]
 
 For every POSMG under ../shared/benchmarks/posmg/ with a DRN sketch (or, with --set pomdp, every
 POMDP under ../shared/benchmarks/pomdp/; --only NAME... for a subset): posgmc synthesises the
@@ -43,8 +45,12 @@ def ours(directory: Path, timeout: float) -> dict[str, object]:
 
     prop = first_property(directory)
     started = time.perf_counter()
-    report = api.check(api.load(directory / "sketch.templ"), properties=[prop], zero_based_players=True,
-                       synthesis=SynthesisOptions(timeout=timeout))
+    report = api.check(
+        api.load(directory / "sketch.templ"),
+        properties=[prop],
+        zero_based_players=True,
+        synthesis=SynthesisOptions(timeout=timeout),
+    )
     seconds = time.perf_counter() - started
     outcome = report.outcomes[0]
     if isinstance(outcome, tuple):
@@ -92,11 +98,16 @@ def main() -> None:
                     help="the shared benchmarks directory (default ../shared/benchmarks)")
     args = ap.parse_args()
     base = args.shared / args.set
-    dirs = sorted(d for d in base.iterdir() if (d / "sketch.templ").exists() and (d / "sketch.props").exists())
+    dirs = sorted(
+        d for d in base.iterdir() if (d / "sketch.templ").exists() and (d / "sketch.props").exists()
+    )
     if args.only:
         dirs = [d for d in dirs if d.name in args.only]
-    print("| model | property | posgmc guaranteed [lower, upper] | full observation | vs_fss_adversary | "
-          "upper_bound | adversaries | memory | posgmc (s) | PAYNT --fsc-synthesis | PAYNT (s) | better |")
+    print(
+        "| model | property | posgmc guaranteed [lower, upper] | full observation "
+        "| vs_fss_adversary | upper_bound | adversaries | memory | posgmc (s) "
+        "| PAYNT --fsc-synthesis | PAYNT (s) | better |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for d in dirs:
         a = ours(d, args.timeout)
@@ -108,7 +119,9 @@ def main() -> None:
             better = "PAYNT" if "value" in b else "-"
         else:
             g = a["guaranteed"]
-            mine = f"{g.value:.6f} [{g.lower:.6f}, {g.upper:.6f}]" + (" (partial)" if a["partial"] else "")
+            mine = f"{g.value:.6f} [{g.lower:.6f}, {g.upper:.6f}]" + (
+                " (partial)" if a["partial"] else ""
+            )
             full = f"{a['full'].value:.6f}"
             vs = f"{a['vs'].value:.6f}" if a["vs"] is not None else "-"
             ub = f"{a['ub'].value:.6f}" if a["ub"] is not None else "-"
@@ -125,8 +138,11 @@ def main() -> None:
                 better = "posgmc (PAYNT fails)"
         theirs = f"{b['value']:.6f}" if "value" in b else f"fails: {b['error']}"
         pt = f"{b['seconds']:.1f}" if "seconds" in b else "-"
-        print(f"| {d.name} | `{prop}` | {mine} | {full} | {vs} | {ub} | {adversaries} | {memory} | {a['seconds']:.1f} | {theirs} | {pt} | {better} |",
-              flush=True)
+        print(
+            f"| {d.name} | `{prop}` | {mine} | {full} | {vs} | {ub} | {adversaries} | {memory} "
+            f"| {a['seconds']:.1f} | {theirs} | {pt} | {better} |",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

@@ -25,9 +25,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from posgmc import api  # noqa: E402
+from posgmc.syntax import parser  # noqa: E402
 from posgmc.synthesis import parametric  # noqa: E402
 from posgmc.synthesis.search import parametrisation, problem_of  # noqa: E402
-from posgmc.syntax import parser  # noqa: E402
 
 
 def main() -> None:
@@ -41,7 +41,7 @@ def main() -> None:
                        constants={"N": args.n, "flash": "false", "B": "1"})
     model = api.build(session).model
     expr = parser.parse_property('<<planner>> Pmax=? [ F "retrieved" ]').expr
-    coalition_of = api._coalition_resolver(model, False)
+    coalition_of = api._resolver(model, False).coalition_of
     player = next(iter(coalition_of(expr.coalition)))
     problem = problem_of(model, expr, player=player, adversary=1 - player,
                          coalition_of=coalition_of, scalar=api._scalar)
@@ -49,7 +49,10 @@ def main() -> None:
     rng = np.random.default_rng(0)
     la, ld = rng.normal(size=exact.shapes[0]), rng.normal(size=exact.shapes[1])
     print(f"secure_autonomy N={args.n}: {model.num_states} states, k = {args.memory}")
-    print("| step | exact (s) | exact value | iterative (s) | iterative value | max gradient difference |")
+    print(
+        "| step | exact (s) | exact value | iterative (s) | iterative value | max gradient "
+        "difference |"
+    )
     print("|---|---|---|---|---|---|")
     for step in range(args.steps):
         g, d = exact.probabilities(la, ld)
@@ -66,7 +69,10 @@ def main() -> None:
             diff = max(np.abs(it.grad_action - ex.grad_action).max(),
                        np.abs(it.grad_update - ex.grad_update).max())
             cells = [f"{t_ex:.2f}", f"{ex.value:.10f}", f"{diff:.2e}"]
-        print(f"| {step} | {cells[0]} | {cells[1]} | {t_it:.2f} | {it.value:.10f} | {cells[2]} |", flush=True)
+        print(
+            f"| {step} | {cells[0]} | {cells[1]} | {t_it:.2f} | {it.value:.10f} | {cells[2]} |",
+            flush=True,
+        )
         la = la + 0.05 * rng.normal(size=la.shape)
 
 

@@ -23,35 +23,42 @@ from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-from posgmc.compiler import BuildOptions, build_model
-from posgmc.deep import deep_generator, deep_stack
 from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
+from posgmc.compiler import BuildOptions, build_model
+from posgmc.deep import deep_generator, deep_stack
 from posgmc.errors import (
     InputError,
     LimitError,
     MultipleErrors,
     PosgmcError,
-    SemanticError,
     SourceText,
     UnsupportedError,
 )
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics import checker as sem
 from posgmc.semantics import operators as ops
-from posgmc.semantics.evaluate import evaluate_constant
+from posgmc.semantics.evaluate import Value, evaluate_constant
 from posgmc.semantics.flat import FlatModel
+from posgmc.semantics.properties import QueryResolver, resolve_queries
 from posgmc.semantics.references import inline_property_references
-from posgmc.syntax import parser
-from posgmc.syntax.ast import NO_SPAN, Coalition, ModelFile, Property, PropertiesFile
 from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax import parser
+from posgmc.syntax.ast import NO_SPAN, Expr, ModelFile, PropertiesFile, Property
 from posgmc.syntax.printer import format_expr
 
 if TYPE_CHECKING:
     from posgmc.strategies.fss import FiniteStateStrategy
+    from posgmc.strategies.simulate import Simulation
     from posgmc.synthesis.checker import SynthesisChecker
     from posgmc.synthesis.search import SynthesisOptions
-    from posgmc.strategies.simulate import Simulation
+
+StrategySources = (
+    Mapping[str, "FiniteStateStrategy | str | Path"]
+    | Mapping[str | None, "FiniteStateStrategy | str | Path"]
+)
+"""Strategies by player name, as objects or ``posgmc-fss/1`` files; the key None stands for a
+file's own player (``--strategy FILE``)."""
 
 ConstantValues = Mapping[str, object]
 
@@ -96,7 +103,7 @@ class Session:
 
     def with_constants(
         self, constants: ConstantValues | None = None, /, **values: object
-    ) -> "Session":
+    ) -> Session:
         """The same parsed model with other constant values (added to, or replacing, this
         session's), without reading or parsing the file again: what a sweep needs per point.
 
@@ -106,10 +113,12 @@ class Session:
             raise InputError(
                 f"constants must be a mapping of names to values, got {type(constants).__name__}"
             )
-        return dataclasses.replace(self, constants={**self.constants, **(constants or {}), **values})
+        return dataclasses.replace(
+            self, constants={**self.constants, **(constants or {}), **values}
+        )
 
     @classmethod
-    def of_model(cls, model: ExplicitModel, *, name: str | None = None) -> "Session":
+    def of_model(cls, model: ExplicitModel, *, name: str | None = None) -> Session:
         """A session around a compiled model (read from DRN or built by hand with
         :func:`~posgmc.model.explicit.make_model`), so that :func:`check` can take it."""
         if not isinstance(model, ExplicitModel):
@@ -163,7 +172,7 @@ def _property_items(value: object) -> tuple[str | Property, ...]:
     )
 
 
-def _session(value: object) -> "Session":
+def _session(value: object) -> Session:
     if isinstance(value, Session):
         return value
     if isinstance(value, ExplicitModel):
@@ -205,9 +214,15 @@ def load(
     if path is None and text is None:
         raise InputError("give the model's path or its text (text=...)")
     if constants is not None and not isinstance(constants, Mapping):
-        raise InputError(f"constants must be a mapping of names to values, got {type(constants).__name__}")
+        raise InputError(
+            f"constants must be a mapping of names to values, got {type(constants).__name__}"
+        )
     name = str(path) if path is not None else None
-    content = text if text is not None else _read(path)  # type: ignore[arg-type]
+    if text is not None:
+        content = text
+    else:
+        assert path is not None  # noqa: S101 - one of them is given (checked above)
+        content = _read(path)
     source = SourceText(content, name)
     try:
         if _is_drn(content, name):
@@ -285,7 +300,9 @@ def lint(
         extra = bool(property_files or property_texts)  # property-file constants share --const
         errors += [
             _attach(e, src)
-            for e in sem.check_model(session.syntax, constants=constants, allow_extra_constants=extra)
+            for e in sem.check_model(
+                session.syntax, constants=constants, allow_extra_constants=extra
+            )
         ]
     for f in property_files:
         try:
@@ -398,45 +415,20 @@ class CheckReport:
     outcomes: tuple[PropertyResult | PropertyError, ...] = ()  # all, in order
 
 
-def _coalition_resolver(model: ExplicitModel, zero_based: bool):  # type: ignore[no-untyped-def]
-    names = model.player_names
-
-    def resolve(c: Coalition | None) -> frozenset[int] | None:
-        if c is None:
-            return None
-        if c.all_players:
-            return frozenset(range(len(names)))
-        out: set[int] = set()
-        for p in c.players:
-            if p.name is not None:
-                if p.name not in names:
-                    raise SemanticError(f"no player named '{p.name}'", p.span)
-                out.add(names.index(p.name))
-            else:
-                assert p.number is not None  # noqa: S101 - a PlayerRef is a name or a number
-                index = p.number if zero_based else p.number - 1
-                if not 0 <= index < len(names):
-                    listing = ", ".join(
-                        f"\"{n}\" = <<{i + 1}>> (<<{i}>> with --zero-based-players)"
-                        for i, n in enumerate(names)
-                    )
-                    raise SemanticError(
-                        f"no player number {p.number}: "
-                        + ("numbers count from 0 here" if zero_based else
-                           "PRISM-games numbers players from 1, Storm and PAYNT from 0"),
-                        p.span,
-                        hint=(f"the players are {listing}; " if names else "the model has no players; ")
-                        + ("drop --zero-based-players for 1-based numbers" if zero_based else
-                           "read numbers from 0 as PAYNT's files do with --zero-based-players "
-                           "(zero_based_players=True in Python)"),
-                    )
-                out.add(index)
-        return frozenset(out)
-
-    return resolve
+def _resolver(model: ExplicitModel, zero_based: bool) -> QueryResolver:
+    """The semantic stage's resolution of coalitions and reward structures against the compiled
+    model's players and reward structures: the FlatModel's for PRISM input (where the semantic
+    stage has already resolved every query), the only ones for DRN input."""
+    return QueryResolver(
+        model.model_type,
+        tuple(model.player_names),
+        tuple(rm.name for rm in model.reward_models),
+        zero_based,
+    )
 
 
-def _scalar(expr):  # type: ignore[no-untyped-def]
+def _scalar(expr: Expr) -> Value:
+    """A constant expression's value, a whole Fraction as an int."""
     value = evaluate_constant(expr)
     if isinstance(value, Fraction):
         return value if value.denominator != 1 else int(value)
@@ -453,8 +445,8 @@ def iter_check(
     full_observation: bool = False,
     zero_based_players: bool = False,
     built: BuiltModel,
-    strategies: Mapping[str, "FiniteStateStrategy"] | None = None,
-    synthesis: "SynthesisOptions | None" = None,
+    strategies: Mapping[str, FiniteStateStrategy] | None = None,
+    synthesis: SynthesisOptions | None = None,
 ) -> Iterator[tuple[Property, PropertyResult | PosgmcError]]:
     """Check each property in turn; a property that fails yields its error and the others go on
     (as PRISM does). Errors that concern the whole input (unparsable files) are raised.
@@ -476,8 +468,8 @@ def iter_check(
         )
     synthesising = partial and not full_observation and not strategies
     note = (
-        "full-observation value: an upper bound for a maximising and a lower bound for a minimising "
-        "partially observing player"
+        "full-observation value: an upper bound for a maximising and a lower bound for a "
+        "minimising partially observing player"
         if partial and full_observation
         else None
     )
@@ -492,7 +484,9 @@ def iter_check(
     for pf, src in zip(files, sources):
         pf, cyclic = inline_property_references(pf, labels)
         for i, prop in enumerate(pf.properties):
-            outcome = cyclic.get(i) or _check_one(session, built, checker, pf, prop, zero_based_players)
+            outcome = cyclic.get(i) or _check_one(
+                session, built, checker, pf, prop, zero_based_players
+            )
             if isinstance(outcome, PosgmcError):
                 own = src
                 if own is None and outcome.span is not None and outcome.span.file and prop.text:
@@ -516,10 +510,10 @@ def _checker(
     model: ExplicitModel,
     options: CheckOptions,
     zero_based_players: bool,
-    strategies: Mapping[str, "FiniteStateStrategy"] | None,
-    synthesis: "SynthesisOptions | None" = None,
-) -> "PropertyChecker | StrategyChecker | SynthesisChecker":
-    coalition_of = _coalition_resolver(model, zero_based_players)
+    strategies: Mapping[str, FiniteStateStrategy] | None,
+    synthesis: SynthesisOptions | None = None,
+) -> PropertyChecker | StrategyChecker | SynthesisChecker:
+    coalition_of = _resolver(model, zero_based_players).coalition_of
     if options.exact:
         from posgmc.checking.exact import ExactChecker
 
@@ -539,7 +533,7 @@ def _checker(
 def _check_one(
     session: Session,
     built: BuiltModel,
-    checker: "PropertyChecker | StrategyChecker | SynthesisChecker",
+    checker: PropertyChecker | StrategyChecker | SynthesisChecker,
     pf: PropertiesFile,
     prop: Property,
     zero_based_players: bool,
@@ -557,6 +551,10 @@ def _check_one(
                 zero_based_players=zero_based_players,
             )
             expr = cp.expr
+        else:
+            # no semantic stage for an explicit model: its queries' references resolved here,
+            # by the same resolver, before any engine runs
+            resolve_queries(expr, _resolver(built.model, zero_based_players))
         text = prop.text or format_expr(prop.expr)
         return checker.check(expr, text=text, name=prop.name)
     except MultipleErrors as e:
@@ -581,10 +579,10 @@ def check(
     full_observation: bool = False,
     zero_based_players: bool = False,
     built: BuiltModel | None = None,
-    strategies: Mapping[str, "FiniteStateStrategy | str | Path"] | None = None,
-    synthesis: "SynthesisOptions | None" = None,
-    on_start: "Callable[[ExplicitModel, float, tuple[str, ...]], None] | None" = None,
-    on_outcome: "Callable[[PropertyResult | PropertyError], None] | None" = None,
+    strategies: StrategySources | None = None,
+    synthesis: SynthesisOptions | None = None,
+    on_start: Callable[[ExplicitModel, float, tuple[str, ...]], None] | None = None,
+    on_outcome: Callable[[PropertyResult | PropertyError], None] | None = None,
 ) -> CheckReport:
     """Build the model (unless ``built`` is given) and check each property at the initial states.
 
@@ -624,7 +622,9 @@ def check(
     property_files = _paths(property_files, "property_files")
     properties = _property_items(properties)
     if strategies is not None and not isinstance(strategies, Mapping):
-        raise InputError(f"strategies must map player names to strategies, got {type(strategies).__name__}")
+        raise InputError(
+            f"strategies must map player names to strategies, got {type(strategies).__name__}"
+        )
     if options.exact:
         if strategies or full_observation:
             raise InputError(
@@ -768,8 +768,8 @@ def synthesize(
 
 @deep_stack
 def load_strategies(
-    strategies: Mapping[str, "FiniteStateStrategy | str | Path"],
-) -> dict[str, "FiniteStateStrategy"]:
+    strategies: StrategySources,
+) -> dict[str, FiniteStateStrategy]:
     """Strategies by player name, files read (a file's own player must be the one it is given for).
 
     Raises:
@@ -795,14 +795,14 @@ def load_strategies(
 # -- strategies: files, simulation ------------------------------------------------------------
 
 
-def load_strategy(path: str | Path) -> "FiniteStateStrategy":
+def load_strategy(path: str | Path) -> FiniteStateStrategy:
     """Read a ``posgmc-fss/1`` strategy file (errors carry the file and JSON path)."""
     from posgmc.strategies.files import read_strategy
 
     return read_strategy(path)
 
 
-def save_strategy(strategy: "FiniteStateStrategy", path: str | Path) -> None:
+def save_strategy(strategy: FiniteStateStrategy, path: str | Path) -> None:
     """Write a strategy as a ``posgmc-fss/1`` file (atomically)."""
     from posgmc.strategies.files import write_strategy
 
@@ -814,7 +814,7 @@ def simulate(
     session: Session,
     prop: str,
     *,
-    strategies: Mapping[str, "FiniteStateStrategy | str | Path"] | None = None,
+    strategies: StrategySources | None = None,
     runs: int = 10_000,
     seed: int = 0,
     max_steps: int = 10_000,
@@ -822,7 +822,7 @@ def simulate(
     trace: bool = False,
     zero_based_players: bool = False,
     build_options: BuildOptions = BuildOptions(),
-) -> "Simulation":
+) -> Simulation:
     """Estimate a property by simulation under the given strategies (see
     :mod:`posgmc.strategies.simulate`); players without one play uniformly, or their
     full-observation optimum with ``opponent="best"``.
@@ -831,7 +831,8 @@ def simulate(
         InputError, StrategyError: bad model, property or strategy files.
         UnsupportedError: a property simulation does not estimate.
     """
-    from posgmc.strategies.simulate import Simulation, simulate as run  # noqa: F401
+    from posgmc.strategies.simulate import Simulation  # noqa: F401
+    from posgmc.strategies.simulate import simulate as run
 
     session = _session(session)
     if not isinstance(runs, int) or runs < 1:
@@ -850,9 +851,12 @@ def simulate(
                 constants=session.constants, zero_based_players=zero_based_players,
             )
             expr = cp.expr
+        resolver = _resolver(built.model, zero_based_players)
+        if expr is parsed.expr:
+            resolve_queries(expr, resolver)  # an explicit model: see _check_one
         return run(
             built.model, expr, loaded, text=prop,
-            coalition_of=_coalition_resolver(built.model, zero_based_players), scalar=_scalar,
+            coalition_of=resolver.coalition_of, scalar=_scalar,
             runs=runs, seed=seed, max_steps=max_steps, opponent=opponent, trace=trace,
         )
     except MultipleErrors as e:

@@ -1,4 +1,5 @@
-"""The ``posgmc`` command: options become typed configuration, the work happens in :mod:`posgmc.api`.
+"""The ``posgmc`` command: options become typed configuration, the work happens in
+:mod:`posgmc.api`.
 
 Exit status (fixed, documented in docs/cli.md):
 
@@ -14,14 +15,18 @@ from __future__ import annotations
 import json
 import sys
 import traceback
-from collections.abc import Callable, Sequence
-from typing import Any, NoReturn, TypeVar
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 import click
 
 from posgmc import __version__
 from posgmc.errors import InputError, MultipleErrors, PosgmcError
 from posgmc.semantics.evaluate import format_value
+
+if TYPE_CHECKING:
+    from posgmc.api import CheckReport
+    from posgmc.semantics.constants import ConstRange, ConstSetting, UserConstant
 
 EXIT_OK = 0
 EXIT_PROPERTY_FALSE = 1
@@ -36,7 +41,9 @@ def _fail(error: PosgmcError | Exception, *, debug: bool) -> NoReturn:
         click.echo(error.render(), err=True)
     else:
         click.echo(f"internal error: {type(error).__name__}: {error}", err=True)
-        click.echo("  hint: this is a bug in posgmc; rerun with --debug for the traceback", err=True)
+        click.echo(
+            "  hint: this is a bug in posgmc; rerun with --debug for the traceback", err=True
+        )
     if debug:
         traceback.print_exception(error, file=sys.stderr)
     sys.exit(EXIT_ERROR)
@@ -97,7 +104,9 @@ def _guard(
 # -- constants: PRISM's --const N=4,p=0.9 and sweeps N=1:1:5 -----------------------------------
 
 
-def expand_constants(values: Sequence[str]) -> tuple[list[str], list[dict[str, Any]]]:
+def expand_constants(
+    values: Sequence[str],
+) -> tuple[list[str], list[dict[str, ConstSetting | UserConstant]]]:
     """``("N=4,p=0.9", "k=0:5")`` -> (swept names, one name->setting dict per combination).
 
     Raises:
@@ -106,7 +115,7 @@ def expand_constants(values: Sequence[str]) -> tuple[list[str], list[dict[str, A
     from posgmc.errors import ConstantError
     from posgmc.semantics.constants import ConstRange, expand_sweep, parse_const_assignments
 
-    merged: dict[str, Any] = {}
+    merged: dict[str, ConstSetting | ConstRange] = {}
     for i, text in enumerate(values):
         source = "--const" if len(values) == 1 else f"--const #{i + 1}"
         for name, setting in parse_const_assignments(text, source=source).items():
@@ -158,10 +167,15 @@ def main() -> None:
 @click.argument("model", type=click.Path(dir_okay=False))
 @click.argument("props", nargs=-1, type=click.Path(dir_okay=False))
 @click.option("--prop", "prop_texts", multiple=True, metavar="TEXT", help="A property, as text.")
-@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
-@click.option("--each", is_flag=True,
-              help="Every argument is a model (as pre-commit passes changed files); a properties file "
-              "beside it with the same name and .props is checked with it; .props arguments are skipped.")
+@click.option(
+    "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
+)
+@click.option(
+    "--each",
+    is_flag=True,
+    help="Every argument is a model (as pre-commit passes changed files); a properties file "
+    "beside it with the same name and .props is checked with it; .props arguments are skipped.",
+)
 @_common
 def lint(
     model: str,
@@ -225,8 +239,12 @@ def lint(
     help="Write the explicit model: drn (Storm), prism (.tra/.sta/.lab...), dot.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the statistics as one JSON object.")
-@click.option("--state-limit", type=click.IntRange(min=1), default=None, help="Stop beyond this many states.")
-@click.option("--no-fix-deadlocks", is_flag=True, help="Deadlock states are an error instead of self-loops.")
+@click.option(
+    "--state-limit", type=click.IntRange(min=1), default=None, help="Stop beyond this many states."
+)
+@click.option(
+    "--no-fix-deadlocks", is_flag=True, help="Deadlock states are an error instead of self-loops."
+)
 @click.option("--progress/--no-progress", default=None, help="Report build progress on stderr.")
 @_common
 def build(
@@ -245,7 +263,9 @@ def build(
     def run() -> int:
         _, combos = expand_constants(consts)
         if len(combos) > 1:
-            raise click.BadParameter("build takes single constant values, not ranges", param_hint="'--const'")
+            raise click.BadParameter(
+                "build takes single constant values, not ranges", param_hint="'--const'"
+            )
         session = api.load(model, constants=combos[0] if combos else {})
         built = api.build(session, options=_build_options(state_limit, no_fix_deadlocks, progress))
         stats = built.model.statistics()
@@ -297,7 +317,10 @@ def _export(model: Any, fmt: str, path: str) -> None:
 def _print_stats(model: str, stats: dict[str, Any]) -> None:
     click.echo(f"Model:        {model}")
     click.echo(f"Type:         {stats['type']}")
-    click.echo(f"States:       {stats['states']}  (initial: {stats['initial_states']}, deadlocks fixed: {stats['deadlocks']})")
+    click.echo(
+        f"States:       {stats['states']}  (initial: {stats['initial_states']}, deadlocks fixed: "
+        f"{stats['deadlocks']})"
+    )
     click.echo(f"Choices:      {stats['choices']}")
     click.echo(f"Transitions:  {stats['transitions']}")
     if "players" in stats:
@@ -317,9 +340,16 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
 @main.command()
 @click.argument("model", type=click.Path(dir_okay=False))
 @click.argument("props", nargs=-1, type=click.Path(dir_okay=False))
-@click.option("--prop", "prop_texts", multiple=True, metavar="TEXT", help="A property, as text (repeatable).")
-@click.option("--precision", type=float, callback=lambda _c, _p, v: _positive_finite(v, "--precision"),
-              default=1e-6, show_default=True)
+@click.option(
+    "--prop", "prop_texts", multiple=True, metavar="TEXT", help="A property, as text (repeatable)."
+)
+@click.option(
+    "--precision",
+    type=float,
+    callback=lambda _c, _p, v: _positive_finite(v, "--precision"),
+    default=1e-6,
+    show_default=True,
+)
 @click.option("--relative", is_flag=True, help="Precision is relative, not absolute.")
 @click.option(
     "--method",
@@ -331,7 +361,9 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
 @click.option("--exact", is_flag=True,
               help="PRISM's -exact: build and solve in rational arithmetic; values as fractions "
               "(unbounded P[F]/P[U] and state formulas, small models).")
-@click.option("--full-observation", is_flag=True, help="pomdp/posg: answer the full-observation bound.")
+@click.option(
+    "--full-observation", is_flag=True, help="pomdp/posg: answer the full-observation bound."
+)
 @click.option(
     "--strategy",
     "strategy_files",
@@ -339,7 +371,9 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
     metavar="PLAYER=FILE",
     help="A player's finite-state strategy (posgmc-fss/1 JSON); repeatable, one per player.",
 )
-@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
+@click.option(
+    "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
+)
 @click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
               help="Synthesis: memory sizes of the decision maker's strategy (default auto: 1..3; "
               "sizes above 1 alone, e.g. 2, are warm-started from a memoryless defence); "
@@ -351,8 +385,13 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
 @click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
               help="Synthesis: worker processes for independent evaluations (results do not "
               "depend on it).")
-@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True,
-              help="Synthesis: seconds per property (anytime: the best defence so far is verified).")
+@click.option(
+    "--timeout",
+    type=click.FloatRange(min=0, min_open=True),
+    default=30.0,
+    show_default=True,
+    help="Synthesis: seconds per property (anytime: the best defence so far is verified).",
+)
 @click.option("--seed", type=int, default=0, show_default=True, help="Synthesis: random seed.")
 @click.option("--export-strategy", type=click.Path(), default=None,
               help="Write the optimal memoryless strategy of the (single) property as JSON; for a "
@@ -499,7 +538,9 @@ def _outcome_json(r: Any) -> dict[str, Any]:
     return r.to_json()  # type: ignore[no-any-return]
 
 
-def _write_check_junit(path: str, model: str, swept: list[str], rows: list[tuple[dict[str, Any], Any]]) -> None:
+def _write_check_junit(
+    path: str, model: str, swept: list[str], rows: list[tuple[dict[str, Any], Any]]
+) -> None:
     """One test case per property (and constant setting): an error fails as an error, a false or
     undecided threshold or an unconverged result as a failure."""
     from posgmc.io.junit import Case, write_junit
@@ -509,12 +550,16 @@ def _write_check_junit(path: str, model: str, swept: list[str], rows: list[tuple
         label = ",".join(f"{n}={_const_text(constants[n])}" for n in swept)
         for r in report.outcomes:
             if isinstance(r, tuple):
-                cases.append(Case(r[0] + (f" ({label})" if label else ""), model, error=r[1].message))
+                cases.append(
+                    Case(r[0] + (f" ({label})" if label else ""), model, error=r[1].message)
+                )
                 continue
             name = r.property + (f" ({label})" if label else "")
             failure = None
             if _not_passed(r):
-                failure = f"{r.property}: {_fmt(r.value)}" + ("" if r.converged else " (not converged)")
+                failure = f"{r.property}: {_fmt(r.value)}" + (
+                    "" if r.converged else " (not converged)"
+                )
             cases.append(Case(name, model, r.seconds, failure=failure))
     write_junit(path, model, cases)
 
@@ -596,7 +641,9 @@ def strategy_options(values: Sequence[str]) -> dict[str | None, str]:
         if not path:
             raise click.UsageError(f"--strategy {text!r}: give PLAYER=FILE")
         if key in out:
-            raise click.UsageError(f"--strategy: two strategies for player {key or '(from file)'!r}")
+            raise click.UsageError(
+                f"--strategy: two strategies for player {key or '(from file)'!r}"
+            )
         out[key] = path
     return out
 
@@ -629,8 +676,10 @@ def _write_strategy(path: str, report: Any) -> None:
     atomic_write_text(path, json.dumps(doc, indent=1))
 
 
-def _json_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> dict[str, Any]:
-    def one(constants: dict[str, str], report: Any) -> dict[str, Any]:
+def _json_report(
+    model: str, swept: list[str], rows: Sequence[tuple[Mapping[str, object], CheckReport]]
+) -> dict[str, Any]:
+    def one(constants: Mapping[str, object], report: CheckReport) -> dict[str, Any]:
         stats = report.model.statistics()
         return {
             "constants": {n: _const_text(v) for n, v in constants.items()},
@@ -660,13 +709,20 @@ def _print_strategy_numbers(r: Any) -> None:
     for key in (*STRATEGY_NUMBERS, "full_observation"):
         number = getattr(r, key, None)
         if number is not None:
-            click.echo(f"  {key}: {_fmt(number.value)}  [{_fmt(number.lower)}, {_fmt(number.upper)}]")
+            click.echo(
+                f"  {key}: {_fmt(number.value)}  [{_fmt(number.lower)}, {_fmt(number.upper)}]"
+            )
     stats = getattr(r, "synthesis", None)
     if stats:
-        rounds = ", ".join(f"k={x['memory']}: {x['value_policy_iteration']:.8g}" for x in stats["rounds"])
+        rounds = ", ".join(
+            f"k={x['memory']}: {x['value_policy_iteration']:.8g}" for x in stats["rounds"]
+        )
         phases = ", ".join(f"{k} {v:.2f} s" for k, v in stats["phases"].items())
-        click.echo(f"  synthesis: {rounds} (best so far, by policy iteration); {phases}; time budget "
-                   f"{stats['timeout']:g} s, seed {stats['seed']}" + ("; PARTIAL: the budget ran out" if stats["partial"] else ""))
+        click.echo(
+            f"  synthesis: {rounds} (best so far, by policy iteration); {phases}; time budget "
+            f"{stats['timeout']:g} s, seed {stats['seed']}"
+            + ("; PARTIAL: the budget ran out" if stats["partial"] else "")
+        )
         if "adversaries_enumerated" in stats:
             click.echo(
                 f"  adversaries: {stats['adversaries_enumerated']} enumerated"
@@ -687,7 +743,9 @@ def _print_multi(r: Any) -> None:
         click.echo(f"  under-approximation (achievable vertices): {front.text()}")
         if len(front.corners):
             corners = ",".join("(" + ",".join(f"{v:.10g}" for v in c) + ")" for c in front.corners)
-            click.echo(f"  over-approximation vertices: [{corners}]; precision {front.precision:.3g}")
+            click.echo(
+                f"  over-approximation vertices: [{corners}]; precision {front.precision:.3g}"
+            )
     else:
         line = f"{r.property}: {'NaN' if r.value != r.value else _fmt(r.value)}"
         what = ("proven (see the note)" if r.sound else
@@ -699,7 +757,9 @@ def _print_multi(r: Any) -> None:
         click.echo(f"  note: {r.note}")
 
 
-def _print_header(model: str, stats: dict[str, Any], seconds: float, warnings: Sequence[str]) -> None:
+def _print_header(
+    model: str, stats: dict[str, Any], seconds: float, warnings: Sequence[str]
+) -> None:
     click.echo(
         f"Model {model}: {stats['type']}, {stats['states']} states, {stats['choices']} choices, "
         f"{stats['transitions']} transitions (built in {seconds:.3f} s)"
@@ -736,7 +796,9 @@ def _print_outcome(r: Any) -> None:
         click.echo(f"  note: {r.note}")
 
 
-def _print_report(model: str, swept: list[str], rows: list[tuple[dict[str, str], Any]]) -> None:
+def _print_report(
+    model: str, swept: list[str], rows: Sequence[tuple[Mapping[str, object], CheckReport]]
+) -> None:
     first = rows[0][1]
     _print_header(model, first.model.statistics(), first.build_seconds, first.warnings)
     if len(rows) == 1:

@@ -1,5 +1,6 @@
 """The commands about results and strategies: ``test`` (PRISM's RESULT convention for CI),
-``simulate`` and ``show-strategy``. Thin, like :mod:`posgmc.cli`, whose group and helpers they use."""
+``simulate`` and ``show-strategy``. Thin, like :mod:`posgmc.cli`, whose group and helpers they
+use."""
 
 from __future__ import annotations
 
@@ -35,12 +36,18 @@ __all__ = ["test", "simulate", "show_strategy"]
               help="Relative tolerance for numbers (PRISM's test mode: 1e-5).")
 @click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
               help="Also write a JUnit XML report (one test case per checked property).")
-@click.option("--exact", is_flag=True, help="PRISM's -exact: rational arithmetic, results compared exactly.")
+@click.option(
+    "--exact", is_flag=True, help="PRISM's -exact: rational arithmetic, results compared exactly."
+)
 @click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation value.")
 @click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE")
-@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
+@click.option(
+    "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
+)
 @click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto")
-@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True)
+@click.option(
+    "--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True
+)
 @click.option("--seed", type=int, default=0, show_default=True)
 @_common
 def test(
@@ -62,9 +69,9 @@ def test(
     import time
 
     from posgmc import api
-    from posgmc.compiler.options import BuildOptions
     from posgmc.checking.dispatch import CheckOptions
     from posgmc.checking.expected import expected_for, grade
+    from posgmc.compiler.options import BuildOptions
     from posgmc.io.junit import Case, write_junit
 
     def run() -> int:
@@ -78,7 +85,9 @@ def test(
             session = api.load(model, constants=constants)
             if i == 0:
                 _check_result_lines(session, props)  # before any work: nothing half-reported
-            built = api.build(session, allow_extra_constants=True, options=BuildOptions(exact=exact))
+            built = api.build(
+                session, allow_extra_constants=True, options=BuildOptions(exact=exact)
+            )
             loaded = api.load_strategies(strategies) if strategies else None
             started = time.perf_counter()
             for prop, outcome in api.iter_check(
@@ -151,11 +160,20 @@ def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
 @click.option("--runs", type=click.IntRange(min=1), default=10_000, show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--max-steps", type=click.IntRange(min=0), default=10_000, show_default=True)
-@click.option("--opponent", type=click.Choice(["uniform", "best"]), default="uniform", show_default=True,
-              help="How players without a strategy play: uniformly, or their full-observation optimum.")
+@click.option(
+    "--opponent",
+    type=click.Choice(["uniform", "best"]),
+    default="uniform",
+    show_default=True,
+    help="How players without a strategy play: uniformly, or their full-observation optimum.",
+)
 @click.option("--trace", is_flag=True, help="Also print one sampled path, step by step.")
-@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
-@click.option("--json", "as_json", is_flag=True, help='Print {"estimate", "lower", "upper", "runs", ...}.')
+@click.option(
+    "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
+)
+@click.option(
+    "--json", "as_json", is_flag=True, help='Print {"estimate", "lower", "upper", "runs", ...}.'
+)
 @_common
 def simulate(
     model: str,
@@ -177,7 +195,9 @@ def simulate(
     def run() -> int:
         _, combos = expand_constants(consts)
         if len(combos) > 1:
-            raise click.BadParameter("simulate takes single constant values", param_hint="'--const'")
+            raise click.BadParameter(
+                "simulate takes single constant values", param_hint="'--const'"
+            )
         session = api.load(model, constants=combos[0] if combos else {})
         result = api.simulate(
             session, prop_text, strategies=strategy_options(strategy_files) or None, runs=runs,
@@ -192,7 +212,8 @@ def simulate(
             return EXIT_OK
         interval = "Wilson 95 %" if result.kind == "probability" else "normal 95 %, an estimate"
         click.echo(
-            f"{result.property}: {_fmt(result.estimate)}  [{_fmt(result.lower)}, {_fmt(result.upper)}]"
+            f"{result.property}: {_fmt(result.estimate)}  "
+            f"[{_fmt(result.lower)}, {_fmt(result.upper)}]"
             f"  ({interval}; {result.runs} runs, seed {result.seed})"
         )
         if result.undecided:

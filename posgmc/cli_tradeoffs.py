@@ -8,7 +8,16 @@ from typing import Any
 
 import click
 
-from posgmc.cli import EXIT_ERROR, EXIT_OK, _common, _const_text, _fmt, _guard, _synthesis_options, main
+from posgmc.cli import (
+    EXIT_ERROR,
+    EXIT_OK,
+    _common,
+    _const_text,
+    _fmt,
+    _guard,
+    _synthesis_options,
+    main,
+)
 from posgmc.errors import InputError, UnsupportedError
 
 __all__ = ["pareto"]
@@ -18,12 +27,22 @@ __all__ = ["pareto"]
 @click.argument("model", type=click.Path(dir_okay=False))
 @click.option("--prop", "prop_text", required=True, metavar="TEXT",
               help="The property: any property with --sweep, or a multi(...) query (mdp).")
-@click.option("--sweep", "sweep_text", default=None, metavar="B=0:4",
-              help="The constant to sweep, as a --const range (PRISM syntax: B=0:4, p=0.1:0.1:0.5).")
+@click.option(
+    "--sweep",
+    "sweep_text",
+    default=None,
+    metavar="B=0:4",
+    help="The constant to sweep, as a --const range (PRISM syntax: B=0:4, p=0.1:0.1:0.5).",
+)
 @click.option("--csv", "csv_file", type=click.Path(dir_okay=False), default=None,
               help="Also write the points as CSV.")
-@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
-              help="Also draw the front (.png, .svg, .pdf; needs matplotlib: pip install 'posgmc[plot]').")
+@click.option(
+    "--plot",
+    "plot_file",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Also draw the front (.png, .svg, .pdf; needs matplotlib: pip install 'posgmc[plot]').",
+)
 @click.option("--strategies", "strategy_dir", type=click.Path(file_okay=False), default=None,
               help="Write each point's strategies to DIR/<constant>=<value>/<player>.json.")
 @click.option("--also", "also", multiple=True, metavar="TEXT",
@@ -40,11 +59,18 @@ __all__ = ["pareto"]
               help="With --cost: answer 'max guaranteed mission s.t. guaranteed cost <= C' from "
               "the verified defences; repeatable.")
 @click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation values.")
-@click.option("--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT).")
+@click.option(
+    "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
+)
 @click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
               help="Synthesis: memory sizes, as for check.")
-@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True,
-              help="Synthesis: seconds per point.")
+@click.option(
+    "--timeout",
+    type=click.FloatRange(min=0, min_open=True),
+    default=30.0,
+    show_default=True,
+    help="Synthesis: seconds per point.",
+)
 @click.option("--seed", type=int, default=0, show_default=True, help="Synthesis: random seed.")
 @_common
 def pareto(
@@ -98,9 +124,10 @@ def pareto(
             raise InputError("--sweep is needed (unless --prop is a multi(...) query)",
                              hint="e.g. --sweep B=0:4")
         swept = parse_const_assignments(sweep_text, source="--sweep")
-        if len(swept) != 1 or not isinstance(next(iter(swept.values())), ConstRange):
+        rng = next(iter(swept.values())) if len(swept) == 1 else None
+        if not isinstance(rng, ConstRange):
             raise InputError("--sweep takes one constant with a range, e.g. --sweep B=0:4")
-        (name, rng), = swept.items()
+        name = next(iter(swept))
         others: dict[str, Any] = {}
         for i, text in enumerate(consts):
             for n, setting in parse_const_assignments(
@@ -151,8 +178,10 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
             what = ("proven: the LP's strategy, re-checked by interval iteration, meets every "
                     "threshold" if answer.proven else "LP verdict, not proven")
         elif answer.certified == answer.certified:  # not NaN
-            what = (f"LP value; proven: the optimum is {'at most' if answer.minimised else 'at least'}"
-                    f" {_fmt(answer.certified)}")
+            what = (
+                f"LP value; proven: the optimum is {'at most' if answer.minimised else 'at least'}"
+                f" {_fmt(answer.certified)}"
+            )
         else:
             what = "LP value: floating point, not a proven bound"
         click.echo(f"{prop_text}: {_fmt(value)}  (lp (HiGHS), {answer.seconds:.3f} s; {what})")
@@ -189,7 +218,8 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
              budgets: tuple[float, ...], consts: tuple[str, ...], memory: tuple[str, ...],
              timeout: float, seed: int, csv_file: str | None, plot_file: str | None,
              strategy_dir: str | None) -> int:
-    """``pareto --prop MISSION --cost COST``: the defender front (:mod:`posgmc.tradeoffs.defence`)."""
+    """``pareto --prop MISSION --cost COST``: the defender front
+    (:mod:`posgmc.tradeoffs.defence`)."""
     import math
 
     from posgmc.io.atomic import atomic_write_text
@@ -216,10 +246,17 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
             if p.error is not None:
                 click.echo(f"w={w}: " + p.error.render(), err=True)
             continue
-        rows.append((w, f"{_fmt(p.mission.value)} [{_fmt(p.mission.lower)}, {_fmt(p.mission.upper)}]"
-                     + (" (partial)" if p.partial else ""),
-                     f"{_fmt(p.cost.value)} [{_fmt(p.cost.lower)}, {_fmt(p.cost.upper)}]",
-                     "*" if i in front.front else "", str(p.memory), p.strategy_file or "-"))
+        rows.append(
+            (
+                w,
+                f"{_fmt(p.mission.value)} [{_fmt(p.mission.lower)}, {_fmt(p.mission.upper)}]"
+                + (" (partial)" if p.partial else ""),
+                f"{_fmt(p.cost.value)} [{_fmt(p.cost.lower)}, {_fmt(p.cost.upper)}]",
+                "*" if i in front.front else "",
+                str(p.memory),
+                p.strategy_file or "-",
+            )
+        )
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     for row in rows:
         click.echo("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
@@ -294,14 +331,19 @@ def _print(result: Any) -> None:
         cell = "-" if b is None else f"{_fmt(b.value)} [{_fmt(b.lower)}, {_fmt(b.upper)}]"
         if r is not None and r.synthesis and r.synthesis.get("partial"):
             cell += " (partial)"
-        rows.append((
-            p.setting, cell,
-            _fmt(r.full_observation.value) if r is not None and r.full_observation else "-",
-            _fmt(r.upper_bound.value) if r is not None and r.upper_bound else "-",
-            ", ".join(f"{n or 'agent'}={k}" for n, k in r.memory) if r is not None and r.memory else "-",
-            p.strategy_dir or "-",
-            *(_also_cell(a) for a in (p.also or (None,) * len(result.also))),
-        ))
+        rows.append(
+            (
+                p.setting,
+                cell,
+                _fmt(r.full_observation.value) if r is not None and r.full_observation else "-",
+                _fmt(r.upper_bound.value) if r is not None and r.upper_bound else "-",
+                ", ".join(f"{n or 'agent'}={k}" for n, k in r.memory)
+                if r is not None and r.memory
+                else "-",
+                p.strategy_dir or "-",
+                *(_also_cell(a) for a in (p.also or (None,) * len(result.also))),
+            )
+        )
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     for row in rows:
         click.echo("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())

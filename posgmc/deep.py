@@ -19,7 +19,7 @@ import functools
 import sys
 import threading
 from collections.abc import Callable, Iterator
-from typing import Any, TypeVar
+from typing import ParamSpec, TypeVar
 
 from posgmc.errors import LimitError
 
@@ -32,6 +32,7 @@ MAX_FRAMES = 60_000
 """Python frames allowed on the worker: about 10,000 levels of expression nesting."""
 
 T = TypeVar("T")
+P = ParamSpec("P")
 _local = threading.local()
 _limit_lock = threading.Lock()
 _active = 0  # workers running; the raised limit is restored when the last one ends
@@ -66,20 +67,23 @@ def deep_call(fn: Callable[[], T]) -> T:
     """
     if getattr(_local, "deep", False):
         return fn()
-    box: dict[str, Any] = {}
+    value: list[T] = []  # the worker's result, or
+    error: list[BaseException] = []  # what it raised
 
     def work() -> None:
         _local.deep = True
         try:
-            box["value"] = fn()
+            value.append(fn())
         except RecursionError:
-            box["error"] = LimitError(
-                "the input nests too deeply to process "
-                f"(more than about {MAX_FRAMES // 6} levels)",
-                hint="split the expression with formulas or constants",
+            error.append(
+                LimitError(
+                    "the input nests too deeply to process "
+                    f"(more than about {MAX_FRAMES // 6} levels)",
+                    hint="split the expression with formulas or constants",
+                )
             )
         except BaseException as e:  # noqa: BLE001 - re-raised in the caller's thread below
-            box["error"] = e
+            error.append(e)
         finally:
             _restore_limit()  # by the worker itself: balanced even if the caller was interrupted
 
@@ -95,29 +99,26 @@ def deep_call(fn: Callable[[], T]) -> T:
     finally:
         threading.stack_size(old_size)
     worker.join()  # Ctrl-C interrupts this wait in the main thread, as it should
-    if "error" in box:
-        raise box["error"]
-    return box["value"]  # type: ignore[no-any-return]
+    if error:
+        raise error[0]
+    return value[0]
 
 
-F = TypeVar("F", bound=Callable[..., Any])
-
-
-def deep_stack(f: F) -> F:
+def deep_stack(f: Callable[P, T]) -> Callable[P, T]:
     """Decorator: ``f`` always runs with :func:`deep_call`."""
 
     @functools.wraps(f)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> T:
         return deep_call(lambda: f(*args, **kwargs))
 
-    return wrapper  # type: ignore[return-value]
+    return wrapper
 
 
-def deep_generator(f: Callable[..., Iterator[T]]) -> Callable[..., Iterator[T]]:
+def deep_generator(f: Callable[P, Iterator[T]]) -> Callable[P, Iterator[T]]:
     """Decorator for a generator: each step runs with :func:`deep_call`."""
 
     @functools.wraps(f)
-    def wrapper(*args: Any, **kwargs: Any) -> Iterator[T]:
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> Iterator[T]:
         steps = f(*args, **kwargs)
         while True:
             try:

@@ -58,13 +58,17 @@ class PosgmcError(Exception):
         self.hint = hint
         self.source = source
 
-    def with_source(self, source: SourceText) -> "PosgmcError":
+    def with_source(self, source: SourceText) -> PosgmcError:
         """Attach the source text (and file name, if the span has none) for rendering."""
         if self.source is None:
             self.source = source
         if self.span is not None and self.span.file is None and source.file is not None:
             self.span = SourceSpan(
-                self.span.line, self.span.column, self.span.end_line, self.span.end_column, source.file
+                self.span.line,
+                self.span.column,
+                self.span.end_line,
+                self.span.end_column,
+                source.file,
             )
         return self
 
@@ -110,7 +114,8 @@ class ConstantError(InputError):
 
 
 class BuildError(InputError):
-    """The model is invalid in a way only exploration shows (e.g. probabilities not summing to 1)."""
+    """The model is invalid in a way only exploration shows (e.g. probabilities not summing
+    to 1)."""
 
 
 class ModelFormatError(InputError):
@@ -118,7 +123,8 @@ class ModelFormatError(InputError):
 
 
 class UnsupportedError(PosgmcError):
-    """The input is valid but asks for something this build does not do; the hint says what to do instead."""
+    """The input is valid but asks for something this build does not do; the hint says what to do
+    instead."""
 
 
 class LimitError(PosgmcError):

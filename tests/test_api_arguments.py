@@ -1,4 +1,5 @@
-"""The Python API validates its arguments and raises documented PosgmcError subclasses (issue #13)."""
+"""The Python API validates its arguments and raises documented PosgmcError subclasses (issue
+#13)."""
 
 from __future__ import annotations
 
@@ -22,8 +23,14 @@ ROVER = str(Path(__file__).resolve().parents[1] / "models" / "rover.smg")
         (lambda: api.load(text=b"dtmc"), "text must be a string, got bytes"),
         (lambda: api.load(ROVER, constants=["N=1"]), "constants must be a mapping"),
         (lambda: api.check(ROVER), "expected a Session from api.load, got str"),
-        (lambda: api.check(api.load(ROVER), options={"precision": 1}), "options must be a CheckOptions"),
-        (lambda: api.check(api.load(ROVER), properties=[1]), "properties must be a string or a list"),
+        (
+            lambda: api.check(api.load(ROVER), options={"precision": 1}),
+            "options must be a CheckOptions",
+        ),
+        (
+            lambda: api.check(api.load(ROVER), properties=[1]),
+            "properties must be a string or a list",
+        ),
         (lambda: api.build(api.load(ROVER), options=None), "options must be a BuildOptions"),
     ],
 )

@@ -31,14 +31,22 @@ def test_exceptions_reach_the_caller() -> None:
 
 
 def test_nested_calls_stay_on_one_worker() -> None:
-    names = deep_call(lambda: [threading.current_thread().name, deep_call(lambda: threading.current_thread().name)])
+    names = deep_call(
+        lambda: [
+            threading.current_thread().name,
+            deep_call(lambda: threading.current_thread().name),
+        ]
+    )
     assert names == ["posgmc-deep", "posgmc-deep"]
 
 
 def test_concurrent_callers_never_lower_each_others_limit() -> None:
     before = sys.getrecursionlimit()
     results: list[int] = []
-    threads = [threading.Thread(target=lambda: results.append(deep_call(lambda: _nest(15_000)))) for _ in range(4)]
+    threads = [
+        threading.Thread(target=lambda: results.append(deep_call(lambda: _nest(15_000))))
+        for _ in range(4)
+    ]
     for t in threads:
         t.start()
     for t in threads:

@@ -21,7 +21,8 @@ from posgmc.cli import main
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 
-# (folder, model, props, extra arguments, passed, skipped); strategy files are relative to the folder
+# (folder, model, props, extra arguments, passed, skipped); strategy files are relative to the
+# folder
 CASES = [
     ("maze", "maze.pomdp", "full_observation.props", ["--full-observation"], 2, 0),
     ("maze", "maze.pomdp", "maze.props", ["--memory", "2", "--timeout", "4"], 1, 0),
@@ -31,13 +32,46 @@ CASES = [
     ("trap_grid", "trap_grid.pomdp", "trap_grid.props", ["--memory", "2", "--timeout", "3"], 1, 0),
     ("convoy", "convoy.posg", "full_observation.props", ["--full-observation"], 1, 0),
     ("convoy", "convoy.posg", "convoy.props", ["--memory", "1", "--timeout", "2"], 1, 0),
-    ("convoy", "convoy.posg", "strategies.props",
-     ["--strategy", "convoy=mixed.fss.json", "--strategy", "attacker=ambushA.fss.json"], 2, 0),
-    ("convoy", "convoy.posg", "strategies.props",
-     ["--strategy", "convoy=mixed.fss.json", "--strategy", "attacker=ambushB.fss.json"], 2, 0),
-    ("convoy", "convoy.posg", "attacker_mix.props", ["--strategy", "attacker=ambush_mixed.fss.json"], 1, 0),
-    ("cyber_deception", "cyber_deception.posg", "full_observation.props", ["--full-observation"], 3, 0),
-    ("cyber_deception", "cyber_deception.posg", "cyber_deception.props", ["--memory", "1", "--timeout", "3"], 2, 0),
+    (
+        "convoy",
+        "convoy.posg",
+        "strategies.props",
+        ["--strategy", "convoy=mixed.fss.json", "--strategy", "attacker=ambushA.fss.json"],
+        2,
+        0,
+    ),
+    (
+        "convoy",
+        "convoy.posg",
+        "strategies.props",
+        ["--strategy", "convoy=mixed.fss.json", "--strategy", "attacker=ambushB.fss.json"],
+        2,
+        0,
+    ),
+    (
+        "convoy",
+        "convoy.posg",
+        "attacker_mix.props",
+        ["--strategy", "attacker=ambush_mixed.fss.json"],
+        1,
+        0,
+    ),
+    (
+        "cyber_deception",
+        "cyber_deception.posg",
+        "full_observation.props",
+        ["--full-observation"],
+        3,
+        0,
+    ),
+    (
+        "cyber_deception",
+        "cyber_deception.posg",
+        "cyber_deception.props",
+        ["--memory", "1", "--timeout", "3"],
+        2,
+        0,
+    ),
     ("tennis", "tennis.smg", "tennis.props", ["--const", "receiver_first=true"], 2, 0),
     ("tennis", "tennis.smg", "tennis.props", ["--const", "receiver_first=false"], 2, 0),
     ("red_and_black", "red_and_black.smg", "red_and_black.props", ["--const", "start=1:7"], 15, 6),
@@ -89,9 +123,13 @@ def test_sizes(folder: str, model: str, constants: tuple[tuple[str, object], ...
 
 @pytest.mark.parametrize(("folder", "model", "props", "args", "passed", "skipped"), CASES,
                          ids=[f"{c[0]}-{c[2]}-{i}" for i, c in enumerate(CASES)])
-def test_results_pass(folder: str, model: str, props: str, args: list[str], passed: int, skipped: int) -> None:
+def test_results_pass(
+    folder: str, model: str, props: str, args: list[str], passed: int, skipped: int
+) -> None:
     where = MODELS / folder
-    r = CliRunner().invoke(main, ["test", str(where / model), str(where / props), *_strategy_paths(where, args)])
+    r = CliRunner().invoke(
+        main, ["test", str(where / model), str(where / props), *_strategy_paths(where, args)]
+    )
     summary = f"{passed} passed, 0 failed" + (f", {skipped} skipped" if skipped else "")
     assert r.exit_code == 0, r.output
     assert r.output.strip().splitlines()[-1] == summary, r.output
@@ -118,7 +156,9 @@ for path, constants, prop, kind in json.loads(sys.argv[1]):
     model = stormpy.build_model(program, properties)
     value = None
     if kind == "pomdp":
-        result = stormpy.pomdp.verify_with_belief_unfolding(model, properties[0], max_exploration_time=60)
+        result = stormpy.pomdp.verify_with_belief_unfolding(
+            model, properties[0], max_exploration_time=60
+        )
         value = [result.value, bool(result.completed_exploration)]
     out.append([model.nr_states, model.nr_choices, model.nr_transitions, value])
 print(json.dumps(out))
@@ -128,7 +168,12 @@ print(json.dumps(out))
 STORM_CASES = [
     (("maze", "maze.pomdp", ()), "", 'R{"steps"}min=? [ F s=10 ]', 4.3),  # PRISM's RESULT
     (("tiger", "tiger.pomdp", ()), "", 'R{"cost"}min=? [ F "opened" ]', 2391 / 494),  # README.md
-    (("trap_grid", "trap_grid.pomdp", ()), "", 'Pmax=? [ F "goal" ]', (0.9**4 + 0.9**6) / 2),  # README.md
+    (
+        ("trap_grid", "trap_grid.pomdp", ()),
+        "",
+        'Pmax=? [ F "goal" ]',
+        (0.9**4 + 0.9**6) / 2,
+    ),  # README.md
     (("convoy", "convoy.posg", ()), "", "", None),
     (("cyber_deception", "cyber_deception.posg", ()), "", "", None),
     (("tennis", "tennis.smg", (("receiver_first", True),)), "receiver_first=true", "", None),

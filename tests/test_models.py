@@ -65,8 +65,11 @@ def test_posg_without_options_is_answered_by_synthesis() -> None:
     (the step-bounded one on the product with its step-counting automaton, issue #9)."""
     from posgmc.synthesis.search import SynthesisOptions
 
-    report = api.check(api.load(MODELS / "rover.posg"), property_files=[MODELS / "rover.props"],
-                       synthesis=SynthesisOptions(memory=(1,), timeout=5, restarts=0, iterations=10))
+    report = api.check(
+        api.load(MODELS / "rover.posg"),
+        property_files=[MODELS / "rover.props"],
+        synthesis=SynthesisOptions(memory=(1,), timeout=5, restarts=0, iterations=10),
+    )
     by_name = {r.name: r for r in report.results}
     assert by_name["reach"].guaranteed is not None
     # no partially observing rover beats the full-observation value (exact 0.9876561794)
@@ -99,7 +102,10 @@ def _run_cli(*args: str) -> tuple[int, str]:
 
 def test_secure_autonomy_lints_clean() -> None:
     for props in ("secure_autonomy.props", "full_observation.props"):
-        assert api.lint(SECURE_MODEL, [SECURE / props], constants={"N": 3, "flash": False, "B": 1}) == []
+        assert (
+            api.lint(SECURE_MODEL, [SECURE / props], constants={"N": 3, "flash": False, "B": 1})
+            == []
+        )
 
 
 @pytest.mark.parametrize("n", sorted(SECURE_SIZES))
@@ -180,13 +186,18 @@ def test_secure_autonomy_synthesis_gates() -> None:
 
 
 def test_beacon_memory_helps_and_never_hurts() -> None:
-    """guaranteed for k = 1, 2, 3: 0.5, 0.9, 0.9 (derived in models/beacon/README.md): non-decreasing
+    """guaranteed for k = 1, 2, 3: 0.5, 0.9, 0.9 (derived in models/beacon/README.md):
+    non-decreasing
     and strictly higher with memory."""
     from posgmc.synthesis.search import SynthesisOptions
 
     session = api.load(MODELS / "beacon" / "beacon.posg")
     built = api.build(session)
-    assert (built.model.num_states, built.model.num_choices, built.model.num_transitions) == (61, 81, 96)
+    assert (built.model.num_states, built.model.num_choices, built.model.num_transitions) == (
+        61,
+        81,
+        96,
+    )
     got = []
     for k in (1, 2, 3):
         report = api.check(session, properties=['<<rover>> Pmax=? [ F "safe" ]'], built=built,

@@ -28,7 +28,9 @@ def test_the_stages_at_top_level_answer_a_property() -> None:
     built = posgmc.build(posgmc.load(ROOT / "models" / "rover.smg"))
     assert isinstance(built, posgmc.BuiltModel) and built.model.num_states == 60
     with pytest.raises(posgmc.PosgmcError):
-        posgmc.build(posgmc.load(text="dtmc\nmodule m x : [0..1] init 0; [] x=0 -> (y'=1); endmodule\n"))
+        posgmc.build(
+            posgmc.load(text="dtmc\nmodule m x : [0..1] init 0; [] x=0 -> (y'=1); endmodule\n")
+        )
 
 
 def test_the_package_is_typed() -> None:

@@ -96,7 +96,8 @@ def _exists_ltl(
               else np.zeros((0, S), dtype=np.bool_))
     ldba = ltl.to_ldba(path, atoms, alphabet=np.unique(ltl.pack_letters(values)))
     prod = ltl.omega_product(model, ldba, values, starts=np.arange(S))
-    return ltl.accepting_cycles(prod)[prod.initial_map]
+    at_start: np.ndarray = ltl.accepting_cycles(prod)[prod.initial_map]
+    return at_start
 
 
 def _not_ctl(name: str, expr: PathQuantifier) -> UnsupportedError:

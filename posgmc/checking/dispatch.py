@@ -37,38 +37,40 @@ from posgmc.engines.steady import long_run_average
 from posgmc.engines.step_bounds import interval_reach_probability
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.printer import format_expr
-from posgmc.syntax.traversal import any_node
+from posgmc.semantics.evaluate import Value
+from posgmc.semantics.queries import reward_structure
 from posgmc.syntax.ast import (
     NO_SPAN,
     Binary,
     BinaryOp,
     Call,
-    Ite,
     Coalition,
     ComparisonOp,
     Direction,
     Expr,
     Filter,
-    PathQuantifier,
+    Ite,
     MultiQuery,
+    PathQuantifier,
     ProbQuery,
-    SteadyQuery,
     RewardKind,
     RewardQuery,
+    SteadyQuery,
     Temporal,
     TemporalOp,
     TimeBound,
     Unary,
     UnaryOp,
 )
+from posgmc.syntax.printer import format_expr
+from posgmc.syntax.traversal import any_node
 
 __all__ = ["CheckOptions", "PropertyChecker", "QueryValue"]
 
 CoalitionResolver = Callable[[Coalition | None], frozenset[int] | None]
 """Maps a query's coalition to 0-based player indices (None: no coalition written)."""
 
-ScalarEvaluator = Callable[[Expr], object]
+ScalarEvaluator = Callable[[Expr], Value]
 """Evaluates a constant expression (a bound, a threshold, a discount factor) to a Python value."""
 
 
@@ -213,7 +215,7 @@ class PropertyChecker:
             q = self._long_run(weight)
             if expr.threshold is None:
                 return q
-            bound = float(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            bound = float(self.scalar(expr.threshold.value))
             cmp = _COMPARISON[expr.threshold.op]
             return iv.binary(cmp, q, iv.exact(np.full(self.model.num_states, bound)))
         if isinstance(expr, Filter):
@@ -243,13 +245,15 @@ class PropertyChecker:
         are below, undecided (``lower < upper``) where the interval straddles it after
         refinement (see :meth:`_refined`)."""
         assert expr.threshold is not None  # noqa: S101 - guaranteed by caller
-        bound = float(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+        bound = float(self.scalar(expr.threshold.value))
         cmp = _COMPARISON[expr.threshold.op]
         threshold = iv.exact(np.full(self.model.num_states, bound))
         decided = iv.binary(cmp, q, threshold)
         init = self.model.initial_states
         if not np.all(decided.decided[init]):
-            q = self._refined(expr, q, lambda r: bool(np.all(iv.binary(cmp, r, threshold).decided[init])))
+            q = self._refined(
+                expr, q, lambda r: bool(np.all(iv.binary(cmp, r, threshold).decided[init]))
+            )
             decided = iv.binary(cmp, q, threshold)
         return replace(decided, engine=q.engine, method=q.method)
 
@@ -271,7 +275,9 @@ class PropertyChecker:
         precision, q = solver.precision, None
         while precision > 1e-12:
             precision = max(precision / 100, 1e-12)
-            finer = replace(self.options, solver=replace(solver, precision=precision, relative=False))
+            finer = replace(
+                self.options, solver=replace(solver, precision=precision, relative=False)
+            )
             checker = PropertyChecker(
                 self.model, coalition_of=self.coalition_of, scalar=self.scalar, options=finer
             )
@@ -474,7 +480,9 @@ class PropertyChecker:
             return self._omega_probability(path, maximize)
         prod, starts = self._ltl_product(path)
         pmax = maximize[prod.state_of]
-        r = obj.reach_probability(prod.model, prod.accepting, maximize=pmax, options=self.options.solver)
+        r = obj.reach_probability(
+            prod.model, prod.accepting, maximize=pmax, options=self.options.solver
+        )
         return self._project(prod, _from_engine(r), starts)
 
     def _omega_probability(self, path: Expr, maximize: np.ndarray) -> QueryValue:
@@ -567,13 +575,15 @@ class PropertyChecker:
             out[ok] = a[start[ok]]
             return out
 
-        return replace(q, values=pick(q.values), lower=pick(q.lower), upper=pick(q.upper), engine=q.engine)
+        return replace(
+            q, values=pick(q.values), lower=pick(q.lower), upper=pick(q.upper), engine=q.engine
+        )
 
     # -- rewards -------------------------------------------------------------------------------
 
     def _reward(self, expr: RewardQuery, maximize: np.ndarray) -> QueryValue:
         m, opts = self.model, self.options.solver
-        rm = m.reward_model(expr.reward)
+        rm = reward_structure(m, expr)
         objective = expr.objective
         kind = objective.kind
         choice_rewards = rm.choice_rewards(m.row_groups)
@@ -587,20 +597,28 @@ class PropertyChecker:
             )
         if kind is RewardKind.CUMULATIVE:
             k = self._int(objective.bound)
-            return _from_engine(obj.cumulative_reward(m, choice_rewards, steps=k, maximize=maximize, options=opts))
+            return _from_engine(
+                obj.cumulative_reward(m, choice_rewards, steps=k, maximize=maximize, options=opts)
+            )
         if kind is RewardKind.TOTAL:
-            return _from_engine(obj.total_reward(m, choice_rewards, maximize=maximize, options=opts))
+            return _from_engine(
+                obj.total_reward(m, choice_rewards, maximize=maximize, options=opts)
+            )
         if kind is RewardKind.DISCOUNTED_TOTAL:
             g = self._discount(objective.discount)
             return _from_engine(
-                obj.discounted_total_reward(m, choice_rewards, discount=g, maximize=maximize, options=opts)
+                obj.discounted_total_reward(
+                    m, choice_rewards, discount=g, maximize=maximize, options=opts
+                )
             )
         assert objective.target is not None  # noqa: S101 - the parser gives F/F0/Fc/LTL a target
         if kind is RewardKind.DISCOUNTED_REACH:
             g = self._discount(objective.discount)
             t = self._states(objective.target)
             return _from_engine(
-                obj.discounted_reach_reward(m, choice_rewards, t, discount=g, maximize=maximize, options=opts)
+                obj.discounted_reach_reward(
+                    m, choice_rewards, t, discount=g, maximize=maximize, options=opts
+                )
             )
         mode = {
             RewardKind.REACH: obj.ReachRewardMode.INFINITY,
@@ -613,11 +631,13 @@ class PropertyChecker:
             return self._ltl_reward(expr, target_expr, maximize, mode)
         t = self._states(target_expr)
         return _from_engine(
-            obj.expected_reach_reward(m, choice_rewards, t, maximize=maximize, mode=mode, options=opts)
+            obj.expected_reach_reward(
+                m, choice_rewards, t, maximize=maximize, mode=mode, options=opts
+            )
         )
 
     def _ltl_reward(
-        self, expr: RewardQuery, path: Expr, maximize: np.ndarray, mode: "obj.ReachRewardMode"
+        self, expr: RewardQuery, path: Expr, maximize: np.ndarray, mode: obj.ReachRewardMode
     ) -> QueryValue:
         from posgmc.engines import ltl
 
@@ -628,11 +648,16 @@ class PropertyChecker:
                 hint="use X, F, U and bounded G (a finite prefix must decide the formula)",
             )
         prod, starts = self._ltl_product(path)
-        rm = prod.model.reward_model(expr.reward)
+        rm = reward_structure(prod.model, expr)
         rewards = rm.choice_rewards(prod.model.row_groups)
         pmax = maximize[prod.state_of]
         r = obj.expected_reach_reward(
-            prod.model, rewards, prod.accepting, maximize=pmax, mode=mode, options=self.options.solver
+            prod.model,
+            rewards,
+            prod.accepting,
+            maximize=pmax,
+            mode=mode,
+            options=self.options.solver,
         )
         return self._project(prod, _from_engine(r), starts)
 
@@ -654,7 +679,7 @@ class PropertyChecker:
     def _discount(self, e: Expr | None) -> float:
         if e is None:
             raise SemanticError("a discount factor is missing")
-        g = float(self.scalar(e))  # type: ignore[arg-type]
+        g = float(self.scalar(e))
         if not 0.0 <= g < 1.0:
             raise SemanticError(f"the discount factor {g:g} is not in [0, 1)", e.span)
         return g

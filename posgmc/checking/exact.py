@@ -1,7 +1,7 @@
 """Exact checking (PRISM's ``-exact``): values as fractions, thresholds decided on them.
 
-The model must be built in exact mode (:mod:`posgmc.compiler.exact`: its transition probabilities are
-Fractions). What is answered exactly:
+The model must be built in exact mode (:mod:`posgmc.compiler.exact`: its transition probabilities
+are Fractions). What is answered exactly:
 
 * next, step-bounded and unbounded reachability and until probabilities, ``P=? [ X b ]``,
   ``P=? [ F<=k b ]``, ``P=? [ a U<=k b ]``, ``P=? [ F b ]``, ``P=? [ a U b ]``, with
@@ -15,9 +15,9 @@ Fractions). What is answered exactly:
   rational arithmetic;
 * state formulas without queries.
 
-Everything else (rewards, step bounds, LTL on games, arithmetic over queries, partially observable models)
-is refused with a message that names the supported fragment: an answer computed in floating point
-must not be printed as exact. Dense Gaussian elimination over Fractions: at most
+Everything else (rewards, step bounds, LTL on games, arithmetic over queries, partially observable
+models) is refused with a message that names the supported fragment: an answer computed in floating
+point must not be printed as exact. Dense Gaussian elimination over Fractions: at most
 :data:`EXACT_STATE_LIMIT` states with an undecided value.
 """
 
@@ -25,7 +25,9 @@ from __future__ import annotations
 
 import operator
 import time
+from collections.abc import Sequence
 from fractions import Fraction
+from typing import TypedDict
 
 import numpy as np
 
@@ -37,9 +39,10 @@ from posgmc.engines.rational import (
     exact_cumulative_reward,
     exact_rational_reach,
 )
-from posgmc.errors import LimitError, UnsupportedError
 from posgmc.engines.rational_rewards import exact_reach_reward
 from posgmc.engines.steady import as_fractions, long_run_exact
+from posgmc.errors import LimitError, UnsupportedError
+from posgmc.semantics.queries import reward_structure
 from posgmc.syntax.ast import (
     ComparisonOp,
     Expr,
@@ -79,6 +82,26 @@ def _outward(v: Fraction) -> tuple[float, float]:
     return lower, upper
 
 
+def _at(values: Sequence[Fraction | None], states: np.ndarray) -> list[Fraction]:
+    """The values at ``states`` (the initial states, where every exact answer has its value; an
+    LTL one has it only there)."""
+    out: list[Fraction] = []
+    for s in states.tolist():
+        v = values[s]
+        if v is None:  # pragma: no cover - see above
+            raise RuntimeError("exact checking found no value at an initial state")
+        out.append(v)
+    return out
+
+
+class _Common(TypedDict):
+    """The fields every result of exact checking shares."""
+
+    property: str
+    name: str | None
+    method: str
+
+
 class ExactChecker(PropertyChecker):
     """Checks properties exactly on a model built in exact mode (see the module docstring)."""
 
@@ -88,17 +111,17 @@ class ExactChecker(PropertyChecker):
         if model.exact_probabilities is None:
             raise UnsupportedError(
                 "exact checking needs a model built in exact mode (its probabilities as fractions)",
-                hint="a model read from DRN has floating-point probabilities; check it without --exact",
+                hint="a model read from DRN has floating-point probabilities; check it without "
+                     "--exact",
             )
         if model.model_type.is_partially_observable or model.observations:
             raise UnsupportedError(
                 f"exact mode does not cover partially observable models ({model.model_type.value})"
             )
         init = model.initial_states
-        common = {"property": text, "name": name, "method": "exact (rational)"}
+        common: _Common = {"property": text, "name": name, "method": "exact (rational)"}
         if isinstance(expr, ProbQuery):
-            values = self._reach(expr)
-            at_init = [values[int(s)] for s in init]
+            at_init = _at(self._reach(expr), init)
             if expr.threshold is None:
                 lower, upper = _outward(at_init[0])
                 return PropertyResult(
@@ -109,9 +132,9 @@ class ExactChecker(PropertyChecker):
                     seconds=time.perf_counter() - start,
                     per_initial=tuple(float(v) for v in at_init),
                     exact=at_init[0],
-                    **common,  # type: ignore[arg-type]
+                    **common,
                 )
-            bound = Fraction(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            bound = Fraction(self.scalar(expr.threshold.value))
             holds = [_COMPARE[expr.threshold.op](v, bound) for v in at_init]
             return PropertyResult(
                 kind=ResultKind.BOOLEAN,
@@ -120,7 +143,7 @@ class ExactChecker(PropertyChecker):
                 upper=None,
                 seconds=time.perf_counter() - start,
                 per_initial=tuple(holds),
-                **common,  # type: ignore[arg-type]
+                **common,
             )
         if (isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.REACH
                 and expr.objective.target is not None and not _is_temporal(expr.objective.target)
@@ -134,19 +157,21 @@ class ExactChecker(PropertyChecker):
             threshold = expr.threshold if isinstance(expr, SteadyQuery) else None
             if threshold is None:
                 lower, upper = _outward(at_init[0])
-                kind = ResultKind.PROBABILITY if isinstance(expr, SteadyQuery) else ResultKind.REWARD
+                kind = (
+                    ResultKind.PROBABILITY if isinstance(expr, SteadyQuery) else ResultKind.REWARD
+                )
                 return PropertyResult(
                     kind=kind, value=float(at_init[0]), lower=lower, upper=upper,
                     seconds=time.perf_counter() - start,
                     per_initial=tuple(float(v) for v in at_init), exact=at_init[0],
-                    **common,  # type: ignore[arg-type]
+                    **common,
                 )
-            bound = Fraction(self.scalar(threshold.value))  # type: ignore[arg-type]
+            bound = Fraction(self.scalar(threshold.value))
             holds = [_COMPARE[threshold.op](v, bound) for v in at_init]
             return PropertyResult(
                 kind=ResultKind.BOOLEAN, value=all(holds), lower=None, upper=None,
                 seconds=time.perf_counter() - start, per_initial=tuple(holds),
-                **common,  # type: ignore[arg-type]
+                **common,
             )
         if _contains_query(expr):
             raise UnsupportedError(f"{_SUPPORTED}; this property is not one of them", expr.span)
@@ -163,15 +188,15 @@ class ExactChecker(PropertyChecker):
             upper=None,
             seconds=time.perf_counter() - start,
             per_initial=tuple(holds),
-            **common,  # type: ignore[arg-type]
+            **common,
         )
 
-    def _cumulative_reward(self, expr: RewardQuery, common: dict[str, object],
+    def _cumulative_reward(self, expr: RewardQuery, common: _Common,
                            start: float) -> PropertyResult:
         """``R[ C<=k ]`` (and its thresholds) exactly, by backward induction."""
         self._check_size()
         model = self.model
-        rewards = as_fractions(model.reward_model(expr.reward).choice_rewards(model.row_groups))
+        rewards = as_fractions(reward_structure(model, expr).choice_rewards(model.row_groups))
         steps = self._int(expr.objective.bound)
         values = exact_cumulative_reward(
             model, rewards, steps=steps, maximize=self._maximize(expr)
@@ -179,51 +204,51 @@ class ExactChecker(PropertyChecker):
         at_init = [values[int(s)] for s in model.initial_states]
         seconds = time.perf_counter() - start
         if expr.threshold is not None:
-            bound = Fraction(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            bound = Fraction(self.scalar(expr.threshold.value))
             holds = [_COMPARE[expr.threshold.op](v, bound) for v in at_init]
             return PropertyResult(kind=ResultKind.BOOLEAN, value=all(holds), lower=None,
                                   upper=None, seconds=seconds, per_initial=tuple(holds),
-                                  **common)  # type: ignore[arg-type]
+                                  **common)
         lower, upper = _outward(at_init[0])
         return PropertyResult(kind=ResultKind.REWARD, value=float(at_init[0]), lower=lower,
                               upper=upper, seconds=seconds, exact=at_init[0],
                               per_initial=tuple(float(v) for v in at_init),
-                              **common)  # type: ignore[arg-type]
+                              **common)
 
-    def _reach_reward(self, expr: RewardQuery, common: dict[str, object],
+    def _reach_reward(self, expr: RewardQuery, common: _Common,
                       start: float) -> PropertyResult:
         """``R[F b]`` (and its thresholds) exactly; infinite values are exact too."""
         self._check_size()
         model = self.model
         assert expr.objective.target is not None  # noqa: S101 - checked by the caller
         target = self._states(expr.objective.target)
-        rewards = as_fractions(model.reward_model(expr.reward).choice_rewards(model.row_groups))
+        rewards = as_fractions(reward_structure(model, expr).choice_rewards(model.row_groups))
         maximize = bool(self._maximize(expr).any())
         values, infinite = exact_reach_reward(model, rewards, target, maximize=maximize)
         init = [int(s) for s in model.initial_states]
         seconds = time.perf_counter() - start
         if expr.threshold is not None:
-            bound = Fraction(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
+            bound = Fraction(self.scalar(expr.threshold.value))
             above = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
             # an infinite value is above every threshold
             holds = [above if infinite[s] else _COMPARE[expr.threshold.op](values[s], bound)
                      for s in init]
             return PropertyResult(kind=ResultKind.BOOLEAN, value=all(holds), lower=None,
                                   upper=None, seconds=seconds, per_initial=tuple(holds),
-                                  **common)  # type: ignore[arg-type]
+                                  **common)
         s0 = init[0]
         if infinite[s0]:
             return PropertyResult(kind=ResultKind.REWARD, value=float("inf"), lower=float("inf"),
                                   upper=float("inf"), seconds=seconds,
                                   per_initial=tuple(float("inf") if infinite[s] else
                                                     float(values[s]) for s in init),
-                                  **common)  # type: ignore[arg-type]
+                                  **common)
         lower, upper = _outward(values[s0])
         return PropertyResult(kind=ResultKind.REWARD, value=float(values[s0]), lower=lower,
                               upper=upper, seconds=seconds, exact=values[s0],
                               per_initial=tuple(float("inf") if infinite[s] else float(values[s])
                                                 for s in init),
-                              **common)  # type: ignore[arg-type]
+                              **common)
 
     def _ltl(self, expr: ProbQuery) -> list[Fraction | None]:
         """An LTL probability exactly: the LDBA product's maximal probability of reaching an
@@ -256,14 +281,14 @@ class ExactChecker(PropertyChecker):
             weight = [Fraction(int(b)) for b in self._states(expr.operand)]
         elif (isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.STEADY
               and expr.threshold is None):
-            rm = self.model.reward_model(expr.reward)
+            rm = reward_structure(self.model, expr)
             weight = as_fractions(rm.choice_rewards(self.model.row_groups))
         else:
             return None
         self._check_size()
         return long_run_exact(self.model, weight)
 
-    def _reach(self, expr: ProbQuery) -> list[Fraction]:
+    def _reach(self, expr: ProbQuery) -> Sequence[Fraction | None]:
         path = expr.path
         bound = getattr(path, "bound", None)
         if (isinstance(path, Temporal) and path.op is TemporalOp.GLOBALLY
@@ -285,8 +310,14 @@ class ExactChecker(PropertyChecker):
             not isinstance(path, Temporal)
             or path.op not in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL, TemporalOp.NEXT)
             or any(_is_temporal(o) or _contains_query(o) for o in path.operands)
-            or (bound is not None and (path.op is TemporalOp.NEXT or self._step_interval(bound)[0] != 0
-                                       or self._step_interval(bound)[1] is None))
+            or (
+                bound is not None
+                and (
+                    path.op is TemporalOp.NEXT
+                    or self._step_interval(bound)[0] != 0
+                    or self._step_interval(bound)[1] is None
+                )
+            )
         ):
             if _is_temporal(path) and not _contains_query(path):
                 return self._ltl(expr)

@@ -3,16 +3,16 @@
 A RESULT line holds a number (``0.85``, ``19/15``, ``1e-3``), an interval ``[lo,hi]``, ``true`` or
 ``false``, ``Infinity``/``-Infinity``, ``NaN``, ``Error`` or ``Error:substring`` (the property must
 fail, with that text in its message), a Pareto front ``[(x,y),...]`` (multi-objective queries), or
-``?`` (not checked). ``// RESULT (N=4): v`` applies when
-the constant N is 4; ``// RESULT (guaranteed): v`` compares the named number of the result
-(``guaranteed``, ``vs_fss_adversary``, ``upper_bound``, ``full_observation``) instead of its value.
-Numbers pass within a relative tolerance of the result (PRISM: ``1e-5·|v| + 1e-12``) or within
-the result's proven bounds (PRISM grades with a result's own accuracy when it has one), an
-interval when the value ± that tolerance (or the bounds) meets it; ``~v`` asks only for closeness in exact mode; an
-expected value may be an expression over the constants (``RESULT: 1/N``), as PRISM allows.
-``Error:a,b`` passes when the message contains every comma-separated word. In exact mode the
-fraction must be equal. The rules are PRISM's (``prism/src/prism/ResultTesting.java``), and the
-applicable line is the first whose constants all match (``Property.getExpectedResultString``).
+``?`` (not checked). ``// RESULT (N=4): v`` applies when the constant N is 4; ``// RESULT
+(guaranteed): v`` compares the named number of the result (``guaranteed``, ``vs_fss_adversary``,
+``upper_bound``, ``full_observation``) instead of its value. Numbers pass within a relative
+tolerance of the result (PRISM: ``1e-5·|v| + 1e-12``) or within the result's proven bounds (PRISM
+grades with a result's own accuracy when it has one), an interval when the value ± that tolerance
+(or the bounds) meets it; ``~v`` asks only for closeness in exact mode; an expected value may be an
+expression over the constants (``RESULT: 1/N``), as PRISM allows. ``Error:a,b`` passes when the
+message contains every comma-separated word. In exact mode the fraction must be equal. The rules are
+PRISM's (``prism/src/prism/ResultTesting.java``), and the applicable line is the first whose
+constants all match (``Property.getExpectedResultString``).
 """
 
 from __future__ import annotations
@@ -21,10 +21,14 @@ import math
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import TYPE_CHECKING
 
 from posgmc.checking.results import PropertyResult
 from posgmc.errors import PosgmcError
 from posgmc.syntax.ast import ExpectedResult, Property
+
+if TYPE_CHECKING:
+    from posgmc.checking.multi import Front
 
 __all__ = ["Verdict", "check_form", "expected_for", "grade", "DEFAULT_TOLERANCE"]
 
@@ -100,7 +104,7 @@ def _expected_number(text: str, constants: Mapping[str, str] | None) -> float:
     try:
         expr = parse_expression(text)
         env = {k: _constant_value(v) for k, v in (constants or {}).items()}
-        return float(evaluate(expr, env))  # type: ignore[arg-type]
+        return float(evaluate(expr, env))
     except (PosgmcError, ValueError, TypeError, KeyError, ZeroDivisionError):
         raise ValueError(f"RESULT value {text!r} is not a number, interval, true/false, "
                          "Infinity, NaN, Error, ? or an expression over the constants") from None
@@ -120,7 +124,13 @@ def _show(value: object) -> str:
     if value is None:
         return "unknown"
     if isinstance(value, float):
-        return "Infinity" if value == math.inf else "-Infinity" if value == -math.inf else f"{value:.10g}"
+        return (
+            "Infinity"
+            if value == math.inf
+            else "-Infinity"
+            if value == -math.inf
+            else f"{value:.10g}"
+        )
     return str(value)
 
 
@@ -160,9 +170,8 @@ def check_form(text: str, names: Collection[str] | None = None) -> None:
     try:
         _number(body)
     except (ValueError, ZeroDivisionError):
-        from posgmc.syntax.parser import parse_expression
-
         from posgmc.semantics.evaluate import free_names
+        from posgmc.syntax.parser import parse_expression
 
         try:  # PRISM: an expression over the constants, evaluated when graded
             unknown = free_names(parse_expression(body)) - set(names if names is not None else ())
@@ -170,11 +179,16 @@ def check_form(text: str, names: Collection[str] | None = None) -> None:
             raise ValueError(f"RESULT value {text!r} is not {_FORMS}") from None
         if names is not None and unknown:
             raise ValueError(f"RESULT value {text!r} is not {_FORMS} (no constant named "
-                             f"{', '.join(sorted(unknown))})")
+                             f"{', '.join(sorted(unknown))})") from None
 
 
-def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
-          tolerance: float = DEFAULT_TOLERANCE, constants: Mapping[str, str] | None = None) -> Verdict:
+def grade(
+    expected: ExpectedResult,
+    outcome: PropertyResult | PosgmcError,
+    *,
+    tolerance: float = DEFAULT_TOLERANCE,
+    constants: Mapping[str, str] | None = None,
+) -> Verdict:
     """Whether ``outcome`` matches ``expected`` (``constants``: the values an expected expression
     such as ``1/N`` may name).
 
@@ -199,7 +213,7 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
     front = getattr(outcome, "front", None)
     if front is not None or text.startswith("[("):
         return _grade_front(text, front, tolerance)
-    value: object = outcome.value
+    value: float | bool | None = outcome.value
     if expected.number is not None:
         number = getattr(outcome, expected.number, None)
         if number is None:
@@ -220,7 +234,7 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
             wanted = None
         if wanted is not None and (exact == wanted or not approximate):
             return Verdict(exact == wanted, text, str(exact))
-    v = float(value)  # type: ignore[arg-type]
+    v = float(value)
     proven = _proven_bounds(outcome) if expected.number is None else None
     if body.startswith("[") and body.endswith("]"):
         lo, hi = _interval(body)
@@ -229,7 +243,9 @@ def grade(expected: ExpectedResult, outcome: PropertyResult | PosgmcError, *,
         slack = _slack(v, tolerance) if math.isfinite(v) else 0.0
         meets = v - slack <= hi and lo <= v + slack
         if proven is not None:
-            meets |= proven[0] - _FLOATING_POINT_ERROR <= hi and lo <= proven[1] + _FLOATING_POINT_ERROR
+            meets |= (
+                proven[0] - _FLOATING_POINT_ERROR <= hi and lo <= proven[1] + _FLOATING_POINT_ERROR
+            )
         return Verdict(meets, text, _show(v))
     e = _expected_number(body, constants)
     close = _close(v, e, tolerance)
@@ -260,17 +276,17 @@ def _points(text: str) -> list[tuple[float, ...]]:
     return [tuple(_number(x) for x in g.split(",")) for g in groups]
 
 
-def _grade_front(text: str, front: object, tolerance: float) -> Verdict:
+def _grade_front(text: str, front: Front | None, tolerance: float) -> Verdict:
     """A Pareto RESULT passes when the same vertices were found: every expected point is close to
     a vertex of the computed front and every vertex close to an expected point (relative
     ``tolerance``, absolute 1e-6 near 0)."""
     if front is None:
         return Verdict(False, text, "not a Pareto front")
     if not text.startswith("[("):
-        return Verdict(False, text, front.text())  # type: ignore[attr-defined]
+        return Verdict(False, text, front.text())
     wanted = _points(text)
-    got = [tuple(float(v) for v in p) for p in front.points]  # type: ignore[attr-defined]
-    actual = front.text()  # type: ignore[attr-defined]
+    got = [tuple(float(v) for v in p) for p in front.points]
+    actual = front.text()
 
     def near(p: tuple[float, ...], q: tuple[float, ...]) -> bool:
         return len(p) == len(q) and all(

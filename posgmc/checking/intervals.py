@@ -17,7 +17,7 @@ or bound) is not ``sound``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -56,7 +56,9 @@ def exact(values: np.ndarray, *, method: str = "exact") -> QueryValue:
     return QueryValue(values, values, values, method=method)
 
 
-def _join(values: np.ndarray, lower: np.ndarray, upper: np.ndarray, *parts: QueryValue) -> QueryValue:
+def _join(
+    values: np.ndarray, lower: np.ndarray, upper: np.ndarray, *parts: QueryValue
+) -> QueryValue:
     """A result's record; a NaN bound (no bound holds there) is judged where it is read."""
     return QueryValue(
         values=values,
@@ -81,7 +83,13 @@ def logical_not(q: QueryValue) -> QueryValue:
     return replace(q, values=~q.values, lower=~q.upper, upper=~q.lower)
 
 
-def _corners(op: np.ufunc, a: QueryValue, b: QueryValue) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+ArrayOp = Callable[[np.ndarray, np.ndarray], np.ndarray]
+"""A binary function of arrays, elementwise (a ufunc or a composition of them)."""
+
+
+def _corners(
+    op: ArrayOp, a: QueryValue, b: QueryValue
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Value and extremes of a function monotone in each argument, over the corners of the box."""
     cands = np.stack([op(_f(x), _f(y)) for x in (a.lower, a.upper) for y in (b.lower, b.upper)])
     lo, hi = np.min(cands, axis=0), np.max(cands, axis=0)  # NaN anywhere stays NaN: not sound
@@ -180,11 +188,12 @@ def call(function: Function, args: Sequence[QueryValue]) -> QueryValue:
                 v, lo, hi = pick(v, q.values), pick(lo, q.lower), pick(hi, q.upper)
             return _join(v, lo, hi, *args)
         if function in (Function.FLOOR, Function.CEIL, Function.ROUND):
-            f = {
+            rounding: dict[Function, Callable[[np.ndarray], np.ndarray]] = {
                 Function.FLOOR: np.floor,
                 Function.CEIL: np.ceil,
                 Function.ROUND: lambda x: np.floor(x + 0.5),
-            }[function]
+            }
+            f = rounding[function]
             q = args[0]
             return _join(f(_f(q.values)), f(_f(q.lower)), f(_f(q.upper)), q)
         if function is Function.POW:

@@ -7,7 +7,8 @@ sought for the single initial state that meets every objective **at once**:
 * numerical ``multi(Pmax=? [F "goal"], R{"cost"}<=20 [C])``: the optimum of the ``=?`` objective
   over the strategies meeting the constraints (NaN when none does, as PRISM);
 * Pareto ``multi(Pmax=? [...], R{"cost"}min=? [...])``: the front of the two ``=?`` objectives
-  over those strategies, as an under- and an over-approximation (:mod:`posgmc.engines.multi.pareto`).
+  over those strategies, as an under- and an over-approximation
+  (:mod:`posgmc.engines.multi.pareto`).
 
 A threshold ``P>=p`` here means "some strategy achieves it" (not "every scheduler", as alone).
 Strict and non-strict thresholds are read alike (the LP's closure; PRISM does the same).
@@ -35,7 +36,7 @@ import enum
 import math
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 import scipy.sparse as sp
@@ -48,6 +49,7 @@ from posgmc.engines.multi.settle import Condition, ConditionKind, Settling, sett
 from posgmc.engines.multi.unfold import layer_rewards, unfold_steps
 from posgmc.errors import SemanticError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.semantics.queries import reward_structure
 from posgmc.syntax.ast import (
     NO_SPAN,
     ComparisonOp,
@@ -177,14 +179,14 @@ class _Objective:
         return 1.0 if self.is_probability or self.bound is None else max(1.0, abs(self.bound))
 
 
-def _objectives(expr: MultiQuery, checker: "PropertyChecker") -> list[_Objective]:
+def _objectives(expr: MultiQuery, checker: PropertyChecker) -> list[_Objective]:
     out = []
     for q in expr.objectives:
         if not isinstance(q, (ProbQuery, RewardQuery)):  # pragma: no cover - semantics reject it
             raise SemanticError("each argument of multi(...) must be a P or R query", q.span)
         if q.threshold is not None:
             minimise = q.threshold.op in (ComparisonOp.LE, ComparisonOp.LT)
-            bound = float(checker.scalar(q.threshold.value))  # type: ignore[arg-type]
+            bound = float(checker.scalar(q.threshold.value))
         else:
             if q.direction is None:
                 raise SemanticError("=? in multi(...) needs a direction", q.span,
@@ -217,17 +219,19 @@ def _unary_chain(path: Expr, outer: TemporalOp, inner: TemporalOp) -> Expr | Non
 class _Builder:
     """The product MDP grown objective by objective, with each condition's mask kept current."""
 
-    def __init__(self, checker: "PropertyChecker") -> None:
+    def __init__(self, checker: PropertyChecker) -> None:
         self.base = checker
         self.model: ExplicitModel = checker.model
         self.initial = int(checker.model.initial_states[0])
         self.masks: list[tuple[ConditionKind, np.ndarray]] = []
 
-    def _checker(self) -> "PropertyChecker":
+    def _checker(self) -> PropertyChecker:
         from posgmc.checking.dispatch import PropertyChecker
 
         b = self.base
-        return PropertyChecker(self.model, coalition_of=b.coalition_of, scalar=b.scalar, options=b.options)
+        return PropertyChecker(
+            self.model, coalition_of=b.coalition_of, scalar=b.scalar, options=b.options
+        )
 
     def _states(self, e: Expr) -> np.ndarray:
         values = self._checker().state_value(e).values
@@ -291,7 +295,9 @@ class _Parts:
     condition_of: dict[int, int]  # probability objective -> its condition
 
 
-def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecker") -> tuple[OccupationLP, int, _Parts]:
+def _lp(
+    expr: MultiQuery, objectives: list[_Objective], checker: PropertyChecker
+) -> tuple[OccupationLP, int, _Parts]:
     """The occupation LP of the query (objective ``i`` is row ``i``), its number of states and
     the parts its strategy is re-checked on."""
     model = checker.model
@@ -302,7 +308,9 @@ def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecke
             hint="add an init ... endinit block, or initial values, that pick one state",
         )
     builder = _Builder(checker)
-    condition_of = {i: builder.add_probability(o) for i, o in enumerate(objectives) if o.is_probability}
+    condition_of = {
+        i: builder.add_probability(o) for i, o in enumerate(objectives) if o.is_probability
+    }
     m = builder.model
     last = 0
     bounds: dict[int, int | None] = {}
@@ -327,7 +335,7 @@ def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecke
     for i, bound in bounds.items():
         q = objectives[i].query
         assert isinstance(q, RewardQuery)  # noqa: S101
-        base = m.reward_model(q.reward).choice_rewards(m.row_groups)
+        base = reward_structure(m, q).choice_rewards(m.row_groups)
         if (base < 0).any():
             raise UnsupportedError(
                 "multi(...) needs non-negative rewards; this reward structure has negative ones",
@@ -349,7 +357,7 @@ def _lp(expr: MultiQuery, objectives: list[_Objective], checker: "PropertyChecke
             expr.span,
         )
     coefficients = np.zeros((len(objectives), num_choices + stop_state.size))
-    for i, o in enumerate(objectives):
+    for i in range(len(objectives)):
         if i in condition_of:
             coefficients[i, num_choices:] = stop_sat[:, condition_of[i]]
         else:
@@ -388,7 +396,7 @@ def _certify(parts: _Parts, objectives: list[_Objective], x: np.ndarray) -> np.n
 
 
 def answer_multi(
-    checker: "PropertyChecker", expr: MultiQuery, *, tolerance: float = 1e-6, max_solves: int = 200
+    checker: PropertyChecker, expr: MultiQuery, *, tolerance: float = 1e-6, max_solves: int = 200
 ) -> MultiAnswer:
     """Answer a ``multi(...)`` query on the checker's model (see the module docstring).
 
@@ -481,8 +489,15 @@ def _meets(objectives: list[_Objective], lower: np.ndarray, at_least: dict[int, 
     return True
 
 
-def _certified_optimum(lp: OccupationLP, parts: _Parts, objectives: list[_Objective], i: int,
-                       weights: np.ndarray, at_least: dict[int, float], x: np.ndarray | None) -> float:
+def _certified_optimum(
+    lp: OccupationLP,
+    parts: _Parts,
+    objectives: list[_Objective],
+    i: int,
+    weights: np.ndarray,
+    at_least: dict[int, float],
+    x: np.ndarray | None,
+) -> float:
     """A proven bound on the optimum of objective ``i`` (a lower bound when it is maximised, an
     upper bound when minimised), in its own units, from a strategy whose values the sound
     engines re-check; NaN when the check proves nothing. The LP's own solution is tried first;
@@ -505,13 +520,16 @@ def _certified_optimum(lp: OccupationLP, parts: _Parts, objectives: list[_Object
     return math.nan
 
 
-def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name: str | None) -> PropertyResult:
+def check_multi(
+    checker: PropertyChecker, expr: MultiQuery, *, text: str, name: str | None
+) -> PropertyResult:
     """A ``multi(...)`` property as a :class:`PropertyResult` (``multi`` holds the typed answer)."""
     a = answer_multi(checker, expr)
     if expr.coalition is not None:
         return _game_result(a, text=text, name=name)
     method = "lp (HiGHS)"
-    common = dict(property=text, name=name, seconds=a.seconds, method=method, sound=False, multi=a)
+    common = _Common(property=text, name=name, seconds=a.seconds, method=method, sound=False,
+                     multi=a)
     if a.kind is MultiKind.ACHIEVABILITY:
         if a.proven:
             note = ("proven: the LP's strategy, re-checked by interval iteration on the chain it "
@@ -525,7 +543,7 @@ def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name
             note = (f"at the boundary: the LP's answer is within its tolerance of the thresholds "
                     f"(margin {a.margin:.2g}); not decided with margin {MARGIN:g}")
         return PropertyResult(kind=ResultKind.BOOLEAN, value=bool(a.achievable), lower=None,
-                              upper=None, note=note, **common)  # type: ignore[arg-type]
+                              upper=None, note=note, **common)
     if a.kind is MultiKind.NUMERICAL:
         v = a.value
         if np.isnan(v):
@@ -545,7 +563,7 @@ def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name
                 else:
                     upper = max(upper, a.certified)
         return PropertyResult(kind=ResultKind.NUMBER, value=v, lower=lower, upper=upper,
-                              note=note, **common)  # type: ignore[arg-type]
+                              note=note, **common)
     assert a.front is not None  # noqa: S101
     f = a.front
     note = (f"Pareto front: {len(f.points)} vertices; over-approximation within {f.precision:.2g} "
@@ -553,20 +571,31 @@ def check_multi(checker: "PropertyChecker", expr: MultiQuery, *, text: str, name
     if len(f.points) == 0:
         note = "the constraints cannot be met together: the front is empty"
     return PropertyResult(kind=ResultKind.PARETO, value=float("nan"), lower=None, upper=None,
-                          note=note, **common)  # type: ignore[arg-type]
+                          note=note, **common)
+
+
+class _Common(TypedDict):
+    """The fields every result of a ``multi(...)`` query shares."""
+
+    property: str
+    name: str | None
+    seconds: float
+    method: str
+    sound: bool
+    multi: MultiAnswer
 
 
 def _game_result(a: MultiAnswer, *, text: str, name: str | None) -> PropertyResult:
     """A coalition query on an smg: answers from an under-approximation (multi_games.py)."""
-    common = dict(property=text, name=name, seconds=a.seconds, method="value iteration (sets)",
-                  sound=False, multi=a)
+    common = _Common(property=text, name=name, seconds=a.seconds,
+                     method="value iteration (sets)", sound=False, multi=a)
     if a.kind is MultiKind.ACHIEVABILITY:
         note = ("the coalition achieves the thresholds (they lie in the under-approximation of "
                 "the achievable set)" if a.achievable else
                 f"not proven: the thresholds lie {-a.margin:.3g} outside the under-approximation "
                 "of the achievable set; its limit might still reach them")
         return PropertyResult(kind=ResultKind.BOOLEAN, value=bool(a.achievable), lower=None,
-                              upper=None, note=note, **common)  # type: ignore[arg-type]
+                              upper=None, note=note, **common)
     if a.kind is MultiKind.NUMERICAL:
         note = ("a lower bound: achievable by the coalition (from the under-approximation of the "
                 "achievable set); the optimum may be higher")
@@ -574,10 +603,13 @@ def _game_result(a: MultiAnswer, *, text: str, name: str | None) -> PropertyResu
             note = "no point of the under-approximation meets the constraint"
         return PropertyResult(kind=ResultKind.NUMBER, value=a.value, lower=a.value,
                               upper=math.inf if not np.isnan(a.value) else a.value, note=note,
-                              **common)  # type: ignore[arg-type]
+                              **common)
     assert a.front is not None  # noqa: S101
-    note = (f"Pareto front of the coalition: {len(a.front.points)} vertices of an "
-            "under-approximation (value iteration"
-            + (", converged" if a.front.converged else ", NOT converged") + "); no over-approximation")
+    note = (
+        f"Pareto front of the coalition: {len(a.front.points)} vertices of an "
+        "under-approximation (value iteration"
+        + (", converged" if a.front.converged else ", NOT converged")
+        + "); no over-approximation"
+    )
     return PropertyResult(kind=ResultKind.PARETO, value=float("nan"), lower=None, upper=None,
-                          note=note, **common)  # type: ignore[arg-type]
+                          note=note, **common)

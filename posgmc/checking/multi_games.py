@@ -20,14 +20,17 @@ from __future__ import annotations
 
 import math
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 
 from posgmc.engines.graph import end_components
 from posgmc.engines.multi import polygon
 from posgmc.engines.multi.games import coalition_sets
+from posgmc.engines.multi.settle import ConditionKind
 from posgmc.errors import UnsupportedError
+from posgmc.model.explicit import ExplicitModel
+from posgmc.semantics.queries import reward_structure
 from posgmc.syntax.ast import Direction, MultiQuery, ProbQuery, RewardQuery
 from posgmc.syntax.printer import format_expr
 
@@ -38,30 +41,50 @@ if TYPE_CHECKING:
 __all__ = ["answer_game"]
 
 
-def _terminal(model) -> np.ndarray:  # type: ignore[no-untyped-def]
+class _Statistics(TypedDict):
+    """What every answer of a coalition query reports about its computation."""
+
+    residual: float
+    states: int
+    seconds: float
+
+
+def _terminal(model: ExplicitModel) -> np.ndarray:
     """States whose every choice loops on the state with probability 1."""
     t = model.transitions
     owner = model.choice_states
     single = np.diff(t.indptr) == 1
     loops = np.zeros(model.num_choices, dtype=bool)
     loops[single] = t.indices[t.indptr[:-1][single]] == owner[single]
-    return np.bincount(owner, weights=(~loops).astype(float), minlength=model.num_states) == 0
+    out: np.ndarray = (
+        np.bincount(owner, weights=(~loops).astype(float), minlength=model.num_states) == 0
+    )
+    return out
 
 
-def answer_game(checker: "PropertyChecker", expr: MultiQuery) -> "MultiAnswer":
+def answer_game(checker: PropertyChecker, expr: MultiQuery) -> MultiAnswer:
     """Answer ``<<C>> (q1 & q2)`` on an smg (see the module docstring).
 
     Raises:
         UnsupportedError: the game is not stopping, an objective is outside the fragment, or the
             model has several initial states.
     """
-    from posgmc.checking.multi import Front, MultiAnswer, MultiKind, _Builder, _is_temporal, _objectives
+    from posgmc.checking.multi import (
+        Front,
+        MultiAnswer,
+        MultiKind,
+        _Builder,
+        _is_temporal,
+        _objectives,
+    )
     from posgmc.engines import ltl
 
     start = time.perf_counter()
     model = checker.model
     if model.initial_states.size != 1:
-        raise UnsupportedError("a multi-objective game query needs a single initial state", expr.span)
+        raise UnsupportedError(
+            "a multi-objective game query needs a single initial state", expr.span
+        )
     objectives = _objectives(expr, checker)
     texts = tuple(format_expr(o.query) for o in objectives)
     builder = _Builder(checker)
@@ -76,7 +99,9 @@ def answer_game(checker: "PropertyChecker", expr: MultiQuery) -> "MultiAnswer":
                     o.query.span,
                 )
             acc = builder._product(path)  # replaces builder.masks by the lifted list
-            builder.masks.append(("accepting", acc))  # type: ignore[arg-type]
+            # kept in the builder's list so that later products lift it too (only the set is
+            # read below: reaching it is the objective)
+            builder.masks.append((ConditionKind.MEETS, acc))
             accepting[i] = len(builder.masks) - 1
     m = builder.model
     rewards = np.zeros((m.num_choices, 2))
@@ -88,7 +113,7 @@ def answer_game(checker: "PropertyChecker", expr: MultiQuery) -> "MultiAnswer":
         else:
             q = o.query
             assert isinstance(q, RewardQuery)  # noqa: S101
-            r = m.reward_model(q.reward).choice_rewards(m.row_groups)
+            r = reward_structure(m, q).choice_rewards(m.row_groups)
             if (r < 0).any():
                 raise UnsupportedError("multi-objective game rewards must be non-negative", q.span)
             rewards[:, i] = r
@@ -107,29 +132,34 @@ def answer_game(checker: "PropertyChecker", expr: MultiQuery) -> "MultiAnswer":
         raise UnsupportedError("a terminal state collects reward: the total rewards are infinite",
                                expr.span)
     players = checker.coalition_of(expr.coalition)
-    mine = np.isin(m.state_players, sorted(players)) if players is not None else np.ones(m.num_states, bool)
+    mine = (
+        np.isin(m.state_players, sorted(players))
+        if players is not None
+        else np.ones(m.num_states, bool)
+    )
     result = coalition_sets(m.transitions, m.row_groups, rewards, mine, terminal, builder.initial)
     chain = result.chain
     seconds = time.perf_counter() - start
-    common = dict(residual=0.0, states=m.num_states, seconds=seconds)
+    common = _Statistics(residual=0.0, states=m.num_states, seconds=seconds)
     bounds = [o.bound for o in objectives]
     queries = [i for i, b in enumerate(bounds) if b is None]
     if not queries:
         target = np.zeros(2)
-        target[: len(bounds)] = bounds  # type: ignore[assignment]
+        target[: len(bounds)] = bounds
         inside = polygon.contains(chain, target, tolerance=1e-12)
         margin = _margin(chain, target)
         return MultiAnswer(MultiKind.ACHIEVABILITY, texts, achievable=inside, decided=inside,
-                           margin=margin, **common)  # type: ignore[arg-type]
+                           margin=margin, **common)
     if len(queries) == 1:
         (i,) = queries
         other = 1 - i
-        floor = bounds[other] if other < len(bounds) and bounds[other] is not None else -math.inf
+        given = bounds[other] if other < len(bounds) else None
+        floor = given if given is not None else -math.inf
         return MultiAnswer(MultiKind.NUMERICAL, texts, value=_best(chain, i, floor),
-                           **common)  # type: ignore[arg-type]
+                           **common)
     front = Front((texts[0], texts[1]), (Direction.MAX, Direction.MAX), chain, np.zeros((0, 2)),
                   math.inf, result.iterations, result.converged)
-    return MultiAnswer(MultiKind.PARETO, texts, front=front, **common)  # type: ignore[arg-type]
+    return MultiAnswer(MultiKind.PARETO, texts, front=front, **common)
 
 
 def _margin(chain: np.ndarray, target: np.ndarray) -> float:

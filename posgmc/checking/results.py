@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import builtins
 import enum
 import math
 from collections.abc import Mapping
@@ -50,7 +51,8 @@ def strategy_meaning(key: str, *, maximizing: bool) -> str:
     return {
         "guaranteed": f"the decision maker's strategy ensures {best} this against every adversary "
         "(an omniscient one)",
-        "vs_fss_adversary": "the exact value of the decision maker's strategy against this adversary "
+        "vs_fss_adversary": "the exact value of the decision maker's strategy against this "
+                            "adversary "
         "strategy",
         "upper_bound": f"no decision-maker strategy gets {worse} than this against this adversary "
         "strategy (not even one that sees everything)",
@@ -89,7 +91,7 @@ class PropertyResult:
     property: str
     name: str | None
     kind: ResultKind
-    value: float | bool
+    value: float | bool | None  # None: a Boolean left undecided by the proven bounds
     lower: float | None
     upper: float | None
     seconds: float
@@ -98,7 +100,7 @@ class PropertyResult:
     converged: bool = True
     sound: bool = True
     note: str | None = None
-    per_initial: tuple[float | bool, ...] = ()
+    per_initial: tuple[float | bool | None, ...] = ()
     values: np.ndarray | None = field(default=None, repr=False)
     strategy: np.ndarray | None = field(default=None, repr=False)
     guaranteed: Bound | None = None
@@ -111,7 +113,7 @@ class PropertyResult:
     exact: Fraction | None = None
     multi: Any = field(default=None, repr=False)
 
-    @property
+    @builtins.property  # the field ``property`` shadows the builtin in the class body
     def front(self) -> Any:
         """The Pareto front of a ``multi(...)`` Pareto query
         (:class:`~posgmc.checking.multi.Front`), else None."""

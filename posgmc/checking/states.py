@@ -57,7 +57,8 @@ def evaluate_states(
     short-circuit, so ``x > 0 & mod(y, x) = 0`` is fine where ``x = 0``.
 
     Args:
-        model: the explicit model (its ``state_values``, ``variable_names`` and ``labels`` are used).
+        model: the explicit model (its ``state_values``, ``variable_names`` and ``labels`` are
+        used).
         expr: a resolved state expression (constants already replaced by literals).
         queries: callback giving the per-state values of nested ``P``/``R`` queries.
 
@@ -127,7 +128,8 @@ def evaluate_states(
             return queries(e)
         if isinstance(e, Temporal):
             raise UnsupportedError(
-                f"the temporal operator {e.op.value} may only appear inside a P or R operator", e.span
+                f"the temporal operator {e.op.value} may only appear inside a P or R operator",
+                e.span,
             )
         raise UnsupportedError(f"cannot evaluate {type(e).__name__} over states", e.span)
 
@@ -186,7 +188,8 @@ _BINARY: dict[BinaryOp, Callable[[np.ndarray, np.ndarray], np.ndarray]] = {
 def _binary(op: BinaryOp, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     if op is BinaryOp.DIV:
         # PRISM: '/' is always real division; 1/0 = inf and 0/0 = NaN as for doubles (IEEE)
-        return np.true_divide(_as_float(a), _as_float(b))
+        out: np.ndarray = np.true_divide(_as_float(a), _as_float(b))
+        return out
     return _BINARY[op](a, b)
 
 
@@ -201,6 +204,7 @@ def _is_int(a: np.ndarray) -> bool:
 def _call(e: Call, args: list[np.ndarray], fail: Failure) -> np.ndarray:
     """PRISM's functions over all states, with the compiler's domain rules."""
     function = e.function
+    out: np.ndarray
     if function is Function.MIN:
         out = args[0]
         for a in args[1:]:
@@ -216,22 +220,28 @@ def _call(e: Call, args: list[np.ndarray], fail: Failure) -> np.ndarray:
         fail(~np.isfinite(x), f"{function.value}() of a non-finite value")
         x = np.where(np.isfinite(x), x, 0.0)
         if function is Function.FLOOR:
-            return np.floor(x).astype(np.int64)
+            out = np.floor(x).astype(np.int64)
+            return out
         if function is Function.CEIL:
-            return np.ceil(x).astype(np.int64)
+            out = np.ceil(x).astype(np.int64)
+            return out
         return np.floor(x + 0.5).astype(np.int64)
     if function is Function.POW:
         base, exp = args
         if _is_int(base) and _is_int(exp):
             fail(exp < 0, "negative exponent in pow() of two ints")
-            return np.power(base.astype(np.int64), np.maximum(exp, 0).astype(np.int64))
-        return np.power(_as_float(base), _as_float(exp))
+            out = np.power(base.astype(np.int64), np.maximum(exp, 0).astype(np.int64))
+            return out
+        out = np.power(_as_float(base), _as_float(exp))
+        return out
     if function is Function.MOD:
         a, n = args
         fail(n <= 0, "mod() by a non-positive divisor")
-        return np.mod(a, np.where(n > 0, n, 1))
+        out = np.mod(a, np.where(n > 0, n, 1))
+        return out
     if function is Function.LOG:
-        return np.log(_as_float(args[0])) / np.log(_as_float(args[1]))
+        out = np.log(_as_float(args[0])) / np.log(_as_float(args[1]))
+        return out
     raise UnsupportedError(f"unknown function {function.value}", e.span)
 
 

@@ -34,7 +34,6 @@ from posgmc.compiler.explore import Exploration
 from posgmc.compiler.options import BuildOptions, ValidationMode
 from posgmc.compiler.program import UNOWNED, Generator, GeneratorKind, Program
 from posgmc.errors import BuildError, SourceSpan, UnsupportedError
-from posgmc.semantics import operators as ops
 from posgmc.model.actions import (
     action_signatures,
     conflict_message,
@@ -42,6 +41,7 @@ from posgmc.model.actions import (
     observation_action_conflict,
 )
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel
+from posgmc.semantics import operators as ops
 from posgmc.semantics.flat import FlatObservable
 from posgmc.syntax.ast import NO_SPAN, ModelType
 

@@ -39,7 +39,6 @@ import numpy as np
 
 from posgmc.errors import SourceSpan
 from posgmc.semantics import operators as ops
-from posgmc.syntax.traversal import children
 from posgmc.syntax.ast import (
     NO_SPAN,
     Binary,
@@ -55,6 +54,7 @@ from posgmc.syntax.ast import (
     Unary,
     UnaryOp,
 )
+from posgmc.syntax.traversal import children
 
 __all__ = [
     "Columns",
@@ -249,7 +249,7 @@ def _join(a: ExprType, b: ExprType) -> ExprType:
 
 _BOOL_OPS = {BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF}
 _COMPARISONS = {BinaryOp.EQ, BinaryOp.NE, BinaryOp.LT, BinaryOp.LE, BinaryOp.GT, BinaryOp.GE}
-_INT_ARITHMETIC: dict[BinaryOp, Callable[[Any, Any], Any]] = {
+_INT_ARITHMETIC: dict[BinaryOp, Callable[[Scalar, Scalar], Scalar]] = {
     BinaryOp.ADD: lambda a, b: a + b,
     BinaryOp.SUB: lambda a, b: a - b,
     BinaryOp.MUL: lambda a, b: a * b,
@@ -307,7 +307,7 @@ def _fold_binary(op: BinaryOp, a: Scalar, b: Scalar) -> Scalar:
                 raise _FoldError(failure.message) from None
         return r
     # DIV: a double, exact while both are exact and the divisor is not 0
-    return ops.scalar_divide(a, b)  # type: ignore[arg-type]
+    return ops.scalar_divide(a, b)
 
 
 def _fold_call(fn: Function, args: list[Scalar], result_type: ExprType) -> Scalar:
@@ -318,15 +318,15 @@ def _fold_call(fn: Function, args: list[Scalar], result_type: ExprType) -> Scala
         return r
     try:
         if fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
-            return ops.scalar_to_int(args[0], fn.value)  # type: ignore[arg-type]
+            return ops.scalar_to_int(args[0], fn.value)
         a, b = args
         if fn is Function.MOD:
             return ops.scalar_mod(int(a), int(b))
         if fn is Function.POW:
             if result_type is ExprType.INT:
                 return ops.scalar_int_pow(int(a), int(b))
-            return ops.scalar_pow(a, b)  # type: ignore[arg-type]
-        return ops.scalar_log(a, b)  # type: ignore[arg-type]
+            return ops.scalar_pow(a, b)
+        return ops.scalar_log(a, b)
     except ops.DomainFailure as failure:
         raise _FoldError(failure.message) from None
 
@@ -497,7 +497,9 @@ def _int_bounds(op: BinaryOp, a: _Code, b: _Code) -> tuple[int, int] | None:
     return min(products), max(products)
 
 
-def _joined(text: str, type_: ExprType, *parts: _Code, partial: bool = False, extra: int = 1) -> _Code:
+def _joined(
+    text: str, type_: ExprType, *parts: _Code, partial: bool = False, extra: int = 1
+) -> _Code:
     """A new code whose text embeds ``parts`` (their preludes run first, in order)."""
     prelude: tuple[str, ...] = ()
     for p in parts:
@@ -751,9 +753,10 @@ class _Generator:
             type_ = args[0].type
             for a in args[1:]:
                 type_ = _join(type_, a.type)
-        if all(a.constant is not None for a in args):
+        constants = [a.constant for a in args if a.constant is not None]
+        if len(constants) == len(args):
             try:
-                return self.const(_fold_call(fn, [a.constant for a in args], type_), type_)  # type: ignore[misc]
+                return self.const(_fold_call(fn, constants, type_), type_)
             except _FoldError as err:
                 # never fold away a failure: it may sit in a branch that is never taken
                 code = self.failing(str(err), e.span, type_)
@@ -765,15 +768,15 @@ class _Generator:
             if len(texts) == 2:
                 acc = f"{np_fn}({texts[0]}, {texts[1]})"
             else:  # n-ary: one flat reduction, not n nested calls
-                acc = f"{np_fn}.reduce(_np.broadcast_arrays(_full(v, 0, _int), {', '.join(texts)})[1:])"
+                operands = ", ".join(texts)
+                acc = f"{np_fn}.reduce(_np.broadcast_arrays(_full(v, 0, _int), {operands})[1:])"
             if type_ is ExprType.DOUBLE:
                 acc = f"_np.asarray({acc}, dtype=_float)"
             code = _joined(acc, type_, *args, partial=partial, extra=3)
-            if type_ is ExprType.INT and all(a.bounds is not None for a in args):
+            bounds = [a.bounds for a in args if a.bounds is not None]
+            if type_ is ExprType.INT and len(bounds) == len(args):
                 pick = min if fn is Function.MIN else max
-                los = [a.bounds[0] for a in args]  # type: ignore[index]
-                his = [a.bounds[1] for a in args]  # type: ignore[index]
-                code.bounds = (pick(los), pick(his))
+                code.bounds = (pick(lo for lo, _ in bounds), pick(hi for _, hi in bounds))
             return code
         if fn in (Function.FLOOR, Function.CEIL, Function.ROUND):
             a = args[0]

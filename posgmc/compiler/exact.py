@@ -1,12 +1,14 @@
-"""Exact exploration (PRISM's ``-exact``): every guard, probability and update in rational arithmetic.
+"""Exact exploration (PRISM's ``-exact``): every guard, probability and update in rational
+arithmetic.
 
-The vectorised explorer (:mod:`posgmc.compiler.explore`) computes in IEEE doubles, so a guard such as
-``(s+1)*1/3 = 0.333333333333333333333333`` holds there (both sides round to one double) although it
-is false over the rationals, and a probability written ``0.500000000000000000000000000000001``
+The vectorised explorer (:mod:`posgmc.compiler.explore`) computes in IEEE doubles, so a guard such
+as ``(s+1)*1/3 = 0.333333333333333333333333`` holds there (both sides round to one double) although
+it is false over the rationals, and a probability written ``0.500000000000000000000000000000001``
 becomes 0.5. In exact mode the model is explored state by state with the scalar evaluator
-(:func:`posgmc.semantics.evaluate.evaluate`) under :func:`posgmc.semantics.operators.exact_arithmetic`:
-ints and Fractions only, and a value with no rational form (a fractional power, a logarithm, a
-division by zero) is a positioned :class:`~posgmc.errors.BuildError`, as in PRISM's exact engine.
+(:func:`posgmc.semantics.evaluate.evaluate`) under
+:func:`posgmc.semantics.operators.exact_arithmetic`: ints and Fractions only, and a value with no
+rational form (a fractional power, a logarithm, a division by zero) is a positioned
+:class:`~posgmc.errors.BuildError`, as in PRISM's exact engine.
 
 The semantics is the vectorised explorer's, one state at a time: states numbered in discovery
 order, choices in :mod:`posgmc.compiler.program`'s generator order, a synchronised choice per
@@ -14,11 +16,11 @@ combination of enabled commands (last module fastest) whose branches are the pro
 modules' updates (first module slowest), zero-probability branches dropped, deadlocks fixed with a
 self-loop when allowed. A command's probabilities must sum to exactly 1.
 
-The exploration is handed to :func:`posgmc.compiler.assemble.assemble` (with the probabilities rounded
-to the nearest doubles) for rewards, players and observations; :func:`exact_model` then attaches the
-exact transition probabilities (``ExplicitModel.exact_probabilities``, aligned with the CSR matrix)
-and re-evaluates the labels exactly. A Python loop per state: meant for the small models exact
-checking is for.
+The exploration is handed to :func:`posgmc.compiler.assemble.assemble` (with the probabilities
+rounded to the nearest doubles) for rewards, players and observations; :func:`exact_model` then
+attaches the exact transition probabilities (``ExplicitModel.exact_probabilities``, aligned with the
+CSR matrix) and re-evaluates the labels exactly. A Python loop per state: meant for the small models
+exact checking is for.
 """
 
 from __future__ import annotations
@@ -174,7 +176,10 @@ def explore_exact(
         LimitError: more than ``options.state_limit`` states.
     """
     ev = _Evaluator(program)
-    init = [tuple(int(x) for x in row) for row in program.encoding.decode_values(initial_keys(program, options))]
+    init = [
+        tuple(int(x) for x in row)
+        for row in program.encoding.decode_values(initial_keys(program, options))
+    ]
     number: dict[State, int] = {s: i for i, s in enumerate(init)}
     states: list[State] = list(init)
     counts: list[int] = []
@@ -277,8 +282,12 @@ def exact_model(
     data = [p for row in rows for _, p in sorted(row.items())]
     columns = [t for row in rows for t in sorted(row)]
     matrix = model.transitions
-    if len(data) != matrix.nnz or not np.array_equal(matrix.indices, np.array(columns, dtype=matrix.indices.dtype)):
-        raise BuildError("internal: the exact probabilities do not line up with the transition matrix")
+    if len(data) != matrix.nnz or not np.array_equal(
+        matrix.indices, np.array(columns, dtype=matrix.indices.dtype)
+    ):
+        raise BuildError(
+            "internal: the exact probabilities do not line up with the transition matrix"
+        )
     ev = _Evaluator(program)
     labels = dict(model.labels)
     with ops.exact_arithmetic():

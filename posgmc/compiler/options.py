@@ -32,13 +32,12 @@ class BuildOptions:
 
     ``state_limit``: stop with a :class:`~posgmc.errors.LimitError` once more states are found.
     ``fix_deadlocks``: give states without any enabled choice a self-loop (PRISM/Storm default);
-    otherwise such a state is a :class:`~posgmc.errors.BuildError`.
-    ``build_observations``: compute the observation functions (pomdp/posg/smg with observables).
-    ``probability_tolerance``: how far the update probabilities of a command may sum from 1.
-    ``initial_state_limit``: the largest number of candidate valuations enumerated for an
-    ``init ... endinit`` predicate (after fixing the variables it pins to one value).
-    ``exact``: explore in rational arithmetic (PRISM's ``-exact``, :mod:`posgmc.compiler.exact`): the
-    model carries its exact transition probabilities.
+    otherwise such a state is a :class:`~posgmc.errors.BuildError`. ``build_observations``: compute
+    the observation functions (pomdp/posg/smg with observables). ``probability_tolerance``: how far
+    the update probabilities of a command may sum from 1. ``initial_state_limit``: the largest
+    number of candidate valuations enumerated for an ``init ... endinit`` predicate (after fixing
+    the variables it pins to one value). ``exact``: explore in rational arithmetic (PRISM's
+    ``-exact``, :mod:`posgmc.compiler.exact`): the model carries its exact transition probabilities.
     """
 
     state_limit: int = 50_000_000

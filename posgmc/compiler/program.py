@@ -143,7 +143,9 @@ def _compile_command(
             assigned.add(index)
             assigns.append(
                 Assignment(
-                    index, compile_expr(a.value, slots, ranges), a.span if a.span != NO_SPAN else up.span
+                    index,
+                    compile_expr(a.value, slots, ranges),
+                    a.span if a.span != NO_SPAN else up.span,
                 )
             )
         updates.append(

@@ -83,7 +83,7 @@ class StateEncoding:
                 layouts[i] = VariableLayout(lo, hi, is_bool, w, mult)
                 mult *= sizes[i]
             self.word_sizes.append(mult)
-        self.layouts: tuple[VariableLayout, ...] = tuple(l for l in layouts if l is not None)
+        self.layouts: tuple[VariableLayout, ...] = tuple(lay for lay in layouts if lay is not None)
         self.num_words = len(words)
 
     @property

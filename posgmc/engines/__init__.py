@@ -9,8 +9,10 @@
   :mod:`~posgmc.engines.common`;
 * :mod:`posgmc.engines.options` / :mod:`posgmc.engines.result` -- configuration and result records;
 * :mod:`posgmc.engines.graph` -- attractors, qualitative reachability, end components;
+* :mod:`posgmc.engines.system` -- the fixpoint problem on the unknown states (:class:`System`) and
+  the Bellman kernels every solver imports from there;
 * :mod:`posgmc.engines.iteration` -- the sound iterative solver (optimistic interval iteration with
-  end-component deflation/inflation) on the unknown states;
+  end-component deflation/inflation) on a :class:`System`;
 * :mod:`posgmc.engines.exact` -- direct solves and policy iteration;
 * :mod:`posgmc.engines.rational` -- exact rational reachability for small models (test reference);
 * :mod:`posgmc.engines.ltl` -- co-safe LTL to DFA and products (its own owner).

@@ -5,7 +5,7 @@ Policy iteration (:mod:`posgmc.engines.exact`) ends with a float vector ``x`` an
 proves nothing, and value iteration from below (the lower half of interval iteration) crawls on
 *stiff* systems: a randomised strategy that leaves a loop with probability 1e-4 needs about 10^4
 steps per digit. This module turns ``x`` into proven bounds with one or two more solves, for the
-least fixpoint ``lfp B`` of the Bellman operator of a :class:`~posgmc.engines.iteration.System`
+least fixpoint ``lfp B`` of the Bellman operator of a :class:`~posgmc.engines.system.System`
 (``B(x)(s) = opt_r (b[r] + A[r] x)``, maximising states first)::
 
     upper: u = x + d_u t_u   where  B(u) <= u                          =>  u >= lfp B
@@ -63,8 +63,8 @@ from fractions import Fraction
 import numpy as np
 
 from posgmc.engines import exact as ex
-from posgmc.engines.iteration import System, choice_values, reduce_rows
 from posgmc.engines.rational import solve_dense
+from posgmc.engines.system import System, choice_values, reduce_rows
 
 __all__ = ["certify"]
 

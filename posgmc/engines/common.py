@@ -4,7 +4,7 @@ assembly of an :class:`~posgmc.engines.result.EngineResult`, and the attractor-b
 * :func:`maximize_mask` turns a query's direction and coalition into the per-state optimisation
   direction the objectives take; ``_bool``/``_directions``/``_check_rewards`` check the arguments
   (rewards are per choice: state reward + action reward, :meth:`RewardModel.choice_rewards`);
-* ``_solve_system`` solves the :class:`~posgmc.engines.iteration.System` on the unknown states by
+* ``_solve_system`` solves the :class:`~posgmc.engines.system.System` on the unknown states by
   the chosen :class:`~posgmc.engines.options.Method` (sound interval iteration, plain value
   iteration, or policy iteration / direct solves, see :mod:`posgmc.engines.exact`) and returns a
   ``_Solved``;
@@ -26,17 +26,16 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from posgmc.engines import exact as ex
-from posgmc.engines.graph import Structure, attractor
 from posgmc.engines.certify import certify
-from posgmc.engines.iteration import (
-    Bounds, EndComponents, System, _gap_ok, _widen, choose, solve,
-)
+from posgmc.engines.graph import Structure, attractor
+from posgmc.engines.iteration import Bounds, EndComponents, gap_ok, solve, widen
 from posgmc.engines.options import Method, SolverOptions
-from posgmc.engines.topological import solve_topological
 from posgmc.engines.result import EngineResult
+from posgmc.engines.system import System, choose
+from posgmc.engines.topological import solve_topological
 from posgmc.errors import PosgmcError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import Direction, ModelType
+from posgmc.model.types import Direction, ModelType
 
 __all__ = ["maximize_mask"]
 
@@ -176,7 +175,8 @@ def _policy_solution(
     is_chain: bool,
     max_rounds: int,
 ) -> tuple[np.ndarray, np.ndarray, int]:
-    """Policy iteration (a direct solve for a chain): values, the local row of each state, rounds."""
+    """Policy iteration (a direct solve for a chain): values, the local row of each state,
+    rounds."""
     if initial_rows is None:
         start = gr.row_groups[:-1].copy()
     else:
@@ -251,15 +251,20 @@ def _solve_system(
         )
         best, cand = _candidates(sys, rows, num_choices)
         if not prove:
-            return x, rows, rounds, _Solved(x, x.copy(), rounds, True, False, best, cand, estimate=x)
+            return (
+                x,
+                rows,
+                rounds,
+                _Solved(x, x.copy(), rounds, True, False, best, cand, estimate=x),
+            )
         proven = (
             certify(sys, x, rows, cap=cap, precision=options.precision, relative=options.relative)
             if certifiable else None
         )
         if proven is None:
             return x, rows, rounds, None
-        lower, upper = _widen(*proven)
-        met = _gap_ok(lower, upper, options.precision, options.relative)
+        lower, upper = widen(*proven)
+        met = gap_ok(lower, upper, options.precision, options.relative)
         return x, rows, rounds, _Solved(lower, upper, rounds, met, True, best, cand,
                                         estimate=np.clip(x, lower, upper))
 
@@ -273,9 +278,10 @@ def _solve_system(
             bounds = _interval(sys, replace(options, method=Method.INTERVAL), cap=cap, ec=ec)
         else:
             bounds = interval()
-        best, cand = _candidates(sys, rows, num_choices)
+        best, candidates = _candidates(sys, rows, num_choices)
         return _Solved(bounds.lower, bounds.upper, rounds + bounds.iterations, bounds.converged,
-                       bounds.sound, best, cand, estimate=np.clip(x, bounds.lower, bounds.upper))
+                       bounds.sound, best, candidates,
+                       estimate=np.clip(x, bounds.lower, bounds.upper))
     if (options.method is Method.INTERVAL and certifiable and n <= _STIFF_LIMIT
             and options.max_iterations > _STIFF_STEPS):
         bounds = _interval(sys, replace(options, max_iterations=_STIFF_STEPS), cap=cap, ec=ec)
@@ -323,7 +329,6 @@ def _result(
     started: float,
     strategy: np.ndarray | None,
 ) -> EngineResult:
-    S = model.num_states
     lower = np.where(known, known_values, 0.0).astype(np.float64)
     upper = lower.copy()
     values = lower.copy()

@@ -62,7 +62,8 @@ def exists_next(model: ExplicitModel, target: np.ndarray) -> np.ndarray:
 def forall_next(model: ExplicitModel, target: np.ndarray) -> np.ndarray:
     """bool[S]: ``A [ X target ]``, every successor satisfies ``target``."""
     g = edge_structure(model)
-    return _successor_hits(g, target) == g.num_choices
+    out: np.ndarray = _successor_hits(g, target) == g.num_choices
+    return out
 
 
 def exists_until(model: ExplicitModel, remain: np.ndarray, target: np.ndarray) -> np.ndarray:

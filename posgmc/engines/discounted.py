@@ -22,12 +22,13 @@ from posgmc.engines.common import (
     _solve_system,
 )
 from posgmc.engines.graph import structure_of
-from posgmc.engines.iteration import EndComponents, build_system, solve_discounted
+from posgmc.engines.iteration import EndComponents, solve_discounted
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.system import build_system
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["discounted_total_reward", "discounted_reach_reward"]
 
@@ -124,7 +125,9 @@ def _discounted(
         best = sys.rows[best_local]
     lower[sys.states] = lo
     upper[sys.states] = hi
-    x[sys.states] = 0.5 * (lo + hi) if solved is None or solved.estimate is None else solved.estimate
+    x[sys.states] = (
+        0.5 * (lo + hi) if solved is None or solved.estimate is None else solved.estimate
+    )
     if strategy is not None and best is not None:
         strategy[sys.states] = best
     return EngineResult(

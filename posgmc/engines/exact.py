@@ -1,6 +1,6 @@
 """Exact solution by linear algebra: direct solves for chains, policy iteration for mdps and games.
 
-A strategy (one row per unknown state) turns a :class:`~posgmc.engines.iteration.System` into a
+A strategy (one row per unknown state) turns a :class:`~posgmc.engines.system.System` into a
 linear system ``x = b_sigma + A_sigma x``. :func:`evaluate` solves it with a sparse LU
 (``scipy.sparse.linalg.spsolve``) after settling by graph search the states that never leave the
 unknowns: there the value is 0 if no row with a positive constant is reachable inside, and infinite
@@ -28,7 +28,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from posgmc.engines.graph import Structure, almost_sure_reach, attractor, positive_buchi
-from posgmc.engines.iteration import System
+from posgmc.engines.system import System
 
 __all__ = ["Grouped", "grouped", "evaluate", "policy_iteration", "policy_values_to_rows"]
 
@@ -55,7 +55,7 @@ class Grouped:
     def n(self) -> int:
         return int(self.row_groups.size - 1)
 
-    def restrict(self, keep: np.ndarray) -> "Grouped":
+    def restrict(self, keep: np.ndarray) -> Grouped:
         """The rows with ``keep`` (every state must keep at least one)."""
         idx = np.flatnonzero(keep)
         counts = np.bincount(self.row_state[idx], minlength=self.n)
@@ -134,7 +134,8 @@ def _row_values(gr: Grouped, x: np.ndarray) -> np.ndarray:
     if not finite.all():
         hits_inf = np.asarray(gr.matrix @ (~finite).astype(np.float64)) > 0
         y = np.where(hits_inf, np.inf, y)
-    return y
+    out: np.ndarray = y
+    return out
 
 
 def _improve(
@@ -298,4 +299,5 @@ def policy_iteration(
 
 def policy_values_to_rows(gr: Grouped, rows: np.ndarray) -> np.ndarray:
     """The rows of the original :class:`System` for grouped row indices."""
-    return gr.source[rows]
+    out: np.ndarray = gr.source[rows]
+    return out

@@ -72,7 +72,7 @@ class Structure:
         return int(self.row_groups[-1])
 
     @staticmethod
-    def build(transitions: sp.csr_matrix, row_groups: np.ndarray) -> "Structure":
+    def build(transitions: sp.csr_matrix, row_groups: np.ndarray) -> Structure:
         """The structure of a csr matrix whose rows are grouped by ``row_groups``."""
         counts = np.diff(row_groups)
         return Structure(
@@ -89,7 +89,7 @@ class Structure:
 
 # The transpose of a large model costs about a second; models are frozen, so one structure per
 # model object is kept for as long as the model lives (a cache, not configuration).
-_STRUCTURES: "weakref.WeakKeyDictionary[ExplicitModel, Structure]" = weakref.WeakKeyDictionary()
+_STRUCTURES: weakref.WeakKeyDictionary[ExplicitModel, Structure] = weakref.WeakKeyDictionary()
 
 
 def structure_of(model: ExplicitModel) -> Structure:
@@ -108,7 +108,8 @@ def concat_ranges(starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
     if total == 0:
         return np.zeros(0, dtype=np.int64)
     offsets = np.cumsum(lengths) - lengths
-    return np.arange(total, dtype=np.int64) + np.repeat(starts - offsets, lengths)
+    out: np.ndarray = np.arange(total, dtype=np.int64) + np.repeat(starts - offsets, lengths)
+    return out
 
 
 def row_of_entries(matrix: sp.csr_matrix) -> np.ndarray:
@@ -588,7 +589,8 @@ def end_components(
         owners = row_owner[sub_rows]
         np.subtract.at(count, owners, 1)
         owners = np.unique(owners)
-        return owners[count[owners] == 0]
+        out: np.ndarray = owners[count[owners] == 0]
+        return out
 
     while True:
         keep = on[entry_row]

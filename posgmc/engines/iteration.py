@@ -63,9 +63,8 @@ verification both bounds share one pass over the matrix.
 
 from __future__ import annotations
 
-import time
-
 import enum
+import time
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -73,34 +72,25 @@ import scipy.sparse as sp
 
 from posgmc.engines.graph import end_components, row_of_entries
 from posgmc.engines.options import Method, SolverOptions
-from posgmc.engines.system import (  # System and its kernels, re-exported for the objectives
-    _HAVE_KERNELS,
+from posgmc.engines.system import (
+    HAVE_KERNELS,
     System,
-    _argopt,
-    _kernels,
-    _multiply,
-    _reduce,
-    _reduce_entries,
+    accumulate_rows,
     argopt_rows,
-    bellman,
-    build_system,
     choice_values,
-    choose,
-    reduce_rows,
+    multiply_into,
+    reduce_entries,
+    reduce_into,
 )
 
 __all__ = [
-    "System",
-    "build_system",
-    "EndComponents",
     "Bounds",
+    "EndComponents",
+    "gap_ok",
+    "max_change",
     "solve",
     "solve_discounted",
-    "bellman",
-    "reduce_rows",
-    "argopt_rows",
-    "choice_values",
-    "choose",
+    "widen",
 ]
 
 
@@ -228,7 +218,7 @@ An absolute tolerance would be unsound: with a slow contraction (a self-loop of 
 an upper bound of 1e-6)."""
 
 
-def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Outward rounding: the iterates carry floating-point error (a few ulps per step, amplified at
     most by the inverse contraction rate), far below any requested precision; widening by a
     relative 1e-10 keeps the reported bounds on the right side of the exact value."""
@@ -239,7 +229,7 @@ def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray
     ), upper + slack_hi
 
 
-def _gap_ok(lower: np.ndarray, upper: np.ndarray, precision: float, relative: bool) -> bool:
+def gap_ok(lower: np.ndarray, upper: np.ndarray, precision: float, relative: bool) -> bool:
     """The interval meets the precision (its half-width, as :class:`SolverOptions` defines it); an
     infinite bound never does (``inf <= inf`` would pass the relative test)."""
     if not (np.isfinite(lower).all() and np.isfinite(upper).all()):
@@ -250,7 +240,7 @@ def _gap_ok(lower: np.ndarray, upper: np.ndarray, precision: float, relative: bo
     return bool(np.max(gap, initial=0.0) <= 2.0 * precision)
 
 
-def _diff(new: np.ndarray, old: np.ndarray, relative: bool) -> float:
+def max_change(new: np.ndarray, old: np.ndarray, relative: bool) -> float:
     d = np.abs(new - old)
     if relative:
         scale = np.abs(new)
@@ -291,18 +281,18 @@ def _lower_phase(
     x = np.ascontiguousarray(lower, dtype=np.float64).copy()
     nxt = np.empty(n)
     delta = np.empty(n)
-    _multiply(sys, x, y)
+    multiply_into(sys, x, y)
     fresh = 0
     ratios = [0.0, 0.0]
     previous = np.inf
     while iters < max_it:
-        _reduce(sys, y, nxt)
+        reduce_into(sys, y, nxt)
         if inflation is not None:
             inflation.inflate(sys.offset, nxt)
         iters += 1
         np.subtract(nxt, x, out=delta)
         if rel:
-            d = _diff(nxt, x, rel)
+            d = max_change(nxt, x, rel)
         else:
             d = float(max(delta.max(initial=0.0), -delta.min(initial=0.0)))
         x, nxt = nxt, x
@@ -314,11 +304,11 @@ def _lower_phase(
         if _late(deadline, iters):
             break
         fresh += 1
-        if fresh >= 64 or not _HAVE_KERNELS:
-            _multiply(sys, x, y)
+        if fresh >= 64 or not HAVE_KERNELS:
+            multiply_into(sys, x, y)
             fresh = 0
         else:
-            _kernels.csr_matvec(A.shape[0], A.shape[1], A.indptr, A.indices, A.data, delta, y)
+            accumulate_rows(A, 0, sys.m, delta, y)
     return x, iters
 
 
@@ -358,8 +348,8 @@ def _lower_phase_blocks(
             yb = y[r0:r1]
             for k in range(inner):
                 yb[:] = sys.offset[r0:r1]
-                _kernels.csr_matvec(r1 - r0, n, A.indptr[r0 : r1 + 1], A.indices, A.data, x, yb)
-                _reduce_entries(ents, y, tmp)
+                accumulate_rows(A, r0, r1, x, yb)
+                reduce_entries(ents, y, tmp)
                 dk = 0.0
                 for lo, cnt in ((ml, a), (nl, b)):
                     if not cnt:
@@ -367,7 +357,7 @@ def _lower_phase_blocks(
                     new, old = tmp[lo : lo + cnt], x[lo : lo + cnt]
                     np.maximum(new, old, out=new)
                     if rel:
-                        dk = max(dk, _diff(new, old, rel))
+                        dk = max(dk, max_change(new, old, rel))
                     else:
                         change = np.subtract(new, old, out=step[lo : lo + cnt])
                         dk = max(dk, float(change.max()))
@@ -392,19 +382,15 @@ def _sweep_pair(sys: System, X: np.ndarray, Xn: np.ndarray, Y: np.ndarray, T: np
     ``T`` [n, 2] are scratch). For the upper column: if ``Xn <= X`` then ``Xn`` is a
     pre-fixpoint, since ``B(Xn)(s) <= B(mix)(s) = Xn(s)`` for the mixed vector ``mix >= Xn`` that
     state s was evaluated on; so the verification test is the same as for a Jacobi step."""
-    n = sys.n
     A = sys.matrix
     Xn[:] = X
-    flat = Xn.ravel()
     for r0, r1, ml, a, nl, b, ents in sys.plan:
         Yb = Y[r0:r1]
         Yb[:] = sys.offset[r0:r1, None]
         if sys.offset_upper is not None:
             Yb[:, 1] = sys.offset_upper[r0:r1]
-        _kernels.csr_matvecs(
-            r1 - r0, n, 2, A.indptr[r0 : r1 + 1], A.indices, A.data, flat, Yb.ravel()
-        )
-        _reduce_entries(ents, Y, T)
+        accumulate_rows(A, r0, r1, Xn, Yb)
+        reduce_entries(ents, Y, T)
         Xn[ml : ml + a] = T[ml : ml + a]
         Xn[nl : nl + b] = T[nl : nl + b]
 
@@ -439,197 +425,294 @@ def solve(
     Returns:
         :class:`Bounds` in local order.
     """
-    n = sys.n
-    if n == 0:
+    if sys.n == 0:
         empty = np.zeros(0)
         return Bounds(empty, empty.copy(), 0, True, options.method is not Method.VALUE)
-    prec = options.precision
-    rel = options.relative
-    max_it = options.max_iterations
-    deadline = options.deadline
-    mixed = 0 < sys.num_max < n
-    has_max = sys.num_max > 0
-    has_min = sys.num_max < n
+    treatment = _Treatment.start(sys, ec)
+    if options.method is Method.VALUE:
+        return _value_iteration(sys, options, treatment)
+    return _interval_iteration(sys, options, treatment, cap=cap, inner=inner, spread=spread)
 
-    # end components: fixed for one-player systems; in a game the maximiser's components depend on
-    # the minimiser's optimal choices and are computed (only) when an upper bound is verified
+
+# --- the end-component treatment ------------------------------------------------------------------
+
+
+@dataclass(eq=False)
+class _Treatment:
+    """The end-component treatment of one solve, as it evolves (see the module docstring).
+
+    ``family`` is fixed for one-player systems; in a game the maximiser's components depend on the
+    minimiser's optimal choices, so ``refresh`` says the family is recomputed from the current
+    bounds, and (DEFLATE) only once ``needed``: the costly decomposition waits until a guess fails
+    to verify without it."""
+
+    ec: EndComponents
     family: _Family | None = None
-    refresh = False
-    deflating = False
-    inflating = False
-    # in a game the (costly) decomposition is only done once a guess fails to verify without it
-    needed = ec is EndComponents.INFLATE
-    if ec is EndComponents.DEFLATE and has_max:
-        if mixed:
-            refresh = deflating = True
-        else:
-            family = _family(sys, np.ones(sys.m, dtype=bool), ec)
-            deflating = family is not None
-    elif ec is EndComponents.INFLATE and has_min:
-        # the lower bound needs the minimiser's components from the first step on
-        family = _family(sys, np.ones(sys.m, dtype=bool), ec)
-        inflating = family is not None
-        refresh = inflating and mixed
+    refresh: bool = False
+    deflating: bool = False
+    inflating: bool = False
+    needed: bool = False
 
-    y1 = np.empty(sys.m)
-    lower = np.zeros(n)
-    scratch = np.empty(n)
-    iters = 0
+    @classmethod
+    def start(cls, sys: System, ec: EndComponents) -> _Treatment:
+        mixed = 0 < sys.num_max < sys.n
+        t = cls(ec, needed=ec is EndComponents.INFLATE)
+        if ec is EndComponents.DEFLATE and sys.num_max > 0:
+            if mixed:
+                t.refresh = t.deflating = True
+            else:
+                t.family = _family(sys, np.ones(sys.m, dtype=bool), ec)
+                t.deflating = t.family is not None
+        elif ec is EndComponents.INFLATE and sys.num_max < sys.n:
+            # the lower bound needs the minimiser's components from the first step on
+            t.family = _family(sys, np.ones(sys.m, dtype=bool), ec)
+            t.inflating = t.family is not None
+            t.refresh = t.inflating and mixed
+        return t
 
-    def refresh_family(lo: np.ndarray, hi: np.ndarray) -> _Family | None:
+    @property
+    def found(self) -> bool:
+        """The treated player has (or, in a game, may have) end components."""
+        return self.family is not None or self.refresh
+
+    def recompute(self, sys: System, lo: np.ndarray, hi: np.ndarray) -> None:
+        """The family for the bounds ``lo``/``hi`` (finite), the opponent restricted to its optimal
+        choices: the minimiser's for the lower bound (DEFLATE), the maximiser's for the upper
+        bound (INFLATE)."""
         y = choice_values(sys, np.ascontiguousarray(np.stack([lo, hi], axis=1)))
-        opt = np.empty((n, 2))
-        _reduce(sys, y, opt)
+        opt = np.empty((sys.n, 2))
+        reduce_into(sys, y, opt)
         rs = sys.row_state
-        if ec is EndComponents.DEFLATE:
-            # the minimiser restricted to its choices optimal for the lower bound
+        if self.ec is EndComponents.DEFLATE:
             tol = 1e-12 * (1.0 + np.abs(opt[rs, 0]))
             keep = sys.row_maximize | (y[:, 0] <= opt[rs, 0] + tol)
         else:
-            # the maximiser restricted to its choices optimal for the upper bound
             tol = 1e-12 * (1.0 + np.abs(opt[rs, 1]))
             keep = ~sys.row_maximize | (y[:, 1] >= opt[rs, 1] - tol)
-        return _family(sys, keep, ec)
+        self.family = _family(sys, keep, self.ec)
 
-    # -- plain value iteration -----------------------------------------------------------------
-    if options.method is Method.VALUE:
-        converged = False
-        while iters < max_it:
-            _multiply(sys, lower, y1)
-            _reduce(sys, y1, scratch)
-            if inflating and family is not None:
-                family.inflate(sys.offset, scratch)
-            iters += 1
-            d = _diff(scratch, lower, rel)
-            lower, scratch = scratch, lower
-            if d <= prec:
-                converged = True
-                break
-            if _late(deadline, iters):
-                break
-        return Bounds(lower, lower.copy(), iters, converged, False, family is not None or refresh)
 
-    # -- optimistic interval iteration ---------------------------------------------------------
-    proven_upper = np.full(n, cap, dtype=np.float64)
-    tau = max(prec - spread, 0.25 * prec) * (1 / 64 if spread else 1.0)
-    X = np.empty((n, 2))
-    Xn = np.empty((n, 2))
-    Y = np.empty((sys.m, 2))
-    scratch2 = np.empty((n, 2))
+# --- plain value iteration ------------------------------------------------------------------------
+
+
+def _value_iteration(sys: System, options: SolverOptions, treatment: _Treatment) -> Bounds:
+    """``Method.VALUE``: iteration from 0 until a step changes the vector by at most the precision
+    (lower = upper, not sound)."""
+    lower = np.zeros(sys.n)
+    scratch = np.empty(sys.n)
+    y = np.empty(sys.m)
+    family = treatment.family if treatment.inflating else None
+    iters = 0
     converged = False
-    verified = False
-    if inflating:
-        # Park induction does not reach the value here (the least fixpoint undercounts), so the
-        # upper bound starts from the problem with every zero constant raised to eps > 0: its
-        # value is larger, it has no zero-reward end components (unique fixpoint, so optimistic
-        # iteration proves it), and B^k of an upper bound stays an upper bound.
-        positive = sys.offset[sys.offset > 0]
-        eps = float(positive.min()) if positive.size else 1.0
-        raised = replace(
-            sys,
-            offset=np.maximum(sys.offset, eps),
-            offset_upper=None if sys.offset_upper is None else np.maximum(sys.offset_upper, eps),
-        )
-        first = solve(raised, replace(options, want_strategy=False), cap=cap, ec=EndComponents.NONE)
-        iters += first.iterations
-        proven_upper = first.upper.copy()
-        verified = bool(np.all(np.isfinite(proven_upper)))
-    stalled = False
-    while iters < max_it and not converged and not stalled and not _late(deadline, 0):
-        # 1. lower bound by value iteration until it stalls
-        phase_start = iters
-        if sys.num_blocks > 1 and not inflating and _HAVE_KERNELS:
-            lower, iters = _lower_phase_blocks(sys, lower, tau, rel, iters, max_it, inner, deadline)
-        else:
-            lower, iters = _lower_phase(
-                sys, lower, tau, rel, iters, max_it, family if inflating else None, deadline
+    while iters < options.max_iterations:
+        multiply_into(sys, lower, y)
+        reduce_into(sys, y, scratch)
+        if family is not None:
+            family.inflate(sys.offset, scratch)
+        iters += 1
+        d = max_change(scratch, lower, options.relative)
+        lower, scratch = scratch, lower
+        if d <= options.precision:
+            converged = True
+            break
+        if _late(options.deadline, iters):
+            break
+    return Bounds(lower, lower.copy(), iters, converged, False, treatment.found)
+
+
+# --- optimistic interval iteration ----------------------------------------------------------------
+
+
+@dataclass(eq=False)
+class _Run:
+    """The state of one optimistic interval iteration: the pair ``X`` [n, 2] (lower and upper
+    column), its successor ``Xn`` and scratch ``Y`` [m, 2], ``T`` [n, 2]; the best upper bound
+    proven so far; and where the iteration stands."""
+
+    X: np.ndarray
+    Xn: np.ndarray
+    Y: np.ndarray
+    T: np.ndarray
+    proven_upper: np.ndarray
+    iters: int = 0
+    verified: bool = False
+    converged: bool = False
+    stalled: bool = False
+
+    def swap(self) -> None:
+        self.X, self.Xn = self.Xn, self.X
+
+
+def _interval_iteration(
+    sys: System,
+    options: SolverOptions,
+    treatment: _Treatment,
+    *,
+    cap: float,
+    inner: int,
+    spread: float,
+) -> Bounds:
+    """Rounds of: the lower bound by value iteration until it stalls, a guessed upper bound, its
+    verification (:func:`_verify`); a failed guess shrinks the lower iteration's threshold."""
+    n = sys.n
+    prec = options.precision
+    rel = options.relative
+    max_it = options.max_iterations
+    lower = np.zeros(n)
+    run = _Run(
+        X=np.empty((n, 2)),
+        Xn=np.empty((n, 2)),
+        Y=np.empty((sys.m, 2)),
+        T=np.empty((n, 2)),
+        proven_upper=np.full(n, cap, dtype=np.float64),
+    )
+    tau = max(prec - spread, 0.25 * prec) * (1 / 64 if spread else 1.0)
+    if treatment.inflating:
+        _raised_upper(sys, options, run, cap)
+    run.X[:, 0] = lower
+    run.X[:, 1] = run.proven_upper
+    deadline = options.deadline
+    while (
+        run.iters < max_it
+        and not run.converged
+        and not run.stalled
+        and not _late(deadline, 0)
+    ):
+        phase_start = run.iters
+        if sys.num_blocks > 1 and not treatment.inflating and HAVE_KERNELS:
+            lower, run.iters = _lower_phase_blocks(
+                sys, lower, tau, rel, run.iters, max_it, inner, deadline
             )
-        # 2. guess an upper bound
+        else:
+            family = treatment.family if treatment.inflating else None
+            lower, run.iters = _lower_phase(
+                sys, lower, tau, rel, run.iters, max_it, family, deadline
+            )
         if rel:
             guess = lower + (prec + spread) * np.abs(lower)
             guess[lower == 0] += prec + spread
         else:
             guess = lower + prec + spread
-        X[:, 0] = lower
-        X[:, 1] = proven_upper if verified else np.minimum(guess, proven_upper)
-        if refresh and needed:
-            family = refresh_family(X[:, 0].copy(), np.where(np.isfinite(X[:, 1]), X[:, 1], 0.0))
-        budget = max(16, iters - phase_start)
-        steps = 0
-        since_refresh = 0
-        last_gap = np.inf
-        while iters < max_it:
-            if family is None and sys.num_blocks > 1 and _HAVE_KERNELS:
-                _sweep_pair(sys, X, Xn, Y, scratch2)
-            else:
-                _multiply(sys, X, Y)
-                _reduce(sys, Y, Xn)
-            if family is not None:
-                if deflating:
-                    family.deflate(Y[:, 1], Xn[:, 1])
-                if inflating:
-                    family.inflate(sys.offset, Xn[:, 0])
-            iters += 1
-            steps += 1
-            since_refresh += 1
-            # the lower bound only grows; keep the best
-            np.maximum(Xn[:, 0], X[:, 0], out=Xn[:, 0])
-            if not verified:
-                # F(U) <= U up to rounding noise (a few ulps; the final widening covers it)
-                slack = _NOISE * np.abs(X[:, 1])
-                ok = bool(np.all(Xn[:, 1] <= X[:, 1] + slack))
-                if ok:
-                    verified = True
-                    np.minimum(proven_upper, np.maximum(Xn[:, 1], X[:, 1]), out=proven_upper)
-                elif np.any(Xn[:, 1] < Xn[:, 0] - slack):
-                    X, Xn = Xn, X
-                    break
-            else:
-                # the iterates of F from a pre-fixpoint stay above the value
-                np.minimum(proven_upper, Xn[:, 1], out=proven_upper)
-                Xn[:, 1] = proven_upper
-            X, Xn = Xn, X
-            if verified and _gap_ok(X[:, 0], X[:, 1], prec, rel):
-                converged = True
-                break
-            if not verified and steps >= budget:
-                break
-            if not verified and refresh and not needed and steps >= max(8, budget // 2):
-                # the guess does not verify by itself: the maximiser's end components matter
-                needed = True
-                family = refresh_family(
-                    X[:, 0].copy(), np.where(np.isfinite(X[:, 1]), X[:, 1], 0.0)
-                )
-                since_refresh = 0
-            if verified and refresh and needed and since_refresh >= 32:
-                family = refresh_family(X[:, 0].copy(), X[:, 1].copy())
-                since_refresh = 0
-            if _late(deadline, iters):
-                break  # out of time: the bounds so far stay proven (converged = False)
-            if verified and steps % 1000 == 0:
-                # give up when the gap no longer shrinks (bounds stay proven; converged = False)
-                gap = float(np.max(X[:, 1] - X[:, 0]))
-                if gap >= last_gap * (1.0 - 1e-9):
-                    stalled = True
-                    break
-                last_gap = gap
-        lower = np.ascontiguousarray(X[:, 0])
-        scratch = np.empty(n)
-        if not verified:
-            tau /= 4.0
-            if tau < 1e-15:
-                tau = 1e-15
-    upper = proven_upper if not converged else np.minimum(proven_upper, X[:, 1])
-    lower = np.ascontiguousarray(X[:, 0]) if (verified or converged) else lower
-    lower, upper = _widen(np.minimum(lower, upper), upper)
+        run.X[:, 0] = lower
+        run.X[:, 1] = run.proven_upper if run.verified else np.minimum(guess, run.proven_upper)
+        if treatment.refresh and treatment.needed:
+            treatment.recompute(sys, run.X[:, 0].copy(), _finite(run.X[:, 1]))
+        _verify(sys, options, treatment, run, budget=max(16, run.iters - phase_start))
+        lower = np.ascontiguousarray(run.X[:, 0])
+        if not run.verified:
+            tau = max(tau / 4.0, 1e-15)
+    return _final_bounds(run, lower, cap, treatment)
+
+
+def _finite(x: np.ndarray) -> np.ndarray:
+    return np.where(np.isfinite(x), x, 0.0)
+
+
+def _raised_upper(sys: System, options: SolverOptions, run: _Run, cap: float) -> None:
+    """The first proven upper bound under inflation. Park induction does not reach the value here
+    (the least fixpoint undercounts), so the upper bound starts from the problem with every zero
+    constant raised to eps > 0: its value is larger, it has no zero-reward end components (unique
+    fixpoint, so optimistic iteration proves it), and B^k of an upper bound stays an upper
+    bound."""
+    positive = sys.offset[sys.offset > 0]
+    eps = float(positive.min()) if positive.size else 1.0
+    raised = replace(
+        sys,
+        offset=np.maximum(sys.offset, eps),
+        offset_upper=None if sys.offset_upper is None else np.maximum(sys.offset_upper, eps),
+    )
+    first = solve(raised, replace(options, want_strategy=False), cap=cap, ec=EndComponents.NONE)
+    run.iters += first.iterations
+    run.proven_upper = first.upper.copy()
+    run.verified = bool(np.all(np.isfinite(run.proven_upper)))
+
+
+def _verify(
+    sys: System, options: SolverOptions, treatment: _Treatment, run: _Run, *, budget: int
+) -> None:
+    """Both bounds stepped together from the guess in ``run.X``: until the upper column is proven
+    a pre-fixpoint (``F(U) <= U``; then every further iterate stays above the value), the guess
+    falls below the lower bound or ``budget`` steps pass without a proof (a failed guess); after
+    a proof, until the gap meets the precision or stops shrinking. The end-component family is
+    refreshed on the way in a game (see :class:`_Treatment`)."""
+    prec = options.precision
+    steps = 0
+    since_refresh = 0
+    last_gap = np.inf
+    while run.iters < options.max_iterations:
+        X, Xn = run.X, run.Xn
+        family = treatment.family
+        if family is None and sys.num_blocks > 1 and HAVE_KERNELS:
+            _sweep_pair(sys, X, Xn, run.Y, run.T)
+        else:
+            multiply_into(sys, X, run.Y)
+            reduce_into(sys, run.Y, Xn)
+        if family is not None:
+            if treatment.deflating:
+                family.deflate(run.Y[:, 1], Xn[:, 1])
+            if treatment.inflating:
+                family.inflate(sys.offset, Xn[:, 0])
+        run.iters += 1
+        steps += 1
+        since_refresh += 1
+        # the lower bound only grows; keep the best
+        np.maximum(Xn[:, 0], X[:, 0], out=Xn[:, 0])
+        if not run.verified:
+            # F(U) <= U up to rounding noise (a few ulps; the final widening covers it)
+            slack = _NOISE * np.abs(X[:, 1])
+            if bool(np.all(Xn[:, 1] <= X[:, 1] + slack)):
+                run.verified = True
+                np.minimum(run.proven_upper, np.maximum(Xn[:, 1], X[:, 1]), out=run.proven_upper)
+            elif np.any(Xn[:, 1] < Xn[:, 0] - slack):
+                run.swap()
+                return
+        else:
+            # the iterates of F from a pre-fixpoint stay above the value
+            np.minimum(run.proven_upper, Xn[:, 1], out=run.proven_upper)
+            Xn[:, 1] = run.proven_upper
+        run.swap()
+        X = run.X
+        if run.verified and gap_ok(X[:, 0], X[:, 1], prec, options.relative):
+            run.converged = True
+            return
+        if not run.verified and steps >= budget:
+            return
+        if (
+            not run.verified
+            and treatment.refresh
+            and not treatment.needed
+            and steps >= max(8, budget // 2)
+        ):
+            # the guess does not verify by itself: the maximiser's end components matter
+            treatment.needed = True
+            treatment.recompute(sys, X[:, 0].copy(), _finite(X[:, 1]))
+            since_refresh = 0
+        if run.verified and treatment.refresh and treatment.needed and since_refresh >= 32:
+            treatment.recompute(sys, X[:, 0].copy(), X[:, 1].copy())
+            since_refresh = 0
+        if _late(options.deadline, run.iters):
+            return  # out of time: the bounds so far stay proven (converged = False)
+        if run.verified and steps % 1000 == 0:
+            # give up when the gap no longer shrinks (bounds stay proven; converged = False)
+            gap = float(np.max(X[:, 1] - X[:, 0]))
+            if gap >= last_gap * (1.0 - 1e-9):
+                run.stalled = True
+                return
+            last_gap = gap
+
+
+def _final_bounds(run: _Run, lower: np.ndarray, cap: float, treatment: _Treatment) -> Bounds:
+    """The proven bounds, widened outwards for rounding (:func:`widen`) and capped."""
+    upper = run.proven_upper if not run.converged else np.minimum(run.proven_upper, run.X[:, 1])
+    lower, upper = widen(np.minimum(lower, upper), upper)
     upper = np.minimum(upper, cap)
     return Bounds(
         np.ascontiguousarray(lower),
         np.ascontiguousarray(upper),
-        iters,
-        converged,
+        run.iters,
+        run.converged,
         True,
-        family is not None or refresh,
+        treatment.found,
     )
 
 
@@ -655,8 +738,8 @@ def solve_discounted(sys: System, options: SolverOptions) -> tuple[Bounds, np.nd
     bound = np.inf if n else 0.0
     converged = n == 0
     while n and iters < options.max_iterations:
-        _multiply(sys, cur, y)
-        _reduce(sys, y, nxt)
+        multiply_into(sys, cur, y)
+        reduce_into(sys, y, nxt)
         iters += 1
         d = float(np.max(np.abs(nxt - cur), initial=0.0))
         cur, nxt = nxt, cur
@@ -665,9 +748,9 @@ def solve_discounted(sys: System, options: SolverOptions) -> tuple[Bounds, np.nd
         if bound <= options.precision * max(scale, 1e-300):
             converged = True
             break
-    _multiply(sys, cur, y)
-    best = _argopt(sys, y) if n else np.zeros(0, dtype=np.int64)
+    multiply_into(sys, cur, y)
+    best = argopt_rows(sys, y) if n else np.zeros(0, dtype=np.int64)
     if options.method is Method.VALUE:
         return Bounds(cur, cur.copy(), iters, converged, False), best
-    lo, hi = _widen(cur - bound, cur + bound)
+    lo, hi = widen(cur - bound, cur + bound)
     return Bounds(lo, hi, iters, converged, True), best

@@ -8,7 +8,7 @@ state's owner maximises the quantity; see :func:`maximize_mask`) and returns an
 
 1. graph precomputation settles the states with a qualitative answer exactly (probability 0 or 1,
    reward 0 or infinite; for games the attractor-based versions, see :mod:`posgmc.engines.graph`);
-2. the rest becomes a :class:`~posgmc.engines.iteration.System` solved by sound interval iteration
+2. the rest becomes a :class:`~posgmc.engines.system.System` solved by sound interval iteration
    (default), plain value iteration, or policy iteration / direct solves;
 3. a memoryless strategy is extracted; where the player who wants the target reached has end
    components, its choices are fixed by an attractor towards the target among its (near-)optimal

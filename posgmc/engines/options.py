@@ -60,6 +60,8 @@ class SolverOptions:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.precision) and self.precision > 0):
-            raise InputError(f"the precision must be a positive finite number, got {self.precision!r}")
+            raise InputError(
+                f"the precision must be a positive finite number, got {self.precision!r}"
+            )
         if self.max_iterations < 1:
             raise InputError(f"max_iterations must be at least 1, got {self.max_iterations}")

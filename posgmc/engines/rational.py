@@ -18,7 +18,7 @@ import numpy as np
 from posgmc.engines.graph import almost_sure_reach, positive_reach, structure_of
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["exact_bounded_reach", "exact_cumulative_reward", "exact_rational_reach", "solve_dense"]
 
@@ -236,7 +236,9 @@ def exact_bounded_reach(
         out = []
         for s in range(S):
             vals = [
-                sum((exact[k] * x[indices[k]] for k in range(indptr[c], indptr[c + 1])), Fraction(0))
+                sum(
+                    (exact[k] * x[indices[k]] for k in range(indptr[c], indptr[c + 1])), Fraction(0)
+                )
                 for c in range(int(groups[s]), int(groups[s + 1]))
             ]
             out.append(max(vals) if mx[s] else min(vals))

@@ -27,7 +27,7 @@ from posgmc.engines.graph import almost_sure_reach, structure_of
 from posgmc.engines.rational import solve_dense
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["exact_reach_reward"]
 

@@ -2,7 +2,7 @@
 
 Unbounded until: graph precomputation settles the states with probability 0 or 1 exactly (for
 games the attractor-based versions, see :mod:`posgmc.engines.graph`); the rest is solved as a
-:class:`~posgmc.engines.iteration.System` (see :mod:`posgmc.engines.common`), and the strategy
+:class:`~posgmc.engines.system.System` (see :mod:`posgmc.engines.common`), and the strategy
 comes from the almost-sure attractor, the minimiser's avoiding choices and the attractor fix.
 Step-bounded ``U<=k`` and ``X`` are exact up to floating point: k Bellman steps (lower step bounds
 are in :mod:`posgmc.engines.step_bounds`).
@@ -19,19 +19,20 @@ from posgmc.engines.common import (
     _directions,
     _exact_result,
     _first_choices,
+    _local_rows,
     _reacher_fix,
     _result,
-    _local_rows,
     _solve_system,
 )
 from posgmc.engines.graph import Structure, almost_sure_reach, positive_reach, structure_of
-from posgmc.engines.iteration import EndComponents, argopt_rows, bellman, build_system, reduce_rows
+from posgmc.engines.iteration import EndComponents
 from posgmc.engines.options import SolverOptions
-from posgmc.engines.stepped import bellman_steps
 from posgmc.engines.result import EngineResult
+from posgmc.engines.stepped import bellman_steps
+from posgmc.engines.system import argopt_rows, build_system, reduce_rows
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["reach_probability", "bounded_reach_probability", "next_probability"]
 

@@ -6,7 +6,7 @@ be non-negative (PRISM's rule), except ``R[F]``/``R[Fc]`` when every strategy pr
 target almost surely (see :mod:`posgmc.engines.signed`). Reach rewards follow PRISM: the reward of
 a target state is not collected (the target is absorbing for the computation). The value is
 infinite exactly where the minimiser cannot force reaching the target almost surely (graph
-analysis); the rest is solved as a :class:`~posgmc.engines.iteration.System`. ``Fc`` with
+analysis); the rest is solved as a :class:`~posgmc.engines.system.System`. ``Fc`` with
 non-negative rewards is the total reward until the target (:mod:`posgmc.engines.total`); ``F0`` is
 in :mod:`posgmc.engines.zero_reward`.
 """
@@ -39,15 +39,16 @@ from posgmc.engines.graph import (
     positive_buchi,
     structure_of,
 )
-from posgmc.engines.iteration import Bounds, EndComponents, System, build_system, choose
+from posgmc.engines.iteration import Bounds, EndComponents
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.engines.signed import proper_region, solve_proper, start_bounds, value_iteration
+from posgmc.engines.system import System, build_system, choose
 from posgmc.engines.total import _total
 from posgmc.engines.zero_reward import _reach_reward_zero
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["ReachRewardMode", "expected_reach_reward"]
 

@@ -12,7 +12,8 @@ topological order), it merely has fewer, larger bands.
 scipy implements Pearce's algorithm, which numbers the components in the order it completes them:
 a reverse topological order of the condensation (a component's successors get smaller labels).
 The solver never trusts this blindly: a band whose rows reach a state not solved yet is refused
-and the whole system is solved at once instead (:func:`posgmc.engines.topological.solve_topological`).
+and the whole system is solved at once instead
+(:func:`posgmc.engines.topological.solve_topological`).
 
 Layout. Unknown states are ranked by component label (states of one component stay together) and
 cut into *bands* of about ``band_states`` states at component boundaries, each band into
@@ -72,7 +73,8 @@ def components(transitions: sp.csr_matrix, row_groups: np.ndarray) -> np.ndarray
     )
     graph.sum_duplicates()  # several choices into one successor (the routine needs no duplicates)
     _, labels = connected_components(graph, directed=True, connection="strong")
-    return labels
+    out: np.ndarray = labels
+    return out
 
 
 def topological_blocks(

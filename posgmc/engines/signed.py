@@ -1,7 +1,7 @@
 """Sound value iteration for expected rewards of any sign until a target that every strategy
 profile reaches almost surely (a stochastic shortest path problem whose policies are all proper).
 
-Setting: a :class:`~posgmc.engines.iteration.System` ``B(x)(s) = opt_r (b[r] + A[r] x)`` whose rows
+Setting: a :class:`~posgmc.engines.system.System` ``B(x)(s) = opt_r (b[r] + A[r] x)`` whose rows
 may have constants ``b`` of either sign and in which *every* memoryless profile leaves the system
 (reaches the target) with probability 1 from every state. Then (Bertsekas & Tsitsiklis, "An analysis
 of stochastic shortest path problems", 1991; the game case: Patek & Bertsekas, 1999) ``B`` is
@@ -29,17 +29,9 @@ from __future__ import annotations
 import numpy as np
 
 from posgmc.engines.graph import Structure, almost_sure_reach, attractor
-from posgmc.engines.iteration import (
-    Bounds,
-    EndComponents,
-    System,
-    _diff,
-    _gap_ok,
-    bellman,
-    build_system,
-    solve,
-)
+from posgmc.engines.iteration import Bounds, EndComponents, gap_ok, max_change, solve
 from posgmc.engines.options import Method, SolverOptions
+from posgmc.engines.system import System, bellman, build_system
 
 __all__ = ["proper_region", "start_bounds", "solve_proper", "value_iteration"]
 
@@ -160,7 +152,7 @@ def solve_proper(
     lo = np.array(lower, dtype=np.float64)
     hi = np.array(upper, dtype=np.float64)
     iterations = 0
-    converged = _gap_ok(lo, hi, prec, rel)
+    converged = gap_ok(lo, hi, prec, rel)
     last_gap = np.inf
     while not converged and iterations < options.max_iterations:
         # every iterate of a monotone map started below (above) V* stays below (above) it; two
@@ -168,7 +160,7 @@ def solve_proper(
         np.maximum(lo, bellman(sys, lo), out=lo)
         np.minimum(hi, bellman(sys, hi), out=hi)
         iterations += 1
-        converged = _gap_ok(lo, hi, prec, rel)
+        converged = gap_ok(lo, hi, prec, rel)
         if iterations % 1000 == 0:
             gap = float(np.max(hi - lo))
             if gap >= last_gap * (1.0 - 1e-9):
@@ -192,6 +184,6 @@ def value_iteration(sys: System, options: SolverOptions) -> Bounds:
     while not converged and iterations < options.max_iterations:
         nxt = bellman(sys, x)
         iterations += 1
-        converged = _diff(nxt, x, options.relative) <= options.precision
+        converged = max_change(nxt, x, options.relative) <= options.precision
         x = nxt
     return Bounds(x, x.copy(), iterations, converged, False)

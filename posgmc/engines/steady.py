@@ -31,10 +31,10 @@ from scipy.sparse.csgraph import connected_components
 
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import SolverOptions
-from posgmc.engines.rational import solve_dense, exact_rational_reach
+from posgmc.engines.rational import exact_rational_reach, solve_dense
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["EXACT_LIMIT", "LongRun", "as_fractions", "bsccs", "long_run_average", "long_run_exact"]
 
@@ -193,7 +193,9 @@ def long_run_average(model: ExplicitModel, weight: np.ndarray, *,
         if states.size == S:
             reach_lo = reach_hi = reach = np.ones(S)
         else:
-            r = obj.reach_probability(model, target, remain=None, maximize=everyone, options=options)
+            r = obj.reach_probability(
+                model, target, remain=None, maximize=everyone, options=options
+            )
             reach, reach_lo, reach_hi = r.values, r.lower, r.upper
             sound &= r.sound
             converged &= r.converged
@@ -202,5 +204,7 @@ def long_run_average(model: ExplicitModel, weight: np.ndarray, *,
         corners = np.stack([reach_lo * g_lo, reach_lo * g_hi, reach_hi * g_lo, reach_hi * g_hi])
         lower += corners.min(axis=0)
         upper += corners.max(axis=0)
-    slack = 4 * np.finfo(np.float64).eps * (np.abs(lower) + np.abs(upper)) * max(1, len(bsccs(model)))
+    slack = (
+        4 * np.finfo(np.float64).eps * (np.abs(lower) + np.abs(upper)) * max(1, len(bsccs(model)))
+    )
     return LongRun(values, lower - slack, upper + slack, sound, iterations, converged)

@@ -28,10 +28,10 @@ import time
 import numpy as np
 
 from posgmc.engines.graph import structure_of
-from posgmc.engines.iteration import bellman, build_system, reduce_rows
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.reach import bounded_reach_probability, reach_probability
 from posgmc.engines.result import EngineResult
+from posgmc.engines.system import bellman, build_system, reduce_rows
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
 

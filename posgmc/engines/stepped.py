@@ -1,7 +1,8 @@
 """Step-bounded rewards: ``R[C<=k]`` (cumulative) and ``R[I=k]`` (instantaneous).
 
 Both are exact up to floating point: k Bellman steps over all states, optimised per state and per
-remaining step, cut short when the iteration reaches an exact fixpoint (:func:`bellman_steps`). Their optimal strategies need a step counter, so none is returned (step-bounded
+remaining step, cut short when the iteration reaches an exact fixpoint (:func:`bellman_steps`).
+Their optimal strategies need a step counter, so none is returned (step-bounded
 probabilities are in :mod:`posgmc.engines.reach` and :mod:`posgmc.engines.step_bounds`).
 """
 
@@ -13,10 +14,9 @@ import numpy as np
 
 from posgmc.engines.common import _check_rewards, _directions, _exact_result
 from posgmc.engines.graph import structure_of
-from posgmc.engines.iteration import bellman, build_system
-from posgmc.engines.system import System
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.system import System, bellman, build_system
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
 

@@ -7,7 +7,7 @@ import numpy as np
 
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel, make_model
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["induced_chain"]
 

@@ -31,20 +31,35 @@ from posgmc.engines.scc import topological_blocks
 try:  # the C kernels behind ``A @ x``; they accumulate into a given output buffer
     from scipy.sparse import _sparsetools as _kernels
 
-    _HAVE_KERNELS = hasattr(_kernels, "csr_matvec") and hasattr(_kernels, "csr_matvecs")
+    HAVE_KERNELS = hasattr(_kernels, "csr_matvec") and hasattr(_kernels, "csr_matvecs")
 except ImportError:  # pragma: no cover - depends on the scipy build
     _kernels = None
-    _HAVE_KERNELS = False
+    HAVE_KERNELS = False
+"""Whether scipy's accumulating kernels are available; the in-place solvers need them."""
 
 __all__ = [
+    "HAVE_KERNELS",
     "System",
-    "build_system",
-    "bellman",
-    "reduce_rows",
+    "accumulate_rows",
     "argopt_rows",
+    "bellman",
+    "build_system",
     "choice_values",
     "choose",
+    "multiply_into",
+    "reduce_entries",
+    "reduce_into",
+    "reduce_rows",
 ]
+
+
+SlotEntry = tuple[int, int, int, int, int, int]
+"""One row of the slot table, ``(row_lo, max_lo, a, min_lo, b, slot)`` (see
+:attr:`System.slots`)."""
+
+Block = tuple[int, int, int, int, int, int, tuple[SlotEntry, ...]]
+"""One Gauss-Seidel block, ``(row_lo, row_hi, max_lo, a, min_lo, b, entries)``
+(:attr:`System.plan`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,15 +123,18 @@ class System:
         return int(self.blocks.size - 1)
 
     @cached_property
-    def entries(self) -> tuple[tuple[int, int, int, int, int, int], ...]:
+    def entries(self) -> tuple[SlotEntry, ...]:
         """The slot table as Python ints (the reduction loops read it every step)."""
-        return tuple(tuple(int(v) for v in e) for e in self.slots)  # type: ignore[misc]
+        return tuple(
+            (int(rs), int(ml), int(a), int(nl), int(b), int(j))
+            for rs, ml, a, nl, b, j in self.slots
+        )
 
     @cached_property
-    def plan(self) -> tuple[tuple[int, int, int, int, int, int, tuple], ...]:
+    def plan(self) -> tuple[Block, ...]:
         """Per block ``(row_lo, row_hi, max_lo, a, min_lo, b, entries)``: its rows, its maximising
         states ``[max_lo, max_lo + a)``, minimising states ``[min_lo, min_lo + b)`` and entries."""
-        out = []
+        out: list[Block] = []
         for i in range(self.num_blocks):
             ents = self.entries[int(self.blocks[i]) : int(self.blocks[i + 1])]
             rs, ml, a, nl, b, _ = ents[0]
@@ -154,7 +172,8 @@ def _block_of(layer: np.ndarray) -> np.ndarray:
     size = -(-lay.size // _MAX_BLOCKS)
     first = (np.cumsum(counts) - counts) // size  # the chunk where each layer starts
     _, block_of_layer = np.unique(first, return_inverse=True)
-    return block_of_layer[lay]
+    out: np.ndarray = block_of_layer[lay]
+    return out
 
 
 _COMPACT_CHUNK = 1 << 20
@@ -356,12 +375,26 @@ def build_system(
 # ---------------------------------------------------------------------------------------------
 
 
-def _multiply(sys: System, x: np.ndarray, y: np.ndarray) -> None:
+def accumulate_rows(A: sp.csr_matrix, r0: int, r1: int, x: np.ndarray, y: np.ndarray) -> None:
+    """``y += A[r0:r1] @ x`` in place, by scipy's kernel (only when :data:`HAVE_KERNELS`).
+
+    ``x``: float64[n] or C-contiguous float64[n, k]; ``y``: float64[r1 - r0] or C-contiguous
+    float64[r1 - r0, k] (a view into a larger buffer is updated in place)."""
+    indptr = A.indptr[r0 : r1 + 1]
+    if x.ndim == 1:
+        _kernels.csr_matvec(r1 - r0, A.shape[1], indptr, A.indices, A.data, x, y)
+    else:
+        _kernels.csr_matvecs(
+            r1 - r0, A.shape[1], x.shape[1], indptr, A.indices, A.data, x.ravel(), y.ravel()
+        )
+
+
+def multiply_into(sys: System, x: np.ndarray, y: np.ndarray) -> None:
     """y = offset + A x (x: [n] or [n, k] C-contiguous; y preallocated, same trailing shape)."""
     A = sys.matrix
     if x.ndim == 1:
         y[:] = sys.offset
-        if _HAVE_KERNELS:
+        if HAVE_KERNELS:
             _kernels.csr_matvec(A.shape[0], A.shape[1], A.indptr, A.indices, A.data, x, y)
         else:  # pragma: no cover
             y += A @ x
@@ -369,7 +402,7 @@ def _multiply(sys: System, x: np.ndarray, y: np.ndarray) -> None:
         y[:] = sys.offset[:, None]
         if sys.offset_upper is not None and x.shape[1] == 2:
             y[:, 1] = sys.offset_upper
-        if _HAVE_KERNELS:
+        if HAVE_KERNELS:
             _kernels.csr_matvecs(
                 A.shape[0],
                 A.shape[1],
@@ -384,9 +417,8 @@ def _multiply(sys: System, x: np.ndarray, y: np.ndarray) -> None:
             y += A @ x
 
 
-def _reduce_entries(
-    entries: tuple[tuple[int, int, int, int, int, int], ...], y: np.ndarray, out: np.ndarray
-) -> None:
+def reduce_entries(entries: tuple[SlotEntry, ...], y: np.ndarray, out: np.ndarray) -> None:
+    """``out[s]`` = the optimum of ``y`` over the rows of s, for the states of ``entries``."""
     for rs, ml, a, nl, b, j in entries:
         if j == 0:
             out[ml : ml + a] = y[rs : rs + a]
@@ -398,24 +430,24 @@ def _reduce_entries(
             np.minimum(out[nl : nl + b], y[rs + a : rs + a + b], out=out[nl : nl + b])
 
 
-def _reduce(sys: System, y: np.ndarray, out: np.ndarray) -> None:
+def reduce_into(sys: System, y: np.ndarray, out: np.ndarray) -> None:
     """out[s] = opt over the rows of s of y[row] (1-D or 2-D along axis 0)."""
-    _reduce_entries(sys.entries, y, out)
+    reduce_entries(sys.entries, y, out)
 
 
 def bellman(sys: System, x: np.ndarray) -> np.ndarray:
     """B(x) (allocating; for tests and one-off use)."""
     y = np.empty((sys.m,) + x.shape[1:])
-    _multiply(sys, np.ascontiguousarray(x), y)
+    multiply_into(sys, np.ascontiguousarray(x), y)
     out = np.empty_like(x, dtype=np.float64)
-    _reduce(sys, y, out)
+    reduce_into(sys, y, out)
     return out
 
 
 def reduce_rows(sys: System, y: np.ndarray) -> np.ndarray:
     """float64[n]: the optimum over each state's rows of the row values ``y`` (float64[m])."""
     out = np.empty(sys.n)
-    _reduce(sys, y, out)
+    reduce_into(sys, y, out)
     return out
 
 
@@ -427,7 +459,7 @@ def argopt_rows(sys: System, y: np.ndarray) -> np.ndarray:
 def choice_values(sys: System, x: np.ndarray) -> np.ndarray:
     """float64[m]: b + A x per row."""
     y = np.empty((sys.m,) + x.shape[1:])
-    _multiply(sys, np.ascontiguousarray(x, dtype=np.float64), y)
+    multiply_into(sys, np.ascontiguousarray(x, dtype=np.float64), y)
     return y
 
 

@@ -52,7 +52,7 @@ import scipy.sparse as sp
 
 from posgmc.engines.iteration import Bounds, EndComponents, solve
 from posgmc.engines.options import SolverOptions
-from posgmc.engines.system import System
+from posgmc.engines.system import Block, System
 
 __all__ = ["solve_topological"]
 
@@ -131,7 +131,7 @@ def solve_topological(
     return Bounds(lower, upper, iters, True, True, ecs)
 
 
-def _state_ranges(plan: tuple, b0: int, b1: int) -> tuple[int, int, int, int]:
+def _state_ranges(plan: tuple[Block, ...], b0: int, b1: int) -> tuple[int, int, int, int]:
     """The maximising states ``[ml0, ml1)`` and minimising states ``[nl0, nl1)`` of blocks
     ``b0:b1`` (contiguous: states are ordered by player, then block)."""
     first, last = plan[b0], plan[b1 - 1]
@@ -140,7 +140,7 @@ def _state_ranges(plan: tuple, b0: int, b1: int) -> tuple[int, int, int, int]:
 
 def _band(
     sys: System,
-    plan: tuple,
+    plan: tuple[Block, ...],
     b0: int,
     b1: int,
     lower: np.ndarray,

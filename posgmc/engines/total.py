@@ -2,7 +2,7 @@
 
 Graph precomputation settles the infinite values (the maximiser collects rewards infinitely often
 with positive probability: positive Büchi) and the zeros (the minimiser avoids every reward
-forever: a safe region) exactly; the rest is a :class:`~posgmc.engines.iteration.System` with
+forever: a safe region) exactly; the rest is a :class:`~posgmc.engines.system.System` with
 end-component deflation. Rewards must be non-negative here (PRISM's rule); reach rewards of mixed
 sign are in :mod:`posgmc.engines.rewards`.
 """
@@ -24,11 +24,12 @@ from posgmc.engines.common import (
     _unsafe,
 )
 from posgmc.engines.graph import almost_sure_reach, positive_buchi, safe_region, structure_of
-from posgmc.engines.iteration import EndComponents, build_system
+from posgmc.engines.iteration import EndComponents
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.system import build_system
 from posgmc.model.explicit import ExplicitModel
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__ = ["total_reward"]
 

@@ -17,14 +17,15 @@ import scipy.sparse as sp
 
 from posgmc.engines.common import _exact_result, _first_choices, _solve_system
 from posgmc.engines.graph import structure_of
-from posgmc.engines.iteration import EndComponents, build_system, solve
+from posgmc.engines.iteration import EndComponents, solve
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.reach import reach_probability
 from posgmc.engines.result import EngineResult
+from posgmc.engines.system import build_system
 from posgmc.engines.total import _total
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
-from posgmc.syntax.ast import ModelType
+from posgmc.model.types import ModelType
 
 __all__: list[str] = []
 

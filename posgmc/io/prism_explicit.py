@@ -92,7 +92,7 @@ def prism_explicit_texts(
         files[Path(base + ".sta")] = _states(model, headers=headers)
     files[Path(base + ".lab")] = _labels(model, headers=headers)
     many = len(model.reward_models) > 1
-    for r, rm in enumerate(model.reward_models):
+    for r in range(len(model.reward_models)):
         stem = f"{base}{r + 1}" if many else base
         files[Path(stem + ".srew")] = _state_rewards(model, r, headers=headers)
         files[Path(stem + ".trew")] = _transition_rewards(model, r, headers=headers)
@@ -187,7 +187,7 @@ def _labels(model: ExplicitModel, *, headers: bool) -> str:
         acc = np.strings.add(acc, token)
     has = np.strings.str_len(acc) > 0
     states = np.flatnonzero(has)
-    body = np.strings.add(np.strings.add(_ints(states), ":"), acc[has])
+    body = np.strings.add(np.strings.add(_ints(states), ":"), acc[has])  # type: ignore[arg-type]  # numpy stubs: str_ only, not StringDType
     return _lines(head, body)
 
 

@@ -17,7 +17,8 @@ model_type          ModelType                    dtmc: one choice per state
 initial_states      int64[k], k >= 1             sorted, distinct, each in [0, S)
 row_groups          int64[S + 1]                 row_groups[0] = 0, row_groups[S] = C, strictly
                                                  increasing (every state has >= 1 choice); the
-                                                 choices of state s are rows row_groups[s]:row_groups[s+1]
+                                                 choices of state s are rows
+                                                 row_groups[s]:row_groups[s+1]
 transitions         csr_matrix float64 [C, S]    every row sums to 1 (within 1e-9), entries > 0,
                                                  sorted column indices, no duplicates
 choice_actions      int32[C]                     index into ``action_names``
@@ -238,7 +239,7 @@ class ExplicitModel:
                 f"choice {int(bad[0])} has exact probabilities not summing to 1"
             )
 
-    def validate(self, *, tolerance: float = 1e-9) -> "ExplicitModel":
+    def validate(self, *, tolerance: float = 1e-9) -> ExplicitModel:
         """Check every invariant of the module docstring; raise :class:`ModelInvariantError`."""
         S = self.num_states
         rg = self.row_groups
@@ -259,7 +260,9 @@ class ExplicitModel:
             raise ModelInvariantError("choice_actions must have one entry per choice")
         if not self.action_names or self.action_names[0] != "":
             raise ModelInvariantError('action_names[0] must be "" (the unlabelled choice)')
-        if C and (self.choice_actions.min() < 0 or self.choice_actions.max() >= len(self.action_names)):
+        if C and (
+            self.choice_actions.min() < 0 or self.choice_actions.max() >= len(self.action_names)
+        ):
             raise ModelInvariantError("choice_actions must index action_names")
         if self.deadlocks.size and (self.deadlocks.min() < 0 or self.deadlocks.max() >= S):
             raise ModelInvariantError("deadlock states must be within [0, num_states)")
@@ -281,9 +284,13 @@ class ExplicitModel:
             self._validate_exact()
         for rm in self.reward_models:
             if rm.state is not None and rm.state.shape != (S,):
-                raise ModelInvariantError(f"reward model {rm.name!r}: state rewards need shape ({S},)")
+                raise ModelInvariantError(
+                    f"reward model {rm.name!r}: state rewards need shape ({S},)"
+                )
             if rm.choice is not None and rm.choice.shape != (C,):
-                raise ModelInvariantError(f"reward model {rm.name!r}: choice rewards need shape ({C},)")
+                raise ModelInvariantError(
+                    f"reward model {rm.name!r}: choice rewards need shape ({C},)"
+                )
         self._validate_dtypes()
         return self
 
@@ -316,7 +323,9 @@ class ExplicitModel:
         sums = np.asarray(T.sum(axis=1)).ravel()
         bad = np.flatnonzero(np.abs(sums - 1.0) > tolerance)
         if bad.size:
-            raise ModelInvariantError(f"choice {int(bad[0])} has probabilities summing to {sums[bad[0]]}")
+            raise ModelInvariantError(
+                f"choice {int(bad[0])} has probabilities summing to {sums[bad[0]]}"
+            )
         if T.nnz and T.data.min() <= 0:
             raise ModelInvariantError("transition probabilities must be positive")
         # Within a row, column indices strictly increase (sorted, no duplicates); a decrease or
@@ -336,7 +345,9 @@ class ExplicitModel:
         players = len(self.player_names) if self.player_names else 1
         for obs in self.observations:
             if not 0 <= obs.player < players:
-                raise ModelInvariantError(f"an observation names player {obs.player}, which does not exist")
+                raise ModelInvariantError(
+                    f"an observation names player {obs.player}, which does not exist"
+                )
             if obs.state_ids.shape != (S,):
                 raise ModelInvariantError("an observation needs one id per state")
             if obs.values.ndim != 2 or obs.values.shape[1] != len(obs.names):

@@ -1,11 +1,12 @@
-"""The enums of the compiled game, defined here so that :mod:`posgmc.model` needs nothing but
-numpy and scipy (the syntax tree names the same model types and imports them from here)."""
+"""The enums of the compiled game and its engines, defined here so that :mod:`posgmc.model` and
+:mod:`posgmc.engines` need nothing but numpy and scipy (the syntax tree names the same model types
+and directions and imports them from here)."""
 
 from __future__ import annotations
 
 import enum
 
-__all__ = ["ModelType"]
+__all__ = ["Direction", "ModelType"]
 
 
 class ModelType(enum.Enum):
@@ -28,3 +29,10 @@ class ModelType(enum.Enum):
     @property
     def is_nondeterministic(self) -> bool:
         return self is not ModelType.DTMC
+
+
+class Direction(enum.Enum):
+    """Which optimum a query asks for (``Pmin``/``Pmax``, ``Rmin``/``Rmax``)."""
+
+    MIN = "min"
+    MAX = "max"

@@ -19,12 +19,13 @@ from posgmc.semantics.constants import (
     expand_sweep,
     parse_const_assignments,
 )
-from posgmc.semantics.properties import ResolvedQuery
+from posgmc.semantics.queries import QueryResolver, ResolvedQuery
 
 __all__ = [
     "CheckedProperty",
     "ConstRange",
     "ConstSetting",
+    "QueryResolver",
     "ResolvedQuery",
     "check_model",
     "check_properties",

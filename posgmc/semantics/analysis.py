@@ -14,6 +14,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
+from typing import TypeGuard
 
 from posgmc.errors import (
     ConstantError,
@@ -299,7 +300,7 @@ def _value_checks(analysis: ModelAnalysis, errors: list[PosgmcError]) -> None:
             continue
         if v.init is not None:
             init = analysis.value(v.init)
-            if _is_int(init) and not low <= init <= high:  # type: ignore[operator]
+            if _is_int(init) and not low <= init <= high:
                 report(
                     errors,
                     f'the initial value {init} of variable "{v.name}" is outside its range '
@@ -312,7 +313,7 @@ def _value_checks(analysis: ModelAnalysis, errors: list[PosgmcError]) -> None:
             report(errors, f'the value of constant "{c.name}" is not finite ({val})', c.span)
 
 
-def _is_int(v: object) -> bool:
+def _is_int(v: object) -> TypeGuard[int]:
     return isinstance(v, int) and not isinstance(v, bool)
 
 

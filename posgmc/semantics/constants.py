@@ -162,7 +162,7 @@ def parse_const_assignments(
 
 
 def expand_sweep(
-    settings: Mapping[str, object],
+    settings: Mapping[str, ConstSetting | ConstRange | UserConstant],
 ) -> list[dict[str, ConstSetting | UserConstant]]:
     """One setting per combination of the ranges in ``settings`` (the last range varies
     fastest); single values are kept as they are.
@@ -171,14 +171,14 @@ def expand_sweep(
         ConstantError: a malformed range.
     """
     names = list(settings)
-    axes: list[list[object]] = []
+    axes: list[list[ConstSetting | UserConstant]] = []
     for name in names:
         v = settings[name]
         if isinstance(v, ConstRange):
             axes.append([ConstSetting(x, v.span) for x in v.values()])
         else:
             axes.append([v])
-    return [dict(zip(names, combo)) for combo in itertools.product(*axes)]  # type: ignore[misc]
+    return [dict(zip(names, combo)) for combo in itertools.product(*axes)]
 
 
 def convert_user_value(

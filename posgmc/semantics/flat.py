@@ -15,7 +15,8 @@ from posgmc.errors import SourceSpan
 from posgmc.syntax.ast import NO_SPAN, Expr, ModelType, VarType
 
 ConstValue = int | Fraction | float | bool
-"""A constant's value: int for int constants, Fraction (exact) or float for doubles, bool for bools."""
+"""A constant's value: int for int constants, Fraction (exact) or float for doubles, bool for
+bools."""
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,6 @@ single queries.
 from __future__ import annotations
 
 from posgmc.errors import PosgmcError, SemanticError, UnsupportedError
-from posgmc.syntax.traversal import iter_nodes
 from posgmc.syntax.ast import (
     ComparisonOp,
     Direction,
@@ -35,6 +34,7 @@ from posgmc.syntax.ast import (
     RewardKind,
     RewardQuery,
 )
+from posgmc.syntax.traversal import iter_nodes
 
 __all__ = ["check_multi", "MULTI_REWARD_KINDS", "MULTI_MODEL_TYPES"]
 
@@ -135,11 +135,13 @@ def _check_game_form(top: MultiQuery, *, model_type: ModelType, errors: list[Pos
     if model_type is not ModelType.SMG:
         errors.append(
             UnsupportedError(
-                f"a coalition over several objectives, <<C>> (q1 & q2), is answered on smgs, not on "
+                f"a coalition over several objectives, <<C>> (q1 & q2), is answered on smgs, not "
+                f"on "
                 f"{model_type.value} models",
                 top.span,
-                hint="on an mdp write multi(q1, q2)" if model_type is ModelType.MDP else
-                "see docs/tradeoffs.md",
+                hint="on an mdp write multi(q1, q2)"
+                if model_type is ModelType.MDP
+                else "see docs/tradeoffs.md",
             )
         )
         return
@@ -158,10 +160,15 @@ def _check_game_form(top: MultiQuery, *, model_type: ModelType, errors: list[Pos
                 hint='e.g. <<p1>> (P>=0.9 [ F "goal" ] & R{"value"}>=2 [ C ])'))
             continue
         if arg.coalition is not None:
-            errors.append(UnsupportedError(
-                "an objective inside <<C>> (...) takes no coalition of its own", arg.coalition.span))
-        upward = (arg.threshold is not None and arg.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)) \
-            or (arg.threshold is None and arg.direction is Direction.MAX)
+            errors.append(
+                UnsupportedError(
+                    "an objective inside <<C>> (...) takes no coalition of its own",
+                    arg.coalition.span,
+                )
+            )
+        upward = (
+            arg.threshold is not None and arg.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
+        ) or (arg.threshold is None and arg.direction is Direction.MAX)
         if not upward:
             errors.append(UnsupportedError(
                 "in games posgmc answers objectives the coalition maximises: P>=p, P>p, Pmax=?, "
@@ -171,7 +178,10 @@ def _check_game_form(top: MultiQuery, *, model_type: ModelType, errors: list[Pos
                 "check it alone",
             ))
         if isinstance(arg, RewardQuery) and arg.objective.kind is not RewardKind.TOTAL:
-            errors.append(UnsupportedError(
-                f'in games multi-objective rewards are total rewards [C], not "{arg.objective.kind.value}"',
-                arg.objective.span if arg.objective.span.line else arg.span,
-            ))
+            errors.append(
+                UnsupportedError(
+                    f'in games multi-objective rewards are total rewards [C], not '
+                    f'"{arg.objective.kind.value}"',
+                    arg.objective.span if arg.objective.span.line else arg.span,
+                )
+            )

@@ -3,10 +3,10 @@
 ``mod``, ``pow`` of two ints, and ``floor``/``ceil``/``round`` are the operators of the language
 that can fail (``parser/ast/ExpressionFunc.java``: ``evaluateMod``, ``evaluatePow``,
 ``evaluateFloor``...). The exploration code generator (:mod:`posgmc.compiler.compile_expr`) and the
-state-formula evaluator (:mod:`posgmc.checking.states`) both call the functions below, so a model and
-a property give the same value or the same error for the same expression. Each function returns the
-result array or raises :class:`DomainFailure` with the message and the first offending position; the
-caller turns it into a positioned error naming the state.
+state-formula evaluator (:mod:`posgmc.checking.states`) both call the functions below, so a model
+and a property give the same value or the same error for the same expression. Each function returns
+the result array or raises :class:`DomainFailure` with the message and the first offending position;
+the caller turns it into a positioned error naming the state.
 
 * ``mod(i, n)`` needs ``n > 0`` and is never negative (``mod(-1, 3) = 2``);
 * ``pow(i, j)`` of two ints needs ``j >= 0`` and a result that fits in 64 bits;
@@ -189,7 +189,10 @@ def _rounding(name: str, f: Callable[[Any], Any]) -> Partial:
 
 
 mod = Partial(
-    "mod", lambda a, b: np.asarray(b) <= 0, lambda a, b: f"mod() by a non-positive divisor ({int(b)})", _mod
+    "mod",
+    lambda a, b: np.asarray(b) <= 0,
+    lambda a, b: f"mod() by a non-positive divisor ({int(b)})",
+    _mod,
 )
 """``mod(a, b)`` of ints: needs ``b > 0``; never negative (``mod(-1, 3) = 2``)."""
 
@@ -226,7 +229,9 @@ def _mul_overflows(a: Any, b: Any) -> Any:
     return ((a != 0) & (q != b)) | ((a == -1) & (b == INT64_MIN)) | ((b == -1) & (a == INT64_MIN))
 
 
-def _checked(name: str, symbol: str, f: Callable[[Any, Any], Any], overflows: Callable[..., Any]) -> Partial:
+def _checked(
+    name: str, symbol: str, f: Callable[[Any, Any], Any], overflows: Callable[..., Any]
+) -> Partial:
     def compute(a: Any, b: Any, safe: Any = None) -> Any:
         return f(_pick(a, safe, 0), _pick(b, safe, 0))
 
@@ -283,7 +288,7 @@ def to_float(x: int | Fraction | float) -> float:
         return -math.inf if x < 0 else math.inf
 
 
-# -- exact scalar forms (constant folding and the scalar evaluator) ----------------------------------
+# -- exact scalar forms (constant folding and the scalar evaluator) --------------------------------
 
 Exact = int | Fraction | float
 """A scalar number: int for ints, Fraction for a double while exact, float once inexact."""
@@ -302,12 +307,13 @@ def scalar_int_pow(a: int, b: int) -> int:
     """``pow(a, b)`` of two ints. Raises DomainFailure for ``b < 0`` or beyond 64-bit integers."""
     if b < 0:
         raise DomainFailure(
-            f"negative exponent {b} in pow() of two ints; write pow({a}.0, {b}) for a double result",
+            f"negative exponent {b} in pow() of two ints; "
+            f"write pow({a}.0, {b}) for a double result",
             0,
         )
     if a not in (-1, 0, 1) and b * math.log2(abs(a)) >= 63:
         raise DomainFailure("pow() of two ints overflows 64-bit integers", 0)
-    r = a**b
+    r: int = a**b
     if abs(r) > _INT64_MAX:
         raise DomainFailure("pow() of two ints overflows 64-bit integers", 0)
     return r
@@ -328,7 +334,12 @@ def scalar_pow(a: Exact, b: Exact) -> Fraction | float:
     except OverflowError:
         odd = integral and int(b) % 2 == 1
         return -math.inf if (odd and a < 0) else math.inf
-    if integral and not isinstance(a, float) and abs(int(b)) <= _EXACT_POW_LIMIT and math.isfinite(f):
+    if (
+        integral
+        and not isinstance(a, float)
+        and abs(int(b)) <= _EXACT_POW_LIMIT
+        and math.isfinite(f)
+    ):
         return Fraction(a) ** int(b)
     return f
 
@@ -355,7 +366,9 @@ def scalar_divide(a: Exact, b: Exact) -> Fraction | float:
     ``0/0`` NaN, as PRISM's doubles); in exact mode a division by zero raises DomainFailure."""
     if _EXACT.get() and (b == 0 or isinstance(a, float) or isinstance(b, float)):
         raise DomainFailure(
-            "division by zero has no exact value" if b == 0 else "a floating-point value in exact mode",
+            "division by zero has no exact value"
+            if b == 0
+            else "a floating-point value in exact mode",
             0,
         )
     if not isinstance(a, float) and not isinstance(b, float) and b != 0:
@@ -392,7 +405,13 @@ def scalar_to_int(x: Exact, name: str) -> int:
         if not math.isfinite(x):
             raise DomainFailure(f"{name}() of {x} is not an integer", 0)
         x = Fraction(x)
-    r = math.floor(x) if name == "floor" else math.ceil(x) if name == "ceil" else math.floor(x + Fraction(1, 2))
+    r = (
+        math.floor(x)
+        if name == "floor"
+        else math.ceil(x)
+        if name == "ceil"
+        else math.floor(x + Fraction(1, 2))
+    )
     if abs(r) > _INT64_MAX:
         raise DomainFailure(f"{name}() of {to_float(x)} overflows 64-bit integers", 0)
     return r

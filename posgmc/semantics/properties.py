@@ -9,14 +9,11 @@ coalitions name existing players. Properties-file constants and formulas share t
 namespace with the model's; its labels share the quoted namespace with the model's labels and
 observables.
 
-Coalitions: PRISM-games numbers players from 1 (``<<1>>`` = first declared player,
-``PropertiesSemanticCheck``: "Valid player references are either integers in the range
-1..numPlayers or a name"); Storm and PAYNT number them from 0. Numbers are read 1-based unless the
-caller asks for ``zero_based_players=True`` (``--zero-based-players``). A coalition on a model
-that is not a game is an error (PRISM-games silently ignores ``<<*>>`` there; an explicit error
-is kinder). A query without a coalition on a game is left as is (``coalition`` None): PRISM-games
-then lets all players cooperate (``coins.prism.props``: ``Pmax=? [F "correct"]`` has the RESULT
-0.75 of ``<<1,2,3>>``); the engines decide.
+Coalitions and reward structures are resolved by :class:`~posgmc.semantics.queries.QueryResolver`
+(PRISM-games' 1-based player numbers unless ``zero_based_players=True``, Storm and PAYNT's 0-based
+ones with it). A query without a coalition on a game is left as is (``coalition`` None):
+PRISM-games then lets all players cooperate (``coins.prism.props``: ``Pmax=? [F "correct"]`` has
+the RESULT 0.75 of ``<<1,2,3>>``); the engines decide.
 
 The resolved form (:class:`CheckedProperty`):
 
@@ -37,7 +34,7 @@ import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from posgmc.errors import PosgmcError
+from posgmc.errors import PosgmcError, SourceSpan
 from posgmc.semantics.analysis import (
     ModelAnalysis,
     analyse_model,
@@ -53,27 +50,17 @@ from posgmc.semantics.evaluate import (
     evaluate,
     format_value,
     free_names,
-    iter_nodes,
-    map_children,
     simplify,
     substitute,
 )
 from posgmc.semantics.flat import FlatModel
 from posgmc.semantics.multi import check_multi
+from posgmc.semantics.observations import ObservableInfo
+from posgmc.semantics.queries import QueryResolver, ResolvedQuery
 from posgmc.semantics.resolve import RESERVED_LABELS, position, variable_types
-from posgmc.semantics.symbols import (
-    Symbol,
-    SymbolKind,
-    Type,
-    line_of,
-    model_type_phrase,
-    report,
-)
+from posgmc.semantics.symbols import Symbol, SymbolKind, Type, line_of, report
 from posgmc.semantics.types import TypeChecker
 from posgmc.syntax.ast import (
-    PlayerRef,
-    Coalition,
-    CoalitionKind,
     ConstantDecl,
     Expr,
     FormulaDecl,
@@ -88,30 +75,18 @@ from posgmc.syntax.ast import (
     RewardQuery,
     Temporal,
 )
+from posgmc.syntax.traversal import iter_nodes, map_children
 
 __all__ = [
     "CheckedProperty",
+    "QueryResolver",
     "ResolvedQuery",
     "check_properties",
     "instantiate_properties",
+    "resolve_queries",
 ]
 
 BUILTIN_LABELS = RESERVED_LABELS
-
-
-@dataclass(frozen=True)
-class ResolvedQuery:
-    """What a ``P``/``R`` node of a checked property refers to.
-
-    ``coalition``: 0-based indices into :attr:`FlatModel.players`; None when the query has no
-    coalition. ``coalition_kind``: ``<<..>>`` or ``[[..]]`` (None without coalition).
-    ``reward_index``: 0-based index into :attr:`FlatModel.rewards` (``R`` queries only).
-    """
-
-    node: ProbQuery | RewardQuery
-    coalition: frozenset[int] | None
-    coalition_kind: CoalitionKind | None
-    reward_index: int | None
 
 
 @dataclass(frozen=True)
@@ -203,19 +178,58 @@ def _analyse(
     constants: Mapping[str, object] | None,
     zero_based_players: bool,
 ) -> _PropsAnalysis:
+    """Every check of a properties file against a model, in the order of its sections: the
+    file's constants and formulas beside the model's names, its formulas, its labels, the types
+    of all of them, the constants' values, then the properties. Errors are collected."""
     pf = _as_file(props)
     ma = analyse_model(model, constants=constants, allow_extra_constants=True)
-    resolved = ma.resolved
     errors: list[PosgmcError] = []
+    symbols, accepted = _declare(pf, ma, errors)
+    bodies, formulas = _expand_formulas(accepted, ma, errors)
+    labels = _expand_labels(pf, ma, formulas, errors)
+    tc = TypeChecker(
+        lookup=symbols.get,
+        errors=errors,
+        labels=labels.type_of,
+        allow_queries=True,
+        unknown_label_hint=lambda name: labels.hint(name, symbols),
+    )
+    for n, body in formulas.items():
+        if n in bodies:
+            tc.check(body)
+    for name, e in labels.expanded.items():
+        tc.expect(e, Type.BOOL, f'label "{name}"')
+    values = _file_constants(accepted, ma, formulas, tc, constants, errors)
+    resolver = QueryResolver(
+        model.model_type,
+        tuple(p.name for p in ma.players),
+        tuple(r.name for r in ma.resolved.rewards),
+        zero_based_players,
+    )
+    seen_names: dict[str, Property] = {}
+    checked: list[tuple[Property, Expr, Type | None]] = []
+    for prop in pf.properties:
+        _check_property_name(prop, seen_names, errors)
+        checked.append(
+            _check_property(
+                prop, model.model_type, formulas, labels.expanded, tc, resolver, values, errors
+            )
+        )
+    return _PropsAnalysis(ma, values, checked, errors)
 
-    # identifiers: properties-file constants and formulas beside the model's names
-    symbols: dict[str, Symbol] = dict(resolved.symbols)
+
+def _declare(
+    pf: PropertiesFile, ma: ModelAnalysis, errors: list[PosgmcError]
+) -> tuple[dict[str, Symbol], list[ConstantDecl | FormulaDecl]]:
+    """The identifiers: the file's constants and formulas beside the model's names. Returns the
+    whole namespace and the file's accepted declarations (the first definition of each name)."""
+    symbols: dict[str, Symbol] = dict(ma.resolved.symbols)
     entries: list[tuple[ConstantDecl | FormulaDecl, Symbol]] = []
     for c in pf.constants:
         entries.append((c, Symbol(c.name, SymbolKind.CONSTANT, Type.of(c.type), c.span)))
     for f in pf.formulas:
         entries.append((f, Symbol(f.name, SymbolKind.FORMULA, None, f.span)))
-    accepted: list[ConstantDecl | FormulaDecl] = []  # the first definition of each name
+    accepted: list[ConstantDecl | FormulaDecl] = []
     for decl, sym in sorted(entries, key=lambda x: position(x[0].span)):
         first = symbols.get(sym.name)
         if first is not None:
@@ -229,8 +243,15 @@ def _analyse(
             continue
         symbols[sym.name] = sym
         accepted.append(decl)
+    return symbols, accepted
 
-    # formulas: the model's (expanded) and the file's
+
+def _expand_formulas(
+    accepted: Sequence[ConstantDecl | FormulaDecl], ma: ModelAnalysis, errors: list[PosgmcError]
+) -> tuple[dict[str, Expr], dict[str, Expr]]:
+    """The formulas, the model's (expanded) and the file's, each expanded (cycles reported and
+    left unexpanded). Returns the file's formula bodies as written and every expanded formula."""
+    resolved = ma.resolved
     bodies = {d.name: d.expr for d in accepted if isinstance(d, FormulaDecl)}
     spans = {d.name: d.span for d in accepted}
     deps = {n: sorted(free_names(b) & bodies.keys()) for n, b in bodies.items()}
@@ -250,9 +271,52 @@ def _analyse(
     for n in bodies:
         if n not in cyclic:
             expand(n)
+    return bodies, formulas
 
-    # quoted names: model labels and observables, then the file's labels
-    model_labels = {d.name: d.span for d in resolved.labels}
+
+@dataclass(frozen=True)
+class _Labels:
+    """The quoted names a property may use: the model's labels (by name, with their spans) and
+    observables, the file's label declarations (the first of each name), those on a cycle, and
+    the file's labels expanded."""
+
+    model_labels: Mapping[str, SourceSpan]
+    observables: Mapping[str, ObservableInfo]
+    declared: Mapping[str, LabelDecl]
+    cyclic: frozenset[str]
+    expanded: Mapping[str, Expr]
+
+    def type_of(self, name: str) -> Type | None:
+        """The type of a quoted name (None: unknown)."""
+        if name in BUILTIN_LABELS or name in self.model_labels or name in self.cyclic:
+            return Type.BOOL
+        if name in self.expanded:
+            return Type.BOOL
+        o = self.observables.get(name)
+        if o is not None:
+            return o.type if o.type is not None else Type.BOOL
+        return None
+
+    def hint(self, name: str, symbols: Mapping[str, Symbol]) -> str | None:
+        """What to say about an unknown quoted name."""
+        known = list(self.model_labels) + [
+            n for n in self.observables if n not in self.model_labels
+        ]
+        known += [n for n in self.declared if n not in known]
+        if name in symbols:
+            return f'"{name}" is a {symbols[name].kind.value}; write it without quotes'
+        listed = ", ".join(f'"{n}"' for n in known)
+        return f"the labels are {listed} (and \"init\", \"deadlock\")" if known else (
+            'the model defines no labels (only "init" and "deadlock" are built in)'
+        )
+
+
+def _expand_labels(
+    pf: PropertiesFile, ma: ModelAnalysis, formulas: Mapping[str, Expr], errors: list[PosgmcError]
+) -> _Labels:
+    """The quoted names: the model's labels and observables, then the file's labels, which must
+    not redefine any of them; the file's labels expanded (cycles reported)."""
+    model_labels = {d.name: d.span for d in ma.resolved.labels}
     observables = ma.observations.by_name
     label_decls: dict[str, LabelDecl] = {}
     for d in sorted(pf.labels, key=lambda d: position(d.span)):
@@ -292,41 +356,19 @@ def _analyse(
     for n in label_decls:
         if n not in cyclic_labels:
             expand_label(n)
+    return _Labels(model_labels, observables, label_decls, frozenset(cyclic_labels), labels)
 
-    def label_type(name: str) -> Type | None:
-        if name in BUILTIN_LABELS or name in model_labels or name in cyclic_labels:
-            return Type.BOOL
-        if name in labels:
-            return Type.BOOL
-        o = observables.get(name)
-        if o is not None:
-            return o.type if o.type is not None else Type.BOOL
-        return None
 
-    def label_hint(name: str) -> str | None:
-        known = list(model_labels) + [n for n in observables if n not in model_labels]
-        known += [n for n in label_decls if n not in known]
-        if name in symbols:
-            return f'"{name}" is a {symbols[name].kind.value}; write it without quotes'
-        listed = ", ".join(f'"{n}"' for n in known)
-        return f"the labels are {listed} (and \"init\", \"deadlock\")" if known else (
-            'the model defines no labels (only "init" and "deadlock" are built in)'
-        )
-
-    tc = TypeChecker(
-        lookup=symbols.get,
-        errors=errors,
-        labels=label_type,
-        allow_queries=True,
-        unknown_label_hint=label_hint,
-    )
-    for n, body in formulas.items():
-        if n in bodies:
-            tc.check(body)
-    for name, e in labels.items():
-        tc.expect(e, Type.BOOL, f'label "{name}"')
-
-    # constants of the file
+def _file_constants(
+    accepted: Sequence[ConstantDecl | FormulaDecl],
+    ma: ModelAnalysis,
+    formulas: Mapping[str, Expr],
+    tc: TypeChecker,
+    constants: Mapping[str, object] | None,
+    errors: list[PosgmcError],
+) -> ConstantValues:
+    """The values of the file's constants (after the model's), their definitions type-checked;
+    values given for names that neither file declares are reported."""
     decls = tuple(
         c if c.value is None else dataclasses.replace(c, value=substitute(c.value, formulas))
         for c in accepted
@@ -337,7 +379,7 @@ def _analyse(
             check_constant_definition(c, tc)
     settings = dict(constants or {})
     values = resolve_constants(decls, settings=settings, errors=errors, base=ma.constants)
-    all_decls = list(resolved.constants) + list(decls)
+    all_decls = list(ma.resolved.constants) + list(decls)
     errors.extend(
         unknown_constant_errors(
             settings,
@@ -346,48 +388,54 @@ def _analyse(
             where="the model or the properties",
         )
     )
+    return values
 
-    # the properties
-    players = [p.name for p in ma.players]
-    reward_names = [r.name for r in resolved.rewards]
-    seen_names: dict[str, Property] = {}
-    checked: list[tuple[Property, Expr, Type | None]] = []
-    for prop in pf.properties:
-        if prop.name is not None:
-            if prop.name in seen_names:
-                report(
-                    errors,
-                    f'property "{prop.name}" is already defined'
-                    + line_of(seen_names[prop.name].span),
-                    prop.span,
-                )
-            else:
-                seen_names[prop.name] = prop
-        e = replace_labels(substitute(prop.expr, formulas), labels)
-        # a path formula outside P/R is reported by the type checker ("temporal operator ...")
-        t = tc.check(e)
-        check_multi(e, model_type=model.model_type, errors=errors)
-        if isinstance(e, MultiQuery) and e.coalition is not None and model.model_type.is_game:
-            _resolve_coalition(e.coalition, model_type=model.model_type, players=players,
-                               zero_based=zero_based_players, errors=errors)
-        for node in iter_nodes(e):
-            if isinstance(node, (ProbQuery, RewardQuery)):
-                _check_query(
-                    node,
-                    model_type=model.model_type,
-                    players=players,
-                    reward_names=reward_names,
-                    zero_based=zero_based_players,
-                    errors=errors,
-                )
-                _check_query_values(node, values, errors)
-            elif isinstance(node, Temporal) and node.bound is not None:
-                for b in (node.bound.lower, node.bound.upper):
-                    if b is not None:
-                        what = f'the step bound of "{node.op.value}"'
-                        _check_nonnegative(b, values, what, errors)
-        checked.append((prop, e, t))
-    return _PropsAnalysis(ma, values, checked, errors)
+
+def _check_property_name(
+    prop: Property, seen: dict[str, Property], errors: list[PosgmcError]
+) -> None:
+    """A property name is defined once (``seen``: the names so far)."""
+    if prop.name is None:
+        return
+    if prop.name in seen:
+        report(
+            errors,
+            f'property "{prop.name}" is already defined' + line_of(seen[prop.name].span),
+            prop.span,
+        )
+    else:
+        seen[prop.name] = prop
+
+
+def _check_property(
+    prop: Property,
+    model_type: ModelType,
+    formulas: Mapping[str, Expr],
+    labels: Mapping[str, Expr],
+    tc: TypeChecker,
+    resolver: QueryResolver,
+    values: ConstantValues,
+    errors: list[PosgmcError],
+) -> tuple[Property, Expr, Type | None]:
+    """One property: formulas and the file's labels expanded, its type, its multi-objective
+    form, the coalitions and reward structures of its queries, the constant values of its
+    thresholds, step bounds and discount factors."""
+    e = replace_labels(substitute(prop.expr, formulas), labels)
+    # a path formula outside P/R is reported by the type checker ("temporal operator ...")
+    t = tc.check(e)
+    check_multi(e, model_type=model_type, errors=errors)
+    if isinstance(e, MultiQuery) and e.coalition is not None and model_type.is_game:
+        resolver.coalition(e.coalition, errors)
+    for node in iter_nodes(e):
+        if isinstance(node, (ProbQuery, RewardQuery)):
+            resolver.resolve(node, errors)
+            _check_query_values(node, values, errors)
+        elif isinstance(node, Temporal) and node.bound is not None:
+            for b in (node.bound.lower, node.bound.upper):
+                if b is not None:
+                    what = f'the step bound of "{node.op.value}"'
+                    _check_nonnegative(b, values, what, errors)
+    return prop, e, t
 
 
 def _value_of(e: Expr, values: ConstantValues) -> Value | None:
@@ -425,139 +473,6 @@ def _check_query_values(
             if v is not None and not isinstance(v, bool) and not 0 <= v < 1:
                 msg = f"the discount factor {format_value(v)} is not in [0, 1)"
                 report(errors, msg, obj.discount.span)
-
-
-def _resolve_coalition(
-    c: Coalition,
-    *,
-    model_type: ModelType,
-    players: Sequence[str],
-    zero_based: bool,
-    errors: list[PosgmcError],
-) -> frozenset[int] | None:
-    if not model_type.is_game:
-        report(
-            errors,
-            "a coalition only applies to games (smg, posg), not to "
-            + model_type_phrase(model_type),
-            c.span,
-            hint="remove the coalition operator",
-        )
-        return None
-    if c.all_players:
-        return frozenset(range(len(players)))
-    n = len(players)
-    first = 0 if zero_based else 1
-    listing = ", ".join(f"{i + first}: {p}" for i, p in enumerate(players))
-    out: set[int] = set()
-    ok = True
-
-    def add(index: int, ref: PlayerRef) -> None:
-        nonlocal ok
-        if index in out:
-            report(errors, f'player "{players[index]}" appears twice in the coalition', ref.span,
-                   hint="name each player once")
-            ok = False
-        out.add(index)
-
-    for ref in c.players:
-        if ref.name is not None:
-            if ref.name in players:
-                add(players.index(ref.name), ref)
-            else:
-                report(
-                    errors,
-                    f'unknown player "{ref.name}" in coalition',
-                    ref.span,
-                    hint=f"the players are {listing}" if players else None,
-                )
-                ok = False
-            continue
-        k = ref.number if ref.number is not None else -1
-        if not zero_based and k == 0:
-            report(
-                errors,
-                "player number 0 does not exist: PRISM-games numbers players from 1, while "
-                "Storm and PAYNT number them from 0",
-                ref.span,
-                hint="write <<1>> for the first player, or read player numbers from 0 as "
-                "Storm/PAYNT do with --zero-based-players (zero_based_players=True in Python)",
-            )
-            ok = False
-            continue
-        if not first <= k < n + first:
-            option = (
-                "numbers count from 0 (--zero-based-players)"
-                if zero_based
-                else "numbers count from 1 as in PRISM-games; Storm/PAYNT's 0-based numbers "
-                "need --zero-based-players"
-            )
-            report(
-                errors,
-                f"player number {k} does not exist: the model has {n} "
-                f"player{'s' if n != 1 else ''} ({listing})",
-                ref.span,
-                hint=option,
-            )
-            ok = False
-            continue
-        add(k - first, ref)
-    return frozenset(out) if ok else None
-
-
-def _resolve_reward(
-    q: RewardQuery, reward_names: Sequence[str | None], errors: list[PosgmcError]
-) -> int | None:
-    n = len(reward_names)
-    named = ", ".join(f'"{r}"' for r in reward_names if r)
-    if q.reward is None or isinstance(q.reward, int):
-        if n == 0:
-            report(errors, "the model has no reward structures", q.span)
-            return None
-        if q.reward is None:
-            return 0
-        if not 1 <= q.reward <= n:
-            report(
-                errors,
-                f"reward structure number {q.reward} does not exist: the model has {n} "
-                f"(numbered from 1)",
-                q.span,
-            )
-            return None
-        return q.reward - 1
-    if q.reward in reward_names:
-        return list(reward_names).index(q.reward)
-    report(
-        errors,
-        f'unknown reward structure "{q.reward}"',
-        q.span,
-        hint=f"the reward structures are {named}"
-        if named
-        else "the model has no named reward structures",
-    )
-    return None
-
-
-def _check_query(
-    q: ProbQuery | RewardQuery,
-    *,
-    model_type: ModelType,
-    players: Sequence[str],
-    reward_names: Sequence[str | None],
-    zero_based: bool,
-    errors: list[PosgmcError],
-) -> tuple[frozenset[int] | None, int | None]:
-    coalition = None
-    if q.coalition is not None:
-        coalition = _resolve_coalition(
-            q.coalition,
-            model_type=model_type,
-            players=players,
-            zero_based=zero_based,
-            errors=errors,
-        )
-    reward = _resolve_reward(q, reward_names, errors) if isinstance(q, RewardQuery) else None
-    return coalition, reward
 
 
 # ---------------------------------------------------------------------------------------------
@@ -635,28 +550,34 @@ def instantiate_properties(
         for name, o in a.model.observations.by_name.items()
         if name not in label_names and o.type is not Type.BOOL
     }
-    players = [p.name for p in flat_model.players]
-    reward_names = [r.name for r in flat_model.rewards]
+    resolver = QueryResolver(
+        flat_model.model_type,
+        tuple(p.name for p in flat_model.players),
+        tuple(r.name for r in flat_model.rewards),
+        zero_based_players,
+    )
     prop_constants = tuple((c.name, values[c.name]) for c in pf.constants if c.name in values)
     out: list[CheckedProperty] = []
     for prop, e, t in a.props:
         assert t is not None  # no errors were found
         e = replace_labels(e, obs_exprs)
         e = simplify(substitute(e, values), variable_types=var_types)
-        queries: list[ResolvedQuery] = []
-        scratch: list[PosgmcError] = []
-        for node in iter_nodes(e):
-            if isinstance(node, (ProbQuery, RewardQuery)):
-                coalition, reward = _check_query(
-                    node,
-                    model_type=flat_model.model_type,
-                    players=players,
-                    reward_names=reward_names,
-                    zero_based=zero_based_players,
-                    errors=scratch,
-                )
-                kind = node.coalition.kind if node.coalition is not None else None
-                queries.append(ResolvedQuery(node, coalition, kind, reward))
-        raise_errors(scratch)
-        out.append(CheckedProperty(prop, e, t, tuple(queries), prop_constants))
+        out.append(CheckedProperty(prop, e, t, resolve_queries(e, resolver), prop_constants))
     return tuple(out)
+
+
+def resolve_queries(expr: Expr, resolver: QueryResolver) -> tuple[ResolvedQuery, ...]:
+    """One :class:`ResolvedQuery` per ``P``/``R`` node of ``expr``, in tree order (parents
+    first).
+
+    Raises:
+        PosgmcError: the first error, or MultipleErrors for several.
+    """
+    errors: list[PosgmcError] = []
+    out = tuple(
+        resolver.resolve(node, errors)
+        for node in iter_nodes(expr)
+        if isinstance(node, (ProbQuery, RewardQuery))
+    )
+    raise_errors(errors)
+    return out

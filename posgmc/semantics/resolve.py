@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from posgmc.errors import PosgmcError, SourceSpan
 from posgmc.semantics.constants import find_cycles
 from posgmc.semantics.evaluate import free_names, substitute
-from posgmc.syntax.traversal import map_children
 from posgmc.semantics.symbols import Symbol, SymbolKind, Type, line_of, report
 from posgmc.syntax.ast import (
     Assignment,
@@ -48,6 +47,7 @@ from posgmc.syntax.ast import (
     Update,
     VariableDecl,
 )
+from posgmc.syntax.traversal import map_children
 
 __all__ = [
     "RESERVED_LABELS",
@@ -249,7 +249,7 @@ def _expand_modules(
     for m in model.modules:
         by_name.setdefault(m.name, m)
     done: dict[int, Module] = {}  # by position in model.modules
-    first_index = {}
+    first_index: dict[str, int] = {}
     for i, m in enumerate(model.modules):
         first_index.setdefault(m.name, i)
     active: set[int] = set()
@@ -430,9 +430,9 @@ def resolve_model(model: ModelFile, errors: list[PosgmcError]) -> ResolvedModel:
 
     actions: dict[str, None] = {}
     for m in modules:
-        for c in m.commands:
-            if c.action is not None:
-                actions.setdefault(c.action, None)
+        for command in m.commands:
+            if command.action is not None:
+                actions.setdefault(command.action, None)
 
     variables: list[tuple[VariableDecl, str | None]] = [(v, None) for v in globals_]
     for m in modules:

@@ -25,20 +25,20 @@ from posgmc.syntax.ast import (
     BoolLit,
     Call,
     DoubleLit,
+    Expr,
     Filter,
     FilterOp,
-    PathQuantifier,
-    SteadyQuery,
-    Expr,
     Function,
     Ident,
     IntLit,
     Ite,
     LabelRef,
     MultiQuery,
+    PathQuantifier,
     ProbQuery,
     RewardKind,
     RewardQuery,
+    SteadyQuery,
     Temporal,
     TimeBound,
     Unary,
@@ -363,7 +363,7 @@ class TypeChecker:
             return False
         return True
 
-    def _threshold(self, e: ProbQuery | RewardQuery, name: str) -> bool:
+    def _threshold(self, e: ProbQuery | RewardQuery | SteadyQuery, name: str) -> bool:
         if e.threshold is None:
             return True
         what = f"the bound of the {name} operator"
@@ -372,7 +372,7 @@ class TypeChecker:
     def _steady(self, e: SteadyQuery) -> Type | None:
         if not self._query_allowed(e, "S"):
             return None
-        ok = self._threshold(e, "S")  # type: ignore[arg-type]
+        ok = self._threshold(e, "S")
         t = self._type(e.operand)
         if t is not None and t is not Type.BOOL:
             self._error(f"the S operator needs a Boolean state formula, found {_name(t)}",

@@ -28,7 +28,14 @@ from posgmc.errors import InputError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 
-__all__ = ["PlayerView", "BoundStrategy", "player_view", "player_index", "bind", "memoryless_strategy"]
+__all__ = [
+    "PlayerView",
+    "BoundStrategy",
+    "player_view",
+    "player_index",
+    "bind",
+    "memoryless_strategy",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,7 +92,9 @@ def player_view(model: ExplicitModel, player: int) -> PlayerView:
     name = model.player_names[player] if model.player_names else ""
     obs = model.observation_of(player)
     if obs is not None:
-        values = obs.values if obs.names else np.arange(obs.num_observations, dtype=np.int64)[:, None]
+        values = (
+            obs.values if obs.names else np.arange(obs.num_observations, dtype=np.int64)[:, None]
+        )
         return PlayerView(player, name, obs.names, obs.state_ids.astype(np.int64),
                           np.asarray(values, dtype=np.int64))
     S = model.num_states
@@ -174,7 +183,9 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
     try:
         p = player_index(model, fss.player)
     except StrategyError as e:
-        raise StrategyError(e.message.split(": ", 1)[-1], path="player", file=file, hint=e.hint) from None
+        raise StrategyError(
+            e.message.split(": ", 1)[-1], path="player", file=file, hint=e.hint
+        ) from None
     view = player_view(model, p)
     if fss.observables != view.observables:
         raise StrategyError(
@@ -271,7 +282,9 @@ def _state_text(model: ExplicitModel, s: int) -> str:
     return model.describe_state(s)
 
 
-def memoryless_strategy(model: ExplicitModel, player: int, choices: np.ndarray) -> FiniteStateStrategy:
+def memoryless_strategy(
+    model: ExplicitModel, player: int, choices: np.ndarray
+) -> FiniteStateStrategy:
     """The memoryless deterministic strategy that plays the given choice in each state of
     ``player``, as an FSS over the player's observations.
 
@@ -286,7 +299,9 @@ def memoryless_strategy(model: ExplicitModel, player: int, choices: np.ndarray) 
             (the choice is then not observation-based).
     """
     view = player_view(model, player)
-    owned = (model.state_players == player) if model.player_names else np.ones(model.num_states, bool)
+    owned = (
+        (model.state_players == player) if model.player_names else np.ones(model.num_states, bool)
+    )
     states = np.flatnonzero(owned & (choices >= 0))
     acts = model.choice_actions[choices[states]]
     z = view.state_obs[states]
@@ -296,8 +311,9 @@ def memoryless_strategy(model: ExplicitModel, player: int, choices: np.ndarray) 
     if np.any(chosen[z] != acts):
         s = int(states[np.argmax(chosen[z] != acts)])
         raise StrategyError(
-            f"the choices are not observation-based: state {_state_text(model, s)} and another state "
-            f"with the observation {view.describe(int(view.state_obs[s]))} play different actions"
+            f"the choices are not observation-based: state {_state_text(model, s)} and another "
+            f"state with the observation {view.describe(int(view.state_obs[s]))} play different "
+            "actions"
         )
     # where no decision matters (-1), the observation's first state plays its first choice
     rest = np.flatnonzero(owned & (choices < 0))

@@ -22,7 +22,8 @@
 
 Every error names the file and the JSON path of what is wrong (``rules[3].action.via1``), or the
 line and column for text that is not JSON. Writing sorts rules by memory and observation, and
-actions by label, and prints probabilities with ``repr``, so reading a written file gives back the same arrays.
+actions by label, and prints probabilities with ``repr``, so reading a written file gives back the
+same arrays.
 """
 
 from __future__ import annotations
@@ -82,7 +83,9 @@ def _int(value: Any, path: str, file: str | None, what: str) -> int:
 def _probability(value: Any, path: str, file: str | None) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
             or not 0.0 <= value <= 1.0:
-        raise _fail(f"a probability must be a number in [0, 1], got {json.dumps(value)}", path, file)
+        raise _fail(
+            f"a probability must be a number in [0, 1], got {json.dumps(value)}", path, file
+        )
     return float(value)
 
 
@@ -106,9 +109,13 @@ def strategy_from_json(doc: Any, *, file: str | None = None) -> FiniteStateStrat
         raise _fail("a strategy file holds one JSON object", "$", file)
     for key in doc:
         if key not in _TOP_KEYS:
-            raise _fail(f"unknown field {key!r} (fields: {', '.join(sorted(_TOP_KEYS))})", key, file)
+            raise _fail(
+                f"unknown field {key!r} (fields: {', '.join(sorted(_TOP_KEYS))})", key, file
+            )
     if doc.get("format") != FORMAT:
-        raise _fail(f"format must be {FORMAT!r}, got {json.dumps(doc.get('format'))}", "format", file)
+        raise _fail(
+            f"format must be {FORMAT!r}, got {json.dumps(doc.get('format'))}", "format", file
+        )
     for key in ("player", "memory_size", "observables", "rules"):
         if key not in doc:
             raise _fail(f"the field {key!r} is missing", key, file)
@@ -120,7 +127,9 @@ def strategy_from_json(doc: Any, *, file: str | None = None) -> FiniteStateStrat
         raise _fail(f"memory_size must be at least 1, got {k}", "memory_size", file)
     n_init = _int(doc.get("initial_memory", 0), "initial_memory", file, "initial_memory")
     if not 0 <= n_init < k:
-        raise _fail(f"initial_memory {n_init} is not a memory node (0..{k - 1})", "initial_memory", file)
+        raise _fail(
+            f"initial_memory {n_init} is not a memory node (0..{k - 1})", "initial_memory", file
+        )
     observables = doc["observables"]
     if not isinstance(observables, list) or not all(isinstance(o, str) for o in observables):
         raise _fail("observables must be a list of names", "observables", file)
@@ -149,7 +158,9 @@ def strategy_from_json(doc: Any, *, file: str | None = None) -> FiniteStateStrat
         n = _int(rule["memory"], f"{here}.memory", file, "memory")
         if not 0 <= n < k:
             raise _fail(f"memory {n} is not a memory node (0..{k - 1})", f"{here}.memory", file)
-        z_values = _observation(rule["observation"], observables, boolean, f"{here}.observation", file)
+        z_values = _observation(
+            rule["observation"], observables, boolean, f"{here}.observation", file
+        )
         z = obs_index.setdefault(z_values, len(obs_index))
         if (n, z) in seen:
             raise _fail(f"a second rule for memory {n} and this observation (the first is "
@@ -253,11 +264,14 @@ def strategy_to_json(fss: FiniteStateStrategy) -> dict[str, Any]:
             row = fss.observation_values[z].tolist()
             if fss.observables:
                 observation: Any = {
-                    name: (bool(v) if b else int(v)) for name, v, b in zip(fss.observables, row, boolean)
+                    name: (bool(v) if b else int(v))
+                    for name, v, b in zip(fss.observables, row, boolean)
                 }
             else:
                 observation = int(row[0])
-            played = sorted(np.flatnonzero(fss.action[n, z] > 0).tolist(), key=lambda a: fss.actions[a])
+            played = sorted(
+                np.flatnonzero(fss.action[n, z] > 0).tolist(), key=lambda a: fss.actions[a]
+            )
             rule: dict[str, Any] = {
                 "memory": n,
                 "observation": observation,
@@ -267,7 +281,9 @@ def strategy_to_json(fss: FiniteStateStrategy) -> dict[str, Any]:
             for a in played:
                 dist = fss.update[n, z, a]
                 if not (dist[n] == 1.0 and np.count_nonzero(dist) == 1):
-                    update[fss.actions[a]] = {str(m): float(dist[m]) for m in np.flatnonzero(dist > 0)}
+                    update[fss.actions[a]] = {
+                        str(m): float(dist[m]) for m in np.flatnonzero(dist > 0)
+                    }
             if update:
                 rule["update"] = update
             rules.append(rule)

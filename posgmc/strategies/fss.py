@@ -30,9 +30,9 @@ Observations of a DRN model have no observables (``observables == ()``); their r
 the observation by its id in the file, kept as the single column of ``observation_values``.
 
 ``boolean`` marks the observables that are Boolean (written ``true``/``false`` in files; stored as
-1/0); empty means none is. ``source`` and ``rule_index`` (int64[k, Z], -1 where no rule) remember where each rule came from
-in a strategy file, so that errors found when the strategy meets a model name the file and the
-rule's JSON path.
+1/0); empty means none is. ``source`` and ``rule_index`` (int64[k, Z], -1 where no rule) remember
+where each rule came from in a strategy file, so that errors found when the strategy meets a model
+name the file and the rule's JSON path.
 """
 
 from __future__ import annotations
@@ -178,7 +178,7 @@ class FiniteStateStrategy:
         action: np.ndarray,
         update: np.ndarray | None = None,
         initial_memory: int = 0,
-    ) -> "FiniteStateStrategy":
+    ) -> FiniteStateStrategy:
         """A strategy from its arrays; ``update`` None keeps the memory (δ(n, z, a) = n).
 
         The memory size is ``action.shape[0]``."""

@@ -3,14 +3,14 @@
 ``mix(f1, f2, alpha)`` plays ``f1`` with probability ``alpha`` and ``f2`` otherwise, the coin
 tossed once, at the player's first move. As one FSS (memory nodes ``0`` + ``f1``'s + ``f2``'s): node
 0 is "not decided yet", the initial node; at the first move under observation ``z`` it plays
-``γ(0, z) = alpha γ1(n1, z) + (1 - alpha) γ2(n2, z)`` (``n1``, ``n2`` the two initial nodes) and moves
-into ``f1``'s block with probability ``alpha γ1(n1, z)(a) δ1(n1, z, a)(n') / γ(0, z)(a)`` (likewise
-``f2``'s), so that the joint law of the first action and the next node is exactly the mixture's;
-from then on it is ``f1`` or ``f2``. Every expectation of the game under it (a reachability
-probability, an expected, discounted or total reward) is ``alpha`` times ``f1``'s plus ``1 - alpha``
-times ``f2``'s against any fixed adversary; against the worst adversary it is at least that for a
-maximised objective (at most, for a minimised one): the worst adversary of the mixture is one
-adversary for both. This is how a trade-off front's segments between two verified defences are
+``γ(0, z) = alpha γ1(n1, z) + (1 - alpha) γ2(n2, z)`` (``n1``, ``n2`` the two initial nodes) and
+moves into ``f1``'s block with probability ``alpha γ1(n1, z)(a) δ1(n1, z, a)(n') / γ(0, z)(a)``
+(likewise ``f2``'s), so that the joint law of the first action and the next node is exactly the
+mixture's; from then on it is ``f1`` or ``f2``. Every expectation of the game under it (a
+reachability probability, an expected, discounted or total reward) is ``alpha`` times ``f1``'s plus
+``1 - alpha`` times ``f2``'s against any fixed adversary; against the worst adversary it is at least
+that for a maximised objective (at most, for a minimised one): the worst adversary of the mixture is
+one adversary for both. This is how a trade-off front's segments between two verified defences are
 achieved (:mod:`posgmc.tradeoffs.defence`).
 """
 

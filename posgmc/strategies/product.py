@@ -130,8 +130,10 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
         owned_states = np.flatnonzero(fixed_by == i)
         node = (memories // stride) % k  # [K]
         if owned_states.size:
-            miss = b.missing_rule(np.broadcast_to(node, (owned_states.size, K)).copy(),
-                                  np.broadcast_to(owned_states[:, None], (owned_states.size, K)).copy())
+            miss = b.missing_rule(
+                np.broadcast_to(node, (owned_states.size, K)).copy(),
+                np.broadcast_to(owned_states[:, None], (owned_states.size, K)).copy(),
+            )
             ps = (owned_states[:, None] * K + memories)[miss]
             missing_parts.append(ps)
             # a placeholder self-loop keeps the rows stochastic until reachability decides
@@ -202,8 +204,16 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
         if ks else np.zeros((keep_states.size, 0), dtype=np.int64)
 
     # -- rewards: action rewards mixed by the strategies' weights ------------------------------
-    rw_rows = np.concatenate([r for r, _, _ in row_weight_parts]) if row_weight_parts else np.zeros(0, np.int64)
-    rw_choice = np.concatenate([c for _, c, _ in row_weight_parts]) if row_weight_parts else np.zeros(0, np.int64)
+    rw_rows = (
+        np.concatenate([r for r, _, _ in row_weight_parts])
+        if row_weight_parts
+        else np.zeros(0, np.int64)
+    )
+    rw_choice = (
+        np.concatenate([c for _, c, _ in row_weight_parts])
+        if row_weight_parts
+        else np.zeros(0, np.int64)
+    )
     rw_w = np.concatenate([w for _, _, w in row_weight_parts]) if row_weight_parts else np.zeros(0)
     rewards = []
     for rm in model.reward_models:
@@ -230,7 +240,8 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
         state_players=model.state_players[state_of],
         player_names=model.player_names,
         observations=tuple(
-            Observation(o.player, o.state_ids[state_of], o.names, o.values) for o in model.observations
+            Observation(o.player, o.state_ids[state_of], o.names, o.values)
+            for o in model.observations
         ),
         labels=labels,
         reward_models=tuple(rewards),
@@ -242,15 +253,18 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
     return StrategyProduct(product, state_of, memory_of, strategies, new_init)
 
 
-def _missing_rule_error(model: ExplicitModel, b: BoundStrategy, ps: int, K: int, stride: int) -> None:
+def _missing_rule_error(
+    model: ExplicitModel, b: BoundStrategy, ps: int, K: int, stride: int
+) -> None:
     s, m = divmod(ps, K)
     n = (m // stride) % b.memory_size
     fss = b.fss
     raise StrategyError(
-        f"no rule for memory {n} under the observation {b.view.describe(int(b.view.state_obs[s]))}, "
+        f"no rule for memory {n} under the observation "
+        f"{b.view.describe(int(b.view.state_obs[s]))}, "
         f"which player {b.view.name!r} reaches under the strategies (e.g. in state "
         f"{_state_text(model, s)})",
         path="rules",
         file=fss.source,
-        hint=f"add a rule {{\"memory\": {n}, \"observation\": ...}} for it",
+        hint=f'add a rule {{"memory": {n}, "observation": ...}} for it',
     )

@@ -18,17 +18,23 @@ normal 95 % interval (an estimate from the central limit theorem, said so).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from posgmc.checking.dispatch import CheckOptions, PropertyChecker
+from posgmc.checking.dispatch import (
+    CheckOptions,
+    CoalitionResolver,
+    PropertyChecker,
+    ScalarEvaluator,
+)
 from posgmc.checking.states import evaluate_states
 from posgmc.engines.graph import positive_reach, structure_of
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.strategies.binding import bind
+from posgmc.semantics.queries import reward_structure
+from posgmc.strategies.binding import BoundStrategy, bind
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import StrategyProduct, strategy_product
 from posgmc.syntax.ast import (
@@ -99,7 +105,11 @@ def _objective(expr: Expr) -> tuple[str, Expr | None, Expr, int | None, RewardQu
             if bound is None or (bound.lower is None and bound.upper is not None):
                 remain = path.operands[0] if path.op is TemporalOp.UNTIL else None
                 return "probability", remain, path.operands[-1], None, None
-    if isinstance(expr, RewardQuery) and expr.threshold is None and expr.objective.kind is RewardKind.REACH:
+    if (
+        isinstance(expr, RewardQuery)
+        and expr.threshold is None
+        and expr.objective.kind is RewardKind.REACH
+    ):
         assert expr.objective.target is not None  # noqa: S101 - F has a target
         return "reward", None, expr.objective.target, None, expr
     raise UnsupportedError(
@@ -110,11 +120,11 @@ def _objective(expr: Expr) -> tuple[str, Expr | None, Expr, int | None, RewardQu
     )
 
 
-def _step_bound(expr: Expr, scalar) -> int | None:  # type: ignore[no-untyped-def]
+def _step_bound(expr: Expr, scalar: ScalarEvaluator) -> int | None:
     if isinstance(expr, ProbQuery) and isinstance(expr.path, Temporal) and expr.path.bound:
         upper = expr.path.bound.upper
         if upper is not None:
-            k = int(scalar(upper))  # type: ignore[arg-type]
+            k = int(scalar(upper))
             return k - 1 if expr.path.bound.upper_strict else k
     return None
 
@@ -126,7 +136,8 @@ def _sample_rows(csr_indptr: np.ndarray, cum: np.ndarray, indices: np.ndarray, r
     base = np.where(start > 0, cum[np.maximum(start - 1, 0)], 0.0)
     total = cum[end - 1] - base
     pos = np.searchsorted(cum, base + u * total, side="right")
-    return indices[np.clip(pos, start, end - 1)]
+    out: np.ndarray = indices[np.clip(pos, start, end - 1)]
+    return out
 
 
 def simulate(
@@ -135,8 +146,8 @@ def simulate(
     strategies: Mapping[str, FiniteStateStrategy],
     *,
     text: str,
-    coalition_of,  # type: ignore[no-untyped-def]
-    scalar,  # type: ignore[no-untyped-def]
+    coalition_of: CoalitionResolver,
+    scalar: ScalarEvaluator,
     runs: int = 10_000,
     seed: int = 0,
     max_steps: int = 10_000,
@@ -180,7 +191,7 @@ def simulate(
     cum = np.cumsum(T.data)
     rewards = None
     if reward_q is not None:
-        rm = pm.reward_model(reward_q.reward)
+        rm = reward_structure(pm, reward_q)
         rewards = rm.choice_rewards(pm.row_groups)
 
     rng = np.random.default_rng(seed)
@@ -221,30 +232,55 @@ def simulate(
             estimate = float(total.mean())
             half = Z95 * float(total.std(ddof=1)) / math.sqrt(runs) if runs > 1 else math.inf
             lower, upper = estimate - half, estimate + half
-    path = _trace(model, prod, choice, target, remain, alive, horizon, rng, bound_strategies) if trace else ()
+    path = (
+        _trace(model, prod, choice, target, remain, alive, horizon, rng, bound_strategies)
+        if trace
+        else ()
+    )
     return Simulation(text, kind, estimate, lower, upper, runs, undecided, seed, path)
 
 
-def _choices(pm: ExplicitModel, expr: Expr, opponent: str, coalition_of, scalar, S: int) -> np.ndarray:  # type: ignore[no-untyped-def]
+def _choices(
+    pm: ExplicitModel,
+    expr: Expr,
+    opponent: str,
+    coalition_of: CoalitionResolver,
+    scalar: ScalarEvaluator,
+    S: int,
+) -> np.ndarray:
     """int64[S]: the product row each state plays (-1: uniform among its rows)."""
     if opponent == "uniform":
         return np.full(S, -1, dtype=np.int64)
     if opponent != "best":
         raise UnsupportedError(f"unknown opponent {opponent!r}: use uniform or best")
+    if not isinstance(expr, (ProbQuery, RewardQuery)):  # (_objective accepts only these)
+        raise UnsupportedError("the best opponent is defined for P and R queries", expr.span)
     checker = PropertyChecker(pm, coalition_of=coalition_of, scalar=scalar,
                               options=CheckOptions(keep_strategy=True))
-    bare = expr
+    bare: ProbQuery | RewardQuery = expr
     if isinstance(expr, ProbQuery) and isinstance(expr.path, Temporal) and expr.path.bound:
         # step-bounded optima need a step counter: play the unbounded optimum instead
         from dataclasses import replace
 
         bare = replace(expr, path=replace(expr.path, bound=None))
-    q = checker.query(bare)  # type: ignore[arg-type]
+    q = checker.query(bare)
     strategy = q.engine.strategy if q.engine is not None else None
-    return np.asarray(strategy, dtype=np.int64) if strategy is not None else np.full(S, -1, np.int64)
+    return (
+        np.asarray(strategy, dtype=np.int64) if strategy is not None else np.full(S, -1, np.int64)
+    )
 
 
-def _trace(model, prod, choice, target, remain, alive, horizon, rng, bound_strategies):  # type: ignore[no-untyped-def]
+def _trace(
+    model: ExplicitModel,
+    prod: StrategyProduct,
+    choice: np.ndarray,
+    target: np.ndarray,
+    remain: np.ndarray,
+    alive: np.ndarray,
+    horizon: int,
+    rng: np.random.Generator,
+    bound_strategies: Sequence[BoundStrategy],
+) -> tuple[TraceStep, ...]:
     """One path, sampled step by step with explicit actions (a loop over the path's steps)."""
     pm = prod.model
     by_player = {b.player: b for b in bound_strategies}

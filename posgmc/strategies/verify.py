@@ -23,15 +23,19 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 
-from posgmc.checking.dispatch import CheckOptions, CoalitionResolver, PropertyChecker, ScalarEvaluator
+from posgmc.checking.dispatch import (
+    CheckOptions,
+    CoalitionResolver,
+    PropertyChecker,
+    ScalarEvaluator,
+)
 from posgmc.checking.results import Bound, PropertyResult, strategy_meaning
-from posgmc.syntax.ast import Direction
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import BoundStrategy, bind
 from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 from posgmc.strategies.product import strategy_product
-from posgmc.syntax.ast import Expr, ProbQuery, RewardQuery
+from posgmc.syntax.ast import Direction, Expr, ProbQuery, RewardQuery
 
 __all__ = ["StrategyChecker"]
 
@@ -122,14 +126,14 @@ class StrategyChecker:
         if deciders <= given:
             fixed = frozenset(deciders)
             r = self._checker(fixed).check(numeric, text=text, name=name)
-            numbers["guaranteed"] = _bound(r)
+            numbers["guaranteed"] = bound_of(r)
             headline = self._checker(fixed).check(expr, text=text, name=name) \
                 if expr.threshold is not None else r
         if adversaries and players <= given:
-            numbers["vs_fss_adversary"] = _bound(self._checker(players).check(numeric, text=text))
+            numbers["vs_fss_adversary"] = bound_of(self._checker(players).check(numeric, text=text))
         if adversaries and adversaries <= given:
             r = self._checker(frozenset(adversaries)).check(numeric, text=text, name=name)
-            numbers["upper_bound"] = _bound(r)
+            numbers["upper_bound"] = bound_of(r)
             if headline is None and expr.threshold is None:
                 headline = r
             if headline is None and "vs_fss_adversary" in numbers:
@@ -144,7 +148,8 @@ class StrategyChecker:
                 f"strategy for {', '.join(map(repr, missing))}"
                 if expr.threshold is not None
                 else "the given strategies determine no number for this property: give the "
-                f"decision maker's strategy ({', '.join(repr(names[p]) for p in sorted(deciders))}) "
+                "decision maker's strategy "
+                f"({', '.join(repr(names[p]) for p in sorted(deciders))}) "
                 "or the adversary's",
                 hint="--strategy PLAYER=FILE, once per player",
             )
@@ -155,10 +160,21 @@ class StrategyChecker:
         )
         sound = headline.sound and all(b.sound for b in numbers.values())
         return dataclasses.replace(
-            headline, note=note, memory=memory, sound=sound, values=None, strategy=None, **numbers
+            headline,
+            note=note,
+            memory=memory,
+            sound=sound,
+            values=None,
+            strategy=None,
+            guaranteed=numbers.get("guaranteed", headline.guaranteed),
+            vs_fss_adversary=numbers.get("vs_fss_adversary", headline.vs_fss_adversary),
+            upper_bound=numbers.get("upper_bound", headline.upper_bound),
         )
 
 
-def _bound(r: PropertyResult) -> Bound:
-    assert r.lower is not None and r.upper is not None  # noqa: S101 - a numeric query's result
+def bound_of(r: PropertyResult) -> Bound:
+    """A numeric result as a :class:`Bound`: its value, proven bounds, and whether they are proven
+    and converged."""
+    # a numeric query's result
+    assert r.value is not None and r.lower is not None and r.upper is not None  # noqa: S101
     return Bound(float(r.value), r.lower, r.upper, r.sound and r.converged)

@@ -9,7 +9,6 @@ from lark import Token
 
 from posgmc.errors import ParseError, PosgmcError, SourceSpan
 
-
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 

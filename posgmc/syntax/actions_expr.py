@@ -5,14 +5,17 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any, Sequence
+from typing import Any
 
 from lark import Token
 
-from posgmc.errors import ParseError, SourceSpan, UnsupportedError
+from posgmc.errors import ParseError, SourceSpan
+from posgmc.syntax.actions_base import ActionBase
 from posgmc.syntax.ast import (
+    FILTER_ALIASES,
     FUNCTION_ARITY,
     INT64_MAX,
     Binary,
@@ -23,7 +26,6 @@ from posgmc.syntax.ast import (
     CoalitionKind,
     ComparisonOp,
     Direction,
-    FILTER_ALIASES,
     DoubleLit,
     Expr,
     Filter,
@@ -33,9 +35,9 @@ from posgmc.syntax.ast import (
     IntLit,
     Ite,
     LabelRef,
+    MultiQuery,
     PathQuantifier,
     PlayerRef,
-    MultiQuery,
     ProbQuery,
     RewardKind,
     RewardObjective,
@@ -48,7 +50,6 @@ from posgmc.syntax.ast import (
     Unary,
     UnaryOp,
 )
-from posgmc.syntax.actions_base import ActionBase
 from posgmc.syntax.items import AllPlayers, PropertyItem, QueryOp
 from posgmc.syntax.placement import contains_temporal
 
@@ -319,6 +320,7 @@ class ExpressionActions(ActionBase):
                 names = ", ".join(o.value for o in FilterOp)
                 self._fail(ParseError(f"'{name}' is not a filter operator", self._tspan(token),
                                       hint=f"the filter operators are {names} (and +, &, |)"))
+                op = FilterOp.FORALL  # a stand-in: the parse goes on, the error ends it
         return Filter(op, children[2], children[3] if len(children) > 3 else None, span=span)
 
     def steady_value(self, span: SourceSpan, children: Sequence[Any]) -> SteadyQuery:
@@ -335,17 +337,20 @@ class ExpressionActions(ActionBase):
         return PathQuantifier(False, children[1], span=span)
 
     def filter_op(self, span: SourceSpan, children: Sequence[Any]) -> Token:
-        return children[0]  # type: ignore[no-any-return]
+        token: Token = children[0]
+        return token
 
     def old_filter(self, span: SourceSpan, children: Sequence[Any]) -> _OldFilter:
         mods = {str(t.value) for t in children[1:]}
         return _OldFilter(children[0], "min" in mods, "max" in mods)
 
     def prob_query_old_filter(self, span: SourceSpan, children: Sequence[Any]) -> Filter:
-        return children[-1].wrap(self.prob_query(span, children[:-1]), span)
+        old: _OldFilter = children[-1]
+        return old.wrap(self.prob_query(span, children[:-1]), span)
 
     def reward_query_old_filter(self, span: SourceSpan, children: Sequence[Any]) -> Filter:
-        return children[-1].wrap(self.reward_query(span, children[:-1]), span)
+        old: _OldFilter = children[-1]
+        return old.wrap(self.reward_query(span, children[:-1]), span)
 
     def reward_query(self, span: SourceSpan, children: Sequence[Any]) -> RewardQuery:
         coalition = children[0] if isinstance(children[0], Coalition) else None

@@ -3,11 +3,13 @@ rewards, ``init``, observables and players."""
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 from lark import Token
 
 from posgmc.errors import ParseError, SourceSpan, UnsupportedError
+from posgmc.syntax.actions_base import ActionBase
 from posgmc.syntax.ast import (
     ActionRef,
     Assignment,
@@ -33,7 +35,6 @@ from posgmc.syntax.ast import (
     VariableDecl,
     VarType,
 )
-from posgmc.syntax.actions_base import ActionBase
 from posgmc.syntax.items import (
     ActionLabel,
     GlobalItem,
@@ -134,13 +135,16 @@ class ModelActions(ActionBase):
         return list(items)
 
     def single_property(self, span: None, children: Sequence[Any]) -> PropertyItem:
-        return children[0]  # type: ignore[no-any-return]
+        item: PropertyItem = children[0]
+        return item
 
     def single_expression(self, span: None, children: Sequence[Any]) -> Expr:
-        return children[0]  # type: ignore[no-any-return]
+        expr: Expr = children[0]
+        return expr
 
     def single_model_expression(self, span: None, children: Sequence[Any]) -> Expr:
-        return children[0]  # type: ignore[no-any-return]
+        expr: Expr = children[0]
+        return expr
 
     # --- declarations --------------------------------------------------------------------------
 

@@ -16,14 +16,20 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 from posgmc.errors import SourceSpan
-from posgmc.model.types import ModelType as ModelType  # the compiled game's enum, named here too
+
+# the compiled game's enums, named here too
+from posgmc.model.types import Direction as Direction
+from posgmc.model.types import ModelType as ModelType
 
 NO_SPAN = SourceSpan(0, 0)
 
 
-def _span() -> SourceSpan:
-    # keyword-only so that subclasses can declare required positional fields after it
-    return field(default=NO_SPAN, compare=False, repr=False, kw_only=True)  # type: ignore[no-any-return]
+@dataclass(frozen=True)
+class Node:
+    """Base class of every syntax node: its source span, keyword-only (so that subclasses declare
+    their positional fields freely) and outside equality, hashing and ``repr``."""
+
+    span: SourceSpan = field(default=NO_SPAN, compare=False, repr=False, kw_only=True)
 
 
 class VarType(enum.Enum):
@@ -38,10 +44,8 @@ class VarType(enum.Enum):
 
 
 @dataclass(frozen=True)
-class Expr:
+class Expr(Node):
     """Base class of every expression node."""
-
-    span: SourceSpan = _span()
 
 
 INT64_MIN = -(2**63)
@@ -151,7 +155,8 @@ FUNCTION_ARITY: dict[Function, tuple[int, int | None]] = {
 
 @dataclass(frozen=True)
 class Call(Expr):
-    """``min(a, b, ...)``, ``pow(x, y)``, ``mod(i, n)``, ``log(x, base)``, ... (also ``func(min, a, b)``)."""
+    """``min(a, b, ...)``, ``pow(x, y)``, ``mod(i, n)``, ``log(x, base)``, ...; also written
+    ``func(min, a, b)``."""
 
     function: Function
     args: tuple[Expr, ...]
@@ -196,7 +201,7 @@ class SteadyQuery(Expr):
     """PRISM's steady-state operator ``S=? [ phi ]`` / ``S>=p [ phi ]``: the long-run fraction of
     time spent in states satisfying ``phi`` (dtmcs)."""
 
-    threshold: "Threshold | None"
+    threshold: Threshold | None
     operand: Expr
 
 
@@ -222,19 +227,19 @@ class TemporalOp(enum.Enum):
 
 
 @dataclass(frozen=True)
-class TimeBound:
+class TimeBound(Node):
     """A step bound ``<=k``, ``<k``, ``>=k``, ``>k``, ``=k`` or ``[a,b]`` on a temporal operator."""
 
     lower: Expr | None = None
     lower_strict: bool = False
     upper: Expr | None = None
     upper_strict: bool = False
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
 class Temporal(Expr):
-    """A temporal operator: ``X a``, ``F a``, ``G a`` (one operand) or ``a U b``, ``a W b``, ``a R b``."""
+    """A temporal operator: ``X a``, ``F a``, ``G a`` (one operand) or ``a U b``, ``a W b``,
+    ``a R b``."""
 
     op: TemporalOp
     operands: tuple[Expr, ...]
@@ -242,11 +247,6 @@ class Temporal(Expr):
 
 
 # --- queries ------------------------------------------------------------------------------------
-
-
-class Direction(enum.Enum):
-    MIN = "min"
-    MAX = "max"
 
 
 class ComparisonOp(enum.Enum):
@@ -257,12 +257,11 @@ class ComparisonOp(enum.Enum):
 
 
 @dataclass(frozen=True)
-class Threshold:
+class Threshold(Node):
     """The ``>=0.9`` of ``P>=0.9 [...]``."""
 
     op: ComparisonOp
     value: Expr
-    span: SourceSpan = _span()
 
 
 class CoalitionKind(enum.Enum):
@@ -271,22 +270,21 @@ class CoalitionKind(enum.Enum):
 
 
 @dataclass(frozen=True)
-class PlayerRef:
-    """A player in a coalition: a name, or a number as written (1-based unless the user said 0-based)."""
+class PlayerRef(Node):
+    """A player in a coalition: a name, or a number as written (1-based unless the user said
+    0-based)."""
 
     name: str | None = None
     number: int | None = None
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class Coalition:
+class Coalition(Node):
     """``<<p1,p2>>``, ``<<1>>``, ``<<*>>`` (``all_players``) or ``[[...]]``."""
 
     players: tuple[PlayerRef, ...] = ()
     all_players: bool = False
     kind: CoalitionKind = CoalitionKind.ANGLE
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
@@ -314,20 +312,21 @@ class RewardKind(enum.Enum):
 
 
 @dataclass(frozen=True)
-class RewardObjective:
+class RewardObjective(Node):
     """What an ``R`` query accumulates. ``target`` is the state/path formula where one is needed,
-    ``bound`` the step count of ``C<=k``/``I=k``, ``discount`` the factor of the discounted forms."""
+    ``bound`` the step count of ``C<=k``/``I=k``, ``discount`` the factor of the discounted
+    forms."""
 
     kind: RewardKind
     target: Expr | None = None
     bound: Expr | None = None
     discount: Expr | None = None
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
 class RewardQuery(Expr):
-    """``<<C>> R{"cost"}min=? [ objective ]``; ``reward`` is a name, a 1-based index, or None (first)."""
+    """``<<C>> R{"cost"}min=? [ objective ]``; ``reward`` is a name, a 1-based index, or None
+    (first)."""
 
     coalition: Coalition | None
     reward: str | int | None
@@ -353,22 +352,20 @@ class MultiQuery(Expr):
 
 
 @dataclass(frozen=True)
-class ConstantDecl:
+class ConstantDecl(Node):
     name: str
     type: VarType
     value: Expr | None  # None: undefined, supplied by the user (--const)
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class FormulaDecl:
+class FormulaDecl(Node):
     name: str
     expr: Expr
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class VariableDecl:
+class VariableDecl(Node):
     """``x : [lo..hi] init e;`` (``low``/``high`` set) or ``b : bool init e;``."""
 
     name: str
@@ -376,96 +373,86 @@ class VariableDecl:
     low: Expr | None = None
     high: Expr | None = None
     init: Expr | None = None
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class Assignment:
+class Assignment(Node):
     """``(x' = e)``."""
 
     variable: str
     value: Expr
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class Update:
-    """``p : (x'=..)&(y'=..)``; ``true`` is an update with no assignments; probability 1 if omitted."""
+class Update(Node):
+    """``p : (x'=..)&(y'=..)``; ``true`` is an update with no assignments; probability 1 if
+    omitted."""
 
     probability: Expr | None
     assignments: tuple[Assignment, ...]
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class Command:
+class Command(Node):
     """``[action] guard -> updates;`` (``action`` None for ``[]``)."""
 
     action: str | None
     guard: Expr
     updates: tuple[Update, ...]
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class Module:
+class Module(Node):
     name: str
     variables: tuple[VariableDecl, ...]
     commands: tuple[Command, ...]
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class Renaming:
+class Renaming(Node):
     old: str
     new: str
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class RenamedModule:
+class RenamedModule(Node):
     """``module b = a [x=y, go=stop] endmodule``."""
 
     name: str
     base: str
     renamings: tuple[Renaming, ...]
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class ObservableVars:
+class ObservableVars(Node):
     """``observables x, y endobservables``: each listed variable is observed."""
 
     variables: tuple[Ident, ...]
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class NamedObservable:
+class NamedObservable(Node):
     """``observable "name" = expr;``: the value of ``expr`` is observed (usable as a label)."""
 
     name: str
     expr: Expr
-    span: SourceSpan = _span()
 
 
 Observable = ObservableVars | NamedObservable
 
 
 @dataclass(frozen=True)
-class ActionRef:
+class ActionRef(Node):
     name: str
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class ModuleRef:
+class ModuleRef(Node):
     name: str
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class PlayerDecl:
+class PlayerDecl(Node):
     """``player NAME mod, [act], ... endplayer``; POSG extension: observable declarations inside,
     describing what THIS player observes (none: the player observes the whole state)."""
 
@@ -473,18 +460,16 @@ class PlayerDecl:
     modules: tuple[ModuleRef, ...]
     actions: tuple[ActionRef, ...]
     observables: tuple[Observable, ...] = ()
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class LabelDecl:
+class LabelDecl(Node):
     name: str
     expr: Expr
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class RewardItem:
+class RewardItem(Node):
     """``guard : value;`` (state reward, ``action`` is None and ``is_action`` False) or
     ``[a] guard : value;`` (action reward; ``action`` None with ``is_action`` for ``[]``)."""
 
@@ -492,18 +477,16 @@ class RewardItem:
     action: str | None
     guard: Expr
     value: Expr
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class RewardStructDecl:
+class RewardStructDecl(Node):
     name: str | None
     items: tuple[RewardItem, ...]
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)
-class ModelFile:
+class ModelFile(Node):
     """A whole model file, declarations in source order within each kind."""
 
     model_type: ModelType
@@ -518,7 +501,6 @@ class ModelFile:
     init: Expr | None = None  # init ... endinit
     model_type_given: bool = True  # False when the file has no model-type keyword (PRISM: mdp)
     file: str | None = None
-    span: SourceSpan = _span()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -527,14 +509,13 @@ class ModelFile:
 
 
 @dataclass(frozen=True)
-class ExpectedResult:
+class ExpectedResult(Node):
     """A ``// RESULT: v`` or ``// RESULT (k=3): v`` comment above a property (PRISM's convention);
     ``text`` is the value as written (``0.85``, ``19/15``, ``true``, ``Infinity``, ``[a,b]``,
     ``Error:co-safe``), ``constants`` the ``k=3`` part (empty for all)."""
 
     text: str
     constants: tuple[tuple[str, str], ...] = ()
-    span: SourceSpan = _span()
     number: str | None = None  # ``// RESULT (guaranteed): v``: which number of the result
 
 
@@ -543,12 +524,11 @@ RESULT_NUMBERS = ("guaranteed", "vs_fss_adversary", "upper_bound", "full_observa
 
 
 @dataclass(frozen=True)
-class Property:
+class Property(Node):
     expr: Expr
     name: str | None = None
     text: str = ""  # the property as written, for reports
     expected: tuple[ExpectedResult, ...] = ()
-    span: SourceSpan = _span()
 
 
 @dataclass(frozen=True)

@@ -10,9 +10,9 @@ an update without a prime, a time bound with ``+``/``-`` that needs parentheses.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from copy import copy
 from dataclasses import dataclass
-from typing import Iterable, Sequence
 
 from lark import Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
@@ -65,7 +65,27 @@ _EXPRESSION_STARTS = frozenset(
 
 # Binary operators (by their text): listed only when nothing else would do.
 _OPERATOR_TEXTS = frozenset(
-    {"+", "-", "*", "/", "^", "&", "|", "=", "!=", "<", "<=", ">", ">=", "=>", "<=>", "?", "U", "W", "R"}
+    {
+        "+",
+        "-",
+        "*",
+        "/",
+        "^",
+        "&",
+        "|",
+        "=",
+        "!=",
+        "<",
+        "<=",
+        ">",
+        ">=",
+        "=>",
+        "<=>",
+        "?",
+        "U",
+        "W",
+        "R",
+    }
 )
 
 # Top-level keywords of a model file (a model type, or the start of a declaration).
@@ -271,7 +291,7 @@ def _token_span(token: Token, file: str | None) -> SourceSpan:
     return SourceSpan(line, col, end_line, end_col, file)
 
 
-def _parser_state(exc: UnexpectedInput) -> ParserState | None:
+def _parser_state(exc: UnexpectedInput) -> ParserState[int] | None:
     ip = getattr(exc, "interactive_parser", None)
     if ip is not None and isinstance(ip.parser_state, ParserState):
         return ip.parser_state
@@ -279,7 +299,7 @@ def _parser_state(exc: UnexpectedInput) -> ParserState | None:
     return state if isinstance(state, ParserState) else None
 
 
-def _exact_accepts(state: ParserState) -> set[str]:
+def _exact_accepts(state: ParserState[int]) -> set[str]:
     """The terminals that can really follow the parser's stack.
 
     An LALR state's table merges the lookaheads of every context with the same items, so its

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-
 from posgmc.errors import SourceSpan
 from posgmc.syntax.ast import (
     ActionRef,

@@ -20,10 +20,11 @@ import hashlib
 import os
 import re
 import sys
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import Any
 
 import lark
 from lark import Lark, Token
@@ -206,7 +207,7 @@ def _scanner(state: int) -> _Scanner:
 _NO_SCANNER = _Scanner(lambda text, pos: None, {}, frozenset(), frozenset())
 
 
-def _tokens(text: str, state: ParserState) -> Iterator[Token]:
+def _tokens(text: str, state: ParserState[int]) -> Iterator[Token]:
     """The tokens of ``text`` as lark's contextual lexer makes them for the parser in ``state``,
     then lark's ``$END`` token.
 
@@ -228,7 +229,9 @@ def _tokens(text: str, state: ParserState) -> Iterator[Token]:
         if match is None:
             break
         value = match.group()
-        kind: str = match.lastgroup  # type: ignore[assignment]
+        kind = match.lastgroup
+        if kind is None:  # pragma: no cover - every alternative is a named group
+            break  # (lark's lexer takes over from here)
         start, start_line, start_column = pos, line, pos - line_start + 1
         if kind in scanner.newlines:
             newlines = value.count("\n")
@@ -244,10 +247,13 @@ def _tokens(text: str, state: ParserState) -> Iterator[Token]:
         yield token
     if pos < size:
         # lark's lexer continues from here (and raises its error where nothing matches)
-        counter = lexer.state.line_ctr
+        lexer_state = lexer.state
+        if lexer_state is None:  # pragma: no cover - LexerThread.from_text always gives one
+            raise RuntimeError("lark's lexer thread has no text")
+        counter = lexer_state.line_ctr
         counter.char_pos, counter.line, counter.line_start_pos = pos, line, line_start
         counter.column = pos - line_start + 1
-        lexer.state.last_token = token
+        lexer_state.last_token = token
         for token in lexer.lex(state):
             yield token
     yield Token.new_borrow_pos("$END", "", token) if token else Token("$END", "", 0, 1, 1)

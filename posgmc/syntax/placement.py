@@ -4,9 +4,7 @@ path formulas there), checked on the syntax tree as PRISM's parser does."""
 from __future__ import annotations
 
 import dataclasses
-import operator
-from typing import Iterable
-
+from collections.abc import Iterable
 
 from posgmc.errors import ParseError
 from posgmc.syntax.ast import (
@@ -16,8 +14,8 @@ from posgmc.syntax.ast import (
     Expr,
     Filter,
     Ite,
-    PathQuantifier,
     MultiQuery,
+    PathQuantifier,
     ProbQuery,
     RewardKind,
     RewardQuery,
@@ -105,7 +103,8 @@ _CONNECTIVES = (BinaryOp.AND, BinaryOp.OR, BinaryOp.IMPLIES, BinaryOp.IFF)
 
 def _check_not_compared(expr: Binary) -> None:
     """Storm reads ``a & X x=1`` as ``a & X (x=1)``; posgmc's grammar (PRISM's precedence for the
-    unparenthesised operand) gives ``(X x) = 1``, which means nothing: say where the parentheses go."""
+    unparenthesised operand) gives ``(X x) = 1``, which means nothing: say where the parentheses
+    go."""
     from posgmc.syntax.printer import format_expr
 
     for side in (expr.left, expr.right):
@@ -116,7 +115,8 @@ def _check_not_compared(expr: Binary) -> None:
                 inner = dataclasses.replace(expr, right=side.operands[0])
             suggestion = format_expr(dataclasses.replace(side, operands=(inner,)))
             raise ParseError(
-                f'the temporal formula {format_expr(side)} cannot be an operand of "{expr.op.value}"',
+                f"the temporal formula {format_expr(side)} cannot be an operand of "
+                f'"{expr.op.value}"',
                 side.span,
                 hint=f"an unparenthesised temporal operand takes one operand only; "
                 f"write {suggestion} (parenthesise the state formula the operator applies to)",

@@ -19,10 +19,11 @@ This module puts them together and binds them to the grammar's rules.
 from __future__ import annotations
 
 import operator
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from lark import Token
-from lark.grammar import Rule
+from lark.grammar import Rule, Terminal
 
 from posgmc.errors import SourceSpan
 from posgmc.syntax.actions_expr import ExpressionActions
@@ -120,7 +121,7 @@ def _rule_action(rule: Rule) -> RuleAction | None:
     kept = [
         (i, not sym.is_term and sym.name.startswith("_"))
         for i, sym in enumerate(rule.expansion)
-        if keep_all or not (sym.is_term and sym.filter_out)
+        if keep_all or not (isinstance(sym, Terminal) and sym.filter_out)
     ]
     if rule.options.expand1 and not rule.alias:
         if len(kept) != 1 or kept[0][1]:
@@ -134,15 +135,13 @@ def _rule_action(rule: Rule) -> RuleAction | None:
         splice = _selector(kept, size, as_list=True)
         if splice is None:
             return lambda b, c, s, e: c
-        return lambda b, c, s, e: splice(c)  # type: ignore[misc]
+        return lambda b, c, s, e: splice(c)
     select = _selector(kept, size, as_list=False)
     if name in _BINARY_OPS:
         op = _BINARY_OPS[name]
         if [i for i, _ in kept] != [0, 2] or size != 3:
             raise TypeError(f"grammar rule {rule} is not a binary operator")
-        return lambda b, c, s, e: Binary(
-            op, c[0], c[2], span=SourceSpan(s.line, s.column, e.end_line, e.end_column, b.file)
-        )
+        return lambda b, c, s, e: Binary(op, c[0], c[2], span=_extent(b, s, e))
     method = getattr(AstBuilder, name, None)
     if method is None or name.startswith("_"):
         raise TypeError(f"no action for grammar rule {rule}")
@@ -152,16 +151,19 @@ def _rule_action(rule: Rule) -> RuleAction | None:
     if select is None:
         if spanless:
             return lambda b, c, s, e: method(b, None, c)
-        return lambda b, c, s, e: method(
-            b, SourceSpan(s.line, s.column, e.end_line, e.end_column, b.file), c
-        )
+        return lambda b, c, s, e: method(b, _extent(b, s, e), c)
     if spanless:
-        return lambda b, c, s, e: method(b, None, select(c))  # type: ignore[misc]
-    return lambda b, c, s, e: method(
-        b,
-        SourceSpan(s.line, s.column, e.end_line, e.end_column, b.file),
-        select(c),  # type: ignore[misc]
-    )
+        return lambda b, c, s, e: method(b, None, select(c))
+    return lambda b, c, s, e: method(b, _extent(b, s, e), select(c))
+
+
+def _extent(b: AstBuilder, s: Token | None, e: Token | None) -> SourceSpan:
+    """The span from the first token ``s`` to the last ``e`` of a reduction (no position when
+    the rule's text begins or ends with an empty rule, which has no tokens; lark's tokens may lack
+    a position, the lexer's never do)."""
+    if s is None or e is None or s.line is None or s.column is None:
+        return SourceSpan(0, 0, file=b.file)
+    return SourceSpan(s.line, s.column, e.end_line, e.end_column, b.file)
 
 
 def _selector(

@@ -12,8 +12,8 @@ from posgmc.syntax.ast import (
     Expr,
     Filter,
     Ite,
-    PathQuantifier,
     MultiQuery,
+    PathQuantifier,
     ProbQuery,
     RewardObjective,
     RewardQuery,
@@ -122,7 +122,9 @@ def iter_nodes(e: Expr) -> Iterator[Expr]:
         stack.extend(reversed(children(node)))
 
 
-def any_node(e: Expr, test: Callable[[Expr], bool], *, into: Callable[[Expr], bool] = lambda _: True) -> bool:
+def any_node(
+    e: Expr, test: Callable[[Expr], bool], *, into: Callable[[Expr], bool] = lambda _: True
+) -> bool:
     """Whether ``test`` holds for some node of ``e``, descending only into nodes for which
     ``into`` holds (e.g. not into nested queries)."""
     stack = [e]

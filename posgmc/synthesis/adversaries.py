@@ -29,12 +29,13 @@ import numpy as np
 from pysat.card import CardEnc, EncType
 from pysat.solvers import Solver
 
+from posgmc.checking.dispatch import CoalitionResolver, ScalarEvaluator
 from posgmc.checking.results import Bound
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
-from posgmc.strategies.verify import StrategyChecker
+from posgmc.strategies.verify import StrategyChecker, bound_of
 from posgmc.syntax.ast import Expr
 
 __all__ = ["Enumeration", "enumerate_adversaries", "versus_adversaries"]
@@ -169,7 +170,8 @@ def _forward(model: ExplicitModel) -> np.ndarray:
 
 def versus_adversaries(model: ExplicitModel, expr: Expr, defence: FiniteStateStrategy,
                        adversaries: tuple[FiniteStateStrategy, ...], *, maximize: bool,
-                       coalition_of, scalar, deadline: float | None = None,  # type: ignore[no-untyped-def]
+                       coalition_of: CoalitionResolver, scalar: ScalarEvaluator,
+                       deadline: float | None = None,
                        ) -> tuple[Bound | None, Bound | None, int, FiniteStateStrategy | None]:
     """(vs_fss_adversary, upper_bound, how many adversaries were evaluated, the adversary that
     achieves vs_fss_adversary) over ``adversaries`` (see the module docstring), stopping at
@@ -192,8 +194,7 @@ def versus_adversaries(model: ExplicitModel, expr: Expr, defence: FiniteStateStr
         alone = checker.product_checker(frozenset({p_adv}))
         vs = both.check(expr, text="vs")
         ub = alone.check(expr, text="ub")
-        vs_b = Bound(float(vs.value), vs.lower, vs.upper, vs.sound and vs.converged)  # type: ignore[arg-type]
-        ub_b = Bound(float(ub.value), ub.lower, ub.upper, ub.sound and ub.converged)  # type: ignore[arg-type]
+        vs_b, ub_b = bound_of(vs), bound_of(ub)
         if worse(vs_b, worst_vs):
             worst_vs, worst_adversary = vs_b, adv
         if worse(ub_b, worst_ub):

@@ -7,21 +7,32 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from contextlib import closing
 from dataclasses import dataclass
 
-from posgmc.checking.dispatch import CheckOptions, CoalitionResolver, PropertyChecker, ScalarEvaluator
-from posgmc.checking.results import PropertyResult, ResultKind
+from posgmc.checking.dispatch import (
+    CheckOptions,
+    CoalitionResolver,
+    PropertyChecker,
+    ScalarEvaluator,
+)
+from posgmc.checking.results import Bound, PropertyResult, ResultKind
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
-from posgmc.checking.results import Bound
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
 from posgmc.synthesis.compose import RESPONSE_EXHAUSTIVE, VersusJob, one_sided, verified_numbers
 from posgmc.synthesis.jobs import POLICY, Executor, Problem, executor_for
 from posgmc.synthesis.objectives import lift, needs_product
-from posgmc.synthesis.search import SynthesisOptions, SynthesisResult, _better, problem_of, synthesize
-from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
+from posgmc.synthesis.search import (
+    SynthesisOptions,
+    SynthesisResult,
+    _better,
+    problem_of,
+    synthesize,
+)
 
 __all__ = ["SynthesisChecker"]
 
@@ -71,7 +82,7 @@ class SynthesisChecker:
 
     def _adversary_phases(self, problem: Problem, executor: Executor, result: SynthesisResult,
                           settings: SynthesisOptions, deadline: float,
-                          verify: CheckOptions) -> "_AdversaryOutcome":
+                          verify: CheckOptions) -> _AdversaryOutcome:
         """Enumerate, rank and keep the adversary's strategies, compose the defence against them
         and run the double oracle (:mod:`posgmc.synthesis.compose`); then choose the reported
         defence — the search's or the composed one, whichever proves the better ``guaranteed``
@@ -99,28 +110,51 @@ class SynthesisChecker:
                                     options=POLICY).check(problem.query, text="composed").guaranteed
             assert rough is not None  # noqa: S101 - the decision maker's strategy is given
             if sign * rough.value > sign * g.value + _GAIN * max(1.0, abs(g.value)):
-                g_composed = StrategyChecker(self.model, {composed.player: composed},
-                                             coalition_of=problem.coalition_of, scalar=problem.scalar,
-                                             options=verify).check(problem.query, text="composed").guaranteed
+                g_composed = (
+                    StrategyChecker(
+                        self.model,
+                        {composed.player: composed},
+                        coalition_of=problem.coalition_of,
+                        scalar=problem.scalar,
+                        options=verify,
+                    )
+                    .check(problem.query, text="composed")
+                    .guaranteed
+                )
                 assert g_composed is not None  # noqa: S101 - as above
                 if _better(g_composed, g, maximize):
                     defence, g = composed, g_composed
         enumerated = found.enumeration.strategies
         ranked_all = found.all_ranked
         # against every enumerated adversary when there are few enough, else the kept ones
-        small = found.enumeration.exhaustive and ranked_all and len(enumerated) <= RESPONSE_EXHAUSTIVE
-        pool = tuple(enumerated) + tuple(a for a in found.kept if not any(a is e for e in enumerated)) \
-            if small else found.kept
+        small = (
+            found.enumeration.exhaustive and ranked_all and len(enumerated) <= RESPONSE_EXHAUSTIVE
+        )
+        pool = (
+            tuple(enumerated) + tuple(a for a in found.kept if not any(a is e for e in enumerated))
+            if small
+            else found.kept
+        )
         vs_from_composed = False
         if composed is not None and composed is not defence and pool:
             # vs_fss_adversary of the composed defence when it is clearly better there
             mine = min(executor.map([VersusJob(defence, a) for a in pool]), key=lambda v: sign * v)
-            theirs = min(executor.map([VersusJob(composed, a) for a in pool]), key=lambda v: sign * v)
+            theirs = min(
+                executor.map([VersusJob(composed, a) for a in pool]), key=lambda v: sign * v
+            )
             if sign * theirs > sign * mine + _GAIN * max(1.0, abs(mine)):
                 if g_composed is None:
-                    g_composed = StrategyChecker(
-                        self.model, {composed.player: composed}, coalition_of=problem.coalition_of,
-                        scalar=problem.scalar, options=verify).check(problem.query, text="composed").guaranteed
+                    g_composed = (
+                        StrategyChecker(
+                            self.model,
+                            {composed.player: composed},
+                            coalition_of=problem.coalition_of,
+                            scalar=problem.scalar,
+                            options=verify,
+                        )
+                        .check(problem.query, text="composed")
+                        .guaranteed
+                    )
                 vs_from_composed = g_composed is not None
         shown, shown_g = (composed, g_composed) if vs_from_composed else (defence, g)
         assert shown is not None and shown_g is not None  # noqa: S101 - set together
@@ -136,7 +170,8 @@ class SynthesisChecker:
             "vs_adversaries": len(pool),
             "exhaustive": bool(small),
             "defence": "composed" if composed is not None and defence is composed else "search",
-            "vs_fss_defence": "composed" if vs_from_composed or (composed is not None and defence is composed)
+            "vs_fss_defence": "composed"
+            if vs_from_composed or (composed is not None and defence is composed)
             else "search",
             "composed_value": None if found.composed is None else found.composed.value,
             "oracle": [{"response_value": v, "exhaustive": e} for v, e in found.responses],
@@ -172,8 +207,16 @@ class SynthesisChecker:
                                       "whose state the strategies do not observe")
         if expr.threshold is not None:
             return dataclasses.replace(result, guaranteed=g, note=note)
-        return dataclasses.replace(result, guaranteed=g, value=g.value, lower=g.lower, upper=g.upper,
-                                   per_initial=(g.value,), sound=result.sound and g.sound, note=note)
+        return dataclasses.replace(
+            result,
+            guaranteed=g,
+            value=g.value,
+            lower=g.lower,
+            upper=g.upper,
+            per_initial=(g.value,),
+            sound=result.sound and g.sound,
+            note=note,
+        )
 
     def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
         """Synthesise and verify. A threshold holds when ``guaranteed`` meets it, fails when the
@@ -212,10 +255,16 @@ class SynthesisChecker:
             # without adversary phases the search has their time too
             search = dataclasses.replace(
                 settings, timeout=budget * (_SEARCH_SHARE if phases_follow else _ADVERSARY_END))
-            result = synthesize(self.model, bare, player=player, coalition_of=self.coalition_of,
-                                scalar=self.scalar, options=search,
-                                check_options=_until(self.options, started + budget * _ADVERSARY_END),
-                                executor=executor)
+            result = synthesize(
+                self.model,
+                bare,
+                player=player,
+                coalition_of=self.coalition_of,
+                scalar=self.scalar,
+                options=search,
+                check_options=_until(self.options, started + budget * _ADVERSARY_END),
+                executor=executor,
+            )
             adversaries = None
             if adversary is not None and settings.adversaries > 0:
                 deadline = started + budget * _ADVERSARY_END
@@ -225,7 +274,6 @@ class SynthesisChecker:
         late = time.perf_counter() > started + self.synthesis.timeout
         defence, g, full = adversaries.defence if adversaries else result.strategy, \
             adversaries.guaranteed if adversaries else result.guaranteed, result.full_observation
-        maximizing = problem.maximize
         vs = ub = worst = None
         if adversaries is not None:
             vs, ub, worst = adversaries.vs, adversaries.ub, adversaries.worst
@@ -235,9 +283,13 @@ class SynthesisChecker:
         lower: float | None = g.lower
         upper: float | None = g.upper
         if expr.threshold is not None:
-            p = float(self.scalar(expr.threshold.value))  # type: ignore[arg-type]
-            holds = {ComparisonOp.GE: lambda x: x >= p, ComparisonOp.GT: lambda x: x > p,
-                     ComparisonOp.LE: lambda x: x <= p, ComparisonOp.LT: lambda x: x < p}[expr.threshold.op]
+            p = float(self.scalar(expr.threshold.value))
+            holds: Callable[[float], bool] = {
+                ComparisonOp.GE: lambda x: x >= p,
+                ComparisonOp.GT: lambda x: x > p,
+                ComparisonOp.LE: lambda x: x <= p,
+                ComparisonOp.LT: lambda x: x < p,
+            }[expr.threshold.op]
             maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
             proven = holds(g.lower if maximize else g.upper) and g.sound
             # no defence reaches the threshold: not with full observation, nor against the

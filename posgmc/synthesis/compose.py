@@ -33,13 +33,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from posgmc.checking.dispatch import CheckOptions
 from posgmc.checking.results import Bound
 from posgmc.strategies.binding import bind
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.strategies.verify import StrategyChecker
-from posgmc.synthesis.adversaries import Enumeration, enumerate_adversaries
 from posgmc.synthesis import milp
+from posgmc.synthesis.adversaries import Enumeration, enumerate_adversaries
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.jobs import POLICY, Executor, Problem, expired
 from posgmc.synthesis.parametric import Layout, Parametrisation, game_views
@@ -321,8 +322,17 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
         t_compose += time.perf_counter() - t0
     phases["adversaries: composition"] = t_compose
     phases["adversaries: double oracle"] = t_oracle
-    return OneSided(enumeration, all_ranked, tuple(ranked), tuple(kept), added, composed, tuple(responses),
-                    partial or expired(deadline), phases)
+    return OneSided(
+        enumeration,
+        all_ranked,
+        tuple(ranked),
+        tuple(kept),
+        added,
+        composed,
+        tuple(responses),
+        partial or expired(deadline),
+        phases,
+    )
 
 
 def _batched(executor: Executor, jobs: list, deadline: float) -> list:  # type: ignore[type-arg]
@@ -402,13 +412,14 @@ def _best_response(problem: Problem, executor: Executor, defence: FiniteStateStr
     found = executor.map([ResponseJob(defence, memory, s, iterations, learning_rate, deadline)
                           for s in starts])
     found.append((kept[worst], values[worst]))
-    return min(found, key=lambda r: sign * r[1])
+    best: tuple[FiniteStateStrategy, float] = min(found, key=lambda r: sign * r[1])
+    return best
 
 
 def verified_numbers(problem: Problem, executor: Executor, defence: FiniteStateStrategy,
                      guaranteed: Bound, adversaries: tuple[FiniteStateStrategy, ...],
                      strengths: tuple[tuple[FiniteStateStrategy, float], ...], *,
-                     check_options, check_all: int = 4,  # type: ignore[no-untyped-def]
+                     check_options: CheckOptions, check_all: int = 4,
                      ) -> tuple[Bound | None, FiniteStateStrategy | None, Bound | None]:
     """(vs_fss_adversary of ``defence`` over ``adversaries``, the adversary achieving it,
     upper_bound over the ranked ``strengths``), proven by the sound engines (``check_options``).
@@ -426,8 +437,13 @@ def verified_numbers(problem: Problem, executor: Executor, defence: FiniteStateS
     worst: FiniteStateStrategy | None = None
 
     def proven(given: dict[str, FiniteStateStrategy], number: str) -> Bound:
-        r = StrategyChecker(problem.model, given, coalition_of=problem.coalition_of,
-                            scalar=problem.scalar, options=check_options).check(problem.query, text=number)
+        r = StrategyChecker(
+            problem.model,
+            given,
+            coalition_of=problem.coalition_of,
+            scalar=problem.scalar,
+            options=check_options,
+        ).check(problem.query, text=number)
         return getattr(r, number)  # type: ignore[no-any-return]
 
     if adversaries:
@@ -444,7 +460,11 @@ def verified_numbers(problem: Problem, executor: Executor, defence: FiniteStateS
         else:
             far = min(vs.lower, guaranteed.lower) if sign > 0 else max(vs.upper, guaranteed.upper)
             sound = vs.sound and guaranteed.sound
-        vs = Bound(vs.value, far, vs.upper, sound) if sign > 0 else Bound(vs.value, vs.lower, far, sound)
+        vs = (
+            Bound(vs.value, far, vs.upper, sound)
+            if sign > 0
+            else Bound(vs.value, vs.lower, far, sound)
+        )
     ub: Bound | None = None
     if strengths:
         strongest = strengths[0][0]  # ranked strongest first

@@ -30,8 +30,8 @@ parent's values, which lie on the decision maker's good side of its own, so that
 can stop as soon as the family provably cannot beat the incumbent); σ breaks ties between
 equally good options towards the option its hole uses in the most states, so that choices that
 do not matter cause no split. This ranks and prunes; the defence it returns is verified
-afterwards like every other candidate (:mod:`posgmc.synthesis.search`). The search is deterministic: no randomness, the
-order fixed by the bounds and a counter; only the deadline can cut it short.
+afterwards like every other candidate (:mod:`posgmc.synthesis.search`). The search is deterministic:
+no randomness, the order fixed by the bounds and a counter; only the deadline can cut it short.
 """
 
 from __future__ import annotations
@@ -46,7 +46,8 @@ from scipy.sparse import csgraph
 
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import Method, SolverOptions
-from posgmc.engines.system import _HAVE_KERNELS, _kernels
+from posgmc.engines.system import HAVE_KERNELS, accumulate_rows
+from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.strategies.binding import player_view
 from posgmc.syntax.ast import ModelType
@@ -115,7 +116,6 @@ def quotient_of(problem: Problem, memory: int) -> Quotient | None:
     own_states = np.flatnonzero(owned)
     if not np.array_equal(offered_here[own_states], layout.mask[zi[own_states]]):
         return None
-    degree = np.diff(model.row_groups)
     # rows of the full layout (before reachability): state q = n * S + s; a decision maker's
     # choice c gives k rows (next node n' = 0..k-1), the adversary's one (node unchanged)
     copies = np.where(owned[cs], k, 1)  # rows per choice
@@ -161,7 +161,10 @@ def quotient_of(problem: Problem, memory: int) -> Quotient | None:
     hole = np.where(own_row, row_n * Zu + zi[cs[row_c]], -1)
     option = np.where(own_row, act_index[model.choice_actions[row_c]] * k + row_next, -1)
     offered = np.tile(np.repeat(layout.mask, k, axis=1), (k, 1))  # [n * Zu + z, a * k + n']
-    maximize = obj.maximize_mask(qmodel, direction=problem.query.direction,
+    direction = problem.query.direction
+    if direction is None:  # pragma: no cover - problem_of asks for min or max
+        raise UnsupportedError("synthesis needs Pmin/Pmax or Rmin/Rmax", problem.query.span)
+    maximize = obj.maximize_mask(qmodel, direction=direction,
                                  coalition=problem.coalition if is_game else None)
     rewards = None if problem.rewards is None else problem.rewards[row_c]
     return Quotient(k, layout, qmodel, state_of, memory_of, row_state, hole, option,
@@ -228,11 +231,12 @@ def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: 
     v = np.empty(rows.size)
 
     def row_values(x: np.ndarray) -> np.ndarray:
-        if _HAVE_KERNELS:  # scipy's kernel without the operator's dispatch (the engines' way)
+        if HAVE_KERNELS:  # scipy's kernel without the operator's dispatch (the engines' way)
             v[:] = offset
-            _kernels.csr_matvec(A.shape[0], A.shape[1], A.indptr, A.indices, A.data, x, v)
+            accumulate_rows(A, 0, A.shape[0], x, v)
             return v
-        return offset + A @ x
+        out: np.ndarray = offset + A @ x
+        return out
 
     free = ~fixed
     sign = problem.sign
@@ -261,7 +265,9 @@ def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: 
     return _Solved(float(x[init]), x, strategy, cut)
 
 
-def _consistent_choice(q: Quotient, rows: np.ndarray, good: np.ndarray, starts: np.ndarray) -> np.ndarray:
+def _consistent_choice(
+    q: Quotient, rows: np.ndarray, good: np.ndarray, starts: np.ndarray
+) -> np.ndarray:
     """int64[Q]: per state, the index into ``rows`` of the good row whose (hole, option) is good
     in the most states (the first such row on a tie; adversary rows score 0)."""
     hole, option = q.hole[rows], q.option[rows]
@@ -275,7 +281,9 @@ def _consistent_choice(q: Quotient, rows: np.ndarray, good: np.ndarray, starts: 
     return n - top % (n + 1)
 
 
-def _bellman_parts(q: Quotient, problem: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+def _bellman_parts(
+    q: Quotient, problem: Problem
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """(fixed: bool[Q], their values, the reward of every row (float64[R]), the discount) of the
     Bellman operator x -> base + g T x of a probability or a discounted cost."""
     Q = q.model.num_states
@@ -296,7 +304,11 @@ def _optimistic(q: Quotient, problem: Problem) -> np.ndarray | None:
         good = 1.0 if problem.maximize else 0.0
     else:
         extreme = base.max(initial=0.0) if problem.maximize else base.min(initial=0.0)
-        good = max(extreme, 0.0) / (1.0 - gamma) if problem.maximize else min(extreme, 0.0) / (1.0 - gamma)
+        good = (
+            max(extreme, 0.0) / (1.0 - gamma)
+            if problem.maximize
+            else min(extreme, 0.0) / (1.0 - gamma)
+        )
     return np.where(fixed, fixed_values, good)
 
 
@@ -345,7 +357,7 @@ def _used(q: Quotient, allowed: np.ndarray, strategy: np.ndarray
 def _member(q: Quotient, allowed: np.ndarray, keys: np.ndarray, counts: np.ndarray) -> np.ndarray:
     """The member of the family taking each hole's most used option (the first allowed one where
     σ uses none): bool[H, O], one option per hole."""
-    O = q.num_options
+    O = q.num_options  # noqa: E741 - the number of options, O in bool[H, O]
     choice = np.argmax(allowed, axis=1)  # first allowed option
     votes = np.zeros(allowed.shape, dtype=np.int64)
     votes.flat[keys] = counts
@@ -361,7 +373,7 @@ def _split(allowed: np.ndarray, keys: np.ndarray, counts: np.ndarray, first: np.
     """Two sub-families separating the options of a hole σ uses inconsistently — the one met
     first from the initial state (decisions near the start weigh most) — or None when σ is
     consistent."""
-    O = allowed.shape[1]
+    O = allowed.shape[1]  # noqa: E741 - the number of options, O in bool[H, O]
     holes = keys // O
     distinct = np.bincount(holes, minlength=allowed.shape[0])
     if distinct.max(initial=0) <= 1:
@@ -394,14 +406,18 @@ def _split_member(allowed: np.ndarray, member: np.ndarray, keys: np.ndarray, fir
     """When σ is consistent but its member falls short of the bound (value iteration's choices
     at end components): split the hole met first that still has a choice, the member's option
     against the rest; None when the family is one member."""
-    O = allowed.shape[1]
+    O = allowed.shape[1]  # noqa: E741 - the number of options, O in bool[H, O]
     wide = allowed.sum(axis=1) > 1
     if not wide.any():
         return None
     met = np.full(allowed.shape[0], np.iinfo(np.int64).max)
     np.minimum.at(met, keys // O, first)
     met[~wide] = np.iinfo(np.int64).max
-    h = int(np.argmin(met)) if np.any(met < np.iinfo(np.int64).max) else int(np.flatnonzero(wide)[0])
+    h = (
+        int(np.argmin(met))
+        if np.any(met < np.iinfo(np.int64).max)
+        else int(np.flatnonzero(wide)[0])
+    )
     left, right = allowed.copy(), allowed.copy()
     left[h] = member[h] & allowed[h]
     right[h] = allowed[h] & ~member[h]
@@ -450,8 +466,14 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
     # iterates from below instead (from above the iteration may stop at a larger fixed point,
     # end components), so its bounds are the values as value iteration approximates them
     warm = not (problem.maximize and q.rewards is None)
-    top = _solve(q, root, _optimistic(q, problem) if warm else None, problem, precision=_FAMILY_PRECISION,
-                 deadline=deadline)
+    top = _solve(
+        q,
+        root,
+        _optimistic(q, problem) if warm else None,
+        problem,
+        precision=_FAMILY_PRECISION,
+        deadline=deadline,
+    )
     if top.cut:  # out of time before the first bound
         return None if incumbent is None else dataclasses.replace(incumbent, exhaustive=False)
     # depth first (PAYNT's order), each family solved when it is made, so that of two halves
@@ -495,7 +517,8 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
         if checked.cut and expired(deadline):
             exhaustive = False
         elif _consistent(keys, q.num_options) and (
-                checked.cut or abs(checked.value - solved.value) <= 1e-7 * max(1.0, abs(solved.value))):
+            checked.cut or abs(checked.value - solved.value) <= 1e-7 * max(1.0, abs(solved.value))
+        ):
             # σ is a member and achieves the bound (or, cut, provably not the incumbent's): the
             # family's optimum is known
             continue

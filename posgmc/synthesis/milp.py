@@ -79,7 +79,6 @@ def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *
     d_index[offered[:, 0], offered[:, 1]] = np.arange(len(offered))
     num_d = len(offered)
     sign = problem.sign
-    maximize = problem.maximize
     gamma_disc = problem.discount
     if problem.rewards is None:
         reward = np.zeros(model.num_choices)
@@ -89,7 +88,9 @@ def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *
         rmax = float(np.max(np.abs(reward), initial=0.0))
         lo, hi = -rmax / (1.0 - gamma_disc), rmax / (1.0 - gamma_disc)
     big = (hi - lo) + float(np.max(np.abs(reward), initial=0.0)) + (hi - lo) + 1.0
-    blocks: list[tuple[sp.csr_matrix, np.ndarray, np.ndarray, np.ndarray]] = []  # per j: A, b, d cols, x bounds
+    blocks: list[
+        tuple[sp.csr_matrix, np.ndarray, np.ndarray, np.ndarray]
+    ] = []  # per j: A, b, d cols, x bounds
     sizes = []
     inits = []
     owned_model = model.state_players == problem.player
@@ -113,9 +114,13 @@ def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *
         fixed_value = tgt.astype(np.float64) if problem.rewards is None else np.zeros(Q)
         keep = ~fixed[row_state]
         rows = np.flatnonzero(keep)
-        # sign * (x(q) - g P x) - U (1 - d) <= sign * r   ->  sign*x - sign*g*P x + U d <= sign*r + U
-        A = (sp.csr_matrix((np.ones(rows.size), (np.arange(rows.size), row_state[rows])), shape=(rows.size, Q))
-             - gamma_disc * pm.transitions[rows]) * sign
+        # sign * (x(q) - g P x) - U (1 - d) <= sign * r  ->  sign*x - sign*g*P x + U d <= sign*r + U
+        A = (
+            sp.csr_matrix(
+                (np.ones(rows.size), (np.arange(rows.size), row_state[rows])), shape=(rows.size, Q)
+            )
+            - gamma_disc * pm.transitions[rows]
+        ) * sign
         b = sign * prod_reward[rows]
         blocks.append((A.tocsr(), b, dcol[rows], np.where(fixed, fixed_value, np.nan)))
         sizes.append(Q)
@@ -124,7 +129,7 @@ def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *
     num_vars = int(offsets[-1]) + 1  # ..., t
     t_col = num_vars - 1
     mats, lows, highs = [], [], []
-    for j, (A, b, dcol, fixed_x) in enumerate(blocks):
+    for j, (A, b, dcol, _fixed) in enumerate(blocks):
         n_rows = A.shape[0]
         coo = A.tocoo()
         parts_r = [coo.row]
@@ -134,12 +139,18 @@ def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *
         parts_r.append(np.flatnonzero(chosen))
         parts_c.append(dcol[chosen])
         parts_v.append(np.full(int(chosen.sum()), big))
-        mats.append(sp.csr_matrix((np.concatenate(parts_v), (np.concatenate(parts_r), np.concatenate(parts_c))),
-                                  shape=(n_rows, num_vars)))
+        mats.append(
+            sp.csr_matrix(
+                (np.concatenate(parts_v), (np.concatenate(parts_r), np.concatenate(parts_c))),
+                shape=(n_rows, num_vars),
+            )
+        )
         lows.append(np.full(n_rows, -np.inf))
         highs.append(b + np.where(chosen, big, 0.0))
         # the objective: sign * t <= sign * x_j(init)  ->  sign*t - sign*x <= 0
-        row = sp.csr_matrix(([sign, -sign], ([0, 0], [t_col, offsets[j] + inits[j]])), shape=(1, num_vars))
+        row = sp.csr_matrix(
+            ([sign, -sign], ([0, 0], [t_col, offsets[j] + inits[j]])), shape=(1, num_vars)
+        )
         mats.append(row)
         lows.append(np.array([-np.inf]))
         highs.append(np.array([0.0]))

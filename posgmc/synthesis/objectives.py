@@ -25,14 +25,26 @@ What the players observe on the product — the soundness question:
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.syntax.ast import (
+    Expr,
+    LabelRef,
+    ProbQuery,
+    RewardKind,
+    RewardObjective,
+    RewardQuery,
+    Temporal,
+    TemporalOp,
+)
 from posgmc.synthesis.parametric import game_views
-from posgmc.syntax.ast import (Expr, LabelRef, ProbQuery, RewardKind, RewardObjective, RewardQuery,
-                               Temporal, TemporalOp)
+
+if TYPE_CHECKING:
+    from posgmc.checking.dispatch import PropertyChecker
 
 __all__ = ["needs_product", "lift"]
 
@@ -60,8 +72,9 @@ def needs_product(expr: Expr) -> bool:
     return isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.LTL
 
 
-def lift(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker,  # type: ignore[no-untyped-def]
-         ) -> tuple[ExplicitModel, ProbQuery | RewardQuery]:
+def lift(
+    model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: PropertyChecker
+) -> tuple[ExplicitModel, ProbQuery | RewardQuery]:
     """The product of ``model`` with the automaton of ``expr``'s formula, and the reachability
     query that answers ``expr`` on it (see the module docstring for what each player observes).
 
@@ -94,8 +107,11 @@ def lift(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker,  # type: 
     # a fully observing player observes the model state (game_views), and the valuations are
     # the model state's
     lifted = dataclasses.replace(
-        game_views(model, pm, prod.state_of), labels=labels, variable_names=model.variable_names,
-        state_values=model.state_values[prod.state_of] if model.state_values.shape[0] == model.num_states
+        game_views(model, pm, prod.state_of),
+        labels=labels,
+        variable_names=model.variable_names,
+        state_values=model.state_values[prod.state_of]
+        if model.state_values.shape[0] == model.num_states
         else model.state_values,
     )
     target = Temporal(TemporalOp.EVENTUALLY, (LabelRef(name, span=path.span),), span=path.span)

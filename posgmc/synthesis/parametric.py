@@ -12,9 +12,11 @@ the adversary's optimal choices, then solve the induced chain exactly (one spars
 adjoint: with ``x = (I - P_UU)^{-1} b_U`` the values of the undecided states U and
 ``y^T (I - P_UU) = e_init``, the derivative of the initial value along a change of the defence's
 rows is ``y^T (dP x + db)``. A defence row of product state (s, n) under observation z is
-``Σ_a γ(n,z,a) Σ_n' δ(n,z,a,n') P(s,a,·)`` over (s', n'), so with ``W[c, n'] = Σ_s' P(c,s') x(s',n')``
+``Σ_a γ(n,z,a) Σ_n' δ(n,z,a,n') P(s,a,·)`` over (s', n'), so with ``W[c, n'] = Σ_s' P(c,s')
+x(s',n')``
 
-    ∂/∂γ(n,z,a) = Σ_(s,n) y · Σ_n' δ(n,z,a,n') W[c(s,a), n'],  ∂/∂δ(n,z,a,n') = Σ_(s,n) y · γ · W[c, n'],
+    ∂/∂γ(n,z,a) = Σ_(s,n) y · Σ_n' δ(n,z,a,n') W[c(s,a), n'],  ∂/∂δ(n,z,a,n') = Σ_(s,n) y · γ · W[c,
+    n'],
 
 and the softmax chain rule gives the logits' gradient. This is the subgradient of the max-min at
 θ (exact where the adversary's best response is unique). Two objectives: reachability
@@ -34,9 +36,14 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from posgmc.checking.dispatch import CheckOptions, PropertyChecker
-from posgmc.engines.options import Method, SolverOptions
+from posgmc.checking.dispatch import (
+    CheckOptions,
+    CoalitionResolver,
+    PropertyChecker,
+    ScalarEvaluator,
+)
 from posgmc.engines.graph import almost_sure_reach, concat_ranges, positive_reach, structure_of
+from posgmc.engines.options import Method, SolverOptions
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
@@ -67,7 +74,9 @@ def game_views(model: ExplicitModel, product: ExplicitModel, state_of: np.ndarra
 
     from posgmc.model.explicit import Observation
 
-    observations = [dataclasses.replace(o, state_ids=o.state_ids[state_of]) for o in model.observations]
+    observations = [
+        dataclasses.replace(o, state_ids=o.state_ids[state_of]) for o in model.observations
+    ]
     for p in range(max(len(model.player_names), 1)):
         if model.observation_of(p) is None:
             view = player_view(model, p)
@@ -89,9 +98,13 @@ class Layout:
     mask: np.ndarray
 
     @staticmethod
-    def of(model: ExplicitModel, player: int) -> "Layout":
+    def of(model: ExplicitModel, player: int) -> Layout:
         view = player_view(model, player)
-        owned = (model.state_players == player) if model.player_names else np.ones(model.num_states, bool)
+        owned = (
+            (model.state_players == player)
+            if model.player_names
+            else np.ones(model.num_states, bool)
+        )
         rows = np.flatnonzero(owned[model.choice_states])
         offered = np.zeros((view.num_observations, len(model.action_names)), dtype=bool)
         offered[view.state_obs[model.choice_states[rows]], model.choice_actions[rows]] = True
@@ -122,22 +135,41 @@ class Parametrisation:
         coalition_of, scalar: as for the checker (the adversary's best response).
     """
 
-    def __init__(self, model: ExplicitModel, player: int, memory: int, query: ProbQuery | RewardQuery,
-                 target: np.ndarray, remain: np.ndarray, *, coalition_of, scalar,  # type: ignore[no-untyped-def]
-                 rewards: np.ndarray | None = None, discount: float = 1.0,
-                 layout: "Layout | None" = None) -> None:
+    def __init__(
+        self,
+        model: ExplicitModel,
+        player: int,
+        memory: int,
+        query: ProbQuery | RewardQuery,
+        target: np.ndarray,
+        remain: np.ndarray,
+        *,
+        coalition_of: CoalitionResolver,
+        scalar: ScalarEvaluator,
+        rewards: np.ndarray | None = None,
+        discount: float = 1.0,
+        layout: Layout | None = None,
+    ) -> None:
         self.model, self.player, self.k, self.query = model, player, memory, query
         self.rewards, self.discount = rewards, discount  # discounted cost: reward per choice
         self.coalition_of, self.scalar = coalition_of, scalar
         self.target, self.remain = target, remain
         self.view = player_view(model, player)
-        owned = (model.state_players == player) if model.player_names else np.ones(model.num_states, bool)
+        owned = (
+            (model.state_players == player)
+            if model.player_names
+            else np.ones(model.num_states, bool)
+        )
         self.owned = owned
         Z, A = self.view.num_observations, len(model.action_names)
         if layout is None:
             layout = Layout.of(model, player)
         self.layout = layout
-        self.used_obs, self.used_actions, self.mask = layout.used_obs, layout.used_actions, layout.mask
+        self.used_obs, self.used_actions, self.mask = (
+            layout.used_obs,
+            layout.used_actions,
+            layout.mask,
+        )
         self.obs_index = np.full(Z, -1, dtype=np.int64)
         self.obs_index[self.used_obs] = np.arange(self.used_obs.size)
         self.act_index = np.full(A, -1, dtype=np.int64)
@@ -147,7 +179,9 @@ class Parametrisation:
         self._last_response: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         # (state_of, memory_of, undecided states, values, adjoint) of the last iterative
         # evaluation: the next one's warm start on the same product structure
-        self._warm: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None] | None = None
+        self._warm: (
+            tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None] | None
+        ) = None
 
     def forget_response(self) -> None:
         """Drop the warm start: the next evaluation solves the adversary's MDP from scratch."""
@@ -161,7 +195,9 @@ class Parametrisation:
         Zu, Au = self.mask.shape
         return (self.k, Zu, Au), (self.k, Zu, Au, self.k)
 
-    def probabilities(self, logits_a: np.ndarray, logits_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def probabilities(
+        self, logits_a: np.ndarray, logits_d: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Softmax of the logits: γ[k, Zu, Au] (0 where a label is not offered), δ[k, Zu, Au, k]."""
         a = np.where(self.mask[None], logits_a, -np.inf)
         a = np.exp(a - a.max(axis=2, keepdims=True))
@@ -191,21 +227,24 @@ class Parametrisation:
 
     def sharpened(self, gamma: np.ndarray, delta: np.ndarray, *, floor: float = 0.02
                   ) -> tuple[np.ndarray, np.ndarray]:
-        """The FSS without its unlikely choices: probabilities below ``floor`` set to 0 and each rule
-        renormalised. The softmax never gives exactly 0, and a loop the strategy leaves with
+        """The FSS without its unlikely choices: probabilities below ``floor`` set to 0 and each
+        rule renormalised. The softmax never gives exactly 0, and a loop the strategy leaves with
         probability 1e-4 per turn makes sound interval iteration crawl (10^5 iterations); the
         sharpened strategy is usually as good, and is verified in a few."""
 
         def cut(p: np.ndarray, axis: int) -> np.ndarray:
             kept = np.where(p >= floor, p, 0.0)
             total = kept.sum(axis=axis, keepdims=True)
-            return np.divide(kept, total, out=p.copy(), where=total > 0)
+            out: np.ndarray = np.divide(kept, total, out=p.copy(), where=total > 0)
+            return out
 
         return cut(gamma, 2), cut(delta, 3)
 
     # -- value and gradient --------------------------------------------------------------------
 
-    def evaluate(self, gamma: np.ndarray, delta: np.ndarray, *, gradient: bool = True) -> Evaluation:
+    def evaluate(
+        self, gamma: np.ndarray, delta: np.ndarray, *, gradient: bool = True
+    ) -> Evaluation:
         """The initial value against the adversary's best response, and its gradient with respect
         to γ and δ (not yet through the softmax: see :meth:`logit_gradient`)."""
         m = self.model
@@ -245,7 +284,9 @@ class Parametrisation:
         zero_a, zero_d = np.zeros(self.shapes[0]), np.zeros(self.shapes[1])
         g_disc = self.discount
         if self.rewards is None:  # reachability: x = P x on U, 1 on the target, 0 elsewhere
-            reach = positive_reach(structure_of_chain(chain), tgt, rem, existential=np.ones(S, bool))
+            reach = positive_reach(
+                structure_of_chain(chain), tgt, rem, existential=np.ones(S, bool)
+            )
             unknown = reach & ~tgt
             x = tgt.astype(np.float64)
         elif g_disc < 1.0:  # discounted cost until the target: x = r + g P x off the target
@@ -344,7 +385,7 @@ class Parametrisation:
         warm = self._warm
         same = warm is not None and np.array_equal(warm[0], prod.state_of) and np.array_equal(
             warm[1], prod.memory_of)
-        if same:
+        if same and warm is not None:
             unknown = warm[2]
         elif self.rewards is None:
             # the adversary (universal here) can keep the probability at 0 from the others
@@ -358,14 +399,16 @@ class Parametrisation:
         else:
             x = np.zeros(S)
             offset = pm.reward_model(self.query.reward).choice_rewards(rg)  # type: ignore[union-attr]
-        if same:
+        if same and warm is not None:
             x[unknown] = warm[3][unknown]
         reduce = np.minimum if self.maximize else np.maximum  # the adversary's side
         any_choice = bool(choosing.any())
         # the adversary's rows, contiguous, and where each of its states' rows start among them
         chooser = np.flatnonzero(choosing)
         chooser_rows = concat_ranges(rg[chooser], rg[chooser + 1])
-        chooser_starts = np.concatenate([[0], np.cumsum(np.diff(rg)[chooser])[:-1]]).astype(np.int64)
+        chooser_starts = np.concatenate([[0], np.cumsum(np.diff(rg)[chooser])[:-1]]).astype(
+            np.int64
+        )
         first_row = rg[:-1]
 
         def sweep(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -391,7 +434,7 @@ class Parametrisation:
                 break
         init = int(prod.initial_map[0])
         value = float(x[init])
-        y_warm = warm[4] if same and warm[4] is not None else None
+        y_warm = warm[4] if same and warm is not None and warm[4] is not None else None
         if not gradient or not unknown[init]:
             self._warm = (prod.state_of, prod.memory_of, unknown, x, y_warm)
             return Evaluation(value, np.zeros(self.shapes[0]), np.zeros(self.shapes[1]))
@@ -418,7 +461,9 @@ class Parametrisation:
         self._warm = (prod.state_of, prod.memory_of, unknown, x, y)
         return self._gradient(prod, x, y, gamma, delta, value)
 
-    def logit_gradient(self, ev: Evaluation, gamma: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def logit_gradient(
+        self, ev: Evaluation, gamma: np.ndarray, delta: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The gradient with respect to the logits (softmax Jacobian)."""
         ga = gamma * (ev.grad_action - np.sum(gamma * ev.grad_action, axis=2, keepdims=True))
         gd = delta * (ev.grad_update - np.sum(delta * ev.grad_update, axis=3, keepdims=True))
@@ -429,7 +474,8 @@ def _ranges(counts: np.ndarray) -> np.ndarray:
     """0..c-1 for each count c, concatenated."""
     total = int(counts.sum())
     starts = np.repeat(np.cumsum(counts) - counts, counts)
-    return np.arange(total) - starts
+    out: np.ndarray = np.arange(total) - starts
+    return out
 
 
 def structure_of_chain(chain: sp.csr_matrix):  # type: ignore[no-untyped-def]

@@ -4,10 +4,10 @@ gradient ascent of `guaranteed` over randomised k-FSSs, memory escalation, verif
 For each memory size k in turn (a memoryless warm-up first when k = 1 is not asked for): start
 from (i) the best smaller defence embedded into k nodes (and perturbed copies), (ii) the
 full-observation optimum projected onto the decision maker's observations (pessimistic QMDP,
-then majority vote), (iii) seeded random logits; follow the exact (sub)gradient of the value against the adversary's best
-response (:mod:`posgmc.synthesis.parametric`) with Adam; keep the best iterate and its hardened
-(deterministic) version. Every candidate is then verified by the sound product check
-(:class:`~posgmc.strategies.verify.StrategyChecker`), and the reported number is that check's
+then majority vote), (iii) seeded random logits; follow the exact (sub)gradient of the value against
+the adversary's best response (:mod:`posgmc.synthesis.parametric`) with Adam; keep the best iterate
+and its hardened (deterministic) version. Every candidate is then verified by the sound product
+check (:class:`~posgmc.strategies.verify.StrategyChecker`), and the reported number is that check's
 proven bound. A larger memory never reports a worse `guaranteed`: the best smaller defence,
 embedded exactly (the extra nodes unreachable), is always among the candidates. Runs are
 deterministic given the seed; the time budget makes the search anytime (``partial``).
@@ -21,7 +21,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from posgmc.checking.dispatch import CheckOptions, PropertyChecker
+from posgmc.checking.dispatch import (
+    CheckOptions,
+    CoalitionResolver,
+    PropertyChecker,
+    ScalarEvaluator,
+)
 from posgmc.checking.results import Bound
 from posgmc.engines.graph import concat_ranges
 from posgmc.engines.options import Method, SolverOptions
@@ -29,11 +34,19 @@ from posgmc.errors import InputError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax.ast import (
+    Direction,
+    Expr,
+    ProbQuery,
+    RewardKind,
+    RewardQuery,
+    Temporal,
+    TemporalOp,
+)
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.deterministic import DeterministicResult, deterministic_phase
 from posgmc.synthesis.jobs import Executor, Problem, executor_for
 from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
-from posgmc.syntax.ast import Direction, Expr, ProbQuery, RewardKind, RewardQuery, Temporal, TemporalOp
 
 __all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
 
@@ -72,7 +85,7 @@ class SynthesisOptions:
     oracle_rounds: int = 8
 
     def for_players(self, decision_maker: str, adversary: str | None,
-                    players: tuple[str, ...]) -> "SynthesisOptions":
+                    players: tuple[str, ...]) -> SynthesisOptions:
         """These options with ``player_memory`` resolved for a property's players.
 
         Raises:
@@ -117,7 +130,8 @@ class SynthesisResult:
     phases: dict[str, float] = field(default_factory=dict)
     method: str = "interval"
     deterministic: tuple[DeterministicResult, ...] = ()
-    """The deterministic search's best defence per memory size (:mod:`posgmc.synthesis.deterministic`)."""
+    """The deterministic search's best defence per memory size
+    (:mod:`posgmc.synthesis.deterministic`)."""
 
 
 def _objective(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: PropertyChecker):  # type: ignore[no-untyped-def]
@@ -130,8 +144,18 @@ def _objective(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: Pro
             and path.op in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL)
         ):
             if path.op is TemporalOp.UNTIL:
-                return checker._states(path.operands[1]), checker._states(path.operands[0]), None, 1.0
-            return checker._states(path.operands[0]), np.ones(model.num_states, dtype=bool), None, 1.0
+                return (
+                    checker._states(path.operands[1]),
+                    checker._states(path.operands[0]),
+                    None,
+                    1.0,
+                )
+            return (
+                checker._states(path.operands[0]),
+                np.ones(model.num_states, dtype=bool),
+                None,
+                1.0,
+            )
     if isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.DISCOUNTED_TOTAL:
         # R[Cdiscount=g]: x = r + g P x everywhere (a target that is never reached)
         rewards = model.reward_model(expr.reward).choice_rewards(model.row_groups)
@@ -159,8 +183,8 @@ def synthesize(
     expr: Expr,
     *,
     player: int,
-    coalition_of,  # type: ignore[no-untyped-def]
-    scalar,  # type: ignore[no-untyped-def]
+    coalition_of: CoalitionResolver,
+    scalar: ScalarEvaluator,
     options: SynthesisOptions = SynthesisOptions(),
     check_options: CheckOptions = CheckOptions(),
     executor: Executor | None = None,
@@ -179,8 +203,14 @@ def synthesize(
     deadline = started + options.timeout
     if executor is None:
         others = [p for p in range(len(model.player_names)) if p != player]
-        problem = problem_of(model, expr, player=player, adversary=others[0] if len(others) == 1 else None,
-                             coalition_of=coalition_of, scalar=scalar)
+        problem = problem_of(
+            model,
+            expr,
+            player=player,
+            adversary=others[0] if len(others) == 1 else None,
+            coalition_of=coalition_of,
+            scalar=scalar,
+        )
         with closing(executor_for(problem, options.jobs)) as own:
             return synthesize(model, expr, player=player, coalition_of=coalition_of,
                               scalar=scalar, options=options, check_options=check_options,
@@ -190,7 +220,12 @@ def synthesize(
                            options=CheckOptions(keep_strategy=True))
     query = problem.query
     direction = query.direction
-    target, remain, rewards, discount = problem.target, problem.remain, problem.rewards, problem.discount
+    target, remain, rewards, discount = (
+        problem.target,
+        problem.remain,
+        problem.rewards,
+        problem.discount,
+    )
     maximize = direction is Direction.MAX
     sign = 1.0 if maximize else -1.0
     phases: dict[str, float] = {}
@@ -198,12 +233,16 @@ def synthesize(
     t0 = time.perf_counter()
     full = base.query(query, everywhere=False)
     init = model.initial_states[0]
-    full_bound = Bound(float(full.values[init]), float(full.lower[init]), float(full.upper[init]), full.sound)
+    full_bound = Bound(
+        float(full.values[init]), float(full.lower[init]), float(full.upper[init]), full.sound
+    )
     phases["full observation"] = time.perf_counter() - t0
     # the direct search over deterministic FSSs first (abstraction refinement, its share of the
     # budget): its best defence per memory size joins that size's candidates and starts
     t0 = time.perf_counter()
-    share = DETERMINISTIC_SHARE if executor.problem.adversary is not None else DETERMINISTIC_SHARE_POMDP
+    share = (
+        DETERMINISTIC_SHARE if executor.problem.adversary is not None else DETERMINISTIC_SHARE_POMDP
+    )
     deterministic = deterministic_phase(
         executor, options.memory, started + share * options.timeout
     ) if share > 0 else {}
@@ -263,10 +302,20 @@ def synthesize(
                 starts.append(_projected(par, full, model))
             for _ in range(options.restarts):
                 starts.append((rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])))
-            found, n_eval, seconds = _round(par, starts, sign, options, round_deadline, executor, model,
-                                            query, coalition_of, scalar, maximize,
-                                            extra=() if found_det is None else
-                                            ((found_det.gamma, found_det.delta),))
+            found, n_eval, seconds = _round(
+                par,
+                starts,
+                sign,
+                options,
+                round_deadline,
+                executor,
+                model,
+                query,
+                coalition_of,
+                scalar,
+                maximize,
+                extra=() if found_det is None else ((found_det.gamma, found_det.delta),),
+            )
             evaluations += n_eval
             t_search += seconds[0]
             t_verify += seconds[1]
@@ -278,7 +327,9 @@ def synthesize(
                 improved = True
             # else the smaller defence stays: embedded into k nodes (_embed_strategy) it
             # guarantees exactly as much, so k never does worse; the smaller one is reported
-            if found is not None and (k not in best_of or _better(found[1], best_of[k][1], maximize)):
+            if found is not None and (
+                k not in best_of or _better(found[1], best_of[k][1], maximize)
+            ):
                 best_of[k] = (found[0], found[1])
             seconds_of[k] = seconds_of.get(k, 0.0) + time.perf_counter() - round_start
             evaluations_of[k] = evaluations
@@ -353,16 +404,29 @@ _MAX_PASSES = 4
 """Passes over the memory sizes: further ones restart from new random points while they improve."""
 
 
-def _round(par: Parametrisation, starts: list[tuple[np.ndarray, np.ndarray]], sign: float,
-           options: SynthesisOptions, deadline: float, executor: Executor, model: ExplicitModel, query: Expr,
-           coalition_of, scalar, maximize: bool,  # type: ignore[no-untyped-def]
-           extra: tuple[tuple[np.ndarray, np.ndarray], ...] = (),
-           ) -> tuple[tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None,
-                      int, tuple[float, float]]:
+def _round(
+    par: Parametrisation,
+    starts: list[tuple[np.ndarray, np.ndarray]],
+    sign: float,
+    options: SynthesisOptions,
+    deadline: float,
+    executor: Executor,
+    model: ExplicitModel,
+    query: Expr,
+    coalition_of: CoalitionResolver,
+    scalar: ScalarEvaluator,
+    maximize: bool,
+    extra: tuple[tuple[np.ndarray, np.ndarray], ...] = (),
+) -> tuple[
+    tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None,
+    int,
+    tuple[float, float],
+]:
     """Gradient ascent from each start, a local search around the best deterministic candidate,
     the ``extra`` candidates (the deterministic search's, as γ and δ), and the most promising
     candidates checked by policy iteration on their products. Returns the
-    best (strategy, its bound, its logits), the number of evaluations and (search, check) seconds."""
+    best (strategy, its bound, its logits), the number of evaluations and (search, check)
+    seconds."""
     evaluations = 0
     t0 = time.perf_counter()
     candidates: list[tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]] = []
@@ -464,7 +528,7 @@ def parametrisation(problem: Problem, memory: int) -> Parametrisation:
 
 
 def problem_of(model: ExplicitModel, expr: Expr, *, player: int, adversary: int | None,
-               coalition_of, scalar) -> Problem:  # type: ignore[no-untyped-def]
+               coalition_of: CoalitionResolver, scalar: ScalarEvaluator) -> Problem:
     """The picklable description of synthesising ``player``'s strategy for ``expr`` (a P or R
     query with min or max).
 
@@ -561,7 +625,9 @@ def _qmdp(par: Parametrisation, full, model: ExplicitModel, rewards: np.ndarray 
     score = np.where(par.mask & np.isfinite(worst), worst, -np.inf)
     top = score.max(axis=1, keepdims=True)
     has = np.isfinite(top[:, 0])
-    favoured = has[:, None] & np.isfinite(score) & (score >= top - 1e-9 * np.maximum(1.0, np.abs(top)))
+    favoured = (
+        has[:, None] & np.isfinite(score) & (score >= top - 1e-9 * np.maximum(1.0, np.abs(top)))
+    )
     la[:, favoured] = _LOGIT
     ld = np.zeros(par.shapes[1])
     k = par.k
@@ -574,7 +640,9 @@ def _hard_logits(gamma: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.n
     return np.where(gamma > 0, _LOGIT, -_LOGIT), np.where(delta > 0, _LOGIT, -_LOGIT)
 
 
-def _embedded(par: Parametrisation, la: np.ndarray, ld: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _embedded(
+    par: Parametrisation, la: np.ndarray, ld: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Smaller logits extended by nodes copying node 0 and rarely entered."""
     k0, k = la.shape[0], par.k
     new_a = np.concatenate([la, np.repeat(la[:1], k - k0, axis=0)], axis=0)

@@ -149,16 +149,25 @@ def _queries(session: Any, mission: str, cost: str) -> tuple[Any, Any]:
             and isinstance(e.path, Temporal) and e.path.op is TemporalOp.EVENTUALLY
             and e.path.bound is None):
         raise UnsupportedError(
-            f"the mission of a defence front is a coalition's unbounded reachability, got: {mission}",
-            hint='e.g. --prop \'<<planner>> Pmax=? [ F "retrieved" ]\'')
+            f"the mission of a defence front is a coalition's unbounded reachability, got: "
+            f"{mission}",
+            hint="e.g. --prop '<<planner>> Pmax=? [ F \"retrieved\" ]'",
+        )
     r = c.expr
     if not (isinstance(r, RewardQuery) and r.direction is Direction.MIN and r.threshold is None):
         raise UnsupportedError(
             f"the cost of a defence front is a coalition's minimised reward query, got: {cost}",
             hint='e.g. --cost \'<<planner>> R{"time"}min=? [ Fdiscount=0.95 "retrieved" ]\'')
     def players(q: Any) -> Any:
-        return None if q.coalition is None else (q.coalition.kind, q.coalition.all_players,
-                                                  tuple((p.name, p.number) for p in q.coalition.players))
+        return (
+            None
+            if q.coalition is None
+            else (
+                q.coalition.kind,
+                q.coalition.all_players,
+                tuple((p.name, p.number) for p in q.coalition.players),
+            )
+        )
 
     if players(r) != players(e):
         raise InputError("the mission and the cost must be about the same coalition",
@@ -258,7 +267,9 @@ def _answer(session: Any, built: Any, mission: Any, cost: Any, points: Sequence[
         for j in ok:
             pi, pj = points[i], points[j]
             assert pi.mission and pi.cost and pj.mission and pj.cost  # noqa: S101 - verified
-            if not (pi.cost.upper <= budget < pj.cost.upper and pj.mission.lower > pi.mission.lower):
+            if not (
+                pi.cost.upper <= budget < pj.cost.upper and pj.mission.lower > pi.mission.lower
+            ):
                 continue
             # leave room for the bounds' width: the mixture's own check has its own intervals
             margin = 1e-9 + (pi.cost.upper - pi.cost.lower) + (pj.cost.upper - pj.cost.lower)
@@ -281,13 +292,20 @@ def _answer(session: Any, built: Any, mission: Any, cost: Any, points: Sequence[
     return BudgetAnswer(budget, pure_point, pure)
 
 
-def _full_observation(session: Any, built: Any, mission: str, cost: str) -> tuple[Bound | None, Bound | None]:
+def _full_observation(
+    session: Any, built: Any, mission: str, cost: str
+) -> tuple[Bound | None, Bound | None]:
     from posgmc import api
 
     out: list[Bound | None] = []
     report = api.check(session, properties=[mission, cost], built=built, full_observation=True)
     for o in report.outcomes:
-        if isinstance(o, api.PropertyError) or o.lower is None or o.upper is None:
+        if (
+            isinstance(o, api.PropertyError)
+            or o.value is None
+            or o.lower is None
+            or o.upper is None
+        ):
             out.append(None)
         else:
             out.append(Bound(float(o.value), float(o.lower), float(o.upper), o.sound))

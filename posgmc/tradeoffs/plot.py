@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from types import ModuleType
 from typing import TYPE_CHECKING
 
+from posgmc.checking.results import Bound
 from posgmc.errors import InputError, UnsupportedError
 from posgmc.io.atomic import atomic_open
-from posgmc.checking.results import Bound
 from posgmc.tradeoffs.sweep import Sweep, SweepPoint
 
 if TYPE_CHECKING:
@@ -18,7 +19,8 @@ if TYPE_CHECKING:
 __all__ = ["plot_sweep", "plot_sweeps", "plot_front", "plot_defence_fronts"]
 
 
-def _pyplot():  # type: ignore[no-untyped-def]
+def _pyplot() -> ModuleType:
+    """matplotlib's pyplot, imported on first use (an optional extra)."""
     try:
         import matplotlib
 
@@ -60,7 +62,7 @@ def _check_suffix(path: str | Path) -> None:
         raise InputError(f"{path}: a plot is written as .png, .svg or .pdf")
 
 
-def plot_front(front: "Front", path: str | Path, *, title: str | None = None) -> None:
+def plot_front(front: Front, path: str | Path, *, title: str | None = None) -> None:
     """A two-objective Pareto front (:class:`~posgmc.checking.multi.Front`): the achievable
     region (shaded, its vertices marked and annotated), the over-approximation's boundary (dashed)
     and the band between them, in the objectives' own units; a minimised objective's better
@@ -150,7 +152,7 @@ def plot_sweep(s: Sweep, path: str | Path, *, title: str | None = None) -> None:
     _save(fig, plt, path)
 
 
-def plot_sweeps(sweeps: "list[Sweep]", path: str | Path) -> None:
+def plot_sweeps(sweeps: list[Sweep], path: str | Path) -> None:
     """Several properties against one swept constant (``check --const B=0:4 --plot F``): one
     property is drawn as :func:`plot_sweep` draws it; several share the axes, each its value with
     its proven bounds as error bars (the first full-observation bound found drawn dashed).
@@ -172,7 +174,9 @@ def plot_sweeps(sweeps: "list[Sweep]", path: str | Path) -> None:
             drawn += 1
             ax.errorbar(xs, ys, yerr=[lo, hi], marker="o", capsize=4, label=s.property)
             for x, y in zip(xs, ys):
-                ax.annotate(f"{y:.4g}", (x, y), textcoords="offset points", xytext=(6, 6), fontsize=7)
+                ax.annotate(
+                    f"{y:.4g}", (x, y), textcoords="offset points", xytext=(6, 6), fontsize=7
+                )
         full = [(p.x, p.result.full_observation.value) for p in s.points
                 if p.result is not None and p.result.full_observation is not None]
         if full and not full_drawn:
@@ -208,7 +212,7 @@ def _upper_hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
     return hull
 
 
-def plot_defence_fronts(fronts: "list[tuple[str, DefenceFront]]", path: str | Path, *,
+def plot_defence_fronts(fronts: list[tuple[str, DefenceFront]], path: str | Path, *,
                         title: str | None = None) -> None:
     """Defender trade-off fronts (:class:`~posgmc.tradeoffs.defence.DefenceFront`), each with a
     label (e.g. ``"k◦=1"``): every verified defence as a point at (its guaranteed cost, its
@@ -251,7 +255,13 @@ def plot_defence_fronts(fronts: "list[tuple[str, DefenceFront]]", path: str | Pa
                 sy.append(ys[i - 1])
             sx.append(x)
             sy.append(y)
-        ax.plot(sx, sy, color=colour, linewidth=1.5, label=f"{label + ': ' if label else ''}front (proven bounds)")
+        ax.plot(
+            sx,
+            sy,
+            color=colour,
+            linewidth=1.5,
+            label=f"{label + ': ' if label else ''}front (proven bounds)",
+        )
         hull = _upper_hull(list(zip(xs, ys)))
         if len(hull) > 1:
             ax.plot([x for x, _ in hull], [y for _, y in hull], color=colour, linestyle="--",

@@ -48,7 +48,7 @@ class SweepPoint:
             return None
         if r.guaranteed is not None:
             return r.guaranteed
-        if isinstance(r.value, bool) or r.lower is None or r.upper is None:
+        if isinstance(r.value, bool) or r.value is None or r.lower is None or r.upper is None:
             return None
         return Bound(float(r.value), float(r.lower), float(r.upper), r.sound)
 
@@ -192,7 +192,10 @@ def to_csv(s: Sweep) -> str:
     synthesised points, the optimum otherwise."""
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
-    w.writerow(list(_COLUMNS) + [f"{a} {part}" for a in s.also for part in ("guaranteed", "lower", "upper")])
+    w.writerow(
+        list(_COLUMNS)
+        + [f"{a} {part}" for a in s.also for part in ("guaranteed", "lower", "upper")]
+    )
     for p in s.points:
         b = p.main_number()
         r = p.result

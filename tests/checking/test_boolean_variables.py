@@ -7,7 +7,9 @@ import pytest
 
 from posgmc import api
 
-MODEL = "mdp\nconst bool flag;\nmodule m\n  b : bool init flag;\n  [go] !b -> (b'=true);\nendmodule\n"
+MODEL = (
+    "mdp\nconst bool flag;\nmodule m\n  b : bool init flag;\n  [go] !b -> (b'=true);\nendmodule\n"
+)
 
 
 @pytest.mark.parametrize(("flag", "expected"), [(False, False), (True, True)])

@@ -46,7 +46,9 @@ VARIANTS = {
     "dtmc": dict(kind="dtmc", players="", extra="[wait] false -> true;"),
     # an mdp whose second action is never better for Rmin: it loops at s=0 at a cost of 1001
     "mdp": dict(kind="mdp", players="", extra="[wait] s=0 -> true;"),
-    "smg": dict(kind="smg", players="player p [go], [stay], [wait] endplayer", extra="[wait] s=0 -> true;"),
+    "smg": dict(
+        kind="smg", players="player p [go], [stay], [wait] endplayer", extra="[wait] s=0 -> true;"
+    ),
 }
 
 CASES = [

@@ -10,8 +10,11 @@ import pytest
 from posgmc import api
 
 ROOT = Path(__file__).resolve().parents[2]
-MDP = ("mdp\nmodule m\n  x : [0..1] init 0;\n  [a] x=0 -> 0.5:(x'=1) + 0.5:(x'=0);\n  [b] x=0 -> true;\n"
-       "endmodule\nrewards true : 1; endrewards\n")
+MDP = (
+    "mdp\nmodule m\n  x : [0..1] init 0;\n"
+    "  [a] x=0 -> 0.5:(x'=1) + 0.5:(x'=0);\n  [b] x=0 -> true;\n"
+    "endmodule\nrewards true : 1; endrewards\n"
+)
 
 
 @pytest.mark.parametrize(

@@ -48,7 +48,9 @@ def test_check_without_kept_strategy_never_computes_one(monkeypatch: pytest.Monk
 def test_check_with_kept_strategy_still_gets_one() -> None:
     session = api.load(text=GAME)
     built = api.build(session)
-    rep = api.check(session, properties=[PROP], built=built, options=CheckOptions(keep_strategy=True))
+    rep = api.check(
+        session, properties=[PROP], built=built, options=CheckOptions(keep_strategy=True)
+    )
     r = rep.results[0]
     assert r.value == float("inf")
     assert r.strategy is not None

@@ -19,9 +19,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.compiler import BuildOptions
 from posgmc.checking.dispatch import CheckOptions
 from posgmc.cli import main
+from posgmc.compiler import BuildOptions
 from posgmc.errors import BuildError, PosgmcError
 
 # (0+1)/3 = 1/3 is not the decimal 0.3333333333333333333333 over the rationals, but both round to
@@ -81,7 +81,9 @@ def test_a_guard_that_holds_only_in_doubles_is_false_in_exact_mode() -> None:
 
 
 def test_a_literal_beyond_double_precision_is_kept_exactly() -> None:
-    value, above, equal = exact_results(LITERAL, "P=? [ F s=1 ]", "P>1/10 [ F s=1 ]", "P<=1/10 [ F s=1 ]")
+    value, above, equal = exact_results(
+        LITERAL, "P=? [ F s=1 ]", "P>1/10 [ F s=1 ]", "P<=1/10 [ F s=1 ]"
+    )
     assert value.exact == Fraction(1, 10) + Fraction(1, 10**25)
     assert value.lower <= 0.1 <= value.upper  # the doubles around the fraction
     assert above.value is True and equal.value is False
@@ -126,7 +128,10 @@ def test_cumulative_rewards_are_exact() -> None:
 
 
 def test_a_fractional_power_is_a_positioned_error_even_when_the_root_is_rational() -> None:
-    text = "dtmc\nmodule m\n  s : [0..2] init 0;\n  [] s=0 -> pow(1/4,1/2):(s'=1) + 1-pow(1/4,1/2):(s'=2);\nendmodule\n"
+    text = (
+        "dtmc\nmodule m\n  s : [0..2] init 0;\n"
+        "  [] s=0 -> pow(1/4,1/2):(s'=1) + 1-pow(1/4,1/2):(s'=2);\nendmodule\n"
+    )
     with pytest.raises(BuildError) as info:
         api.build(api.load(text=text), options=BuildOptions(exact=True))
     assert "fractional exponent 1/2" in info.value.message
@@ -136,14 +141,20 @@ def test_a_fractional_power_is_a_positioned_error_even_when_the_root_is_rational
 
 
 def test_division_by_zero_has_no_exact_value() -> None:
-    text = "dtmc\nmodule m\n  s : [0..1] init 0;\n  [] s=0 -> 1/(s*2):(s'=1) + 1-1/(s*2):(s'=0);\nendmodule\n"
+    text = (
+        "dtmc\nmodule m\n  s : [0..1] init 0;\n"
+        "  [] s=0 -> 1/(s*2):(s'=1) + 1-1/(s*2):(s'=0);\nendmodule\n"
+    )
     with pytest.raises(BuildError) as info:
         api.build(api.load(text=text), options=BuildOptions(exact=True))
     assert "division by zero" in info.value.message and "(s=0)" in info.value.message
 
 
 def test_probabilities_must_sum_to_exactly_one() -> None:
-    text = "dtmc\nmodule m\n  s : [0..1] init 0;\n  [] s=0 -> 0.3333333333333333:(s'=1) + 2/3:(s'=0);\nendmodule\n"
+    text = (
+        "dtmc\nmodule m\n  s : [0..1] init 0;\n"
+        "  [] s=0 -> 0.3333333333333333:(s'=1) + 2/3:(s'=0);\nendmodule\n"
+    )
     with pytest.raises(BuildError) as info:
         api.build(api.load(text=text), options=BuildOptions(exact=True))
     assert "not exactly 1" in info.value.message
@@ -195,7 +206,9 @@ def test_cli_prints_the_fraction_and_json_carries_it(tmp_path) -> None:  # type:
     out = CliRunner().invoke(main, ["check", str(path), "--exact", "--prop", 'Pmin=? [ F "goal" ]'])
     assert out.exit_code == 0, out.output
     assert 'Pmin=? [ F "goal" ]: 1/7' in out.output
-    out = CliRunner().invoke(main, ["check", str(path), "--exact", "--json", "--prop", 'Pmax=? [ F "goal" ]'])
+    out = CliRunner().invoke(
+        main, ["check", str(path), "--exact", "--json", "--prop", 'Pmax=? [ F "goal" ]']
+    )
     assert json.loads(out.output)["results"][0]["exact"] == "1/2"
 
 

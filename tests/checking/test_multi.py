@@ -156,7 +156,9 @@ def test_pareto_with_sub_components() -> None:
 
 def test_pareto_points_are_achievable() -> None:
     # each vertex of a three-vertex front (numerical queries at the vertex agree)
-    model = STEPS.replace("[b] s=0 -> (s'=2);", "[b] s=0 -> (s'=2);\n  [e] s=0 -> 0.5:(s'=1) + 0.5:(s'=3);")
+    model = STEPS.replace(
+        "[b] s=0 -> (s'=2);", "[b] s=0 -> (s'=2);\n  [e] s=0 -> 0.5:(s'=1) + 0.5:(s'=3);"
+    )
     model = model.replace('rewards "r2"', 'rewards "r2" [e] true : 2.5;')
     front = _one(model, 'multi(R{"r1"}max=? [ C ], R{"r2"}max=? [ C ])').front
     # pure strategies: a (2, 0), b (0, 3), e (0.5, 2.5): e is not on the hull's boundary
@@ -197,7 +199,9 @@ def test_games_are_refused_with_a_message() -> None:
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[2]
-    report = api.check(api.load(root / "models" / "rover.smg"), properties=['multi(Pmax=? [ F "goal" ])'])
+    report = api.check(
+        api.load(root / "models" / "rover.smg"), properties=['multi(Pmax=? [ F "goal" ])']
+    )
     (error,) = [e for _, e in report.errors]
     assert "smg" in error.message and "docs/tradeoffs.md" in (error.hint or "")
 
@@ -239,7 +243,9 @@ def test_single_objective_agrees_with_the_engine(model: str, direction: str) -> 
 def test_min_total_reward_agrees_with_the_engine(model: str) -> None:
     """multi(R min [C]) is the ordinary minimal expected total reward (infinite when every
     strategy collects reward forever: then multi refuses, and the engine says infinity)."""
-    report = api.check(api.load(text=model), properties=['R{"r"}min=? [ C ]', 'multi(R{"r"}min=? [ C ])'])
+    report = api.check(
+        api.load(text=model), properties=['R{"r"}min=? [ C ]', 'multi(R{"r"}min=? [ C ])']
+    )
     errors = [e for _, e in report.errors]
     if errors:
         (single,) = report.results

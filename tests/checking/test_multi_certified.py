@@ -116,7 +116,9 @@ def _mdps(draw):  # type: ignore[no-untyped-def]
 
 @settings(max_examples=30, deadline=None)
 @given(_mdps(), st.sampled_from(["max", "min"]), st.floats(0.0, 1.0))
-def test_proven_bounds_are_on_the_right_side_of_the_optimum(model: str, direction: str, p: float) -> None:
+def test_proven_bounds_are_on_the_right_side_of_the_optimum(
+    model: str, direction: str, p: float
+) -> None:
     """The proven bound lies on its side of the sound engine's optimum (single objective), and
     close to the LP's value; with a constraint it never passes the LP's optimum."""
     session = api.load(text=model)

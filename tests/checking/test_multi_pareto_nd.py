@@ -76,7 +76,9 @@ def test_a_constraint_cuts_the_front() -> None:
     # P(F C) >= 0.5: c itself, and c mixed with a (1/2 each: (0.5, 0, 0.5)), with b ((0.25,
     # 0.25, 0.5)) and with d (0.2 t + (1 - t) = 0.5 at t = 5/8: (0.125, 0.375, 0.5)); by hand
     # the b mixture is not a vertex: it is 1/3 of the a mixture plus 2/3 of the d mixture
-    f = _front(PICK, 'multi(Pmax=? [ F "A" ], Pmax=? [ F "B" ], Pmax=? [ F "C" ], P>=0.5 [ F "C" ])')
+    f = _front(
+        PICK, 'multi(Pmax=? [ F "A" ], Pmax=? [ F "B" ], Pmax=? [ F "C" ], P>=0.5 [ F "C" ])'
+    )
     assert _rows(f.points) == {(0.5, 0, 0.5), (0.125, 0.375, 0.5), (0, 0, 1)}
 
 

@@ -77,7 +77,9 @@ def test_prism_games_results(benchmarks: Path, model: str, props: str, consts: s
             checked += 1
             where = f"{props}:{prop.span.line} {prop.text} ({texts})"
             if expected.startswith("Error"):
-                assert isinstance(outcome, PosgmcError), f"{where}: expected {expected}, got {outcome}"
+                assert isinstance(outcome, PosgmcError), (
+                    f"{where}: expected {expected}, got {outcome}"
+                )
                 if expected == "Error:co-safe":
                     assert isinstance(outcome, UnsupportedError)
                     assert "co-safe" in outcome.message, where
@@ -86,7 +88,9 @@ def test_prism_games_results(benchmarks: Path, model: str, props: str, consts: s
                 assert isinstance(outcome, UnsupportedError) and "F0" in outcome.message, where
                 continue
             assert not isinstance(outcome, PosgmcError), f"{where}: {outcome.render()}"
-            assert _matches(expected, outcome.value), f"{where}: expected {expected}, got {outcome.value}"
+            assert _matches(expected, outcome.value), (
+                f"{where}: expected {expected}, got {outcome.value}"
+            )
             if outcome.lower is not None and not math.isinf(outcome.value):
                 # the proven bounds enclose PRISM-games' value
                 exp = float(Fraction(expected))
@@ -103,7 +107,9 @@ def test_posgmc_test_passes_prism_games_result_lines(benchmarks: Path, model: st
     from posgmc.cli import main
 
     shared = benchmarks
-    args = ["test", str(shared / model), str(shared / props)] + (["--const", consts] if consts else [])
+    args = ["test", str(shared / model), str(shared / props)] + (
+        ["--const", consts] if consts else []
+    )
     r = CliRunner().invoke(main, args)
     assert r.exit_code == 0, r.output
     summary = r.output.strip().splitlines()[-1]

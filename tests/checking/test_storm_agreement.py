@@ -28,7 +28,12 @@ BIG = 100_000  # models with more states than this run only with -m slow
 # Storm builds these, posgmc refuses them on purpose (PRISM's rule): the model assigns x2'=0 to a
 # variable declared [1..6] (line 81: formula x2left = ... max(x2-1,0)). Storm 2.0 does not check
 # bounds during exploration by default and writes the out-of-range value; PRISM reports an error.
-OUT_OF_RANGE = {"dodge6-lines", "dodge-6-lines/model.prism", "dodge6-lines-position", "dodge-6-lines-position/model.prism"}
+OUT_OF_RANGE = {
+    "dodge6-lines",
+    "dodge-6-lines/model.prism",
+    "dodge6-lines-position",
+    "dodge-6-lines-position/model.prism",
+}
 
 # Storm 2.0 solves games by value iteration from below that stops when two iterates are 1e-6
 # apart, which is no bound: on slowly converging games its value lies up to 2e-5 below the exact
@@ -110,7 +115,9 @@ def test_sizes_and_values_match_storm(benchmarks: Path, entry: dict[str, Any]) -
             continue
         game = m.model_type.is_game
         tolerance = (GAME_TOLERANCE if game else 1e-6) * max(1.0, abs(expected))
-        assert abs(ours.value - expected) <= tolerance, f"{where}: posgmc {ours.value}, Storm {expected}"
+        assert abs(ours.value - expected) <= tolerance, (
+            f"{where}: posgmc {ours.value}, Storm {expected}"
+        )
         # Storm's value lies within the bounds posgmc proved (up to Storm's own precision)
         assert ours.lower - tolerance <= expected <= ours.upper + tolerance, where
         if game and m.num_states <= EXACT_LIMIT:
@@ -123,4 +130,6 @@ def test_sizes_and_values_match_storm(benchmarks: Path, entry: dict[str, Any]) -
                 zero_based_players=True,
             ).results[0]
             slack = 1e-9 * max(1.0, abs(exact.value))
-            assert ours.lower - slack <= exact.value <= ours.upper + slack, f"{where}: exact {exact.value}"
+            assert ours.lower - slack <= exact.value <= ours.upper + slack, (
+                f"{where}: exact {exact.value}"
+            )

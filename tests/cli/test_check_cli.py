@@ -146,7 +146,9 @@ def test_export_strategy_writes_one_entry_per_deciding_state(run, tmp_path: Path
 
 def test_export_strategy_needs_one_unbounded_query(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     out = tmp_path / "strategy.json"
-    r = run("check", ROVER, "--prop", '<<rover>> Pmax=? [ F<=3 "goal" ]', "--export-strategy", str(out))
+    r = run(
+        "check", ROVER, "--prop", '<<rover>> Pmax=? [ F<=3 "goal" ]', "--export-strategy", str(out)
+    )
     assert r.exit_code == EXIT_ERROR
     assert "--export-strategy needs exactly one unbounded P or R query" in r.output
     assert not out.exists()

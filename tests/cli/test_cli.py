@@ -69,7 +69,9 @@ def test_lint_syntax_error_position(run, tmp_path: Path) -> None:  # type: ignor
 
 def test_lint_undefined_constants_are_not_errors(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     m = tmp_path / "c.prism"
-    m.write_text("mdp\nconst int N;\nmodule m\n  x : [0..N] init 0;\n  [] x<N -> (x'=x+1);\nendmodule\n")
+    m.write_text(
+        "mdp\nconst int N;\nmodule m\n  x : [0..N] init 0;\n  [] x<N -> (x'=x+1);\nendmodule\n"
+    )
     assert run("lint", str(m)).exit_code == EXIT_OK
     assert run("lint", str(m), "--const", "N=3").exit_code == EXIT_OK
     r = run("lint", str(m), "--const", "N=0.5")
@@ -106,12 +108,18 @@ def test_build_export_drn_round_trip(run, tmp_path: Path) -> None:  # type: igno
     assert r.exit_code == EXIT_OK, r.output
     a = json.loads(run("build", ROVER, "--json").stdout)
     b = json.loads(run("build", str(out), "--json").stdout)
-    assert (a["states"], a["choices"], a["transitions"]) == (b["states"], b["choices"], b["transitions"])
+    assert (a["states"], a["choices"], a["transitions"]) == (
+        b["states"],
+        b["choices"],
+        b["transitions"],
+    )
 
 
 def test_const_errors_point_into_the_option(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     m = tmp_path / "c.prism"
-    m.write_text("mdp\nconst int N;\nmodule m\n  x : [0..N] init 0;\n  [] x<N -> (x'=x+1);\nendmodule\n")
+    m.write_text(
+        "mdp\nconst int N;\nmodule m\n  x : [0..N] init 0;\n  [] x<N -> (x'=x+1);\nendmodule\n"
+    )
     r = run("build", str(m), "--const", "N=3,M")
     assert r.exit_code == EXIT_ERROR
     assert "--const:1:5" in r.output

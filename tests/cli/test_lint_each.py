@@ -17,8 +17,16 @@ def test_each_argument_is_a_model_with_its_props(tmp_path: Path) -> None:
     (tmp_path / "a.prism").write_text(GOOD)
     (tmp_path / "a.props").write_text('P=? [ F "one" ]\n')
     (tmp_path / "b.prism").write_text(GOOD)
-    r = CliRunner().invoke(main, ["lint", "--each", str(tmp_path / "a.prism"), str(tmp_path / "b.prism"),
-                                  str(tmp_path / "a.props")])
+    r = CliRunner().invoke(
+        main,
+        [
+            "lint",
+            "--each",
+            str(tmp_path / "a.prism"),
+            str(tmp_path / "b.prism"),
+            str(tmp_path / "a.props"),
+        ],
+    )
     assert r.exit_code == 0, r.output
     assert r.output.splitlines() == [f"{tmp_path / 'a.prism'}: ok", f"{tmp_path / 'b.prism'}: ok"]
 

@@ -127,7 +127,10 @@ def test_drn_with_a_byte_order_mark(tmp_path: Path) -> None:
 def test_error_shows_the_right_line_after_a_form_feed(tmp_path: Path, breaker: str) -> None:
     # str.splitlines counts these as line breaks; PRISM (and posgmc) count "\n" only
     model = tmp_path / "ff.prism"
-    model.write_text(f"dtmc // page{breaker}break\nmodule m x : [0..1] init 0;\n  [] x=0 -> (yy'=1);\nendmodule\n")
+    model.write_text(
+        f"dtmc // page{breaker}break\nmodule m x : [0..1] init 0;\n"
+        "  [] x=0 -> (yy'=1);\nendmodule\n"
+    )
     r = run("lint", str(model))
     assert r.exit_code == 2
     lines = r.output.splitlines()
@@ -182,7 +185,9 @@ def test_unknown_constant_is_reported_once_before_building(tmp_path: Path) -> No
 def test_zero_player_number_on_drn_names_the_option() -> None:
     r = run("check", _test_game(), "--prop", '<<0>> Pmax=? [F "goal"]', "--full-observation")
     assert r.exit_code == 2
-    assert "no player number 0: PRISM-games numbers players from 1, Storm and PAYNT from 0" in r.output
+    # the semantic stage's message (one resolution of coalitions for PRISM and DRN input)
+    assert ("player number 0 does not exist: PRISM-games numbers players from 1, while Storm and "
+            "PAYNT number them from 0") in r.output
     assert '"0" = <<1>> (<<0>> with --zero-based-players)' in r.output
     ok = run("check", _test_game(), "--prop", '<<0>> Pmax=? [F "goal"]', "--full-observation",
              "--zero-based-players")
@@ -209,7 +214,9 @@ def test_conjunction_of_13_eventualities_takes_seconds(tmp_path: Path) -> None:
     assert '"value": 1' in r.output.replace("1.0", "1")
 
 
-def test_each_result_is_printed_before_the_next_property_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_each_result_is_printed_before_the_next_property_runs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     # issue #13: killed after the first result, nothing had been printed; now the first line is
     # out before the second property starts (here the second is interrupted: exit 130)
     real = api._check_one
@@ -233,7 +240,9 @@ def test_each_result_is_printed_before_the_next_property_runs(monkeypatch: pytes
 def test_json_lines_prints_one_object_per_line() -> None:
     import json
 
-    r = run("check", ROVER, "--prop", REACH, "--prop", '<<rover>> Pmin=? [ F "goal" ]', "--json-lines")
+    r = run(
+        "check", ROVER, "--prop", REACH, "--prop", '<<rover>> Pmin=? [ F "goal" ]', "--json-lines"
+    )
     assert r.exit_code == 0, r.output
     lines = [json.loads(line) for line in r.output.splitlines()]
     assert lines[0]["model"]["states"] > 0 and [x["property"] for x in lines[1:]] == [
@@ -261,11 +270,16 @@ def test_hitting_the_iteration_cap_says_so_and_fails(monkeypatch: pytest.MonkeyP
 @pytest.mark.parametrize(
     "content, where",
     [
-        (b"mdp\nmodule m\n  x : [0..1] init 0; // caf\xe9\n  [] true -> true;\nendmodule\n", ":3:28:"),
+        (
+            b"mdp\nmodule m\n  x : [0..1] init 0; // caf\xe9\n  [] true -> true;\nendmodule\n",
+            ":3:28:",
+        ),
         (b"mdp\n\xff\xfe", ":2:1:"),
     ],
 )
-def test_a_file_that_is_not_utf8_gets_line_and_column(tmp_path: Path, content: bytes, where: str) -> None:
+def test_a_file_that_is_not_utf8_gets_line_and_column(
+    tmp_path: Path, content: bytes, where: str
+) -> None:
     # issue #13: "at byte 11" without a position
     model = tmp_path / "m.prism"
     model.write_bytes(content)

@@ -38,8 +38,12 @@ def test_json_has_the_guaranteed_object() -> None:
 
 
 def test_threshold_is_judged_on_guaranteed() -> None:
-    holds = run("check", ROVER, "--prop", '<<rover>> P>=0.9 [ !"crash" U "goal" ]', "--strategy", FORWARD)
-    fails = run("check", ROVER, "--prop", '<<rover>> P>=0.95 [ !"crash" U "goal" ]', "--strategy", FORWARD)
+    holds = run(
+        "check", ROVER, "--prop", '<<rover>> P>=0.9 [ !"crash" U "goal" ]', "--strategy", FORWARD
+    )
+    fails = run(
+        "check", ROVER, "--prop", '<<rover>> P>=0.95 [ !"crash" U "goal" ]', "--strategy", FORWARD
+    )
     assert (holds.exit_code, fails.exit_code) == (0, 1)
     assert ": true" in holds.output and ": false" in fails.output
 
@@ -74,5 +78,14 @@ def test_strategy_and_full_observation_conflict() -> None:
 
 
 def test_one_strategy_per_player() -> None:
-    r = run("check", ROVER, "--prop", REACH, "--strategy", f"rover={FORWARD}", "--strategy", f"rover={FORWARD}")
+    r = run(
+        "check",
+        ROVER,
+        "--prop",
+        REACH,
+        "--strategy",
+        f"rover={FORWARD}",
+        "--strategy",
+        f"rover={FORWARD}",
+    )
     assert r.exit_code == 2 and "two strategies for player 'rover'" in r.output

@@ -68,7 +68,9 @@ def test_a_failing_result_names_file_and_line(tmp_path: Path) -> None:
 
 
 def test_constant_specific_results_over_a_sweep(tmp_path: Path) -> None:
-    m, p = _files(tmp_path, "// RESULT (p=0.5): 0.5\n// RESULT (p=1): 1\nP=? [ F (x=1 & (X x=2)) ];\n")
+    m, p = _files(
+        tmp_path, "// RESULT (p=0.5): 0.5\n// RESULT (p=1): 1\nP=? [ F (x=1 & (X x=2)) ];\n"
+    )
     r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5:0.5:1"])
     assert r.exit_code == 0, r.output
     assert "2 passed, 0 failed" in r.output
@@ -85,25 +87,49 @@ def test_a_malformed_result_line_is_an_input_error(tmp_path: Path) -> None:
 
 def test_named_number_of_a_strategy_result(tmp_path: Path) -> None:
     props = tmp_path / "rover.props"
-    props.write_text('// RESULT (guaranteed): 0.9215685684\n<<rover>> Pmax=? [ !"crash" U "goal" ];\n'
-                     '// RESULT (upper_bound): 0.5\n<<rover>> Pmax=? [ F "goal" ];\n')
-    r = CliRunner().invoke(main, ["test", str(ROOT / "models" / "rover.posg"), str(props), "--strategy",
-                                  f"rover={ROOT / 'models' / 'rover' / 'forward.fss.json'}"])
+    props.write_text(
+        '// RESULT (guaranteed): 0.9215685684\n<<rover>> Pmax=? [ !"crash" U "goal" ];\n'
+        '// RESULT (upper_bound): 0.5\n<<rover>> Pmax=? [ F "goal" ];\n'
+    )
+    r = CliRunner().invoke(
+        main,
+        [
+            "test",
+            str(ROOT / "models" / "rover.posg"),
+            str(props),
+            "--strategy",
+            f"rover={ROOT / 'models' / 'rover' / 'forward.fss.json'}",
+        ],
+    )
     assert r.exit_code == 1, r.output
     assert "PASS" in r.output and "(guaranteed)" in r.output
     assert "expected 0.5 (upper_bound), got the result has no upper_bound number" in r.output
 
 
 def test_bundled_models_pass_their_results() -> None:
-    r = CliRunner().invoke(main, ["test", str(ROOT / "models" / "rover.smg"), str(ROOT / "models" / "rover.props")])
+    r = CliRunner().invoke(
+        main, ["test", str(ROOT / "models" / "rover.smg"), str(ROOT / "models" / "rover.props")]
+    )
     assert r.exit_code == 0 and "5 passed, 0 failed" in r.output
 
 
 def test_check_writes_a_junit_report(tmp_path: Path) -> None:
     report = tmp_path / "check.xml"
-    r = CliRunner().invoke(main, ["check", str(ROOT / "models" / "rover.smg"), "--prop",
-                                  '<<rover>> P>=0.99 [ F "goal" ]', "--prop", '<<rover>> Pmax=? [ F "goal" ]',
-                                  "--prop", 'R{"nope"}max=? [ F "goal" ]', "--junit", str(report)])
+    r = CliRunner().invoke(
+        main,
+        [
+            "check",
+            str(ROOT / "models" / "rover.smg"),
+            "--prop",
+            '<<rover>> P>=0.99 [ F "goal" ]',
+            "--prop",
+            '<<rover>> Pmax=? [ F "goal" ]',
+            "--prop",
+            'R{"nope"}max=? [ F "goal" ]',
+            "--junit",
+            str(report),
+        ],
+    )
     assert r.exit_code == 2  # the third property is an error
     xml = report.read_text()
     assert 'tests="3"' in xml and 'failures="1"' in xml and 'errors="1"' in xml
@@ -122,9 +148,12 @@ def test_an_interval_may_have_spaces_inside(tmp_path: Path) -> None:
 def test_false_plain_error_and_a_fraction(tmp_path: Path) -> None:
     """``false``, a bare ``Error`` (any error passes) and ``1/2``, each passing and each failing
     when the outcome differs (p=0.5: P(F x=1) = 1/2, so P<0.4 is false)."""
-    m, p = _files(tmp_path, '// RESULT: false\nP<0.4 [ F x=1 ];\n// RESULT: Error\nR{"nope"}=? [ F x=2 ];\n'
-                            "// RESULT: 1/2\nP=? [ F x=1 ];\n// RESULT: false\nP>=0.4 [ F x=1 ];\n"
-                            "// RESULT: Error\nP=? [ F x=1 ];\n// RESULT: 1/3\nP=? [ F x=1 ];\n")
+    m, p = _files(
+        tmp_path,
+        '// RESULT: false\nP<0.4 [ F x=1 ];\n// RESULT: Error\nR{"nope"}=? [ F x=2 ];\n'
+        "// RESULT: 1/2\nP=? [ F x=1 ];\n// RESULT: false\nP>=0.4 [ F x=1 ];\n"
+        "// RESULT: Error\nP=? [ F x=1 ];\n// RESULT: 1/3\nP=? [ F x=1 ];\n",
+    )
     r = CliRunner().invoke(main, ["test", m, p, "--const", "p=0.5"])
     assert r.exit_code == 1
     lines = r.output.strip().splitlines()

@@ -78,7 +78,9 @@ def ex(text: str, **env: Any) -> A.Expr:
 
 
 def _conv(n: ast.AST, env: dict[str, A.Expr]) -> A.Expr:
-    c = lambda x: _conv(x, env)
+    def c(x: ast.AST) -> A.Expr:
+        return _conv(x, env)
+
     if isinstance(n, ast.Constant):
         return lit(n.value)
     if isinstance(n, ast.Name):

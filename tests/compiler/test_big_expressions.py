@@ -105,7 +105,7 @@ def test_compiled_code_never_nests_deeply() -> None:
 def _nesting(line: str) -> int:
     depth = deepest = 0
     for ch in line:
-        depth += ch in "([" 
+        depth += ch in "(["
         depth -= ch in ")]"
         deepest = max(deepest, depth)
     return deepest
@@ -159,6 +159,8 @@ def test_huge_integer_ranges_are_positioned_errors(tmp_path: Path, text: str, me
 
 def test_an_int_constant_beyond_64_bits_names_the_option(tmp_path: Path) -> None:
     path = tmp_path / "c.prism"
-    path.write_text("mdp\nconst int N;\nmodule m\n  x : [0..1] init 0;\n  [] x<N -> true;\nendmodule\n")
+    path.write_text(
+        "mdp\nconst int N;\nmodule m\n  x : [0..1] init 0;\n  [] x<N -> true;\nendmodule\n"
+    )
     r = CliRunner().invoke(main, ["build", str(path), "--const", "N=99999999999999999999"])
     assert r.exit_code == 2 and "--const:1:1" in r.output and "beyond 64-bit" in r.output

@@ -10,10 +10,10 @@ import os
 from fractions import Fraction
 
 import numpy as np
+from engine_models import as_floats, small_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from engine_models import as_floats, small_models
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.model.explicit import ExplicitModel, make_model

@@ -11,10 +11,10 @@ import os
 
 import numpy as np
 import pytest
+from engine_models import as_floats, chain_reach, chain_reward, game_value, small_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from engine_models import as_floats, chain_reach, chain_reward, game_value, small_models
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.model.explicit import ExplicitModel

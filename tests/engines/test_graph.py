@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+from engine_models import small_models, smg_example
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from engine_models import small_models, smg_example
 from posgmc.engines.graph import (
     Structure,
     almost_sure_reach,
@@ -18,7 +18,7 @@ from posgmc.engines.graph import (
     safe_region,
     structure_of,
 )
-from posgmc.engines.iteration import bellman, build_system, choice_values, choose
+from posgmc.engines.system import bellman, build_system, choice_values, choose
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.syntax.ast import ModelType
 
@@ -183,7 +183,9 @@ def test_one_player_almost_sure_reach_equals_the_nested_fixpoint(model, data) ->
     allowed = None
     if data.draw(st.booleans()):
         allowed = np.array(
-            data.draw(st.lists(st.booleans(), min_size=model.num_choices, max_size=model.num_choices))
+            data.draw(
+                st.lists(st.booleans(), min_size=model.num_choices, max_size=model.num_choices)
+            )
         )
         allowed[model.row_groups[:-1]] = True  # every state keeps a choice
     everyone = np.ones(S, bool)

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from engine_models import as_floats, small_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from engine_models import as_floats, small_models
-from posgmc.engines import system as it
 from posgmc.engines import objectives as obj
+from posgmc.engines import system as it
 from posgmc.engines.graph import positive_reach, structure_of
 from posgmc.model.explicit import ExplicitModel
 from posgmc.syntax.ast import ModelType

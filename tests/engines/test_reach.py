@@ -3,17 +3,16 @@
 from __future__ import annotations
 
 import time
-
 from fractions import Fraction
 
 import numpy as np
 import pytest
-
 from engine_models import game_prism, smg_example
+
 from posgmc.engines import objectives as obj
-from posgmc.engines.iteration import bellman, build_system
 from posgmc.engines.graph import structure_of
 from posgmc.engines.options import Method, SolverOptions
+from posgmc.engines.system import bellman, build_system
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import make_model
 from posgmc.syntax.ast import Direction, ModelType

@@ -7,18 +7,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from engine_models import chain_reward, game_value, small_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from engine_models import chain_reward, game_value, small_models
 from posgmc import api
 from posgmc.checking.dispatch import CheckOptions
 from posgmc.engines import objectives as obj
 from posgmc.engines.graph import structure_of
-from posgmc.engines.iteration import build_system
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.engines.signed import proper_region, solve_proper, start_bounds
+from posgmc.engines.system import build_system
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.syntax.ast import ModelType

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from engine_models import small_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from engine_models import small_models
 from posgmc import api
 from posgmc.checking.dispatch import PropertyChecker, QueryValue
 from posgmc.cli import main

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from posgmc.engines import objectives as obj
 from posgmc.engines.graph import structure_of
-from posgmc.engines.iteration import bellman, build_system
 from posgmc.engines.stepped import bellman_steps
+from posgmc.engines.system import bellman, build_system
 from posgmc.model.explicit import make_model
 from posgmc.syntax.ast import ModelType
 

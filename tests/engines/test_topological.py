@@ -14,10 +14,10 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
+from engine_models import as_floats, chain_reward, game_value
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from engine_models import as_floats, chain_reward, game_value
 from posgmc.engines import objectives as obj
 from posgmc.engines import scc
 from posgmc.engines import topological as topo
@@ -148,7 +148,9 @@ def test_random_reward_bounds_enclose_brute_force(forced: list[int]) -> None:
         inf = np.isinf(ref)
         assert np.array_equal(np.isinf(res.values), inf)
         fin = ~inf
-        assert np.all(res.lower[fin] <= ref[fin] + 1e-7) and np.all(ref[fin] <= res.upper[fin] + 1e-7)
+        assert np.all(res.lower[fin] <= ref[fin] + 1e-7) and np.all(
+            ref[fin] <= res.upper[fin] + 1e-7
+        )
         assert np.all(res.upper[fin] - res.lower[fin] <= 2e-6 + 1e-9)
 
     check()
@@ -225,7 +227,9 @@ def test_small_sccs_in_order(forced: list[int]) -> None:
     assert exact[:4] == [Fraction(4, 15), Fraction(2, 15), Fraction(2, 5), Fraction(3, 10)]
     res = obj.reach_probability(model, goal, maximize=np.ones(6, bool))
     assert forced == [2]  # one topological solve, two bands
-    assert np.all(res.lower <= as_floats(exact) + TOL) and np.all(as_floats(exact) <= res.upper + TOL)
+    assert np.all(res.lower <= as_floats(exact) + TOL) and np.all(
+        as_floats(exact) <= res.upper + TOL
+    )
     assert np.all(res.upper - res.lower <= 2e-6 + TOL)
 
 
@@ -261,7 +265,9 @@ def test_giant_scc_band_uses_the_interval_solver_with_end_components(forced: lis
     assert exact[:6] == [Fraction(3, 4)] * 5 + [Fraction(3, 8)]
     res = obj.reach_probability(model, goal, maximize=np.ones(8, bool))
     assert forced == [2]
-    assert np.all(res.lower <= as_floats(exact) + TOL) and np.all(as_floats(exact) <= res.upper + TOL)
+    assert np.all(res.lower <= as_floats(exact) + TOL) and np.all(
+        as_floats(exact) <= res.upper + TOL
+    )
     assert np.all(res.upper - res.lower <= 2e-6 + TOL)
     # the strategy still leaves the end component (attractor fix): the ring reaches goal
     assert res.strategy is not None and res.strategy[4] == 10
@@ -290,7 +296,9 @@ def test_game_sccs_in_order(forced: list[int]) -> None:
     assert exact[:3] == [Fraction(5, 12), Fraction(1, 3), Fraction(1, 2)]
     res = obj.reach_probability(model, goal, maximize=maximize)
     assert forced == [3]
-    assert np.all(res.lower <= as_floats(exact) + TOL) and np.all(as_floats(exact) <= res.upper + TOL)
+    assert np.all(res.lower <= as_floats(exact) + TOL) and np.all(
+        as_floats(exact) <= res.upper + TOL
+    )
     assert np.all(res.upper - res.lower <= 2e-6 + TOL)
 
 
@@ -338,7 +346,9 @@ def test_default_decision_on_a_long_chain_and_on_one_giant_scc() -> None:
     assert res.lower[0] <= expected <= res.upper[0]
     # the ring: s_i -> s_{i+1 mod k} w.p. 0.999, goal w.p. 0.001
     cols = np.concatenate([(src + 1) % k, np.full(k, k), [k, k + 1]])
-    ring = make_model(ModelType.MDP, np.arange(S + 1), sps.csr_matrix((data, (rows, cols)), shape=(S, S)))
+    ring = make_model(
+        ModelType.MDP, np.arange(S + 1), sps.csr_matrix((data, (rows, cols)), shape=(S, S))
+    )
     sys = build_system(structure_of(ring), unknown, maximize=np.ones(S, bool),
                        fixed=goal.astype(float), layer=layer, topological=True)
     assert sys.bands is None

@@ -8,14 +8,14 @@ cycles the history-dependent recursion ``W(s, a) = opt_c sum_t P(c, t) W(t, a + 
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
+from engine_models import game_prism
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from engine_models import game_prism
 from posgmc.engines import objectives as obj
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
@@ -100,7 +100,7 @@ def _brute_force(
     S = m.num_states
     T = m.transitions.toarray()
 
-    @lru_cache(maxsize=None)
+    @cache
     def W(s: int, a: float) -> float:
         if target[s]:
             return a

@@ -33,7 +33,11 @@ from posgmc.errors import (
 
 ROOT = Path(__file__).resolve().parents[2]
 SHARED = next(
-    (p for p in (ROOT.parent / "shared" / "benchmarks", Path("/work/shared/benchmarks")) if p.exists()),
+    (
+        p
+        for p in (ROOT.parent / "shared" / "benchmarks", Path("/work/shared/benchmarks"))
+        if p.exists()
+    ),
     None,
 )
 MODEL_SUFFIXES = {".prism", ".nm", ".pm", ".smg", ".posg", ".templ"}
@@ -72,7 +76,15 @@ STRANGE = (
     "\x00", "\x01", "\x07", "\x0b", "\x0c", "\x1b", "\x7f", "\x85", "\u00e9", "\u2028", "\u2029",
     "\ufeff", "\u200b", "\U0001f600", "\ud7ff", "\r", "\t", "\\", "'", '"', "@", "$", "#", "`",
 )
-HUGE = ("9" * 5000, "1e99999", "0." + "0" * 4000 + "1", "0." + "0" * 6000 + "1", "x" * 3000, '"' + "l" * 2000 + '"', "(" * 300)
+HUGE = (
+    "9" * 5000,
+    "1e99999",
+    "0." + "0" * 4000 + "1",
+    "0." + "0" * 6000 + "1",
+    "x" * 3000,
+    '"' + "l" * 2000 + '"',
+    "(" * 300,
+)
 
 
 def tokens(text: str) -> list[str]:
@@ -134,7 +146,9 @@ def _require_positions(errors: list[PosgmcError], what: str, text: str) -> None:
     for e in errors:
         for one in _errors_of(e):
             if isinstance(one, _POSITIONED) and one.span is None:
-                raise OracleFailure(f"{what}: {type(one).__name__} without a position: {one}\n{text!r:.2000}")
+                raise OracleFailure(
+                    f"{what}: {type(one).__name__} without a position: {one}\n{text!r:.2000}"
+                )
 
 
 def check_model_text(text: str, suffix: str, directory: Path) -> Outcome:
@@ -151,7 +165,9 @@ def check_model_text(text: str, suffix: str, directory: Path) -> Outcome:
     build_error: PosgmcError | None = None
     try:
         session = api.load(path)
-        api.build(session, options=BuildOptions(state_limit=STATE_LIMIT, progress=ProgressMode.NEVER))
+        api.build(
+            session, options=BuildOptions(state_limit=STATE_LIMIT, progress=ProgressMode.NEVER)
+        )
     except LimitError:
         pass  # it started: the limit stopped it
     except PosgmcError as e:

@@ -95,7 +95,9 @@ def tiny_pomdp() -> ExplicitModel:
         choice_actions=[0, 1, 2, 1, 2, 0],
         action_names=("", "l", "r"),
         observations=(
-            Observation(0, np.array([0, 1, 1, 2], dtype=np.int32), ("o",), np.array([[0], [1], [2]])),
+            Observation(
+                0, np.array([0, 1, 1, 2], dtype=np.int32), ("o",), np.array([[0], [1], [2]])
+            ),
         ),
         labels={"goal": [False, False, False, True]},
     )

@@ -20,7 +20,8 @@ _QUOTED = r'"(?:[^"\\\n]|\\.)*"'
 _ATTRIBUTE = rf"\w+=(?:{_QUOTED}|[\w.]+)"
 _ATTRIBUTES = rf"\[{_ATTRIBUTE}(?:, {_ATTRIBUTE})*\]"
 _STATEMENT = re.compile(
-    rf"  (?:(?:node|edge) {_ATTRIBUTES}|rankdir=LR|[sc]\d+ {_ATTRIBUTES}|[sc]\d+ -> s\d+ {_ATTRIBUTES}"
+    rf"  (?:(?:node|edge) {_ATTRIBUTES}|rankdir=LR|[sc]\d+ {_ATTRIBUTES}"
+    rf"|[sc]\d+ -> s\d+ {_ATTRIBUTES}"
     rf"|s\d+ -> c\d+ {_ATTRIBUTES});"
 )
 
@@ -33,7 +34,9 @@ def assert_well_formed(text: str) -> None:
         assert _STATEMENT.fullmatch(line), line
 
 
-@pytest.mark.parametrize("build", [tiny_dtmc, tiny_mdp, tiny_pomdp, tiny_smg, tiny_posg], ids=lambda f: f.__name__)
+@pytest.mark.parametrize(
+    "build", [tiny_dtmc, tiny_mdp, tiny_pomdp, tiny_smg, tiny_posg], ids=lambda f: f.__name__
+)
 def test_well_formed_with_every_state(build: object) -> None:
     model = build()  # type: ignore[operator]
     text = dot_text(model)

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -56,7 +55,12 @@ def test_every_drn_benchmark_is_listed(benchmarks: Path) -> None:
     ids=[row[0].split("/")[1] for row in BENCHMARK_SIZES],
 )
 def test_benchmark_sizes_match_storm(
-    benchmarks: Path, relative: str, model_type: ModelType, states: int, choices: int, transitions: int
+    benchmarks: Path,
+    relative: str,
+    model_type: ModelType,
+    states: int,
+    choices: int,
+    transitions: int,
 ) -> None:
     model = read_drn(benchmarks / relative)
     assert model.model_type is model_type
@@ -75,11 +79,14 @@ def test_benchmark_sizes_match_storm(
 def test_pomdp_observation_counts(benchmarks: Path) -> None:
     # RESULTS.md section 2: 4x3-95 has 9 observations, query-s2 has 6.
     assert read_drn(benchmarks / "pomdp/4x3-95/sketch.templ").observations[0].num_observations == 9
-    assert read_drn(benchmarks / "pomdp/query-s2/sketch.templ").observations[0].num_observations == 6
+    assert (
+        read_drn(benchmarks / "pomdp/query-s2/sketch.templ").observations[0].num_observations == 6
+    )
 
 
 def test_test_game_details(benchmarks: Path) -> None:
-    """posmg/test-game, read off the file: 'state 0 {0} <1> init', actions odd/even, then dbl/add."""
+    """posmg/test-game, read off the file: 'state 0 {0} <1> init', actions odd/even, then
+    dbl/add."""
     model = read_drn(benchmarks / "posmg/test-game/sketch.templ")
     assert model.player_names == ("0", "1")
     assert model.state_players.tolist() == [1, 0, 0, 0, 0, 0, 1, 1]
@@ -211,7 +218,11 @@ def test_quoted_labels() -> None:
 
 def test_fractions_placeholders_and_value_type() -> None:
     text = variant(
-        replace={2: "@type: MDP\n@value_type: rational\n@placeholders\n$h : 1/4\n$q : 3/4", 14: "\t\t0 : $h", 15: "\t\t1 : $q"}
+        replace={
+            2: "@type: MDP\n@value_type: rational\n@placeholders\n$h : 1/4\n$q : 3/4",
+            14: "\t\t0 : $h",
+            15: "\t\t1 : $q",
+        }
     )
     model = parse_drn(text)
     assert model.transitions.toarray()[0].tolist() == [0.25, 0.75]
@@ -350,7 +361,11 @@ def test_posmg_with_player_names() -> None:
 
 
 def test_smg() -> None:
-    model = parse_drn(variant(POSMG, replace={2: "", 3: "@type: SMG", 13: "state 0 <1> init", 18: "state 1 <2> goal"}))
+    model = parse_drn(
+        variant(
+            POSMG, replace={2: "", 3: "@type: SMG", 13: "state 0 <1> init", 18: "state 1 <2> goal"}
+        )
+    )
     assert model.model_type is ModelType.SMG
     assert model.player_names == ("0", "1", "2")
     assert model.observations == ()
@@ -380,61 +395,439 @@ GAME_HEADER = {1: "", 2: "@type: POSMG"}
 
 ERRORS = [
     # (id, text, error class, message fragment, line, column)
-    ("unknown-type", variant(replace={2: "@type: FOO"}), ModelFormatError, 'unknown model type "FOO"', 2, 1),
-    ("ctmc", variant(replace={2: "@type: CTMC"}), UnsupportedError, "continuous-time Markov chains", 2, 8),
-    ("parametric", variant(replace={4: "p q"}), UnsupportedError, "parametric models are not supported", 4, 1),
-    ("interval", variant(insert={3: "@value_type: double-interval"}), UnsupportedError, "double-interval values", 3, 1),
-    ("nr-states-text", variant(replace={8: "two"}), ModelFormatError, "expected a non-negative integer on the line after @nr_states", 8, 1),
-    ("no-nr-states", variant(delete=(7, 8)), ModelFormatError, "number of states must be declared before @model", 9, 1),
-    ("no-type", variant(delete=(2,)), ModelFormatError, "model type must be declared before @model", 10, 1),
-    ("header-garbage", variant(insert={3: "@states"}), ModelFormatError, "unexpected line in the DRN header", 3, 1),
-    ("declared-twice", variant(insert={7: "@type: MDP"}), ModelFormatError, "@type is declared twice (first on line 2)", 7, 1),
-    ("no-model", "@type: MDP\n@nr_states\n1\n", ModelFormatError, "the file ends before @model", 3, 1),
-    ("no-states", variant(delete=tuple(range(12, 21))), ModelFormatError, "the model has no states", 11, 1),
-    ("action-first", variant(insert={12: "\taction a"}), ModelFormatError, "expected a line 'state 0 ...' first", 12, 2),
-    ("state-order", variant(replace={18: "state 2 [0] goal"}), ModelFormatError, "expected state 1, found state 2", 18, 7),
-    ("state-id-text", variant(replace={18: "state one [0] goal"}), ModelFormatError, 'state number must be a non-negative integer, found "one"', 18, 7),
-    ("too-many-states", variant(replace={8: "1"}), ModelFormatError, "more states than @nr_states declares (1)", 18, 1),
-    ("too-few-states", variant(replace={8: "3"}), ModelFormatError, "@nr_states declares 3 states, but the model has 2", 8, 1),
-    ("too-many-choices", variant(replace={10: "2"}), ModelFormatError, "more choices than @nr_choices declares (2)", 19, 2),
-    ("too-few-choices", variant(replace={10: "4"}), ModelFormatError, "@nr_choices declares 4 choices, but the model has 3", 10, 1),
-    ("no-colon", variant(replace={17: "\t\t1 1"}), ModelFormatError, "expected a transition '<target> : <probability>'", 17, 3),
-    ("target-text", variant(replace={17: "\t\tx : 1"}), ModelFormatError, 'target state must be a state number, found "x"', 17, 3),
-    ("target-range", variant(replace={17: "\t\t5 : 1"}), ModelFormatError, "target state 5 does not exist (the model has states 0 to 1)", 17, 3),
-    ("prob-text", variant(replace={17: "\t\t1 : abc"}), ModelFormatError, 'the probability "abc" is not a number', 17, 7),
-    ("prob-underscore", variant(replace={17: "\t\t1 : 1_0"}), ModelFormatError, 'the probability "1_0" is not a number', 17, 7),
-    ("prob-inf", variant(replace={17: "\t\t1 : inf"}), ModelFormatError, 'the probability "inf" is not a finite number', 17, 7),
-    ("prob-div-zero", variant(replace={17: "\t\t1 : 1/0"}), ModelFormatError, 'the probability "1/0" is not a number', 17, 7),
-    ("prob-negative", variant(replace={14: "\t\t0 : -0.5", 15: "\t\t1 : 1.5"}), ModelFormatError, 'the probability "-0.5" is negative', 14, 7),
-    ("prob-above-one", variant(replace={14: "\t\t0 : 0", 15: "\t\t1 : 1.5"}), ModelFormatError, 'the probability "1.5" is greater than 1', 15, 7),
-    ("placeholder-undefined", variant(replace={17: "\t\t1 : $p"}), ModelFormatError, 'the probability "$p" is not a defined placeholder', 17, 7),
-    ("placeholder-malformed", variant(insert={3: "@placeholders\np = 1"}), ModelFormatError, "expected a placeholder definition '$name : value'", 4, 1),
-    ("sum", variant(replace={15: "\t\t1 : 0.4"}), ModelFormatError, "the probabilities of this choice sum to 0.9, not 1", 13, 2),
+    (
+        "unknown-type",
+        variant(replace={2: "@type: FOO"}),
+        ModelFormatError,
+        'unknown model type "FOO"',
+        2,
+        1,
+    ),
+    (
+        "ctmc",
+        variant(replace={2: "@type: CTMC"}),
+        UnsupportedError,
+        "continuous-time Markov chains",
+        2,
+        8,
+    ),
+    (
+        "parametric",
+        variant(replace={4: "p q"}),
+        UnsupportedError,
+        "parametric models are not supported",
+        4,
+        1,
+    ),
+    (
+        "interval",
+        variant(insert={3: "@value_type: double-interval"}),
+        UnsupportedError,
+        "double-interval values",
+        3,
+        1,
+    ),
+    (
+        "nr-states-text",
+        variant(replace={8: "two"}),
+        ModelFormatError,
+        "expected a non-negative integer on the line after @nr_states",
+        8,
+        1,
+    ),
+    (
+        "no-nr-states",
+        variant(delete=(7, 8)),
+        ModelFormatError,
+        "number of states must be declared before @model",
+        9,
+        1,
+    ),
+    (
+        "no-type",
+        variant(delete=(2,)),
+        ModelFormatError,
+        "model type must be declared before @model",
+        10,
+        1,
+    ),
+    (
+        "header-garbage",
+        variant(insert={3: "@states"}),
+        ModelFormatError,
+        "unexpected line in the DRN header",
+        3,
+        1,
+    ),
+    (
+        "declared-twice",
+        variant(insert={7: "@type: MDP"}),
+        ModelFormatError,
+        "@type is declared twice (first on line 2)",
+        7,
+        1,
+    ),
+    (
+        "no-model",
+        "@type: MDP\n@nr_states\n1\n",
+        ModelFormatError,
+        "the file ends before @model",
+        3,
+        1,
+    ),
+    (
+        "no-states",
+        variant(delete=tuple(range(12, 21))),
+        ModelFormatError,
+        "the model has no states",
+        11,
+        1,
+    ),
+    (
+        "action-first",
+        variant(insert={12: "\taction a"}),
+        ModelFormatError,
+        "expected a line 'state 0 ...' first",
+        12,
+        2,
+    ),
+    (
+        "state-order",
+        variant(replace={18: "state 2 [0] goal"}),
+        ModelFormatError,
+        "expected state 1, found state 2",
+        18,
+        7,
+    ),
+    (
+        "state-id-text",
+        variant(replace={18: "state one [0] goal"}),
+        ModelFormatError,
+        'state number must be a non-negative integer, found "one"',
+        18,
+        7,
+    ),
+    (
+        "too-many-states",
+        variant(replace={8: "1"}),
+        ModelFormatError,
+        "more states than @nr_states declares (1)",
+        18,
+        1,
+    ),
+    (
+        "too-few-states",
+        variant(replace={8: "3"}),
+        ModelFormatError,
+        "@nr_states declares 3 states, but the model has 2",
+        8,
+        1,
+    ),
+    (
+        "too-many-choices",
+        variant(replace={10: "2"}),
+        ModelFormatError,
+        "more choices than @nr_choices declares (2)",
+        19,
+        2,
+    ),
+    (
+        "too-few-choices",
+        variant(replace={10: "4"}),
+        ModelFormatError,
+        "@nr_choices declares 4 choices, but the model has 3",
+        10,
+        1,
+    ),
+    (
+        "no-colon",
+        variant(replace={17: "\t\t1 1"}),
+        ModelFormatError,
+        "expected a transition '<target> : <probability>'",
+        17,
+        3,
+    ),
+    (
+        "target-text",
+        variant(replace={17: "\t\tx : 1"}),
+        ModelFormatError,
+        'target state must be a state number, found "x"',
+        17,
+        3,
+    ),
+    (
+        "target-range",
+        variant(replace={17: "\t\t5 : 1"}),
+        ModelFormatError,
+        "target state 5 does not exist (the model has states 0 to 1)",
+        17,
+        3,
+    ),
+    (
+        "prob-text",
+        variant(replace={17: "\t\t1 : abc"}),
+        ModelFormatError,
+        'the probability "abc" is not a number',
+        17,
+        7,
+    ),
+    (
+        "prob-underscore",
+        variant(replace={17: "\t\t1 : 1_0"}),
+        ModelFormatError,
+        'the probability "1_0" is not a number',
+        17,
+        7,
+    ),
+    (
+        "prob-inf",
+        variant(replace={17: "\t\t1 : inf"}),
+        ModelFormatError,
+        'the probability "inf" is not a finite number',
+        17,
+        7,
+    ),
+    (
+        "prob-div-zero",
+        variant(replace={17: "\t\t1 : 1/0"}),
+        ModelFormatError,
+        'the probability "1/0" is not a number',
+        17,
+        7,
+    ),
+    (
+        "prob-negative",
+        variant(replace={14: "\t\t0 : -0.5", 15: "\t\t1 : 1.5"}),
+        ModelFormatError,
+        'the probability "-0.5" is negative',
+        14,
+        7,
+    ),
+    (
+        "prob-above-one",
+        variant(replace={14: "\t\t0 : 0", 15: "\t\t1 : 1.5"}),
+        ModelFormatError,
+        'the probability "1.5" is greater than 1',
+        15,
+        7,
+    ),
+    (
+        "placeholder-undefined",
+        variant(replace={17: "\t\t1 : $p"}),
+        ModelFormatError,
+        'the probability "$p" is not a defined placeholder',
+        17,
+        7,
+    ),
+    (
+        "placeholder-malformed",
+        variant(insert={3: "@placeholders\np = 1"}),
+        ModelFormatError,
+        "expected a placeholder definition '$name : value'",
+        4,
+        1,
+    ),
+    (
+        "sum",
+        variant(replace={15: "\t\t1 : 0.4"}),
+        ModelFormatError,
+        "the probabilities of this choice sum to 0.9, not 1",
+        13,
+        2,
+    ),
     ("no-actions", variant(delete=(19, 20)), ModelFormatError, "state 1 has no actions", 18, 1),
-    ("no-transitions", variant(delete=(17,)), ModelFormatError, "this choice has no transitions", 16, 2),
-    ("orphan-transition", variant(insert={13: "\t\t0 : 1"}), ModelFormatError, "a transition must follow an 'action' line", 13, 3),
-    ("reward-count", variant(replace={13: "\taction a [2, 3]"}), ModelFormatError, "expected 2 reward values (one per reward model), found 1", 12, 9),
-    ("reward-text", variant(replace={12: "state 0 [x] init"}), ModelFormatError, 'the reward "x" is not a number', 12, 10),
-    ("reward-empty", variant(replace={12: "state 0 [1,] init"}), ModelFormatError, "empty reward value", 12, 12),
-    ("bracket-open", variant(replace={12: "state 0 [1 init"}), ModelFormatError, "missing ']' to close the reward list", 12, 9),
-    ("bracket-glued", variant(replace={12: "state 0 [1]init"}), ModelFormatError, "expected a space after the reward list", 12, 12),
-    ("obs-in-mdp", variant(replace={12: "state 0 {1} [1] init"}), ModelFormatError, "observations '{z}' are only allowed in POMDP and POSMG files", 12, 9),
-    ("player-in-mdp", variant(replace={12: "state 0 <1> [1] init"}), ModelFormatError, "players '<p>' are only allowed in SMG and POSMG files", 12, 9),
-    ("no-init", variant(replace={12: "state 0 [1]"}), ModelFormatError, "no state is labelled init", 12, 1),
-    ("label-quote-open", variant(replace={18: 'state 1 [0] "goal'}), ModelFormatError, "missing '\"' to close the label", 18, 13),
-    ("label-quote-inside", variant(replace={18: 'state 1 [0] go"al"'}), ModelFormatError, "a label with quotes must be quoted as a whole", 18, 13),
-    ("label-empty", variant(replace={18: 'state 1 [0] ""'}), ModelFormatError, "empty label", 18, 13),
-    ("action-no-name", variant(replace={13: "\taction [2]"}), ModelFormatError, "expected an action name (or __NOLABEL__) after 'action'", 13, 9),
-    ("action-two-words", variant(replace={13: "\taction a b [2]"}), ModelFormatError, "unexpected text after the action name", 13, 11),
-    ("action-after-rewards", variant(replace={13: "\taction a [2] x"}), ModelFormatError, "unexpected text after the action's rewards", 13, 15),
-    ("pomdp-no-obs", variant(replace={2: "@type: POMDP", 12: "state 0 [1] init"}), ModelFormatError, "expected the observation '{z}' of state 0", 12, 9),
-    ("pomdp-obs-text", variant(replace={2: "@type: POMDP", 12: "state 0 {a} [1] init"}), ModelFormatError, 'the observation must be a non-negative integer, found "a"', 12, 10),
-    ("pomdp-obs-open", variant(replace={2: "@type: POMDP", 12: "state 0 {1 [1] init"}), ModelFormatError, "missing '}' to close the observation", 12, 9),
-    ("posmg-no-player", variant(POSMG, replace={13: "state 0 {0} init"}), ModelFormatError, "expected the player '<p>' who owns state 0", 13, 13),
-    ("posmg-order", variant(POSMG, replace={13: "state 0 <1> {0} init"}), ModelFormatError, "expected the observation '{z}' of state 0", 13, 9),
-    ("posmg-player-name", variant(POSMG, replace={13: "state 0 {0} <bob> init"}), ModelFormatError, 'the player must be a non-negative integer, found "bob"', 13, 14),
-    ("players-comment", variant(POSMG, replace={2: "//@players: alice"}), ModelFormatError, "must name 2 distinct players", 2, 1),
-    ("dtmc-two-actions", variant(replace={2: "@type: DTMC", 10: "2"}), ModelFormatError, "a state of a DTMC has exactly one action", 16, 2),
+    (
+        "no-transitions",
+        variant(delete=(17,)),
+        ModelFormatError,
+        "this choice has no transitions",
+        16,
+        2,
+    ),
+    (
+        "orphan-transition",
+        variant(insert={13: "\t\t0 : 1"}),
+        ModelFormatError,
+        "a transition must follow an 'action' line",
+        13,
+        3,
+    ),
+    (
+        "reward-count",
+        variant(replace={13: "\taction a [2, 3]"}),
+        ModelFormatError,
+        "expected 2 reward values (one per reward model), found 1",
+        12,
+        9,
+    ),
+    (
+        "reward-text",
+        variant(replace={12: "state 0 [x] init"}),
+        ModelFormatError,
+        'the reward "x" is not a number',
+        12,
+        10,
+    ),
+    (
+        "reward-empty",
+        variant(replace={12: "state 0 [1,] init"}),
+        ModelFormatError,
+        "empty reward value",
+        12,
+        12,
+    ),
+    (
+        "bracket-open",
+        variant(replace={12: "state 0 [1 init"}),
+        ModelFormatError,
+        "missing ']' to close the reward list",
+        12,
+        9,
+    ),
+    (
+        "bracket-glued",
+        variant(replace={12: "state 0 [1]init"}),
+        ModelFormatError,
+        "expected a space after the reward list",
+        12,
+        12,
+    ),
+    (
+        "obs-in-mdp",
+        variant(replace={12: "state 0 {1} [1] init"}),
+        ModelFormatError,
+        "observations '{z}' are only allowed in POMDP and POSMG files",
+        12,
+        9,
+    ),
+    (
+        "player-in-mdp",
+        variant(replace={12: "state 0 <1> [1] init"}),
+        ModelFormatError,
+        "players '<p>' are only allowed in SMG and POSMG files",
+        12,
+        9,
+    ),
+    (
+        "no-init",
+        variant(replace={12: "state 0 [1]"}),
+        ModelFormatError,
+        "no state is labelled init",
+        12,
+        1,
+    ),
+    (
+        "label-quote-open",
+        variant(replace={18: 'state 1 [0] "goal'}),
+        ModelFormatError,
+        "missing '\"' to close the label",
+        18,
+        13,
+    ),
+    (
+        "label-quote-inside",
+        variant(replace={18: 'state 1 [0] go"al"'}),
+        ModelFormatError,
+        "a label with quotes must be quoted as a whole",
+        18,
+        13,
+    ),
+    (
+        "label-empty",
+        variant(replace={18: 'state 1 [0] ""'}),
+        ModelFormatError,
+        "empty label",
+        18,
+        13,
+    ),
+    (
+        "action-no-name",
+        variant(replace={13: "\taction [2]"}),
+        ModelFormatError,
+        "expected an action name (or __NOLABEL__) after 'action'",
+        13,
+        9,
+    ),
+    (
+        "action-two-words",
+        variant(replace={13: "\taction a b [2]"}),
+        ModelFormatError,
+        "unexpected text after the action name",
+        13,
+        11,
+    ),
+    (
+        "action-after-rewards",
+        variant(replace={13: "\taction a [2] x"}),
+        ModelFormatError,
+        "unexpected text after the action's rewards",
+        13,
+        15,
+    ),
+    (
+        "pomdp-no-obs",
+        variant(replace={2: "@type: POMDP", 12: "state 0 [1] init"}),
+        ModelFormatError,
+        "expected the observation '{z}' of state 0",
+        12,
+        9,
+    ),
+    (
+        "pomdp-obs-text",
+        variant(replace={2: "@type: POMDP", 12: "state 0 {a} [1] init"}),
+        ModelFormatError,
+        'the observation must be a non-negative integer, found "a"',
+        12,
+        10,
+    ),
+    (
+        "pomdp-obs-open",
+        variant(replace={2: "@type: POMDP", 12: "state 0 {1 [1] init"}),
+        ModelFormatError,
+        "missing '}' to close the observation",
+        12,
+        9,
+    ),
+    (
+        "posmg-no-player",
+        variant(POSMG, replace={13: "state 0 {0} init"}),
+        ModelFormatError,
+        "expected the player '<p>' who owns state 0",
+        13,
+        13,
+    ),
+    (
+        "posmg-order",
+        variant(POSMG, replace={13: "state 0 <1> {0} init"}),
+        ModelFormatError,
+        "expected the observation '{z}' of state 0",
+        13,
+        9,
+    ),
+    (
+        "posmg-player-name",
+        variant(POSMG, replace={13: "state 0 {0} <bob> init"}),
+        ModelFormatError,
+        'the player must be a non-negative integer, found "bob"',
+        13,
+        14,
+    ),
+    (
+        "players-comment",
+        variant(POSMG, replace={2: "//@players: alice"}),
+        ModelFormatError,
+        "must name 2 distinct players",
+        2,
+        1,
+    ),
+    (
+        "dtmc-two-actions",
+        variant(replace={2: "@type: DTMC", 10: "2"}),
+        ModelFormatError,
+        "a state of a DTMC has exactly one action",
+        16,
+        2,
+    ),
 ]
 
 
@@ -477,7 +870,9 @@ _ALPHABET = st.sampled_from(list(' \t\n0123456789.,:/[]{}<>"$!&=-abinot_@'))
 
 @st.composite
 def _edited(draw: st.DrawFn) -> str:
-    text = draw(st.sampled_from([MDP, POSMG, variant(insert={13: "//[x=0\t& b]", 19: "//[x=1\t& !b]"})]))
+    text = draw(
+        st.sampled_from([MDP, POSMG, variant(insert={13: "//[x=0\t& b]", 19: "//[x=1\t& !b]"})])
+    )
     for _ in range(draw(st.integers(1, 4))):
         at = draw(st.integers(0, len(text)))
         kind = draw(st.sampled_from(["insert", "delete", "replace"]))

@@ -58,14 +58,17 @@ def storm_view(path: str) -> dict[str, Any]:
             sorted(m.choice_labeling.get_labels_of_choice(c)) for c in range(matrix.nr_rows)
         ]
     observations = (
-        [m.get_observation(s) for s in range(m.nr_states)] if hasattr(m, "get_observation") else None
+        [m.get_observation(s) for s in range(m.nr_states)]
+        if hasattr(m, "get_observation")
+        else None
     )
     return {
         "states": m.nr_states,
         "choices": m.nr_choices,
         "transitions": m.nr_transitions,
         "entries": entries,
-        "row_groups": [matrix.get_row_group_start(s) for s in range(m.nr_states)] + [matrix.nr_rows],
+        "row_groups": [matrix.get_row_group_start(s) for s in range(m.nr_states)]
+        + [matrix.nr_rows],
         "labels": labels,
         "rewards": rewards,
         "choice_labels": choice_labels,
@@ -117,7 +120,9 @@ def test_storm_reads_our_drn(build: Any, tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("relative", STORM_READABLE_BENCHMARKS)
-def test_storm_reads_our_export_of_benchmarks(relative: str, benchmarks: Path, tmp_path: Path) -> None:
+def test_storm_reads_our_export_of_benchmarks(
+    relative: str, benchmarks: Path, tmp_path: Path
+) -> None:
     pytest.importorskip("stormpy")
     model = read_drn(benchmarks / relative)
     path = _exported(model, tmp_path, "export")

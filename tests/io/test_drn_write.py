@@ -11,11 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.errors import UnsupportedError, InputError
+from posgmc.errors import InputError, UnsupportedError
 from posgmc.io._text import format_values
 from posgmc.io.drn import drn_text, parse_drn, read_drn, write_drn
-
-ROOT = Path(__file__).resolve().parents[2]
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
 from posgmc.syntax.ast import ModelType
 from tests.io.helpers import (
@@ -27,6 +25,8 @@ from tests.io.helpers import (
     tiny_smg,
 )
 from tests.io.test_drn_read import BENCHMARK_SIZES
+
+ROOT = Path(__file__).resolve().parents[2]
 
 TINY = [tiny_dtmc, tiny_mdp, tiny_pomdp, tiny_smg, tiny_posg]
 
@@ -42,7 +42,9 @@ def test_round_trip_tiny(build: object, tmp_path: Path) -> None:
     assert drn_text(again, valuations=True) == path.read_text()
 
 
-@pytest.mark.parametrize("relative", [row[0] for row in BENCHMARK_SIZES], ids=lambda r: r.split("/")[1])
+@pytest.mark.parametrize(
+    "relative", [row[0] for row in BENCHMARK_SIZES], ids=lambda r: r.split("/")[1]
+)
 def test_round_trip_benchmarks(benchmarks: Path, relative: str) -> None:
     model = read_drn(benchmarks / relative)
     assert_same_model(model, parse_drn(drn_text(model)))
@@ -145,9 +147,15 @@ def _mdp_with(**overrides: object) -> ExplicitModel:
     ("model", "fragment"),
     [
         (_mdp_with(reward_models=(RewardModel("r", state=np.array([np.inf, 0])),)), "reward inf"),
-        (_mdp_with(reward_models=(RewardModel("my r", state=np.array([1.0, 0])),)), 'name "my r" contains a space'),
+        (
+            _mdp_with(reward_models=(RewardModel("my r", state=np.array([1.0, 0])),)),
+            'name "my r" contains a space',
+        ),
         (_mdp_with(labels={'say "hi"': [True, False]}), "cannot be written in DRN"),
-        (_mdp_with(action_names=("", "a b"), choice_actions=[1, 0]), 'action name "a b" contains a space'),
+        (
+            _mdp_with(action_names=("", "a b"), choice_actions=[1, 0]),
+            'action name "a b" contains a space',
+        ),
     ],
     ids=["infinite-reward", "reward-name-space", "label-quote", "action-space"],
 )
@@ -215,7 +223,9 @@ def random_models(draw: st.DrawFn) -> ExplicitModel:
     num_choices = int(row_groups[-1])
     matrix = np.zeros((num_choices, num_states))
     for c in range(num_choices):
-        targets = draw(st.lists(st.integers(0, num_states - 1), min_size=1, max_size=3, unique=True))
+        targets = draw(
+            st.lists(st.integers(0, num_states - 1), min_size=1, max_size=3, unique=True)
+        )
         weights = [draw(st.integers(1, 7)) for _ in targets]
         matrix[c, targets] = np.array(weights) / sum(weights)
     action_pool = ("", "a", "b", "go_1")

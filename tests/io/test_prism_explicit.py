@@ -38,7 +38,12 @@ def test_dtmc() -> None:
         "2 2 0.75",
     ]
     assert files["m.sta"].splitlines() == ["# States", "(x)", "0:(0)", "1:(1)", "2:(2)"]
-    assert files["m.lab"].splitlines() == ["# Labels", '0="init" 1="deadlock" 2="goal"', "0: 0", "1: 2"]
+    assert files["m.lab"].splitlines() == [
+        "# Labels",
+        '0="init" 1="deadlock" 2="goal"',
+        "0: 0",
+        "1: 2",
+    ]
     assert files["m.srew"].splitlines() == [
         '# Reward structure "steps"',
         "# State rewards",

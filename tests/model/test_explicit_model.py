@@ -60,7 +60,9 @@ def test_labels_from_initial_states_and_deadlocks() -> None:
 
 def test_transitions_are_normalised() -> None:
     # Unsorted COO input with a repeated entry and an explicit zero.
-    coo = sp.coo_matrix(([0.25, 0.5, 0.25, 0.0, 1.0, 1.0], ([0, 0, 0, 1, 1, 2], [1, 0, 1, 0, 1, 1])), shape=(3, 2))
+    coo = sp.coo_matrix(
+        ([0.25, 0.5, 0.25, 0.0, 1.0, 1.0], ([0, 0, 0, 1, 1, 2], [1, 0, 1, 0, 1, 1])), shape=(3, 2)
+    )
     model = make_model(ModelType.MDP, ROW_GROUPS, coo)
     T = model.transitions
     assert isinstance(T, sp.csr_matrix)
@@ -143,23 +145,57 @@ def test_statistics() -> None:
 # ---------------------------------------------------------------------------------------------
 
 INVALID = [
-    ("no-choice", dict(row_groups=[0, 2, 2], matrix=[[0.5, 0.5], [0, 1]]), "give every state >= 1 choice"),
-    ("shape", dict(matrix=[[0.5, 0.5, 0], [0, 1, 0], [0, 1, 0]]), "transitions has shape (3, 3), expected (3, 2)"),
-    ("sum", dict(matrix=[[0.5, 0.5], [0, 0.5], [0, 1]]), "choice 1 has probabilities summing to 0.5"),
-    ("negative", dict(matrix=[[1.5, -0.5], [0, 1], [0, 1]]), "transition probabilities must be positive"),
+    (
+        "no-choice",
+        dict(row_groups=[0, 2, 2], matrix=[[0.5, 0.5], [0, 1]]),
+        "give every state >= 1 choice",
+    ),
+    (
+        "shape",
+        dict(matrix=[[0.5, 0.5, 0], [0, 1, 0], [0, 1, 0]]),
+        "transitions has shape (3, 3), expected (3, 2)",
+    ),
+    (
+        "sum",
+        dict(matrix=[[0.5, 0.5], [0, 0.5], [0, 1]]),
+        "choice 1 has probabilities summing to 0.5",
+    ),
+    (
+        "negative",
+        dict(matrix=[[1.5, -0.5], [0, 1], [0, 1]]),
+        "transition probabilities must be positive",
+    ),
     ("negative-init", dict(initial_states=[-1]), "initial states must be non-empty"),
     ("actions-shape", dict(choice_actions=[0, 0]), "choice_actions must have one entry per choice"),
     ("players-shape", dict(state_players=[0, 0, 0]), "state_players must have one entry per state"),
-    ("players-range", dict(model_type=ModelType.SMG, state_players=[0, 2], player_names=("a", "b")), "state_players must index player_names"),
+    (
+        "players-range",
+        dict(model_type=ModelType.SMG, state_players=[0, 2], player_names=("a", "b")),
+        "state_players must index player_names",
+    ),
     ("dtmc", dict(model_type=ModelType.DTMC), "a dtmc has exactly one choice per state"),
-    ("observation-shape", dict(observations=(Observation(0, np.zeros(3, dtype=np.int32), (), np.zeros((1, 0))),)), "an observation needs one id per state"),
+    (
+        "observation-shape",
+        dict(observations=(Observation(0, np.zeros(3, dtype=np.int32), (), np.zeros((1, 0))),)),
+        "an observation needs one id per state",
+    ),
     ("label-shape", dict(labels={"goal": [True]}), 'label "goal" must be bool[num_states]'),
-    ("state-reward-shape", dict(reward_models=(RewardModel("r", state=np.zeros(3)),)), "reward model 'r': state rewards need shape (2,)"),
-    ("choice-reward-shape", dict(reward_models=(RewardModel("r", choice=np.zeros(2)),)), "reward model 'r': choice rewards need shape (3,)"),
+    (
+        "state-reward-shape",
+        dict(reward_models=(RewardModel("r", state=np.zeros(3)),)),
+        "reward model 'r': state rewards need shape (2,)",
+    ),
+    (
+        "choice-reward-shape",
+        dict(reward_models=(RewardModel("r", choice=np.zeros(2)),)),
+        "reward model 'r': choice rewards need shape (3,)",
+    ),
 ]
 
 
-@pytest.mark.parametrize(("changes", "fragment"), [c[1:] for c in INVALID], ids=[c[0] for c in INVALID])
+@pytest.mark.parametrize(
+    ("changes", "fragment"), [c[1:] for c in INVALID], ids=[c[0] for c in INVALID]
+)
 def test_validate_rejects(changes: dict[str, Any], fragment: str) -> None:
     args = dict(changes)
     model_type = args.pop("model_type", ModelType.MDP)
@@ -184,7 +220,16 @@ GAPS = [
     ("deadlock-out-of-range", dict(deadlocks=[7])),
     ("action-id-out-of-range", dict(choice_actions=[3, 0, 0], action_names=("",))),
     ("action-names-0-not-empty", dict(choice_actions=[0, 0, 0], action_names=("a",))),
-    ("observation-id-out-of-range", dict(observations=(Observation(0, np.array([0, 5], dtype=np.int32), (), np.zeros((1, 0), dtype=np.int64)),))),
+    (
+        "observation-id-out-of-range",
+        dict(
+            observations=(
+                Observation(
+                    0, np.array([0, 5], dtype=np.int32), (), np.zeros((1, 0), dtype=np.int64)
+                ),
+            )
+        ),
+    ),
     ("state-values-shape", dict(variable_names=("x",), state_values=[[1, 2], [3, 4]])),
 ]
 
@@ -222,30 +267,69 @@ def _unsorted_transitions() -> sp.csr_matrix:
 
 
 DIRECT_INVALID = [
-    ("unsorted-initial", dict(initial_states=np.array([1, 0], dtype=np.int64)),
-     "initial states must be sorted and distinct"),
-    ("repeated-initial", dict(initial_states=np.array([0, 0], dtype=np.int64)),
-     "initial states must be sorted and distinct"),
-    ("unsorted-columns", dict(transitions=_unsorted_transitions()),
-     "choice 0 has unsorted or repeated column indices"),
-    ("row-groups-dtype", dict(row_groups=np.array([0, 2, 3], dtype=np.int32)),
-     "row_groups has dtype int32, expected int64"),
-    ("actions-dtype", dict(choice_actions=np.zeros(3, dtype=np.int64)),
-     "choice_actions has dtype int64, expected int32"),
-    ("no-init-label", dict(labels={"deadlock": np.zeros(2, dtype=bool)}), 'the label "init" is missing'),
-    ("no-deadlock-label", dict(labels={"init": np.array([True, False])}), 'the label "deadlock" is missing'),
-    ("observation-width",
-     dict(model_type=ModelType.POMDP,
-          observations=(Observation(0, np.zeros(2, dtype=np.int32), ("x",), np.zeros((1, 2), dtype=np.int64)),)),
-     "expected one column per observable (1)"),
-    ("observation-player",
-     dict(model_type=ModelType.POMDP,
-          observations=(Observation(3, np.zeros(2, dtype=np.int32), (), np.zeros((1, 0), dtype=np.int64)),)),
-     "an observation names player 3"),
+    (
+        "unsorted-initial",
+        dict(initial_states=np.array([1, 0], dtype=np.int64)),
+        "initial states must be sorted and distinct",
+    ),
+    (
+        "repeated-initial",
+        dict(initial_states=np.array([0, 0], dtype=np.int64)),
+        "initial states must be sorted and distinct",
+    ),
+    (
+        "unsorted-columns",
+        dict(transitions=_unsorted_transitions()),
+        "choice 0 has unsorted or repeated column indices",
+    ),
+    (
+        "row-groups-dtype",
+        dict(row_groups=np.array([0, 2, 3], dtype=np.int32)),
+        "row_groups has dtype int32, expected int64",
+    ),
+    (
+        "actions-dtype",
+        dict(choice_actions=np.zeros(3, dtype=np.int64)),
+        "choice_actions has dtype int64, expected int32",
+    ),
+    (
+        "no-init-label",
+        dict(labels={"deadlock": np.zeros(2, dtype=bool)}),
+        'the label "init" is missing',
+    ),
+    (
+        "no-deadlock-label",
+        dict(labels={"init": np.array([True, False])}),
+        'the label "deadlock" is missing',
+    ),
+    (
+        "observation-width",
+        dict(
+            model_type=ModelType.POMDP,
+            observations=(
+                Observation(
+                    0, np.zeros(2, dtype=np.int32), ("x",), np.zeros((1, 2), dtype=np.int64)
+                ),
+            ),
+        ),
+        "expected one column per observable (1)",
+    ),
+    (
+        "observation-player",
+        dict(
+            model_type=ModelType.POMDP,
+            observations=(
+                Observation(3, np.zeros(2, dtype=np.int32), (), np.zeros((1, 0), dtype=np.int64)),
+            ),
+        ),
+        "an observation names player 3",
+    ),
 ]
 
 
-@pytest.mark.parametrize(("changes", "fragment"), [c[1:] for c in DIRECT_INVALID], ids=[c[0] for c in DIRECT_INVALID])
+@pytest.mark.parametrize(
+    ("changes", "fragment"), [c[1:] for c in DIRECT_INVALID], ids=[c[0] for c in DIRECT_INVALID]
+)
 def test_validate_checks_every_documented_invariant(changes: dict[str, Any], fragment: str) -> None:
     assert _direct().validate().num_states == 2  # the unchanged record is valid
     with pytest.raises(ModelInvariantError) as info:

@@ -62,7 +62,11 @@ def test_parse_const_assignment_errors(text: str, message: str, column: int) -> 
         parse_const_assignments(text)
     assert exc.value.message == message
     assert exc.value.span is not None
-    assert (exc.value.span.file, exc.value.span.line, exc.value.span.column) == ("--const", 1, column)
+    assert (exc.value.span.file, exc.value.span.line, exc.value.span.column) == (
+        "--const",
+        1,
+        column,
+    )
 
 
 def test_ranges_and_sweeps() -> None:
@@ -139,7 +143,12 @@ def test_user_value_errors_point_at_the_setting_or_the_declaration() -> None:
     settings = parse_const_assignments("N=0.5,p=1,b=true,M=4,Q=1")
     assert lint(MODEL, constants=settings) == [
         ("ConstantError", 'constant "N" is an int, but "0.5" is not an integer', 1, 1),
-        ("ConstantError", 'constant "M" is already defined in the file, so it cannot be given a value', 1, 18),
+        (
+            "ConstantError",
+            'constant "M" is already defined in the file, so it cannot be given a value',
+            1,
+            18,
+        ),
         ("ConstantError", '"Q" is not a constant of the model', 1, 22),
     ]
     # plain Python values have no position: the declaration is shown instead
@@ -178,7 +187,10 @@ module m x : [0..b] init 0; [] true -> true; endmodule
 def test_int_constant_defined_by_a_double() -> None:
     # Storm types N/2 as an int (PAYNT's rocks-12 writes "const r1x = N/2;"): a whole value is
     # accepted as an int, anything else is an error at the definition
-    text = "dtmc\nconst int N = 12;\nconst r = N/2;\nconst int h = 0.5;\nmodule m x : [0..r]; endmodule\n"
+    text = (
+        "dtmc\nconst int N = 12;\nconst r = N/2;\nconst int h = 0.5;\n"
+        "module m x : [0..r]; endmodule\n"
+    )
     assert lint(text) == [
         ("ConstantError", 'int constant "h" has the value 0.5, which is not a whole number', 4, 15),
     ]
@@ -187,7 +199,10 @@ def test_int_constant_defined_by_a_double() -> None:
 
 
 def test_constant_definition_type_errors() -> None:
-    text = "dtmc\nconst bool b = 1;\nconst double d = true;\nconst int i = x;\nmodule m x : [0..1]; endmodule\n"
+    text = (
+        "dtmc\nconst bool b = 1;\nconst double d = true;\nconst int i = x;\n"
+        "module m x : [0..1]; endmodule\n"
+    )
     assert lint(text) == [
         ("SemanticError", 'the value of constant "b" must be Boolean, found int', 2, 16),
         ("SemanticError", 'the value of constant "d" must be a number, found bool', 3, 18),

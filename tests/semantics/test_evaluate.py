@@ -112,7 +112,10 @@ def test_identifiers_from_environment() -> None:
     ("text", "message"),
     [
         ("mod(3, 0)", "mod() by a non-positive divisor (0)"),
-        ("pow(2, -1)", "negative exponent -1 in pow() of two ints; write pow(2.0, -1) for a double result"),
+        (
+            "pow(2, -1)",
+            "negative exponent -1 in pow() of two ints; write pow(2.0, -1) for a double result",
+        ),
         ("y + 1", '"y" has no value here'),
     ],
 )
@@ -165,7 +168,9 @@ def test_simplify_folds_constants_and_units() -> None:
 
 
 def test_format_value() -> None:
-    assert [format_value(v) for v in (True, 3, Fraction(3, 2), Fraction(1, 3), Fraction(-1, 8))] == [
+    assert [
+        format_value(v) for v in (True, 3, Fraction(3, 2), Fraction(1, 3), Fraction(-1, 8))
+    ] == [
         "true",
         "3",
         "1.5",

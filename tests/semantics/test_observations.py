@@ -22,7 +22,10 @@ endmodule
 
 
 def test_pomdp_observables_reach_the_flat_model() -> None:
-    text = 'pomdp\nobservables x endobservables\nobservable "low" = y < 2;\nobservable "yy" = y;\n' + BODY
+    text = (
+        'pomdp\nobservables x endobservables\nobservable "low" = y < 2;\nobservable "yy" = y;\n'
+        + BODY
+    )
     fm = instantiate(model(text))
     assert fm.observables is not None
     assert [(o.name, o.expr) for o in fm.observables] == [
@@ -47,7 +50,10 @@ def test_mdp_cannot_declare_observables() -> None:
 
 
 def test_observable_that_is_not_a_variable() -> None:
-    text = "pomdp\nconst int k = 1;\nformula f = x + 1;\nobservables x, k, f, nope endobservables\n" + BODY
+    text = (
+        "pomdp\nconst int k = 1;\nformula f = x + 1;\nobservables x, k, f, nope endobservables\n"
+        + BODY
+    )
     assert lint(text) == [
         (
             "SemanticError",
@@ -85,7 +91,9 @@ def test_observable_named_like_a_variable_is_legal() -> None:
 
 
 def test_observable_and_label_share_a_namespace() -> None:
-    text = 'pomdp\nobservables x endobservables\nobservable "x" = y;\n' + BODY + 'label "x" = true;\n'
+    text = (
+        'pomdp\nobservables x endobservables\nobservable "x" = y;\n' + BODY + 'label "x" = true;\n'
+    )
     assert lint(text) == [
         ("SemanticError", 'observable "x" has the name of label "x" (line 10)', 2, 13),
         ("SemanticError", 'observable "x" has the name of label "x" (line 10)', 3, 1),
@@ -103,7 +111,10 @@ def test_smg_top_level_observables_are_kept() -> None:
 
 
 def test_player_observables_only_in_posg() -> None:
-    text = "smg\nplayer p1 m, [a] observables x endobservables endplayer\nplayer p2 [b] endplayer\n" + BODY
+    text = (
+        "smg\nplayer p1 m, [a] observables x endobservables endplayer\nplayer p2 [b] endplayer\n"
+        + BODY
+    )
     got = lint(text)
     assert got == [
         (
@@ -131,12 +142,16 @@ def test_posg_per_player_observables() -> None:
     }
     assert dict(fm.labels) == {"hi": Binary(BinaryOp.GT, Ident("y"), IntLit(1))}
     # a player without observables observes everything
-    fm2 = instantiate(model(POSG.replace("player p2 [b] observables x endobservables", "player p2 [b]")))
+    fm2 = instantiate(
+        model(POSG.replace("player p2 [b] observables x endobservables", "player p2 [b]"))
+    )
     assert fm2.players[1].observables is None
 
 
 def test_posg_observable_errors() -> None:
-    text = POSG.replace("player p2 [b] observables x endobservables", 'player p2 [b] observable "hi" = y > 2;')
+    text = POSG.replace(
+        "player p2 [b] observables x endobservables", 'player p2 [b] observable "hi" = y > 2;'
+    )
     assert lint(text) == [
         (
             "SemanticError",
@@ -146,7 +161,12 @@ def test_posg_observable_errors() -> None:
         )
     ]
     assert lint(POSG.replace("posg\n", 'posg\nobservable "t" = x;\n')) == [
-        ("SemanticError", "a posg declares observables inside player blocks, not at the top level", 2, 1),
+        (
+            "SemanticError",
+            "a posg declares observables inside player blocks, not at the top level",
+            2,
+            1,
+        ),
     ]
     no_obs = "posg\nplayer p1 m, [a] endplayer\nplayer p2 [b] endplayer\n" + BODY
     assert lint(no_obs) == [

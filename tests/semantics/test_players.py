@@ -79,5 +79,10 @@ def test_game_without_players() -> None:
 
 def test_players_in_a_non_game() -> None:
     assert lint(GAME.replace("smg", "mdp", 1)) == [
-        ("SemanticError", "player blocks are only allowed in games (smg, posg), not in an mdp", 2, 1),
+        (
+            "SemanticError",
+            "player blocks are only allowed in games (smg, posg), not in an mdp",
+            2,
+            1,
+        ),
     ]

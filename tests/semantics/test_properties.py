@@ -79,15 +79,28 @@ def test_player_zero_without_the_zero_based_option() -> None:
 
 def test_player_numbers_out_of_range() -> None:
     assert lint_props(GAME, '<<3>> Pmax=? [F "goal"]\n') == [
-        ("SemanticError", "player number 3 does not exist: the model has 2 players (1: p1, 2: p2)", 1, 3)
+        (
+            "SemanticError",
+            "player number 3 does not exist: the model has 2 players (1: p1, 2: p2)",
+            1,
+            3,
+        )
     ]
     assert lint_props(GAME, '<<2>> Pmax=? [F "goal"]\n', zero_based_players=True) == [
-        ("SemanticError", "player number 2 does not exist: the model has 2 players (0: p1, 1: p2)", 1, 3)
+        (
+            "SemanticError",
+            "player number 2 does not exist: the model has 2 players (0: p1, 1: p2)",
+            1,
+            3,
+        )
     ]
 
 
 def test_coalitions_resolve_to_zero_based_indices() -> None:
-    props = '<<1>> Pmax=? [F "goal"]\n<<p2>> Pmin=? [F "goal"]\n<<*>> Pmax=? [F "goal"]\n[[p1,2]] Pmax=? [F "goal"]\nPmax=? [F "goal"]\n'
+    props = (
+        '<<1>> Pmax=? [F "goal"]\n<<p2>> Pmin=? [F "goal"]\n<<*>> Pmax=? [F "goal"]\n'
+        '[[p1,2]] Pmax=? [F "goal"]\nPmax=? [F "goal"]\n'
+    )
     got = [(q.coalition, q.coalition_kind) for p in checked(props) for q in p.queries]
     assert got == [
         (frozenset({0}), CoalitionKind.ANGLE),
@@ -138,7 +151,9 @@ def test_unknown_reward_structure() -> None:
             1,
         )
     ]
-    no_rewards = GAME.replace('rewards "r" true : 1; endrewards\nrewards "s" true : 2; endrewards\n', "")
+    no_rewards = GAME.replace(
+        'rewards "r" true : 1; endrewards\nrewards "s" true : 2; endrewards\n', ""
+    )
     assert lint_props(no_rewards, "<<p1>> Rmax=? [F x=1]\n") == [
         ("SemanticError", "the model has no reward structures", 1, 1)
     ]
@@ -187,10 +202,25 @@ label "init" = true;
 "maximum": <<p1>> Pmin=? [F "goal"]
 """
     assert lint_props(GAME, props, constants={"j": 1, "zz": 2}) == [
-        ("SemanticError", 'constant "K" is already defined as a constant in the model (line 2)', 1, 1),
-        ("SemanticError", 'formula "x" is already defined as a variable in the model (line 7)', 3, 1),
+        (
+            "SemanticError",
+            'constant "K" is already defined as a constant in the model (line 2)',
+            1,
+            1,
+        ),
+        (
+            "SemanticError",
+            'formula "x" is already defined as a variable in the model (line 7)',
+            3,
+            1,
+        ),
         ("SemanticError", 'label "goal" is already defined in the model (line 14)', 4, 1),
-        ("SemanticError", 'label "lowy" has the name of an observable of the model (line 15)', 5, 1),
+        (
+            "SemanticError",
+            'label "lowy" has the name of an observable of the model (line 15)',
+            5,
+            1,
+        ),
         ("SemanticError", '"init" is a built-in label and cannot be defined', 6, 1),
         ("SemanticError", 'property "maximum" is already defined (line 7)', 8, 1),
         ("ConstantError", '"zz" is not a constant of the model or the properties', None, None),
@@ -229,7 +259,9 @@ def test_undefined_property_constant() -> None:
 def test_instantiate_raises_all_errors() -> None:
     m = model(GAME)
     fm = instantiate(m)
-    props = parse_properties('<<nobody>> Pmax=? [F "goal"]\n<<p1>> Pmax=? [F "nolabel"]\n', file="p.props")
+    props = parse_properties(
+        '<<nobody>> Pmax=? [F "goal"]\n<<p1>> Pmax=? [F "nolabel"]\n', file="p.props"
+    )
     with pytest.raises(MultipleErrors) as exc:
         instantiate_properties(props, fm, model=m)
     assert [e.message for e in exc.value.errors] == [
@@ -258,7 +290,10 @@ def test_cyclic_properties_file_labels() -> None:
     a = LabelDecl("a", LabelRef("b"), span=SourceSpan(1, 1))
     b = LabelDecl("b", LabelRef("a"), span=SourceSpan(2, 1))
     (err,) = check_properties(PropertiesFile(labels=(a, b)), model(GAME))
-    assert (err.message, err.span) == ('cyclic definition of label "a" (a -> b -> a)', SourceSpan(1, 1))
+    assert (err.message, err.span) == (
+        'cyclic definition of label "a" (a -> b -> a)',
+        SourceSpan(1, 1),
+    )
 
 
 def test_temporal_operator_outside_p_or_r() -> None:

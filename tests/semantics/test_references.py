@@ -35,11 +35,15 @@ def test_references_resolve_to_the_named_properties(tmp_path: Path) -> None:
     props.write_text(PROPS)
     session = api.load(model)
     outcomes = dict(
-        (p.name, o) for p, o in api.iter_check(session, property_files=[props], built=api.build(session))
+        (p.name, o)
+        for p, o in api.iter_check(session, property_files=[props], built=api.build(session))
     )
     assert abs(outcomes["one"].value - 1.0) < 1e-6
     assert abs(outcomes["three"].value - 2 / 3) < 1e-6
     # a label of the same name wins over the property: "two" is the label d=2 inside it
     assert abs(outcomes["two"].value - 1 / 3) < 1e-6
     err = outcomes["self"]
-    assert isinstance(err, SemanticError) and 'property "self" -> "self" refers to itself' in err.message
+    assert (
+        isinstance(err, SemanticError)
+        and 'property "self" -> "self" refers to itself' in err.message
+    )

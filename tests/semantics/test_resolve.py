@@ -66,7 +66,10 @@ def test_module_and_variable_may_share_a_name() -> None:
 
 
 def test_undefined_name_with_hint() -> None:
-    text = 'mdp\nmodule m\n  x : [0..1];\n  [] goal -> true;\n  [] m > 0 -> true;\nendmodule\nlabel "goal" = x=1;\n'
+    text = (
+        "mdp\nmodule m\n  x : [0..1];\n  [] goal -> true;\n  [] m > 0 -> true;\nendmodule\n"
+        'label "goal" = x=1;\n'
+    )
     got = lint(text)
     assert [d[1:] for d in got] == [
         ('undefined name "goal"', 4, 6),
@@ -86,7 +89,9 @@ module m
 endmodule
 """
     # reported once, at the first formula of the cycle; uses of it cause no follow-up errors
-    assert lint(text) == [("SemanticError", 'cyclic definition of formula "a" (a -> b -> c -> a)', 2, 1)]
+    assert lint(text) == [
+        ("SemanticError", 'cyclic definition of formula "a" (a -> b -> c -> a)', 2, 1)
+    ]
 
 
 def test_update_of_another_modules_variable() -> None:
@@ -117,7 +122,10 @@ def test_globals_may_be_updated_by_synchronised_commands() -> None:
 
 
 def test_same_variable_twice_in_one_update() -> None:
-    text = "mdp\nmodule m\n  x : [0..1];\n  [] true -> 0.5 : (x'=0) & (x'=1) + 0.5 : (x'=1);\nendmodule\n"
+    text = (
+        "mdp\nmodule m\n  x : [0..1];\n"
+        "  [] true -> 0.5 : (x'=0) & (x'=1) + 0.5 : (x'=1);\nendmodule\n"
+    )
     assert lint(text) == [("SemanticError", 'variable "x" is set twice in the same update', 4, 29)]
 
 

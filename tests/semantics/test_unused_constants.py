@@ -8,7 +8,9 @@ from pathlib import Path
 from posgmc import api
 from posgmc.errors import ConstantError
 
-MODEL = "dtmc\nmodule m\n  x : [0..2] init 0;\n  [] x<2 -> (x'=x+1);\n  [] x=2 -> true;\nendmodule\n"
+MODEL = (
+    "dtmc\nmodule m\n  x : [0..2] init 0;\n  [] x<2 -> (x'=x+1);\n  [] x=2 -> true;\nendmodule\n"
+)
 PROPS = "const int k;\nconst double q;\nconst int j = k + 1;\nP=? [ F x=2 ];\nP=? [ F x=j ];\n"
 
 

@@ -1,4 +1,5 @@
-"""posgmc-fss/1 files: exact round trips, and one clear error per kind of bad file (file + JSON path)."""
+"""posgmc-fss/1 files: exact round trips, and one clear error per kind of bad file (file + JSON
+path)."""
 
 from __future__ import annotations
 
@@ -58,7 +59,9 @@ def strategies(draw: st.DrawFn) -> FiniteStateStrategy:
     )
 
 
-def _rules(f: FiniteStateStrategy) -> dict[tuple[int, tuple[int, ...], str], tuple[float, tuple[float, ...]]]:
+def _rules(
+    f: FiniteStateStrategy,
+) -> dict[tuple[int, tuple[int, ...], str], tuple[float, tuple[float, ...]]]:
     """Every played (memory, observation, action) with its probability and update row."""
     out = {}
     for n, z, a in zip(*np.nonzero(f.action > 0)):
@@ -111,14 +114,29 @@ def _rule(**changes: object) -> dict:
         ({**EXAMPLE, "colour": 1}, "colour", "unknown field"),
         (_rule(memory=2), "rules[0].memory", "memory 2 is not a memory node (0..1)"),
         (_rule(memory="0"), "rules[0].memory", "must be an integer"),
-        (_rule(action={"via1": 0.7, "via2": 0.2}), "rules[0].action", "sum to 0.8999999999999999, not 1"),
-        (_rule(action={"via1": 1.5, "via2": -0.5}), "rules[0].action.via1", "a probability must be a number in [0, 1]"),
-        (_rule(update={"via3": {"0": 1.0}}), "rules[0].update.via3", "which the rule does not play"),
+        (
+            _rule(action={"via1": 0.7, "via2": 0.2}),
+            "rules[0].action",
+            "sum to 0.8999999999999999, not 1",
+        ),
+        (
+            _rule(action={"via1": 1.5, "via2": -0.5}),
+            "rules[0].action.via1",
+            "a probability must be a number in [0, 1]",
+        ),
+        (
+            _rule(update={"via3": {"0": 1.0}}),
+            "rules[0].update.via3",
+            "which the rule does not play",
+        ),
         (_rule(update={"via1": {"7": 1.0}}), "rules[0].update.via1.7", "is not a memory node"),
         (_rule(observation={"pos": 0.5}), "rules[0].observation.pos", "an integer or true/false"),
         (_rule(observation={"x": 0}), "rules[0].observation.x", "not one of the observables"),
-        ({**EXAMPLE, "rules": [EXAMPLE["rules"][0], EXAMPLE["rules"][0]]}, "rules[1]",
-         "a second rule for memory 0"),
+        (
+            {**EXAMPLE, "rules": [EXAMPLE["rules"][0], EXAMPLE["rules"][0]]},
+            "rules[1]",
+            "a second rule for memory 0",
+        ),
     ],
 )
 def test_bad_documents_name_file_and_json_path(doc: dict, path: str, words: str) -> None:

@@ -50,16 +50,24 @@ def test_the_mixture_is_worth_the_mixture_of_the_values(tmp_path: Path, alpha: f
 
 @settings(max_examples=30, deadline=None)
 @given(alpha=st.floats(0, 1), k1=st.integers(1, 3), k2=st.integers(1, 3), seed=st.integers(0, 99))
-def test_mixtures_of_random_strategies_are_strategies(alpha: float, k1: int, k2: int, seed: int) -> None:
+def test_mixtures_of_random_strategies_are_strategies(
+    alpha: float, k1: int, k2: int, seed: int
+) -> None:
     rng = np.random.default_rng(seed)
 
     def random(k: int, rows: list[int], actions: tuple[str, ...]) -> FiniteStateStrategy:
         act = rng.random((k, len(rows), len(actions)))
         upd = rng.random((k, len(rows), len(actions), k))
         return FiniteStateStrategy(
-            player="p", memory_size=k, initial_memory=int(rng.integers(k)), observables=("x",),
-            observation_values=np.array([[r] for r in rows], dtype=np.int64), actions=actions,
-            action=act / act.sum(axis=2, keepdims=True), update=upd / upd.sum(axis=3, keepdims=True))
+            player="p",
+            memory_size=k,
+            initial_memory=int(rng.integers(k)),
+            observables=("x",),
+            observation_values=np.array([[r] for r in rows], dtype=np.int64),
+            actions=actions,
+            action=act / act.sum(axis=2, keepdims=True),
+            update=upd / upd.sum(axis=3, keepdims=True),
+        )
 
     f1, f2 = random(k1, [0, 1], ("a", "b")), random(k2, [1, 2], ("b", "c"))
     m = mix(f1, f2, alpha)  # validated on construction

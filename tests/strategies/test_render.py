@@ -39,8 +39,17 @@ def test_dot_has_a_node_per_memory_and_an_edge_per_move() -> None:
 
 def test_cli_show_strategy_with_model_and_dot(tmp_path: Path) -> None:
     out = tmp_path / "s.dot"
-    r = CliRunner().invoke(main, ["show-strategy", str(CAUTIOUS), "--model", str(ROOT / "models" / "rover.posg"),
-                                  "--dot", str(out)])
+    r = CliRunner().invoke(
+        main,
+        [
+            "show-strategy",
+            str(CAUTIOUS),
+            "--model",
+            str(ROOT / "models" / "rover.posg"),
+            "--dot",
+            str(out),
+        ],
+    )
     assert r.exit_code == 0, r.output
     assert "fwd: 0.5, hold: 0.5" in r.output and out.read_text().startswith("digraph")
 
@@ -51,4 +60,7 @@ def test_cli_show_strategy_reports_a_bad_file(tmp_path: Path) -> None:
                    '"observables": ["x"], "rules": [{"memory": 3, "observation": {"x": 1}, '
                    '"action": {"fwd": 1.0}}]}')
     r = CliRunner().invoke(main, ["show-strategy", str(bad)])
-    assert r.exit_code == 2 and f"{bad}: rules[0].memory: memory 3 is not a memory node (0..0)" in r.output
+    assert (
+        r.exit_code == 2
+        and f"{bad}: rules[0].memory: memory 3 is not a memory node (0..0)" in r.output
+    )

@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from posgmc import api
@@ -33,13 +32,17 @@ def test_estimate_agrees_with_the_exact_profile_value(seed: int) -> None:
     deterministic)."""
     model, p0, p1 = _game(seed)
     prop = '<<p0>> Pmax=? [ F "goal" ]'
-    exact = StrategyChecker(model, {"p0": p0, "p1": p1},
-                            coalition_of=api._coalition_resolver(model, False), scalar=api._scalar)
+    exact = StrategyChecker(
+        model,
+        {"p0": p0, "p1": p1},
+        coalition_of=api._resolver(model, False).coalition_of,
+        scalar=api._scalar,
+    )
     v = exact.check(parser.parse_property(prop).expr, text=prop).vs_fss_adversary.value
     from posgmc.strategies.simulate import simulate
 
     sim = simulate(model, parser.parse_property(prop).expr, {"p0": p0, "p1": p1}, text=prop,
-                   coalition_of=api._coalition_resolver(model, False), scalar=api._scalar,
+                   coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar,
                    runs=20_000, seed=seed, max_steps=2_000)
     se = math.sqrt(max(v * (1 - v), 1e-4) / sim.runs)
     assert abs(sim.estimate - v) <= 4 * se + sim.undecided / sim.runs
@@ -55,7 +58,9 @@ def _game(seed: int):  # type: ignore[no-untyped-def]
         count["n"] += 1
         return count["n"] > seed
 
-    return find(games(), pick, settings=settings(database=None, derandomize=True, max_examples=1000))
+    return find(
+        games(), pick, settings=settings(database=None, derandomize=True, max_examples=1000)
+    )
 
 
 def test_same_seed_same_result_and_rewards() -> None:
@@ -74,14 +79,26 @@ def test_same_seed_same_result_and_rewards() -> None:
 
 def test_best_opponent_reproduces_guaranteed() -> None:
     session = api.load(ROVER)
-    r = api.simulate(session, REACH, strategies={"rover": str(ROOT / "models" / "rover" / "cautious.fss.json")},
-                     opponent="best", runs=40_000, seed=3)
+    r = api.simulate(
+        session,
+        REACH,
+        strategies={"rover": str(ROOT / "models" / "rover" / "cautious.fss.json")},
+        opponent="best",
+        runs=40_000,
+        seed=3,
+    )
     assert r.lower <= 0.9325425259671835 <= r.upper  # guaranteed, tests/strategies/test_verify.py
 
 
 def test_trace_follows_the_model() -> None:
-    r = api.simulate(api.load(ROVER), REACH, strategies={"rover": str(ROOT / "models" / "rover" / "forward.fss.json")},
-                     runs=10, seed=0, trace=True)
+    r = api.simulate(
+        api.load(ROVER),
+        REACH,
+        strategies={"rover": str(ROOT / "models" / "rover" / "forward.fss.json")},
+        runs=10,
+        seed=0,
+        trace=True,
+    )
     steps = r.trace
     assert steps[0].state == "(turn=0, x=2, budget=2, spoofed=false)" and steps[0].action == "fwd"
     assert [t.step for t in steps] == list(range(len(steps)))

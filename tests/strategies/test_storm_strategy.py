@@ -1,6 +1,7 @@
 """A memoryless strategy on PAYNT's POSMG files: posgmc's `guaranteed` against Storm on the model
 restricted by hand (issue #8). Skipped without stormpy; run it in the reference environment:
-``/root/refenv/bin/python -m pytest tests/strategies/test_storm_strategy.py`` (benchmarks/README.md).
+``/root/refenv/bin/python -m pytest tests/strategies/test_storm_strategy.py``
+(benchmarks/README.md).
 
 The independent path: the DRN text itself is rewritten here, keeping for each of player 0's states
 only the choice the strategy picks (first enabled action of its observation, in file order) and
@@ -88,15 +89,19 @@ def test_memoryless_strategy_agrees_with_storm(name: str, tmp_path: Path) -> Non
     chosen = _first_actions(text)
 
     session = api.load(drn)
-    model = api.build(session).model
     obs_ids = np.array(sorted(chosen))
     as_label = {a: "" if a == "__NOLABEL__" else a for a in chosen.values()}  # DRN's unlabelled
     labels = tuple(sorted(set(as_label.values())))
     gamma = np.zeros((1, obs_ids.size, len(labels)))
     for i, z in enumerate(obs_ids.tolist()):
         gamma[0, i, labels.index(as_label[chosen[z]])] = 1.0
-    fss = FiniteStateStrategy.from_arrays(player="0", observables=(), observation_values=obs_ids[:, None],
-                                          actions=labels, action=gamma)
+    fss = FiniteStateStrategy.from_arrays(
+        player="0",
+        observables=(),
+        observation_values=obs_ids[:, None],
+        actions=labels,
+        action=gamma,
+    )
     report = api.check(session, properties=[prop], strategies={"0": fss}, zero_based_players=True)
     assert not report.errors, report.errors[0][1].render()
     g = report.results[0].guaranteed

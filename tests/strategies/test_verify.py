@@ -180,7 +180,9 @@ def _brute_force(model: ExplicitModel, fss: FiniteStateStrategy, target: np.ndar
                     and model.row_groups[s + 1] - model.row_groups[s] > 1]
     best: Fraction | None = None
     for pick in range(1 << len(hider_states)):
-        chosen = {s: int(model.row_groups[s]) + ((pick >> i) & 1) for i, s in enumerate(hider_states)}
+        chosen = {
+            s: int(model.row_groups[s]) + ((pick >> i) & 1) for i, s in enumerate(hider_states)
+        }
         # the chain over (s, n)
         succ: dict[tuple[int, int], dict[tuple[int, int], Fraction]] = {}
         stack = [(int(model.initial_states[0]), fss.initial_memory)]
@@ -197,7 +199,11 @@ def _brute_force(model: ExplicitModel, fss: FiniteStateStrategy, target: np.ndar
                         if model.action_names[model.choice_actions[c]] in fss.actions else -1
                     w = Fraction(fss.action[n, z, a]).limit_denominator(10**6) if a >= 0 else 0
                     for m in range(fss.memory_size):
-                        d = Fraction(fss.update[n, z, a, m]).limit_denominator(10**6) if a >= 0 else 0
+                        d = (
+                            Fraction(fss.update[n, z, a, m]).limit_denominator(10**6)
+                            if a >= 0
+                            else 0
+                        )
                         for j in range(T.indptr[c], T.indptr[c + 1]):
                             q = Fraction(T.data[j]).limit_denominator(10**6)
                             key = (int(T.indices[j]), m)
@@ -209,8 +215,11 @@ def _brute_force(model: ExplicitModel, fss: FiniteStateStrategy, target: np.ndar
                     out[key] = out.get(key, 0) + Fraction(T.data[j]).limit_denominator(10**6)
             succ[(s, n)] = {k: v for k, v in out.items() if v}
             stack.extend(succ[(s, n)])
-        best = min(best, _reach(succ, target, (int(model.initial_states[0]), fss.initial_memory))) \
-            if best is not None else _reach(succ, target, (int(model.initial_states[0]), fss.initial_memory))
+        best = (
+            min(best, _reach(succ, target, (int(model.initial_states[0]), fss.initial_memory)))
+            if best is not None
+            else _reach(succ, target, (int(model.initial_states[0]), fss.initial_memory))
+        )
     assert best is not None
     return best
 
@@ -252,8 +261,12 @@ def _reach(succ: dict, target: np.ndarray, start: tuple[int, int]) -> Fraction:
     return A[i][size] / A[i][i]
 
 
-@pytest.mark.parametrize(("fss", "expected"), [(ONE_LOOK, Fraction(7, 10)), (AGREE, Fraction(637, 790))])
-def test_guessing_game_by_hand_and_brute_force(fss: FiniteStateStrategy, expected: Fraction) -> None:
+@pytest.mark.parametrize(
+    ("fss", "expected"), [(ONE_LOOK, Fraction(7, 10)), (AGREE, Fraction(637, 790))]
+)
+def test_guessing_game_by_hand_and_brute_force(
+    fss: FiniteStateStrategy, expected: Fraction
+) -> None:
     session = api.load(text=GUESS)
     model = api.build(session).model
     # 1 hiding state, 6 guessing states (c, sig), 12 final ones (c, sig, win)
@@ -274,8 +287,14 @@ def games(draw: st.DrawFn) -> tuple[ExplicitModel, FiniteStateStrategy, FiniteSt
     owner = rng.integers(0, 2, size=S)
     owner[goal] = 1
     obs0 = rng.integers(0, 2, size=S)  # player 0 sees one bit
-    labels0 = {0: sorted(rng.choice(["a", "b", "c"], size=int(rng.integers(1, 4)), replace=False).tolist()),
-               1: sorted(rng.choice(["a", "b", "c"], size=int(rng.integers(1, 4)), replace=False).tolist())}
+    labels0 = {
+        0: sorted(
+            rng.choice(["a", "b", "c"], size=int(rng.integers(1, 4)), replace=False).tolist()
+        ),
+        1: sorted(
+            rng.choice(["a", "b", "c"], size=int(rng.integers(1, 4)), replace=False).tolist()
+        ),
+    }
     names = ("", "a", "b", "c", "x", "y")
     rows, actions, row_groups = [], [], [0]
     for s in range(S):
@@ -340,8 +359,12 @@ def test_guaranteed_le_value_le_upper_bound(game: tuple, direction: str) -> None
 
     model, p0, p1 = game
     prop = f'<<p0>> P{direction}=? [ F "goal" ]'
-    checker = StrategyChecker(model, {"p0": p0, "p1": p1},
-                              coalition_of=api._coalition_resolver(model, False), scalar=api._scalar)
+    checker = StrategyChecker(
+        model,
+        {"p0": p0, "p1": p1},
+        coalition_of=api._resolver(model, False).coalition_of,
+        scalar=api._scalar,
+    )
     r = checker.check(parser.parse_property(prop).expr, text=prop)
     g, v, u = r.guaranteed, r.vs_fss_adversary, r.upper_bound
     eps = 1e-6
@@ -374,7 +397,9 @@ def _forward_doc() -> dict:
         (lambda d: d["rules"].pop(3), "rules", "no rule for memory 0 under the observation {x=3}"),
     ],
 )
-def test_strategy_that_does_not_fit_the_model(tmp_path: Path, change, path: str, words: str) -> None:
+def test_strategy_that_does_not_fit_the_model(
+    tmp_path: Path, change, path: str, words: str
+) -> None:
     doc = _forward_doc()
     change(doc)
     f = tmp_path / "bad.json"

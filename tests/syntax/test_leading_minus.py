@@ -10,13 +10,18 @@ from posgmc.errors import ParseError
 from posgmc.syntax.parser import parse_properties, parse_property
 from posgmc.syntax.printer import format_expr
 
-MODEL = "dtmc\nmodule m\n  s : [0..1] init 0;\n  [] s=0 -> 0.25:(s'=1) + 0.75:(s'=0);\n  [] s=1 -> true;\nendmodule\n"
+MODEL = (
+    "dtmc\nmodule m\n  s : [0..1] init 0;\n"
+    "  [] s=0 -> 0.25:(s'=1) + 0.75:(s'=0);\n  [] s=1 -> true;\nendmodule\n"
+)
 
 
 def test_minus_binds_to_the_leftmost_operand() -> None:
     assert format_expr(parse_property("-P=? [ F s=1 ] + 1").expr) == "-P=? [ F (s = 1) ] + 1"
     # (-2)*3 and -(2*3) agree; (-1) + 2 and -(1 + 2) do not: PRISM's is the first
-    report = api.check(api.load(text=MODEL), properties=["-1 + 2", "-2 * 3 - 1", '"neg": -P=? [ X s=1 ]'])
+    report = api.check(
+        api.load(text=MODEL), properties=["-1 + 2", "-2 * 3 - 1", '"neg": -P=? [ X s=1 ]']
+    )
     assert [r.value for r in report.results] == [1, -7, -0.25]
 
 

@@ -23,7 +23,10 @@ from posgmc.syntax.parser import parse_expression
     ],
 )
 def test_power_precedence_and_value(text: str, expected: float) -> None:
-    model = f"dtmc\nconst double c = {text};\nmodule m\n  s : [0..1] init 0;\n  [] true -> true;\nendmodule\n"
+    model = (
+        f"dtmc\nconst double c = {text};\n"
+        "module m\n  s : [0..1] init 0;\n  [] true -> true;\nendmodule\n"
+    )
     report = api.check(api.load(text=model), properties=["c"])
     assert not report.errors
     assert report.results[0].value == pytest.approx(expected)

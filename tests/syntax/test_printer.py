@@ -107,7 +107,7 @@ def _paths(states: st.SearchStrategy[Expr]) -> st.SearchStrategy[Expr]:
             bounds,
         )
         binary = st.builds(
-            lambda op, l, r, bd: Temporal(op, (l, r), bd),
+            lambda op, left, right, bd: Temporal(op, (left, right), bd),
             st.sampled_from([TemporalOp.UNTIL, TemporalOp.WEAK_UNTIL, TemporalOp.RELEASE]),
             children,
             children,

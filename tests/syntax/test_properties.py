@@ -299,7 +299,7 @@ def test_parse_property_single() -> None:
     assert prop.expected == ()
 
 
-# -- Storm's unparenthesised temporal operands (Storm's FormulaParser accepts them; PRISM does not) --
+# -- Storm's unparenthesised temporal operands (Storm's FormulaParser accepts; PRISM does not) --
 
 
 @pytest.mark.parametrize(
@@ -325,7 +325,9 @@ def test_temporal_operand_of_a_comparison_says_where_the_parentheses_go() -> Non
     assert "X (x = 1)" in (err.hint or "")
 
 
-@pytest.mark.parametrize("text", ['P=? [ F "a" & X "b" ]', 'P=? [ X "a" & X "b" ]', 'P=? [ G "a" | F "b" ]'])
+@pytest.mark.parametrize(
+    "text", ['P=? [ F "a" & X "b" ]', 'P=? [ X "a" & X "b" ]', 'P=? [ G "a" | F "b" ]']
+)
 def test_temporal_inside_a_temporal_operand_is_ambiguous(text: str) -> None:
     # PRISM reads F a & X b as F (a & X b), Storm as (F a) & (X b): neither is guessed
     with pytest.raises(ParseError) as info:

@@ -12,9 +12,9 @@ import pytest
 from posgmc import api
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import enumerate_adversaries, versus_adversaries
 from posgmc.synthesis.search import SynthesisOptions, synthesize
-from posgmc.syntax import parser
 from tests.strategies.test_simulate import _game
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "posmg"
@@ -49,16 +49,25 @@ def _labels_by_observation(model, player: int, ids: np.ndarray) -> list[list[str
 @pytest.mark.parametrize("seed", [0, 1, 2, 3, 4, 5, 6, 7])
 def test_brute_force_max_min_is_below_upper_bound(seed: int) -> None:
     model, _, _ = _game(seed)
-    coalition = api._coalition_resolver(model, False)
+    coalition = api._resolver(model, False).coalition_of
     q = parser.parse_property(PROP).expr
     # player 0 sees one bit (ids 0/1), player 1 everything (the state number s)
     obs0 = model.observation_of(0)
     offered0 = _labels_by_observation(model, 0, obs0.state_ids)[:2]
     keep0 = [i for i, row in enumerate(offered0) if row]
     own1 = np.flatnonzero(model.state_players == 1)
-    offered1 = [[model.action_names[model.choice_actions[c]]
-                 for c in range(model.row_groups[s], model.row_groups[s + 1])] for s in own1.tolist()]
-    d0 = list(_deterministic(model, "p0", ("o",), np.array([[i] for i in keep0]), [offered0[i] for i in keep0]))
+    offered1 = [
+        [
+            model.action_names[model.choice_actions[c]]
+            for c in range(model.row_groups[s], model.row_groups[s + 1])
+        ]
+        for s in own1.tolist()
+    ]
+    d0 = list(
+        _deterministic(
+            model, "p0", ("o",), np.array([[i] for i in keep0]), [offered0[i] for i in keep0]
+        )
+    )
     d1 = list(_deterministic(model, "p1", ("s",), own1[:, None], offered1))
     maxmin = -1.0
     for f0 in d0:
@@ -68,10 +77,23 @@ def test_brute_force_max_min_is_below_upper_bound(seed: int) -> None:
         maxmin = max(maxmin, worst)
     enum = enumerate_adversaries(model, 1, limit=10_000)
     assert enum.exhaustive and 1 <= len(enum.strategies) <= len(d1)
-    result = synthesize(model, q, player=0, coalition_of=coalition, scalar=api._scalar,
-                        options=SynthesisOptions(memory=(1,), restarts=1, iterations=15, timeout=30))
-    vs, ub, evaluated, _ = versus_adversaries(model, q, result.strategy, enum.strategies, maximize=True,
-                                           coalition_of=coalition, scalar=api._scalar)
+    result = synthesize(
+        model,
+        q,
+        player=0,
+        coalition_of=coalition,
+        scalar=api._scalar,
+        options=SynthesisOptions(memory=(1,), restarts=1, iterations=15, timeout=30),
+    )
+    vs, ub, evaluated, _ = versus_adversaries(
+        model,
+        q,
+        result.strategy,
+        enum.strategies,
+        maximize=True,
+        coalition_of=coalition,
+        scalar=api._scalar,
+    )
     assert evaluated == len(enum.strategies)
     assert maxmin <= ub.upper + 1e-6
     assert result.guaranteed.lower <= vs.upper + 1e-6  # guaranteed <= value vs every adversary
@@ -95,15 +117,21 @@ def test_adversaries_with_memory_include_the_memoryless_ones(seed: int) -> None:
     memoryless one; every enumerated strategy is distinct on the reachable part (no two give the
     same product); and enumeration is exhaustive on these small games."""
     model, _, _ = _game(seed)
-    coalition = api._coalition_resolver(model, False)
+    coalition = api._resolver(model, False).coalition_of
     q = parser.parse_property(PROP).expr
     one = enumerate_adversaries(model, 1, limit=10_000)
     two = enumerate_adversaries(model, 1, memory=2, limit=10_000)
     assert one.exhaustive and two.exhaustive
     assert len(two.strategies) >= len(one.strategies)
     assert all(f.memory_size == 2 for f in two.strategies)
-    result = synthesize(model, q, player=0, coalition_of=coalition, scalar=api._scalar,
-                        options=SynthesisOptions(memory=(1,), restarts=1, iterations=10, timeout=30))
+    result = synthesize(
+        model,
+        q,
+        player=0,
+        coalition_of=coalition,
+        scalar=api._scalar,
+        options=SynthesisOptions(memory=(1,), restarts=1, iterations=10, timeout=30),
+    )
     vs1, _, _, _ = versus_adversaries(model, q, result.strategy, one.strategies, maximize=True,
                                       coalition_of=coalition, scalar=api._scalar)
     vs2, _, _, worst = versus_adversaries(model, q, result.strategy, two.strategies, maximize=True,

@@ -14,15 +14,15 @@ from hypothesis import strategies as st
 
 from posgmc import api
 from posgmc.checking.dispatch import CheckOptions
+from posgmc.model.explicit import Observation, make_model
 from posgmc.strategies.files import read_strategy, write_strategy
 from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax import parser
+from posgmc.syntax.ast import ModelType
 from posgmc.synthesis.checker import SynthesisChecker
 from posgmc.synthesis.compose import VersusJob, _best_response, one_sided
 from posgmc.synthesis.jobs import POLICY, InProcess
 from posgmc.synthesis.search import SynthesisOptions, problem_of
-from posgmc.syntax import parser
-from posgmc.model.explicit import Observation, make_model
-from posgmc.syntax.ast import ModelType
 from tests.synthesis.test_adversaries import _deterministic, _labels_by_observation
 
 PROP = '<<p0>> Pmax=? [ F "goal" ]'
@@ -43,8 +43,10 @@ def random_posg(seed: int):  # type: ignore[no-untyped-def]
     owner[0] = 0
     owner[[goal, sink]] = 1
     obs0 = rng.integers(0, 2, size=S)
-    labels0 = {z: sorted(rng.choice(["a", "b", "c"], size=int(rng.integers(2, 4)), replace=False).tolist())
-               for z in (0, 1)}
+    labels0 = {
+        z: sorted(rng.choice(["a", "b", "c"], size=int(rng.integers(2, 4)), replace=False).tolist())
+        for z in (0, 1)
+    }
     names = ("", "a", "b", "c", "x", "y")
     rows, actions, row_groups = [], [], [0]
     for s in range(S):
@@ -76,13 +78,13 @@ def random_posg(seed: int):  # type: ignore[no-untyped-def]
 
 
 def _problem(model):  # type: ignore[no-untyped-def]
-    coalition = api._coalition_resolver(model, False)
+    coalition = api._resolver(model, False).coalition_of
     return problem_of(model, parser.parse_property(PROP).expr, player=0, adversary=1,
                       coalition_of=coalition, scalar=api._scalar)
 
 
 def _synthesised(model, options: SynthesisOptions = SMALL):  # type: ignore[no-untyped-def]
-    checker = SynthesisChecker(model, coalition_of=api._coalition_resolver(model, False),
+    checker = SynthesisChecker(model, coalition_of=api._resolver(model, False).coalition_of,
                                scalar=api._scalar, synthesis=options)
     return checker.check(parser.parse_property(PROP).expr, text=PROP)
 
@@ -121,7 +123,9 @@ def test_ranking_composition_and_double_oracle(seed: int) -> None:
     before = min(executor.map([VersusJob(defence, a) for a in found.kept[:1]]))
     first_round = found.responses[0][0] if found.responses else None
     assert composed.value >= before - 1e-9 or found.added > 0
-    against_all = executor.map([VersusJob(composed.strategy, a) for a in found.enumeration.strategies])
+    against_all = executor.map(
+        [VersusJob(composed.strategy, a) for a in found.enumeration.strategies]
+    )
     assert min(against_all) >= composed.value - 1e-9
     assert first_round is None or found.responses[-1][1]  # exhaustive responses on small games
     assert len(found.kept) == 1 + found.added
@@ -149,7 +153,7 @@ def test_pipeline_invariants_on_random_posgs(seed: int, tmp_path_factory) -> Non
     * the same seed gives the same result, bit for bit.
     """
     model = random_posg(seed)
-    coalition = api._coalition_resolver(model, False)
+    coalition = api._resolver(model, False).coalition_of
     q = parser.parse_property(PROP).expr
     r = _synthesised(model)
     assert r.guaranteed is not None and r.upper_bound is not None and r.vs_fss_adversary is not None
@@ -159,15 +163,29 @@ def test_pipeline_invariants_on_random_posgs(seed: int, tmp_path_factory) -> Non
     offered0 = _labels_by_observation(model, 0, obs0.state_ids)[:2]
     keep0 = [i for i, row in enumerate(offered0) if row]
     own1 = np.flatnonzero(model.state_players == 1)
-    offered1 = [[model.action_names[model.choice_actions[c]]
-                 for c in range(model.row_groups[s], model.row_groups[s + 1])] for s in own1.tolist()]
+    offered1 = [
+        [
+            model.action_names[model.choice_actions[c]]
+            for c in range(model.row_groups[s], model.row_groups[s + 1])
+        ]
+        for s in own1.tolist()
+    ]
     d0 = list(_deterministic(model, "p0", ("o",), np.array([[i] for i in keep0]),
                              [offered0[i] for i in keep0]))
     d1 = list(_deterministic(model, "p1", ("s",), own1[:, None], offered1))
     maxmin = max(
-        min(StrategyChecker(model, {"p0": f0, "p1": f1}, coalition_of=coalition,
-                            scalar=api._scalar, options=POLICY).check(q, text=PROP).vs_fss_adversary.value
-            for f1 in d1)
+        min(
+            StrategyChecker(
+                model,
+                {"p0": f0, "p1": f1},
+                coalition_of=coalition,
+                scalar=api._scalar,
+                options=POLICY,
+            )
+            .check(q, text=PROP)
+            .vs_fss_adversary.value
+            for f1 in d1
+        )
         for f0 in d0
     )
     assert maxmin <= r.upper_bound.upper + 1e-6

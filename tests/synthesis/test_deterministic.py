@@ -12,18 +12,18 @@ import pytest
 
 from posgmc import api
 from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import _forward
 from posgmc.synthesis.deterministic import DeterministicJob, quotient_of, search
 from posgmc.synthesis.jobs import POLICY
 from posgmc.synthesis.search import parametrisation, problem_of
-from posgmc.syntax import parser
 from tests.synthesis.test_compose import random_posg
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "posmg"
 
 
 def _problem(model, prop: str):  # type: ignore[no-untyped-def]
-    coalition = api._coalition_resolver(model, False)
+    coalition = api._resolver(model, False).coalition_of
     return problem_of(model, parser.parse_property(prop).expr, player=0, adversary=1,
                       coalition_of=coalition, scalar=api._scalar)
 
@@ -69,7 +69,9 @@ def test_exhaustive_search_finds_the_brute_force_optimum(seed: int, prop: str) -
         assert found is not None and found.exhaustive
         # the search's number is its own float ranking; the checker's value of its FSS is the
         # brute-force optimum (every member is a deterministic FSS, and none is better)
-        assert _guaranteed(problem, memory, found.gamma, found.delta) == pytest.approx(optimum, abs=1e-8)
+        assert _guaranteed(problem, memory, found.gamma, found.delta) == pytest.approx(
+            optimum, abs=1e-8
+        )
         assert found.value == pytest.approx(optimum, abs=1e-7)
 
 
@@ -81,10 +83,14 @@ def test_quotient_sizes_and_bound() -> None:
     q1 = quotient_of(problem, 1)
     assert q1 is not None
     reach = _forward(model)  # the model's states reachable under any choices
-    assert q1.model.num_states == int(reach.sum()) == 9  # random_posg(2): 10 states, one unreachable
+    assert (
+        q1.model.num_states == int(reach.sum()) == 9
+    )  # random_posg(2): 10 states, one unreachable
     assert q1.model.num_choices == int(np.diff(model.row_groups)[reach].sum())
     q2 = quotient_of(problem, 2)
-    assert q2 is not None and q2.num_holes == 2 * q1.num_holes and q2.num_options == 2 * q1.num_options
+    assert (
+        q2 is not None and q2.num_holes == 2 * q1.num_holes and q2.num_options == 2 * q1.num_options
+    )
     # a decision maker's choice gives one row per next node, an adversary's one row
     owned = model.state_players[model.choice_states] == 0
     assert q2.model.num_choices <= 2 * (2 * int(owned.sum()) + int((~owned).sum()))
@@ -104,13 +110,15 @@ def test_runs_are_deterministic_and_seeded_sizes_never_lose(seed: int) -> None:
     assert a[0].value <= a[1].value + 1e-12 <= a[2].value + 2e-12
 
 
-@pytest.mark.skipif(not (SHARED / "test-game" / "sketch.templ").exists(), reason="shared benchmarks absent")
+@pytest.mark.skipif(
+    not (SHARED / "test-game" / "sketch.templ").exists(), reason="shared benchmarks absent"
+)
 def test_test_game_deterministic_optima_match_paynt() -> None:
     """PAYNT 0.5.0 --fsc-synthesis on test-game: the best deterministic 1-node FSC is worth 0.375
     and the best 2-node one 0.439453 (RESULTS.md; both exhaustive there as here)."""
     session = api.load(SHARED / "test-game" / "sketch.templ")
     model = api.build(session).model
-    coalition = api._coalition_resolver(model, True)
+    coalition = api._resolver(model, True).coalition_of
     problem = problem_of(model, parser.parse_property('<<0>> Pmax=? [F "goal"]').expr, player=0,
                          adversary=1, coalition_of=coalition, scalar=api._scalar)
     one = search(problem, 1, deadline=None)

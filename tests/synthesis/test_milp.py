@@ -11,17 +11,17 @@ import numpy as np
 import pytest
 
 from posgmc import api
+from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import enumerate_adversaries
 from posgmc.synthesis.compose import VersusJob
 from posgmc.synthesis.milp import compose_milp, supported
 from posgmc.synthesis.search import parametrisation, problem_of
-from posgmc.syntax import parser
 from tests.synthesis.test_compose import random_posg
 
 
 def _problem(model, prop: str):  # type: ignore[no-untyped-def]
     return problem_of(model, parser.parse_property(prop).expr, player=0, adversary=1,
-                      coalition_of=api._coalition_resolver(model, False), scalar=api._scalar)
+                      coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar)
 
 
 @pytest.mark.parametrize("full_observation", [False, True])
@@ -49,7 +49,9 @@ def test_milp_is_the_brute_force_min_max(seed: int, full_observation: bool) -> N
     assert found is not None and found.optimal
     assert found.value == pytest.approx(best, abs=1e-7)
     # its strategy achieves it (the strategy checker on each product)
-    assert max(VersusJob(found.strategy, a).run(problem) for a in adversaries) == pytest.approx(best, abs=1e-7)
+    assert max(VersusJob(found.strategy, a).run(problem) for a in adversaries) == pytest.approx(
+        best, abs=1e-7
+    )
 
 
 def test_maximised_probabilities_are_not_offered() -> None:

@@ -22,7 +22,17 @@ ROVER = ROOT / "models" / "rover.posg"
 def _run(path: Path, prop: str, tmp_path: Path, *memory: str) -> tuple[dict, dict]:  # type: ignore[type-arg]
     """Synthesise with export, then recheck the exported defence with --strategy."""
     out = tmp_path / "fss"
-    args = ["check", str(path), "--prop", prop, "--timeout", "10", "--json", "--export-strategy", str(out)]
+    args = [
+        "check",
+        str(path),
+        "--prop",
+        prop,
+        "--timeout",
+        "10",
+        "--json",
+        "--export-strategy",
+        str(out),
+    ]
     for m in memory:
         args += ["--memory", m]
     r = CliRunner().invoke(main, args)
@@ -55,10 +65,21 @@ def test_step_bound_and_ltl_on_beacon(prop: str, tmp_path: Path) -> None:
 def test_step_bound_is_below_the_unbounded_value(tmp_path: Path) -> None:
     """A bounded reachability is at most the unbounded one, for the same strategy: the F<=12
     defence synthesised on rover.posg guarantees no more for F<=12 than for F (checked on the game
-    with --strategy), and no more than the full-observation F<=12 value (the goal is 4 moves away, every other step the attacker's)."""
+    with --strategy), and no more than the full-observation F<=12 value (the goal is 4 moves away,
+    every other step the attacker's)."""
     res, _ = _run(ROVER, '<<rover>> Pmax=? [ F<=12 "goal" ]', tmp_path, "1")
-    again = CliRunner().invoke(main, ["check", str(ROVER), "--prop", '<<rover>> Pmax=? [ F "goal" ]',
-                                      "--strategy", f"rover={tmp_path / 'fss' / 'rover.json'}", "--json"])
+    again = CliRunner().invoke(
+        main,
+        [
+            "check",
+            str(ROVER),
+            "--prop",
+            '<<rover>> Pmax=? [ F "goal" ]',
+            "--strategy",
+            f"rover={tmp_path / 'fss' / 'rover.json'}",
+            "--json",
+        ],
+    )
     unbounded = json.loads(again.output)["results"][0]["guaranteed"]
     assert res["guaranteed"]["lower"] <= unbounded["upper"] + 1e-9
     assert res["guaranteed"]["upper"] <= res["full_observation"]["upper"] + 1e-9

@@ -10,10 +10,16 @@ import numpy as np
 import pytest
 
 from posgmc import api
-from posgmc.synthesis import parametric
-from posgmc.synthesis.search import (SynthesisOptions, _qmdp, _with_warm_up, parametrisation,
-                                     problem_of, synthesize)
 from posgmc.syntax import parser
+from posgmc.synthesis import parametric
+from posgmc.synthesis.search import (
+    SynthesisOptions,
+    _qmdp,
+    _with_warm_up,
+    parametrisation,
+    problem_of,
+    synthesize,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 SECURE = ROOT / "models" / "secure_autonomy" / "secure_autonomy.posg"
@@ -27,18 +33,32 @@ def _problem(path: Path, prop: str, constants: dict[str, str] | None = None,
              zero_based: bool = False):  # type: ignore[no-untyped-def]
     session = api.load(path, constants=constants)
     model = api.build(session).model
-    coalition_of = api._coalition_resolver(model, zero_based)
+    coalition_of = api._resolver(model, zero_based).coalition_of
     expr = parser.parse_property(prop).expr
     players = coalition_of(expr.coalition)
     player = next(iter(players)) if players else 0
     adversary = (1 - player) if len(model.player_names) == 2 else None
-    return model, expr, player, coalition_of, problem_of(model, expr, player=player, adversary=adversary,
-                                                         coalition_of=coalition_of, scalar=api._scalar)
+    return (
+        model,
+        expr,
+        player,
+        coalition_of,
+        problem_of(
+            model,
+            expr,
+            player=player,
+            adversary=adversary,
+            coalition_of=coalition_of,
+            scalar=api._scalar,
+        ),
+    )
 
 
 @pytest.mark.parametrize("prop", ['<<planner>> Pmax=? [ F "retrieved" ]',
                                   '<<planner>> R{"time"}min=? [ Fdiscount=0.95 "retrieved" ]'])
-def test_iterative_evaluation_agrees_with_the_exact_one(prop: str, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_iterative_evaluation_agrees_with_the_exact_one(
+    prop: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Value iteration for the adversary's best response and the adjoint (large products) gives
     the value and gradient of the sparse LU path to the iterations' tolerance, also when
     warm-started from the previous evaluation."""
@@ -81,10 +101,20 @@ def test_a_memory_range_above_one_is_warm_started_from_a_memoryless_defence() ->
         pytest.skip("shared benchmarks not present")
     assert _with_warm_up((2,)) == (1, 2) and _with_warm_up((1, 2)) == (1, 2)
     assert _with_warm_up((3, 4)) == (1, 3, 4)
-    model, expr, player, coalition_of, _ = _problem(TEST_GAME, '<<0>> Pmax=? [F "goal"]', zero_based=True)
-    results = {k: synthesize(model, expr, player=player, coalition_of=coalition_of, scalar=api._scalar,
-                             options=SynthesisOptions(memory=(k,), seed=0, timeout=60, adversaries=0))
-               for k in (1, 2)}
+    model, expr, player, coalition_of, _ = _problem(
+        TEST_GAME, '<<0>> Pmax=? [F "goal"]', zero_based=True
+    )
+    results = {
+        k: synthesize(
+            model,
+            expr,
+            player=player,
+            coalition_of=coalition_of,
+            scalar=api._scalar,
+            options=SynthesisOptions(memory=(k,), seed=0, timeout=60, adversaries=0),
+        )
+        for k in (1, 2)
+    }
     assert [r.memory for r in results[2].rounds] == [1, 2]
     assert results[2].strategy.memory_size == 2
     assert results[2].guaranteed.lower >= results[1].guaranteed.lower - 1e-9
@@ -136,13 +166,17 @@ def test_qmdp_start_favours_the_best_worst_case_q_value_per_observation() -> Non
     assert np.all(ld.argmax(axis=3) == np.arange(2)[:, None, None])  # memory stays put
 
 
-def test_seeded_runs_are_bit_identical_on_the_iterative_path(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_seeded_runs_are_bit_identical_on_the_iterative_path(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     """The warm starts of the iterative evaluation live inside one search job, so a seed still
     fixes the result."""
     if not TEST_GAME.exists():
         pytest.skip("shared benchmarks not present")
     monkeypatch.setattr(parametric, "ITERATIVE_STATES", 0)
-    model, expr, player, coalition_of, _ = _problem(TEST_GAME, '<<0>> Pmax=? [F "goal"]', zero_based=True)
+    model, expr, player, coalition_of, _ = _problem(
+        TEST_GAME, '<<0>> Pmax=? [F "goal"]', zero_based=True
+    )
     opts = SynthesisOptions(memory=(1, 2), seed=7, timeout=60, adversaries=0)
     a, b = (synthesize(model, expr, player=player, coalition_of=coalition_of, scalar=api._scalar,
                        options=opts) for _ in range(2))

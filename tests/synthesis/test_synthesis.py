@@ -13,10 +13,10 @@ from click.testing import CliRunner
 from posgmc import api
 from posgmc.cli import main
 from posgmc.strategies.verify import StrategyChecker
-from posgmc.synthesis.parametric import Parametrisation
-from posgmc.synthesis.search import SynthesisOptions, _embed_strategy, synthesize
 from posgmc.syntax import parser
 from posgmc.syntax.ast import Direction
+from posgmc.synthesis.parametric import Parametrisation
+from posgmc.synthesis.search import SynthesisOptions, _embed_strategy, synthesize
 
 ROOT = Path(__file__).resolve().parents[2]
 SHARED = ROOT.parent / "shared" / "benchmarks" / "posmg"
@@ -28,7 +28,7 @@ def _game(name: str):  # type: ignore[no-untyped-def]
     if not path.exists():
         pytest.skip("shared benchmarks not present")
     model = api.build(api.load(path)).model
-    return model, api._coalition_resolver(model, True)
+    return model, api._resolver(model, True).coalition_of
 
 
 def _query(text: str):  # type: ignore[no-untyped-def]
@@ -43,7 +43,7 @@ def test_gradient_matches_finite_differences(k: int) -> None:
     model = api.build(api.load(ROOT / "models" / "rover.posg")).model
     q = _query('<<rover>> Pmax=? [ !"crash" U "goal" ]')
     par = Parametrisation(model, 0, k, q, model.label("goal"), ~model.label("crash"),
-                          coalition_of=api._coalition_resolver(model, False), scalar=api._scalar)
+                          coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar)
     rng = np.random.default_rng(k)
     la, ld = rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])
     g, d = par.probabilities(la, ld)
@@ -68,9 +68,14 @@ def test_full_observation_memoryless_reproduces_the_optimum() -> None:
     """On rover.smg the rover sees everything: synthesis (k = 1) guarantees the engines' optimum
     (0.9876561794, the exact value: tests/engines/test_step_fixpoint.py's fixpoint of F<=k)."""
     model = api.build(api.load(ROOT / "models" / "rover.smg")).model
-    r = synthesize(model, parser.parse_property('<<rover>> Pmax=? [ !"crash" U "goal" ]').expr,
-                   player=0, coalition_of=api._coalition_resolver(model, False), scalar=api._scalar,
-                   options=SynthesisOptions(memory=(1,), restarts=0, iterations=5, timeout=30))
+    r = synthesize(
+        model,
+        parser.parse_property('<<rover>> Pmax=? [ !"crash" U "goal" ]').expr,
+        player=0,
+        coalition_of=api._resolver(model, False).coalition_of,
+        scalar=api._scalar,
+        options=SynthesisOptions(memory=(1,), restarts=0, iterations=5, timeout=30),
+    )
     assert r.guaranteed.lower - 1e-6 <= 0.9876561794 <= r.guaranteed.upper + 1e-6
     assert r.full_observation.lower <= r.guaranteed.upper + 1e-9
 
@@ -122,8 +127,19 @@ def test_cli_synthesises_exports_and_the_file_rechecks(tmp_path: Path) -> None:
     assert r.exit_code == 0, r.output
     res = json.loads(r.output)["results"][0]
     assert set(res) >= {"guaranteed", "full_observation", "memory", "partial", "phases", "rounds"}
-    again = CliRunner().invoke(main, ["check", str(TEST_GAME), "--prop", '<<0>> Pmax=? [F "goal"]',
-                                      "--zero-based-players", "--strategy", str(out / "0.json"), "--json"])
+    again = CliRunner().invoke(
+        main,
+        [
+            "check",
+            str(TEST_GAME),
+            "--prop",
+            '<<0>> Pmax=? [F "goal"]',
+            "--zero-based-players",
+            "--strategy",
+            str(out / "0.json"),
+            "--json",
+        ],
+    )
     assert again.exit_code == 0, again.output
     assert json.loads(again.output)["results"][0]["guaranteed"] == res["guaranteed"]
 
@@ -137,7 +153,7 @@ def test_discounted_cost_gradient_matches_finite_differences() -> None:
                 direction=Direction.MIN)
     rewards = model.reward_model("steps").choice_rewards(model.row_groups)
     par = Parametrisation(model, 0, 2, q, model.label("over"), np.ones(model.num_states, bool),
-                          coalition_of=api._coalition_resolver(model, False), scalar=api._scalar,
+                          coalition_of=api._resolver(model, False).coalition_of, scalar=api._scalar,
                           rewards=rewards, discount=0.9)
     rng = np.random.default_rng(3)
     la, ld = rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])
@@ -161,9 +177,14 @@ def test_discounted_cost_synthesis_reaches_the_full_observation_optimum() -> Non
     """Hurrying forward needs no observation: the rover's memoryless synthesised strategy matches
     the full-observation optimum of rover.smg (3.8826229, the interval engine's value)."""
     model = api.build(api.load(ROOT / "models" / "rover.posg")).model
-    r = synthesize(model, parser.parse_property('<<rover>> R{"steps"}min=? [ Fdiscount=0.9 "over" ]').expr,
-                   player=0, coalition_of=api._coalition_resolver(model, False), scalar=api._scalar,
-                   options=SynthesisOptions(memory=(1,), restarts=0, iterations=10, timeout=30))
+    r = synthesize(
+        model,
+        parser.parse_property('<<rover>> R{"steps"}min=? [ Fdiscount=0.9 "over" ]').expr,
+        player=0,
+        coalition_of=api._resolver(model, False).coalition_of,
+        scalar=api._scalar,
+        options=SynthesisOptions(memory=(1,), restarts=0, iterations=10, timeout=30),
+    )
     assert r.guaranteed.lower - 1e-6 <= 3.8826229 <= r.guaranteed.upper + 1e-6
     assert r.full_observation.lower <= r.guaranteed.upper + 1e-9
 

@@ -47,16 +47,22 @@ def test_library_front(model: Path) -> None:
     assert front.precision <= 1e-6 and front.converged
     rows = list(csv.reader(io.StringIO(front_to_csv(front))))
     assert rows[0] == ["kind", 'R{"r"}max=? [ C ]', 'Pmax=? [ F "goal" ]']
-    assert [r[0] for r in rows[1:]] == ["achievable"] * 2 + ["over_approximation"] * 2 + ["precision"]
+    assert [r[0] for r in rows[1:]] == ["achievable"] * 2 + ["over_approximation"] * 2 + [
+        "precision"
+    ]
 
 
 def test_library_numerical_and_errors(model: Path) -> None:
     # max reward with P(goal) >= 0.9: mix a (q) and b: 1 - q/2 >= 0.9, q <= 0.2, reward 0.6;
     # c helps: mixing c and b, 1 - 0.2 qc >= 0.9 allows qc = 1/2 with reward 0.5 < 0.6
-    assert multi_objective(model, 'multi(R{"r"}max=? [ C ], P>=0.9 [ F "goal" ])').value == pytest.approx(0.6)
+    assert multi_objective(
+        model, 'multi(R{"r"}max=? [ C ], P>=0.9 [ F "goal" ])'
+    ).value == pytest.approx(0.6)
     with pytest.raises(InputError):
         multi_objective(model, 'Pmax=? [ F "goal" ]')
-    three = multi_objective(model, 'multi(R{"r"}max=? [ C ], Pmax=? [ F "goal" ], Pmin=? [ F "goal" ])')
+    three = multi_objective(
+        model, 'multi(R{"r"}max=? [ C ], Pmax=? [ F "goal" ], Pmin=? [ F "goal" ])'
+    )
     assert three.front is not None and three.front.points.shape[1] == 3
     with pytest.raises(UnsupportedError, match="at most 5"):
         multi_objective(model, "multi(" + ", ".join(['Pmax=? [ F "goal" ]'] * 6) + ")")
@@ -70,17 +76,34 @@ def test_pareto_command_prints_writes_and_draws(model: Path, tmp_path: Path) -> 
     assert r.exit_code == 0, r.output
     lines = r.output.splitlines()
     assert lines[0].startswith(f"{PROP}: Pareto front, 2 vertices")
-    assert lines[2].split() == ["achievable", "3", "0.5"] and lines[3].split() == ["achievable", "0", "1"]
+    assert lines[2].split() == ["achievable", "3", "0.5"] and lines[3].split() == [
+        "achievable",
+        "0",
+        "1",
+    ]
     assert "precision" in r.output
     assert csv_file.read_text().startswith("kind,")
     assert "</svg>" in plot.read_text()
 
 
 def test_pareto_command_on_a_numerical_query(model: Path, tmp_path: Path) -> None:
-    r = CliRunner().invoke(main, ["pareto", str(model), "--prop", 'multi(Pmax=? [ F "goal" ], R{"r"}>=1 [ C ])'])
+    r = CliRunner().invoke(
+        main, ["pareto", str(model), "--prop", 'multi(Pmax=? [ F "goal" ], R{"r"}>=1 [ C ])']
+    )
     # reward >= 1: a with q >= 1/3 gives 1 - q/2 = 5/6; c with qc = 1 gives 0.8; mixing a and c
     # (3 qa + qc >= 1): P = 1 - qa/2 - 0.2 qc, best qa = 1/3 (1/6 lost) vs qc = 1 (0.2 lost): 5/6
-    assert r.exit_code == 0 and r.output.startswith(f"multi(Pmax=? [ F \"goal\" ], R{{\"r\"}}>=1 [ C ]): 0.83333333")
-    r = CliRunner().invoke(main, ["pareto", str(model), "--prop", 'multi(Pmax=? [ F "goal" ], R{"r"}>=1 [ C ])',
-                                  "--csv", str(tmp_path / "x.csv")])
+    assert r.exit_code == 0 and r.output.startswith(
+        'multi(Pmax=? [ F "goal" ], R{"r"}>=1 [ C ]): 0.83333333'
+    )
+    r = CliRunner().invoke(
+        main,
+        [
+            "pareto",
+            str(model),
+            "--prop",
+            'multi(Pmax=? [ F "goal" ], R{"r"}>=1 [ C ])',
+            "--csv",
+            str(tmp_path / "x.csv"),
+        ],
+    )
     assert r.exit_code == 2 and "no front" in r.output and not (tmp_path / "x.csv").exists()

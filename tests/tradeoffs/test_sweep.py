@@ -47,7 +47,9 @@ def test_a_fully_observable_sweep_is_the_value_per_point(tmp_path: Path) -> None
         assert p.result is not None and p.result.guaranteed is None
 
 
-def test_every_point_of_a_posg_front_reverifies_from_its_strategy(budget_model: Path, tmp_path: Path) -> None:
+def test_every_point_of_a_posg_front_reverifies_from_its_strategy(
+    budget_model: Path, tmp_path: Path
+) -> None:
     out = tmp_path / "strategies"
     s = sweep(budget_model, PROP, constant="B", settings=["0", "1"],
               synthesis=SynthesisOptions(memory=(2,), timeout=20), strategy_dir=out)
@@ -80,16 +82,49 @@ def test_pareto_command_table_csv_and_plot(budget_model: Path, tmp_path: Path) -
 
 
 def test_pareto_refuses_what_it_cannot_do(budget_model: Path, tmp_path: Path) -> None:
-    r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop",
-                                  'multi(Pmax=? [ F "safe" ], Pmax=? [ F "over" ])', "--sweep", "B=0:1"])
+    r = CliRunner().invoke(
+        main,
+        [
+            "pareto",
+            str(budget_model),
+            "--prop",
+            'multi(Pmax=? [ F "safe" ], Pmax=? [ F "over" ])',
+            "--sweep",
+            "B=0:1",
+        ],
+    )
     assert r.exit_code == 2 and "--sweep does not apply" in r.output
-    r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop",
-                                  'multi(Pmax=? [ F "safe" ], Pmax=? [ F "safe" ])', "--const", "B=1"])
+    r = CliRunner().invoke(
+        main,
+        [
+            "pareto",
+            str(budget_model),
+            "--prop",
+            'multi(Pmax=? [ F "safe" ], Pmax=? [ F "safe" ])',
+            "--const",
+            "B=1",
+        ],
+    )
     assert r.exit_code == 2 and "not on posg models" in r.output
     r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop", PROP, "--sweep", "B=1"])
     assert r.exit_code == 2 and "one constant with a range" in r.output
-    r = CliRunner().invoke(main, ["pareto", str(budget_model), "--prop", PROP, "--sweep", "B=0:1",
-                                  "--plot", str(tmp_path / "f.txt"), "--memory", "1", "--timeout", "5"])
+    r = CliRunner().invoke(
+        main,
+        [
+            "pareto",
+            str(budget_model),
+            "--prop",
+            PROP,
+            "--sweep",
+            "B=0:1",
+            "--plot",
+            str(tmp_path / "f.txt"),
+            "--memory",
+            "1",
+            "--timeout",
+            "5",
+        ],
+    )
     assert r.exit_code == 2 and ".png, .svg or .pdf" in r.output
     assert not (tmp_path / "f.txt").exists()
 
@@ -110,7 +145,9 @@ def test_check_sweep_draws_a_plot(tmp_path: Path) -> None:
     assert not (tmp_path / "none.svg").exists()
 
 
-def test_also_properties_are_verified_under_each_points_defence(budget_model: Path, tmp_path: Path) -> None:
+def test_also_properties_are_verified_under_each_points_defence(
+    budget_model: Path, tmp_path: Path
+) -> None:
     # the sweep's own property as an --also property: under the same defence it must guarantee
     # the same number (the same strategy, verified a second time); a second objective (mission
     # over within 6 steps) gets its own verified number
@@ -122,8 +159,11 @@ def test_also_properties_are_verified_under_each_points_defence(budget_model: Pa
     assert same.guaranteed.lower == pytest.approx(p.result.guaranteed.lower, abs=1e-9)
     assert 0.0 <= bounded.guaranteed.lower <= bounded.guaranteed.upper <= 1.0
     header = next(csv.reader(io.StringIO(to_csv(s))))
-    assert header[-3:] == ['<<rover>> Pmax=? [ F<=6 "over" ] guaranteed',
-                           '<<rover>> Pmax=? [ F<=6 "over" ] lower', '<<rover>> Pmax=? [ F<=6 "over" ] upper']
+    assert header[-3:] == [
+        '<<rover>> Pmax=? [ F<=6 "over" ] guaranteed',
+        '<<rover>> Pmax=? [ F<=6 "over" ] lower',
+        '<<rover>> Pmax=? [ F<=6 "over" ] upper',
+    ]
 
 
 def test_also_needs_a_synthesised_defence(tmp_path: Path) -> None:

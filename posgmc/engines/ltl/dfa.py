@@ -340,7 +340,9 @@ def _explore_model_letters(
         row, f = rows[q], formulas[q]
         need = np.flatnonzero(nexts & (row < 0))
         if need.size:
-            distinct, inverse = np.unique(alphabet[need] & table.current_mask(f), return_inverse=True)
+            distinct, inverse = np.unique(
+                alphabet[need] & table.current_mask(f), return_inverse=True
+            )
             successors = np.array([state(table.progress(f, int(r))) for r in distinct])
             row[need] = successors[inverse.reshape(-1)]
             error = _too_large(len(formulas), explored, K, max_states, max_table, path)

@@ -181,7 +181,8 @@ class _PairIndex:
     def lookup(self, keys: np.ndarray) -> np.ndarray:
         """The ids of discovered keys."""
         if self._dense is not None:
-            return self._dense[keys]
+            ids: np.ndarray = self._dense[keys]
+            return ids
         all_keys = self.keys()
         order = np.argsort(all_keys)
         return order[np.searchsorted(all_keys[order], keys)]

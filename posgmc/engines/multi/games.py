@@ -101,7 +101,13 @@ def coalition_sets(
         change = float(np.max(np.abs(after - before)))
         # the whole game must have settled, not only the initial state's set
         settled = change <= tolerance and all(
-            float(np.max(np.abs(polygon.support(new[s], directions) - polygon.support(sets[s], directions))))
+            float(
+                np.max(
+                    np.abs(
+                        polygon.support(new[s], directions) - polygon.support(sets[s], directions)
+                    )
+                )
+            )
             <= tolerance
             for s in range(num_states)
         )

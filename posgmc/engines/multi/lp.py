@@ -26,11 +26,12 @@ callers report LP numbers as such (not as proven bounds).
 from __future__ import annotations
 
 import enum
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.optimize import linprog
+from scipy.optimize import OptimizeResult, linprog
 
 __all__ = ["OccupationLP", "LPPoint", "LPStatus", "LP_TOLERANCE"]
 
@@ -81,7 +82,7 @@ class OccupationLP:
         initial_state: int,
         stop_state: np.ndarray,
         coefficients: np.ndarray,
-    ) -> "OccupationLP":
+    ) -> OccupationLP:
         """The LP of an MDP (``transitions`` csr [C, S] grouped by ``row_groups``) from state
         ``initial_state``, with settling options at ``stop_state`` (int64[K]) and objective rows
         ``coefficients`` (float64[n, C + K])."""
@@ -140,7 +141,14 @@ class OccupationLP:
         point = self._point(res, [], {}, x=res.x[:n])
         return LPPoint(point.status, point.values, point.x, point.residual, float(res.x[-1]))
 
-    def _solve(self, c, a_ub, b_ub, flow, bounds):  # type: ignore[no-untyped-def]
+    def _solve(
+        self,
+        c: np.ndarray,
+        a_ub: np.ndarray | None,
+        b_ub: np.ndarray | None,
+        flow: sp.csr_matrix,
+        bounds: tuple[float | None, float | None] | Sequence[tuple[float | None, float | None]],
+    ) -> OptimizeResult:
         return linprog(
             c,
             A_ub=a_ub,
@@ -156,7 +164,14 @@ class OccupationLP:
             },
         )
 
-    def _point(self, res, rows, at_least, *, x=None) -> LPPoint:  # type: ignore[no-untyped-def]
+    def _point(
+        self,
+        res: OptimizeResult,
+        rows: Sequence[int],
+        at_least: Mapping[int, float],
+        *,
+        x: np.ndarray | None = None,
+    ) -> LPPoint:
         if res.status == 2:
             return LPPoint(LPStatus.INFEASIBLE, np.full(self.num_objectives, np.nan), None,
                            0.0, message=res.message)

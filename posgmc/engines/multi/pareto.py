@@ -9,12 +9,12 @@ is optimised (here by the occupation LP, :mod:`posgmc.engines.multi.lp`), which 
 * a half-plane ``w @ v <= w @ p`` containing every achievable point (the **over-approximation**
   is the intersection of the half-planes).
 
-Both objectives are in the maximising sense. The extremes come from optimising one objective with the other as a tie-breaker; then
-each segment between neighbouring points is probed with its outward normal; a segment is final
-when no point lies further than ``tolerance`` beyond it. The ``precision`` reported is the
-largest distance from a vertex of the over-approximation to the under-approximation (0 up to the
-LP's tolerance when every segment was closed), computed from the polygons themselves, so it
-holds however the loop ended.
+Both objectives are in the maximising sense. The extremes come from optimising one objective with
+the other as a tie-breaker; then each segment between neighbouring points is probed with its outward
+normal; a segment is final when no point lies further than ``tolerance`` beyond it. The
+``precision`` reported is the largest distance from a vertex of the over-approximation to the
+under-approximation (0 up to the LP's tolerance when every segment was closed), computed from the
+polygons themselves, so it holds however the loop ended.
 """
 
 from __future__ import annotations

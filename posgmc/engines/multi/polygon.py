@@ -102,4 +102,5 @@ def contains(chain: np.ndarray, v: np.ndarray, *, tolerance: float = 0.0) -> boo
 
 def support(chain: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """``max_{v in X} w . v`` for each row ``w >= 0`` of ``directions``."""
-    return (directions @ chain.T).max(axis=1)
+    out: np.ndarray = (directions @ chain.T).max(axis=1)
+    return out

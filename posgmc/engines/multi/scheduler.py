@@ -73,8 +73,11 @@ def induced_chain(
     first = row_groups[:-1]
     py = np.where(total[owner] > 0, y / np.where(total[owner] > 0, total[owner], 1.0), 0.0)
     py[first[unvisited]] = 1.0
-    pz = np.where(total[settling.stop_state] > 0,
-                  z / np.where(total[settling.stop_state] > 0, total[settling.stop_state], 1.0), 0.0)
+    pz = np.where(
+        total[settling.stop_state] > 0,
+        z / np.where(total[settling.stop_state] > 0, total[settling.stop_state], 1.0),
+        0.0,
+    )
     # the settled copies: one per (component, state of it), numbered after the S states, in
     # the order of the key block * S + state (components' states are sorted)
     num_blocks = len(settling.block_states)
@@ -94,8 +97,10 @@ def induced_chain(
     moves = (pick @ transitions).tocoo()
     k_cols = copy(settling.stop_block, settling.stop_state)
     # settled: the component's internal choices uniformly, successors mapped into the copy
-    b_rows = np.concatenate([np.full(c.size, b, dtype=np.int64)
-                             for b, c in enumerate(settling.block_choices)] or [np.zeros(0, np.int64)])
+    b_rows = np.concatenate(
+        [np.full(c.size, b, dtype=np.int64) for b, c in enumerate(settling.block_choices)]
+        or [np.zeros(0, np.int64)]
+    )
     b_choices = (np.concatenate(settling.block_choices) if num_blocks
                  else np.zeros(0, dtype=np.int64))
     src = copy(b_rows, owner[b_choices])

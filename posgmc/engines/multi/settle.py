@@ -51,7 +51,7 @@ class Condition:
     kind: ConditionKind
     states: np.ndarray
 
-    def negated(self) -> "Condition":
+    def negated(self) -> Condition:
         """Not (inside A) = meets (not A); not (meets B) = inside (not B)."""
         kind = ConditionKind.MEETS if self.kind is ConditionKind.INSIDE else ConditionKind.INSIDE
         return Condition(kind, ~self.states)
@@ -119,7 +119,9 @@ def settling(
             f"{len(inside)} objectives of the F G / co-safe kind: at most "
             f"{MAX_INSIDE_CONDITIONS} are supported"
         )
-    masks = np.array([c.states for c in conditions], dtype=bool).reshape(len(conditions), num_states)
+    masks = np.array([c.states for c in conditions], dtype=bool).reshape(
+        len(conditions), num_states
+    )
     found_state: list[np.ndarray] = []
     found_sat: list[np.ndarray] = []
     found_block: list[np.ndarray] = []
@@ -154,7 +156,9 @@ def settling(
             size_of = np.bincount(comp, minlength=num_mecs)
             sat = np.zeros((num_mecs, len(conditions)), dtype=bool)
             for i, cond in enumerate(conditions):
-                hits = np.bincount(comp, weights=masks[i, members].astype(float), minlength=num_mecs)
+                hits = np.bincount(
+                    comp, weights=masks[i, members].astype(float), minlength=num_mecs
+                )
                 sat[:, i] = hits == size_of if cond.kind is ConditionKind.INSIDE else hits > 0
             found_state.append(members)
             found_sat.append(sat[comp])

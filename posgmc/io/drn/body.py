@@ -76,7 +76,8 @@ class Body:
 
     def state_of(self, idx: np.ndarray) -> np.ndarray:
         """The state (number of state lines above, minus one) of each body line in ``idx``."""
-        return (np.cumsum(self.is_state) - 1)[idx]
+        out: np.ndarray = (np.cumsum(self.is_state) - 1)[idx]
+        return out
 
 
 def classify(drn: DrnText, header: Header) -> Body:

@@ -29,6 +29,12 @@ NOLABEL = "__NOLABEL__"
 
 _TOKEN_RE = re.compile(r"[ \t]+(\S+)")
 _WS_RE = re.compile(r"[ \t]*")
+
+
+def _skip_blanks(raw: str, pos: int) -> int:
+    """The first position at or after ``pos`` that is not a blank or a tab."""
+    m = _WS_RE.match(raw, pos)
+    return pos if m is None else m.end()  # (the pattern matches everywhere)
 _UNQUOTED_LABEL_RE = re.compile(r'[^\s"]+')
 _INT_RE = re.compile(r"\s*(\d+)\s*")
 
@@ -120,13 +126,14 @@ def parse_state_line(
         )
     if len(token) > 18 or int(token) != expected:
         raise drn.error(
-            f"expected state {expected}, found state {token if len(token) <= 30 else token[:20] + '...'}",
+            f"expected state {expected}, found state "
+            f"{token if len(token) <= 30 else token[:20] + '...'}",
             ln,
             m.start(1) + 1,
             m.end(1) + 1,
             hint="state numbers must be 0, 1, 2, ... in order and without gaps",
         )
-    pos = _WS_RE.match(raw, m.end(1)).end()  # type: ignore[union-attr]
+    pos = _skip_blanks(raw, m.end(1))
     n = len(raw)
     observation: int | None = None
     player: int | None = None
@@ -140,7 +147,7 @@ def parse_state_line(
                 hint=_ORDER_HINT,
             )
         observation, pos = _int_group(drn, raw, pos, ln, "}", "observation")
-        pos = _WS_RE.match(raw, pos).end()  # type: ignore[union-attr]
+        pos = _skip_blanks(raw, pos)
     elif pos < n and raw[pos] == "{":
         raise drn.error(
             "observations '{z}' are only allowed in POMDP and POSMG files",
@@ -159,7 +166,7 @@ def parse_state_line(
                 hint=_ORDER_HINT,
             )
         player, pos = _int_group(drn, raw, pos, ln, ">", "player")
-        pos = _WS_RE.match(raw, pos).end()  # type: ignore[union-attr]
+        pos = _skip_blanks(raw, pos)
     elif pos < n and raw[pos] == "<":
         raise drn.error(
             "players '<p>' are only allowed in SMG and POSMG files",
@@ -174,7 +181,7 @@ def parse_state_line(
         rewards, pos = _rewards(drn, raw, pos, ln)
     labels: list[str] = []
     while True:
-        pos = _WS_RE.match(raw, pos).end()  # type: ignore[union-attr]
+        pos = _skip_blanks(raw, pos)
         if pos >= n:
             break
         if raw[pos] == '"':
@@ -215,7 +222,7 @@ def parse_action_line(drn: DrnText, ln: int) -> ActionLine:
         raise drn.error(
             "expected an action name (or __NOLABEL__) after 'action'", ln, col + 1, col + 2
         )
-    pos = _WS_RE.match(raw, m.end(1)).end()  # type: ignore[union-attr]
+    pos = _skip_blanks(raw, m.end(1))
     rewards: list[tuple[str, int]] | None = None
     rewards_column = pos + 1
     if pos < len(raw):
@@ -228,7 +235,7 @@ def parse_action_line(drn: DrnText, ln: int) -> ActionLine:
                 hint="action names cannot contain spaces; rewards are written [r1, r2]",
             )
         rewards, pos = _rewards(drn, raw, pos, ln)
-        pos = _WS_RE.match(raw, pos).end()  # type: ignore[union-attr]
+        pos = _skip_blanks(raw, pos)
         if pos < len(raw):
             raise drn.error(
                 "unexpected text after the action's rewards", ln, pos + 1, len(raw) + 1

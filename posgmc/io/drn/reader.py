@@ -42,8 +42,8 @@ from posgmc.io.drn.header import PLAYERS_PREFIX, Header, read_header
 from posgmc.io.drn.lines import NOLABEL
 from posgmc.io.drn.rewards import parse_reward_models
 from posgmc.io.drn.source import DrnText
-from posgmc.io.reading import read_text
 from posgmc.io.drn.transitions import dtmc_choices, nondeterministic_choices, parse_transitions
+from posgmc.io.reading import read_text
 from posgmc.model.actions import (
     action_signatures,
     conflict_message,

@@ -19,7 +19,7 @@ from typing import IO
 import numpy as np
 
 from posgmc.errors import UnsupportedError
-from posgmc.io._text import STR, format_values, is_stream, join_columns
+from posgmc.io._text import STR, format_values, join_columns
 from posgmc.io.drn.header import PLAYERS_PREFIX
 from posgmc.io.drn.lines import NOLABEL
 from posgmc.model.explicit import ExplicitModel
@@ -64,14 +64,16 @@ def write_drn(
             found before anything is written.
         OSError: the file cannot be written (nothing is left behind).
     """
-    chunks = iter_drn(model, header_comment=header_comment, valuations=valuations, observer=observer)
-    if is_stream(target):
+    chunks = iter_drn(
+        model, header_comment=header_comment, valuations=valuations, observer=observer
+    )
+    if not isinstance(target, (str, os.PathLike)):  # an open stream (anything with write)
         for chunk in chunks:
-            target.write(chunk)  # type: ignore[union-attr]
+            target.write(chunk)
         return
     from posgmc.io.atomic import atomic_open
 
-    with atomic_open(target) as handle:  # type: ignore[arg-type]
+    with atomic_open(target) as handle:
         for chunk in chunks:
             handle.write(chunk)
 
@@ -207,12 +209,16 @@ def _drn_lines(
         )
     if model.model_type.is_game:
         state_line = np.strings.add(
-            np.strings.add(np.strings.add(state_line, " <"), model.state_players[s0:s1].astype(STR)),
+            np.strings.add(
+                np.strings.add(state_line, " <"), model.state_players[s0:s1].astype(STR)
+            ),
             ">",
         )
     if model.reward_models:
         columns = [
-            format_values(rm.state[s0:s1] if rm.state is not None else np.zeros(num_states), what="reward")
+            format_values(
+                rm.state[s0:s1] if rm.state is not None else np.zeros(num_states), what="reward"
+            )
             for rm in model.reward_models
         ]
         state_line = np.strings.add(
@@ -221,7 +227,7 @@ def _drn_lines(
     for name, token_text in zip(label_names, quoted):
         token = np.full(num_states, "", dtype=STR)
         token[np.asarray(model.labels[name], dtype=bool)[s0:s1]] = " " + token_text
-        state_line = np.strings.add(state_line, token)
+        state_line = np.strings.add(state_line, token)  # type: ignore[arg-type]  # numpy stubs: str_ only, not StringDType
 
     # -- action lines ----------------------------------------------------------------------------
     action_line = np.strings.add("\taction ", action_tokens[model.choice_actions[c0:c1]])
@@ -250,7 +256,9 @@ def _drn_lines(
     states = np.arange(num_states, dtype=np.int64)
     state_pos = states * per_state + local_rg[:-1] + indptr[local_rg[:-1]]
     choices = np.arange(num_choices, dtype=np.int64)
-    action_pos = (model.choice_states[c0:c1].astype(np.int64) - s0 + 1) * per_state + choices + indptr[:-1]
+    action_pos = (
+        (model.choice_states[c0:c1].astype(np.int64) - s0 + 1) * per_state + choices + indptr[:-1]
+    )
     trans_choice = np.repeat(choices, np.diff(indptr))
     trans_pos = action_pos[trans_choice] + 1 + (np.arange(nnz) - indptr[trans_choice])
     lines = np.empty(num_states * per_state + num_choices + nnz, dtype=STR)

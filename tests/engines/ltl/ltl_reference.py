@@ -8,7 +8,7 @@ syntax tree, independently of posgmc's NNF and progression, on ultimately period
 from __future__ import annotations
 
 from collections.abc import Sequence
-from functools import lru_cache
+from functools import cache
 
 from hypothesis import strategies as st
 
@@ -115,7 +115,7 @@ def satisfies(
 
     index = {atom: k for k, atom in enumerate(atoms)}
 
-    @lru_cache(maxsize=None)
+    @cache
     def ev(f: Expr, i: int) -> bool:
         if f in index:
             return bool((word[i] >> index[f]) & 1)

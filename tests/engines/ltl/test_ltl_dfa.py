@@ -9,13 +9,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
 from ltl_reference import (
     FORMULAS,
     And,
     F,
     G,
-    Iff,
     Implies,
     Not,
     Or,
@@ -25,12 +23,12 @@ from ltl_reference import (
     X,
     a,
     b,
-    c,
     dfa_accepts_lasso,
     same_language,
     satisfies,
     violating_extension,
 )
+
 from posgmc.engines.ltl import Dfa, extract_atoms, is_cosafe, to_dfa
 from posgmc.engines.ltl.dfa import _good_prefix_closure
 from posgmc.errors import LimitError, SemanticError, SourceSpan, UnsupportedError
@@ -315,7 +313,9 @@ def test_too_many_atoms() -> None:
 
 
 def test_state_limit() -> None:
-    with pytest.raises(LimitError, match="too large: 11 states found so far .* the limits are 10 states"):
+    with pytest.raises(
+        LimitError, match="too large: 11 states found so far .* the limits are 10 states"
+    ):
         to_dfa(F(a, le=50), max_states=10)
 
 
@@ -325,7 +325,9 @@ def test_table_limit_states_the_measured_size() -> None:
     path = F(atoms[0])
     for x in atoms[1:]:
         path = And(path, F(x))
-    with pytest.raises(LimitError, match=r"over 256 letters; the limits are 100000 states and 1000 table"):
+    with pytest.raises(
+        LimitError, match=r"over 256 letters; the limits are 100000 states and 1000 table"
+    ):
         to_dfa(path, max_table=1000)
 
 

@@ -69,7 +69,9 @@ HAND = [
 
 
 @pytest.mark.parametrize(("formula", "prefix", "loop", "expected"), HAND)
-def test_hand_checked_words(formula: Expr, prefix: list[int], loop: list[int], expected: bool) -> None:
+def test_hand_checked_words(
+    formula: Expr, prefix: list[int], loop: list[int], expected: bool
+) -> None:
     atoms = extract_atoms(formula)
     assert satisfies(formula, atoms, prefix, loop) is expected  # the reference agrees by hand
     assert ldba_accepts(formula, prefix, loop) is expected
@@ -99,8 +101,14 @@ def test_too_many_guesses_are_a_limit_error() -> None:
 
 
 @settings(max_examples=150, deadline=None)
-@given(FORMULAS, st.lists(st.integers(0, 7), max_size=3), st.lists(st.integers(0, 7), min_size=1, max_size=3))
-def test_random_formulas_agree_with_reference(formula: Expr, prefix: list[int], loop: list[int]) -> None:
+@given(
+    FORMULAS,
+    st.lists(st.integers(0, 7), max_size=3),
+    st.lists(st.integers(0, 7), min_size=1, max_size=3),
+)
+def test_random_formulas_agree_with_reference(
+    formula: Expr, prefix: list[int], loop: list[int]
+) -> None:
     atoms = extract_atoms(formula)
     size = 1 << len(atoms)
     prefix, loop = [x % size for x in prefix], [x % size for x in loop]

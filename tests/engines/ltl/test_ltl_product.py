@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
 from ltl_reference import And, F, Not, Or, U, X, a, b
+
 from posgmc.engines.ltl import Dfa, extract_atoms, letter_graph, pack_letters, product, to_dfa
-from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
 from posgmc.errors import UnsupportedError
+from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
 from posgmc.syntax.ast import (
     Binary,
     BinaryOp,
@@ -433,7 +433,9 @@ def test_robot_props_files(benchmarks: Path, file: str, reward: bool) -> None:
 
 @given(random_models(), st.sampled_from(FORMULAS))
 @settings(max_examples=60, deadline=None)
-def test_model_letter_automaton_agrees_with_the_full_one(model: ExplicitModel, formula: Expr) -> None:
+def test_model_letter_automaton_agrees_with_the_full_one(
+    model: ExplicitModel, formula: Expr
+) -> None:
     # along every path of the model, both automata accept at the same steps: a joint breadth-first
     # walk over (model state, full DFA state, model-letter DFA state)
     full = to_dfa(formula)

@@ -23,11 +23,18 @@ def test_settling_options_enumerate_sub_components() -> None:
     s1 = np.array([False, True, False, False])
     s2 = np.array([False, False, True, False])
     conds = (Condition(ConditionKind.INSIDE, s1), Condition(ConditionKind.MEETS, s2))
-    state, sat = settling_options(t, groups, conds, allowed=np.ones(6, bool), settle=np.ones(4, bool))
+    state, sat = settling_options(
+        t, groups, conds, allowed=np.ones(6, bool), settle=np.ones(4, bool)
+    )
     options = sorted((int(s), tuple(bool(b) for b in row)) for s, row in zip(state, sat))
     # s1: in {s1} (inside s1, does not meet s2) or in {s1, s2} (meets s2, not inside s1);
     # s2 only in {s1, s2}; s3 its own component, neither; s0 in no end component
-    assert options == [(1, (False, True)), (1, (True, False)), (2, (False, True)), (3, (False, False))]
+    assert options == [
+        (1, (False, True)),
+        (1, (True, False)),
+        (2, (False, True)),
+        (3, (False, False)),
+    ]
 
 
 def test_settling_respects_allowed_choices() -> None:
@@ -73,5 +80,7 @@ def test_polygon_operations() -> None:
     # the intersection of "below (1, 0)-(0, 1)" and "below (0.8, 0.8)" is cut at x + y = 1
     c = polygon.intersection([a, polygon.point(np.array([0.8, 0.8]))])
     assert np.allclose(c, [[0.8, 0.2], [0.2, 0.8]])
-    assert polygon.contains(c, np.array([0.5, 0.5])) and not polygon.contains(c, np.array([0.6, 0.5]))
+    assert polygon.contains(c, np.array([0.5, 0.5])) and not polygon.contains(
+        c, np.array([0.6, 0.5])
+    )
     assert np.allclose(polygon.support(c, np.array([[1.0, 0.0], [0.0, 1.0]])), [0.8, 0.8])
