@@ -102,25 +102,24 @@ class SynthesisChecker:
             composed = None  # composing kept the search's defence
         sign = problem.sign
         g_composed: Bound | None = None
+
+        def guaranteed_of(strategy: FiniteStateStrategy, options: CheckOptions) -> Bound | None:
+            """The composed defence's ``guaranteed`` under ``options``."""
+            return (
+                StrategyChecker(self.model, {strategy.player: strategy},
+                                coalition_of=problem.coalition_of, scalar=problem.scalar,
+                                options=options)
+                .check(problem.query, text="composed")
+                .guaranteed
+            )
+
         if composed is not None:
             # policy iteration first (cheap); the sound engines only for a real gain, since a
             # randomised strategy's near-deterministic loops make interval iteration slow
-            rough = StrategyChecker(self.model, {composed.player: composed},
-                                    coalition_of=problem.coalition_of, scalar=problem.scalar,
-                                    options=POLICY).check(problem.query, text="composed").guaranteed
+            rough = guaranteed_of(composed, POLICY)
             assert rough is not None  # noqa: S101 - the decision maker's strategy is given
             if sign * rough.value > sign * g.value + _GAIN * max(1.0, abs(g.value)):
-                g_composed = (
-                    StrategyChecker(
-                        self.model,
-                        {composed.player: composed},
-                        coalition_of=problem.coalition_of,
-                        scalar=problem.scalar,
-                        options=verify,
-                    )
-                    .check(problem.query, text="composed")
-                    .guaranteed
-                )
+                g_composed = guaranteed_of(composed, verify)
                 assert g_composed is not None  # noqa: S101 - as above
                 if _better(g_composed, g, maximize):
                     defence, g = composed, g_composed
@@ -144,17 +143,7 @@ class SynthesisChecker:
             )
             if sign * theirs > sign * mine + _GAIN * max(1.0, abs(mine)):
                 if g_composed is None:
-                    g_composed = (
-                        StrategyChecker(
-                            self.model,
-                            {composed.player: composed},
-                            coalition_of=problem.coalition_of,
-                            scalar=problem.scalar,
-                            options=verify,
-                        )
-                        .check(problem.query, text="composed")
-                        .guaranteed
-                    )
+                    g_composed = guaranteed_of(composed, verify)
                 vs_from_composed = g_composed is not None
         shown, shown_g = (composed, g_composed) if vs_from_composed else (defence, g)
         assert shown is not None and shown_g is not None  # noqa: S101 - set together

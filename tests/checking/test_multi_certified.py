@@ -12,18 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-
-# s0 chooses a (cost 1): s1 or s2 with 1/2 each, or b (free): s2. A strategy taking a with
-# probability q has P(F s=1) = q/2 and expected cost q (by hand).
-GAMBLE = """mdp
-module m
-  s : [0..2] init 0;
-  [a] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
-  [b] s=0 -> (s'=2);
-  [] s>0 -> true;
-endmodule
-rewards "cost" [a] true : 1; endrewards
-"""
+from tests.checking.test_multi import GAMBLE  # P(F s=1) = q/2, expected cost q (by hand, there)
 
 # s0: a -> the end component {s1, s2} (s1 may stay or go to s2, s2 returns), b -> s3 absorbing
 LOOPS = """mdp
