@@ -18,7 +18,7 @@ from posgmc.cli import (
     _synthesis_options,
     main,
 )
-from posgmc.errors import InputError, UnsupportedError
+from posgmc.errors import InputError, SourceSpan, SourceText, UnsupportedError
 
 __all__ = ["pareto"]
 
@@ -225,11 +225,21 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
     from posgmc.io.atomic import atomic_write_text
     from posgmc.tradeoffs.defence import defence_front, defence_front_to_csv
 
-    try:
-        weights = [float(w) for w in (weights_text or "0,1,2,5,10,20").split(",")]
-    except ValueError:
-        raise InputError(f"--weights {weights_text}: a comma-separated list of numbers >= 0",
-                         hint="e.g. --weights 0,5,10,20") from None
+    text = weights_text or "0,1,2,5,10,20"
+    weights: list[float] = []
+    column = 1
+    for item in text.split(","):
+        try:
+            weights.append(float(item))
+        except ValueError:
+            raise InputError(
+                f"--weights: {item.strip()!r} is not a number (a comma-separated list of "
+                "numbers >= 0)",
+                SourceSpan(1, column, 1, column + max(len(item), 1), file="--weights"),
+                source=SourceText(text, "--weights"),
+                hint="e.g. --weights 0,5,10,20",
+            ) from None
+        column += len(item) + 1
     options = _synthesis_options(memory or ("1",), timeout, seed)
     sizes: Any = dict(options.player_memory) if options.player_memory else options.memory
     front = defence_front(model, mission, cost, weights=weights, constants=_single(consts),

@@ -201,6 +201,7 @@ def test_the_cli_refuses_bad_weights_and_mixing_with_a_sweep(choice: Path) -> No
     out = CliRunner().invoke(main, ["pareto", str(choice), "--prop", MISSION, "--cost", COST,
                                     "--weights", "0,x"])
     assert out.exit_code == 2 and "comma-separated list of numbers" in out.output
+    assert "--weights:1:3: error: --weights: 'x' is not a number" in out.output, out.output
     out = CliRunner().invoke(main, ["pareto", str(choice), "--prop", MISSION, "--cost", COST,
                                     "--sweep", "B=0:1"])
     assert out.exit_code == 2 and "do not apply" in out.output
