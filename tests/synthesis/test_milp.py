@@ -229,8 +229,9 @@ def test_flow_milp_is_the_brute_force_min_max_reward(seed: int, full_observation
 def test_greatest_reward_milp_without_end_components(seed: int, full_observation: bool) -> None:
     """Rmax [F goal]: exact (brute force) where no product has an end component inside its open
     states; refused (None) where one has, since a defence could make the value infinite."""
+    sink = looping_posg(seed).num_states - 1  # a target too: else the sink is an end component
     model, problem, adversaries = _looping_case(seed, full_observation,
-                                                '<<p0>> R{"c"}max=? [ F "goal" ]')
+                                                f'<<p0>> R{{"c"}}max=? [ F "goal" | s={sink} ]')
     best, worst = _brute_force(problem, adversaries)
     found = compose_milp(problem, adversaries)
     if found is None:
