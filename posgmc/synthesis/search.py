@@ -67,7 +67,10 @@ class SynthesisOptions:
     ``player_memory``: memory sizes by player name (``--memory rover=1..3 --memory
     attacker=2``); the decision maker's entry replaces ``memory``, the adversary's (its largest
     size) ``adversary_memory``. ``jobs``: worker processes for independent evaluations
-    (:mod:`posgmc.synthesis.jobs`; results do not depend on it)."""
+    (:mod:`posgmc.synthesis.jobs`; results do not depend on it). ``started``: the
+    ``time.perf_counter()`` value from which the first synthesised property's ``timeout`` counts
+    (the CLI and :func:`posgmc.api.check` set it where the run starts, so that loading and
+    building the model are inside the budget); None: from the start of its synthesis."""
 
     memory: tuple[int, ...] = (1, 2, 3)
     timeout: float = 30.0
@@ -83,6 +86,7 @@ class SynthesisOptions:
     enumeration_limit: int = 1000
     compose_restarts: int = 1
     oracle_rounds: int = 8
+    started: float | None = None
 
     def for_players(self, decision_maker: str, adversary: str | None,
                     players: tuple[str, ...]) -> SynthesisOptions:
@@ -199,7 +203,8 @@ def synthesize(
         UnsupportedError: an objective other than unbounded reachability, or a coalition of
             several players.
     """
-    started = time.perf_counter()
+    now = time.perf_counter()
+    started = now if options.started is None else min(options.started, now)
     deadline = started + options.timeout
     if executor is None:
         others = [p for p in range(len(model.player_names)) if p != player]
@@ -216,8 +221,10 @@ def synthesize(
                               scalar=scalar, options=options, check_options=check_options,
                               executor=own)
     problem = executor.problem
+    # the full-observation solve stops at the search's deadline too (its bounds stay proven)
     base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar,
-                           options=CheckOptions(keep_strategy=True))
+                           options=CheckOptions(keep_strategy=True,
+                                                solver=SolverOptions(deadline=deadline)))
     query = problem.query
     direction = query.direction
     target, remain, rewards, discount = (
@@ -472,6 +479,8 @@ def _round(
     # on a large model one candidate only: a policy-iteration check of its product costs LU
     # factorisations of 10^5 unknowns (seconds each), and the float ranking rarely errs
     for g, d, logits in scored[: 1 if large else options.verify]:
+        if best is not None and time.perf_counter() > deadline:
+            break  # the most promising candidate is checked; the rest only past the deadline
         fss = par.strategy(g, d)
         r = StrategyChecker(model, {fss.player: fss}, coalition_of=coalition_of, scalar=scalar,
                             options=_POLICY).check(query, text="synthesis")
