@@ -391,7 +391,8 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
     type=click.FloatRange(min=0, min_open=True),
     default=30.0,
     show_default=True,
-    help="Synthesis: seconds per property (anytime: the best defence so far is verified).",
+    help="Synthesis: seconds per property, the first counted from the start (loading "
+    "included); anytime: the best defence so far is verified.",
 )
 @click.option("--seed", type=int, default=0, show_default=True, help="Synthesis: random seed.")
 @click.option("--export-strategy", type=click.Path(), default=None,
