@@ -81,6 +81,7 @@ linear solve per product) and the reported numbers come from the sound engines
 
 from __future__ import annotations
 
+import enum
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -115,7 +116,7 @@ class MilpComposition:
     optimal: bool
 
 
-class Encoding:
+class Encoding(enum.Enum):
     """The encodings of the module docstring."""
 
     LEAST = "least fixed point"
@@ -124,7 +125,7 @@ class Encoding:
     GREATEST = "greatest fixed point without end components"
 
 
-def encoding_of(problem: Problem) -> str | None:
+def encoding_of(problem: Problem) -> Encoding | None:
     """The encoding for ``problem``'s objective, or None when the MILP is not exact for it."""
     if problem.rewards is None:
         return Encoding.RANKING if problem.maximize else Encoding.LEAST
@@ -442,7 +443,8 @@ def _flows(prog: _Program, p: _Product, t: int, bound: float) -> None:
     controlled = p.dcol[rows] >= 0
     r_min = float(np.min(p.reward[rows][controlled], initial=np.inf))
     if not r_min > 0:
-        raise ValueError("Rmin flows need positive rewards on the decision maker's rows")
+        raise ValueError("Rmin flows need positive rewards on the decision maker's rows "
+                         "(encoding_of checks it)")
     # big-M on visits, with room for the incumbent's rounding
     cap = (bound * (1.0 + 1e-6) + 1e-9) / r_min + 1.0
     # a row with an edge to a state that cannot reach the target is never active under a

@@ -266,7 +266,8 @@ SHARED = next((p for p in (Path(__file__).resolve().parents[3] / "shared" / "ben
     ("test-game2", 7, Encoding.RANKING),
     ("testing-rewards", 16, Encoding.GREATEST),
 ])
-def test_shared_posmgs_against_brute_force(name: str, num_states: int, encoding: str) -> None:
+def test_shared_posmgs_against_brute_force(name: str, num_states: int,
+                                           encoding: Encoding) -> None:
     """The shared POSMGs whose deterministic memoryless strategies can be enumerated for both
     players (PAYNT's sketches, the first property of sketch.props): the MILP against every
     adversary strategy is the brute-force max-min over deterministic memoryless defences."""
