@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -58,12 +59,13 @@ class Structure:
     """The choice/state layout of a transition matrix and its transposed pattern.
 
     ``transitions``: csr float64 [C, S] (the model's own matrix, not a copy);
-    ``back_ptr``: int64[S + 1] and ``back_choices``: int32[nnz] (int64 when C does not fit): the
-    transpose of the matrix's *pattern*: for state t the choices with an edge into t are
+    ``back_ptr``: int32[S + 1] and ``back_choices``: int32[nnz] (each int64 when its values do not
+    fit): the transpose of the matrix's *pattern*: for state t the choices with an edge into t are
     ``back_choices[back_ptr[t]:back_ptr[t + 1]]``, ascending (the searches never read the
     probabilities, so the transpose carries 4 bytes per entry);
     ``row_groups``: int64[S + 1] (the model's own array); ``choice_state``: int32[C] (int64 when S
-    does not fit), the state of every choice; ``num_choices``: int64[S].
+    does not fit), the state of every choice; ``num_choices``: int64[S] (computed when first
+    read).
     """
 
     transitions: sp.csr_matrix
@@ -71,7 +73,11 @@ class Structure:
     back_choices: np.ndarray
     row_groups: np.ndarray
     choice_state: np.ndarray
-    num_choices: np.ndarray
+
+    @cached_property
+    def num_choices(self) -> np.ndarray:
+        """int64[S]: the number of choices of every state."""
+        return np.diff(self.row_groups)
 
     @property
     def num_states(self) -> int:
@@ -84,16 +90,13 @@ class Structure:
     @staticmethod
     def build(transitions: sp.csr_matrix, row_groups: np.ndarray) -> Structure:
         """The structure of a csr matrix whose rows are grouped by ``row_groups``."""
-        counts = np.diff(row_groups)
-        S = transitions.shape[1]
-        back_ptr, back_choices = _transposed_pattern(transitions)
+        back_ptr, back_choices, choice_state = _transposed_pattern(transitions, row_groups)
         return Structure(
             transitions=transitions,
             back_ptr=back_ptr,
             back_choices=back_choices,
             row_groups=row_groups,
-            choice_state=np.repeat(np.arange(S, dtype=_index_dtype(S)), counts),
-            num_choices=counts,
+            choice_state=choice_state,
         )
 
 
@@ -110,22 +113,34 @@ def _ro(a: np.ndarray) -> np.ndarray:
     return view
 
 
-def _transposed_pattern(transitions: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
-    """``(back_ptr, back_choices)`` of :class:`Structure` for a csr matrix."""
+def _transposed_pattern(
+    transitions: sp.csr_matrix, row_groups: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(back_ptr, back_choices, choice_state)`` of :class:`Structure` for a csr matrix."""
     C, S = transitions.shape
+    ptr_type = np.zeros(0, dtype=_index_dtype(transitions.nnz))
+    choice_type = np.zeros(0, dtype=_index_dtype(C))
+    state_type = np.zeros(0, dtype=_index_dtype(S))
     if kernels.enabled():
-        back_ptr = np.zeros(S + 1, dtype=np.int64)
-        back_choices = np.empty(transitions.nnz, dtype=_index_dtype(C))
-        graph_kernels.transpose_pattern(
-            _ro(transitions.indptr), _ro(transitions.indices), back_ptr, back_choices
+        found: tuple[np.ndarray, np.ndarray, np.ndarray] = graph_kernels.transpose_pattern(
+            _ro(transitions.indptr),
+            _ro(transitions.indices),
+            _ro(row_groups),
+            ptr_type,
+            choice_type,
+            state_type,
         )
-        return back_ptr, back_choices
+        return found
     pattern = sp.csr_matrix(
         (np.ones(transitions.nnz, dtype=np.int8), transitions.indices, transitions.indptr),
         shape=transitions.shape,
     ).tocsc()
     pattern.sort_indices()
-    return pattern.indptr.astype(np.int64), pattern.indices.astype(_index_dtype(C), copy=False)
+    return (
+        pattern.indptr.astype(ptr_type.dtype, copy=False),
+        pattern.indices.astype(choice_type.dtype, copy=False),
+        np.repeat(np.arange(S, dtype=state_type.dtype), np.diff(row_groups)),
+    )
 
 
 # The transpose of a large model costs about a second; models are frozen, so one structure per
@@ -229,7 +244,9 @@ def attractor(
     level = 0
     while True:
         level += 1
-        preds = bw_idx[concat_ranges(bw_ptr[frontier], bw_ptr[frontier + 1])]
+        preds = bw_idx[
+            concat_ranges(bw_ptr[frontier].astype(np.int64), bw_ptr[frontier + 1].astype(np.int64))
+        ]
         if extra is not None:
             preds = np.concatenate([preds, extra])
             extra = None
@@ -285,11 +302,10 @@ def _attractor_compiled(
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`attractor` by the compiled worklist search (:func:`graph_kernels.attract`)."""
     inside = np.ascontiguousarray(initial, dtype=bool).copy()
-    witness = np.full(g.num_states, -1, dtype=np.int64)
     open_ = np.ascontiguousarray(candidates & ~inside)
     extra = _NO_INDEX if initial_choices is None else np.flatnonzero(initial_choices)
     layer_out = layer if layer is not None else _NO_INDEX
-    graph_kernels.attract(
+    witness: np.ndarray = graph_kernels.attract(
         _ro(g.back_ptr),
         _ro(g.back_choices),
         _ro(g.row_groups),
@@ -302,11 +318,30 @@ def _attractor_compiled(
         _ro(_NO_INDEX if preferred is None else np.ascontiguousarray(preferred, dtype=np.int64)),
         preferred is not None,
         inside,
-        witness,
         layer_out,
         layer is not None,
     )
     return inside, witness
+
+
+def _warm_up() -> None:
+    """Run every graph kernel once on a two-state structure with the dtypes of a model's
+    (int32 indices), so that their cached machine code is loaded (see
+    :func:`posgmc.engines.kernels.warm_up_in_background`)."""
+    g = Structure.build(
+        sp.csr_matrix((np.ones(2), np.array([1, 1], np.int32), np.array([0, 1, 2], np.int32))),
+        np.array([0, 1, 2], dtype=np.int64),
+    )
+    both = np.ones(2, dtype=bool)
+    first = np.array([True, False])
+    attractor(g, ~first, existential=first, candidates=both, allowed=both,
+              initial_choices=~both, preferred=np.zeros(2, np.int64),
+              layer=np.full(2, -1, dtype=np.int64))
+    leaving_choices(g, first)
+    _restrict_to_region(g, first, both)
+
+
+kernels.on_warm_up(_warm_up)
 
 
 def positive_reach(
@@ -331,10 +366,9 @@ def positive_reach(
 def leaving_choices(g: Structure, region: np.ndarray) -> np.ndarray:
     """bool[C]: the choices with an edge to a state outside ``region`` (bool[S])."""
     if kernels.enabled():
-        out = np.empty(g.num_choices_total, dtype=bool)
         T = g.transitions
-        graph_kernels.leaving_choices(
-            _ro(T.indptr), _ro(T.indices), _ro(np.ascontiguousarray(region, dtype=bool)), out
+        out: np.ndarray = graph_kernels.leaving_choices(
+            _ro(T.indptr), _ro(T.indices), _ro(np.ascontiguousarray(region, dtype=bool))
         )
         return out
     outside = (~region).astype(np.float64)
@@ -348,19 +382,15 @@ def _restrict_to_region(
     bool[S] the states with a usable choice that leaves it (entries outside ``region`` are
     meaningless on the compiled path: nobody outside the region can join the next attractor)."""
     if kernels.enabled():
-        safe = np.zeros(g.num_choices_total, dtype=bool)
-        leaks = np.zeros(g.num_states, dtype=bool)
         T = g.transitions
-        graph_kernels.restrict_to_region(
+        found: tuple[np.ndarray, np.ndarray] = graph_kernels.restrict_to_region(
             _ro(T.indptr),
             _ro(T.indices),
             _ro(g.row_groups),
             _ro(np.ascontiguousarray(region, dtype=bool)),
             _ro(np.ascontiguousarray(usable, dtype=bool)),
-            safe,
-            leaks,
         )
-        return safe, leaks
+        return found
     safe = usable & ~leaving_choices(g, region)
     leaks = np.logical_or.reduceat(~safe & usable, g.row_groups[:-1])
     return safe, leaks

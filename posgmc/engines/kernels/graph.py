@@ -28,22 +28,45 @@ __all__ = ["transpose_pattern", "attract", "leaving_choices", "restrict_to_regio
 
 
 def _transpose_pattern(
-    indptr: np.ndarray, indices: np.ndarray, back_ptr: np.ndarray, back_choices: np.ndarray
-) -> None:
-    """Fill ``back_ptr`` (zeros on entry, [S + 1]) and ``back_choices`` ([nnz]) with the transpose
-    of the csr pattern ``indptr``/``indices``: a counting sort, choices ascending per state."""
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    row_groups: np.ndarray,
+    ptr_type: np.ndarray,
+    choice_type: np.ndarray,
+    state_type: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(back_ptr, back_choices, choice_state)`` of a csr pattern ``indptr``/``indices`` whose
+    rows are grouped by ``row_groups``: the transpose by a counting sort (choices ascending per
+    state, ``back_ptr`` itself the fill pointer), and the state of every row. The ``*_type``
+    arguments are empty arrays of the wanted dtypes.
+
+    The outputs are allocated here, by numba's allocator, not by numpy: numpy asks the kernel for
+    transparent huge pages on large arrays, and on a machine whose memory is fragmented their
+    first touch (the kernel compacting memory) cost 3-5 times the system time of small pages."""
     num_rows = indptr.size - 1
-    num_cols = back_ptr.size - 1
+    num_cols = row_groups.size - 1
+    back_ptr = np.zeros(num_cols + 1, dtype=ptr_type.dtype)
+    back_choices = np.empty(indices.size, dtype=choice_type.dtype)
+    choice_state = np.empty(num_rows, dtype=state_type.dtype)
+    for s in range(num_cols):
+        for c in range(row_groups[s], row_groups[s + 1]):
+            choice_state[c] = s
     for k in range(indices.size):
-        back_ptr[indices[k] + 1] += 1
-    for t in range(num_cols):
-        back_ptr[t + 1] += back_ptr[t]
-    fill = back_ptr[:num_cols].copy()
+        back_ptr[indices[k]] += 1
+    total = 0
+    for t in range(num_cols):  # counts -> starts
+        count = back_ptr[t]
+        back_ptr[t] = total
+        total += count
     for c in range(num_rows):
         for k in range(indptr[c], indptr[c + 1]):
             t = indices[k]
-            back_choices[fill[t]] = c
-            fill[t] += 1
+            back_choices[back_ptr[t]] = c
+            back_ptr[t] += 1
+    for t in range(num_cols, 0, -1):  # each entry now holds the next state's start
+        back_ptr[t] = back_ptr[t - 1]
+    back_ptr[0] = 0
+    return back_ptr, back_choices, choice_state
 
 
 transpose_pattern = compiled(_transpose_pattern)
@@ -62,11 +85,13 @@ def _attract(
     preferred: np.ndarray,
     use_preferred: bool,
     inside: np.ndarray,
-    witness: np.ndarray,
     layer: np.ndarray,
     use_layer: bool,
-) -> None:
-    """The attractor of ``inside`` (updated in place), as one backward worklist search.
+) -> np.ndarray:
+    """The attractor of ``inside`` (updated in place), as one backward worklist search; returns
+    the witnesses, int64[S]: for every joined state a choice that hit the set in the layer where
+    it joined, -1 elsewhere (allocated here: see :func:`_transpose_pattern` on numpy's huge
+    pages).
 
     Args:
         back_ptr, back_choices, row_groups, choice_state: the structure (module docstring).
@@ -79,23 +104,16 @@ def _attract(
         preferred: int64[S], read only with ``use_preferred``: the witness to report for a state
             when it is hit in the layer where the state joins.
         inside: bool[S], the set to attract to on entry, the attractor on exit.
-        witness: int64[S], -1 on entry; on exit for every joined state a choice that hit the set
-            in the layer where it joined.
         layer: int64[S], written only with ``use_layer``: 0 for the states of the initial set,
             the layer where each joined state joined.
     """
     num_states = row_groups.size - 1
+    witness = np.full(num_states, -1, dtype=np.int64)
     # choices still to be hit before a state joins; a state with none allowed never joins
-    remaining = np.zeros(num_states, dtype=np.int64)
-    depth = np.zeros(num_states, dtype=np.int64)
-    queue = np.empty(num_states, dtype=np.int64)
-    head = 0
-    tail = 0
+    remaining = np.zeros(num_states, dtype=np.int32)
     num_open = 0
     for s in range(num_states):
         if inside[s]:
-            queue[tail] = s
-            tail += 1
             if use_layer:
                 layer[s] = 0
             continue
@@ -116,8 +134,21 @@ def _attract(
             remaining[s] = need
             num_open += 1
     if num_open == 0:
-        return
+        return witness
+    # the states in the order they joined (initial ones first); the layer of each state is
+    # tracked by the queue's segments: queue[head:level_end] is the current layer
+    queue = np.empty(num_states, dtype=choice_state.dtype)
+    tail = 0
+    for s in range(num_states):
+        if inside[s]:
+            queue[tail] = s
+            tail += 1
+    # the layer where each state joined, kept only to recognise a preferred choice in time
+    joined = np.zeros(num_states if use_preferred else 0, dtype=np.int32)
     hit = np.zeros(choice_state.size, dtype=np.bool_)
+    head = 0
+    level_end = tail
+    level = 1  # the layer that a state completed by the choices hit now joins in
     # the extra choices hit in the first layer, as the edges into the initial set do
     for i in range(extra_choices.size):
         c = extra_choices[i]
@@ -131,19 +162,24 @@ def _attract(
                 open_[s] = False
                 inside[s] = True
                 witness[s] = c
-                depth[s] = 1
+                if use_layer:
+                    layer[s] = 1
+                if use_preferred:
+                    joined[s] = 1
                 queue[tail] = s
                 tail += 1
                 num_open -= 1
-        elif use_preferred and inside[s] and depth[s] == 1 and preferred[s] == c:
+        elif use_preferred and joined[s] == 1 and preferred[s] == c:
             witness[s] = c
     last = 1  # the latest layer a state joined in
     while head < tail:
-        t = queue[head]
-        level = depth[t] + 1
+        if head == level_end:
+            level += 1
+            level_end = tail
         # nobody left to join: stop, unless a preferred choice may still be hit in the last layer
         if num_open == 0 and not (use_preferred and level <= last):
             break
+        t = queue[head]
         head += 1
         for k in range(back_ptr[t], back_ptr[t + 1]):
             c = back_choices[k]
@@ -157,27 +193,25 @@ def _attract(
                     open_[s] = False
                     inside[s] = True
                     witness[s] = c
-                    depth[s] = level
+                    if use_layer:
+                        layer[s] = level
+                    if use_preferred:
+                        joined[s] = level
                     last = level
                     queue[tail] = s
                     tail += 1
                     num_open -= 1
-            elif use_preferred and depth[s] == level and preferred[s] == c and inside[s]:
+            elif use_preferred and joined[s] == level and preferred[s] == c:
                 witness[s] = c
-    if use_layer:
-        for i in range(tail):
-            s = queue[i]
-            if depth[s] > 0:
-                layer[s] = depth[s]
+    return witness
 
 
 attract = compiled(_attract)
 
 
-def _leaving_choices(
-    indptr: np.ndarray, indices: np.ndarray, region: np.ndarray, out: np.ndarray
-) -> None:
-    """``out[c]`` (bool[C]) = choice c has an edge to a state outside ``region``."""
+def _leaving_choices(indptr: np.ndarray, indices: np.ndarray, region: np.ndarray) -> np.ndarray:
+    """bool[C]: choice c has an edge to a state outside ``region`` (bool[S])."""
+    out = np.empty(indptr.size - 1, dtype=np.bool_)
     for c in range(indptr.size - 1):
         leaves = False
         for k in range(indptr[c], indptr[c + 1]):
@@ -185,6 +219,7 @@ def _leaving_choices(
                 leaves = True
                 break
         out[c] = leaves
+    return out
 
 
 leaving_choices = compiled(_leaving_choices)
@@ -196,13 +231,13 @@ def _restrict_to_region(
     row_groups: np.ndarray,
     region: np.ndarray,
     usable: np.ndarray,
-    safe: np.ndarray,
-    leaks: np.ndarray,
-) -> None:
+) -> tuple[np.ndarray, np.ndarray]:
     """One round's restriction of the almost-sure search, in one pass over the states of
-    ``region`` (bool[S]): ``safe[c]`` (bool[C]) = c is usable and stays in the region;
-    ``leaks[s]`` (bool[S]) = a usable choice of s leaves it. Entries of states outside the region
-    are left as they were (False on entry: the caller never reads them)."""
+    ``region`` (bool[S]): returns ``(safe, leaks)``, ``safe[c]`` (bool[C]) = c is usable and stays
+    in the region, ``leaks[s]`` (bool[S]) = a usable choice of s leaves it. Both are False for
+    the states outside the region (the caller never reads them there)."""
+    safe = np.zeros(indptr.size - 1, dtype=np.bool_)
+    leaks = np.zeros(row_groups.size - 1, dtype=np.bool_)
     for s in range(row_groups.size - 1):
         if not region[s]:
             continue
@@ -219,6 +254,7 @@ def _restrict_to_region(
             if not stays:
                 any_leak = True
         leaks[s] = any_leak
+    return safe, leaks
 
 
 restrict_to_region = compiled(_restrict_to_region)
