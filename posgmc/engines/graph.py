@@ -673,21 +673,29 @@ def safe_region(
     question, e.g. a target).
 
     Returns ``(safe, choice)``: bool[S]; int64[S] for each existential non-frozen state of ``safe``
-    a     qualifying choice (-1 elsewhere).
+    a qualifying choice (-1 elsewhere).
+
+    The complement is one attractor of the other player (one backward search, not a pass over
+    the model per round): starting from the states outside ``region`` (and not frozen), a
+    universal state of the region leaves when one of its choices is not good or has an edge out,
+    an existential one when every good choice has an edge out (at once when it has none).
     """
-    ok = np.ones(g.num_choices_total, dtype=bool) if good is None else good.copy()
+    ok = np.ones(g.num_choices_total, dtype=bool) if good is None else good
     keep_always = np.zeros(g.num_states, dtype=bool) if frozen is None else frozen
-    starts = g.row_groups[:-1]
-    current = region | keep_always
-    while True:
-        stays = ok & ~leaving_choices(g, current)
-        stays_count = np.add.reduceat(stays.astype(np.int64), starts)
-        keep = current & (
-            keep_always | np.where(existential, stays_count > 0, stays_count == g.num_choices)
-        )
-        if int(keep.sum()) == int(current.sum()):
-            break
-        current = keep
+    movable = region & ~keep_always
+    exist_choice = existential[g.choice_state]
+    # existential states without a good choice cannot stay anywhere
+    good_count = np.bincount(g.choice_state[ok], minlength=g.num_states)
+    lost = ~(region | keep_always) | (movable & existential & (good_count == 0))
+    out, _ = attractor(
+        g,
+        lost,
+        existential=~existential,
+        candidates=movable,
+        allowed=ok | ~exist_choice,
+        initial_choices=~ok & ~exist_choice,
+    )
+    current = ~out
     choice = np.full(g.num_states, -1, dtype=np.int64)
     stays = ok & ~leaving_choices(g, current) & current[g.choice_state]
     idx = np.flatnonzero(stays)[::-1]

@@ -419,3 +419,55 @@ def test_prob0_prob1_random(model: ExplicitModel, data: st.DataObject) -> None:
         values = _game_values(model, target, existential)
         assert pos_expected.tolist() == (values > 1e-12).tolist()
         assert one_expected.tolist() == (values > 1 - 1e-9).tolist()
+
+
+def _safe_fixpoint(
+    m: ExplicitModel,
+    region: np.ndarray,
+    existential: np.ndarray,
+    good: np.ndarray,
+    frozen: np.ndarray,
+) -> np.ndarray:
+    """The greatest fixpoint by rounds: an existential state stays with one good choice whose
+    successors all stay, a universal one when every choice is good and stays; frozen states
+    always stay."""
+    succ = _succ(m)
+    current = region | frozen
+    while True:
+        stays = [bool(good[c]) and all(current[t] for t in succ[c]) for c in range(m.num_choices)]
+        keep = current.copy()
+        for s in np.flatnonzero(current & ~frozen):
+            mine = [stays[c] for c in _choices(m, int(s))]
+            keep[s] = any(mine) if existential[s] else all(mine)
+        if (keep == current).all():
+            return current
+        current = keep
+
+
+@settings(max_examples=300, deadline=None)
+@given(model=small_models(max_states=7), data=st.data())
+def test_safe_region_random(model: ExplicitModel, data: st.DataObject) -> None:
+    """safe_region (one attractor of the other player) equals the round-by-round fixpoint, and
+    its choices keep the play inside."""
+    from posgmc.engines.graph import safe_region
+
+    S, C = model.num_states, model.num_choices
+    region = _bools(data, S)
+    existential = _bools(data, S)
+    good = _bools(data, C)
+    frozen = _bools(data, S) if data.draw(st.booleans()) else np.zeros(S, bool)
+    expected = _safe_fixpoint(model, region, existential, good, frozen)
+    (a, ca), (b, cb) = _on_both(
+        lambda: safe_region(
+            _structure(model), region, existential=existential, good=good, frozen=frozen
+        )
+    )
+    assert a.tolist() == b.tolist() == expected.tolist()
+    assert ca.tolist() == cb.tolist()
+    succ = _succ(model)
+    for s in range(S):
+        if expected[s] and existential[s] and not frozen[s]:
+            c = int(ca[s])
+            assert c in _choices(model, s) and good[c] and all(expected[t] for t in succ[c])
+        else:
+            assert ca[s] == -1
