@@ -471,3 +471,37 @@ def test_safe_region_random(model: ExplicitModel, data: st.DataObject) -> None:
             assert c in _choices(model, s) and good[c] and all(expected[t] for t in succ[c])
         else:
             assert ca[s] == -1
+
+
+@needs_numba
+def test_the_warm_up_loads_the_variants_that_a_check_uses() -> None:
+    """After the background warm-up, a check's graph analysis on a built model calls no kernel
+    with argument types the warm-up did not load (each new variant costs a compilation or a
+    cache load inside the check)."""
+    from posgmc.engines import graph as gr
+    from posgmc.engines.kernels import graph as gk
+
+    before_use = kernels.STATE.use
+    kernels.STATE.use = True
+    try:
+        kernels.warm_up_in_background()
+        thread = kernels._WARM_UP.thread
+        if thread is not None:
+            thread.join()
+        gr._warm_up()  # (the thread may have run before this test switched the kernels on)
+        loaded = {name: list(getattr(gk, name)._compiled.signatures) for name in gk.__all__}
+        m = _smg_with_traps()
+        g = _structure(m)
+        goal = np.zeros(5, bool)
+        goal[4] = True
+        everywhere = np.ones(5, bool)
+        p0 = m.state_players == 0
+        layer = np.full(5, -1, dtype=np.int64)
+        pos = positive_reach(g, goal, everywhere, existential=p0, layer=layer)
+        almost_sure_reach(g, goal, everywhere, existential=p0, start=pos)
+        almost_sure_reach(g, goal, everywhere, existential=~p0)
+        leaving_choices(g, pos)
+        after = {name: list(getattr(gk, name)._compiled.signatures) for name in gk.__all__}
+        assert after == loaded
+    finally:
+        kernels.STATE.use = before_use
