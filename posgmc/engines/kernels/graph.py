@@ -2,9 +2,11 @@
 the attractor as one backward worklist search, and the per-choice "leaves the region" test.
 
 Every function here is a :func:`~posgmc.engines.kernels.compiled` kernel over plain arrays; the
-caller (``graph.py``) allocates the outputs, so it chooses their dtypes (int32 where the indices
-fit), and keeps the numpy path for when :func:`~posgmc.engines.kernels.enabled` is False. The
-arrays are those of :class:`~posgmc.engines.graph.Structure`: ``indptr``/``indices`` the csr
+caller (``graph.py``) chooses the dtypes (int32 where the indices fit), passes every input
+read-only (one compiled variant per dtype combination) and keeps the numpy path for when
+:func:`~posgmc.engines.kernels.enabled` is False. Large outputs are allocated inside the kernels
+(see :func:`_transpose_pattern` on why). The arrays are those of
+:class:`~posgmc.engines.graph.Structure`: ``indptr``/``indices`` the csr
 pattern of the choice matrix [C, S], ``back_ptr``/``back_choices`` its transpose (for state t the
 choices with an edge into t), ``row_groups`` int64[S + 1], ``choice_state`` [C].
 
