@@ -27,6 +27,7 @@ from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.compiler import BuildOptions, build_model
 from posgmc.deep import deep_generator, deep_stack
+from posgmc.engines import kernels
 from posgmc.errors import (
     InputError,
     LimitError,
@@ -361,6 +362,7 @@ def build(
     """Explore the model's reachable state space into an :class:`ExplicitModel`."""
     session = _session(session)
     _typed(options, BuildOptions, "options")
+    kernels.warm_up_in_background()  # the engines' compiled kernels load while the model builds
     if session.explicit is not None:
         return BuiltModel(_check_explicit(session, options), 0.0)
     with ops.exact_arithmetic() if options.exact else contextlib.nullcontext():
