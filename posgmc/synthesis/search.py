@@ -43,6 +43,7 @@ from posgmc.syntax.ast import (
     Temporal,
     TemporalOp,
 )
+from posgmc.synthesis import belief
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.deterministic import DeterministicResult, deterministic_phase
 from posgmc.synthesis.jobs import Executor, Problem, executor_for
@@ -200,7 +201,8 @@ def synthesize(
             several players.
     """
     started = time.perf_counter()
-    deadline = started + options.timeout
+    end = started + options.timeout
+    deadline = end  # the search's; a pomdp keeps a share of the budget for the belief phase
     if executor is None:
         others = [p for p in range(len(model.player_names)) if p != player]
         problem = problem_of(
@@ -216,6 +218,8 @@ def synthesize(
                               scalar=scalar, options=options, check_options=check_options,
                               executor=own)
     problem = executor.problem
+    if belief.applies(problem):
+        deadline = end - belief.SHARE * options.timeout
     base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar,
                            options=CheckOptions(keep_strategy=True))
     query = problem.query
@@ -350,6 +354,16 @@ def synthesize(
         seconds_of[k], evaluations_of[k] = 0.0, evaluations
         if best is None or _better(bound, best[1], maximize):
             best = (fss, bound)
+    # a pomdp: the belief-based controller handing over to the best defence at its frontier
+    # (:mod:`posgmc.synthesis.belief`), kept when its product check beats the best
+    belief_result = None
+    if belief.applies(problem) and best is not None:
+        t0 = time.perf_counter()
+        belief_result = _belief_candidate(problem, best[0], end, model, query, coalition_of,
+                                          scalar, maximize)
+        if belief_result is not None and _better(belief_result[1], best[1], maximize):
+            best = belief_result
+        phases["belief exploration"] = time.perf_counter() - t0
     # per memory size: the best defence with at most that many nodes (a smaller one embeds)
     rounds = []
     upto: tuple[FiniteStateStrategy, Bound] | None = None
@@ -381,6 +395,24 @@ def synthesize(
     partial = partial or not final.converged
     return SynthesisResult(best[0], guaranteed, full_bound, tuple(rounds), partial, phases, method,
                            tuple(deterministic[k] for k in sorted(deterministic)))
+
+
+def _belief_candidate(problem: Problem, cutoff: FiniteStateStrategy, end: float,
+                      model: ExplicitModel, query: Expr, coalition_of: CoalitionResolver,
+                      scalar: ScalarEvaluator, maximize: bool,
+                      ) -> tuple[FiniteStateStrategy, Bound] | None:
+    """The belief-based controller over ``cutoff`` and its bound by policy iteration on its
+    product (a ranking, like every candidate's), or None."""
+    # exploration stops with a quarter of what is left: the controller's product is checked after
+    now = time.perf_counter()
+    explore_until = now + 0.75 * max(0.0, end - now)
+    found = belief.belief_phase(problem, cutoff, explore_until)
+    if found is None:
+        return None
+    r = StrategyChecker(model, {found.strategy.player: found.strategy}, coalition_of=coalition_of,
+                        scalar=scalar, options=_POLICY).check(query, text="synthesis")
+    assert r.guaranteed is not None  # noqa: S101 - the decision maker's strategy is given
+    return found.strategy, r.guaranteed
 
 
 DETERMINISTIC_SHARE = 0.5
