@@ -76,10 +76,11 @@ FSS_ELEMENTS = 12_000_000
 PRODUCT_ELEMENTS = 12_000_000
 """The product construction lays out choices × k × k entries; kept below this."""
 
-EXPLORE_FACTOR = 30
-"""Belief nodes explored at most, per node the FSS may keep."""
+MAX_EXPLORED = 300_000
+"""Belief nodes explored at most (the time budget usually ends exploration first)."""
 
 _VI_SWEEPS = 5_000
+_GUIDE_SWEEPS = 300  # the optimistic value iteration only guides exploration
 _VI_TOLERANCE = 1e-10
 _POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY, prove=False))
 
@@ -181,7 +182,7 @@ class _Explorer:
             self.reward.append(r)
         # nodes: predicted distributions over continuing states
         self.node_key: dict[bytes, int] = {}
-        self.node_rows: list[sp.csr_matrix] = []  # one row each
+        self.num_nodes = 0
         self.expanded: list[bool] = []
         # beliefs (node, z): node, observation, weight, distribution (chunks of csr rows)
         self.b_node: list[np.ndarray] = []
@@ -212,16 +213,15 @@ class _Explorer:
             key = idx.tobytes() + q.tobytes()
             n = self.node_key.get(key)
             if n is None:
-                n = len(self.node_rows) + len(new)
+                n = self.num_nodes + len(new)
                 self.node_key[key] = n
                 new.append(i)
             out[i] = n
         if new:
             fresh = rows[np.asarray(new)]
-            first = len(self.node_rows)
-            for j in range(fresh.shape[0]):
-                self.node_rows.append(fresh[j])
-                self.expanded.append(False)
+            first = self.num_nodes
+            self.num_nodes += fresh.shape[0]
+            self.expanded.extend([False] * fresh.shape[0])
             self._split(fresh, first)
         return out
 
@@ -310,7 +310,7 @@ class _Explorer:
         return vals[np.arange(vals.shape[0]), m], m
 
     def solve(self, start: np.ndarray, choices: tuple[np.ndarray, ...], *, optimistic: bool,
-              deadline: float) -> tuple[np.ndarray, np.ndarray]:
+              deadline: float, sweeps: int = _VI_SWEEPS) -> tuple[np.ndarray, np.ndarray]:
         """Value iteration on the explored belief MDP from ``start`` (signed values per belief).
 
         Pessimistic (``optimistic`` False): a belief takes an action only when it strictly beats
@@ -326,8 +326,8 @@ class _Explorer:
             return V, choice
         starts = np.flatnonzero(np.r_[True, cb[1:] != cb[:-1]])
         owners = cb[starts]
-        num_nodes = len(self.node_rows)
-        for _ in range(_VI_SWEEPS):
+        num_nodes = self.num_nodes
+        for _ in range(sweeps):
             U = np.bincount(node, weights=np.where(w > 0, w * V, 0.0), minlength=num_nodes)
             fut = np.where(succ >= 0, U[np.maximum(succ, 0)], 0.0)
             Q = imm + self.discount * np.where(mass > 0, mass * fut, 0.0)
@@ -361,7 +361,7 @@ class _Explorer:
         (expected visits, truncated after ``steps`` steps)."""
         node, _, w = self.arrays()
         _, _, _, mass, succ = choices
-        num_nodes = len(self.node_rows)
+        num_nodes = self.num_nodes
         acting = np.flatnonzero(choice >= 0)
         c = choice[acting]
         go = succ[c] >= 0
@@ -442,12 +442,12 @@ def belief_controller(
     ex = _Explorer(model, layout, obs, cont, gain, rewards, discount, sign, cut, up)
     ex.add_nodes(sp.csr_matrix(([1.0], ([0], [s0])), shape=(1, model.num_states)))
     # explore more nodes than an FSS holds: the policy reaches a part of them
-    limit = EXPLORE_FACTOR * cap
+    limit = MAX_EXPLORED
     while True:
         frontier = np.flatnonzero(~np.asarray(ex.expanded))
-        if not frontier.size or len(ex.node_rows) >= limit or time.perf_counter() > deadline:
+        if not frontier.size or ex.num_nodes >= limit or time.perf_counter() > deadline:
             break
-        if len(ex.node_rows) == 1:
+        if ex.num_nodes == 1:
             ex.expand(frontier)
             continue
         hand, _ = ex.handover()
@@ -458,32 +458,36 @@ def belief_controller(
                               np.inf, optimistic)
         everything = ex.choices()
         _, choice = ex.solve(np.maximum(optimistic, hand), everything, optimistic=True,
-                             deadline=deadline)
+                             deadline=deadline, sweeps=_GUIDE_SWEEPS)
         occ = ex.occupancy(choice, everything)
         gap = np.bincount(node, weights=w * np.minimum(optimistic - hand, 1e12),
-                          minlength=len(ex.node_rows))
+                          minlength=ex.num_nodes)
         gap = np.where(np.isfinite(gap), gap, 1e12)
         score = occ[frontier] * np.maximum(gap[frontier], 0.0)
-        batch = max(1, min(len(ex.node_rows) // 2, limit - len(ex.node_rows)) // 2)
-        if not np.any(score > 0):
-            pick = frontier[:batch]  # breadth first where the heuristic sees nothing
-        else:
-            order = np.argsort(-score, kind="stable")
-            pick = frontier[order[:batch]]
-            pick = pick[score[order[:batch]] > 0]
+        batch = max(1, min(ex.num_nodes // 2, limit - ex.num_nodes) // 2)
+        # the most promising frontier nodes first (reached by the optimistic policy, with a gap
+        # between the optimistic and the hand-over value), the batch filled up breadth first
+        # with the other nodes that have a gap
+        order = np.lexsort((frontier, -score))
+        ranked = frontier[order[score[order] > 0]]
+        rest = frontier[(score <= 0) & (gap[frontier] > 0)]
+        pick = np.concatenate([ranked, rest])[:batch]
+        if not pick.size:
+            break  # the hand-over is as good as the optimistic value everywhere left
         ex.expand(np.sort(pick))
     return _freeze(ex, cutoff, cap, deadline)
 
 
 def _freeze(ex: _Explorer, cutoff: FiniteStateStrategy, cap: int,
             deadline: float) -> BeliefController | None:
-    """The FSS of the pessimistic policy, cut to ``cap`` reachable belief nodes by treating the
-    latest-created expanded nodes as frontier until it fits."""
+    """The FSS of the pessimistic policy. Its belief nodes share memory nodes where their
+    observations differ (:func:`_slots`); when they still need more than ``cap``, the
+    latest-created expanded nodes are treated as frontier until they fit."""
     hand, m_of = ex.handover()
     node, z, _ = ex.arrays()
     everything = ex.choices()
     cb, ca, _, _, csucc = everything
-    num_nodes = len(ex.node_rows)
+    num_nodes = ex.num_nodes
     allowed = num_nodes
     while True:
         # the beliefs of the first ``allowed`` nodes may act, the others hand over
@@ -491,31 +495,31 @@ def _freeze(ex: _Explorer, cutoff: FiniteStateStrategy, cap: int,
         sub = tuple(a[index] for a in everything)
         V, choice = ex.solve(hand, sub, optimistic=False, deadline=deadline + 5.0)
         reach = _reachable(num_nodes, node, choice, sub[4])
-        if reach.size <= cap or allowed <= 1:
+        slot = _slots(reach, node, z, ex.Zu, num_nodes)
+        kb = int(slot.max()) + 1
+        if kb <= cap or allowed <= 1:
             break
         allowed = max(1, int(allowed * 0.8))
-    if reach.size > cap:
+    if kb > cap:
         return None
-    kb, kc = reach.size, cutoff.memory_size
+    kc = cutoff.memory_size
     K = kb + kc
     Zu, Au = ex.Zu, ex.Au
-    new = np.full(num_nodes, -1, dtype=np.int64)
-    new[reach] = np.arange(kb)
     action = np.zeros((K, Zu, Au))
     update = np.zeros((K, Zu, Au, K))
     action[kb:] = cutoff.action
     update[kb:, :, :, kb:] = cutoff.update
     # beliefs of kept nodes: their action, or the hand-over to the best cut-off node
-    mine = np.flatnonzero((new[node] >= 0) & (z >= 0))
+    mine = np.flatnonzero((slot[node] >= 0) & (z >= 0))
     acts = mine[choice[mine] >= 0]
     c = index[choice[acts]]
-    n_new, z_b, a_b = new[node[acts]], z[acts], ca[c]
+    n_new, z_b, a_b = slot[node[acts]], z[acts], ca[c]
     action[n_new, z_b, a_b] = 1.0
-    nxt = np.where(csucc[c] >= 0, new[np.maximum(csucc[c], 0)], n_new)
+    nxt = np.where(csucc[c] >= 0, slot[np.maximum(csucc[c], 0)], n_new)
     update[n_new, z_b, a_b, nxt] = 1.0
     hands = mine[choice[mine] < 0]
     m = m_of[hands]
-    n_new, z_b = new[node[hands]], z[hands]
+    n_new, z_b = slot[node[hands]], z[hands]
     action[n_new, z_b] = cutoff.action[m, z_b]
     update[n_new, z_b, :, kb:] = cutoff.update[m, z_b]
     # (node, z) pairs no belief has (states that stop there, or other observations): the cut-off
@@ -536,6 +540,36 @@ def _freeze(ex: _Explorer, cutoff: FiniteStateStrategy, cap: int,
         fss, float(np.dot(w0, V[init])), float(np.dot(w0, hand[init])), kb, num_nodes,
         int(np.sum(ex.expanded)), ex.num_beliefs,
     )
+
+
+def _slots(reach: np.ndarray, node: np.ndarray, z: np.ndarray, Zu: int,
+           num_nodes: int) -> np.ndarray:
+    """int64[num_nodes]: the memory node of each reached belief node (-1: not reached). Nodes
+    whose beliefs' observations are disjoint share a memory node (first fit, in creation order,
+    node 0 first): in a state with observation z the memory node then names the one belief
+    node with a belief on z, and an update to a shared memory node names its belief node for
+    every observation the successor can show. The rules of distinct belief nodes never
+    collide."""
+    slot = np.full(num_nodes, -1, dtype=np.int64)
+    reached = np.zeros(num_nodes, dtype=bool)
+    reached[reach] = True
+    mine = np.flatnonzero(reached[node] & (z >= 0))
+    order = np.argsort(node[mine], kind="stable")
+    bn, bz = node[mine][order], z[mine][order]
+    starts = np.searchsorted(bn, reach)
+    ends = np.searchsorted(bn, reach, side="right")
+    used = np.zeros((0, Zu), dtype=bool)
+    for n, lo, hi in zip(reach.tolist(), starts.tolist(), ends.tolist()):
+        zs = bz[lo:hi]
+        free = np.flatnonzero(~used[:, zs].any(axis=1)) if used.shape[0] else np.zeros(0, int)
+        if free.size:
+            k = int(free[0])
+        else:
+            k = used.shape[0]
+            used = np.vstack([used, np.zeros((1, Zu), dtype=bool)])
+        used[k, zs] = True
+        slot[n] = k
+    return slot
 
 
 def _reachable(n: int, node: np.ndarray, choice: np.ndarray, csucc: np.ndarray) -> np.ndarray:
