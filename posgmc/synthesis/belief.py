@@ -425,7 +425,8 @@ def belief_controller(
         return None
     sign = 1.0 if maximize else -1.0
     if rewards is None:
-        cont = remain & ~target
+        # states that cannot reach the target (within ``remain``) are worth 0 whatever happens
+        cont = remain & ~target & _can_reach(model, target, remain)
         gain = sign * target.astype(np.float64)
     else:
         cont = ~target
@@ -475,11 +476,11 @@ def belief_controller(
         if not pick.size:
             break  # the hand-over is as good as the optimistic value everywhere left
         ex.expand(np.sort(pick))
-    return _freeze(ex, cutoff, cap, deadline)
+    return _freeze(ex, cutoff, cap, deadline, sign)
 
 
-def _freeze(ex: _Explorer, cutoff: FiniteStateStrategy, cap: int,
-            deadline: float) -> BeliefController | None:
+def _freeze(ex: _Explorer, cutoff: FiniteStateStrategy, cap: int, deadline: float,
+            sign: float) -> BeliefController | None:
     """The FSS of the pessimistic policy. Its belief nodes share memory nodes where their
     observations differ (:func:`_slots`); when they still need more than ``cap``, the
     latest-created expanded nodes are treated as frontier until they fit."""
@@ -537,7 +538,8 @@ def _freeze(ex: _Explorer, cutoff: FiniteStateStrategy, cap: int,
     init = ex.beliefs_of[0]
     w0 = ex.arrays()[2][init]
     return BeliefController(
-        fss, float(np.dot(w0, V[init])), float(np.dot(w0, hand[init])), kb, num_nodes,
+        fss, sign * float(np.dot(w0, V[init])), sign * float(np.dot(w0, hand[init])), kb,
+        num_nodes,
         int(np.sum(ex.expanded)), ex.num_beliefs,
     )
 
@@ -570,6 +572,22 @@ def _slots(reach: np.ndarray, node: np.ndarray, z: np.ndarray, Zu: int,
         used[k, zs] = True
         slot[n] = k
     return slot
+
+
+def _can_reach(model: ExplicitModel, target: np.ndarray, remain: np.ndarray) -> np.ndarray:
+    """bool[S]: the states from which some path through ``remain`` states reaches ``target``."""
+    S = model.num_states
+    T = model.transitions.tocoo()
+    src = model.choice_states[T.row]
+    ok = remain[src] & ~target[src]
+    # edges reversed (successor -> state), and a root S pointing to every target state
+    rows = np.concatenate([T.col[ok].astype(np.int64), np.full(int(target.sum()), S)])
+    cols = np.concatenate([src[ok], np.flatnonzero(target)])
+    G = sp.csr_matrix((np.ones(rows.size, dtype=np.int8), (rows, cols)), shape=(S + 1, S + 1))
+    order = csgraph.breadth_first_order(G, S, directed=True, return_predecessors=False)
+    out = np.zeros(S + 1, dtype=bool)
+    out[order] = True
+    return out[:S]
 
 
 def _reachable(n: int, node: np.ndarray, choice: np.ndarray, csucc: np.ndarray) -> np.ndarray:

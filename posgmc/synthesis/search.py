@@ -51,6 +51,9 @@ from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
 
 __all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
 
+AUTO_MEMORY = (1, 2, 3)
+"""The memory sizes of memory ``auto`` (the default)."""
+
 _POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY, prove=False))  # ranking only
 _LOGIT = LOGIT
 
@@ -65,12 +68,16 @@ class SynthesisOptions:
     against (0: no adversary phases); ``enumeration_limit``: how many are enumerated and ranked
     at most; ``compose_restarts``: random starts of the composition besides the search's defence;
     ``oracle_rounds``: double-oracle rounds at most (:mod:`posgmc.synthesis.compose`).
+    ``belief``: on a pomdp, also build a belief-based controller over the search's best
+    defence (:mod:`posgmc.synthesis.belief`), which has more memory nodes than ``memory``; None
+    (memory auto): when ``memory`` is the default and ``player_memory`` does not name the
+    decision maker.
     ``player_memory``: memory sizes by player name (``--memory rover=1..3 --memory
     attacker=2``); the decision maker's entry replaces ``memory``, the adversary's (its largest
     size) ``adversary_memory``. ``jobs``: worker processes for independent evaluations
     (:mod:`posgmc.synthesis.jobs`; results do not depend on it)."""
 
-    memory: tuple[int, ...] = (1, 2, 3)
+    memory: tuple[int, ...] = AUTO_MEMORY
     timeout: float = 30.0
     seed: int = 0
     restarts: int = 3
@@ -84,6 +91,7 @@ class SynthesisOptions:
     enumeration_limit: int = 1000
     compose_restarts: int = 1
     oracle_rounds: int = 8
+    belief: bool | None = None
 
     def for_players(self, decision_maker: str, adversary: str | None,
                     players: tuple[str, ...]) -> SynthesisOptions:
@@ -100,7 +108,10 @@ class SynthesisOptions:
                 f"the model", hint=f"the players are {', '.join(players) or '(none)'}")
         memory = named.get(decision_maker, self.memory)
         adversary_memory = max(named[adversary]) if adversary in named else self.adversary_memory
-        return replace(self, memory=memory, adversary_memory=adversary_memory, player_memory=())
+        with_belief = self.belief if self.belief is not None else (
+            decision_maker not in named and self.memory == AUTO_MEMORY)
+        return replace(self, memory=memory, adversary_memory=adversary_memory, player_memory=(),
+                       belief=with_belief)
 
 
 @dataclass(frozen=True)
@@ -218,7 +229,9 @@ def synthesize(
                               scalar=scalar, options=options, check_options=check_options,
                               executor=own)
     problem = executor.problem
-    if belief.applies(problem):
+    with_belief = bool(options.belief if options.belief is not None
+                       else options.memory == AUTO_MEMORY) and belief.applies(problem)
+    if with_belief:
         deadline = end - belief.SHARE * options.timeout
     base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar,
                            options=CheckOptions(keep_strategy=True))
@@ -357,7 +370,7 @@ def synthesize(
     # a pomdp: the belief-based controller handing over to the best defence at its frontier
     # (:mod:`posgmc.synthesis.belief`), kept when its product check beats the best
     belief_result = None
-    if belief.applies(problem) and best is not None:
+    if with_belief and best is not None:
         t0 = time.perf_counter()
         belief_result = _belief_candidate(problem, best[0], end, model, query, coalition_of,
                                           scalar, maximize)
