@@ -76,6 +76,9 @@ FSS_ELEMENTS = 12_000_000
 PRODUCT_ELEMENTS = 12_000_000
 """The product construction lays out choices × k × k entries; kept below this."""
 
+EXPLORE_SHARE = 0.6
+"""The part of the belief phase's time spent exploring."""
+
 MAX_EXPLORED = 300_000
 """Belief nodes explored at most (the time budget usually ends exploration first)."""
 
@@ -408,7 +411,9 @@ def belief_controller(
         target, remain, rewards, discount: the objective (as :func:`posgmc.synthesis.search.
             problem_of` gives it); ``rewards`` None for a probability.
         maximize: the objective's direction.
-        deadline: ``time.perf_counter()`` value at which exploration stops.
+        deadline: ``time.perf_counter()`` value by which the controller is built: exploration
+            stops after :data:`EXPLORE_SHARE` of the time left, the final value iteration and
+            the FSS take the rest (value iteration stopped early keeps achievable values).
         max_nodes: belief memory nodes at most (default :func:`node_cap`).
 
     Returns:
@@ -444,9 +449,11 @@ def belief_controller(
     ex.add_nodes(sp.csr_matrix(([1.0], ([0], [s0])), shape=(1, model.num_states)))
     # explore more nodes than an FSS holds: the policy reaches a part of them
     limit = MAX_EXPLORED
+    now = time.perf_counter()
+    explore_until = now + EXPLORE_SHARE * max(0.0, deadline - now)
     while True:
         frontier = np.flatnonzero(~np.asarray(ex.expanded))
-        if not frontier.size or ex.num_nodes >= limit or time.perf_counter() > deadline:
+        if not frontier.size or ex.num_nodes >= limit or time.perf_counter() > explore_until:
             break
         if ex.num_nodes == 1:
             ex.expand(frontier)
@@ -459,7 +466,7 @@ def belief_controller(
                               np.inf, optimistic)
         everything = ex.choices()
         _, choice = ex.solve(np.maximum(optimistic, hand), everything, optimistic=True,
-                             deadline=deadline, sweeps=_GUIDE_SWEEPS)
+                             deadline=explore_until, sweeps=_GUIDE_SWEEPS)
         occ = ex.occupancy(choice, everything)
         gap = np.bincount(node, weights=w * np.minimum(optimistic - hand, 1e12),
                           minlength=ex.num_nodes)
@@ -494,7 +501,7 @@ def _freeze(ex: _Explorer, cutoff: FiniteStateStrategy, cap: int, deadline: floa
         # the beliefs of the first ``allowed`` nodes may act, the others hand over
         index = np.flatnonzero((node[cb] < allowed) & (csucc < allowed))
         sub = tuple(a[index] for a in everything)
-        V, choice = ex.solve(hand, sub, optimistic=False, deadline=deadline + 5.0)
+        V, choice = ex.solve(hand, sub, optimistic=False, deadline=deadline)
         reach = _reachable(num_nodes, node, choice, sub[4])
         slot = _slots(reach, node, z, ex.Zu, num_nodes)
         kb = int(slot.max()) + 1

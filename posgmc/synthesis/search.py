@@ -416,10 +416,9 @@ def _belief_candidate(problem: Problem, cutoff: FiniteStateStrategy, end: float,
                       ) -> tuple[FiniteStateStrategy, Bound] | None:
     """The belief-based controller over ``cutoff`` and its bound by policy iteration on its
     product (a ranking, like every candidate's), or None."""
-    # exploration stops with a quarter of what is left: the controller's product is checked after
+    # the controller is built with a fifth of what is left to spare: its product is checked after
     now = time.perf_counter()
-    explore_until = now + 0.75 * max(0.0, end - now)
-    found = belief.belief_phase(problem, cutoff, explore_until)
+    found = belief.belief_phase(problem, cutoff, now + 0.8 * max(0.0, end - now))
     if found is None:
         return None
     r = StrategyChecker(model, {found.strategy.player: found.strategy}, coalition_of=coalition_of,
