@@ -254,11 +254,12 @@ class _Explorer:
         ids = np.concatenate([self.beliefs_of[n] for n in nodes.tolist()])
         for n in nodes.tolist():
             self.expanded[n] = True
-        ids = ids[self.arrays()[1][ids] >= 0]  # beliefs on states without observation: none
+        z_all = self.arrays()[1]
+        ids = ids[z_all[ids] >= 0]  # beliefs on states without observation: none
         if not ids.size:
             return
         B = self.belief_matrix()[ids]
-        z = self.arrays()[1][ids]
+        z = z_all[ids]
         for a in range(self.Au):
             sel = np.flatnonzero(self.mask[z, a])
             if not sel.size:
@@ -303,7 +304,6 @@ class _Explorer:
     def handover(self) -> tuple[np.ndarray, np.ndarray]:
         """Each belief's best hand-over value (signed) and the cut-off node that achieves it."""
         B = self.belief_matrix()
-        vals = np.full((B.shape[0], self.cut.shape[1]), -np.inf)
         finite = np.isfinite(self.cut)
         # a node m is open at a belief only if its value is known in every state of the support
         known = np.asarray((B != 0).astype(np.float64) @ (~finite).astype(np.float64)) == 0
