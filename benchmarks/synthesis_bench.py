@@ -49,7 +49,7 @@ def ours(directory: Path, timeout: float) -> dict[str, object]:
         api.load(directory / "sketch.templ"),
         properties=[prop],
         zero_based_players=True,
-        synthesis=SynthesisOptions(timeout=timeout),
+        synthesis=SynthesisOptions(timeout=timeout, started=started),  # loading counts
     )
     seconds = time.perf_counter() - started
     outcome = report.outcomes[0]

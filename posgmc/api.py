@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -605,7 +606,9 @@ def check(
             those that the given strategies determine.
         synthesis: how to synthesise strategies for a partially observable model checked
             without ``strategies`` and without ``full_observation`` (memory sizes, time budget,
-            seed; :class:`~posgmc.synthesis.search.SynthesisOptions`).
+            seed; :class:`~posgmc.synthesis.search.SynthesisOptions`). The first synthesised
+            property's budget counts from ``synthesis.started``, or from this call: building
+            the model is inside it.
         on_start: called once the model is built, with the model, its build time and the
             warnings, before any property is checked (to show progress).
         on_outcome: called with each outcome (as in ``outcomes``) as soon as it is computed, so
@@ -620,6 +623,9 @@ def check(
         UnsupportedError: a partially observable model without ``full_observation``.
     """
     session = _session(session)
+    if synthesis is not None and synthesis.started is None:
+        # the first synthesised property's budget counts from here: building the model counts
+        synthesis = dataclasses.replace(synthesis, started=time.perf_counter())
     _typed(options, CheckOptions, "options")
     property_files = _paths(property_files, "property_files")
     properties = _property_items(properties)

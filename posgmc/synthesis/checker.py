@@ -23,7 +23,13 @@ from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
-from posgmc.synthesis.compose import RESPONSE_EXHAUSTIVE, VersusJob, one_sided, verified_numbers
+from posgmc.synthesis.compose import (
+    RESPONSE_EXHAUSTIVE,
+    VersusJob,
+    _batched,
+    one_sided,
+    verified_numbers,
+)
 from posgmc.synthesis.jobs import POLICY, Executor, Problem, executor_for
 from posgmc.synthesis.objectives import lift, needs_product
 from posgmc.synthesis.search import (
@@ -49,6 +55,11 @@ _ADVERSARY_END = 0.85
 """Where in the budget the adversary phases end; the rest is for the sound checks."""
 
 
+_POOL_BATCH = 4
+"""The defence is evaluated against the adversaries of ``vs_fss_adversary`` this many at a time
+until the adversary phases' deadline (the kept ones, strongest first, come first)."""
+
+
 def _until(options: CheckOptions, deadline: float) -> CheckOptions:
     """``options`` whose iterative solves stop at ``deadline`` (their bounds stay proven), with
     at least a little time when it has passed already: a check that cannot iterate at all proves
@@ -67,6 +78,15 @@ class SynthesisChecker:
                  synthesis: SynthesisOptions = SynthesisOptions()) -> None:
         self.model, self.coalition_of, self.scalar = model, coalition_of, scalar
         self.options, self.synthesis = options, synthesis
+        self._run_started = synthesis.started
+
+    def _budget_start(self) -> float:
+        """Where this property's budget starts: the run's start (``SynthesisOptions.started``:
+        loading and building the model count) for the first property synthesised, now for the
+        others (``--timeout`` is per property)."""
+        now = time.perf_counter()
+        start, self._run_started = self._run_started, None
+        return now if start is None else min(start, now)
 
     def _player(self, expr: ProbQuery | RewardQuery) -> int:
         if not self.model.player_names:
@@ -125,30 +145,37 @@ class SynthesisChecker:
                     defence, g = composed, g_composed
         enumerated = found.enumeration.strategies
         ranked_all = found.all_ranked
-        # against every enumerated adversary when there are few enough, else the kept ones
+        # against every enumerated adversary when there are few enough, else the kept ones; the
+        # kept first, so that when the deadline cuts the evaluation short the prefix evaluated
+        # (the pool then reported) still holds them
         small = (
             found.enumeration.exhaustive and ranked_all and len(enumerated) <= RESPONSE_EXHAUSTIVE
         )
-        pool = (
-            tuple(enumerated) + tuple(a for a in found.kept if not any(a is e for e in enumerated))
-            if small
-            else found.kept
+        pool = tuple(found.kept) + (
+            tuple(a for a in enumerated if not any(a is k for k in found.kept)) if small else ()
         )
+        # small batches: past the deadline only the first runs (the strongest kept adversaries)
+        mine: list[float] = _batched(executor, [VersusJob(defence, a) for a in pool], deadline,
+                                     size=_POOL_BATCH)
+        if len(mine) < len(pool):
+            pool, small = pool[:len(mine)], False
         vs_from_composed = False
+        shown_values = mine
         if composed is not None and composed is not defence and pool:
             # vs_fss_adversary of the composed defence when it is clearly better there
-            mine = min(executor.map([VersusJob(defence, a) for a in pool]), key=lambda v: sign * v)
-            theirs = min(
-                executor.map([VersusJob(composed, a) for a in pool]), key=lambda v: sign * v
-            )
-            if sign * theirs > sign * mine + _GAIN * max(1.0, abs(mine)):
+            theirs: list[float] = _batched(executor, [VersusJob(composed, a) for a in pool],
+                                           deadline, size=_POOL_BATCH)
+            worst_mine = min(mine, key=lambda v: sign * v)
+            if len(theirs) == len(pool) and sign * min(theirs, key=lambda v: sign * v) > \
+                    sign * worst_mine + _GAIN * max(1.0, abs(worst_mine)):
                 if g_composed is None:
                     g_composed = guaranteed_of(composed, verify)
                 vs_from_composed = g_composed is not None
+                shown_values = theirs
         shown, shown_g = (composed, g_composed) if vs_from_composed else (defence, g)
         assert shown is not None and shown_g is not None  # noqa: S101 - set together
         vs, worst, ub = verified_numbers(problem, executor, shown, shown_g, pool, found.ranked,
-                                         check_options=verify)
+                                         check_options=verify, values=shown_values)
         phases = dict(found.phases)
         phases["adversaries: verification"] = time.perf_counter() - t0
         stats: dict[str, object] = {
@@ -175,14 +202,14 @@ class SynthesisChecker:
         (:mod:`posgmc.synthesis.objectives`: the strategies observe the game, not the
         automaton, so they are strategies of the game); the defence's ``guaranteed`` is then
         recomputed on the game itself, as ``--strategy`` would."""
-        started = time.perf_counter()
+        started = self._budget_start()
         lifted, query = lift(self.model, expr, PropertyChecker(
             self.model, coalition_of=self.coalition_of, scalar=self.scalar))
         # the budget: the synthesis on the product, then the last tenth for the recomputation
         budget = self.synthesis.timeout
         inner = SynthesisChecker(lifted, coalition_of=self.coalition_of, scalar=self.scalar,
                                  options=self.options, synthesis=dataclasses.replace(
-                                     self.synthesis, timeout=0.9 * budget))
+                                     self.synthesis, timeout=0.9 * budget, started=started))
         result = inner.check(query, text=text, name=name)
         defence = result.strategies[0]
         bare = expr if expr.threshold is None else dataclasses.replace(
@@ -228,7 +255,7 @@ class SynthesisChecker:
         # search), up to 17/20 for the adversary phases, the rest for the sound checks of the
         # reported numbers, which stop at the end of the budget (interval iteration stopped
         # early: bounds still proven, only wider; the result then says partial)
-        started = time.perf_counter()
+        started = self._budget_start()
         others = [p for p in range(len(self.model.player_names)) if p != player]
         names = self.model.player_names
         settings = self.synthesis.for_players(
@@ -243,7 +270,8 @@ class SynthesisChecker:
             phases_follow = adversary is not None and settings.adversaries > 0
             # without adversary phases the search has their time too
             search = dataclasses.replace(
-                settings, timeout=budget * (_SEARCH_SHARE if phases_follow else _ADVERSARY_END))
+                settings, timeout=budget * (_SEARCH_SHARE if phases_follow else _ADVERSARY_END),
+                started=started)
             result = synthesize(
                 self.model,
                 bare,

@@ -136,9 +136,14 @@ class ComposeJob:
                     gd += wj * b
             return worst, sign * ga, sign * gd
 
-        (la, ld), _, n = ascend(step, *self.logits, iterations=self.iterations,
-                                learning_rate=self.learning_rate, deadline=self.deadline)
+        (la, ld), reached, n = ascend(step, *self.logits, iterations=self.iterations,
+                                      learning_rate=self.learning_rate, deadline=self.deadline)
         g, d = pars[0].probabilities(la, ld)
+        if expired(self.deadline):
+            # no time for the sharpened and deterministic versions (an evaluation against every
+            # adversary each): the best iterate with the value the ascent measured (-inf, never
+            # chosen, when it took no step)
+            return Composed(pars[0].strategy(g, d), (la, ld), sign * reached, n)
         best: tuple[float, np.ndarray, np.ndarray] | None = None
         # the sharpened, then the deterministic version is kept unless a later one is better by
         # 1e-6 (relative): simpler, and verified far faster than the softmax's near-deterministic
@@ -286,9 +291,12 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
     starts = [logits_of(defence, layout) or (np.zeros(shapes[0]), np.zeros(shapes[1]))]
     starts += [(rng.normal(size=shapes[0]), rng.normal(size=shapes[1])) for _ in range(restarts)]
     t_compose = t_oracle = 0.0
+    if expired(deadline):  # ranking used the time: nothing composed
+        return OneSided(enumeration, all_ranked, tuple(ranked), tuple(kept), 0, None, (), True,
+                        phases)
     t0 = time.perf_counter()
     composed = _compose(executor, kept, k, defence, starts, iterations, learning_rate, deadline)
-    composed = _with_milp(problem, kept, composed, k, deadline)
+    composed = _with_milp(problem, executor, kept, composed, k, deadline)
     t_compose += time.perf_counter() - t0
     responses: list[tuple[float, bool]] = []
     added = 0
@@ -299,11 +307,12 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
             partial = True
             break
         t0 = time.perf_counter()
-        response, value = _best_response(problem, executor, composed.strategy, enumeration,
-                                         exhaustive, kept, adversary_memory, iterations,
-                                         learning_rate, rng, deadline)
+        response, value, complete = _best_response(problem, executor, composed.strategy,
+                                                   enumeration, exhaustive, kept,
+                                                   adversary_memory, iterations, learning_rate,
+                                                   rng, deadline)
         t_oracle += time.perf_counter() - t0
-        responses.append((value, exhaustive))
+        responses.append((value, complete))
         margin = 1e-9 * max(1.0, abs(composed.value)) if np.isfinite(composed.value) else 0.0
         if not sign * value < sign * composed.value - margin or any(response is a for a in kept):
             break  # the kept set already contains the adversary's best answer (as far as found)
@@ -318,7 +327,7 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
         again = [composed.logits, (rng.normal(size=shapes[0]), rng.normal(size=shapes[1]))]
         composed = _compose(executor, kept, k, composed.strategy, again, iterations, learning_rate,
                             deadline)
-        composed = _with_milp(problem, kept, composed, k, deadline)
+        composed = _with_milp(problem, executor, kept, composed, k, deadline)
         t_compose += time.perf_counter() - t0
     phases["adversaries: composition"] = t_compose
     phases["adversaries: double oracle"] = t_oracle
@@ -335,10 +344,11 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
     )
 
 
-def _batched(executor: Executor, jobs: list, deadline: float) -> list:  # type: ignore[type-arg]
-    """The jobs' results, batch by batch until ``deadline``: a prefix of the results."""
+def _batched(executor: Executor, jobs: list, deadline: float,  # type: ignore[type-arg]
+             size: int = 16) -> list:  # type: ignore[type-arg]
+    """The jobs' results, batch by batch (``size`` jobs) until ``deadline``: a prefix of the
+    results, at least the first batch."""
     out: list = []  # type: ignore[type-arg]
-    size = 16
     for i in range(0, len(jobs), size):
         if i and expired(deadline):
             break
@@ -352,8 +362,9 @@ def _compose(executor: Executor, adversaries: list[FiniteStateStrategy], memory:
     """The best composed defence over the starts, or ``incumbent`` (the defence the first start
     approximates: its logits are clipped) when none does better against ``adversaries`` — so
     composing never loses against the set (the first on a tie)."""
-    jobs = [ComposeJob(tuple(adversaries), memory, s, iterations, learning_rate, deadline)
-            for s in starts]
+    jobs = [] if expired(deadline) else [
+        ComposeJob(tuple(adversaries), memory, s, iterations, learning_rate, deadline)
+        for s in starts]
     results: list[Composed] = executor.map(jobs)
     sign = executor.problem.sign
     values = executor.map([VersusJob(incumbent, a) for a in adversaries])
@@ -369,39 +380,52 @@ MILP_LIMIT = 20_000
 states in all (a variable per product state)."""
 
 
-def _with_milp(problem: Problem, kept: list[FiniteStateStrategy], composed: Composed, memory: int,
-               deadline: float) -> Composed:
+def _with_milp(problem: Problem, executor: Executor, kept: list[FiniteStateStrategy],
+               composed: Composed, memory: int, deadline: float) -> Composed:
     """``composed``, or the MILP's deterministic memoryless defence (:mod:`posgmc.synthesis.milp`,
     exact over those defences) when the objective allows it and it is better against ``kept``
-    (by more than 1e-7)."""
+    (by more than 1e-7), within half of the time left. The MILP's float optimum only proposes:
+    the candidate is evaluated against every kept adversary by an exact linear solve
+    (:class:`VersusJob`), and that value decides; the reported numbers are proven later by the
+    sound engines."""
     if not milp.supported(problem) or expired(deadline) or problem.adversary is None:
         return composed
     if sum(strategy_product(problem.model, [bind(problem.model, a)]).model.num_states
            for a in kept) > MILP_LIMIT:
         return composed
-    found = milp.compose_milp(problem, kept, memory=memory, deadline=deadline)
+    # at most half of what is left: the double oracle still needs time, and HiGHS on a large
+    # product with end components (ranking binaries per edge) can take all of it
+    now = time.perf_counter()
+    found = milp.compose_milp(problem, kept, memory=memory, deadline=now + 0.5 * (deadline - now),
+                              bound=composed.value)
     if found is None:
         return composed
     sign = problem.sign
-    if round(sign * found.value, 7) > round(sign * composed.value, 7):
+    values = _batched(executor, [VersusJob(found.strategy, a) for a in kept], deadline, size=4)
+    if len(values) < len(kept):
+        return composed  # not evaluated against every kept adversary within the budget
+    value = min(values, key=lambda v: sign * v)
+    if round(sign * value, 7) > round(sign * composed.value, 7):
         logits = logits_of(found.strategy, Layout.of(problem.model, problem.player))
         assert logits is not None  # noqa: S101 - laid out by the same Layout
-        return Composed(found.strategy, logits, found.value, 0)
+        return Composed(found.strategy, logits, value, 0)
     return composed
 
 
 def _best_response(problem: Problem, executor: Executor, defence: FiniteStateStrategy,
                    enumeration: Enumeration, exhaustive: bool, kept: list[FiniteStateStrategy],
                    memory: int, iterations: int, learning_rate: float, rng: np.random.Generator,
-                   deadline: float) -> tuple[FiniteStateStrategy, float]:
+                   deadline: float) -> tuple[FiniteStateStrategy, float, bool]:
     """The adversary strategy that hurts ``defence`` most: over every enumerated one when
-    ``exhaustive``, otherwise by gradient synthesis from the kept ones' logits (the worst first)
-    and a random start. Returns it with the decision maker's value against it."""
+    ``exhaustive`` (batch by batch until ``deadline``), otherwise by gradient synthesis from the
+    kept ones' logits (the worst first) and a random start. Returns it with the decision maker's
+    value against it and whether every enumerated strategy was evaluated."""
     sign = problem.sign
     if exhaustive:
-        values = executor.map([VersusJob(defence, a) for a in enumeration.strategies])
+        values = _batched(executor, [VersusJob(defence, a) for a in enumeration.strategies],
+                          deadline)
         i = min(range(len(values)), key=lambda j: sign * values[j])
-        return enumeration.strategies[i], values[i]
+        return enumeration.strategies[i], values[i], len(values) == len(enumeration.strategies)
     assert problem.adversary is not None  # noqa: S101 - only asked in a game
     layout = Layout.of(problem.model, problem.adversary)
     shapes = ((memory, *layout.mask.shape), (memory, *layout.mask.shape, memory))
@@ -413,13 +437,14 @@ def _best_response(problem: Problem, executor: Executor, defence: FiniteStateStr
                           for s in starts])
     found.append((kept[worst], values[worst]))
     best: tuple[FiniteStateStrategy, float] = min(found, key=lambda r: sign * r[1])
-    return best
+    return best[0], best[1], False
 
 
 def verified_numbers(problem: Problem, executor: Executor, defence: FiniteStateStrategy,
                      guaranteed: Bound, adversaries: tuple[FiniteStateStrategy, ...],
                      strengths: tuple[tuple[FiniteStateStrategy, float], ...], *,
                      check_options: CheckOptions, check_all: int = 4,
+                     values: list[float] | None = None,
                      ) -> tuple[Bound | None, FiniteStateStrategy | None, Bound | None]:
     """(vs_fss_adversary of ``defence`` over ``adversaries``, the adversary achieving it,
     upper_bound over the ranked ``strengths``), proven by the sound engines (``check_options``).
@@ -431,6 +456,7 @@ def verified_numbers(problem: Problem, executor: Executor, defence: FiniteStateS
     (the worst is no better than it); its other bound needs every adversary: with at most
     ``check_all`` of them each is checked soundly, otherwise that end falls back to
     ``guaranteed``'s (the defence's value against any adversary is at least what it guarantees).
+    ``values``: the defence's float values against ``adversaries`` when the caller has them.
     """
     sign = problem.sign
     vs: Bound | None = None
@@ -447,7 +473,8 @@ def verified_numbers(problem: Problem, executor: Executor, defence: FiniteStateS
         return getattr(r, number)  # type: ignore[no-any-return]
 
     if adversaries:
-        values = executor.map([VersusJob(defence, a) for a in adversaries])
+        if values is None or len(values) != len(adversaries):
+            values = executor.map([VersusJob(defence, a) for a in adversaries])
         i = min(range(len(values)), key=lambda j: sign * values[j])
         worst = adversaries[i]
         vs = proven({defence.player: defence, worst.player: worst}, "vs_fss_adversary")

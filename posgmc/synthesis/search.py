@@ -75,7 +75,10 @@ class SynthesisOptions:
     ``player_memory``: memory sizes by player name (``--memory rover=1..3 --memory
     attacker=2``); the decision maker's entry replaces ``memory``, the adversary's (its largest
     size) ``adversary_memory``. ``jobs``: worker processes for independent evaluations
-    (:mod:`posgmc.synthesis.jobs`; results do not depend on it)."""
+    (:mod:`posgmc.synthesis.jobs`; results do not depend on it). ``started``: the
+    ``time.perf_counter()`` value from which the first synthesised property's ``timeout`` counts
+    (the CLI and :func:`posgmc.api.check` set it where the run starts, so that loading and
+    building the model are inside the budget); None: from the start of its synthesis."""
 
     memory: tuple[int, ...] = AUTO_MEMORY
     timeout: float = 30.0
@@ -91,6 +94,7 @@ class SynthesisOptions:
     enumeration_limit: int = 1000
     compose_restarts: int = 1
     oracle_rounds: int = 8
+    started: float | None = None
     belief: bool | None = None
 
     def for_players(self, decision_maker: str, adversary: str | None,
@@ -211,7 +215,8 @@ def synthesize(
         UnsupportedError: an objective other than unbounded reachability, or a coalition of
             several players.
     """
-    started = time.perf_counter()
+    now = time.perf_counter()
+    started = now if options.started is None else min(options.started, now)
     end = started + options.timeout
     deadline = end  # the search's; a pomdp keeps a share of the budget for the belief phase
     if executor is None:
@@ -233,8 +238,10 @@ def synthesize(
                        else options.memory == AUTO_MEMORY) and belief.applies(problem)
     if with_belief:
         deadline = end - belief.SHARE * options.timeout
+    # the full-observation solve stops at the search's deadline too (its bounds stay proven)
     base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar,
-                           options=CheckOptions(keep_strategy=True))
+                           options=CheckOptions(keep_strategy=True,
+                                                solver=SolverOptions(deadline=deadline)))
     query = problem.query
     direction = query.direction
     target, remain, rewards, discount = (
@@ -516,6 +523,8 @@ def _round(
     # on a large model one candidate only: a policy-iteration check of its product costs LU
     # factorisations of 10^5 unknowns (seconds each), and the float ranking rarely errs
     for g, d, logits in scored[: 1 if large else options.verify]:
+        if best is not None and time.perf_counter() > deadline:
+            break  # the most promising candidate is checked; the rest only past the deadline
         fss = par.strategy(g, d)
         r = StrategyChecker(model, {fss.player: fss}, coalition_of=coalition_of, scalar=scalar,
                             options=_POLICY).check(query, text="synthesis")

@@ -238,8 +238,10 @@ def test_gradient_best_response_is_a_strategy_of_the_game(memory: int) -> None:
         from posgmc.synthesis.search import _embed_strategy
 
         kept = [_embed_strategy(kept[0], 2)]
-    response, value = _best_response(problem, executor, defence, found.enumeration, False, kept,
-                                     memory, 30, 0.3, np.random.default_rng(0), float("inf"))
+    response, value, complete = _best_response(problem, executor, defence, found.enumeration,
+                                               False, kept, memory, 30, 0.3,
+                                               np.random.default_rng(0), float("inf"))
+    assert not complete  # gradient synthesis: not an exhaustive answer
     assert response.memory_size == memory and response.player == "p1"
     assert executor.map([VersusJob(defence, response)])[0] == pytest.approx(value, abs=1e-9)
     assert value <= executor.map([VersusJob(defence, kept[0])])[0] + 1e-12
