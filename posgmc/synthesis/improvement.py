@@ -82,13 +82,18 @@ def hole_scores(q: Quotient, values: np.ndarray, problem: Problem) -> np.ndarray
     return np.where((count > 0).reshape(H, O) & q.offered, score.reshape(H, O), -np.inf)
 
 
-def _greedy(score: np.ndarray, current: np.ndarray | None) -> np.ndarray:
-    """int64[H]: each hole's best option; the current one where none is strictly better."""
+def _greedy(score: np.ndarray, current: np.ndarray | None, offered: np.ndarray) -> np.ndarray:
+    """int64[H]: each hole's best option; the current one where none is strictly better; a
+    hole without a state in the quotient (unreachable) keeps its current option, else takes
+    its first offered one."""
+    rows = np.arange(score.shape[0])
     best: np.ndarray = score.argmax(axis=1)
+    top = score[rows, best]
+    fallback = offered.argmax(axis=1) if current is None else current
+    best = np.where(np.isfinite(top), best, fallback)
     if current is None:
         return best
-    rows = np.arange(score.shape[0])
-    top, now = score[rows, best], score[rows, current]
+    now = score[rows, current]
     scale = np.maximum(1.0, np.abs(np.where(np.isfinite(top), top, 0.0)))
     keep = np.isfinite(now) & (now >= top - _TIE * scale)
     chosen: np.ndarray = np.where(keep, current, best)
@@ -132,7 +137,7 @@ def improve(problem: Problem, memory: int, *, deadline: float | None,
         values = solved.values
     rounds = since = 0
     while rounds < MAX_ROUNDS and since < PATIENCE and not expired(deadline):
-        choice = _greedy(hole_scores(q, values, problem), current)
+        choice = _greedy(hole_scores(q, values, problem), current, q.offered)
         if current is not None and np.array_equal(choice, current):
             break  # no hole changes: a fixed point of the improvement
         current = choice
