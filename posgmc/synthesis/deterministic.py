@@ -574,12 +574,15 @@ def _arrays(q: Quotient, member: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class DeterministicJob:
     """The abstraction-refinement search for each memory size in turn (a job of
     :mod:`posgmc.synthesis.jobs`), each seeded with the best smaller defence and stopped at its
-    own deadline (``time.perf_counter()`` values, non-decreasing). ``run`` returns the best
+    own deadline (``time.perf_counter()`` values, non-decreasing). ``seeds``: defences found
+    before (by :mod:`posgmc.synthesis.improvement`), each the first incumbent of its size and
+    the larger ones when better than the smaller size's result. ``run`` returns the best
     defence with at most k nodes for each size reached."""
 
     memory: tuple[int, ...]
     deadlines: tuple[float | None, ...]
     max_families: int | None = None
+    seeds: tuple[DeterministicResult, ...] = ()
 
     def run(self, problem: Problem) -> tuple[DeterministicResult, ...]:
         found: list[DeterministicResult] = []
@@ -587,6 +590,10 @@ class DeterministicJob:
         for k, deadline in zip(self.memory, self.deadlines):
             if found and expired(deadline):
                 break
+            for seed in self.seeds:
+                if seed.memory <= k and (
+                        best is None or problem.sign * seed.value > problem.sign * best.value):
+                    best = seed
             r = search(problem, k, deadline=deadline, max_families=self.max_families,
                        incumbent=best if best is not None and best.memory <= k else None)
             if r is None:
@@ -596,15 +603,17 @@ class DeterministicJob:
         return tuple(found)
 
 
-def deterministic_phase(executor: Executor, memory: tuple[int, ...], deadline: float
+def deterministic_phase(executor: Executor, memory: tuple[int, ...], deadline: float,
+                        seeds: tuple[DeterministicResult, ...] = ()
                         ) -> dict[int, DeterministicResult]:
     """Run the deterministic search over ``memory`` until ``deadline``: the time is cut in parts,
     one for the first size, three for the second, two for each further one (the first is small
     and often exhaustive at once, handing its time on; the second is where memory first helps).
-    Returns the best defence with at most k nodes, by k."""
+    ``seeds``: first incumbents (:class:`DeterministicJob`). Returns the best defence with at
+    most k nodes, by k."""
     now = time.perf_counter()
     span = max(deadline - now, 0.0)
     weights = np.array([1.0] + [3.0] + [2.0] * (len(memory) - 2))[: len(memory)]
     ends = tuple(now + span * float(c) for c in np.cumsum(weights) / weights.sum())
-    results = executor.map([DeterministicJob(tuple(memory), ends)])[0]
+    results = executor.map([DeterministicJob(tuple(memory), ends, seeds=seeds)])[0]
     return {r.memory: r for r in results}

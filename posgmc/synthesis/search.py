@@ -46,6 +46,7 @@ from posgmc.syntax.ast import (
 from posgmc.synthesis import belief
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.deterministic import DeterministicResult, deterministic_phase
+from posgmc.synthesis.improvement import improvement_phase
 from posgmc.synthesis.jobs import Executor, Problem, executor_for
 from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
 
@@ -261,14 +262,23 @@ def synthesize(
         float(full.values[init]), float(full.lower[init]), float(full.upper[init]), full.sound
     )
     phases["full observation"] = time.perf_counter() - t0
-    # the direct search over deterministic FSSs first (abstraction refinement, its share of the
-    # budget): its best defence per memory size joins that size's candidates and starts
+    # observation-level policy iteration over deterministic FSSs first (cheap: a few value
+    # iterations per size; it carries directed moves and the value of gathering information into
+    # the start, where the projections below leave them tied), then the direct search over
+    # deterministic FSSs (abstraction refinement, its share of the budget): their best defences
+    # per memory size join that size's candidates and starts
+    t0 = time.perf_counter()
+    improved_det = improvement_phase(
+        executor, _with_warm_up(options.memory), started + IMPROVEMENT_SHARE * options.timeout
+    )
+    phases["policy iteration (observations)"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     share = (
         DETERMINISTIC_SHARE if executor.problem.adversary is not None else DETERMINISTIC_SHARE_POMDP
     )
     deterministic = deterministic_phase(
-        executor, options.memory, started + share * options.timeout
+        executor, options.memory, started + share * options.timeout,
+        seeds=tuple(improved_det.values()),
     ) if share > 0 else {}
     phases["deterministic search"] = time.perf_counter() - t0
 
@@ -309,8 +319,12 @@ def synthesize(
             # build on what is known have run), then the full-observation optimum projected
             # two ways (pessimistic QMDP, majority vote), then random logits
             starts = []
-            found_det = deterministic.get(k) if pass_no == 0 else None
-            if found_det is not None:  # the deterministic search's best, first of all
+            # the deterministic defences (policy iteration's, the deterministic search's), the
+            # better first, first of all
+            seeded = [] if pass_no else _distinct(sorted(
+                (r for r in (improved_det.get(k), deterministic.get(k)) if r is not None),
+                key=lambda r: -sign * r.value))
+            for found_det in seeded:
                 starts.append(_hard_logits(found_det.gamma, found_det.delta))
             if best_logits is not None and best is not None and best[0].memory_size <= k:
                 la0, ld0 = _embedded(par, *best_logits)
@@ -338,7 +352,7 @@ def synthesize(
                 coalition_of,
                 scalar,
                 maximize,
-                extra=() if found_det is None else ((found_det.gamma, found_det.delta),),
+                extra=tuple((r.gamma, r.delta) for r in seeded),
             )
             evaluations += n_eval
             t_search += seconds[0]
@@ -359,8 +373,9 @@ def synthesize(
             evaluations_of[k] = evaluations
         if partial or not improved:
             break
-    # the deterministic search's defences of the memory sizes the gradient rounds never reached
-    for k, found_det in sorted(deterministic.items()):
+    # the deterministic defences of the memory sizes the gradient rounds never reached
+    for k, found_det in sorted([*improved_det.items(), *deterministic.items()],
+                               key=lambda kr: (kr[0], -sign * kr[1].value)):
         if k in best_of:
             continue
         fss = params[k].strategy(found_det.gamma, found_det.delta) if k in params else \
@@ -434,6 +449,11 @@ def _belief_candidate(problem: Problem, cutoff: FiniteStateStrategy, end: float,
     return found.strategy, r.guaranteed
 
 
+IMPROVEMENT_SHARE = 0.1
+"""The part of the search budget observation-level policy iteration
+(:mod:`posgmc.synthesis.improvement`) may use at most, before the deterministic search; it
+usually needs far less (secure_autonomy N=5, 141,921 states: 2 s for k = 1)."""
+
 DETERMINISTIC_SHARE = 0.5
 """The part of the search budget the deterministic search gets (before the gradient search) in a
 game (PAYNT's POSMG setting, where deterministic FSSs did best: attacker-one-defender)."""
@@ -443,6 +463,17 @@ DETERMINISTIC_SHARE_POMDP = 0.0
 every shared POMDP (docs/performance.md), and giving the deterministic search part of the budget
 cost refuel-06 its best defence (0.4264 with the whole budget for the gradient search, 0.3985
 with a fifth, 0.3985 with half; the deterministic search's best there, 0.3500, is PAYNT's)."""
+
+
+def _distinct(found: list[DeterministicResult]) -> list[DeterministicResult]:
+    """``found`` without repeats of a strategy (the deterministic search returns its incumbent,
+    policy iteration's defence, when it finds nothing better)."""
+    kept: list[DeterministicResult] = []
+    for r in found:
+        if not any(np.array_equal(r.gamma, o.gamma) and np.array_equal(r.delta, o.delta)
+                   for o in kept):
+            kept.append(r)
+    return kept
 
 
 def _with_warm_up(memory: tuple[int, ...]) -> tuple[int, ...]:
