@@ -218,12 +218,15 @@ An absolute tolerance would be unsound: with a slow contraction (a self-loop of 
 an upper bound of 1e-6)."""
 
 
-def widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def widen(
+    lower: np.ndarray, upper: np.ndarray, *, relative: float = 1e-10
+) -> tuple[np.ndarray, np.ndarray]:
     """Outward rounding: the iterates carry floating-point error (a few ulps per step, amplified at
     most by the inverse contraction rate), far below any requested precision; widening by a
-    relative 1e-10 keeps the reported bounds on the right side of the exact value."""
-    slack_lo = 1e-10 * np.abs(lower)
-    slack_hi = np.where(np.isfinite(upper), 1e-10 * np.abs(upper), 0.0)
+    relative 1e-10 (``relative``) keeps the reported bounds on the right side of the exact
+    value."""
+    slack_lo = relative * np.abs(lower)
+    slack_hi = np.where(np.isfinite(upper), relative * np.abs(upper), 0.0)
     return (
         np.maximum(lower - slack_lo, 0.0) if np.all(lower >= 0) else lower - slack_lo
     ), upper + slack_hi

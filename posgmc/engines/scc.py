@@ -1,8 +1,10 @@
 """The strongly connected components (SCCs) of the unknown states in a solving order, and the
 blocks and bands of a topological system layout (see :mod:`posgmc.engines.topological`).
 
-One decomposition per system: ``scipy.sparse.csgraph.connected_components(connection="strong")``
-on the state graph of the whole model (state s -> every successor of every choice of s). Its csr
+One decomposition per system: with the compiled kernels, Tarjan's algorithm over the model's own
+csr arrays (:mod:`posgmc.engines.kernels.components`, no copy); without them
+``scipy.sparse.csgraph.connected_components(connection="strong")`` on the state graph of the whole
+model (state s -> every successor of every choice of s). Its csr
 arrays are the model's own (the rows of a state are contiguous, so its successors are one slice
 of the entries) with duplicates summed (scipy's routine does not terminate on duplicate
 entries). Choices the optimisation may not use and the edges of states whose value is known only
@@ -36,6 +38,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from posgmc.engines import kernels
+
 __all__ = ["components", "topological_blocks", "DEFAULT_BANDS", "MIN_BAND_STATES"]
 
 DEFAULT_BANDS = 32
@@ -63,6 +67,12 @@ def components(transitions: sp.csr_matrix, row_groups: np.ndarray) -> np.ndarray
         transitions: csr [C, S] whose rows are grouped by state.
         row_groups: int64[S + 1]: the choices of state s are rows ``row_groups[s]:row_groups[s+1]``.
     """
+    if kernels.enabled():
+        from posgmc.engines.kernels.components import tarjan
+
+        labels, _ = tarjan(transitions.indptr, transitions.indices, row_groups)
+        compiled_labels: np.ndarray = labels
+        return compiled_labels
     S = row_groups.size - 1
     idx_dtype = np.int32 if transitions.nnz < 2**31 and S < 2**31 else np.int64
     # the rows of a state are contiguous, so its successors are one slice of the entries
@@ -84,7 +94,7 @@ def topological_blocks(
     *,
     layer: np.ndarray | None,
     band_states: int | None,
-) -> tuple[np.ndarray, np.ndarray] | None:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """Blocks and bands of a topological layout of the unknown states ``unk``, or None when the
     order does not pay (see the module docstring).
 
@@ -97,8 +107,9 @@ def topological_blocks(
             every component its own band and block (tests).
 
     Returns:
-        ``(block, band_of_block)``: int64[n] the block of each unknown state, in solving order
-        (0 first); int64[num_blocks] the band of each block, non-decreasing from 0.
+        ``(block, band_of_block, label)``: int64[n] the block of each unknown state, in solving
+        order (0 first); int64[num_blocks] the band of each block, non-decreasing from 0; int64[n]
+        the component label of each unknown state (labels in solving order, not dense).
     """
     n = int(unk.size)
     if n == 0:
@@ -138,5 +149,5 @@ def topological_blocks(
     band_of_block = np.zeros(num_blocks, dtype=np.int64)
     band_of_block[block] = band
     _, band_of_block = np.unique(band_of_block, return_inverse=True)
-    return block.astype(np.int64), band_of_block.astype(np.int64)
+    return block.astype(np.int64), band_of_block.astype(np.int64), lab.astype(np.int64)
 

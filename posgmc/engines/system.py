@@ -84,6 +84,8 @@ class System:
     whole strongly connected components whose rows only reach states of bands ``<= k``.
     ``offset_upper``: float64[m] or None: a second constant per row for the upper bound (a band
     solved against proven lower/upper bounds of the bands below it); None: ``offset`` for both.
+    ``labels``: int64[n] or None (with ``bands``): the strongly connected component of each state,
+    labels in solving order (a component's rows only reach components of smaller labels).
     """
 
     states: np.ndarray
@@ -97,6 +99,7 @@ class System:
     blocks: np.ndarray
     bands: np.ndarray | None = None
     offset_upper: np.ndarray | None = None
+    labels: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -252,8 +255,9 @@ def build_system(
             band_states=band_states,
         )
     band_of_block = None
+    labels = None
     if found is not None:
-        block, band_of_block = found
+        block, band_of_block, labels = found
     elif layer is not None and unk.size >= _MIN_BLOCKED_STATES:
         block = _block_of(layer[unk])
     else:
@@ -268,6 +272,8 @@ def build_system(
         order = np.argsort(key, kind="stable")
     states = unk[order]
     counts = counts[order]
+    if labels is not None:
+        labels = labels[order]
     block = block[order]
     n = int(states.size)
     num_max = int(is_max.sum())
@@ -367,6 +373,7 @@ def build_system(
         slots=slots,
         blocks=blocks,
         bands=bands,
+        labels=labels,
     )
 
 
