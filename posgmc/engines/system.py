@@ -25,6 +25,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
+from posgmc.engines import kernels
 from posgmc.engines.graph import Structure
 from posgmc.engines.scc import topological_blocks
 
@@ -305,32 +306,73 @@ def build_system(
     ).astype(np.int64).reshape(-1, 6)
     blocks = np.zeros(nb + 1, dtype=np.int64)
     np.cumsum(np.bincount(bi, minlength=nb), out=blocks[1:])
-    # scatter every usable row to its position (rows_global is grouped by state)
-    row_st = g.choice_state[rows_global]
-    start_of = np.zeros(S + 1, dtype=np.int64)
-    np.cumsum(counts_all, out=start_of[1:])
-    rank = np.arange(rows_global.size, dtype=np.int64) - start_of[row_st]
-    loc = local_of[row_st]
+    # scatter every usable row to its position (rows_global is grouped by state):
     # position = table[block, player, slot] + local state, one gather per row
     table = np.stack(
         [row_start - max_lo[:, None], row_start + more[:, 0, :] - min_lo[:, None]], axis=1
     ).ravel()  # [nb, 2, kmax]
     state_base = (block * 2 + player) * kmax
-    pos = table[state_base[loc] + rank] + loc
-    del rank, row_st, start_of, state_base, key, order, player
     rows = np.empty(rows_global.size, dtype=np.int64)
-    rows[pos] = rows_global
-    del rows_global
     row_state = np.empty(rows.size, dtype=np.int64)
-    row_state[pos] = loc
-    del pos, loc  # the row gather below is the peak: no layout temporary outlives its use
+    if kernels.enabled():
+        from posgmc.engines.kernels.layout import scatter_rows
+
+        scatter_rows(rows_global, g.choice_state, local_of, table, state_base, rows, row_state)
+        del rows_global, state_base, key, order, player
+    else:
+        row_st = g.choice_state[rows_global]
+        start_of = np.zeros(S + 1, dtype=np.int64)
+        np.cumsum(counts_all, out=start_of[1:])
+        rank = np.arange(rows_global.size, dtype=np.int64) - start_of[row_st]
+        loc = local_of[row_st]
+        pos = table[state_base[loc] + rank] + loc
+        del rank, row_st, start_of, state_base, key, order, player
+        rows[pos] = rows_global
+        del rows_global
+        row_state[pos] = loc
+        del pos, loc  # the row gather below is the peak: no layout temporary outlives its use
     # matrix restricted to the unknown columns; the rest goes into the offset. ``sub`` is this
     # call's own copy of the rows, so its arrays are reused in place where the dtypes allow
-    T = g.transitions
-    sub = T[rows]
     offset = (
         np.zeros(rows.size) if choice_offset is None else choice_offset[rows].astype(np.float64)
     )
+    if kernels.enabled():
+        data, indices, indptr, stays = _gather_compiled(g.transitions, rows, local_of, fixed, offset)
+    else:
+        data, indices, indptr, stays = _gather(g.transitions, rows, local_of, fixed, offset, n)
+    matrix = sp.csr_matrix((data, indices, indptr), shape=(rows.size, n), copy=False)
+    bands = None
+    if band_of_block is not None:
+        bands = np.zeros(int(band_of_block[-1]) + 2, dtype=np.int64)
+        np.cumsum(np.bincount(band_of_block), out=bands[1:])
+    return System(
+        states=states,
+        rows=rows,
+        row_state=row_state,
+        matrix=matrix,
+        offset=offset,
+        stays=stays,
+        num_max=num_max,
+        slots=slots,
+        blocks=blocks,
+        bands=bands,
+        labels=labels,
+    )
+
+
+def _gather(
+    T: sp.csr_matrix,
+    rows: np.ndarray,
+    local_of: np.ndarray,
+    fixed: np.ndarray | None,
+    offset: np.ndarray,
+    n: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(data, indices, indptr, stays)`` of the system's matrix: the model rows ``rows`` restricted
+    to the unknown columns (``local_of >= 0``, renumbered); the mass into known states adds
+    ``p * fixed`` to ``offset`` (in place). ``sub`` is this call's own copy of the rows, so its
+    arrays are reused in place where the dtypes allow."""
+    sub = T[rows]
     if fixed is not None and np.any(fixed != 0):
         known_fixed = np.where(local_of >= 0, 0.0, fixed)
         offset += sub @ known_fixed  # before the column indices are rewritten below
@@ -357,24 +399,35 @@ def build_system(
         del per_row
         data, indices = _compact(inside, sub.data, loc)
     del sub, loc, inside
-    matrix = sp.csr_matrix((data, indices, indptr), shape=(rows.size, n), copy=False)
-    bands = None
-    if band_of_block is not None:
-        bands = np.zeros(int(band_of_block[-1]) + 2, dtype=np.int64)
-        np.cumsum(np.bincount(band_of_block), out=bands[1:])
-    return System(
-        states=states,
-        rows=rows,
-        row_state=row_state,
-        matrix=matrix,
-        offset=offset,
-        stays=stays,
-        num_max=num_max,
-        slots=slots,
-        blocks=blocks,
-        bands=bands,
-        labels=labels,
+    return data, indices, indptr, stays
+
+
+def _gather_compiled(
+    T: sp.csr_matrix,
+    rows: np.ndarray,
+    local_of: np.ndarray,
+    fixed: np.ndarray | None,
+    offset: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_gather` in one compiled pass over the rows (:mod:`posgmc.engines.kernels.layout`),
+    the same arrays (int32 indices where they fit)."""
+    from posgmc.engines.kernels.layout import count_rows, fill_rows
+
+    index_dtype = np.int32 if max(local_of.size, T.nnz) < 2**31 - 1 else np.int64
+    local = local_of.astype(index_dtype)
+    indptr = np.zeros(rows.size + 1, dtype=index_dtype)
+    count_rows(T.indptr, T.indices, rows, local, indptr)
+    nnz = int(indptr[-1])
+    indices = np.empty(nnz, dtype=index_dtype)
+    data = np.empty(nnz, dtype=np.float64)
+    stays = np.empty(rows.size, dtype=bool)
+    use_fixed = fixed is not None and bool(np.any(fixed != 0))
+    known = np.zeros(0) if fixed is None or not use_fixed else fixed.astype(np.float64, copy=False)
+    fill_rows(
+        T.indptr, T.indices, T.data, rows, local, known, use_fixed, indptr, indices, data, offset,
+        stays,
     )
+    return data, indices, indptr, stays
 
 
 # ---------------------------------------------------------------------------------------------
