@@ -315,9 +315,9 @@ def build_system(
     rows = np.empty(rows_global.size, dtype=np.int64)
     row_state = np.empty(rows.size, dtype=np.int64)
     if kernels.enabled():
-        from posgmc.engines.kernels.layout import scatter_rows
-
-        scatter_rows(rows_global, g.choice_state, local_of, table, state_base, rows, row_state)
+        matrix, offset, stays = _layout_compiled(
+            g, rows_global, local_of, table, state_base, rows, row_state, choice_offset, fixed, n
+        )
         del rows_global, state_base, key, order, player
     else:
         row_st = g.choice_state[rows_global]
@@ -331,16 +331,14 @@ def build_system(
         del rows_global
         row_state[pos] = loc
         del pos, loc  # the row gather below is the peak: no layout temporary outlives its use
-    # matrix restricted to the unknown columns; the rest goes into the offset. ``sub`` is this
-    # call's own copy of the rows, so its arrays are reused in place where the dtypes allow
-    offset = (
-        np.zeros(rows.size) if choice_offset is None else choice_offset[rows].astype(np.float64)
-    )
-    if kernels.enabled():
-        data, indices, indptr, stays = _gather_compiled(g.transitions, rows, local_of, fixed, offset)
-    else:
+        # matrix restricted to the unknown columns; the rest goes into the offset
+        offset = (
+            np.zeros(rows.size)
+            if choice_offset is None
+            else choice_offset[rows].astype(np.float64)
+        )
         data, indices, indptr, stays = _gather(g.transitions, rows, local_of, fixed, offset, n)
-    matrix = sp.csr_matrix((data, indices, indptr), shape=(rows.size, n), copy=False)
+        matrix = sp.csr_matrix((data, indices, indptr), shape=(rows.size, n), copy=False)
     bands = None
     if band_of_block is not None:
         bands = np.zeros(int(band_of_block[-1]) + 2, dtype=np.int64)
@@ -402,32 +400,47 @@ def _gather(
     return data, indices, indptr, stays
 
 
-def _gather_compiled(
-    T: sp.csr_matrix,
-    rows: np.ndarray,
+def _layout_compiled(
+    g: Structure,
+    rows_global: np.ndarray,
     local_of: np.ndarray,
+    table: np.ndarray,
+    state_base: np.ndarray,
+    rows: np.ndarray,
+    row_state: np.ndarray,
+    choice_offset: np.ndarray | None,
     fixed: np.ndarray | None,
-    offset: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_gather` in one compiled pass over the rows (:mod:`posgmc.engines.kernels.layout`),
-    the same arrays (int32 indices where they fit)."""
-    from posgmc.engines.kernels.layout import count_rows, fill_rows
+    n: int,
+) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """The row scatter and :func:`_gather` in two compiled passes over the usable model rows in
+    model order (:mod:`posgmc.engines.kernels.layout`): fills ``rows`` and ``row_state`` and
+    returns ``(matrix, offset, stays)``, the same arrays as the numpy path (int32 indices where
+    they fit)."""
+    from posgmc.engines.kernels.layout import fill_rows, place_rows
 
+    T = g.transitions
+    m = rows.size
     index_dtype = np.int32 if max(local_of.size, T.nnz) < 2**31 - 1 else np.int64
     local = local_of.astype(index_dtype)
-    indptr = np.zeros(rows.size + 1, dtype=index_dtype)
-    count_rows(T.indptr, T.indices, rows, local, indptr)
+    indptr = np.zeros(m + 1, dtype=index_dtype)
+    place_rows(
+        rows_global, g.choice_state, local, table, state_base, T.indptr, T.indices, rows,
+        row_state, indptr,
+    )
+    np.cumsum(indptr, out=indptr)
+    offset = np.zeros(m) if choice_offset is None else choice_offset[rows].astype(np.float64)
     nnz = int(indptr[-1])
     indices = np.empty(nnz, dtype=index_dtype)
     data = np.empty(nnz, dtype=np.float64)
-    stays = np.empty(rows.size, dtype=bool)
+    stays = np.empty(m, dtype=bool)
     use_fixed = fixed is not None and bool(np.any(fixed != 0))
     known = np.zeros(0) if fixed is None or not use_fixed else fixed.astype(np.float64, copy=False)
     fill_rows(
-        T.indptr, T.indices, T.data, rows, local, known, use_fixed, indptr, indices, data, offset,
-        stays,
+        rows_global, g.choice_state, table, state_base, T.indptr, T.indices, T.data, local,
+        known, use_fixed, indptr, indices, data, offset, stays,
     )
-    return data, indices, indptr, stays
+    matrix = sp.csr_matrix((data, indices, indptr), shape=(m, n), copy=False)
+    return matrix, offset, stays
 
 
 # ---------------------------------------------------------------------------------------------
