@@ -16,6 +16,10 @@ parses, builds and checks, against ``storm_check.py``'s whole run, both timed fr
 peak-memory ratio (each process's ``ru_maxrss``). Storm runs interleaved with posgmc, repetition
 by repetition; medians are reported.
 
+With ``--cpu`` two more columns give the same ratios in CPU time (``time.process_time`` around
+the check call on both sides; the children's ``getrusage`` for the whole process), which a loaded
+machine disturbs less than wall time.
+
 Prints a markdown table (for docs/performance.md).
 """
 
@@ -83,8 +87,10 @@ def worker(path: str, n: int, prop: str, constant: str = "N") -> dict[str, Any]:
     session = api.load(path, constants={constant: str(n)})
     built = api.build(session, options=BuildOptions(progress=ProgressMode.NEVER))
     t1 = time.perf_counter()
+    c1 = time.process_time()
     report = api.check(session, properties=[prop], built=built)
     t2 = time.perf_counter()
+    c2 = time.process_time()
     if report.errors:
         return {"error": report.errors[0][1].render()}
     r = report.results[0]
@@ -96,6 +102,7 @@ def worker(path: str, n: int, prop: str, constant: str = "N") -> dict[str, Any]:
         "build_seconds": t1 - t0,
         "check_seconds": r.seconds,
         "check_wall": t2 - t1,
+        "check_cpu_seconds": c2 - c1,
         "value": r.value,
         "lower": r.lower,
         "upper": r.upper,
@@ -104,20 +111,31 @@ def worker(path: str, n: int, prop: str, constant: str = "N") -> dict[str, Any]:
     }
 
 
+def _children_cpu() -> float:
+    """CPU seconds (user + system) of the finished child processes so far."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def _posgmc(path: Path, n: int, prop: str, constant: str, timeout: float) -> dict[str, Any]:
-    """One fresh process (imports, load, build, check); ``process_seconds`` is its wall time."""
+    """One fresh process (imports, load, build, check); ``process_seconds`` is its wall time,
+    ``process_cpu_seconds`` its CPU time."""
     t0 = time.perf_counter()
+    c0 = _children_cpu()
     out = run_worker(Path(__file__), sys.executable, [str(path), str(n), prop, constant], timeout)
     out["process_seconds"] = time.perf_counter() - t0
+    out["process_cpu_seconds"] = _children_cpu() - c0
     return out
 
 
 def _storm(module: Any, path: Path, n: int, prop: str, constant: str, timeout: float) -> dict:
     t0 = time.perf_counter()
+    c0 = _children_cpu()
     out = module.run_storm_check(
         path, constants=f"{constant}={n}", prop=prop, sound=True, timeout=timeout
     )
     out["process_seconds"] = time.perf_counter() - t0
+    out["process_cpu_seconds"] = _children_cpu() - c0
     return out
 
 
@@ -144,6 +162,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--scale", type=Path, default=SCALE, help="folder of the shared scale models"
     )
+    parser.add_argument(
+        "--cpu",
+        action="store_true",
+        help="two more columns: check and whole-process CPU-time ratios (a loaded machine)",
+    )
     parser.add_argument("--worker", nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     for name in ("two_robots", "pursuit"):  # a git worktree is not next to shared/
@@ -158,8 +181,9 @@ def main(argv: list[str] | None = None) -> int:
     loads = [os.getloadavg()[0]]
     rows = [
         "| model | N | property | states | posgmc check (s) | posgmc value [lower, upper] "
-        "| Storm check (s) | Storm value | check ratio | process ratio | peak memory ratio |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| Storm check (s) | Storm value | check ratio | process ratio | peak memory ratio |"
+        + (" check CPU ratio | process CPU ratio |" if args.cpu else ""),
+        "|---|---|---|---|---|---|---|---|---|---|---|" + ("---|---|" if args.cpu else ""),
     ]
     for spec in args.jobs:
         name, _, ns = spec.partition("=")
@@ -203,6 +227,19 @@ def main(argv: list[str] | None = None) -> int:
                         f"{med['peak_rss_mb'] / st['peak_rss_mb']:.2f} "
                         f"({med['peak_rss_mb']:.0f} / {st['peak_rss_mb']:.0f} MB)",
                     ]
+                    if args.cpu:
+                        cpu = {
+                            k: (
+                                statistics.median(o[k] for o in ours),
+                                statistics.median(t[k] for t in theirs),
+                            )
+                            for k in ("check_cpu_seconds", "process_cpu_seconds")
+                        }
+                        cells += [
+                            f"{cpu[k][0] / max(cpu[k][1], 1e-3):.2f} "
+                            f"({cpu[k][0]:.2f} / {cpu[k][1]:.2f} s)"
+                            for k in ("check_cpu_seconds", "process_cpu_seconds")
+                        ]
                 elif theirs:
                     cells += [f"Storm failed: {theirs[0]['error']}", "", "", "", ""]
                 else:

@@ -104,6 +104,7 @@ def check(
     kind = str(model.model_type).rsplit(".", 1)[-1]
     env = stormpy.environments.sound() if sound else stormpy.Environment()
     started = time.perf_counter()
+    cpu_started = time.process_time()
     if kind == "SMG":
         formula = properties[0].get_raw_formula()
         result = payntbind.synthesis.model_check_smg(model, formula, False, False, env)
@@ -113,6 +114,7 @@ def check(
             model, properties[0], force_fully_observable=partial, environment=env
         )
     check_seconds = time.perf_counter() - started
+    check_cpu_seconds = time.process_time() - cpu_started
     if result is None:
         raise RuntimeError("Storm returned no result (formula unsupported for this model type)")
     initial = model.initial_states[0]
@@ -123,6 +125,7 @@ def check(
         "transitions": model.nr_transitions,
         "build_seconds": build_seconds,
         "check_seconds": check_seconds,
+        "check_cpu_seconds": check_cpu_seconds,
         "value": value,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
     }

@@ -41,6 +41,29 @@ works the same with ``R = max (upper - lower) / (|upper| + |lower|)`` in place o
 A band that does not converge (iteration cap, stalled gap), reads a state that is not solved yet
 (the order is wrong) or an infinite upper bound makes :func:`solve_topological` return None; the
 caller then solves the whole system at once (sound either way).
+
+**Compiled path** (:mod:`posgmc.engines.kernels.sweeps`, when the kernels are enabled, the system
+carries its component labels and no game end-component treatment is needed: ``ec`` NONE, or
+DEFLATE with one player). The same induction, with every strongly connected component its own
+band: the components are solved in label order (successors first) inside one compiled loop, so
+nothing is paid per component in Python. A component of one state without a self-loop too likely
+to eliminate is solved in closed form (the eliminated rows only read solved states: one Bellman
+step with the lower bounds below and one with the upper ones is the exact pair of fixpoints).
+Any other component gets the interval iteration of :mod:`posgmc.engines.iteration` on its own
+states, the same operators: value iteration from 0 for the lower bound (Gauss-Seidel inside the
+component: every value written is B of a vector below the least fixpoint), a guess
+``lower + G + eps/K`` and Jacobi steps of the upper bound until ``F(U) <= U`` (Park induction),
+then ``F`` iterated until the gap meets the precision. Deflation uses the component itself as
+the set T of the iteration module's argument: a one-player maximiser needs no condition on T
+beyond "internal rows stay in T with b = 0" (there are no minimiser states), every other row
+counts as an exit, and the components are disjoint, so ``F = D o B`` has the least fixpoint of
+``B``. This cap is coarser than the maximal end components' when a component holds more than
+one; a component whose upper bound then does not converge makes the compiled path give up
+(None) and the bands above solve the system. Precision: K is the number of iterated components
+on the longest path of the condensation (closed-form components add no gap beyond what they
+read), so the gaps along any path add up to at most ``2 eps``. Rounding: every component adds
+a few ulps to what it reads; the final widening is a relative ``max(1e-10, 64 ulp x L)``, L the
+number of components on the longest path.
 """
 
 from __future__ import annotations
