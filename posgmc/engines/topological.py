@@ -251,8 +251,8 @@ def _compiled_applies(sys: System, ec: EndComponents) -> bool:
     """The compiled solver covers the system: no end-component treatment, or deflation in a
     one-player system (a game's deflation depends on the minimiser's optimal rows, and inflation
     on the minimiser's end components: those stay with the band solver)."""
-    if sys.labels is None or sys.n == 0:
-        return False
+    if sys.labels is None or sys.n == 0 or max(sys.m, sys.matrix.nnz) >= 2**31 - 1:
+        return False  # (the kernel's index arrays are int32)
     if ec is EndComponents.NONE:
         return True
     return ec is EndComponents.DEFLATE and sys.num_max in (0, sys.n)
@@ -275,7 +275,7 @@ def _solve_components(
         return None
     lower = np.zeros(n)
     upper = np.full(n, cap, dtype=np.float64)
-    scratch = np.empty((n, 2))
+    scratch = np.empty((int(np.diff(comp_ptr).max()), 2))
     share = options.precision / int(chain)
     deflate = ec is EndComponents.DEFLATE and sys.num_max == n
     num = int(comp_ptr.size - 1)

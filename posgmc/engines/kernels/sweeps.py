@@ -44,20 +44,21 @@ def _prepare(
 ]:
     """``(row_ptr, row_list, order, comp_ptr, comp_of, iterate, chain, levels, ok)``.
 
-    ``row_ptr``: int64[n + 1], ``row_list``: int64[m]: the rows of state s are
-    ``row_list[row_ptr[s]:row_ptr[s+1]]``. ``order``: int64[n] the states by component,
-    ``comp_ptr``: int64[K + 1] (component c holds ``order[comp_ptr[c]:comp_ptr[c+1]]``),
-    ``comp_of``: int64[n]. ``iterate``: bool[K]. ``chain``: the most components that need
-    iteration on one path of the condensation (at least 1); ``levels``: the most components of
-    any kind on one path. ``ok``: every row reads its own component or earlier ones."""
+    ``row_ptr``: int32[n + 1], ``row_list``: int32[m]: the rows of state s are
+    ``row_list[row_ptr[s]:row_ptr[s+1]]``. ``order``: int32[n] the states by component,
+    ``comp_ptr``: int32[K + 1] (component c holds ``order[comp_ptr[c]:comp_ptr[c+1]]``),
+    ``comp_of``: int32[n] (the caller keeps n and m below 2**31). ``iterate``: bool[K].
+    ``chain``: the most components that need iteration on one path of the condensation (at least
+    1); ``levels``: the most components of any kind on one path. ``ok``: every row reads its own
+    component or earlier ones."""
     m = row_state.size
-    row_ptr = np.zeros(n + 1, dtype=np.int64)
+    row_ptr = np.zeros(n + 1, dtype=np.int32)
     for r in range(m):
         row_ptr[row_state[r] + 1] += 1
     for s in range(n):
         row_ptr[s + 1] += row_ptr[s]
     fill = row_ptr[:-1].copy()
-    row_list = np.empty(m, dtype=np.int64)
+    row_list = np.empty(m, dtype=np.int32)
     for r in range(m):
         s = row_state[r]
         row_list[fill[s]] = r
@@ -66,24 +67,24 @@ def _prepare(
     for s in range(n):
         if labels[s] > top:
             top = labels[s]
-    count = np.zeros(top + 2, dtype=np.int64)
+    count = np.zeros(top + 2, dtype=np.int32)
     for s in range(n):
         count[labels[s] + 1] += 1
     # dense component numbers in label order (labels of other model states are absent)
-    dense = np.full(top + 1, -1, dtype=np.int64)
+    dense = np.full(top + 1, -1, dtype=np.int32)
     num = 0
     for lab in range(top + 1):
         if count[lab + 1] > 0:
             dense[lab] = num
             num += 1
-    comp_ptr = np.zeros(num + 1, dtype=np.int64)
+    comp_ptr = np.zeros(num + 1, dtype=np.int32)
     for lab in range(top + 1):
         if dense[lab] >= 0:
             comp_ptr[dense[lab] + 1] = count[lab + 1]
     for c in range(num):
         comp_ptr[c + 1] += comp_ptr[c]
-    comp_of = np.empty(n, dtype=np.int64)
-    order = np.empty(n, dtype=np.int64)
+    comp_of = np.empty(n, dtype=np.int32)
+    order = np.empty(n, dtype=np.int32)
     at = comp_ptr[:-1].copy()
     for s in range(n):
         c = dense[labels[s]]
@@ -91,8 +92,8 @@ def _prepare(
         order[at[c]] = s
         at[c] += 1
     iterate = np.zeros(num, dtype=np.bool_)
-    depth = np.zeros(num, dtype=np.int64)
-    height = np.zeros(num, dtype=np.int64)
+    depth = np.zeros(num, dtype=np.int32)
+    height = np.zeros(num, dtype=np.int32)
     chain = 1
     levels = 1
     ok = True
@@ -160,7 +161,7 @@ def _solve_range(
 ) -> tuple[int, int, bool]:
     """Components ``c0:c1`` (see the module docstring); ``lower``/``upper``: float64[n], the
     bounds (components before ``c0`` final, ``upper`` = ``cap`` elsewhere), updated in place;
-    ``scratch``: float64[n, 2].
+    ``scratch``: float64[k, 2], k at least the largest component's size.
 
     Returns ``(status, iterations, internal)``: :data:`OK` or :data:`FAILED`; the most sweeps
     one component took; whether a component had an internal row (one that stays inside it with
@@ -231,7 +232,7 @@ def _solve_range(
         iters = 0
         verified = False
         for i in range(base, base + k):
-            scratch[order[i], 1] = cap  # the proven upper bound
+            scratch[i - base, 1] = cap  # the proven upper bound
         converged = False
         while not converged:
             # --- lower iteration, Gauss-Seidel inside the component --------------------------
@@ -287,7 +288,7 @@ def _solve_range(
                         guess += precision + spread
                 else:
                     guess = lo + precision + spread
-                upper[s] = scratch[s, 1] if verified else min(guess, scratch[s, 1])
+                upper[s] = scratch[i - base, 1] if verified else min(guess, scratch[i - base, 1])
             budget = max(16, iters - phase_start)
             steps = 0
             last_gap = np.inf
@@ -337,15 +338,15 @@ def _solve_range(
                         else:
                             best_lo = min(best_lo, acc_lo)
                             best_hi = min(best_hi, acc_hi)
-                    scratch[s, 0] = best_hi
+                    scratch[i - base, 0] = best_hi
                     if best_lo > lower[s]:
                         lower[s] = best_lo
                 if deflate and has_internal:
                     internal_found = True
                     for i in range(base, base + k):
                         s = order[i]
-                        if scratch[s, 0] > best_exit:
-                            scratch[s, 0] = best_exit
+                        if scratch[i - base, 0] > best_exit:
+                            scratch[i - base, 0] = best_exit
                 iters += 1
                 steps += 1
                 if not verified:
@@ -354,27 +355,28 @@ def _solve_range(
                     for i in range(base, base + k):
                         s = order[i]
                         slack = noise * abs(upper[s])
-                        if not scratch[s, 0] <= upper[s] + slack:
+                        if not scratch[i - base, 0] <= upper[s] + slack:
                             below = False
-                        if scratch[s, 0] < lower[s] - slack:
+                        if scratch[i - base, 0] < lower[s] - slack:
                             crossed = True
                     if below:
                         verified = True
                         for i in range(base, base + k):
                             s = order[i]
-                            scratch[s, 1] = min(scratch[s, 1], max(scratch[s, 0], upper[s]))
-                            upper[s] = scratch[s, 0]
+                            new = scratch[i - base, 0]
+                            scratch[i - base, 1] = min(scratch[i - base, 1], max(new, upper[s]))
+                            upper[s] = new
                     elif crossed:
                         failed = True
                     else:
                         for i in range(base, base + k):
                             s = order[i]
-                            upper[s] = scratch[s, 0]
+                            upper[s] = scratch[i - base, 0]
                 else:
                     for i in range(base, base + k):
                         s = order[i]
-                        scratch[s, 1] = min(scratch[s, 1], scratch[s, 0])
-                        upper[s] = scratch[s, 1]
+                        scratch[i - base, 1] = min(scratch[i - base, 1], scratch[i - base, 0])
+                        upper[s] = scratch[i - base, 1]
                 if failed:
                     break
                 if verified:
@@ -382,7 +384,7 @@ def _solve_range(
                     gap_max = 0.0
                     for i in range(base, base + k):
                         s = order[i]
-                        hi = scratch[s, 1]
+                        hi = scratch[i - base, 1]
                         lo = lower[s]
                         gap = hi - lo
                         if not (np.isfinite(hi) and np.isfinite(lo)):
@@ -408,7 +410,7 @@ def _solve_range(
                 tau = max(tau / 4.0, 1e-15)
         for i in range(base, base + k):
             s = order[i]
-            hi = scratch[s, 1]
+            hi = scratch[i - base, 1]
             upper[s] = hi
             if lower[s] > hi:
                 lower[s] = hi
