@@ -70,6 +70,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
+from posgmc.engines import kernels
 from posgmc.engines.graph import end_components, row_of_entries
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.system import (
@@ -345,8 +346,20 @@ def _lower_phase_blocks(
     plan = sys.plan
     ratios = [0.0, 0.0]
     previous = np.inf
+    fast = kernels.enabled()  # the same sweep, compiled (posgmc.engines.kernels.blocks)
+    if fast:
+        from posgmc.engines.kernels.blocks import sweep_lower
+
+        plan = ()  # the numpy loop below is skipped
     while iters < max_it:
         d = 0.0
+        if fast:
+            d = float(
+                sweep_lower(
+                    A.indptr, A.indices, A.data, sys.offset, *sys.sweep_tables, x, y, tmp, inner,
+                    0.25 * tau, rel,
+                )
+            )
         for r0, r1, ml, a, nl, b, ents in plan:
             yb = y[r0:r1]
             for k in range(inner):
@@ -386,6 +399,12 @@ def _sweep_pair(sys: System, X: np.ndarray, Xn: np.ndarray, Y: np.ndarray, T: np
     pre-fixpoint, since ``B(Xn)(s) <= B(mix)(s) = Xn(s)`` for the mixed vector ``mix >= Xn`` that
     state s was evaluated on; so the verification test is the same as for a Jacobi step."""
     A = sys.matrix
+    if kernels.enabled():  # the same sweep, compiled (posgmc.engines.kernels.blocks)
+        from posgmc.engines.kernels.blocks import sweep_pair
+
+        upper = sys.offset if sys.offset_upper is None else sys.offset_upper
+        sweep_pair(A.indptr, A.indices, A.data, sys.offset, upper, *sys.sweep_tables, X, Xn, Y, T)
+        return
     Xn[:] = X
     for r0, r1, ml, a, nl, b, ents in sys.plan:
         Yb = Y[r0:r1]

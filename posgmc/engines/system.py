@@ -147,6 +147,14 @@ class System:
         return tuple(out)
 
     @cached_property
+    def sweep_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(plan, slots, blocks)`` for the compiled sweeps (:mod:`posgmc.engines.kernels.blocks`):
+        :attr:`plan` without the entries as uint64[B, 6], :attr:`slots` and :attr:`blocks` as
+        uint64 (unsigned indices spare the compiled loops a negative-index check per access)."""
+        plan = np.array([block[:6] for block in self.plan], dtype=np.uint64).reshape(-1, 6)
+        return plan, self.slots.astype(np.uint64), self.blocks.astype(np.uint64)
+
+    @cached_property
     def first_row(self) -> np.ndarray:
         """int64[n]: the first row (local index) of every state."""
         out = np.empty(self.n, dtype=np.int64)

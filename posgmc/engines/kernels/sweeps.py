@@ -25,6 +25,10 @@ import numpy as np
 
 from posgmc.engines.kernels import compiled
 
+_U = np.uintp
+"""Indices are cast to unsigned in the hot loops: numba then skips its negative-index wraparound
+branch on every access (indices here are never negative)."""
+
 OK = 0
 """Status of :data:`solve_range`: every component converged."""
 FAILED = 1
@@ -104,14 +108,14 @@ def _prepare(
         below_all = 0
         for i in range(comp_ptr[c], comp_ptr[c + 1]):
             s = order[i]
-            for j in range(row_ptr[s], row_ptr[s + 1]):
+            for j in range(_U(row_ptr[s]), _U(row_ptr[s + 1])):
                 r = row_list[j]
                 p = 0.0
-                for e in range(indptr[r], indptr[r + 1]):
+                for e in range(_U(indptr[r]), _U(indptr[r + 1])):
                     t = indices[e]
                     if t == s:
                         p += data[e]
-                    ct = comp_of[t]
+                    ct = comp_of[_U(t)]
                     if ct > c:
                         ok = False
                     elif ct < c:
@@ -177,18 +181,18 @@ def _solve_range(
             is_max = s < num_max
             best_lo = -np.inf if is_max else np.inf
             best_hi = best_lo
-            for j in range(row_ptr[s], row_ptr[s + 1]):
+            for j in range(_U(row_ptr[s]), _U(row_ptr[s + 1])):
                 r = row_list[j]
                 acc_lo = offset[r]
                 acc_hi = offset[r]
                 p = 0.0
-                for e in range(indptr[r], indptr[r + 1]):
+                for e in range(_U(indptr[r]), _U(indptr[r + 1])):
                     t = indices[e]
                     if t == s:
                         p += data[e]
                     else:
-                        acc_lo += data[e] * lower[t]
-                        acc_hi += data[e] * upper[t]
+                        acc_lo += data[e] * lower[_U(t)]
+                        acc_hi += data[e] * upper[_U(t)]
                 if p > 0.0:
                     scale = 1.0 / (1.0 - p)
                     acc_lo *= scale
@@ -209,17 +213,17 @@ def _solve_range(
         inherited = 0.0
         for i in range(base, base + k):
             s = order[i]
-            for j in range(row_ptr[s], row_ptr[s + 1]):
+            for j in range(_U(row_ptr[s]), _U(row_ptr[s + 1])):
                 r = row_list[j]
-                for e in range(indptr[r], indptr[r + 1]):
+                for e in range(_U(indptr[r]), _U(indptr[r + 1])):
                     t = indices[e]
-                    if comp_of[t] == c:
+                    if comp_of[_U(t)] == c:
                         continue
-                    gap = upper[t] - lower[t]
+                    gap = upper[_U(t)] - lower[_U(t)]
                     if not np.isfinite(gap):
                         return FAILED, most, internal_found
                     if relative:
-                        scale = abs(upper[t]) + abs(lower[t])
+                        scale = abs(upper[_U(t)]) + abs(lower[_U(t)])
                         if scale > 0.0 and gap / scale > inherited:
                             inherited = gap / scale
                     elif 0.5 * gap > inherited:
@@ -248,16 +252,16 @@ def _solve_range(
                     s = order[i]
                     is_max = s < num_max
                     best = -np.inf if is_max else np.inf
-                    for j in range(row_ptr[s], row_ptr[s + 1]):
+                    for j in range(_U(row_ptr[s]), _U(row_ptr[s + 1])):
                         r = row_list[j]
                         acc = offset[r]
                         p = 0.0
-                        for e in range(indptr[r], indptr[r + 1]):
+                        for e in range(_U(indptr[r]), _U(indptr[r + 1])):
                             t = indices[e]
                             if t == s:
                                 p += data[e]
                             else:
-                                acc += data[e] * lower[t]
+                                acc += data[e] * lower[_U(t)]
                         if p > 0.0:
                             if p < limit:
                                 acc *= 1.0 / (1.0 - p)
@@ -304,20 +308,20 @@ def _solve_range(
                     is_max = s < num_max
                     best_lo = -np.inf if is_max else np.inf
                     best_hi = best_lo
-                    for j in range(row_ptr[s], row_ptr[s + 1]):
+                    for j in range(_U(row_ptr[s]), _U(row_ptr[s + 1])):
                         r = row_list[j]
                         acc_lo = offset[r]
                         acc_hi = offset[r]
                         p = 0.0
                         inside = True
-                        for e in range(indptr[r], indptr[r + 1]):
+                        for e in range(_U(indptr[r]), _U(indptr[r + 1])):
                             t = indices[e]
                             if t == s:
                                 p += data[e]
                             else:
-                                acc_lo += data[e] * lower[t]
-                                acc_hi += data[e] * upper[t]
-                                if comp_of[t] != c:
+                                acc_lo += data[e] * lower[_U(t)]
+                                acc_hi += data[e] * upper[_U(t)]
+                                if comp_of[_U(t)] != c:
                                     inside = False
                         if p > 0.0:
                             if p < limit:
