@@ -59,18 +59,24 @@ _MIN_SPLIT_STATES = 50_000
 """A component this large is cut into blocks along the caller's backward-search layers."""
 
 
-def components(transitions: sp.csr_matrix, row_groups: np.ndarray) -> np.ndarray:
+def components(
+    transitions: sp.csr_matrix, row_groups: np.ndarray, within: np.ndarray | None = None
+) -> np.ndarray:
     """int32[S]: the SCC label of every model state in the graph of all its choices, labels in a
     reverse topological order of the condensation (see the module docstring).
 
     Args:
         transitions: csr [C, S] whose rows are grouped by state.
         row_groups: int64[S + 1]: the choices of state s are rows ``row_groups[s]:row_groups[s+1]``.
+        within: bool[S] or None: only the labels of these states are asked for. The compiled
+            path then decomposes the subgraph they induce (finer components, the same order
+            guarantee, -1 elsewhere); the numpy path decomposes the whole graph regardless.
     """
     if kernels.enabled():
         from posgmc.engines.kernels.components import tarjan
 
-        labels, _ = tarjan(transitions.indptr, transitions.indices, row_groups)
+        mask = np.ones(row_groups.size - 1, dtype=bool) if within is None else within
+        labels, _ = tarjan(transitions.indptr, transitions.indices, row_groups, mask)
         compiled_labels: np.ndarray = labels
         return compiled_labels
     S = row_groups.size - 1
@@ -116,7 +122,9 @@ def topological_blocks(
         return None
     if band_states is None and n < 2 * MIN_BAND_STATES:
         return None
-    labels = components(transitions, row_groups)
+    within = np.zeros(row_groups.size - 1, dtype=bool)
+    within[unk] = True
+    labels = components(transitions, row_groups, within)
     lab = labels[unk]
     sizes = np.bincount(lab)
     if band_states is None:

@@ -262,7 +262,8 @@ def _solve_components(
     sys: System, options: SolverOptions, *, cap: float, ec: EndComponents
 ) -> Bounds | None:
     """Component by component in compiled code (see the module docstring), or None if a
-    component does not converge, the order is wrong or the deadline passes."""
+    component does not converge, the order is wrong or the deadline passes. ``iterations`` of the
+    result is the most sweeps one component took (closed-form components take none)."""
     from posgmc.engines.kernels import sweeps
 
     assert sys.labels is not None  # noqa: S101 - checked by _compiled_applies
