@@ -40,7 +40,13 @@ from scipy.sparse.csgraph import connected_components
 
 from posgmc.engines import kernels
 
-__all__ = ["components", "topological_blocks", "DEFAULT_BANDS", "MIN_BAND_STATES"]
+__all__ = [
+    "COMPILED_MIN_SIZE",
+    "DEFAULT_BANDS",
+    "MIN_BAND_STATES",
+    "components",
+    "topological_blocks",
+]
 
 DEFAULT_BANDS = 32
 """Bands aimed at on a large system: one solver call each, so the Python overhead is per band
@@ -51,6 +57,11 @@ MIN_BAND_STATES = 16_384
 
 MAX_GIANT_SHARE = 0.5
 """The order pays only if the largest SCC holds at most this share of the unknown states."""
+
+COMPILED_MIN_SIZE = 100_000
+"""States (or rows) below which the engines keep their numpy paths although the compiled kernels
+are enabled: the first kernel call of a process costs about 0.45 s (numba's import and code
+generator set-up), more than a kernel saves on a smaller system (the tests lower it)."""
 
 _BLOCKS_PER_BAND = 16
 """Gauss-Seidel blocks per band (each costs a few numpy calls per sweep)."""
@@ -72,7 +83,8 @@ def components(
             path then decomposes the subgraph they induce (finer components, the same order
             guarantee, -1 elsewhere); the numpy path decomposes the whole graph regardless.
     """
-    if kernels.enabled():
+    size = row_groups.size - 1 if within is None else int(np.count_nonzero(within))
+    if kernels.enabled() and size >= COMPILED_MIN_SIZE:
         from posgmc.engines.kernels.components import tarjan
 
         mask = np.ones(row_groups.size - 1, dtype=bool) if within is None else within

@@ -25,7 +25,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from posgmc.engines import kernels
+from posgmc.engines import kernels, scc
 from posgmc.engines.graph import Structure
 from posgmc.engines.scc import topological_blocks
 
@@ -322,7 +322,7 @@ def build_system(
     state_base = (block * 2 + player) * kmax
     rows = np.empty(rows_global.size, dtype=np.int64)
     row_state = np.empty(rows.size, dtype=np.int64)
-    if kernels.enabled():
+    if kernels.enabled() and rows.size >= scc.COMPILED_MIN_SIZE:
         matrix, offset, stays = _layout_compiled(
             g, rows_global, local_of, table, state_base, rows, row_state, choice_offset, fixed, n
         )

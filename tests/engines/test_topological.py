@@ -51,6 +51,7 @@ def forced(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> F
     monkeypatch.setattr(scc, "MIN_BAND_STATES", 1)
     monkeypatch.setattr(scc, "DEFAULT_BANDS", 10**9)
     monkeypatch.setattr(scc, "MAX_GIANT_SHARE", 1.0)
+    monkeypatch.setattr(scc, "COMPILED_MIN_SIZE", 0)
     calls = Forced()
     original = topo.solve_topological
     original_compiled = topo._solve_components
