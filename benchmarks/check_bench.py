@@ -10,6 +10,7 @@ Usage::
 
     python benchmarks/check_bench.py --repeat 3            # the default jobs: the whole table
     python benchmarks/check_bench.py --jobs two_robots=10 --repeat 1 --no-storm
+    python benchmarks/check_bench.py --jobs rover=2000 --properties Pmin Rmin --repeat 3
     python benchmarks/check_bench.py --repeat 3 --relative  # posgmc's --relative mode
 
 Storm's sound environment uses relative precision 1e-6; posgmc's default is absolute 1e-6 (the
@@ -17,13 +18,11 @@ CLI's default), ``--relative`` makes posgmc's precision relative as well (the CL
 ``--relative``), which is the like-for-like comparison and the issue's "relative-precision mode".
 
 Besides the check times, every row gives the whole-process ratio (a fresh interpreter that imports,
-parses, builds and checks, against ``storm_check.py``'s whole run, both timed from outside) and the
-peak-memory ratio (each process's ``ru_maxrss``). Storm runs interleaved with posgmc, repetition
-by repetition; medians are reported.
-
-With ``--cpu`` two more columns give the same ratios in CPU time (``time.process_time`` around
-the check call on both sides; the children's ``getrusage`` for the whole process), which a loaded
-machine disturbs less than wall time.
+parses, builds and checks, against ``storm_check.py``'s whole run, both timed from outside), the
+peak-memory ratio (each process's ``ru_maxrss``) and the CPU-time ratios of the check and of the
+whole process (``time.process_time`` around each tool's check call; the finished children's
+``getrusage`` user + system time), which a loaded machine disturbs less than wall times. Storm runs
+interleaved with posgmc, repetition by repetition; medians are reported.
 
 Prints a markdown table (for docs/performance.md).
 """
@@ -96,8 +95,8 @@ def worker(
     session = api.load(path, constants={constant: str(n)})
     built = api.build(session, options=BuildOptions(progress=ProgressMode.NEVER))
     t1 = time.perf_counter()
-    c1 = time.process_time()
     options = CheckOptions(solver=SolverOptions(relative=relative))
+    c1 = time.process_time()
     report = api.check(session, properties=[prop], built=built, options=options)
     t2 = time.perf_counter()
     c2 = time.process_time()
@@ -121,35 +120,34 @@ def worker(
     }
 
 
-def _children_cpu() -> float:
-    """CPU seconds (user + system) of the finished child processes so far."""
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
 def _posgmc(
     path: Path, n: int, prop: str, constant: str, timeout: float, relative: bool
 ) -> dict[str, Any]:
-    """One fresh process (imports, load, build, check); ``process_seconds`` is its wall time,
-    ``process_cpu_seconds`` its CPU time."""
+    """One fresh process (imports, load, build, check); ``process_seconds`` is its wall time."""
     t0 = time.perf_counter()
-    c0 = _children_cpu()
     precision = "relative" if relative else "absolute"
     args = [str(path), str(n), prop, constant, precision]
+    cpu0 = _children_cpu()
     out = run_worker(Path(__file__), sys.executable, args, timeout)
     out["process_seconds"] = time.perf_counter() - t0
-    out["process_cpu_seconds"] = _children_cpu() - c0
+    out["process_cpu_seconds"] = _children_cpu() - cpu0
     return out
+
+
+def _children_cpu() -> float:
+    """CPU seconds (user + system) of the finished child processes so far."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def _storm(module: Any, path: Path, n: int, prop: str, constant: str, timeout: float) -> dict:
     t0 = time.perf_counter()
-    c0 = _children_cpu()
+    cpu0 = _children_cpu()
     out = module.run_storm_check(
         path, constants=f"{constant}={n}", prop=prop, sound=True, timeout=timeout
     )
     out["process_seconds"] = time.perf_counter() - t0
-    out["process_cpu_seconds"] = _children_cpu() - c0
+    out["process_cpu_seconds"] = _children_cpu() - cpu0
     return out
 
 
@@ -172,17 +170,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--jobs", nargs="*", default=DEFAULT, help="model=N1,N2 ...")
     parser.add_argument("--repeat", type=int, default=1, help="runs per job; medians reported")
     parser.add_argument("--no-storm", action="store_true")
+    parser.add_argument(
+        "--properties",
+        nargs="*",
+        default=None,
+        help="only the properties containing one of these strings (e.g. Pmin Rmin)",
+    )
     parser.add_argument("--timeout", type=float, default=1200.0)
     parser.add_argument(
         "--scale", type=Path, default=SCALE, help="folder of the shared scale models"
     )
     parser.add_argument(
         "--relative", action="store_true", help="posgmc with relative precision 1e-6, as Storm"
-    )
-    parser.add_argument(
-        "--cpu",
-        action="store_true",
-        help="two more columns: check and whole-process CPU-time ratios (a loaded machine)",
     )
     parser.add_argument("--worker", nargs=5, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -199,14 +198,16 @@ def main(argv: list[str] | None = None) -> int:
     loads = [os.getloadavg()[0]]
     rows = [
         "| model | N | property | states | posgmc check (s) | posgmc value [lower, upper] "
-        "| Storm check (s) | Storm value | check ratio | process ratio | peak memory ratio |"
-        + (" check CPU ratio | process CPU ratio |" if args.cpu else ""),
-        "|---|---|---|---|---|---|---|---|---|---|---|" + ("---|---|" if args.cpu else ""),
+        "| Storm check (s) | Storm value | check ratio | process ratio | peak memory ratio "
+        "| CPU ratio check / process |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for spec in args.jobs:
         name, _, ns = spec.partition("=")
         for n in (int(x) for x in ns.split(",")):
             for prop in PROPERTIES[name]:
+                if args.properties and not any(p in prop for p in args.properties):
+                    continue
                 path, const = MODELS[name], CONSTANT[name]
                 ours: list[dict[str, Any]] = []
                 theirs: list[dict[str, Any]] = []
@@ -218,10 +219,9 @@ def main(argv: list[str] | None = None) -> int:
                     rows.append(f"| {name} | {n} | `{prop}` | posgmc failed: {ours[0]['error']} |")
                     print(rows[-1], file=sys.stderr)
                     continue
-                med = {
-                    k: statistics.median(o[k] for o in ours)
-                    for k in ("check_seconds", "process_seconds", "peak_rss_mb")
-                }
+                timed = ("check_seconds", "process_seconds", "peak_rss_mb", "check_cpu_seconds",
+                         "process_cpu_seconds")
+                med = {k: statistics.median(o[k] for o in ours) for k in timed}
                 o = ours[0]
                 cells = [
                     name,
@@ -232,10 +232,7 @@ def main(argv: list[str] | None = None) -> int:
                     f"{_fmt(o['value'])} [{_fmt(o['lower'])}, {_fmt(o['upper'])}]",
                 ]
                 if theirs and "error" not in theirs[0]:
-                    st = {
-                        k: statistics.median(t[k] for t in theirs)
-                        for k in ("check_seconds", "process_seconds", "peak_rss_mb")
-                    }
+                    st = {k: statistics.median(t[k] for t in theirs) for k in timed}
                     cells += [
                         f"{st['check_seconds']:.2f}",
                         _fmt(theirs[0]["value"]),
@@ -244,24 +241,13 @@ def main(argv: list[str] | None = None) -> int:
                         f"({med['process_seconds']:.1f} / {st['process_seconds']:.1f} s)",
                         f"{med['peak_rss_mb'] / st['peak_rss_mb']:.2f} "
                         f"({med['peak_rss_mb']:.0f} / {st['peak_rss_mb']:.0f} MB)",
+                        f"{med['check_cpu_seconds'] / max(st['check_cpu_seconds'], 1e-3):.2f} / "
+                        f"{med['process_cpu_seconds'] / st['process_cpu_seconds']:.2f}",
                     ]
-                    if args.cpu:
-                        cpu = {
-                            k: (
-                                statistics.median(o[k] for o in ours),
-                                statistics.median(t[k] for t in theirs),
-                            )
-                            for k in ("check_cpu_seconds", "process_cpu_seconds")
-                        }
-                        cells += [
-                            f"{cpu[k][0] / max(cpu[k][1], 1e-3):.2f} "
-                            f"({cpu[k][0]:.2f} / {cpu[k][1]:.2f} s)"
-                            for k in ("check_cpu_seconds", "process_cpu_seconds")
-                        ]
                 elif theirs:
-                    cells += [f"Storm failed: {theirs[0]['error']}", "", "", "", ""]
+                    cells += [f"Storm failed: {theirs[0]['error']}", "", "", "", "", ""]
                 else:
-                    cells += ["-", "-", "-", "-", "-"]
+                    cells += ["-", "-", "-", "-", "-", "-"]
                 rows.append("| " + " | ".join(cells) + " |")
                 print(rows[-1], file=sys.stderr)
                 loads.append(os.getloadavg()[0])

@@ -27,6 +27,7 @@ from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.compiler import BuildOptions, build_model
 from posgmc.deep import deep_generator, deep_stack
+from posgmc.engines import kernels
 from posgmc.errors import (
     InputError,
     LimitError,
@@ -361,6 +362,7 @@ def build(
     """Explore the model's reachable state space into an :class:`ExplicitModel`."""
     session = _session(session)
     _typed(options, BuildOptions, "options")
+    kernels.warm_up_in_background()  # the engines' compiled kernels load while the model builds
     if session.explicit is not None:
         return BuiltModel(_check_explicit(session, options), 0.0)
     with ops.exact_arithmetic() if options.exact else contextlib.nullcontext():
@@ -722,7 +724,9 @@ def synthesize(
         prop: one ``P`` or ``R`` query, e.g. ``'<<rover>> Pmax=? [ F "goal" ]'``.
         memory: the decision maker's memory sizes (``2`` or ``(1, 2, 3)``), or sizes by player
             name (``{"rover": (1, 2), "attacker": 2}``: the adversary's strategies are enumerated
-            with its largest size). Default: 1..3 for the decision maker, 1 for the adversary.
+            with its largest size). Default: 1..3 for the decision maker, 1 for the adversary,
+            and on a pomdp a belief-based controller with as many nodes as it needs (sizes
+            given bound the memory).
         timeout: seconds for the whole synthesis of the property.
         seed: random seed (the search is deterministic given the seed and a budget it keeps to).
         adversaries: how many of the strongest enumerated adversary strategies the defence is
@@ -746,7 +750,8 @@ def synthesize(
             raise InputError(f"memory sizes must be positive ints, got {v!r}")
         return out
 
-    options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs)
+    options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs,
+                               belief=None if memory is None else False)
     if isinstance(memory, Mapping):
         options = dataclasses.replace(
             options, player_memory=tuple(sorted((str(p), sizes(v)) for p, v in memory.items()))

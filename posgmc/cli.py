@@ -375,7 +375,8 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
     "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
 )
 @click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
-              help="Synthesis: memory sizes of the decision maker's strategy (default auto: 1..3; "
+              help="Synthesis: memory sizes of the decision maker's strategy (default auto: 1..3, "
+              "and for a pomdp a belief-based controller with as many nodes as it needs; "
               "sizes above 1 alone, e.g. 2, are warm-started from a memoryless defence); "
               "PLAYER=... for a named player, e.g. --memory rover=2 --memory attacker=1 (the "
               "adversary's strategies enumerated with that memory). Repeatable.")
@@ -599,8 +600,12 @@ def _synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
             named[player.strip()] = _memory_sizes(text.strip(), given)
         else:
             unnamed = _memory_sizes(given.strip(), given)
+    # memory auto (the default) lets a pomdp's synthesis add a belief-based controller with more
+    # nodes; sizes given explicitly bound the strategy's memory
+    explicit = any(given.split("=", 1)[-1].strip() != "auto" for given in settings)
     return SynthesisOptions(memory=unnamed, timeout=timeout, seed=seed, adversaries=adversaries,
-                            jobs=jobs, player_memory=tuple(sorted(named.items())))
+                            jobs=jobs, player_memory=tuple(sorted(named.items())),
+                            belief=False if explicit else None)
 
 
 def _write_synthesised(directory: str, report: Any) -> None:

@@ -350,10 +350,17 @@ def _lp(
     )
     found = settling(transitions, groups, conditions, allowed=allowed, settle=settle)
     stop_state, stop_sat = found.stop_state, found.stop_sat
-    if stop_state.size == 0:
+    if stop_state.size == 0 or not _settles_almost_surely(
+        transitions, groups, builder.initial, stop_state
+    ):
+        # Under every strategy a path that never settles takes, infinitely often, a choice with
+        # a positive reward of some total-reward objective (the choices that may repeat forever
+        # are those without any): when no strategy settles with probability 1, one of the
+        # objectives' expected totals is infinite whatever the strategy (the LP, which asks for
+        # settling with probability 1, would be infeasible and say NaN).
         raise UnsupportedError(
-            "every path collects reward forever in a total-reward objective of multi(...): the "
-            "expected total rewards are infinite",
+            "every strategy collects reward forever with positive probability in a total-reward "
+            "objective of multi(...): the expected total rewards are infinite",
             expr.span,
         )
     coefficients = np.zeros((len(objectives), num_choices + stop_state.size))
@@ -364,6 +371,23 @@ def _lp(
             coefficients[i, :num_choices] = rewards[i]
     lp = OccupationLP.build(transitions, groups, builder.initial, stop_state, coefficients)
     return lp, num_states, _Parts(transitions, groups, builder.initial, found, plain, condition_of)
+
+
+def _settles_almost_surely(
+    transitions: sp.csr_matrix, groups: np.ndarray, initial: int, stop_state: np.ndarray
+) -> bool:
+    """Some strategy reaches a state where a path may settle with probability 1 from
+    ``initial`` (graph analysis: the almost-sure region of reaching ``stop_state``)."""
+    from posgmc.engines.graph import Structure, almost_sure_reach
+
+    num_states = int(groups.size - 1)
+    target = np.zeros(num_states, dtype=bool)
+    target[stop_state] = True
+    everywhere = np.ones(num_states, dtype=bool)
+    region, _ = almost_sure_reach(
+        Structure.build(transitions, groups), target, everywhere, existential=everywhere
+    )
+    return bool(region[initial])
 
 
 def _certify(parts: _Parts, objectives: list[_Objective], x: np.ndarray) -> np.ndarray:

@@ -27,7 +27,7 @@ import numpy as np
 
 from posgmc.engines import exact as ex
 from posgmc.engines.certify import certify
-from posgmc.engines.graph import Structure, attractor
+from posgmc.engines.graph import Structure, attractor, leaving_choices
 from posgmc.engines.iteration import Bounds, EndComponents, gap_ok, solve, widen
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
@@ -138,7 +138,7 @@ def _local_rows(sys: System, initial: np.ndarray) -> np.ndarray:
 
 
 def _unsafe(g: Structure, region: np.ndarray) -> np.ndarray:
-    return np.asarray(g.transitions @ (~region).astype(np.float64)) > 0
+    return leaving_choices(g, region)
 
 
 @dataclass(frozen=True)

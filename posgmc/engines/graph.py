@@ -1,10 +1,13 @@
 """Graph precomputation on the choice/state structure: attractors, qualitative reachability, MECs.
 
-Everything is vectorized over a :class:`Structure` (the rows of a transition matrix grouped by
-state, the layout of :class:`~posgmc.model.explicit.ExplicitModel`). Backward search works layer
-by layer: each layer gathers the predecessor choices of the frontier from the transposed matrix in
-one fancy-indexing step, so the total work is linear in the transitions and the Python overhead is
-per layer, never per state.
+Everything works on a :class:`Structure` (the rows of a transition matrix grouped by state, the
+layout of :class:`~posgmc.model.explicit.ExplicitModel`, and its transposed pattern, built once
+per model). With the compiled kernels (:mod:`posgmc.engines.kernels`, the default) an attractor is
+one backward worklist search over the transposed pattern with a counter per state
+(:mod:`posgmc.engines.kernels.graph`), so its work is linear in the transitions whatever the
+number of layers. The numpy fallback searches layer by layer: each layer gathers the predecessor
+choices of the frontier in one fancy-indexing step, so its work is linear too and its Python
+overhead is per layer, never per state. Both give the same sets and layers (the tests run both).
 
 Per-state quantifiers. A state whose entry of ``existential`` is True joins an attractor when *some*
 allowed choice has an edge into the set; any other state joins when *all* its allowed choices do
@@ -25,11 +28,15 @@ from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from posgmc.engines import kernels
+from posgmc.engines.kernels import graph as graph_kernels
 from posgmc.model.explicit import ExplicitModel
 
 __all__ = [
@@ -43,25 +50,34 @@ __all__ = [
     "safe_region",
     "end_components",
     "row_of_entries",
+    "leaving_choices",
 ]
 
 
 @dataclass(frozen=True, eq=False)
 class Structure:
-    """The choice/state layout of a transition matrix and its transpose.
+    """The choice/state layout of a transition matrix and its transposed pattern.
 
-    ``transitions``: csr float64 [C, S]; ``backward``: csc of the same matrix's *pattern* (int8
-    ones: for state t, the choices with an edge into t are
-    ``backward.indices[backward.indptr[t]:backward.indptr[t+1]]``; the searches never read the
-    probabilities, so the transpose carries 1 byte per entry instead of 8);
-    ``row_groups``: int64[S + 1]; ``choice_state``: int64[C]; ``num_choices``: int64[S].
+    ``transitions``: csr float64 [C, S] (the model's own matrix, not a copy);
+    ``back_ptr``: int32[S + 1] and ``back_choices``: int32[nnz] (each int64 when its values do not
+    fit): the transpose of the matrix's *pattern*: for state t the choices with an edge into t are
+    ``back_choices[back_ptr[t]:back_ptr[t + 1]]``, ascending (the searches never read the
+    probabilities, so the transpose carries 4 bytes per entry);
+    ``row_groups``: int64[S + 1] (the model's own array); ``choice_state``: int32[C] (int64 when S
+    does not fit), the state of every choice; ``num_choices``: int64[S] (computed when first
+    read).
     """
 
     transitions: sp.csr_matrix
-    backward: sp.csc_matrix
+    back_ptr: np.ndarray
+    back_choices: np.ndarray
     row_groups: np.ndarray
     choice_state: np.ndarray
-    num_choices: np.ndarray
+
+    @cached_property
+    def num_choices(self) -> np.ndarray:
+        """int64[S]: the number of choices of every state."""
+        return np.diff(self.row_groups)
 
     @property
     def num_states(self) -> int:
@@ -74,17 +90,57 @@ class Structure:
     @staticmethod
     def build(transitions: sp.csr_matrix, row_groups: np.ndarray) -> Structure:
         """The structure of a csr matrix whose rows are grouped by ``row_groups``."""
-        counts = np.diff(row_groups)
+        back_ptr, back_choices, choice_state = _transposed_pattern(transitions, row_groups)
         return Structure(
             transitions=transitions,
-            backward=sp.csr_matrix(
-                (np.ones(transitions.nnz, dtype=np.int8), transitions.indices, transitions.indptr),
-                shape=transitions.shape,
-            ).tocsc(),
+            back_ptr=back_ptr,
+            back_choices=back_choices,
             row_groups=row_groups,
-            choice_state=np.repeat(np.arange(counts.size, dtype=np.int64), counts),
-            num_choices=counts,
+            choice_state=choice_state,
         )
+
+
+def _index_dtype(bound: int) -> type[np.signedinteger[Any]]:
+    """int32 when every index below ``bound`` fits, else int64."""
+    return np.int32 if bound < 2**31 - 1 else np.int64
+
+
+def _ro(a: np.ndarray) -> np.ndarray:
+    """A read-only view of ``a``: the kernels' inputs are always passed read-only, so that a
+    model's frozen arrays and a fresh array select the same compiled (and cached) variant."""
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
+def _transposed_pattern(
+    transitions: sp.csr_matrix, row_groups: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(back_ptr, back_choices, choice_state)`` of :class:`Structure` for a csr matrix."""
+    C, S = transitions.shape
+    ptr_type = np.zeros(0, dtype=_index_dtype(transitions.nnz))
+    choice_type = np.zeros(0, dtype=_index_dtype(C))
+    state_type = np.zeros(0, dtype=_index_dtype(S))
+    if kernels.enabled():
+        found: tuple[np.ndarray, np.ndarray, np.ndarray] = graph_kernels.transpose_pattern(
+            _ro(transitions.indptr),
+            _ro(transitions.indices),
+            _ro(row_groups),
+            ptr_type,
+            choice_type,
+            state_type,
+        )
+        return found
+    pattern = sp.csr_matrix(
+        (np.ones(transitions.nnz, dtype=np.int8), transitions.indices, transitions.indptr),
+        shape=transitions.shape,
+    ).tocsc()
+    pattern.sort_indices()
+    return (
+        pattern.indptr.astype(ptr_type.dtype, copy=False),
+        pattern.indices.astype(choice_type.dtype, copy=False),
+        np.repeat(np.arange(S, dtype=state_type.dtype), np.diff(row_groups)),
+    )
 
 
 # The transpose of a large model costs about a second; models are frozen, so one structure per
@@ -149,6 +205,17 @@ def attractor(
         hit the set when the state joined (a memoryless attractor strategy for existential states),
         -1 elsewhere.
     """
+    if kernels.enabled():
+        return _attractor_compiled(
+            g,
+            initial,
+            existential=existential,
+            candidates=candidates,
+            allowed=allowed,
+            initial_choices=initial_choices,
+            preferred=preferred,
+            layer=layer,
+        )
     S = g.num_states
     C = g.num_choices_total
     inside = initial.copy()
@@ -166,8 +233,8 @@ def attractor(
     # positions i with stamp[a[i]] == i hold each distinct value once
     stamp_c = np.empty(C, dtype=np.int64)
     stamp_s = np.empty(S, dtype=np.int64)
-    bw_ptr = g.backward.indptr.astype(np.int64, copy=False)
-    bw_idx = g.backward.indices
+    bw_ptr = g.back_ptr
+    bw_idx = g.back_choices
     frontier = np.flatnonzero(initial)
     extra = None if initial_choices is None else np.flatnonzero(initial_choices)
     if layer is not None:
@@ -177,7 +244,9 @@ def attractor(
     level = 0
     while True:
         level += 1
-        preds = bw_idx[concat_ranges(bw_ptr[frontier], bw_ptr[frontier + 1])]
+        preds = bw_idx[
+            concat_ranges(bw_ptr[frontier].astype(np.int64), bw_ptr[frontier + 1].astype(np.int64))
+        ]
         if extra is not None:
             preds = np.concatenate([preds, extra])
             extra = None
@@ -216,6 +285,65 @@ def attractor(
     return inside, witness
 
 
+_NO_INDEX = np.zeros(0, dtype=np.int64)
+_NO_FLAG = np.zeros(0, dtype=bool)
+
+
+def _attractor_compiled(
+    g: Structure,
+    initial: np.ndarray,
+    *,
+    existential: np.ndarray,
+    candidates: np.ndarray,
+    allowed: np.ndarray | None,
+    initial_choices: np.ndarray | None,
+    preferred: np.ndarray | None,
+    layer: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`attractor` by the compiled worklist search (:func:`graph_kernels.attract`)."""
+    inside = np.ascontiguousarray(initial, dtype=bool).copy()
+    open_ = np.ascontiguousarray(candidates & ~inside)
+    extra = _NO_INDEX if initial_choices is None else np.flatnonzero(initial_choices)
+    layer_out = layer if layer is not None else _NO_INDEX
+    witness: np.ndarray = graph_kernels.attract(
+        _ro(g.back_ptr),
+        _ro(g.back_choices),
+        _ro(g.row_groups),
+        _ro(g.choice_state),
+        _ro(np.ascontiguousarray(existential, dtype=bool)),
+        open_,
+        _ro(_NO_FLAG if allowed is None else np.ascontiguousarray(allowed, dtype=bool)),
+        allowed is not None,
+        _ro(extra),
+        _ro(_NO_INDEX if preferred is None else np.ascontiguousarray(preferred, dtype=np.int64)),
+        preferred is not None,
+        inside,
+        layer_out,
+        layer is not None,
+    )
+    return inside, witness
+
+
+def _warm_up() -> None:
+    """Run every graph kernel once on a two-state structure with the dtypes of a model's
+    (int32 indices), so that their cached machine code is loaded (see
+    :func:`posgmc.engines.kernels.warm_up_in_background`)."""
+    g = Structure.build(
+        sp.csr_matrix((np.ones(2), np.array([1, 1], np.int32), np.array([0, 1, 2], np.int32))),
+        np.array([0, 1, 2], dtype=np.int64),
+    )
+    both = np.ones(2, dtype=bool)
+    first = np.array([True, False])
+    attractor(g, ~first, existential=first, candidates=both, allowed=both,
+              initial_choices=~both, preferred=np.zeros(2, np.int64),
+              layer=np.full(2, -1, dtype=np.int64))
+    leaving_choices(g, first)
+    _restrict_to_region(g, first, both)
+
+
+kernels.on_warm_up(_warm_up)
+
+
 def positive_reach(
     g: Structure,
     target: np.ndarray,
@@ -235,10 +363,37 @@ def positive_reach(
     return inside
 
 
-def _unsafe_choices(g: Structure, region: np.ndarray) -> np.ndarray:
-    """bool[C]: choices with an edge leaving ``region``."""
+def leaving_choices(g: Structure, region: np.ndarray) -> np.ndarray:
+    """bool[C]: the choices with an edge to a state outside ``region`` (bool[S])."""
+    if kernels.enabled():
+        T = g.transitions
+        out: np.ndarray = graph_kernels.leaving_choices(
+            _ro(T.indptr), _ro(T.indices), _ro(np.ascontiguousarray(region, dtype=bool))
+        )
+        return out
     outside = (~region).astype(np.float64)
     return np.asarray(g.transitions @ outside) > 0
+
+
+def _restrict_to_region(
+    g: Structure, region: np.ndarray, usable: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(safe, leaks)`` for the states of ``region``: bool[C] the usable choices that stay in it,
+    bool[S] the states with a usable choice that leaves it (entries outside ``region`` are
+    meaningless on the compiled path: nobody outside the region can join the next attractor)."""
+    if kernels.enabled():
+        T = g.transitions
+        found: tuple[np.ndarray, np.ndarray] = graph_kernels.restrict_to_region(
+            _ro(T.indptr),
+            _ro(T.indices),
+            _ro(g.row_groups),
+            _ro(np.ascontiguousarray(region, dtype=bool)),
+            _ro(np.ascontiguousarray(usable, dtype=bool)),
+        )
+        return found
+    safe = usable & ~leaving_choices(g, region)
+    leaks = np.logical_or.reduceat(~safe & usable, g.row_groups[:-1])
+    return safe, leaks
 
 
 def almost_sure_reach(
@@ -348,9 +503,8 @@ def _almost_sure_reach_nested(
         if max_rounds is not None and rounds >= max_rounds:
             return region, np.full(g.num_states, -1, dtype=np.int64), False
         rounds += 1
-        safe = usable & ~_unsafe_choices(g, region)
         # a universal state with a choice leaving the region cannot be in it
-        leaks = np.logical_or.reduceat(~safe & usable, g.row_groups[:-1])
+        safe, leaks = _restrict_to_region(g, region, usable)
         new, witness = attractor(
             g,
             target,
@@ -443,7 +597,7 @@ def _almost_sure_reach_one_player(
     )
     region = target.copy()
     region[np.flatnonzero(cand)[~losing[node_of]]] = True
-    safe = usable & ~_unsafe_choices(g, region)
+    safe = usable & ~leaving_choices(g, region)
     return attractor(
         g,
         target,
@@ -476,11 +630,11 @@ def positive_buchi(
     none = np.zeros(g.num_states, dtype=bool)
     while True:
         sub = region & ~winning
-        avoid = ~_unsafe_choices(g, ~winning)  # choices with no edge into the winning part
+        avoid = ~leaving_choices(g, ~winning)  # choices with no edge into the winning part
         current = sub.copy()
         core_witness = witness
         while True:
-            stay = ~_unsafe_choices(g, current)
+            stay = ~leaving_choices(g, current)
             new, core_witness = almost_sure_reach(
                 g,
                 none,
@@ -519,23 +673,31 @@ def safe_region(
     question, e.g. a target).
 
     Returns ``(safe, choice)``: bool[S]; int64[S] for each existential non-frozen state of ``safe``
-    a     qualifying choice (-1 elsewhere).
+    a qualifying choice (-1 elsewhere).
+
+    The complement is one attractor of the other player (one backward search, not a pass over
+    the model per round): starting from the states outside ``region`` (and not frozen), a
+    universal state of the region leaves when one of its choices is not good or has an edge out,
+    an existential one when every good choice has an edge out (at once when it has none).
     """
-    ok = np.ones(g.num_choices_total, dtype=bool) if good is None else good.copy()
+    ok = np.ones(g.num_choices_total, dtype=bool) if good is None else good
     keep_always = np.zeros(g.num_states, dtype=bool) if frozen is None else frozen
-    starts = g.row_groups[:-1]
-    current = region | keep_always
-    while True:
-        stays = ok & ~_unsafe_choices(g, current)
-        stays_count = np.add.reduceat(stays.astype(np.int64), starts)
-        keep = current & (
-            keep_always | np.where(existential, stays_count > 0, stays_count == g.num_choices)
-        )
-        if int(keep.sum()) == int(current.sum()):
-            break
-        current = keep
+    movable = region & ~keep_always
+    exist_choice = existential[g.choice_state]
+    # existential states without a good choice cannot stay anywhere
+    good_count = np.bincount(g.choice_state[ok], minlength=g.num_states)
+    lost = ~(region | keep_always) | (movable & existential & (good_count == 0))
+    out, _ = attractor(
+        g,
+        lost,
+        existential=~existential,
+        candidates=movable,
+        allowed=ok | ~exist_choice,
+        initial_choices=~ok & ~exist_choice,
+    )
+    current = ~out
     choice = np.full(g.num_states, -1, dtype=np.int64)
-    stays = ok & ~_unsafe_choices(g, current) & current[g.choice_state]
+    stays = ok & ~leaving_choices(g, current) & current[g.choice_state]
     idx = np.flatnonzero(stays)[::-1]
     choice[g.choice_state[idx]] = idx  # the first qualifying choice wins
     choice[~(current & existential) | keep_always] = -1

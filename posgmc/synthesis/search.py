@@ -43,12 +43,16 @@ from posgmc.syntax.ast import (
     Temporal,
     TemporalOp,
 )
+from posgmc.synthesis import belief
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.deterministic import DeterministicResult, deterministic_phase
 from posgmc.synthesis.jobs import Executor, Problem, executor_for
 from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
 
 __all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
+
+AUTO_MEMORY = (1, 2, 3)
+"""The memory sizes of memory ``auto`` (the default)."""
 
 _POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY, prove=False))  # ranking only
 _LOGIT = LOGIT
@@ -64,12 +68,16 @@ class SynthesisOptions:
     against (0: no adversary phases); ``enumeration_limit``: how many are enumerated and ranked
     at most; ``compose_restarts``: random starts of the composition besides the search's defence;
     ``oracle_rounds``: double-oracle rounds at most (:mod:`posgmc.synthesis.compose`).
+    ``belief``: on a pomdp, also build a belief-based controller over the search's best
+    defence (:mod:`posgmc.synthesis.belief`), which has more memory nodes than ``memory``; None
+    (memory auto): when ``memory`` is the default and ``player_memory`` does not name the
+    decision maker.
     ``player_memory``: memory sizes by player name (``--memory rover=1..3 --memory
     attacker=2``); the decision maker's entry replaces ``memory``, the adversary's (its largest
     size) ``adversary_memory``. ``jobs``: worker processes for independent evaluations
     (:mod:`posgmc.synthesis.jobs`; results do not depend on it)."""
 
-    memory: tuple[int, ...] = (1, 2, 3)
+    memory: tuple[int, ...] = AUTO_MEMORY
     timeout: float = 30.0
     seed: int = 0
     restarts: int = 3
@@ -83,6 +91,7 @@ class SynthesisOptions:
     enumeration_limit: int = 1000
     compose_restarts: int = 1
     oracle_rounds: int = 8
+    belief: bool | None = None
 
     def for_players(self, decision_maker: str, adversary: str | None,
                     players: tuple[str, ...]) -> SynthesisOptions:
@@ -99,7 +108,10 @@ class SynthesisOptions:
                 f"the model", hint=f"the players are {', '.join(players) or '(none)'}")
         memory = named.get(decision_maker, self.memory)
         adversary_memory = max(named[adversary]) if adversary in named else self.adversary_memory
-        return replace(self, memory=memory, adversary_memory=adversary_memory, player_memory=())
+        with_belief = self.belief if self.belief is not None else (
+            decision_maker not in named and self.memory == AUTO_MEMORY)
+        return replace(self, memory=memory, adversary_memory=adversary_memory, player_memory=(),
+                       belief=with_belief)
 
 
 @dataclass(frozen=True)
@@ -200,7 +212,8 @@ def synthesize(
             several players.
     """
     started = time.perf_counter()
-    deadline = started + options.timeout
+    end = started + options.timeout
+    deadline = end  # the search's; a pomdp keeps a share of the budget for the belief phase
     if executor is None:
         others = [p for p in range(len(model.player_names)) if p != player]
         problem = problem_of(
@@ -216,6 +229,10 @@ def synthesize(
                               scalar=scalar, options=options, check_options=check_options,
                               executor=own)
     problem = executor.problem
+    with_belief = bool(options.belief if options.belief is not None
+                       else options.memory == AUTO_MEMORY) and belief.applies(problem)
+    if with_belief:
+        deadline = end - belief.SHARE * options.timeout
     base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar,
                            options=CheckOptions(keep_strategy=True))
     query = problem.query
@@ -350,6 +367,16 @@ def synthesize(
         seconds_of[k], evaluations_of[k] = 0.0, evaluations
         if best is None or _better(bound, best[1], maximize):
             best = (fss, bound)
+    # a pomdp: the belief-based controller handing over to the best defence at its frontier
+    # (:mod:`posgmc.synthesis.belief`), kept when its product check beats the best
+    belief_result = None
+    if with_belief and best is not None:
+        t0 = time.perf_counter()
+        belief_result = _belief_candidate(problem, best[0], end, model, query, coalition_of,
+                                          scalar, maximize)
+        if belief_result is not None and _better(belief_result[1], best[1], maximize):
+            best = belief_result
+        phases["belief exploration"] = time.perf_counter() - t0
     # per memory size: the best defence with at most that many nodes (a smaller one embeds)
     rounds = []
     upto: tuple[FiniteStateStrategy, Bound] | None = None
@@ -381,6 +408,23 @@ def synthesize(
     partial = partial or not final.converged
     return SynthesisResult(best[0], guaranteed, full_bound, tuple(rounds), partial, phases, method,
                            tuple(deterministic[k] for k in sorted(deterministic)))
+
+
+def _belief_candidate(problem: Problem, cutoff: FiniteStateStrategy, end: float,
+                      model: ExplicitModel, query: Expr, coalition_of: CoalitionResolver,
+                      scalar: ScalarEvaluator, maximize: bool,
+                      ) -> tuple[FiniteStateStrategy, Bound] | None:
+    """The belief-based controller over ``cutoff`` and its bound by policy iteration on its
+    product (a ranking, like every candidate's), or None."""
+    # the controller is built with a fifth of what is left to spare: its product is checked after
+    now = time.perf_counter()
+    found = belief.belief_phase(problem, cutoff, now + 0.8 * max(0.0, end - now))
+    if found is None:
+        return None
+    r = StrategyChecker(model, {found.strategy.player: found.strategy}, coalition_of=coalition_of,
+                        scalar=scalar, options=_POLICY).check(query, text="synthesis")
+    assert r.guaranteed is not None  # noqa: S101 - the decision maker's strategy is given
+    return found.strategy, r.guaranteed
 
 
 DETERMINISTIC_SHARE = 0.5

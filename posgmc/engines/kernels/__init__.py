@@ -8,7 +8,11 @@ is False and the caller takes its vectorised numpy/scipy path instead. A kernel'
 never run uncompiled on a hot path: a loop per state in the interpreter is what kernels replace.
 
 numba itself is imported on the first kernel call, not when posgmc is imported (the import costs
-about 0.4 s, which a check that needs no kernel should not pay).
+about 0.4 s, which a check that needs no kernel should not pay). A process that is about to need
+the kernels (``api.build``: a check follows) calls :func:`warm_up_in_background`: numba's import,
+its first-call initialisation (about as long again) and the loading of the cached machine code of
+the registered kernels (:func:`on_warm_up`) then run on a daemon thread while the model is built,
+instead of inside the first check.
 
 Call sites ask :func:`enabled` at call time (not at import), so the tests can run both paths in
 one process by flipping :data:`STATE`. Why numba and not a C extension: ``docs/architecture.md``
@@ -19,6 +23,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
@@ -57,12 +62,63 @@ class Kernel(Generic[F]):
 
     def __call__(self, *args: Any) -> Any:
         if self._compiled is None:
-            import numba
+            with _COMPILE_LOCK:  # the warm-up thread may be creating it right now
+                if self._compiled is None:
+                    import numba
 
-            self._compiled = numba.njit(cache=True, nogil=True)(self.py_func)
+                    self._compiled = numba.njit(cache=True, nogil=True)(self.py_func)
         return self._compiled(*args)
+
+
+_COMPILE_LOCK = threading.RLock()
 
 
 def compiled(fn: F) -> Kernel[F]:
     """``fn`` as a :class:`Kernel`; call it only when :func:`enabled` is True."""
     return Kernel(fn)
+
+
+@dataclass
+class _WarmUp:
+    """The registered warm-up calls and the thread running them (mutable: process state)."""
+
+    calls: list[Callable[[], object]]
+    thread: threading.Thread | None = None
+
+
+_WARM_UP = _WarmUp(calls=[])
+
+
+def on_warm_up(call: Callable[[], object]) -> None:
+    """Register ``call`` (no arguments) to run on the warm-up thread: it should call its module's
+    kernels once on tiny arrays of the dtypes the hot paths pass, so that their cached machine
+    code is loaded (a kernel call with other dtypes loads or compiles another variant)."""
+    _WARM_UP.calls.append(call)
+
+
+def warm_up_in_background() -> None:
+    """Start the warm-up thread (once per process; nothing when the kernels are off)."""
+    if not enabled() or _WARM_UP.thread is not None:
+        return
+    thread = threading.Thread(target=_run_warm_up, name="posgmc-kernel-warm-up", daemon=True)
+    _WARM_UP.thread = thread
+    thread.start()
+
+
+def _run_warm_up() -> None:
+    for call in _WARM_UP.calls:
+        try:
+            call()
+        except Exception:  # noqa: BLE001 - the same call fails again, visibly, in the foreground
+            return
+
+
+def _join_warm_up() -> None:
+    """Let a running warm-up finish before the process forks (a child must not inherit its
+    locks half-held)."""
+    thread = _WARM_UP.thread
+    if thread is not None and thread.is_alive():
+        thread.join()
+
+
+os.register_at_fork(before=_join_warm_up)

@@ -1,0 +1,222 @@
+"""The belief-based controller of a POMDP (posgmc.synthesis.belief): on small POMDPs whose optimum
+needs memory it reaches the optimum derived by hand, its FSS re-verifies (also from its file) to
+the same proven bounds, and on random POMDPs it never does worse than the strategy it hands over
+to, with the belief MDP's number equal to the product check's."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
+
+from posgmc import api
+from posgmc.model.explicit import Observation, make_model
+from posgmc.strategies.files import read_strategy, write_strategy
+from posgmc.strategies.fss import FiniteStateStrategy
+from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax import parser
+from posgmc.syntax.ast import ModelType
+from posgmc.synthesis import belief
+from posgmc.synthesis.search import SynthesisOptions, problem_of
+from tests.synthesis.test_synthesis import BLIND
+
+# by hand: a coin in s=0 puts the agent in s=1 or s=2, which it cannot tell apart (o=0 in s=0..4).
+# In s=1 "a" wins and "b" moves to s=3; in s=2 "b" wins and "a" moves to s=4; in s=3 "a" wins, in
+# s=4 "b" wins, the other action loses (s=6). With memory: "a" first, and if the game goes on the
+# agent is in s=4, where "b" wins: Pmax = 1. Memoryless with P(a) = q: 1/2 (q + (1-q) q) +
+# 1/2 (q (1-q) + (1-q)) = 1/2 + q (1-q), at most 3/4 (q = 1/2); deterministic: 1/2.
+GUESS = """
+pomdp
+observables o endobservables
+module m
+  s : [0..6] init 0;
+  o : [0..2] init 0;
+  [a] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
+  [b] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
+  [a] s=1 -> (s'=5)&(o'=1);
+  [b] s=1 -> (s'=3);
+  [a] s=2 -> (s'=4);
+  [b] s=2 -> (s'=5)&(o'=1);
+  [a] s=3 -> (s'=5)&(o'=1);
+  [b] s=3 -> (s'=6)&(o'=2);
+  [a] s=4 -> (s'=6)&(o'=2);
+  [b] s=4 -> (s'=5)&(o'=1);
+  [a] s>=5 -> true;
+  [b] s>=5 -> true;
+endmodule
+label "goal" = s=5;
+"""
+
+
+def _setup(text: str, prop: str):  # type: ignore[no-untyped-def]
+    model = api.build(api.load(text=text)).model
+    coalition = api._resolver(model, False).coalition_of
+    problem = problem_of(model, parser.parse_property(prop).expr, player=0, adversary=None,
+                         coalition_of=coalition, scalar=api._scalar)
+    return model, problem
+
+
+def _uniform(model, problem) -> FiniteStateStrategy:  # type: ignore[no-untyped-def]
+    """The memoryless strategy that plays every offered label with equal probability."""
+    from posgmc.synthesis.search import parametrisation
+
+    par = parametrisation(problem, 1)
+    g, d = par.probabilities(np.zeros(par.shapes[0]), np.zeros(par.shapes[1]))
+    return par.strategy(g, d)
+
+
+def _verified(model, problem, fss):  # type: ignore[no-untyped-def]
+    r = StrategyChecker(model, {fss.player: fss}, coalition_of=problem.coalition_of,
+                        scalar=api._scalar).check(problem.query, text="test")
+    assert r.guaranteed is not None
+    return r.guaranteed
+
+
+def test_guessing_game_reaches_the_optimum_with_memory(tmp_path: Path) -> None:
+    model, problem = _setup(GUESS, 'Pmax=? [ F "goal" ]')
+    assert (model.num_states, model.num_choices) == (7, 14)
+    cutoff = _uniform(model, problem)
+    b = _verified(model, problem, cutoff)
+    assert b.lower <= 0.75 <= b.upper
+    found = belief.belief_phase(problem, cutoff, deadline=float("inf"))
+    assert found is not None
+    # the nodes {s0}, {s1, s2}, {s3}, {s4} (hashed exactly; the sink s=6 cannot reach the goal
+    # and is no node); the policy reaches {s0}, {s1, s2}
+    # and one of {s3}, {s4} (a tie: either first action then the other), all seen as o=0, so
+    # three memory nodes besides the uniform strategy's one
+    assert (found.explored, found.belief_nodes, found.strategy.memory_size) == (4, 3, 4)
+    # the belief nodes act deterministically under o=0 (elsewhere the uniform strategy's rule
+    # fills in: the goal and the sink, where nothing depends on it)
+    z0 = int(np.flatnonzero(found.strategy.observation_values[:, 0] == 0)[0])
+    assert np.all(found.strategy.action[:3, z0].max(axis=1) == 1.0)
+    assert found.estimate == pytest.approx(1.0, abs=1e-12)
+    assert found.cutoff_estimate == pytest.approx(0.75, abs=1e-9)
+    proven = _verified(model, problem, found.strategy)
+    assert 1.0 - 1e-5 <= proven.lower <= 1.0 <= proven.upper
+    # the exported file re-verifies to the same bounds
+    path = tmp_path / "agent.json"
+    write_strategy(found.strategy, path)
+    again = _verified(model, problem, read_strategy(path))
+    assert (again.lower, again.upper) == (proven.lower, proven.upper)
+
+
+def test_blind_cost_reaches_the_optimum_with_memory() -> None:
+    """BLIND (tests/synthesis/test_synthesis.py): memoryless costs 2 at best; with memory the
+    agent plays "a" once and, if still unseen, "b" (it is in s=2): 1 + 1/2 = 3/2, the optimum
+    (the first guess is wrong with probability 1/2 whatever the agent does)."""
+    model, problem = _setup(BLIND, 'R{"cost"}min=? [ F s=3 ]')
+    assert model.num_states == 4
+    cutoff = _uniform(model, problem)
+    b = _verified(model, problem, cutoff)
+    assert b.lower <= 2.0 <= b.upper
+    found = belief.belief_phase(problem, cutoff, deadline=float("inf"))
+    assert found is not None
+    assert found.estimate == pytest.approx(1.5, abs=1e-12)
+    proven = _verified(model, problem, found.strategy)
+    assert proven.lower <= 1.5 <= proven.upper <= 1.5 + 1e-5
+
+
+def test_synthesis_uses_the_belief_phase_only_with_memory_auto() -> None:
+    """Memory auto (the default) may use the belief controller: BLIND's 3/2 with memory beyond
+    the search's sizes; an explicit memory size bounds the strategy (memoryless: 2)."""
+    auto = api.check(api.load(text=BLIND), properties=['R{"cost"}min=? [ F s=3 ]'],
+                     synthesis=SynthesisOptions(timeout=20, seed=0)).results[0]
+    assert auto.guaranteed.lower <= 1.5 <= auto.guaranteed.upper <= 1.5 + 1e-5
+    assert "belief exploration" in auto.synthesis["phases"]
+    bounded = api.check(api.load(text=BLIND), properties=['R{"cost"}min=? [ F s=3 ]'],
+                        synthesis=SynthesisOptions(memory=(1,), timeout=20, seed=0)).results[0]
+    assert bounded.guaranteed.upper >= 2.0 - 1e-6
+    assert dict(bounded.memory) == {"": 1}
+    assert "belief exploration" not in bounded.synthesis["phases"]
+
+
+def test_the_belief_phase_is_for_pomdps_only() -> None:
+    from tests.synthesis.test_compose import random_posg
+
+    model = random_posg(0)
+    coalition = api._resolver(model, False).coalition_of
+    problem = problem_of(model, parser.parse_property('<<p0>> Pmax=? [ F "goal" ]').expr,
+                         player=0, adversary=1, coalition_of=coalition, scalar=api._scalar)
+    assert not belief.applies(problem)
+
+
+def random_pomdp(seed: int):  # type: ignore[no-untyped-def]
+    """A random POMDP: 4-8 states besides an absorbing goal and sink, two observations (goal and
+    sink a third), 2-3 labels per observation, each choice to 1-3 random states."""
+    rng = np.random.default_rng(seed)
+    S = int(rng.integers(4, 9)) + 2
+    goal, sink = S - 2, S - 1
+    obs = rng.integers(0, 2, size=S)
+    obs[[goal, sink]] = 2
+    labels = {z: sorted(rng.choice(["a", "b", "c"], size=int(rng.integers(2, 4)),
+                                   replace=False).tolist()) for z in (0, 1)}
+    labels[2] = ["a"]
+    names = ("", "a", "b", "c")
+    rows, actions, row_groups = [], [], [0]
+    for s in range(S):
+        for a in labels[int(obs[s])]:
+            row = np.zeros(S)
+            if s in (goal, sink):
+                row[s] = 1.0
+            else:
+                succ = rng.choice(S, size=int(rng.integers(1, 4)), replace=False)
+                row[succ] = rng.random(succ.size) + 0.1
+                row /= row.sum()
+            rows.append(row)
+            actions.append(names.index(a))
+        row_groups.append(len(rows))
+    return make_model(
+        ModelType.POMDP, row_groups, np.array(rows), choice_actions=actions, action_names=names,
+        observations=(Observation(0, obs.astype(np.int32), ("o",), np.array([[0], [1], [2]])),),
+        labels={"goal": np.arange(S) == goal}, variable_names=("s",),
+        state_values=np.arange(S)[:, None],
+    )
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), maximize=st.booleans())
+@example(seed=112, maximize=False)  # the initial state cannot reach the goal
+def test_random_pomdps_never_worse_than_the_cutoff(seed: int, maximize: bool) -> None:
+    """The controller hands over to the cut-off strategy wherever acting is not strictly better,
+    so the product check proves at least the cut-off's value, and (beliefs hashed exactly) the
+    belief MDP's number is the controller's value."""
+    model = random_pomdp(seed)
+    coalition = api._resolver(model, False).coalition_of
+    prop = 'Pmax=? [ F "goal" ]' if maximize else 'Pmin=? [ F "goal" ]'
+    problem = problem_of(model, parser.parse_property(prop).expr, player=0,
+                         adversary=None, coalition_of=coalition, scalar=api._scalar)
+    cutoff = _uniform(model, problem)
+    base = _verified(model, problem, cutoff)
+    found = belief.belief_phase(problem, cutoff, deadline=float("inf"))
+    if found is None:  # the initial state is the goal or cannot reach it: nothing to explore
+        reach = belief._can_reach(model, problem.target, problem.remain)
+        assert not (problem.remain & ~problem.target & reach)[model.initial_states[0]]
+        return
+    proven = _verified(model, problem, found.strategy)
+    assert proven.lower - 1e-6 <= found.estimate <= proven.upper + 1e-6
+    if maximize:
+        assert proven.upper >= base.lower - 1e-6
+        assert found.estimate >= found.cutoff_estimate - 1e-12
+        assert found.cutoff_estimate >= base.lower - 1e-6  # the hand-over at the initial belief
+    else:
+        assert proven.lower <= base.upper + 1e-6
+        assert found.estimate <= found.cutoff_estimate + 1e-12
+        assert found.cutoff_estimate <= base.upper + 1e-6
+
+
+def test_node_cap_bounds_the_fss() -> None:
+    model, problem = _setup(GUESS, 'Pmax=? [ F "goal" ]')
+    cutoff = _uniform(model, problem)
+    one = belief.belief_controller(
+        model, player=0, cutoff=cutoff,
+        cut_values=belief.cutoff_values(model, cutoff, problem.query,
+                                        coalition_of=problem.coalition_of, scalar=api._scalar),
+        upper=np.ones(model.num_states), target=problem.target, remain=problem.remain,
+        rewards=None, discount=1.0, maximize=True, deadline=float("inf"), max_nodes=1)
+    # one belief node: the initial belief only; it hands over right away or acts into the
+    # cut-off strategy: 3/4 either way
+    assert one is not None and one.belief_nodes == 1
+    assert one.estimate == pytest.approx(0.75, abs=1e-9)
