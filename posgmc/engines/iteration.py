@@ -70,6 +70,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
+from posgmc.engines import kernels, scc
 from posgmc.engines.graph import end_components, row_of_entries
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.system import (
@@ -218,12 +219,15 @@ An absolute tolerance would be unsound: with a slow contraction (a self-loop of 
 an upper bound of 1e-6)."""
 
 
-def widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def widen(
+    lower: np.ndarray, upper: np.ndarray, *, relative: float = 1e-10
+) -> tuple[np.ndarray, np.ndarray]:
     """Outward rounding: the iterates carry floating-point error (a few ulps per step, amplified at
     most by the inverse contraction rate), far below any requested precision; widening by a
-    relative 1e-10 keeps the reported bounds on the right side of the exact value."""
-    slack_lo = 1e-10 * np.abs(lower)
-    slack_hi = np.where(np.isfinite(upper), 1e-10 * np.abs(upper), 0.0)
+    relative 1e-10 (``relative``) keeps the reported bounds on the right side of the exact
+    value."""
+    slack_lo = relative * np.abs(lower)
+    slack_hi = np.where(np.isfinite(upper), relative * np.abs(upper), 0.0)
     return (
         np.maximum(lower - slack_lo, 0.0) if np.all(lower >= 0) else lower - slack_lo
     ), upper + slack_hi
@@ -342,8 +346,21 @@ def _lower_phase_blocks(
     plan = sys.plan
     ratios = [0.0, 0.0]
     previous = np.inf
+    # the same sweep, compiled (posgmc.engines.kernels.blocks), on a system large enough to pay
+    fast = kernels.enabled() and n >= scc.COMPILED_MIN_SIZE
+    if fast:
+        from posgmc.engines.kernels.blocks import sweep_lower
+
+        plan = ()  # the numpy loop below is skipped
     while iters < max_it:
         d = 0.0
+        if fast:
+            d = float(
+                sweep_lower(
+                    A.indptr, A.indices, A.data, sys.offset, *sys.sweep_tables, x, y, tmp, inner,
+                    0.25 * tau, rel,
+                )
+            )
         for r0, r1, ml, a, nl, b, ents in plan:
             yb = y[r0:r1]
             for k in range(inner):
@@ -383,6 +400,12 @@ def _sweep_pair(sys: System, X: np.ndarray, Xn: np.ndarray, Y: np.ndarray, T: np
     pre-fixpoint, since ``B(Xn)(s) <= B(mix)(s) = Xn(s)`` for the mixed vector ``mix >= Xn`` that
     state s was evaluated on; so the verification test is the same as for a Jacobi step."""
     A = sys.matrix
+    if kernels.enabled() and sys.n >= scc.COMPILED_MIN_SIZE:  # compiled, the same sweep
+        from posgmc.engines.kernels.blocks import sweep_pair
+
+        upper = sys.offset if sys.offset_upper is None else sys.offset_upper
+        sweep_pair(A.indptr, A.indices, A.data, sys.offset, upper, *sys.sweep_tables, X, Xn, Y, T)
+        return
     Xn[:] = X
     for r0, r1, ml, a, nl, b, ents in sys.plan:
         Yb = Y[r0:r1]

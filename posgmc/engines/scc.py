@@ -1,8 +1,10 @@
 """The strongly connected components (SCCs) of the unknown states in a solving order, and the
 blocks and bands of a topological system layout (see :mod:`posgmc.engines.topological`).
 
-One decomposition per system: ``scipy.sparse.csgraph.connected_components(connection="strong")``
-on the state graph of the whole model (state s -> every successor of every choice of s). Its csr
+One decomposition per system: with the compiled kernels, Tarjan's algorithm over the model's own
+csr arrays (:mod:`posgmc.engines.kernels.components`, no copy); without them
+``scipy.sparse.csgraph.connected_components(connection="strong")`` on the state graph of the whole
+model (state s -> every successor of every choice of s). Its csr
 arrays are the model's own (the rows of a state are contiguous, so its successors are one slice
 of the entries) with duplicates summed (scipy's routine does not terminate on duplicate
 entries). Choices the optimisation may not use and the edges of states whose value is known only
@@ -36,7 +38,15 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["components", "topological_blocks", "DEFAULT_BANDS", "MIN_BAND_STATES"]
+from posgmc.engines import kernels
+
+__all__ = [
+    "COMPILED_MIN_SIZE",
+    "DEFAULT_BANDS",
+    "MIN_BAND_STATES",
+    "components",
+    "topological_blocks",
+]
 
 DEFAULT_BANDS = 32
 """Bands aimed at on a large system: one solver call each, so the Python overhead is per band
@@ -48,6 +58,11 @@ MIN_BAND_STATES = 16_384
 MAX_GIANT_SHARE = 0.5
 """The order pays only if the largest SCC holds at most this share of the unknown states."""
 
+COMPILED_MIN_SIZE = 100_000
+"""States (or rows) below which the engines keep their numpy paths although the compiled kernels
+are enabled: the first kernel call of a process costs about 0.45 s (numba's import and code
+generator set-up), more than a kernel saves on a smaller system (the tests lower it)."""
+
 _BLOCKS_PER_BAND = 16
 """Gauss-Seidel blocks per band (each costs a few numpy calls per sweep)."""
 
@@ -55,14 +70,27 @@ _MIN_SPLIT_STATES = 50_000
 """A component this large is cut into blocks along the caller's backward-search layers."""
 
 
-def components(transitions: sp.csr_matrix, row_groups: np.ndarray) -> np.ndarray:
+def components(
+    transitions: sp.csr_matrix, row_groups: np.ndarray, within: np.ndarray | None = None
+) -> np.ndarray:
     """int32[S]: the SCC label of every model state in the graph of all its choices, labels in a
     reverse topological order of the condensation (see the module docstring).
 
     Args:
         transitions: csr [C, S] whose rows are grouped by state.
         row_groups: int64[S + 1]: the choices of state s are rows ``row_groups[s]:row_groups[s+1]``.
+        within: bool[S] or None: only the labels of these states are asked for. The compiled
+            path then decomposes the subgraph they induce (finer components, the same order
+            guarantee, -1 elsewhere); the numpy path decomposes the whole graph regardless.
     """
+    size = row_groups.size - 1 if within is None else int(np.count_nonzero(within))
+    if kernels.enabled() and size >= COMPILED_MIN_SIZE:
+        from posgmc.engines.kernels.components import tarjan
+
+        mask = np.ones(row_groups.size - 1, dtype=bool) if within is None else within
+        labels, _ = tarjan(transitions.indptr, transitions.indices, row_groups, mask)
+        compiled_labels: np.ndarray = labels
+        return compiled_labels
     S = row_groups.size - 1
     idx_dtype = np.int32 if transitions.nnz < 2**31 and S < 2**31 else np.int64
     # the rows of a state are contiguous, so its successors are one slice of the entries
@@ -84,7 +112,7 @@ def topological_blocks(
     *,
     layer: np.ndarray | None,
     band_states: int | None,
-) -> tuple[np.ndarray, np.ndarray] | None:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """Blocks and bands of a topological layout of the unknown states ``unk``, or None when the
     order does not pay (see the module docstring).
 
@@ -97,15 +125,18 @@ def topological_blocks(
             every component its own band and block (tests).
 
     Returns:
-        ``(block, band_of_block)``: int64[n] the block of each unknown state, in solving order
-        (0 first); int64[num_blocks] the band of each block, non-decreasing from 0.
+        ``(block, band_of_block, label)``: int64[n] the block of each unknown state, in solving
+        order (0 first); int64[num_blocks] the band of each block, non-decreasing from 0; int64[n]
+        the component label of each unknown state (labels in solving order, not dense).
     """
     n = int(unk.size)
     if n == 0:
         return None
     if band_states is None and n < 2 * MIN_BAND_STATES:
         return None
-    labels = components(transitions, row_groups)
+    within = np.zeros(row_groups.size - 1, dtype=bool)
+    within[unk] = True
+    labels = components(transitions, row_groups, within)
     lab = labels[unk]
     sizes = np.bincount(lab)
     if band_states is None:
@@ -138,5 +169,5 @@ def topological_blocks(
     band_of_block = np.zeros(num_blocks, dtype=np.int64)
     band_of_block[block] = band
     _, band_of_block = np.unique(band_of_block, return_inverse=True)
-    return block.astype(np.int64), band_of_block.astype(np.int64)
+    return block.astype(np.int64), band_of_block.astype(np.int64), lab.astype(np.int64)
 

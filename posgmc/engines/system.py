@@ -25,6 +25,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
+from posgmc.engines import kernels, scc
 from posgmc.engines.graph import Structure
 from posgmc.engines.scc import topological_blocks
 
@@ -84,6 +85,8 @@ class System:
     whole strongly connected components whose rows only reach states of bands ``<= k``.
     ``offset_upper``: float64[m] or None: a second constant per row for the upper bound (a band
     solved against proven lower/upper bounds of the bands below it); None: ``offset`` for both.
+    ``labels``: int64[n] or None (with ``bands``): the strongly connected component of each state,
+    labels in solving order (a component's rows only reach components of smaller labels).
     """
 
     states: np.ndarray
@@ -97,6 +100,7 @@ class System:
     blocks: np.ndarray
     bands: np.ndarray | None = None
     offset_upper: np.ndarray | None = None
+    labels: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -141,6 +145,14 @@ class System:
             last = ents[-1]
             out.append((rs, last[0] + last[2] + last[4], ml, a, nl, b, ents))
         return tuple(out)
+
+    @cached_property
+    def sweep_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(plan, slots, blocks)`` for the compiled sweeps (:mod:`posgmc.engines.kernels.blocks`):
+        :attr:`plan` without the entries as uint64[B, 6], :attr:`slots` and :attr:`blocks` as
+        uint64 (unsigned indices spare the compiled loops a negative-index check per access)."""
+        plan = np.array([block[:6] for block in self.plan], dtype=np.uint64).reshape(-1, 6)
+        return plan, self.slots.astype(np.uint64), self.blocks.astype(np.uint64)
 
     @cached_property
     def first_row(self) -> np.ndarray:
@@ -252,8 +264,9 @@ def build_system(
             band_states=band_states,
         )
     band_of_block = None
+    labels = None
     if found is not None:
-        block, band_of_block = found
+        block, band_of_block, labels = found
     elif layer is not None and unk.size >= _MIN_BLOCKED_STATES:
         block = _block_of(layer[unk])
     else:
@@ -268,6 +281,8 @@ def build_system(
         order = np.argsort(key, kind="stable")
     states = unk[order]
     counts = counts[order]
+    if labels is not None:
+        labels = labels[order]
     block = block[order]
     n = int(states.size)
     num_max = int(is_max.sum())
@@ -299,32 +314,71 @@ def build_system(
     ).astype(np.int64).reshape(-1, 6)
     blocks = np.zeros(nb + 1, dtype=np.int64)
     np.cumsum(np.bincount(bi, minlength=nb), out=blocks[1:])
-    # scatter every usable row to its position (rows_global is grouped by state)
-    row_st = g.choice_state[rows_global]
-    start_of = np.zeros(S + 1, dtype=np.int64)
-    np.cumsum(counts_all, out=start_of[1:])
-    rank = np.arange(rows_global.size, dtype=np.int64) - start_of[row_st]
-    loc = local_of[row_st]
+    # scatter every usable row to its position (rows_global is grouped by state):
     # position = table[block, player, slot] + local state, one gather per row
     table = np.stack(
         [row_start - max_lo[:, None], row_start + more[:, 0, :] - min_lo[:, None]], axis=1
     ).ravel()  # [nb, 2, kmax]
     state_base = (block * 2 + player) * kmax
-    pos = table[state_base[loc] + rank] + loc
-    del rank, row_st, start_of, state_base, key, order, player
     rows = np.empty(rows_global.size, dtype=np.int64)
-    rows[pos] = rows_global
-    del rows_global
     row_state = np.empty(rows.size, dtype=np.int64)
-    row_state[pos] = loc
-    del pos, loc  # the row gather below is the peak: no layout temporary outlives its use
-    # matrix restricted to the unknown columns; the rest goes into the offset. ``sub`` is this
-    # call's own copy of the rows, so its arrays are reused in place where the dtypes allow
-    T = g.transitions
-    sub = T[rows]
-    offset = (
-        np.zeros(rows.size) if choice_offset is None else choice_offset[rows].astype(np.float64)
+    if kernels.enabled() and rows.size >= scc.COMPILED_MIN_SIZE:
+        matrix, offset, stays = _layout_compiled(
+            g, rows_global, local_of, table, state_base, rows, row_state, choice_offset, fixed, n
+        )
+        del rows_global, state_base, key, order, player
+    else:
+        row_st = g.choice_state[rows_global]
+        start_of = np.zeros(S + 1, dtype=np.int64)
+        np.cumsum(counts_all, out=start_of[1:])
+        rank = np.arange(rows_global.size, dtype=np.int64) - start_of[row_st]
+        loc = local_of[row_st]
+        pos = table[state_base[loc] + rank] + loc
+        del rank, row_st, start_of, state_base, key, order, player
+        rows[pos] = rows_global
+        del rows_global
+        row_state[pos] = loc
+        del pos, loc  # the row gather below is the peak: no layout temporary outlives its use
+        # matrix restricted to the unknown columns; the rest goes into the offset
+        offset = (
+            np.zeros(rows.size)
+            if choice_offset is None
+            else choice_offset[rows].astype(np.float64)
+        )
+        data, indices, indptr, stays = _gather(g.transitions, rows, local_of, fixed, offset, n)
+        matrix = sp.csr_matrix((data, indices, indptr), shape=(rows.size, n), copy=False)
+    bands = None
+    if band_of_block is not None:
+        bands = np.zeros(int(band_of_block[-1]) + 2, dtype=np.int64)
+        np.cumsum(np.bincount(band_of_block), out=bands[1:])
+    return System(
+        states=states,
+        rows=rows,
+        row_state=row_state,
+        matrix=matrix,
+        offset=offset,
+        stays=stays,
+        num_max=num_max,
+        slots=slots,
+        blocks=blocks,
+        bands=bands,
+        labels=labels,
     )
+
+
+def _gather(
+    T: sp.csr_matrix,
+    rows: np.ndarray,
+    local_of: np.ndarray,
+    fixed: np.ndarray | None,
+    offset: np.ndarray,
+    n: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(data, indices, indptr, stays)`` of the system's matrix: the model rows ``rows`` restricted
+    to the unknown columns (``local_of >= 0``, renumbered); the mass into known states adds
+    ``p * fixed`` to ``offset`` (in place). ``sub`` is this call's own copy of the rows, so its
+    arrays are reused in place where the dtypes allow."""
+    sub = T[rows]
     if fixed is not None and np.any(fixed != 0):
         known_fixed = np.where(local_of >= 0, 0.0, fixed)
         offset += sub @ known_fixed  # before the column indices are rewritten below
@@ -351,23 +405,50 @@ def build_system(
         del per_row
         data, indices = _compact(inside, sub.data, loc)
     del sub, loc, inside
-    matrix = sp.csr_matrix((data, indices, indptr), shape=(rows.size, n), copy=False)
-    bands = None
-    if band_of_block is not None:
-        bands = np.zeros(int(band_of_block[-1]) + 2, dtype=np.int64)
-        np.cumsum(np.bincount(band_of_block), out=bands[1:])
-    return System(
-        states=states,
-        rows=rows,
-        row_state=row_state,
-        matrix=matrix,
-        offset=offset,
-        stays=stays,
-        num_max=num_max,
-        slots=slots,
-        blocks=blocks,
-        bands=bands,
+    return data, indices, indptr, stays
+
+
+def _layout_compiled(
+    g: Structure,
+    rows_global: np.ndarray,
+    local_of: np.ndarray,
+    table: np.ndarray,
+    state_base: np.ndarray,
+    rows: np.ndarray,
+    row_state: np.ndarray,
+    choice_offset: np.ndarray | None,
+    fixed: np.ndarray | None,
+    n: int,
+) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """The row scatter and :func:`_gather` in two compiled passes over the usable model rows in
+    model order (:mod:`posgmc.engines.kernels.layout`): fills ``rows`` and ``row_state`` and
+    returns ``(matrix, offset, stays)``, the same arrays as the numpy path (int32 indices where
+    they fit)."""
+    from posgmc.engines.kernels.layout import fill_rows, place_rows
+
+    T = g.transitions
+    m = rows.size
+    index_dtype = np.int32 if max(local_of.size, T.nnz) < 2**31 - 1 else np.int64
+    local = local_of.astype(index_dtype)
+    indptr = np.zeros(m + 1, dtype=index_dtype)
+    place_rows(
+        rows_global, g.choice_state, local, table, state_base, T.indptr, T.indices, rows,
+        row_state, indptr,
     )
+    np.cumsum(indptr, out=indptr)
+    offset = np.zeros(m) if choice_offset is None else choice_offset[rows].astype(np.float64)
+    nnz = int(indptr[-1])
+    indices = np.empty(nnz, dtype=index_dtype)
+    data = np.empty(nnz, dtype=np.float64)
+    stays = np.empty(m, dtype=bool)
+    use_fixed = fixed is not None and bool(np.any(fixed != 0))
+    known = np.zeros(0) if fixed is None or not use_fixed else fixed.astype(np.float64, copy=False)
+    fill_rows(
+        rows_global, g.choice_state, table, state_base, T.indptr, T.indices, T.data, local,
+        known, use_fixed, indptr, indices, data, offset, stays,
+    )
+    matrix = sp.csr_matrix((data, indices, indptr), shape=(m, n), copy=False)
+    return matrix, offset, stays
 
 
 # ---------------------------------------------------------------------------------------------

@@ -41,16 +41,41 @@ works the same with ``R = max (upper - lower) / (|upper| + |lower|)`` in place o
 A band that does not converge (iteration cap, stalled gap), reads a state that is not solved yet
 (the order is wrong) or an infinite upper bound makes :func:`solve_topological` return None; the
 caller then solves the whole system at once (sound either way).
+
+**Compiled path** (:mod:`posgmc.engines.kernels.sweeps`, when the kernels are enabled, the system
+carries its component labels and no game end-component treatment is needed: ``ec`` NONE, or
+DEFLATE with one player). The same induction, with every strongly connected component its own
+band: the components are solved in label order (successors first) inside one compiled loop, so
+nothing is paid per component in Python. A component of one state without a self-loop too likely
+to eliminate is solved in closed form (the eliminated rows only read solved states: one Bellman
+step with the lower bounds below and one with the upper ones is the exact pair of fixpoints).
+Any other component gets the interval iteration of :mod:`posgmc.engines.iteration` on its own
+states, the same operators: value iteration from 0 for the lower bound (Gauss-Seidel inside the
+component: every value written is B of a vector below the least fixpoint), a guess
+``lower + G + eps/K`` and Jacobi steps of the upper bound until ``F(U) <= U`` (Park induction),
+then ``F`` iterated until the gap meets the precision. Deflation uses the component itself as
+the set T of the iteration module's argument: a one-player maximiser needs no condition on T
+beyond "internal rows stay in T with b = 0" (there are no minimiser states), every other row
+counts as an exit, and the components are disjoint, so ``F = D o B`` has the least fixpoint of
+``B``. This cap is coarser than the maximal end components' when a component holds more than
+one; a component whose upper bound then does not converge makes the compiled path give up
+(None) and the bands above solve the system. Precision: K is the number of iterated components
+on the longest path of the condensation (closed-form components add no gap beyond what they
+read), so the gaps along any path add up to at most ``2 eps``. Rounding: every component adds
+a few ulps to what it reads; the final widening is a relative ``max(1e-10, 64 ulp x L)``, L the
+number of components on the longest path.
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
 
-from posgmc.engines.iteration import Bounds, EndComponents, solve
+from posgmc.engines import kernels, scc
+from posgmc.engines.iteration import _NOISE, Bounds, EndComponents, solve, widen
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.system import Block, System
 
@@ -81,6 +106,10 @@ def solve_topological(
     """
     if sys.bands is None:
         return None
+    if kernels.enabled() and sys.n >= scc.COMPILED_MIN_SIZE and _compiled_applies(sys, ec):
+        found = _solve_components(sys, options, cap=cap, ec=ec)
+        if found is not None:
+            return found
     n = sys.n
     bands = sys.bands
     num_bands = int(bands.size - 1)
@@ -212,3 +241,66 @@ def _band(
         offset_upper=offset_hi,
     )
     return band, out_cols
+
+
+_CHUNKS = 32
+"""Kernel calls of :func:`_solve_components` (the deadline is looked at between two)."""
+
+
+def _compiled_applies(sys: System, ec: EndComponents) -> bool:
+    """The compiled solver covers the system: no end-component treatment, or deflation in a
+    one-player system (a game's deflation depends on the minimiser's optimal rows, and inflation
+    on the minimiser's end components: those stay with the band solver)."""
+    if sys.labels is None or sys.n == 0 or max(sys.m, sys.matrix.nnz) >= 2**31 - 1:
+        return False  # (the kernel's index arrays are int32)
+    if ec is EndComponents.NONE:
+        return True
+    return ec is EndComponents.DEFLATE and sys.num_max in (0, sys.n)
+
+
+def _solve_components(
+    sys: System, options: SolverOptions, *, cap: float, ec: EndComponents
+) -> Bounds | None:
+    """Component by component in compiled code (see the module docstring), or None if a
+    component does not converge, the order is wrong or the deadline passes. ``iterations`` of the
+    result is the most sweeps one component took (closed-form components take none)."""
+    from posgmc.engines.kernels import sweeps
+
+    assert sys.labels is not None  # noqa: S101 - checked by _compiled_applies
+    A = sys.matrix
+    n = sys.n
+    row_ptr, row_list, order, comp_ptr, comp_of, iterate, chain, levels, ok = sweeps.prepare(
+        n, sys.row_state, sys.labels, A.indptr, A.indices, A.data, _SELF_LOOP_LIMIT
+    )
+    if not ok:
+        return None
+    lower = np.zeros(n)
+    upper = np.full(n, cap, dtype=np.float64)
+    scratch = np.empty((int(np.diff(comp_ptr).max()), 2))
+    share = options.precision / int(chain)
+    deflate = ec is EndComponents.DEFLATE and sys.num_max == n
+    num = int(comp_ptr.size - 1)
+    # chunks of about n / _CHUNKS states, cut at component boundaries
+    cuts = np.unique(np.searchsorted(comp_ptr, np.linspace(0, n, _CHUNKS + 1)[1:-1]))
+    bounds_at = [0, *(int(c) for c in cuts if 0 < c < num), num]
+    most = 0
+    internal = False
+    for c0, c1 in zip(bounds_at[:-1], bounds_at[1:]):
+        if options.deadline is not None and time.perf_counter() > options.deadline:
+            return None
+        status, iters, found = sweeps.solve_range(
+            c0, c1, sys.num_max, A.indptr, A.indices, A.data, sys.offset, sys.stays,
+            row_ptr, row_list, order, comp_ptr, comp_of, iterate, lower, upper, scratch,
+            float(cap), deflate, share, options.relative, options.max_iterations,
+            _SELF_LOOP_LIMIT, _NOISE,
+        )
+        if status != sweeps.OK:
+            return None
+        most = max(most, int(iters))
+        internal = internal or bool(found)
+    # rounding: a few ulps per component on the longest path (see the module docstring)
+    lower, upper = widen(lower, upper, relative=max(1e-10, 64 * _EPS * int(levels)))
+    return Bounds(lower, np.minimum(upper, cap), most, True, True, internal)
+
+
+_EPS = float(np.finfo(np.float64).eps)

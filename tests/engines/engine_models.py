@@ -227,3 +227,39 @@ def game_value(
 
 def as_floats(values: list[Fraction]) -> np.ndarray:
     return np.array([float(v) for v in values])
+
+
+@st.composite
+def layered_models(draw: st.DrawFn, max_states: int = 7) -> ExplicitModel:
+    """A random model whose states come in groups (future SCCs, or trivial ones): every choice
+    moves within its group, to an earlier group, or to the last two states (goal, sink; both
+    absorbing). Probabilities are multiples of 1/4, so exact rationals apply."""
+    mtype = draw(st.sampled_from([ModelType.DTMC, ModelType.MDP, ModelType.SMG]))
+    n = draw(st.integers(2, max_states - 2))
+    group = sorted(draw(st.lists(st.integers(0, 3), min_size=n, max_size=n)))
+    S = n + 2
+    counts = [1 if mtype is ModelType.DTMC else draw(st.integers(1, 2)) for _ in range(n)]
+    rows = []
+    for s in range(n):
+        reach = [t for t in range(n) if group[t] <= group[s]] + [n, n + 1]
+        for _ in range(counts[s]):
+            k = draw(st.integers(1, 3))
+            succ = draw(st.lists(st.sampled_from(reach), min_size=k, max_size=k))
+            row = np.zeros(S)
+            for t in succ:
+                row[t] += 0.25
+            row[succ[0]] += 1.0 - row.sum()
+            rows.append(row)
+    for t in (n, n + 1):
+        row = np.zeros(S)
+        row[t] = 1.0
+        rows.append(row)
+    rg = np.concatenate([[0], np.cumsum(counts + [1, 1])])
+    players = [draw(st.integers(0, 1)) for _ in range(S)] if mtype is ModelType.SMG else None
+    return make_model(
+        mtype,
+        rg,
+        np.array(rows),
+        state_players=players,
+        player_names=("p0", "p1") if mtype is ModelType.SMG else (),
+    )

@@ -14,12 +14,12 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from engine_models import as_floats, chain_reward, game_value
+from engine_models import as_floats, chain_reward, game_value, layered_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from posgmc.engines import kernels, scc
 from posgmc.engines import objectives as obj
-from posgmc.engines import scc
 from posgmc.engines import topological as topo
 from posgmc.engines.graph import structure_of
 from posgmc.engines.iteration import EndComponents
@@ -31,15 +31,30 @@ from posgmc.syntax.ast import ModelType
 TOL = 1e-9
 
 
-@pytest.fixture
-def forced(monkeypatch: pytest.MonkeyPatch) -> list[int]:
-    """Every system with two or more SCCs laid out topologically, one SCC per band; returns a
-    list that counts the topological solves that finished (so a test knows the path ran)."""
+class Forced(list[int]):
+    """The topological solves that finished (the number of bands of each), and ``compiled``: those
+    that took the compiled component-by-component path."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.compiled: list[int] = []
+
+
+@pytest.fixture(params=["compiled", "numpy"])
+def forced(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> Forced:
+    """Every system with two or more SCCs laid out topologically, one SCC per band, solved by the
+    compiled kernels or by the numpy path (the fixture's parameter); returns a :class:`Forced`
+    that counts the topological solves that finished (so a test knows the path ran)."""
+    if request.param == "compiled" and not kernels.available():
+        pytest.skip("numba is not installed")
+    monkeypatch.setattr(kernels.STATE, "use", request.param == "compiled")
     monkeypatch.setattr(scc, "MIN_BAND_STATES", 1)
     monkeypatch.setattr(scc, "DEFAULT_BANDS", 10**9)
     monkeypatch.setattr(scc, "MAX_GIANT_SHARE", 1.0)
-    calls: list[int] = []
+    monkeypatch.setattr(scc, "COMPILED_MIN_SIZE", 0)
+    calls = Forced()
     original = topo.solve_topological
+    original_compiled = topo._solve_components
 
     def counting(*args, **kwargs):  # type: ignore[no-untyped-def]
         out = original(*args, **kwargs)
@@ -47,46 +62,25 @@ def forced(monkeypatch: pytest.MonkeyPatch) -> list[int]:
             calls.append(int(args[0].bands.size - 1))
         return out
 
+    def counting_compiled(*args, **kwargs):  # type: ignore[no-untyped-def]
+        out = original_compiled(*args, **kwargs)
+        if out is not None:
+            calls.compiled.append(int(args[0].bands.size - 1))
+        return out
+
     import posgmc.engines.common as common
 
     monkeypatch.setattr(common, "solve_topological", counting)
+    monkeypatch.setattr(topo, "_solve_components", counting_compiled)
     return calls
 
 
-@st.composite
-def layered_models(draw: st.DrawFn, max_states: int = 7) -> ExplicitModel:
-    """A random model whose states come in groups (future SCCs, or trivial ones): every choice
-    moves within its group, to an earlier group, or to the last two states (goal, sink; both
-    absorbing). Probabilities are multiples of 1/4, so exact rationals apply."""
-    mtype = draw(st.sampled_from([ModelType.DTMC, ModelType.MDP, ModelType.SMG]))
-    n = draw(st.integers(2, max_states - 2))
-    group = sorted(draw(st.lists(st.integers(0, 3), min_size=n, max_size=n)))
-    S = n + 2
-    counts = [1 if mtype is ModelType.DTMC else draw(st.integers(1, 2)) for _ in range(n)]
-    rows = []
-    for s in range(n):
-        reach = [t for t in range(n) if group[t] <= group[s]] + [n, n + 1]
-        for _ in range(counts[s]):
-            k = draw(st.integers(1, 3))
-            succ = draw(st.lists(st.sampled_from(reach), min_size=k, max_size=k))
-            row = np.zeros(S)
-            for t in succ:
-                row[t] += 0.25
-            row[succ[0]] += 1.0 - row.sum()
-            rows.append(row)
-    for t in (n, n + 1):
-        row = np.zeros(S)
-        row[t] = 1.0
-        rows.append(row)
-    rg = np.concatenate([[0], np.cumsum(counts + [1, 1])])
-    players = [draw(st.integers(0, 1)) for _ in range(S)] if mtype is ModelType.SMG else None
-    return make_model(
-        mtype,
-        rg,
-        np.array(rows),
-        state_players=players,
-        player_names=("p0", "p1") if mtype is ModelType.SMG else (),
-    )
+def _path_ran(forced: Forced, *, compiled_applies: bool = True) -> None:
+    """The compiled path solved the systems exactly when the kernels are on (and apply)."""
+    if kernels.enabled() and compiled_applies:
+        assert forced.compiled == list(forced), "the compiled path did not run"
+    else:
+        assert forced.compiled == []
 
 
 def _maximize(model: ExplicitModel, flip: bool) -> np.ndarray:
@@ -98,7 +92,7 @@ def _maximize(model: ExplicitModel, flip: bool) -> np.ndarray:
 SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
-def test_random_reach_bounds_enclose_exact_rationals(forced: list[int]) -> None:
+def test_random_reach_bounds_enclose_exact_rationals(forced: Forced) -> None:
     @SETTINGS
     @given(layered_models(), st.booleans(), st.booleans())
     def check(model: ExplicitModel, flip: bool, relative: bool) -> None:
@@ -119,9 +113,11 @@ def test_random_reach_bounds_enclose_exact_rationals(forced: list[int]) -> None:
 
     check()
     assert len(forced) >= 10, "the topological path rarely ran"
+    # the compiled path covers the one-player systems and games without end-component treatment
+    assert (len(forced.compiled) >= 5) == kernels.enabled(), "the compiled path rarely ran"
 
 
-def test_random_reward_bounds_enclose_brute_force(forced: list[int]) -> None:
+def test_random_reward_bounds_enclose_brute_force(forced: Forced) -> None:
     @SETTINGS
     @given(layered_models(max_states=6), st.booleans(), st.data())
     def check(model: ExplicitModel, flip: bool, data: st.DataObject) -> None:
@@ -155,6 +151,8 @@ def test_random_reward_bounds_enclose_brute_force(forced: list[int]) -> None:
 
     check()
     assert len(forced) >= 10, "the topological path rarely ran"
+    # the compiled path covers the one-player systems and games without end-component treatment
+    assert (len(forced.compiled) >= 5) == kernels.enabled(), "the compiled path rarely ran"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -174,7 +172,7 @@ def _mdp(rows: list[list[float]], counts: list[int], mtype: ModelType = ModelTyp
     )
 
 
-def test_trivial_sccs_are_solved_in_closed_form(forced: list[int]) -> None:
+def test_trivial_sccs_are_solved_in_closed_form(forced: Forced) -> None:
     """s0 -> {s0: 1/2, s1: 1/4, sink: 1/4}; s1 -> {s1: 1/4, goal: 1/2, sink: 1/4}; goal = 2,
     sink = 3. Eliminating the self-loops: x1 = (1/2) / (1 - 1/4) = 2/3 and
     x0 = (1/4 * 2/3) / (1 - 1/2) = 1/3 (hand derivation). Two trivial SCCs, one band each; after
@@ -206,7 +204,7 @@ def test_trivial_sccs_are_solved_in_closed_form(forced: list[int]) -> None:
     assert res.iterations <= 2 * 3  # per band: one step to the value, one guess, one check
 
 
-def test_small_sccs_in_order(forced: list[int]) -> None:
+def test_small_sccs_in_order(forced: Forced) -> None:
     """Two 2-state SCCs: {a0, a1} (a0 -> a1 w.p. 1/2 or to {b0} w.p. 1/2; a1 -> a0 w.p. 1/2,
     sink w.p. 1/2) above {b0, b1} (b0 -> b1 w.p. 1/2, goal w.p. 1/4, sink w.p. 1/4;
     b1 -> b0 w.p. 3/4, sink w.p. 1/4). Hand derivation: b0 = 1/2 b1 + 1/4, b1 = 3/4 b0, so
@@ -227,13 +225,14 @@ def test_small_sccs_in_order(forced: list[int]) -> None:
     assert exact[:4] == [Fraction(4, 15), Fraction(2, 15), Fraction(2, 5), Fraction(3, 10)]
     res = obj.reach_probability(model, goal, maximize=np.ones(6, bool))
     assert forced == [2]  # one topological solve, two bands
+    _path_ran(forced)
     assert np.all(res.lower <= as_floats(exact) + TOL) and np.all(
         as_floats(exact) <= res.upper + TOL
     )
     assert np.all(res.upper - res.lower <= 2e-6 + TOL)
 
 
-def test_giant_scc_band_uses_the_interval_solver_with_end_components(forced: list[int]) -> None:
+def test_giant_scc_band_uses_the_interval_solver_with_end_components(forced: Forced) -> None:
     """A trivial state t above a 5-state ring r0..r4 of an mdp: every ring state may move on
     (r_i -> r_{i+1}, an end component for the maximiser) or gamble (1/2 goal, 1/2 sink); only r4
     may also go to goal w.p. 3/4 and sink w.p. 1/4. Hand derivation: the maximiser walks to r4 and
@@ -265,6 +264,7 @@ def test_giant_scc_band_uses_the_interval_solver_with_end_components(forced: lis
     assert exact[:6] == [Fraction(3, 4)] * 5 + [Fraction(3, 8)]
     res = obj.reach_probability(model, goal, maximize=np.ones(8, bool))
     assert forced == [2]
+    _path_ran(forced)
     assert np.all(res.lower <= as_floats(exact) + TOL) and np.all(
         as_floats(exact) <= res.upper + TOL
     )
@@ -273,7 +273,7 @@ def test_giant_scc_band_uses_the_interval_solver_with_end_components(forced: lis
     assert res.strategy is not None and res.strategy[4] == 10
 
 
-def test_game_sccs_in_order(forced: list[int]) -> None:
+def test_game_sccs_in_order(forced: Forced) -> None:
     """A game of three trivial SCCs, one band each. The maximiser's x (player 0) either loops
     (x w.p. 1/2, goal 1/4, sink 1/4) or gambles (goal 1/4, sink 3/4): with the self-loop
     eliminated x = max((1/4) / (1 - 1/2), 1/4) = 1/2. The minimiser's n (player 1) moves to x or
@@ -296,13 +296,14 @@ def test_game_sccs_in_order(forced: list[int]) -> None:
     assert exact[:3] == [Fraction(5, 12), Fraction(1, 3), Fraction(1, 2)]
     res = obj.reach_probability(model, goal, maximize=maximize)
     assert forced == [3]
+    _path_ran(forced, compiled_applies=False)  # a game's deflation stays with the band solver
     assert np.all(res.lower <= as_floats(exact) + TOL) and np.all(
         as_floats(exact) <= res.upper + TOL
     )
     assert np.all(res.upper - res.lower <= 2e-6 + TOL)
 
 
-def test_a_band_reading_unsolved_states_is_refused(forced: list[int]) -> None:
+def test_a_band_reading_unsolved_states_is_refused(forced: Forced) -> None:
     """Soundness guard: band 1 of the small-SCC model read before band 0 is solved."""
     rows = [[0.5, 0.25, 0, 0.25], [0, 0.25, 0.5, 0.25], [0, 0, 1, 0], [0, 0, 0, 1]]
     model = _mdp(rows, [1, 1, 1, 1])

@@ -1,0 +1,92 @@
+"""The compiled SCC decomposition (:mod:`posgmc.engines.kernels.components`) against scipy's: the
+same partition of the states, labels in a reverse topological order of the condensation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from engine_models import small_models
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from posgmc.engines import kernels, scc
+from posgmc.engines.graph import structure_of
+from posgmc.model.explicit import ExplicitModel
+
+pytestmark = pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
+
+
+def _same_partition(a: np.ndarray, b: np.ndarray) -> bool:
+    """Two labelings define the same partition: the pairs (a, b) form a bijection."""
+    pairs = np.unique(np.stack([a, b], axis=1), axis=0)
+    return bool(
+        pairs.shape[0] == np.unique(a).size == np.unique(b).size
+    )
+
+
+def _labels(model: ExplicitModel, compiled: bool, monkeypatch: pytest.MonkeyPatch) -> np.ndarray:
+    monkeypatch.setattr(kernels.STATE, "use", compiled)
+    g = structure_of(model)
+    return scc.components(g.transitions, g.row_groups)
+
+
+def test_hand_graph() -> None:
+    """0 -> 1 -> 2 -> 1, 2 -> 3, 3 -> 3: components {3}, {1, 2}, {0}, completed in that order
+    (a successor component is completed, so labelled, first)."""
+    from posgmc.engines.kernels.components import tarjan
+
+    T = sp.csr_matrix(np.array([[0, 1, 0, 0], [0, 0, 1, 0], [0, 0.5, 0, 0.5], [0, 0, 0, 1.0]]))
+    labels, count = tarjan(T.indptr, T.indices, np.arange(5), np.ones(4, dtype=bool))
+    assert count == 3
+    assert labels.tolist() == [2, 1, 1, 0]
+    # without state 2 the cycle is cut: {0}, {1}, {3}, only 0 -> 1 left; state 2 gets no label
+    within = np.array([True, True, False, True])
+    labels, count = tarjan(T.indptr, T.indices, np.arange(5), within)
+    assert count == 3
+    assert labels[2] == -1 and labels[1] < labels[0] and labels[3] >= 0
+
+
+@settings(max_examples=200, deadline=None)
+@given(small_models(max_states=8), st.data())
+def test_same_partition_as_scipy_and_topological(model: ExplicitModel, data: st.DataObject) -> None:
+    with pytest.MonkeyPatch.context() as mp:
+        ours = _labels(model, True, mp)
+        theirs = _labels(model, False, mp)
+    assert ours.shape == theirs.shape == (model.num_states,)
+    assert _same_partition(ours, theirs)
+    # every transition goes to the same or a smaller label
+    g = structure_of(model)
+    T = g.transitions.tocoo()
+    src = g.choice_state[T.row]
+    assert np.all(ours[T.col] <= ours[src])
+
+
+@settings(max_examples=200, deadline=None)
+@given(small_models(max_states=8), st.data())
+def test_subgraph_components(model: ExplicitModel, data: st.DataObject) -> None:
+    """Restricted to a random set of states: scipy's partition of the induced subgraph, in a
+    reverse topological order of it, and no label outside."""
+    from scipy.sparse.csgraph import connected_components
+
+    S = model.num_states
+    within = np.array(data.draw(st.lists(st.booleans(), min_size=S, max_size=S)))
+    g = structure_of(model)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(kernels.STATE, "use", True)
+        ours = scc.components(g.transitions, g.row_groups, within)
+    assert np.all(ours[~within] == -1) and np.all(ours[within] >= 0)
+    T = g.transitions.tocoo()
+    src = g.choice_state[T.row]
+    inside = within[src] & within[T.col]
+    idx = np.flatnonzero(within)
+    local = np.full(S, -1)
+    local[idx] = np.arange(idx.size)
+    graph = sp.csr_matrix(
+        (np.ones(int(inside.sum())), (local[src[inside]], local[T.col[inside]])),
+        shape=(idx.size, idx.size),
+    )
+    if idx.size:
+        _, theirs = connected_components(graph, directed=True, connection="strong")
+        assert _same_partition(ours[idx], theirs)
+    assert np.all(ours[T.col[inside]] <= ours[src[inside]])
