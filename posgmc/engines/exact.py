@@ -139,9 +139,14 @@ def _row_values(gr: Grouped, x: np.ndarray) -> np.ndarray:
 
 
 def _improve(
-    gr: Grouped, x: np.ndarray, rows: np.ndarray, players: np.ndarray
+    gr: Grouped,
+    x: np.ndarray,
+    rows: np.ndarray,
+    players: np.ndarray,
+    banned: np.ndarray | None = None,
 ) -> tuple[np.ndarray, bool]:
-    """Strictly improving switches for the states with ``players`` True."""
+    """Strictly improving switches for the states with ``players`` True (never to a row with
+    ``banned`` True)."""
     y = _row_values(gr, x)
     st = gr.row_state
     sign = np.where(gr.maximize[st], 1.0, -1.0)
@@ -151,6 +156,8 @@ def _improve(
         tol = 1e-10 * (1.0 + np.where(np.isfinite(current), np.abs(current), 0.0))
     better = z > (current + tol)[st]
     better &= players[st]
+    if banned is not None:
+        better &= ~banned
     if not better.any():
         return rows, False
     cand = np.where(better, z, -np.inf)
@@ -234,13 +241,60 @@ def _mdp_pi(
         players &= ~fixed
     rounds = 0
     x = evaluate(gr, rows)
+    # the direction of the one player who chooses (the other's states have one row each); every
+    # state's value moves that way in exact arithmetic, the other player's states included
+    choosing = np.diff(gr.row_groups) > 1
+    maximiser = bool(gr.maximize[choosing].all()) if choosing.any() else True
+    sign = np.full(n, 1.0 if maximiser else -1.0)
+    seen = {rows.tobytes()}
+    banned = np.zeros(gr.source.size, dtype=bool)
     while rounds < max_rounds:
         rounds += 1
-        rows, changed = _improve(gr, x, rows, players)
-        if not changed:
+        new_rows, changed = _improve(gr, x, rows, players, banned)
+        if not changed or new_rows.tobytes() in seen:
             break
-        x = evaluate(gr, rows)
+        new_x = evaluate(gr, new_rows)
+        gain, loss = _compare(x, new_x, sign)
+        if gain and not loss:
+            seen.add(new_rows.tobytes())
+            rows, x = new_rows, new_x
+            banned[:] = False
+            continue
+        # A round that loses somewhere (or gains nowhere) switched on rounding noise: ban its
+        # switches whose one-step margin is within what the linear solves can get wrong (all of
+        # them if none is), and try the others against the same values (see _compare).
+        switched = np.flatnonzero(new_rows != rows)
+        y = _row_values(gr, x)
+        with np.errstate(invalid="ignore"):
+            margin = sign[switched] * (y[new_rows[switched]] - y[rows[switched]])
+            scale = 1.0 + np.where(np.isfinite(x[switched]), np.abs(x[switched]), 0.0)
+        suspect = ~(margin > _NOISE * scale)
+        banned[new_rows[switched[suspect] if suspect.any() else switched]] = True
     return x, rows, rounds
+
+
+_NOISE = 1e-7
+"""Relative one-step margin below which a switch that made the values worse is put down to the
+linear solves' rounding and banned (nearly singular chains: values within 1e-5 of 1)."""
+
+
+def _compare(old: np.ndarray, new: np.ndarray, sign: np.ndarray) -> tuple[bool, bool]:
+    """``(gain, loss)``: whether ``new`` is better than ``old`` somewhere, and worse somewhere,
+    by more than the switching tolerance of :func:`_improve`, in the direction ``sign`` (+1
+    maximise, -1 minimise: the improving player's, at every state).
+
+    In exact arithmetic a round of policy iteration gains at the states it switches and loses
+    nowhere. In floating point a switch between rows whose values differ only by the linear
+    solves' rounding can close an end component (values within 1e-5 of 1 on a nearly singular
+    chain, PAYNT's attacker-one-defender during the gradient search): the values then drop, and
+    taking such rounds cycled for ever. Whatever strategy policy iteration ends with, the
+    callers certify its values or fall back to interval iteration (:mod:`posgmc.engines.common`),
+    so this only decides how good the strategy is, never what is proven."""
+    with np.errstate(invalid="ignore"):
+        change = sign * (new - old)
+        tol = 1e-10 * (1.0 + np.where(np.isfinite(old), np.abs(old), 0.0))
+    change = np.where(np.isnan(change), 0.0, change)
+    return bool((change > tol).any()), bool((change < -tol).any())
 
 
 def policy_iteration(
@@ -275,7 +329,10 @@ def policy_iteration(
             gr, initial.copy(), idle_min=idle_min, unbounded=unbounded, max_rounds=max_rounds
         )
     outer = gr.maximize if outer_max else ~gr.maximize
+    outer_sign = np.full(n, 1.0 if outer_max else -1.0)
     rows = initial.copy()
+    seen: set[bytes] = set()
+    best: tuple[np.ndarray, np.ndarray] | None = None  # the last round's values and rows
     total = 0
     rounds = 0
     while True:
@@ -292,8 +349,18 @@ def policy_iteration(
         )
         total += inner_rounds
         rows = np.flatnonzero(keep)[sub_rows]
+        if best is not None:
+            # the outer switch must gain (exact arithmetic); on rounding noise keep the better
+            # of the last two rounds and stop (see _compare)
+            gain, loss = _compare(best[0], x, outer_sign)
+            if loss:
+                return best[0], best[1], total + rounds
+            if not gain:
+                return x, rows, total + rounds
+        seen.add(rows.tobytes())
+        best = (x, rows)
         rows, changed = _improve(gr, x, rows, outer)
-        if not changed or rounds >= max_rounds:
+        if not changed or rounds >= max_rounds or rows.tobytes() in seen:
             return x, rows, total + rounds
 
 
