@@ -28,7 +28,7 @@ from posgmc.checking.dispatch import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.compiler import BuildOptions, build_model
 from posgmc.deep import deep_generator, deep_stack
-from posgmc.engines import kernels
+from posgmc.engines import kernels, scc
 from posgmc.errors import (
     InputError,
     LimitError,
@@ -363,16 +363,27 @@ def build(
     """Explore the model's reachable state space into an :class:`ExplicitModel`."""
     session = _session(session)
     _typed(options, BuildOptions, "options")
-    kernels.warm_up_in_background()  # the engines' compiled kernels load while the model builds
     if session.explicit is not None:
-        return BuiltModel(_check_explicit(session, options), 0.0)
-    with ops.exact_arithmetic() if options.exact else contextlib.nullcontext():
-        flat = instantiate(session, allow_extra_constants=allow_extra_constants)
-    try:
-        result = build_model(flat, options=options)
-    except PosgmcError as e:
-        raise _attach(e, session.source) from None
-    return BuiltModel(result.model, result.seconds, tuple(result.warnings), flat)
+        built = BuiltModel(_check_explicit(session, options), 0.0)
+    else:
+        with ops.exact_arithmetic() if options.exact else contextlib.nullcontext():
+            flat = instantiate(session, allow_extra_constants=allow_extra_constants)
+        try:
+            result = build_model(flat, options=options, on_states=_warm_up_when_large)
+        except PosgmcError as e:
+            raise _attach(e, session.source) from None
+        built = BuiltModel(result.model, result.seconds, tuple(result.warnings), flat)
+    _warm_up_when_large(built.model.num_choices)
+    return built
+
+
+def _warm_up_when_large(size: int) -> None:
+    """Start loading the engines' compiled kernels on a thread (once per process) as soon as the
+    model being built reaches ``scc.COMPILED_MIN_SIZE`` states (or choices), so that they are
+    ready when its analysis starts; a smaller model never loads numba, whose start-up (about
+    0.5 s of CPU and 100 MB) would cost more than the kernels save."""
+    if size >= scc.COMPILED_MIN_SIZE:
+        kernels.warm_up_in_background()
 
 
 def _check_explicit(session: Session, options: BuildOptions) -> ExplicitModel:

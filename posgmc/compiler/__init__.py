@@ -27,6 +27,7 @@ takes seconds).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -40,12 +41,20 @@ from posgmc.semantics.flat import FlatModel
 __all__ = ["BuildOptions", "BuildResult", "ProgressMode", "ValidationMode", "build_model"]
 
 
-def build_model(flat: FlatModel, *, options: BuildOptions = BuildOptions()) -> BuildResult:  # noqa: B008
+def build_model(
+    flat: FlatModel,
+    *,
+    options: BuildOptions = BuildOptions(),  # noqa: B008
+    on_states: Callable[[int], None] | None = None,
+) -> BuildResult:
     """Build the explicit model of an instantiated model.
 
     Args:
         flat: the checked, instantiated model (``posgmc.semantics.checker.instantiate``).
         options: state limit, deadlock handling, progress, observations, validation.
+        on_states: called with the number of states found so far after every batch of the
+            exploration (``api.build`` starts loading the engines' compiled kernels once a model
+            is large enough to use them).
 
     Returns:
         The model, the wall-clock seconds the build took, and warnings (fixed deadlocks).
@@ -72,6 +81,6 @@ def build_model(flat: FlatModel, *, options: BuildOptions = BuildOptions()) -> B
             model, warnings = assemble(program, exploration, options)
             model = exact_model(model, program, *layout, exact)
         else:
-            exploration = explore(program, options)
+            exploration = explore(program, options, on_states)
             model, warnings = assemble(program, exploration, options)
     return BuildResult(model=model, seconds=time.perf_counter() - start, warnings=tuple(warnings))

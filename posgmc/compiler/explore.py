@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
@@ -637,12 +638,17 @@ def _canonical(
     return src, gen, counts, keys, probs
 
 
-def explore(program: Program, options: BuildOptions) -> Exploration:
+def explore(
+    program: Program,
+    options: BuildOptions,
+    on_states: Callable[[int], None] | None = None,
+) -> Exploration:
     """Explore all states reachable from the initial states.
 
     Args:
         program: the compiled model.
         options: limits, deadlock handling, progress reporting, tolerance.
+        on_states: called with the number of states found after every batch.
 
     Returns:
         The states, choices and branches in canonical order.
@@ -720,6 +726,8 @@ def explore(program: Program, options: BuildOptions) -> Exploration:
                 hint="raise the state limit or choose smaller constants",
             )
         progress.update(explored, num_found)
+        if on_states is not None:
+            on_states(num_found)
         per_state = max(1.0, tkeys.shape[0] / max(1, n_batch))
         batch = int(min(_MAX_BATCH, max(_MIN_BATCH, _TARGET_BRANCHES / per_state)))
         del keys, src, gen, counts, tkeys, probs, numbers, unknown

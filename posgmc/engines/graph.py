@@ -26,6 +26,7 @@ that leave their component until nothing changes.
 
 from __future__ import annotations
 
+import threading
 import weakref
 from dataclasses import dataclass
 from functools import cached_property
@@ -35,7 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from posgmc.engines import kernels
+from posgmc.engines import kernels, scc
 from posgmc.engines.kernels import graph as graph_kernels
 from posgmc.model.explicit import ExplicitModel
 
@@ -105,6 +106,20 @@ def _index_dtype(bound: int) -> type[np.signedinteger[Any]]:
     return np.int32 if bound < 2**31 - 1 else np.int64
 
 
+_WARMING = threading.local()
+"""``_WARMING.on`` is True in the warm-up thread only (:func:`_warm_up`)."""
+
+
+def _compiled(size: int) -> bool:
+    """Whether to take the compiled path on a model of ``size`` choices: the kernels are on and
+    the model is large enough that numba's start-up (about 0.5 s of CPU and 100 MB per process)
+    pays (:data:`posgmc.engines.scc.COMPILED_MIN_SIZE`, read at call time: tests lower it), or
+    this is the warm-up thread loading the kernels on a two-state structure."""
+    if not kernels.enabled():
+        return False
+    return size >= scc.COMPILED_MIN_SIZE or getattr(_WARMING, "on", False)
+
+
 def _ro(a: np.ndarray) -> np.ndarray:
     """A read-only view of ``a``: the kernels' inputs are always passed read-only, so that a
     model's frozen arrays and a fresh array select the same compiled (and cached) variant."""
@@ -121,7 +136,7 @@ def _transposed_pattern(
     ptr_type = np.zeros(0, dtype=_index_dtype(transitions.nnz))
     choice_type = np.zeros(0, dtype=_index_dtype(C))
     state_type = np.zeros(0, dtype=_index_dtype(S))
-    if kernels.enabled():
+    if _compiled(C):
         found: tuple[np.ndarray, np.ndarray, np.ndarray] = graph_kernels.transpose_pattern(
             _ro(transitions.indptr),
             _ro(transitions.indices),
@@ -205,7 +220,7 @@ def attractor(
         hit the set when the state joined (a memoryless attractor strategy for existential states),
         -1 elsewhere.
     """
-    if kernels.enabled():
+    if _compiled(g.num_choices_total):
         return _attractor_compiled(
             g,
             initial,
@@ -328,17 +343,23 @@ def _warm_up() -> None:
     """Run every graph kernel once on a two-state structure with the dtypes of a model's
     (int32 indices), so that their cached machine code is loaded (see
     :func:`posgmc.engines.kernels.warm_up_in_background`)."""
-    g = Structure.build(
-        sp.csr_matrix((np.ones(2), np.array([1, 1], np.int32), np.array([0, 1, 2], np.int32))),
-        np.array([0, 1, 2], dtype=np.int64),
-    )
-    both = np.ones(2, dtype=bool)
-    first = np.array([True, False])
-    attractor(g, ~first, existential=first, candidates=both, allowed=both,
-              initial_choices=~both, preferred=np.zeros(2, np.int64),
-              layer=np.full(2, -1, dtype=np.int64))
-    leaving_choices(g, first)
-    _restrict_to_region(g, first, both)
+    _WARMING.on = True
+    try:
+        g = Structure.build(
+            sp.csr_matrix(
+                (np.ones(2), np.array([1, 1], np.int32), np.array([0, 1, 2], np.int32))
+            ),
+            np.array([0, 1, 2], dtype=np.int64),
+        )
+        both = np.ones(2, dtype=bool)
+        first = np.array([True, False])
+        attractor(g, ~first, existential=first, candidates=both, allowed=both,
+                  initial_choices=~both, preferred=np.zeros(2, np.int64),
+                  layer=np.full(2, -1, dtype=np.int64))
+        leaving_choices(g, first)
+        _restrict_to_region(g, first, both)
+    finally:
+        _WARMING.on = False
 
 
 kernels.on_warm_up(_warm_up)
@@ -365,7 +386,7 @@ def positive_reach(
 
 def leaving_choices(g: Structure, region: np.ndarray) -> np.ndarray:
     """bool[C]: the choices with an edge to a state outside ``region`` (bool[S])."""
-    if kernels.enabled():
+    if _compiled(g.num_choices_total):
         T = g.transitions
         out: np.ndarray = graph_kernels.leaving_choices(
             _ro(T.indptr), _ro(T.indices), _ro(np.ascontiguousarray(region, dtype=bool))
@@ -381,7 +402,7 @@ def _restrict_to_region(
     """``(safe, leaks)`` for the states of ``region``: bool[C] the usable choices that stay in it,
     bool[S] the states with a usable choice that leaves it (entries outside ``region`` are
     meaningless on the compiled path: nobody outside the region can join the next attractor)."""
-    if kernels.enabled():
+    if _compiled(g.num_choices_total):
         T = g.transitions
         found: tuple[np.ndarray, np.ndarray] = graph_kernels.restrict_to_region(
             _ro(T.indptr),

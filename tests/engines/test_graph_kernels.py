@@ -21,7 +21,7 @@ from engine_models import chain_reach, small_models
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from posgmc.engines import kernels
+from posgmc.engines import kernels, scc
 from posgmc.engines.graph import (
     Structure,
     almost_sure_reach,
@@ -40,24 +40,26 @@ PATHS = [pytest.param(True, id="compiled", marks=needs_numba), pytest.param(Fals
 @pytest.fixture(params=PATHS)
 def path(request: pytest.FixtureRequest) -> Iterator[bool]:
     """Run the test once with the compiled kernels, once with the numpy path."""
-    before = kernels.STATE.use
+    before, size = kernels.STATE.use, scc.COMPILED_MIN_SIZE
     kernels.STATE.use = bool(request.param)
+    scc.COMPILED_MIN_SIZE = 0  # the compiled path on these small models too
     try:
         yield bool(request.param)
     finally:
-        kernels.STATE.use = before
+        kernels.STATE.use, scc.COMPILED_MIN_SIZE = before, size
 
 
 def _on_both(fn: Callable[[], Any]) -> tuple[Any, Any]:
     """``fn()`` with the kernels (when numba is there) and with the numpy path."""
-    before = kernels.STATE.use
+    before, size = kernels.STATE.use, scc.COMPILED_MIN_SIZE
     try:
         kernels.STATE.use = kernels.available()
+        scc.COMPILED_MIN_SIZE = 0  # the compiled path on these small models too
         compiled = fn()
         kernels.STATE.use = False
         fallback = fn()
     finally:
-        kernels.STATE.use = before
+        kernels.STATE.use, scc.COMPILED_MIN_SIZE = before, size
     return compiled, fallback
 
 
@@ -481,8 +483,9 @@ def test_the_warm_up_loads_the_variants_that_a_check_uses() -> None:
     from posgmc.engines import graph as gr
     from posgmc.engines.kernels import graph as gk
 
-    before_use = kernels.STATE.use
+    before_use, size = kernels.STATE.use, scc.COMPILED_MIN_SIZE
     kernels.STATE.use = True
+    scc.COMPILED_MIN_SIZE = 0
     try:
         kernels.warm_up_in_background()
         thread = kernels._WARM_UP.thread
@@ -504,4 +507,4 @@ def test_the_warm_up_loads_the_variants_that_a_check_uses() -> None:
         after = {name: list(getattr(gk, name)._compiled.signatures) for name in gk.__all__}
         assert after == loaded
     finally:
-        kernels.STATE.use = before_use
+        kernels.STATE.use, scc.COMPILED_MIN_SIZE = before_use, size
