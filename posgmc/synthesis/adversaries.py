@@ -82,6 +82,11 @@ def enumerate_adversaries(model: ExplicitModel, player: int, *, memory: int = 1,
     offered = np.zeros((view.num_observations, A), dtype=bool)
     offered[view.state_obs[model.choice_states[rows]], model.choice_actions[rows]] = True
     obs = np.flatnonzero(offered.any(axis=1))
+    if obs.size == 0:
+        # no state of the adversary is reachable: it never decides, so there is no strategy to
+        # enumerate (the phases after it have no adversary to compose against; the omniscient
+        # check of the defence is unaffected)
+        return Enumeration((), False, time.perf_counter() - started)
     act: dict[tuple[int, int, int], int] = {}  # (n, z, a) -> variable
     upd: dict[tuple[int, int, int], int] = {}  # (n, z, m) -> variable
     for n in range(k):

@@ -140,3 +140,37 @@ def test_adversaries_with_memory_include_the_memoryless_ones(seed: int) -> None:
     assert worst is not None and worst.memory_size == 2
     # still above what the defence guarantees against the omniscient adversary
     assert result.guaranteed.lower <= vs2.upper + 1e-6
+
+
+_UNREACHABLE_ADVERSARY = """posg
+player d
+  [go], [stay]
+  observables s endobservables
+endplayer
+player a
+  [hit]
+endplayer
+module m
+  s : [0..3] init 0;
+  [go] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
+  [stay] s=0 -> (s'=0);
+  [hit] s=3 -> (s'=2);
+endmodule
+label "goal" = s=1;
+"""
+
+
+def test_an_adversary_that_never_decides_has_nothing_to_enumerate() -> None:
+    """The adversary's only state (s=3) is unreachable: no strategy to enumerate (this crashed
+    building a strategy over no observations), and synthesis still answers: going reaches the
+    goal with probability 1/2 (by hand), and no adversary can change that."""
+    from posgmc import api
+    from posgmc.synthesis.adversaries import enumerate_adversaries
+
+    session = api.load(text=_UNREACHABLE_ADVERSARY)
+    model = api.build(session).model
+    assert model.num_states == 3  # s = 0, 1, 2 (s=3 is never reached)
+    assert enumerate_adversaries(model, 1).strategies == ()
+    r = api.synthesize(session, '<<d>> Pmax=? [ F "goal" ]', memory=1, timeout=5, seed=0)
+    assert r.guaranteed is not None
+    assert r.guaranteed.lower <= 0.5 <= r.guaranteed.upper
