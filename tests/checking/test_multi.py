@@ -286,3 +286,12 @@ def test_pareto_results_are_graded_vertex_by_vertex() -> None:
     assert not grade(ExpectedResult("[(0.5,1)]"), r).passed  # a vertex missing
     assert not grade(ExpectedResult("[(0.5,0.9),(0,0)]"), r).passed  # a vertex elsewhere
     assert not grade(ExpectedResult("0.5"), r).passed
+
+
+def test_infinite_totals_are_refused_at_the_query() -> None:
+    """The refusal of _HALF_SETTLES (every strategy's total is infinite) names the reason and
+    points at the multi(...) query (line 1, column 1 of the property)."""
+    report = api.check(api.load(text=_HALF_SETTLES), properties=['multi(R{"r"}min=? [ C ])'])
+    ((_, error),) = report.errors
+    assert "expected total rewards are infinite" in error.message
+    assert (error.span.line, error.span.column) == (1, 1)
