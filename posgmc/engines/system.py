@@ -166,22 +166,34 @@ class System:
 
 
 _MAX_BLOCKS = 128
-"""Gauss-Seidel blocks at most: each costs a few numpy calls per sweep; fewer blocks of several
-BFS layers each still carry the values outwards by one block per layer inside a sweep."""
+"""Gauss-Seidel blocks at most on the numpy path: each costs a few numpy calls per sweep; fewer
+blocks of several BFS layers each still carry the values outwards by one block per layer inside a
+sweep."""
+
+_MAX_COMPILED_BLOCKS = 1024
+"""Gauss-Seidel blocks at most when the compiled sweeps run (:mod:`posgmc.engines.kernels.blocks`,
+systems of ``scc.COMPILED_MIN_SIZE`` unknowns or more): a block costs them nothing per sweep, so
+every backward-search layer gets its own block (inside a block the update is a Jacobi step, which
+moves values by one layer only). two_robots N=32 ``Pmax`` (124 layers): 42 sweeps instead of 88
+with 74 blocks. The cap bounds the Python-side tables (``System.entries``)."""
 
 _MIN_BLOCKED_STATES = 50_000
 """Below this many unknowns one block (Jacobi) is as fast: the per-block overhead dominates."""
 
 
-def _block_of(layer: np.ndarray) -> np.ndarray:
-    """int64[n]: consecutive layers merged into at most ``_MAX_BLOCKS`` blocks of similar size."""
+def _block_of(layer: np.ndarray, max_blocks: int) -> np.ndarray:
+    """int64[n]: a block per layer, or, with more than ``max_blocks`` layers, consecutive layers
+    merged into ``max_blocks`` blocks of similar size."""
     lay = layer.astype(np.int64)
     unjoined = lay < 0
     if unjoined.any():
         lay[unjoined] = lay.max(initial=0) + 1
     _, lay = np.unique(lay, return_inverse=True)
     counts = np.bincount(lay)
-    size = -(-lay.size // _MAX_BLOCKS)
+    if counts.size <= max_blocks:  # a block per layer
+        dense: np.ndarray = lay.astype(np.int64)
+        return dense
+    size = -(-lay.size // max_blocks)
     first = (np.cumsum(counts) - counts) // size  # the chunk where each layer starts
     _, block_of_layer = np.unique(first, return_inverse=True)
     out: np.ndarray = block_of_layer[lay]
@@ -262,13 +274,16 @@ def build_system(
             unk,
             layer=None if layer is None else layer[unk],
             band_states=band_states,
+            transpose=(g.back_ptr, g.back_choices, g.choice_state),
         )
     band_of_block = None
     labels = None
     if found is not None:
         block, band_of_block, labels = found
     elif layer is not None and unk.size >= _MIN_BLOCKED_STATES:
-        block = _block_of(layer[unk])
+        # as many blocks as the sweeps that will run can use (iteration._lower_phase_blocks)
+        fast = kernels.enabled() and unk.size >= scc.COMPILED_MIN_SIZE
+        block = _block_of(layer[unk], _MAX_COMPILED_BLOCKS if fast else _MAX_BLOCKS)
     else:
         block = np.zeros(unk.size, dtype=np.int64)
     nb = int(block.max()) + 1 if block.size else 1

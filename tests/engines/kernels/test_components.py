@@ -90,3 +90,50 @@ def test_subgraph_components(model: ExplicitModel, data: st.DataObject) -> None:
         _, theirs = connected_components(graph, directed=True, connection="strong")
         assert _same_partition(ours[idx], theirs)
     assert np.all(ours[T.col[inside]] <= ours[src[inside]])
+
+
+@settings(max_examples=200, deadline=None)
+@given(small_models(max_states=8), st.data())
+def test_seed_component_is_the_seeds_component(model: ExplicitModel, data: st.DataObject) -> None:
+    """``seed_component`` against the compiled decomposition of the same subgraph (itself checked
+    against scipy above): above the threshold it is the size of the seed's component, at or
+    below it a number at most the threshold; and the giant-component shortcut of
+    ``topological_blocks`` makes the decision the decomposition makes."""
+    from posgmc.engines.kernels.components import seed_component
+
+    S = model.num_states
+    within = np.array(data.draw(st.lists(st.booleans(), min_size=S, max_size=S)))
+    if not within.any():
+        return
+    unk = np.flatnonzero(within)
+    seed = int(data.draw(st.sampled_from(unk.tolist())))
+    threshold = data.draw(st.integers(0, S))
+    g = structure_of(model)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(kernels.STATE, "use", True)
+        labels = scc.components(g.transitions, g.row_groups, within)
+        size = seed_component(
+            g.transitions.indptr, g.transitions.indices, g.row_groups, g.back_ptr,
+            g.back_choices, g.choice_state, within, seed, threshold,
+        )
+    exact = int(np.count_nonzero(labels == labels[seed]))
+    if exact > threshold:
+        assert size == exact
+    else:
+        assert size <= threshold
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(kernels.STATE, "use", True)
+        mp.setattr(scc, "MIN_BAND_STATES", 1)
+        transpose = (g.back_ptr, g.back_choices, g.choice_state)
+        shortcut = scc.topological_blocks(
+            g.transitions, g.row_groups, unk, layer=None, band_states=None, transpose=transpose
+        )
+        full = scc.topological_blocks(
+            g.transitions, g.row_groups, unk, layer=None, band_states=None
+        )
+    assert (shortcut is None) == (full is None)
+    if full is not None and shortcut is not None:
+        assert all(np.array_equal(a, b) for a, b in zip(shortcut, full))
+    giant = exact > scc.MAX_GIANT_SHARE * unk.size and seed == unk[0]
+    if giant and unk.size >= 2:
+        assert shortcut is None
