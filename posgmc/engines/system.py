@@ -459,8 +459,8 @@ def _layout_compiled(
     use_fixed = fixed is not None and bool(np.any(fixed != 0))
     known = np.zeros(0) if fixed is None or not use_fixed else fixed.astype(np.float64, copy=False)
     fill_rows(
-        rows_global, g.choice_state, table, state_base, T.indptr, T.indices, T.data, local,
-        known, use_fixed, indptr, indices, data, offset, stays,
+        rows, T.indptr, T.indices, T.data, local, known, use_fixed, indptr, indices, data, offset,
+        stays,
     )
     matrix = sp.csr_matrix((data, indices, indptr), shape=(m, n), copy=False)
     return matrix, offset, stays
