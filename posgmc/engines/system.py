@@ -338,10 +338,11 @@ def build_system(
     rows = np.empty(rows_global.size, dtype=np.int64)
     row_state = np.empty(rows.size, dtype=np.int64)
     if kernels.enabled() and rows.size >= scc.COMPILED_MIN_SIZE:
-        matrix, offset, stays = _layout_compiled(
-            g, rows_global, local_of, table, state_base, rows, row_state, choice_offset, fixed, n
+        indptr, local = _place_compiled(
+            g, rows_global, local_of, table, state_base, rows, row_state
         )
-        del rows_global, state_base, key, order, player
+        del rows_global, state_base, key, order, player, local_of  # not needed by the fill
+        matrix, offset, stays = _fill_compiled(g, rows, local, indptr, choice_offset, fixed, n)
     else:
         row_st = g.choice_state[rows_global]
         start_of = np.zeros(S + 1, dtype=np.int64)
@@ -423,7 +424,7 @@ def _gather(
     return data, indices, indptr, stays
 
 
-def _layout_compiled(
+def _place_compiled(
     g: Structure,
     rows_global: np.ndarray,
     local_of: np.ndarray,
@@ -431,29 +432,45 @@ def _layout_compiled(
     state_base: np.ndarray,
     rows: np.ndarray,
     row_state: np.ndarray,
-    choice_offset: np.ndarray | None,
-    fixed: np.ndarray | None,
-    n: int,
-) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
-    """The row scatter and :func:`_gather` in two compiled passes over the usable model rows in
-    model order (:mod:`posgmc.engines.kernels.layout`): fills ``rows`` and ``row_state`` and
-    returns ``(matrix, offset, stays)``, the same arrays as the numpy path (int32 indices where
-    they fit)."""
-    from posgmc.engines.kernels.layout import fill_rows, place_rows
+) -> tuple[np.ndarray, np.ndarray]:
+    """The row scatter in one compiled pass over the usable model rows in model order
+    (:mod:`posgmc.engines.kernels.layout`): fills ``rows`` and ``row_state``; returns the
+    system's csr ``indptr`` and the local number of every model state (-1: known), both int32
+    where they fit."""
+    from posgmc.engines.kernels.layout import place_rows
 
     T = g.transitions
-    m = rows.size
     index_dtype = np.int32 if max(local_of.size, T.nnz) < 2**31 - 1 else np.int64
     local = local_of.astype(index_dtype)
-    indptr = np.zeros(m + 1, dtype=index_dtype)
+    indptr = np.zeros(rows.size + 1, dtype=index_dtype)
     place_rows(
         rows_global, g.choice_state, local, table, state_base, T.indptr, T.indices, rows,
         row_state, indptr,
     )
     np.cumsum(indptr, out=indptr)
+    return indptr, local
+
+
+def _fill_compiled(
+    g: Structure,
+    rows: np.ndarray,
+    local: np.ndarray,
+    indptr: np.ndarray,
+    choice_offset: np.ndarray | None,
+    fixed: np.ndarray | None,
+    n: int,
+) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """:func:`_gather` in one compiled pass over the system's rows (placed by
+    :func:`_place_compiled`, the model's arrays no longer needed for it are freed by then):
+    ``(matrix, offset, stays)``, the same arrays as the numpy path (int32 indices where they
+    fit)."""
+    from posgmc.engines.kernels.layout import fill_rows
+
+    T = g.transitions
+    m = rows.size
     offset = np.zeros(m) if choice_offset is None else choice_offset[rows].astype(np.float64)
     nnz = int(indptr[-1])
-    indices = np.empty(nnz, dtype=index_dtype)
+    indices = np.empty(nnz, dtype=local.dtype)
     data = np.empty(nnz, dtype=np.float64)
     stays = np.empty(m, dtype=bool)
     use_fixed = fixed is not None and bool(np.any(fixed != 0))
