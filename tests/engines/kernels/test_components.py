@@ -137,3 +137,34 @@ def test_seed_component_is_the_seeds_component(model: ExplicitModel, data: st.Da
     giant = exact > scc.MAX_GIANT_SHARE * unk.size and seed == unk[0]
     if giant and unk.size >= 2:
         assert shortcut is None
+
+
+def test_a_giant_component_skips_the_decomposition(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A ring of 200 states (one component; hand-built) and a chain of 200 (every state its own
+    component): with the transposed pattern given, the ring is refused without Tarjan's pass (the
+    first state's component is all of it), the chain still gets its decomposition."""
+    from posgmc.model.explicit import make_model
+    from posgmc.syntax.ast import ModelType
+
+    k = 200
+    src = np.arange(k)
+    monkeypatch.setattr(kernels.STATE, "use", True)
+    monkeypatch.setattr(scc, "MIN_BAND_STATES", 1)
+    calls: list[int] = []
+    real = scc.components
+
+    def counted(*args: object, **kwargs: object) -> np.ndarray:
+        calls.append(1)
+        return real(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(scc, "components", counted)
+    for successor, giant in (((src + 1) % k, True), (np.minimum(src + 1, k - 1), False)):
+        T = sp.csr_matrix((np.ones(k), (src, successor)), shape=(k, k))
+        g = structure_of(make_model(ModelType.MDP, np.arange(k + 1), T))
+        calls.clear()
+        found = scc.topological_blocks(
+            g.transitions, g.row_groups, src, layer=None, band_states=None,
+            transpose=(g.back_ptr, g.back_choices, g.choice_state),
+        )
+        assert (found is None) == giant
+        assert calls == ([] if giant else [1])
