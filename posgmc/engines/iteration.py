@@ -357,7 +357,7 @@ def _lower_phase_blocks(
         if fast:
             d = float(
                 sweep_lower(
-                    A.indptr, A.indices, A.data, sys.offset, *sys.sweep_tables, x, y, tmp, inner,
+                    A.indptr, A.indices, A.data, sys.offset, *sys.sweep_tables, x, tmp, inner,
                     0.25 * tau, rel,
                 )
             )
@@ -404,7 +404,7 @@ def _sweep_pair(sys: System, X: np.ndarray, Xn: np.ndarray, Y: np.ndarray, T: np
         from posgmc.engines.kernels.blocks import sweep_pair
 
         upper = sys.offset if sys.offset_upper is None else sys.offset_upper
-        sweep_pair(A.indptr, A.indices, A.data, sys.offset, upper, *sys.sweep_tables, X, Xn, Y, T)
+        sweep_pair(A.indptr, A.indices, A.data, sys.offset, upper, *sys.sweep_tables, X, Xn, T)
         return
     Xn[:] = X
     for r0, r1, ml, a, nl, b, ents in sys.plan:

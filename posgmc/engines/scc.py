@@ -27,9 +27,11 @@ any order inside a band is sound, the band being closed under successors).
 When the order pays (the decision of :func:`topological_blocks`): the system has at least
 ``2 * MIN_BAND_STATES`` unknown states, the decomposition gives at least two bands, and the
 largest component holds at most ``MAX_GIANT_SHARE`` of the unknown states. Otherwise (one giant
-component, as in two_robots or pursuit) the system keeps the backward-search layout; the
-decomposition then cost about as much as a few Bellman steps (a slice of the model's arrays, one
-duplicate sum and scipy's linear-time pass).
+component, as in two_robots or pursuit) the system keeps the backward-search layout. On the
+compiled path a giant component is looked for before the decomposition: the component of the
+first unknown state, by one backward and one forward search (:func:`_seed_is_giant`); if it holds
+more than ``MAX_GIANT_SHARE`` of the unknown states, the decomposition is skipped (its answer is
+known: the order does not pay). The decision is the same either way; only its cost differs.
 """
 
 from __future__ import annotations
@@ -105,6 +107,33 @@ def components(
     return out
 
 
+def _seed_is_giant(
+    transitions: sp.csr_matrix,
+    row_groups: np.ndarray,
+    transpose: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+    within: np.ndarray,
+    unk: np.ndarray,
+) -> bool:
+    """Whether the component of the first unknown state (the one explored first, nearest the
+    initial states) holds more than ``MAX_GIANT_SHARE`` of the unknown states: then the
+    decomposition would only confirm that the order does not pay (two_robots N=32: Tarjan's pass
+    costs about 1 s, the two searches of :func:`~posgmc.engines.kernels.components.seed_component`
+    about 0.15 s). Only on the compiled path, where that decomposition is a kernel too; a False
+    answer says nothing (the decomposition decides)."""
+    n = int(unk.size)
+    if transpose is None or not kernels.enabled() or n < COMPILED_MIN_SIZE:
+        return False
+    from posgmc.engines.kernels.components import seed_component
+
+    back_ptr, back_choices, choice_state = transpose
+    threshold = int(MAX_GIANT_SHARE * n)
+    size = seed_component(
+        transitions.indptr, transitions.indices, row_groups, back_ptr, back_choices,
+        choice_state, within, int(unk[0]), threshold,
+    )
+    return bool(size > threshold)
+
+
 def topological_blocks(
     transitions: sp.csr_matrix,
     row_groups: np.ndarray,
@@ -112,6 +141,7 @@ def topological_blocks(
     *,
     layer: np.ndarray | None,
     band_states: int | None,
+    transpose: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """Blocks and bands of a topological layout of the unknown states ``unk``, or None when the
     order does not pay (see the module docstring).
@@ -123,6 +153,9 @@ def topological_blocks(
             last), the Gauss-Seidel order inside a very large component.
         band_states: states per band (None: ``max(n / DEFAULT_BANDS, MIN_BAND_STATES)``); 1 makes
             every component its own band and block (tests).
+        transpose: ``(back_ptr, back_choices, choice_state)``, the transposed pattern of
+            ``transitions`` (:class:`~posgmc.engines.graph.Structure`), or None: with it, a
+            giant component is looked for first (:func:`_seed_is_giant`).
 
     Returns:
         ``(block, band_of_block, label)``: int64[n] the block of each unknown state, in solving
@@ -136,6 +169,8 @@ def topological_blocks(
         return None
     within = np.zeros(row_groups.size - 1, dtype=bool)
     within[unk] = True
+    if band_states is None and _seed_is_giant(transitions, row_groups, transpose, within, unk):
+        return None
     labels = components(transitions, row_groups, within)
     lab = labels[unk]
     sizes = np.bincount(lab)

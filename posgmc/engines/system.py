@@ -166,22 +166,34 @@ class System:
 
 
 _MAX_BLOCKS = 128
-"""Gauss-Seidel blocks at most: each costs a few numpy calls per sweep; fewer blocks of several
-BFS layers each still carry the values outwards by one block per layer inside a sweep."""
+"""Gauss-Seidel blocks at most on the numpy path: each costs a few numpy calls per sweep; fewer
+blocks of several BFS layers each still carry the values outwards by one block per layer inside a
+sweep."""
+
+_MAX_COMPILED_BLOCKS = 1024
+"""Gauss-Seidel blocks at most when the compiled sweeps run (:mod:`posgmc.engines.kernels.blocks`,
+systems of ``scc.COMPILED_MIN_SIZE`` unknowns or more): a block costs them nothing per sweep, so
+every backward-search layer gets its own block (inside a block the update is a Jacobi step, which
+moves values by one layer only). two_robots N=32 ``Pmax`` (124 layers): 42 sweeps instead of 88
+with 74 blocks. The cap bounds the Python-side tables (``System.entries``)."""
 
 _MIN_BLOCKED_STATES = 50_000
 """Below this many unknowns one block (Jacobi) is as fast: the per-block overhead dominates."""
 
 
-def _block_of(layer: np.ndarray) -> np.ndarray:
-    """int64[n]: consecutive layers merged into at most ``_MAX_BLOCKS`` blocks of similar size."""
+def _block_of(layer: np.ndarray, max_blocks: int) -> np.ndarray:
+    """int64[n]: a block per layer, or, with more than ``max_blocks`` layers, consecutive layers
+    merged into ``max_blocks`` blocks of similar size."""
     lay = layer.astype(np.int64)
     unjoined = lay < 0
     if unjoined.any():
         lay[unjoined] = lay.max(initial=0) + 1
     _, lay = np.unique(lay, return_inverse=True)
     counts = np.bincount(lay)
-    size = -(-lay.size // _MAX_BLOCKS)
+    if counts.size <= max_blocks:  # a block per layer
+        dense: np.ndarray = lay.astype(np.int64)
+        return dense
+    size = -(-lay.size // max_blocks)
     first = (np.cumsum(counts) - counts) // size  # the chunk where each layer starts
     _, block_of_layer = np.unique(first, return_inverse=True)
     out: np.ndarray = block_of_layer[lay]
@@ -262,13 +274,16 @@ def build_system(
             unk,
             layer=None if layer is None else layer[unk],
             band_states=band_states,
+            transpose=(g.back_ptr, g.back_choices, g.choice_state),
         )
     band_of_block = None
     labels = None
     if found is not None:
         block, band_of_block, labels = found
     elif layer is not None and unk.size >= _MIN_BLOCKED_STATES:
-        block = _block_of(layer[unk])
+        # as many blocks as the sweeps that will run can use (iteration._lower_phase_blocks)
+        fast = kernels.enabled() and unk.size >= scc.COMPILED_MIN_SIZE
+        block = _block_of(layer[unk], _MAX_COMPILED_BLOCKS if fast else _MAX_BLOCKS)
     else:
         block = np.zeros(unk.size, dtype=np.int64)
     nb = int(block.max()) + 1 if block.size else 1
@@ -323,10 +338,11 @@ def build_system(
     rows = np.empty(rows_global.size, dtype=np.int64)
     row_state = np.empty(rows.size, dtype=np.int64)
     if kernels.enabled() and rows.size >= scc.COMPILED_MIN_SIZE:
-        matrix, offset, stays = _layout_compiled(
-            g, rows_global, local_of, table, state_base, rows, row_state, choice_offset, fixed, n
+        indptr, local = _place_compiled(
+            g, rows_global, local_of, table, state_base, rows, row_state
         )
-        del rows_global, state_base, key, order, player
+        del rows_global, state_base, key, order, player, local_of  # not needed by the fill
+        matrix, offset, stays = _fill_compiled(g, rows, local, indptr, choice_offset, fixed, n)
     else:
         row_st = g.choice_state[rows_global]
         start_of = np.zeros(S + 1, dtype=np.int64)
@@ -408,7 +424,7 @@ def _gather(
     return data, indices, indptr, stays
 
 
-def _layout_compiled(
+def _place_compiled(
     g: Structure,
     rows_global: np.ndarray,
     local_of: np.ndarray,
@@ -416,36 +432,52 @@ def _layout_compiled(
     state_base: np.ndarray,
     rows: np.ndarray,
     row_state: np.ndarray,
-    choice_offset: np.ndarray | None,
-    fixed: np.ndarray | None,
-    n: int,
-) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
-    """The row scatter and :func:`_gather` in two compiled passes over the usable model rows in
-    model order (:mod:`posgmc.engines.kernels.layout`): fills ``rows`` and ``row_state`` and
-    returns ``(matrix, offset, stays)``, the same arrays as the numpy path (int32 indices where
-    they fit)."""
-    from posgmc.engines.kernels.layout import fill_rows, place_rows
+) -> tuple[np.ndarray, np.ndarray]:
+    """The row scatter in one compiled pass over the usable model rows in model order
+    (:mod:`posgmc.engines.kernels.layout`): fills ``rows`` and ``row_state``; returns the
+    system's csr ``indptr`` and the local number of every model state (-1: known), both int32
+    where they fit."""
+    from posgmc.engines.kernels.layout import place_rows
 
     T = g.transitions
-    m = rows.size
     index_dtype = np.int32 if max(local_of.size, T.nnz) < 2**31 - 1 else np.int64
     local = local_of.astype(index_dtype)
-    indptr = np.zeros(m + 1, dtype=index_dtype)
+    indptr = np.zeros(rows.size + 1, dtype=index_dtype)
     place_rows(
         rows_global, g.choice_state, local, table, state_base, T.indptr, T.indices, rows,
         row_state, indptr,
     )
     np.cumsum(indptr, out=indptr)
+    return indptr, local
+
+
+def _fill_compiled(
+    g: Structure,
+    rows: np.ndarray,
+    local: np.ndarray,
+    indptr: np.ndarray,
+    choice_offset: np.ndarray | None,
+    fixed: np.ndarray | None,
+    n: int,
+) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """:func:`_gather` in one compiled pass over the system's rows (placed by
+    :func:`_place_compiled`, the model's arrays no longer needed for it are freed by then):
+    ``(matrix, offset, stays)``, the same arrays as the numpy path (int32 indices where they
+    fit)."""
+    from posgmc.engines.kernels.layout import fill_rows
+
+    T = g.transitions
+    m = rows.size
     offset = np.zeros(m) if choice_offset is None else choice_offset[rows].astype(np.float64)
     nnz = int(indptr[-1])
-    indices = np.empty(nnz, dtype=index_dtype)
+    indices = np.empty(nnz, dtype=local.dtype)
     data = np.empty(nnz, dtype=np.float64)
     stays = np.empty(m, dtype=bool)
     use_fixed = fixed is not None and bool(np.any(fixed != 0))
     known = np.zeros(0) if fixed is None or not use_fixed else fixed.astype(np.float64, copy=False)
     fill_rows(
-        rows_global, g.choice_state, table, state_base, T.indptr, T.indices, T.data, local,
-        known, use_fixed, indptr, indices, data, offset, stays,
+        rows, T.indptr, T.indices, T.data, local, known, use_fixed, indptr, indices, data, offset,
+        stays,
     )
     matrix = sp.csr_matrix((data, indices, indptr), shape=(m, n), copy=False)
     return matrix, offset, stays

@@ -46,12 +46,11 @@ def _reference_bellman(model: ExplicitModel, sys: it.System, x: np.ndarray) -> n
     return out
 
 
-def test_block_of_merges_consecutive_layers(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(it, "_MAX_BLOCKS", 2)
-    # layers 0..3 with 1, 1, 4, 2 states: chunks of 4 states -> layers {0, 1, 2} start in chunk 0,
-    # layer 3 starts at state 6 -> chunk 1
+def test_block_of_merges_consecutive_layers() -> None:
+    # at most 2 blocks; layers 0..3 with 1, 1, 4, 2 states: chunks of 4 states -> layers
+    # {0, 1, 2} start in chunk 0, layer 3 starts at state 6 -> chunk 1
     layer = np.array([3, 0, 2, 2, 1, 2, 3, 2])
-    assert it._block_of(layer).tolist() == [1, 0, 0, 0, 0, 0, 1, 0]
+    assert it._block_of(layer, 2).tolist() == [1, 0, 0, 0, 0, 0, 1, 0]
 
 
 def test_blocked_layout_invariants(tiny_blocks: None) -> None:

@@ -100,3 +100,66 @@ def _tarjan(
 
 
 tarjan = compiled(_tarjan)
+
+
+def _seed_component(
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    row_groups: np.ndarray,
+    back_ptr: np.ndarray,
+    back_choices: np.ndarray,
+    choice_state: np.ndarray,
+    within: np.ndarray,
+    seed: int,
+    threshold: int,
+) -> int:
+    """The size of the strongly connected component of ``seed`` in the subgraph induced by
+    ``within`` if it exceeds ``threshold``; otherwise some number ``<= threshold``.
+
+    The component is the intersection of the states that reach ``seed`` (a backward search over
+    the transposed pattern ``back_ptr``/``back_choices``/``choice_state``, see
+    :class:`~posgmc.engines.graph.Structure`) and the states ``seed`` reaches (a forward search
+    over ``indptr``/``indices``/``row_groups``). When the backward set alone holds at most
+    ``threshold`` states, the forward search is skipped and its size is returned. Two
+    breadth-first searches touch each edge at most once each: far cheaper than a whole
+    decomposition (:func:`_tarjan`), which a giant component makes useless.
+    """
+    S = row_groups.size - 1
+    back = np.zeros(S, dtype=np.bool_)
+    queue = np.empty(S, dtype=np.int32)
+    back[seed] = True
+    queue[0] = seed
+    head = 0
+    tail = 1
+    while head < tail:
+        t = queue[head]
+        head += 1
+        for k in range(back_ptr[t], back_ptr[t + 1]):
+            s = choice_state[back_choices[k]]
+            if within[s] and not back[s]:
+                back[s] = True
+                queue[tail] = s
+                tail += 1
+    if tail <= threshold:
+        return tail
+    ahead = np.zeros(S, dtype=np.bool_)
+    ahead[seed] = True
+    queue[0] = seed
+    head = 0
+    tail = 1
+    size = 1
+    while head < tail:
+        s = queue[head]
+        head += 1
+        for e in range(indptr[row_groups[s]], indptr[row_groups[s + 1]]):
+            w = indices[e]
+            if within[w] and not ahead[w]:
+                ahead[w] = True
+                queue[tail] = w
+                tail += 1
+                if back[w]:
+                    size += 1
+    return size
+
+
+seed_component = compiled(_seed_component)

@@ -51,25 +51,17 @@ place_rows = compiled(_place_rows)
 
 
 def _fill_rows(
-    rows_global: np.ndarray, choice_state: np.ndarray, table: np.ndarray,
-    state_base: np.ndarray, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray,
+    rows: np.ndarray, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray,
     local_of: np.ndarray, fixed: np.ndarray, use_fixed: bool, out_indptr: np.ndarray,
     out_indices: np.ndarray, out_data: np.ndarray, offset: np.ndarray, stays: np.ndarray,
 ) -> None:
-    """The entries of every row at its position (as :data:`place_rows` places it; local
-    columns), ``offset += sum of p * fixed[t]`` over its entries into known states (when
-    ``use_fixed``, in entry order), and ``stays`` (no entry leaves the unknowns)."""
-    previous = -1
-    rank = 0
-    for i in range(rows_global.size):
-        c = rows_global[i]
-        s = choice_state[c]
-        if s != previous:
-            previous = s
-            rank = 0
-        loc_s = local_of[s]
-        row = table[state_base[loc_s] + rank] + loc_s
-        rank += 1
+    """The entries of every system row ``row`` (the model row ``rows[row]``, as
+    :data:`place_rows` placed it) with local columns, ``offset[row] += sum of p * fixed[t]``
+    over its entries into known states (when ``use_fixed``, in entry order), and ``stays[row]``
+    (no entry leaves the unknowns). The system rows are written in their own order, so the
+    writes are sequential and the reads jump (random reads cost less than random writes)."""
+    for row in range(rows.size):
+        c = rows[row]
         at = out_indptr[row]
         acc = 0.0
         for e in range(indptr[c], indptr[c + 1]):

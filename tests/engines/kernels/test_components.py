@@ -90,3 +90,81 @@ def test_subgraph_components(model: ExplicitModel, data: st.DataObject) -> None:
         _, theirs = connected_components(graph, directed=True, connection="strong")
         assert _same_partition(ours[idx], theirs)
     assert np.all(ours[T.col[inside]] <= ours[src[inside]])
+
+
+@settings(max_examples=200, deadline=None)
+@given(small_models(max_states=8), st.data())
+def test_seed_component_is_the_seeds_component(model: ExplicitModel, data: st.DataObject) -> None:
+    """``seed_component`` against the compiled decomposition of the same subgraph (itself checked
+    against scipy above): above the threshold it is the size of the seed's component, at or
+    below it a number at most the threshold; and the giant-component shortcut of
+    ``topological_blocks`` makes the decision the decomposition makes."""
+    from posgmc.engines.kernels.components import seed_component
+
+    S = model.num_states
+    within = np.array(data.draw(st.lists(st.booleans(), min_size=S, max_size=S)))
+    if not within.any():
+        return
+    unk = np.flatnonzero(within)
+    seed = int(data.draw(st.sampled_from(unk.tolist())))
+    threshold = data.draw(st.integers(0, S))
+    g = structure_of(model)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(kernels.STATE, "use", True)
+        labels = scc.components(g.transitions, g.row_groups, within)
+        size = seed_component(
+            g.transitions.indptr, g.transitions.indices, g.row_groups, g.back_ptr,
+            g.back_choices, g.choice_state, within, seed, threshold,
+        )
+    exact = int(np.count_nonzero(labels == labels[seed]))
+    if exact > threshold:
+        assert size == exact
+    else:
+        assert size <= threshold
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(kernels.STATE, "use", True)
+        mp.setattr(scc, "MIN_BAND_STATES", 1)
+        transpose = (g.back_ptr, g.back_choices, g.choice_state)
+        shortcut = scc.topological_blocks(
+            g.transitions, g.row_groups, unk, layer=None, band_states=None, transpose=transpose
+        )
+        full = scc.topological_blocks(
+            g.transitions, g.row_groups, unk, layer=None, band_states=None
+        )
+    assert (shortcut is None) == (full is None)
+    if full is not None and shortcut is not None:
+        assert all(np.array_equal(a, b) for a, b in zip(shortcut, full))
+    giant = exact > scc.MAX_GIANT_SHARE * unk.size and seed == unk[0]
+    if giant and unk.size >= 2:
+        assert shortcut is None
+
+
+def test_a_giant_component_skips_the_decomposition(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A ring of 200 states (one component; hand-built) and a chain of 200 (every state its own
+    component): with the transposed pattern given, the ring is refused without Tarjan's pass (the
+    first state's component is all of it), the chain still gets its decomposition."""
+    from posgmc.model.explicit import make_model
+    from posgmc.syntax.ast import ModelType
+
+    k = 200
+    src = np.arange(k)
+    monkeypatch.setattr(kernels.STATE, "use", True)
+    monkeypatch.setattr(scc, "MIN_BAND_STATES", 1)
+    calls: list[int] = []
+    real = scc.components
+
+    def counted(*args: object, **kwargs: object) -> np.ndarray:
+        calls.append(1)
+        return real(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(scc, "components", counted)
+    for successor, giant in (((src + 1) % k, True), (np.minimum(src + 1, k - 1), False)):
+        T = sp.csr_matrix((np.ones(k), (src, successor)), shape=(k, k))
+        g = structure_of(make_model(ModelType.MDP, np.arange(k + 1), T))
+        calls.clear()
+        found = scc.topological_blocks(
+            g.transitions, g.row_groups, src, layer=None, band_states=None,
+            transpose=(g.back_ptr, g.back_choices, g.choice_state),
+        )
+        assert (found is None) == giant
+        assert calls == ([] if giant else [1])
