@@ -122,12 +122,16 @@ def test_embedding_keeps_the_guarantee() -> None:
     assert bigger.memory_size == 3 and abs(g.value - r.guaranteed.value) < 1e-9
 
 
-def test_cli_synthesises_exports_and_the_file_rechecks(tmp_path: Path) -> None:
+# memory 1..2 (9 s) runs with -m slow: the default run exports and re-checks two-node strategies
+# in the tutorial (beacon, --memory 2) and test_objectives.py (rover=2), and parses K1..K2 in the
+# tutorial's posgmc test --memory 1..3 (the same option parser)
+@pytest.mark.parametrize("memory", ["1", pytest.param("1..2", marks=pytest.mark.slow)])
+def test_cli_synthesises_exports_and_the_file_rechecks(tmp_path: Path, memory: str) -> None:
     if not TEST_GAME.exists():
         pytest.skip("shared benchmarks not present")
     out = tmp_path / "fss"
     r = CliRunner().invoke(main, ["check", str(TEST_GAME), "--prop", '<<0>> Pmax=? [F "goal"]',
-                                  "--zero-based-players", "--memory", "1..2", "--timeout", "30",
+                                  "--zero-based-players", "--memory", memory, "--timeout", "30",
                                   "--export-strategy", str(out), "--json"])
     assert r.exit_code == 0, r.output
     res = json.loads(r.output)["results"][0]
