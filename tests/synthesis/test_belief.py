@@ -191,7 +191,7 @@ def test_random_pomdps_never_worse_than_the_cutoff(seed: int, maximize: bool) ->
 
 
 @pytest.mark.slow
-@settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 10_000), maximize=st.booleans())
 def test_many_random_pomdps_never_worse_than_the_cutoff(seed: int, maximize: bool) -> None:
     _never_worse_than_the_cutoff(seed, maximize)
