@@ -68,7 +68,8 @@ class System:
     """The unknowns of one fixpoint problem in slot layout (see the module docstring).
 
     ``states``: int64[n], the model state of each unknown; local states ``[0, num_max)`` maximise.
-    ``rows``: int64[m], the model choice of each row; ``row_state``: int64[m], its local state.
+    ``rows``: int32[m] (int64 if the model's choices do not fit), the model choice of each row;
+    ``row_state``: int32[m] (int64 if n does not fit), its local state.
     ``matrix``: csr float64 [m, n]; ``offset``: float64[m] (b); ``stays``: bool[m], no probability
     leaves the unknowns.
 
@@ -335,8 +336,9 @@ def build_system(
         [row_start - max_lo[:, None], row_start + more[:, 0, :] - min_lo[:, None]], axis=1
     ).ravel()  # [nb, 2, kmax]
     state_base = (block * 2 + player) * kmax
-    rows = np.empty(rows_global.size, dtype=np.int64)
-    row_state = np.empty(rows.size, dtype=np.int64)
+    # int32 where every model choice fits (the two largest arrays of the system after its matrix)
+    rows = np.empty(rows_global.size, dtype=np.int32 if g.num_choices_total < 2**31 else np.int64)
+    row_state = np.empty(rows.size, dtype=np.int32 if n < 2**31 else np.int64)
     if kernels.enabled() and rows.size >= scc.COMPILED_MIN_SIZE:
         indptr, local = _place_compiled(
             g, rows_global, local_of, table, state_base, rows, row_state

