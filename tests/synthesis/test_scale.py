@@ -95,10 +95,11 @@ def test_iterative_path_only_where_value_iteration_is_sound() -> None:
 
 def test_a_memory_range_above_one_starts_with_memory_one() -> None:
     """``--memory 2`` (or ``3..4``) searches k = 1 first. The warm-started search itself runs in
-    the default suite with memory 2 alone on beacon (tests/test_models.py::
-    test_beacon_memory_helps: 0.9 against k = 1's 0.5; the tutorial's ``--memory 2``, k=1 then
-    k=2) and with memory 1..2 on test-game (test_synthesis.py::
-    test_randomisation_beats_deterministic_memoryless_on_test_game: PAYNT's 0.439453)."""
+    the default suite with memory 2 alone on beacon (tests/test_tutorial.py: the tutorial's
+    ``--memory 2`` prints k=1: 0.5, k=2: 0.9 and the proven 0.9; test_synthesis.py::
+    test_cli_memory_per_player_and_adversary_memory: rover=2) and with memory 1..2 on test-game
+    (test_synthesis.py::test_randomisation_beats_deterministic_memoryless_on_test_game: PAYNT's
+    0.439453)."""
     assert _with_warm_up((2,)) == (1, 2) and _with_warm_up((1, 2)) == (1, 2)
     assert _with_warm_up((3, 4)) == (1, 3, 4)
 
