@@ -51,7 +51,7 @@ def test_a_fully_observable_sweep_is_the_value_per_point(tmp_path: Path) -> None
 # reaches the exits not knowing which is safe, a coin flip whatever the budget; with two nodes
 # 0.9^B. The synthesis tests below run with one node by default (half the time: 8 s against 17 s
 # each); their two-node variants run with -m slow (two-node synthesis on beacon stays in the
-# default run in tests/test_models.py and the tutorial)
+# default run: the tutorial, test_synthesis.py::test_cli_memory_per_player_and_adversary_memory)
 FRONT = {1: (0.5, 0.5), 2: (1.0, 0.9)}
 MEMORY = [1, pytest.param(2, marks=pytest.mark.slow)]
 
