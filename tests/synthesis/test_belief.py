@@ -176,10 +176,29 @@ def random_pomdp(seed: int):  # type: ignore[no-untyped-def]
     )
 
 
-@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# the default run: two random POMDPs plus fixed seeds covering each branch below (each under a
+# second: found in the run of seeds 0..39); 15 random examples took 115 s of the default run
+# (3.4 s an example on average, up to 15 s; three took 7-33 s), so the wide search is the slow
+# test below
+@settings(max_examples=2, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 10_000), maximize=st.booleans())
 @example(seed=112, maximize=False)  # the initial state cannot reach the goal
+@example(seed=10, maximize=True)  # 3 belief nodes, 0.85 against the cut-off's 0.66
+@example(seed=10, maximize=False)  # 4 belief nodes, 0.39 against 0.66
+@example(seed=11, maximize=True)  # 57 belief nodes
+@example(seed=34, maximize=False)  # 39 belief nodes
 def test_random_pomdps_never_worse_than_the_cutoff(seed: int, maximize: bool) -> None:
+    _never_worse_than_the_cutoff(seed, maximize)
+
+
+@pytest.mark.slow
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), maximize=st.booleans())
+def test_many_random_pomdps_never_worse_than_the_cutoff(seed: int, maximize: bool) -> None:
+    _never_worse_than_the_cutoff(seed, maximize)
+
+
+def _never_worse_than_the_cutoff(seed: int, maximize: bool) -> None:
     """The controller hands over to the cut-off strategy wherever acting is not strictly better,
     so the product check proves at least the cut-off's value, and (beliefs hashed exactly) the
     belief MDP's number is the controller's value."""

@@ -95,10 +95,15 @@ def test_randomisation_beats_deterministic_memoryless_on_test_game() -> None:
     assert values == sorted(values)  # memory never hurts
 
 
-def test_same_seed_same_strategy() -> None:
+# memory 1..2 (17 s: two runs of 8 s) runs with -m slow; seeded runs over 1..2 stay bit-identical
+# in the default run in test_scale.py::test_seeded_runs_are_bit_identical_on_the_iterative_path
+# (test-game, the same rounds) and test_compose.py::test_jobs_give_bit_identical_results
+@pytest.mark.parametrize("memory", [(1,), pytest.param((1, 2), marks=pytest.mark.slow)],
+                         ids=["1", "1..2"])
+def test_same_seed_same_strategy(memory: tuple[int, ...]) -> None:
     model, coalition = _game("test-game")
     q = parser.parse_property('<<0>> Pmax=? [F "goal"]').expr
-    opts = SynthesisOptions(memory=(1, 2), seed=5, timeout=60)
+    opts = SynthesisOptions(memory=memory, seed=5, timeout=60)
     a = synthesize(model, q, player=0, coalition_of=coalition, scalar=api._scalar, options=opts)
     b = synthesize(model, q, player=0, coalition_of=coalition, scalar=api._scalar, options=opts)
     assert a.guaranteed == b.guaranteed
@@ -117,12 +122,16 @@ def test_embedding_keeps_the_guarantee() -> None:
     assert bigger.memory_size == 3 and abs(g.value - r.guaranteed.value) < 1e-9
 
 
-def test_cli_synthesises_exports_and_the_file_rechecks(tmp_path: Path) -> None:
+# memory 1..2 (9 s) runs with -m slow: the default run exports and re-checks two-node strategies
+# in the tutorial (beacon, --memory 2) and test_objectives.py (rover=2), and parses K1..K2 in the
+# tutorial's posgmc test --memory 1..3 (the same option parser)
+@pytest.mark.parametrize("memory", ["1", pytest.param("1..2", marks=pytest.mark.slow)])
+def test_cli_synthesises_exports_and_the_file_rechecks(tmp_path: Path, memory: str) -> None:
     if not TEST_GAME.exists():
         pytest.skip("shared benchmarks not present")
     out = tmp_path / "fss"
     r = CliRunner().invoke(main, ["check", str(TEST_GAME), "--prop", '<<0>> Pmax=? [F "goal"]',
-                                  "--zero-based-players", "--memory", "1..2", "--timeout", "30",
+                                  "--zero-based-players", "--memory", memory, "--timeout", "30",
                                   "--export-strategy", str(out), "--json"])
     assert r.exit_code == 0, r.output
     res = json.loads(r.output)["results"][0]
@@ -237,18 +246,26 @@ def test_expected_cost_needs_randomisation() -> None:
 BEACON = ROOT / "models" / "beacon" / "beacon.posg"
 
 
-def test_api_synthesize_returns_the_numbers_and_both_strategies() -> None:
+# the rover's memory 1..2 (13 s) runs with -m slow; the default run's rounds 1..2 (non-decreasing):
+# test_randomisation_beats_deterministic_memoryless_on_test_game, the tutorial (beacon, k=1, k=2)
+@pytest.mark.parametrize(("memory", "values"), [
+    ((1,), (0.5,)),
+    pytest.param((1, 2), (0.5, 0.9), marks=pytest.mark.slow),
+], ids=["1", "1..2"])
+def test_api_synthesize_returns_the_numbers_and_both_strategies(
+    memory: tuple[int, ...], values: tuple[float, ...]
+) -> None:
     """models/beacon: guaranteed 0.9 with two nodes, 0.5 with one (models/beacon/README.md); the
     result carries the defence and the worst adversary strategy found, and per-k rounds that
     never decrease."""
     r = api.synthesize(api.load(BEACON), '<<rover>> Pmax=? [ F "safe" ]',
-                       memory={"rover": (1, 2), "jammer": 1}, timeout=20)
-    assert r.guaranteed.lower <= 0.9 <= r.guaranteed.upper
+                       memory={"rover": memory, "jammer": 1}, timeout=20)
+    assert r.guaranteed.lower <= values[-1] <= r.guaranteed.upper
     assert [f.player for f in r.strategies] == ["rover", "jammer"]
     rounds = r.synthesis["rounds"]
-    assert [x["memory"] for x in rounds] == [1, 2]
-    assert rounds[0]["value_policy_iteration"] == pytest.approx(0.5, abs=1e-9)
-    assert rounds[1]["value_policy_iteration"] == pytest.approx(0.9, abs=1e-9)
+    assert [x["memory"] for x in rounds] == list(memory)
+    for got, want in zip(rounds, values, strict=True):
+        assert got["value_policy_iteration"] == pytest.approx(want, abs=1e-9)
     assert r.synthesis["adversary_memory"] == 1 and r.synthesis["exhaustive"] is True
 
 
