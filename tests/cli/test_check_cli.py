@@ -144,6 +144,16 @@ def test_export_strategy_writes_one_entry_per_deciding_state(run, tmp_path: Path
         assert list(e["valuation"].values()) == [int(v) for v in m.state_values[s]]
 
 
+def test_export_strategy_of_a_strategy_that_chooses_nowhere(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """``F true``: every state is a target, so no state decides and the streamed document still
+    parses, with an empty list."""
+    out = tmp_path / "strategy.json"
+    r = run("check", ROVER, "--prop", "<<rover>> Pmax=? [ F true ]", "--export-strategy", str(out))
+    assert r.exit_code == EXIT_OK, r.output
+    doc = json.loads(out.read_text())
+    assert doc == {"property": "<<rover>> Pmax=? [ F true ]", "memoryless": True, "states": []}
+
+
 def test_export_strategy_needs_one_unbounded_query(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     out = tmp_path / "strategy.json"
     r = run(
