@@ -115,9 +115,9 @@ def _compiled(size: int) -> bool:
     the model is large enough that numba's start-up (about 0.5 s of CPU and 100 MB per process)
     pays (:data:`posgmc.engines.scc.COMPILED_MIN_SIZE`, read at call time: tests lower it), or
     this is the warm-up thread loading the kernels on a two-state structure."""
-    if not kernels.enabled():
-        return False
-    return size >= scc.COMPILED_MIN_SIZE or getattr(_WARMING, "on", False)
+    if getattr(_WARMING, "on", False):
+        return kernels.enabled()
+    return scc.compiled_at(size)
 
 
 def _ro(a: np.ndarray) -> np.ndarray:

@@ -70,7 +70,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
-from posgmc.engines import kernels, scc
+from posgmc.engines import scc
 from posgmc.engines.graph import end_components, row_of_entries
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.system import (
@@ -347,7 +347,7 @@ def _lower_phase_blocks(
     ratios = [0.0, 0.0]
     previous = np.inf
     # the same sweep, compiled (posgmc.engines.kernels.blocks), on a system large enough to pay
-    fast = kernels.enabled() and n >= scc.COMPILED_MIN_SIZE
+    fast = scc.compiled_at(n)
     if fast:
         from posgmc.engines.kernels.blocks import sweep_lower
 
@@ -400,7 +400,7 @@ def _sweep_pair(sys: System, X: np.ndarray, Xn: np.ndarray, Y: np.ndarray, T: np
     pre-fixpoint, since ``B(Xn)(s) <= B(mix)(s) = Xn(s)`` for the mixed vector ``mix >= Xn`` that
     state s was evaluated on; so the verification test is the same as for a Jacobi step."""
     A = sys.matrix
-    if kernels.enabled() and sys.n >= scc.COMPILED_MIN_SIZE:  # compiled, the same sweep
+    if scc.compiled_at(sys.n):  # compiled, the same sweep
         from posgmc.engines.kernels.blocks import sweep_pair
 
         upper = sys.offset if sys.offset_upper is None else sys.offset_upper

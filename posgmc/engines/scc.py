@@ -44,6 +44,7 @@ from posgmc.engines import kernels
 
 __all__ = [
     "COMPILED_MIN_SIZE",
+    "compiled_at",
     "DEFAULT_BANDS",
     "MIN_BAND_STATES",
     "components",
@@ -64,6 +65,13 @@ COMPILED_MIN_SIZE = 100_000
 """States (or rows) below which the engines keep their numpy paths although the compiled kernels
 are enabled: the first kernel call of a process costs about 0.45 s (numba's import and code
 generator set-up), more than a kernel saves on a smaller system (the tests lower it)."""
+
+def compiled_at(size: int) -> bool:
+    """Whether the engines take their compiled path on a system (or model) of ``size`` states or
+    rows: the kernels are enabled and ``size`` reaches :data:`COMPILED_MIN_SIZE` (read at call
+    time: the tests lower it)."""
+    return kernels.enabled() and size >= COMPILED_MIN_SIZE
+
 
 _BLOCKS_PER_BAND = 16
 """Gauss-Seidel blocks per band (each costs a few numpy calls per sweep)."""
@@ -86,7 +94,7 @@ def components(
             guarantee, -1 elsewhere); the numpy path decomposes the whole graph regardless.
     """
     size = row_groups.size - 1 if within is None else int(np.count_nonzero(within))
-    if kernels.enabled() and size >= COMPILED_MIN_SIZE:
+    if compiled_at(size):
         from posgmc.engines.kernels.components import tarjan
 
         mask = np.ones(row_groups.size - 1, dtype=bool) if within is None else within
@@ -121,7 +129,7 @@ def _seed_is_giant(
     about 0.15 s). Only on the compiled path, where that decomposition is a kernel too; a False
     answer says nothing (the decomposition decides)."""
     n = int(unk.size)
-    if transpose is None or not kernels.enabled() or n < COMPILED_MIN_SIZE:
+    if transpose is None or not compiled_at(n):
         return False
     from posgmc.engines.kernels.components import seed_component
 

@@ -25,7 +25,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from posgmc.engines import kernels, scc
+from posgmc.engines import scc
 from posgmc.engines.graph import Structure
 from posgmc.engines.scc import topological_blocks
 
@@ -283,7 +283,7 @@ def build_system(
         block, band_of_block, labels = found
     elif layer is not None and unk.size >= _MIN_BLOCKED_STATES:
         # as many blocks as the sweeps that will run can use (iteration._lower_phase_blocks)
-        fast = kernels.enabled() and unk.size >= scc.COMPILED_MIN_SIZE
+        fast = scc.compiled_at(int(unk.size))
         block = _block_of(layer[unk], _MAX_COMPILED_BLOCKS if fast else _MAX_BLOCKS)
     else:
         block = np.zeros(unk.size, dtype=np.int64)
@@ -339,7 +339,7 @@ def build_system(
     # int32 where every model choice fits (the two largest arrays of the system after its matrix)
     rows = np.empty(rows_global.size, dtype=np.int32 if g.num_choices_total < 2**31 else np.int64)
     row_state = np.empty(rows.size, dtype=np.int32 if n < 2**31 else np.int64)
-    if kernels.enabled() and rows.size >= scc.COMPILED_MIN_SIZE:
+    if scc.compiled_at(int(rows.size)):
         indptr, local = _place_compiled(
             g, rows_global, local_of, table, state_base, rows, row_state
         )

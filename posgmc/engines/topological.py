@@ -74,7 +74,7 @@ from dataclasses import replace
 import numpy as np
 import scipy.sparse as sp
 
-from posgmc.engines import kernels, scc
+from posgmc.engines import scc
 from posgmc.engines.iteration import _NOISE, Bounds, EndComponents, solve, widen
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.system import Block, System
@@ -106,7 +106,7 @@ def solve_topological(
     """
     if sys.bands is None:
         return None
-    if kernels.enabled() and sys.n >= scc.COMPILED_MIN_SIZE and _compiled_applies(sys, ec):
+    if scc.compiled_at(sys.n) and _compiled_applies(sys, ec):
         found = _solve_components(sys, options, cap=cap, ec=ec)
         if found is not None:
             return found
