@@ -131,6 +131,11 @@ class LimitError(PosgmcError):
     """A resource limit (states, memory, time) set by the user or by default was reached."""
 
 
+class WorkerError(PosgmcError):
+    """A worker that ran part of the computation (a process of the local pool, an actor on a
+    Ray cluster) died, and retrying did not help; the message names the task."""
+
+
 @dataclass
 class Diagnostics:
     """Collects several errors so that ``lint`` can report all of them at once."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 import time
-from typing import Any
+from typing import Any, Literal
 
 import click
 
@@ -17,6 +17,7 @@ from posgmc.cli.options import (
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
     common,
+    executor_options,
     full_observation_option,
     memory_option,
     positive_finite,
@@ -77,9 +78,7 @@ __all__ = ["check", "not_passed"]
 @click.option("--adversaries", type=click.IntRange(min=0), default=10, show_default=True,
               help="Synthesis: how many of the strongest enumerated adversary strategies the "
               "defence is composed against (0: no adversary phases).")
-@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Synthesis: worker processes for independent evaluations (results do not "
-              "depend on it).")
+@executor_options
 @timeout_option
 @seed_option
 @click.option("--export-strategy", type=click.Path(), default=None,
@@ -110,6 +109,8 @@ def check(
     memory: tuple[str, ...],
     adversaries: int,
     jobs: int,
+    executor: Literal["local", "ray"],
+    ray_address: str | None,
     timeout: float,
     seed: int,
     export_strategy: str | None,
@@ -168,7 +169,8 @@ def check(
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
                 synthesis=synthesis_options(memory, timeout, seed, adversaries, jobs,
-                                             started=loading),
+                                             started=loading, executor=executor,
+                                             ray_address=ray_address),
                 on_start=on_start,
                 on_outcome=on_outcome,
             )

@@ -13,15 +13,15 @@ Exit status (fixed, documented in docs/cli.md):
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, TypeVar
+from typing import Any, Literal, TypeVar
 
 import click
 
 __all__ = [
     "EXIT_OK", "EXIT_PROPERTY_FALSE", "EXIT_ERROR", "EXIT_INTERRUPTED",
     "common", "zero_based_players_option", "full_observation_option", "memory_option",
-    "timeout_option", "seed_option", "positive_finite", "memory_sizes", "synthesis_options",
-    "strategy_options",
+    "timeout_option", "seed_option", "executor_options", "positive_finite", "memory_sizes",
+    "synthesis_options", "strategy_options",
 ]
 
 EXIT_OK = 0
@@ -99,6 +99,25 @@ def seed_option(f: F) -> F:
     )(f)
 
 
+def executor_options(f: F) -> F:
+    """``--jobs``, ``--executor`` and ``--ray-address``: where independent evaluations run."""
+    f = click.option(
+        "--ray-address", default=None, metavar="HOST:PORT",
+        help="With --executor ray: the cluster's head (`ray start --head`); default: Ray's "
+        "RAY_ADDRESS, else a Ray started on this machine for the run.",
+    )(f)
+    f = click.option(
+        "--executor", type=click.Choice(["local", "ray"]), default="local", show_default=True,
+        help="Where --jobs run: local processes, or actors on a Ray cluster (pip install "
+        "'posgmc[ray]'; --jobs 1: one actor per CPU of the cluster). Same results.",
+    )(f)
+    f = click.option(
+        "--jobs", type=click.IntRange(min=1), default=1, show_default=True,
+        help="Synthesis: workers for independent evaluations (results do not depend on it).",
+    )(f)
+    return f
+
+
 def memory_sizes(text: str, given: str) -> tuple[int, ...]:
     try:
         if text == "auto":
@@ -117,10 +136,15 @@ def memory_sizes(text: str, given: str) -> tuple[int, ...]:
 
 
 def synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
-                       adversaries: int = 10, jobs: int = 1, started: float | None = None) -> Any:
+                       adversaries: int = 10, jobs: int = 1, started: float | None = None,
+                       executor: Literal["local", "ray"] = "local",
+                       ray_address: str | None = None) -> Any:
     """``--memory`` settings as memory sizes: ``2``, ``1..3``, ``auto`` (1..3) for the property's
     coalition, or ``PLAYER=...`` for a named player (the decision maker or the adversary);
-    ``started``: where the first property's budget starts (``SynthesisOptions.started``)."""
+    ``started``: where the first property's budget starts (``SynthesisOptions.started``);
+    ``executor``/``ray_address``: :func:`executor_options`."""
+    if ray_address is not None and executor != "ray":
+        raise click.BadParameter("is for --executor ray", param_hint="'--ray-address'")
     from posgmc.synthesis.search import SynthesisOptions
 
     settings = [memory] if isinstance(memory, str) else list(memory)
@@ -139,7 +163,8 @@ def synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
     # nodes; sizes given explicitly bound the strategy's memory
     explicit = any(given.split("=", 1)[-1].strip() != "auto" for given in settings)
     return SynthesisOptions(memory=unnamed, timeout=timeout, seed=seed, adversaries=adversaries,
-                            jobs=jobs, player_memory=tuple(sorted(named.items())),
+                            jobs=jobs, executor=executor, ray_address=ray_address,
+                            player_memory=tuple(sorted(named.items())),
                             belief=False if explicit else None, started=started)
 
 

@@ -30,7 +30,8 @@ from posgmc.synthesis.compose import (
     one_sided,
     verified_numbers,
 )
-from posgmc.synthesis.jobs import POLICY, Executor, Problem, executor_for
+from posgmc.synthesis.executors import executor_for
+from posgmc.synthesis.jobs import POLICY, Executor, Problem
 from posgmc.synthesis.objectives import lift, needs_product
 from posgmc.synthesis.search import (
     SynthesisOptions,
@@ -265,7 +266,7 @@ class SynthesisChecker:
         adversary = others[0] if len(others) == 1 else None
         problem = problem_of(self.model, bare, player=player, adversary=adversary,
                              coalition_of=self.coalition_of, scalar=self.scalar)
-        with closing(executor_for(problem, settings.jobs)) as executor:
+        with closing(executor_for(problem, settings.placement)) as executor:
             budget = self.synthesis.timeout
             phases_follow = adversary is not None and settings.adversaries > 0
             # without adversary phases the search has their time too
@@ -287,6 +288,8 @@ class SynthesisChecker:
                 deadline = started + budget * _ADVERSARY_END
                 adversaries = self._adversary_phases(problem, executor, result, settings, deadline,
                                                      _until(self.options, started + budget))
+            where = {"executor": executor.kind, "workers": executor.workers,
+                     "tasks": executor.ledger.to_json()}
         # the sound checks stopped at the end of the budget: wider (still proven) bounds
         late = time.perf_counter() > started + self.synthesis.timeout
         defence, g, full = adversaries.defence if adversaries else result.strategy, \
@@ -322,6 +325,7 @@ class SynthesisChecker:
                 f"full_observation: the value if it saw everything")
         stats: dict[str, object] = {
             "partial": result.partial or bool(adversaries and adversaries.partial) or late,
+            "synthesis": where,
             "phases": {k: round(v, 3) for k, v in result.phases.items()},
             "rounds": [
                 {"memory": r.memory, "value_policy_iteration": r.guaranteed.value,

@@ -18,6 +18,7 @@ from __future__ import annotations
 import time
 from contextlib import closing
 from dataclasses import dataclass, field, replace
+from typing import ClassVar, Literal
 
 import numpy as np
 
@@ -46,8 +47,9 @@ from posgmc.syntax.ast import (
 from posgmc.synthesis import belief
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.deterministic import DeterministicResult, deterministic_phase
+from posgmc.synthesis.executors import executor_for
 from posgmc.synthesis.improvement import improvement_phase
-from posgmc.synthesis.jobs import Executor, Problem, executor_for
+from posgmc.synthesis.jobs import Executor, Placement, Problem
 from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
 
 __all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
@@ -75,8 +77,10 @@ class SynthesisOptions:
     decision maker.
     ``player_memory``: memory sizes by player name (``--memory rover=1..3 --memory
     attacker=2``); the decision maker's entry replaces ``memory``, the adversary's (its largest
-    size) ``adversary_memory``. ``jobs``: worker processes for independent evaluations
-    (:mod:`posgmc.synthesis.jobs`; results do not depend on it). ``started``: the
+    size) ``adversary_memory``. ``jobs``: workers for independent evaluations
+    (:mod:`posgmc.synthesis.jobs`; results do not depend on it); ``executor``: where they run,
+    "local" (this process or a local process pool) or "ray" (actors on the Ray cluster at
+    ``ray_address``; :mod:`posgmc.synthesis.ray_pool`). ``started``: the
     ``time.perf_counter()`` value from which the first synthesised property's ``timeout`` counts
     (the CLI and :func:`posgmc.api.check` set it where the run starts, so that loading and
     building the model are inside the budget); None: from the start of its synthesis."""
@@ -92,11 +96,18 @@ class SynthesisOptions:
     adversary_memory: int = 1
     player_memory: tuple[tuple[str, tuple[int, ...]], ...] = ()
     jobs: int = 1
+    executor: Literal["local", "ray"] = "local"
+    ray_address: str | None = None
     enumeration_limit: int = 1000
     compose_restarts: int = 1
     oracle_rounds: int = 8
     started: float | None = None
     belief: bool | None = None
+
+    @property
+    def placement(self) -> Placement:
+        """Where the independent evaluations run."""
+        return Placement(self.executor, self.jobs, self.ray_address)
 
     def for_players(self, decision_maker: str, adversary: str | None,
                     players: tuple[str, ...]) -> SynthesisOptions:
@@ -230,7 +241,7 @@ def synthesize(
             coalition_of=coalition_of,
             scalar=scalar,
         )
-        with closing(executor_for(problem, options.jobs)) as own:
+        with closing(executor_for(problem, options.placement)) as own:
             return synthesize(model, expr, player=player, coalition_of=coalition_of,
                               scalar=scalar, options=options, check_options=check_options,
                               executor=own)
@@ -579,6 +590,8 @@ class AscendJob:
     """One start of the gradient search against the omniscient adversary: the defence's memory
     size, the start logits, Adam's settings and the deadline. ``run`` returns the best iterate's
     logits and the number of evaluations."""
+
+    PHASE: ClassVar[str] = "gradient search"
 
     memory: int
     logits_action: np.ndarray
