@@ -103,11 +103,12 @@ def _reachable(address: str) -> None:
 
 def _connect(ray: Any, address: str | None) -> None:
     """Connect this process to the cluster at ``address`` (None: ``RAY_ADDRESS``, else a Ray
-    started here) unless it is connected already."""
+    started here for this process, never a cluster found lying around) unless it is connected
+    already."""
     if ray.is_initialized():
         return
-    given = address or os.environ.get("RAY_ADDRESS") or None
-    if given is not None and given not in ("auto", "local") and "://" not in given:
+    given = address or os.environ.get("RAY_ADDRESS") or "local"
+    if given not in ("auto", "local") and "://" not in given:
         _reachable(given)
     package = str(Path(posgmc.__file__).resolve().parent)
     ray.init(address=given, include_dashboard=False, log_to_driver=False,
