@@ -270,8 +270,11 @@ def _write_synthesised(directory: str, report: Any) -> None:
 
 
 def not_passed(r: Any) -> bool:
-    """A threshold that is false or undecided, or a result whose iteration did not converge."""
-    return r.value is False or (r.value is None and r.kind.value == "boolean") or not r.converged
+    """A threshold that is false or undecided, a result whose iteration did not converge, or a
+    number about finite-state strategies (given or synthesised) that is not proven: exit 0 only
+    when every such printed number is."""
+    return (r.value is False or (r.value is None and r.kind.value == "boolean")
+            or not r.converged or (r.guaranteed is not None and not r.sound))
 
 
 def _write_strategy(path: str, report: Any) -> None:

@@ -12,6 +12,7 @@ from posgmc.cli.group import main
 from posgmc.cli.options import (
     EXIT_ERROR,
     EXIT_OK,
+    EXIT_PROPERTY_FALSE,
     common,
     full_observation_option,
     memory_option,
@@ -148,7 +149,8 @@ def pareto(
             plot_sweep(result, plot_file)
         failed = any(p.error is not None or any(not hasattr(a, "guaranteed") for a in p.also)
                      for p in result.points)
-        return EXIT_ERROR if failed else EXIT_OK
+        unproven = any(p.result is not None and not _proven(p.result) for p in result.points)
+        return EXIT_ERROR if failed else EXIT_PROPERTY_FALSE if unproven else EXIT_OK
 
     guard(debug, run, consts=consts)
 
@@ -308,6 +310,16 @@ def _also_cell(a: Any) -> str:
     return f"{fmt(g.value)} [{fmt(g.lower)}, {fmt(g.upper)}]"
 
 
+def _proven(r: Any) -> bool:
+    """Every number of a point's result is proven (its checks converged, by sound methods)."""
+    return bool(r.sound and r.converged)
+
+
+def _bound_cell(b: Any) -> str:
+    """A number with its proven bounds; ``-`` where it was not computed."""
+    return "-" if b is None else f"{fmt(b.value)} [{fmt(b.lower)}, {fmt(b.upper)}]"
+
+
 def _print(result: Any) -> None:
     click.echo(f"{result.property} against {result.constant}:")
     rows = [(result.constant, "value [lower, upper]", "full_observation", "upper_bound", "memory",
@@ -322,6 +334,8 @@ def _print(result: Any) -> None:
         cell = "-" if b is None else f"{fmt(b.value)} [{fmt(b.lower)}, {fmt(b.upper)}]"
         if r is not None and r.synthesis and r.synthesis.get("partial"):
             cell += " (partial)"
+        if r is not None and not _proven(r):
+            cell += " NOT PROVEN"
         rows.append(
             (
                 p.setting,
