@@ -210,8 +210,11 @@ def simulate(
             f"  ({interval}; {result.runs} runs, seed {result.seed})"
         )
         if result.undecided:
-            click.echo(f"  {result.undecided} runs reached --max-steps undecided; the interval "
-                       "counts them both ways")
+            click.echo(f"  {result.undecided} of {result.runs} runs reached --max-steps "
+                       "undecided" + ("" if result.estimate is not None else
+                                      ": no point estimate; the interval "
+                                      + ("counts them both ways" if result.kind == "probability"
+                                         else "has no upper end (their rewards are unknown)")))
         if trace:
             _print_trace(result.trace)
         return EXIT_OK
