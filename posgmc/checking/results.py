@@ -51,19 +51,29 @@ the JSON keys and :class:`PropertyResult`'s field names."""
 def ordered_numbers(
     numbers: Mapping[str, Bound | None], *, maximizing: bool
 ) -> dict[str, Bound | None]:
-    """``numbers`` (by the keys of :data:`STRATEGY_NUMBERS`) with their points in the order that
-    their exact values are in: guaranteed <= vs_fss_adversary <= upper_bound for a maximising
-    decision maker (what a strategy ensures against every adversary is at most its value against
-    one adversary, which no decision maker exceeds against that adversary), reversed when it
-    minimises.
+    """``numbers`` (by the keys of :data:`STRATEGY_NUMBERS`, and ``full_observation``) with their
+    points in the order that their exact values are in: guaranteed <= vs_fss_adversary <=
+    upper_bound for a maximising decision maker (what a strategy ensures against every adversary
+    is at most its value against one adversary, which no decision maker exceeds against that
+    adversary) and guaranteed <= full_observation (no partially observing defence does better
+    than one that sees everything); reversed when it minimises.
 
     Separate checks round separately, so two points a few ulps apart can come out the wrong way
     round; each point is moved, within its own proven bounds, to the nearest value that respects
     the order. Where the bounds themselves contradict the order (an unproven number) the point
-    stays in its own bounds as far as it can. The bounds are never changed."""
-    sign = 1.0 if maximizing else -1.0
-    present = [k for k in STRATEGY_NUMBERS if numbers.get(k) is not None]
-    # in the maximising orientation: lo <= v <= hi per number, and v ascending along ``present``
+    stays in its own bounds. The bounds are never changed."""
+    out = dict(numbers)
+    _order_chain(out, STRATEGY_NUMBERS, 1.0 if maximizing else -1.0)
+    # then full_observation against guaranteed: this only lowers guaranteed's point (which
+    # keeps the first chain in order) or raises full_observation's
+    _order_chain(out, ("guaranteed", "full_observation"), 1.0 if maximizing else -1.0)
+    return out
+
+
+def _order_chain(numbers: dict[str, Bound | None], chain: tuple[str, ...], sign: float) -> None:
+    """Move the points of the present numbers of ``chain`` (in place), within their bounds, so
+    that ``sign * point`` ascends along it."""
+    present = [k for k in chain if numbers.get(k) is not None]
     lo: list[float] = []
     hi: list[float] = []
     points: list[float] = []
@@ -80,14 +90,12 @@ def ordered_numbers(
         points[i] = min(max(points[i], points[i - 1]), hi[i])
     for i in range(len(points) - 2, -1, -1):
         points[i] = max(min(points[i], points[i + 1]), lo[i])
-    out = dict(numbers)
     for k, v in zip(present, points):
         b = numbers[k]
         assert b is not None  # noqa: S101 - present
         value = sign * v
         if value != b.value and not (math.isnan(b.value) and math.isnan(value)):
-            out[k] = dataclasses.replace(b, value=value)
-    return out
+            numbers[k] = dataclasses.replace(b, value=value)
 
 
 def strategy_meaning(key: str, *, maximizing: bool) -> str:

@@ -223,15 +223,16 @@ class SynthesisChecker:
                                       "whose state the strategies do not observe")
         ordered = ordered_numbers(
             {"guaranteed": g, "vs_fss_adversary": result.vs_fss_adversary,
-             "upper_bound": result.upper_bound},
+             "upper_bound": result.upper_bound, "full_observation": result.full_observation},
             maximizing=bare.direction is Direction.MAX)
         g = ordered["guaranteed"]
         assert g is not None  # noqa: S101 - given
         vs, ub = ordered["vs_fss_adversary"], ordered["upper_bound"]
-        sound = result.sound and g.sound
+        full = ordered["full_observation"]
+        sound = all(b.sound for b in (g, vs, ub, full) if b is not None)
         if expr.threshold is not None:
             return dataclasses.replace(result, note=note, guaranteed=g, vs_fss_adversary=vs,
-                                       upper_bound=ub, sound=sound)
+                                       upper_bound=ub, full_observation=full, sound=sound)
         return dataclasses.replace(
             result,
             value=g.value,
@@ -243,6 +244,7 @@ class SynthesisChecker:
             guaranteed=g,
             vs_fss_adversary=vs,
             upper_bound=ub,
+            full_observation=full,
             sound=sound,
         )
 
@@ -313,10 +315,12 @@ class SynthesisChecker:
         vs, ub = (b if b is not None and b.converged else None for b in (vs, ub))
         full_shown = full if full.converged else None
         ordered = ordered_numbers(
-            {"guaranteed": g, "vs_fss_adversary": vs, "upper_bound": ub},
+            {"guaranteed": g, "vs_fss_adversary": vs, "upper_bound": ub,
+             "full_observation": full_shown},
             maximizing=bare.direction is Direction.MAX)
         g = ordered["guaranteed"] or g
         vs, ub = ordered["vs_fss_adversary"], ordered["upper_bound"]
+        full_shown = ordered["full_observation"]
         value: float | bool | None = g.value
         kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
         lower: float | None = g.lower
