@@ -46,17 +46,17 @@ def synthesises(session: Any, *, given_strategies: bool, full_observation: bool)
     )
 
 
-def check_destination(path: str, *, directory: bool) -> None:
+def check_destination(path: str, *, directory: bool, option: str = OPTION) -> None:
     """Refuse a destination that cannot be written, before any work: an empty name, an existing
     file where a directory goes (or a directory or device where a file goes), a path under a
     file, or a directory without write permission.
 
     Raises:
-        InputError: naming ``--export-strategy`` and the path.
+        InputError: naming ``option`` (``--export-strategy``) and the path.
     """
     if not path.strip():
-        raise InputError(f"{OPTION}: an empty path", hint="give a directory, e.g. "
-                         f"{OPTION} strategies/" if directory else "give a file, e.g. s.json")
+        raise InputError(f"{option}: an empty path", hint="give a directory, e.g. "
+                         f"{option} strategies/" if directory else "give a file, e.g. s.json")
     target = Path(path)
     what = "a directory" if directory else "a file"
     try:
@@ -64,15 +64,15 @@ def check_destination(path: str, *, directory: bool) -> None:
     except FileNotFoundError:
         mode = None
     except OSError as e:  # e.g. a path under a file: ENOTDIR
-        raise InputError(f"{OPTION}: cannot write {path}: {e.strerror or e}") from None
+        raise InputError(f"{option}: cannot write {path}: {e.strerror or e}") from None
     if mode is not None:
         if directory and not stat.S_ISDIR(mode):
-            raise InputError(f"{OPTION}: cannot write {path}: it exists and is not a "
+            raise InputError(f"{option}: cannot write {path}: it exists and is not a "
                              "directory; synthesised strategies go into a directory, "
                              "<player>.json each",
                              hint="give a new or an existing directory")
         if not directory and stat.S_ISDIR(mode):
-            raise InputError(f"{OPTION}: cannot write {path}: it is a directory; a model "
+            raise InputError(f"{option}: cannot write {path}: it is a directory; a model "
                              "checker's memoryless strategy is written to a file",
                              hint="give a file name, e.g. strategy.json")
         if not directory and not stat.S_ISREG(mode):
@@ -80,7 +80,7 @@ def check_destination(path: str, *, directory: bool) -> None:
         writable = target if stat.S_ISDIR(mode) else (target.parent if str(target.parent) else
                                                        Path("."))
         if not os.access(writable, os.W_OK | os.X_OK):
-            raise InputError(f"{OPTION}: cannot write {path}: {writable} is not writable")
+            raise InputError(f"{option}: cannot write {path}: {writable} is not writable")
         return
     # a new path: its nearest existing ancestor must be a writable directory
     ancestor = target.parent
@@ -89,12 +89,12 @@ def check_destination(path: str, *, directory: bool) -> None:
     if not ancestor.exists():
         ancestor = Path(".")
     if not ancestor.is_dir():
-        raise InputError(f"{OPTION}: cannot write {path}: {ancestor} is not a directory")
+        raise InputError(f"{option}: cannot write {path}: {ancestor} is not a directory")
     if not directory and ancestor != target.parent:
-        raise InputError(f"{OPTION}: cannot write {path}: no directory {target.parent}",
+        raise InputError(f"{option}: cannot write {path}: no directory {target.parent}",
                          hint=f"create it first, or give {what} in an existing directory")
     if not os.access(ancestor, os.W_OK | os.X_OK):
-        raise InputError(f"{OPTION}: cannot write {path}: {ancestor} is not writable")
+        raise InputError(f"{option}: cannot write {path}: {ancestor} is not writable")
 
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.,=+-]")

@@ -14,6 +14,7 @@ from posgmc.cli.options import (
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
     common,
+    finite,
     full_observation_option,
     memory_option,
     seed_option,
@@ -61,6 +62,7 @@ __all__ = ["pareto"]
               help="With --cost: the scalarisation weights (cost - w * mission), each >= 0 "
               "[default: 0,1,2,5,10,20]; the mission alone is always added (w=inf).")
 @click.option("--budget", "budgets", multiple=True, type=float, metavar="C",
+              callback=lambda _c, _p, v: tuple(finite(b, "--budget") for b in v),
               help="With --cost: answer 'max guaranteed mission s.t. guaranteed cost <= C' from "
               "the verified defences; repeatable.")
 @full_observation_option
@@ -97,6 +99,10 @@ def pareto(
     def run() -> int:
         if plot_file is not None and not plot_file.lower().endswith((".png", ".svg", ".pdf")):
             raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
+        if strategy_dir is not None:  # before any work, not after the whole sweep
+            from posgmc.cli.strategy_export import check_destination
+
+            check_destination(strategy_dir, directory=True, option="--strategies")
         if cost_text is None and (weights_text is not None or budgets):
             raise InputError("--weights and --budget go with --cost (a defender front)",
                              hint="add --cost '<<C>> R{\"cost\"}min=? [ ... ]'")
@@ -222,12 +228,15 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
     from posgmc.io.atomic import atomic_write_text
     from posgmc.tradeoffs.defence import defence_front, defence_front_to_csv
 
-    text = weights_text or "0,1,2,5,10,20"
+    # an empty --weights is an error (no weight at all), not the defaults
+    text = "0,1,2,5,10,20" if weights_text is None else weights_text
     weights: list[float] = []
     column = 1
     for item in text.split(","):
         try:
             weights.append(float(item))
+            if not (math.isfinite(weights[-1]) and weights[-1] >= 0):
+                raise ValueError
         except ValueError:
             raise InputError(
                 f"--weights: {item.strip()!r} is not a number (a comma-separated list of "
