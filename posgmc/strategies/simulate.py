@@ -37,7 +37,7 @@ from posgmc.checking.dispatch import (
 )
 from posgmc.checking.states import evaluate_states
 from posgmc.engines.graph import positive_reach, structure_of
-from posgmc.errors import UnsupportedError
+from posgmc.errors import LimitError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics.queries import reward_structure
 from posgmc.strategies.binding import BoundStrategy, bind
@@ -139,6 +139,44 @@ def _step_bound(expr: Expr, scalar: ScalarEvaluator) -> int | None:
     return None
 
 
+_BYTES_PER_RUN = 160
+"""What one run holds at the peak of a step: its state, flags and reward (18 bytes) and the
+step's temporaries over the active runs (indices, uniform numbers, rows, successors and the
+row search's arrays: about 17 arrays of 8 bytes)."""
+
+
+def _check_room(runs: int) -> None:
+    """Refuse ``runs`` whose arrays would not fit in the memory available now (``MemAvailable``
+    in /proc/meminfo; nothing is refused where it cannot be read), before anything is
+    allocated: numpy's MemoryError, or the kernel's OOM killer, otherwise.
+
+    Raises:
+        LimitError: with the memory needed and available, and the most runs that fit.
+    """
+    available = _available_memory()
+    need = runs * _BYTES_PER_RUN
+    if available is None or need <= 0.9 * available:
+        return
+    fit = int(0.9 * available // _BYTES_PER_RUN)
+    raise LimitError(
+        f"{runs} runs: simulating them together needs about {need / 1e9:.1f} GB, but "
+        f"{available / 1e9:.1f} GB of memory is available",
+        hint=f"simulate at most {fit} runs (--runs; the interval narrows with the square root of "
+        "the runs)",
+    )
+
+
+def _available_memory() -> int | None:
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
 def _sample_rows(csr_indptr: np.ndarray, cum: np.ndarray, indices: np.ndarray, rows: np.ndarray,
                  u: np.ndarray) -> np.ndarray:
     """A successor of each row, drawn by its probabilities (one uniform number each)."""
@@ -182,6 +220,7 @@ def simulate(
     """
     if runs < 1 or max_steps < 0:
         raise UnsupportedError("runs must be at least 1 and max-steps non-negative")
+    _check_room(runs)
     kind, remain_e, target_e, _, reward_q = _objective(expr)
     bound = _step_bound(expr, scalar)
     horizon = max_steps if bound is None else min(bound, max_steps)

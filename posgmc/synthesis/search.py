@@ -153,7 +153,7 @@ class SynthesisOptions:
             (p, memory_sizes(k, f"memory of {p!r}")) for p, k in named))
         _positive_finite(self.timeout, "timeout", "a positive finite number of seconds")
         _positive_finite(self.learning_rate, "learning_rate", "a positive finite number")
-        for name, least in (("seed", 0), ("restarts", 1), ("iterations", 0), ("verify", 1),
+        for name, least in (("seed", 0), ("restarts", 0), ("iterations", 0), ("verify", 1),
                             ("adversaries", 0), ("adversary_memory", 1), ("jobs", 1),
                             ("enumeration_limit", 1), ("compose_restarts", 0),
                             ("oracle_rounds", 0)):
