@@ -808,7 +808,10 @@ def load_strategies(
     out: dict[str, FiniteStateStrategy] = {}
     for player, given in strategies.items():
         fss = given if isinstance(given, FiniteStateStrategy) else read_strategy(given)
-        if player is not None and fss.player != player:
+        # a pomdp's one player has no name; its strategy file is written as agent.json and
+        # given back as --strategy agent=...
+        if player is not None and fss.player != player and not (
+                player == "agent" and fss.player == ""):
             raise StrategyError(
                 f"the strategy is player {fss.player!r}'s, given for player {player!r}",
                 path="player",

@@ -135,6 +135,9 @@ def check(
         if plot_file is not None:
             if not plot_file.lower().endswith((".png", ".svg", ".pdf")):
                 raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
+            from posgmc.tradeoffs.plot import require_matplotlib
+
+            require_matplotlib()  # before the sweep, not after it
             if len(swept) != 1:
                 raise InputError("--plot draws properties against one swept constant; "
                                  f"{len(swept)} are swept",

@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 import re
 import stat
+import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -79,8 +80,7 @@ def check_destination(path: str, *, directory: bool, option: str = OPTION) -> No
             return  # a device or a pipe (/dev/stdout): written into, as it is
         writable = target if stat.S_ISDIR(mode) else (target.parent if str(target.parent) else
                                                        Path("."))
-        if not os.access(writable, os.W_OK | os.X_OK):
-            raise InputError(f"{option}: cannot write {path}: {writable} is not writable")
+        _probe(writable, path, option)
         return
     # a new path: its nearest existing ancestor must be a writable directory
     ancestor = target.parent
@@ -93,8 +93,24 @@ def check_destination(path: str, *, directory: bool, option: str = OPTION) -> No
     if not directory and ancestor != target.parent:
         raise InputError(f"{option}: cannot write {path}: no directory {target.parent}",
                          hint=f"create it first, or give {what} in an existing directory")
-    if not os.access(ancestor, os.W_OK | os.X_OK):
-        raise InputError(f"{option}: cannot write {path}: {ancestor} is not writable")
+    _probe(ancestor, path, option)
+
+
+def _probe(directory: Path, path: str, option: str) -> None:
+    """Create and remove a file in ``directory``: what the writers will do (a file is written
+    beside its destination and renamed), asked of the file system itself rather than guessed from
+    permission bits (root passes those; /proc takes no new file).
+
+    Raises:
+        InputError: the directory takes no new file.
+    """
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".posgmc-probe.", dir=directory)
+    except OSError as e:
+        raise InputError(f"{option}: cannot write {path}: no new file can be created in "
+                         f"{directory} ({e.strerror or e})") from None
+    os.close(fd)
+    os.unlink(tmp)
 
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.,=+-]")

@@ -97,8 +97,12 @@ def pareto(
     from posgmc.tradeoffs.sweep import sweep, to_csv
 
     def run() -> int:
-        if plot_file is not None and not plot_file.lower().endswith((".png", ".svg", ".pdf")):
-            raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
+        if plot_file is not None:
+            if not plot_file.lower().endswith((".png", ".svg", ".pdf")):
+                raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
+            from posgmc.tradeoffs.plot import require_matplotlib
+
+            require_matplotlib()  # before the sweep or front, not after it
         if strategy_dir is not None:  # before any work, not after the whole sweep
             from posgmc.cli.strategy_export import check_destination
 

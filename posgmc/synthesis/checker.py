@@ -21,6 +21,7 @@ from posgmc.checking.results import Bound, PropertyResult, ResultKind, ordered_n
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
+from posgmc.strategies.observables import with_boolean_observables
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
 from posgmc.synthesis.compose import (
@@ -230,9 +231,11 @@ class SynthesisChecker:
         vs, ub = ordered["vs_fss_adversary"], ordered["upper_bound"]
         full = ordered["full_observation"]
         sound = all(b.sound for b in (g, vs, ub, full) if b is not None)
+        strategies = tuple(with_boolean_observables(f, self.model) for f in result.strategies)
         if expr.threshold is not None:
             return dataclasses.replace(result, note=note, guaranteed=g, vs_fss_adversary=vs,
-                                       upper_bound=ub, full_observation=full, sound=sound)
+                                       upper_bound=ub, full_observation=full, sound=sound,
+                                       strategies=strategies)
         return dataclasses.replace(
             result,
             value=g.value,
@@ -246,6 +249,7 @@ class SynthesisChecker:
             upper_bound=ub,
             full_observation=full,
             sound=sound,
+            strategies=strategies,
         )
 
     def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
@@ -399,7 +403,9 @@ class SynthesisChecker:
             guaranteed=g, vs_fss_adversary=vs, upper_bound=ub,
             memory=((player_name, defence.memory_size),),
             full_observation=full_shown, synthesis=stats,
-            strategies=(defence,) + ((worst,) if worst is not None else ()) + extra,
+            # Boolean observables written true/false in strategy files, as in the model
+            strategies=tuple(with_boolean_observables(f, self.model) for f in
+                             (defence,) + ((worst,) if worst is not None else ()) + extra),
         )
 
 

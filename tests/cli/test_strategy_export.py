@@ -125,7 +125,8 @@ def test_a_read_only_directory_is_refused_before_any_work(tmp_path: Path) -> Non
     ro.chmod(0o555)
     try:
         _refused_before_work(["--export-strategy", str(ro / "d")],
-                             f"--export-strategy: cannot write {ro / 'd'}: {ro} is not writable")
+                             f"--export-strategy: cannot write {ro / 'd'}: no new file can be "
+                             f"created in {ro}")
     finally:
         ro.chmod(0o755)
 
@@ -145,3 +146,35 @@ def test_given_strategies_have_nothing_to_export(tmp_path: Path) -> None:
     assert r.exit_code == 2
     assert "with --strategy the strategies are given" in r.output
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/version"), reason="no /proc here")
+def test_a_file_that_takes_no_replacement_is_refused_before_any_work() -> None:
+    """/proc/version exists but /proc takes no new file: "No such file or directory" after the
+    work before."""
+    r = run("check", ROVER_SMG, "--prop", REACH, "--export-strategy", "/proc/version")
+    assert r.exit_code == 2 and REACH + ":" not in r.output
+    assert ("--export-strategy: cannot write /proc/version: no new file can be created in /proc"
+            in r.output)
+
+
+def test_a_pomdp_strategy_goes_back_as_agent_with_boolean_observables(tmp_path: Path) -> None:
+    """A pomdp's one player has no name: its file is agent.json, and --strategy agent=... was
+    refused ("the strategy is player ''s"). tiger.pomdp's ``placed`` is a Boolean variable: the
+    file writes it true/false, as docs/strategies.md says (it wrote 0/1)."""
+    tiger = str(ROOT / "models" / "tiger" / "tiger.pomdp")
+    prop = 'Pmax=? [ F "treasure" ]'
+    r = run("check", tiger, "--prop", prop, *QUICK, "--json", "--export-strategy",
+            str(tmp_path / "d"))
+    assert r.exit_code == 0, r.output
+    path = tmp_path / "d" / "agent.json"
+    doc = json.loads(path.read_text())
+    placed = {rule["observation"]["placed"] for rule in doc["rules"]}
+    heard = {rule["observation"]["heard"] for rule in doc["rules"]}
+    assert placed <= {True, False} and all(type(v) is bool for v in placed)
+    assert all(type(v) is int for v in heard)  # heard: [0..2]
+    again = run("check", tiger, "--prop", prop, "--strategy", f"agent={path}", "--json")
+    assert again.exit_code == 0, again.output
+    reported = json.loads(r.stdout)["results"][0]["guaranteed"]
+    g = json.loads(again.stdout)["results"][0]["guaranteed"]
+    assert g["lower"] <= reported["upper"] and reported["lower"] <= g["upper"]
