@@ -24,10 +24,10 @@ from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-from posgmc.checking.dispatch import CheckOptions, PropertyChecker
+from posgmc.checking.property_checker import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.compiler import BuildOptions, build_model
-from posgmc.deep import deep_generator, deep_stack
+from posgmc.deep_stack import deep_generator, deep_stack
 from posgmc.engines import kernels, scc
 from posgmc.errors import (
     InputError,
@@ -38,8 +38,8 @@ from posgmc.errors import (
     UnsupportedError,
 )
 from posgmc.model.explicit import ExplicitModel
-from posgmc.semantics import checker as sem
 from posgmc.semantics import operators as ops
+from posgmc.semantics import stages as sem
 from posgmc.semantics.evaluate import Value, evaluate_constant
 from posgmc.semantics.flat import FlatModel
 from posgmc.semantics.properties import QueryResolver, resolve_queries
@@ -53,7 +53,7 @@ if TYPE_CHECKING:
     from posgmc.strategies.fss import FiniteStateStrategy
     from posgmc.strategies.simulate import Simulation
     from posgmc.synthesis.checker import SynthesisChecker
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
 StrategySources = (
     Mapping[str, "FiniteStateStrategy | str | Path"]
@@ -469,7 +469,7 @@ def iter_check(
     :mod:`posgmc.strategies.verify`): ``guaranteed``, ``vs_fss_adversary``, ``upper_bound``.
     A partially observable model without strategies and without ``full_observation`` is answered
     by synthesis (:mod:`posgmc.synthesis`), configured by ``synthesis``."""
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
     synthesis = synthesis or SynthesisOptions()
     parsed, cli_props = parse_properties(session, files=property_files, texts=properties)
@@ -529,7 +529,7 @@ def _checker(
 ) -> PropertyChecker | StrategyChecker | SynthesisChecker:
     coalition_of = _resolver(model, zero_based_players).coalition_of
     if options.exact:
-        from posgmc.checking.exact import ExactChecker
+        from posgmc.checking.exact_checker import ExactChecker
 
         return ExactChecker(model, coalition_of=coalition_of, scalar=_scalar, options=options)
     if synthesis is not None:
@@ -759,7 +759,7 @@ def synthesize(
     Raises:
         PosgmcError: the model, the property, or an objective synthesis does not cover.
     """
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
     def sizes(v: int | Sequence[int]) -> tuple[int, ...]:
         out = (v,) if isinstance(v, int) else tuple(v)
