@@ -71,7 +71,7 @@ def internal_error_json(error: BaseException) -> dict[str, Any]:
 def guard(
     debug: bool, fn: Callable[[], int], *, as_json: bool = False, consts: Sequence[str] = ()
 ) -> NoReturn:
-    from posgmc.deep import deep_call
+    from posgmc.deep_stack import deep_call
 
     try:
         code = deep_call(fn)

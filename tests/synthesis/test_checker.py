@@ -1,8 +1,8 @@
 """The numbers a synthesised result reports (posgmc/synthesis/checker.py), whatever cuts the
 budget short: never a placeholder, guaranteed <= vs_fss_adversary <= upper_bound and guaranteed <=
 full_observation (reversed for min) in every output, and exit 0 only when every printed number is
-proven. Random small POSGs (tests/synthesis/test_compose.py's generator) under random budgets:
-wall-clock time and iteration caps of the sound checks."""
+proven. Random small POSGs (the generator of tests/synthesis/test_double_oracle.py) under random
+budgets: wall-clock time and iteration caps of the sound checks."""
 
 from __future__ import annotations
 
@@ -14,12 +14,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.checking.results import Bound, PropertyResult, ordered_numbers
 from posgmc.cli.check_command import not_passed
 from posgmc.engines.options import SolverOptions
-from posgmc.synthesis.search import SynthesisOptions
-from tests.synthesis.test_compose import random_posg
+from posgmc.synthesis.options import SynthesisOptions
+from tests.synthesis.test_double_oracle import random_posg
 
 PROPS = (
     '<<p0>> Pmax=? [ F "goal" ]',
