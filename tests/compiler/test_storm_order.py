@@ -20,7 +20,7 @@ import pytest
 
 from posgmc.compiler import build_model
 from posgmc.model.explicit import ExplicitModel
-from posgmc.semantics.checker import instantiate
+from posgmc.semantics.stages import instantiate
 from posgmc.syntax.parser import parse_model
 
 _STORM_SCRIPT = r"""

@@ -11,8 +11,9 @@ from posgmc.model.explicit import Observation, make_model
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ModelType
-from posgmc.synthesis.jobs import POLICY
-from posgmc.synthesis.search import SynthesisOptions, parametrisation
+from posgmc.synthesis.options import SynthesisOptions
+from posgmc.synthesis.problem import POLICY
+from posgmc.synthesis.search import parametrisation
 from tests.conftest import BENCHMARKS
 
 POSMG = BENCHMARKS / "posmg"

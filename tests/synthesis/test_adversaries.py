@@ -10,7 +10,8 @@ from posgmc import api
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import enumerate_adversaries, versus_adversaries
-from posgmc.synthesis.search import SynthesisOptions, synthesize
+from posgmc.synthesis.options import SynthesisOptions
+from posgmc.synthesis.search import synthesize
 from tests.strategies.helpers import drawn_game
 from tests.synthesis.helpers import POSMG, deterministic_strategies, labels_by_observation
 

@@ -20,7 +20,8 @@ from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.syntax.ast import ModelType
 from posgmc.synthesis import belief
-from posgmc.synthesis.search import SynthesisOptions, problem_of
+from posgmc.synthesis.options import SynthesisOptions
+from posgmc.synthesis.search import problem_of
 from tests.synthesis.helpers import BLIND, random_posg
 
 # by hand: a coin in s=0 puts the agent in s=1 or s=2, which it cannot tell apart (o=0 in s=0..4).

@@ -20,7 +20,7 @@ from posgmc.model.explicit import Observation, RewardModel, make_model
 from posgmc.syntax import parser
 from posgmc.syntax.ast import ModelType
 from posgmc.synthesis.adversaries import enumerate_adversaries
-from posgmc.synthesis.compose import VersusJob
+from posgmc.synthesis.double_oracle import VersusJob
 from posgmc.synthesis.milp import Encoding, compose_milp, encoding_of, supported
 from posgmc.synthesis.search import parametrisation, problem_of
 from tests.synthesis.helpers import POSMG, random_posg

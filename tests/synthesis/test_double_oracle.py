@@ -1,4 +1,4 @@
-"""The one-sided method and the double oracle (posgmc.synthesis.compose), the whole synthesis
+"""The one-sided method and the double oracle (posgmc.synthesis.double_oracle), the whole synthesis
 pipeline's invariants on small random POSGs where brute force over every deterministic
 memoryless strategy of both players is feasible, and --jobs (issue #9)."""
 
@@ -13,14 +13,16 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.strategies.files import read_strategy, write_strategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.synthesis.checker import SynthesisChecker
-from posgmc.synthesis.compose import VersusJob, _best_response, one_sided
-from posgmc.synthesis.jobs import POLICY, InProcess
-from posgmc.synthesis.search import SynthesisOptions, problem_of
+from posgmc.synthesis.double_oracle import VersusJob, _best_response, one_sided
+from posgmc.synthesis.executors import InProcess
+from posgmc.synthesis.options import SynthesisOptions
+from posgmc.synthesis.problem import POLICY
+from posgmc.synthesis.search import problem_of
 from tests.synthesis.helpers import (
     PROP,
     SMALL,
