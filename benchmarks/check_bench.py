@@ -15,7 +15,7 @@ Usage::
 
 Storm's sound environment uses relative precision 1e-6; posgmc's default is absolute 1e-6 (the
 CLI's default), ``--relative`` makes posgmc's precision relative as well (the CLI's
-``--relative``), which is the like-for-like comparison and the issue's "relative-precision mode".
+``--relative``), which is the like-for-like comparison.
 
 Besides the check times, every row gives the whole-process ratio (a fresh interpreter that imports,
 parses, builds and checks, against ``storm_check.py``'s whole run, both timed from outside), the
