@@ -8,7 +8,7 @@ Usage:
 For each grid size N (models/secure_autonomy, flash=false, B=1, the planner's Pmax of retrieving
 the target): the adversary's deterministic memoryless strategies are enumerated (the first
 --adversaries of them) and the two phases of the adversary pipeline that fan out over workers
-are run on them exactly as synthesis runs them (posgmc.synthesis.compose's RankJob and
+are run on them exactly as synthesis runs them (posgmc.synthesis.double_oracle's RankJob and
 VersusJob):
 
 * ranking: the decision maker's full-information optimum against each adversary (an MDP solve
@@ -45,10 +45,11 @@ sys.path.insert(0, str(ROOT))
 from posgmc import api  # noqa: E402
 from posgmc.syntax import parser  # noqa: E402
 from posgmc.synthesis.adversaries import enumerate_adversaries  # noqa: E402
-from posgmc.synthesis.compose import RankJob, VersusJob  # noqa: E402
-from posgmc.synthesis.executors import executor_for  # noqa: E402
-from posgmc.synthesis.jobs import Executor, Placement, Problem  # noqa: E402
+from posgmc.synthesis.double_oracle import RankJob, VersusJob  # noqa: E402
+from posgmc.synthesis.executors import Executor, executor_for  # noqa: E402
+from posgmc.synthesis.problem import Problem  # noqa: E402
 from posgmc.synthesis.search import parametrisation, problem_of  # noqa: E402
+from posgmc.synthesis.tasks import Placement  # noqa: E402
 
 MODEL = ROOT / "models" / "secure_autonomy" / "secure_autonomy.posg"
 PROP = '<<planner>> Pmax=? [ F "retrieved" ]'

@@ -3,7 +3,7 @@
 The problem (the built model, the objective's arrays) goes into Ray's object store once; one
 long-lived actor per worker (one CPU each) receives it when it starts and keeps it, and then
 receives only the jobs — plain data: candidate strategies, adversaries, memory sizes, logits,
-deadlines (:mod:`posgmc.synthesis.jobs`). Jobs go to whichever actor is free and the results come
+deadlines (:mod:`posgmc.synthesis.tasks`). Jobs go to whichever actor is free and the results come
 back in the jobs' order, so a run gives ``--jobs 1``'s numbers on any cluster.
 
 Where the cluster is: ``--ray-address HOST:PORT`` (a ``ray start --head``), else Ray's own
@@ -27,10 +27,10 @@ from typing import Any
 
 import posgmc
 from posgmc.errors import InputError, UnsupportedError, WorkerError
-from posgmc.synthesis.jobs import (
+from posgmc.synthesis.problem import Problem
+from posgmc.synthesis.tasks import (
     Job,
     Placement,
-    Problem,
     TaskLedger,
     phase_of,
     rebased,
@@ -123,7 +123,7 @@ def _free_cpus(ray: Any) -> int:
 class RayPool:
     """``placement.workers`` actors on the Ray cluster (1: one per CPU of the cluster; at most
     as many as it has CPUs free), each holding ``problem``; a batch of one job runs in this
-    process, as :class:`~posgmc.synthesis.jobs.ProcessPool` does.
+    process, as :class:`~posgmc.synthesis.executors.ProcessPool` does.
 
     Raises:
         WorkerError: the actors did not start within :data:`START_SECONDS`.

@@ -22,9 +22,10 @@ ray = pytest.importorskip("ray", reason="the test extra installs Ray (pip instal
 
 from posgmc.cli import main  # noqa: E402
 from posgmc.errors import InputError, WorkerError  # noqa: E402
-from posgmc.synthesis.jobs import Placement, Problem  # noqa: E402
+from posgmc.synthesis.problem import Problem  # noqa: E402
 from posgmc.synthesis.ray_pool import RETRIES, RayPool, _connect, _reachable  # noqa: E402
-from tests.synthesis.test_compose import (  # noqa: E402
+from posgmc.synthesis.tasks import Placement  # noqa: E402
+from tests.synthesis.test_double_oracle import (  # noqa: E402
     SMALL,
     _problem,
     _synthesised,
