@@ -115,14 +115,15 @@ def _connect(ray: Any, address: str | None) -> None:
              logging_level="WARNING", runtime_env={"py_modules": [package]})
 
 
-def _free_cpus(ray: Any) -> int:
-    """The cluster's CPUs not held by other work (at least 1: a worker then waits for one)."""
-    return max(1, int(ray.available_resources().get("CPU", 1)))
+def _cluster_cpus(ray: Any) -> int:
+    """The cluster's CPUs (those other work holds included: a worker waits for one to be
+    freed, up to :data:`START_SECONDS`)."""
+    return max(1, int(ray.cluster_resources().get("CPU", 1)))
 
 
 class RayPool:
     """``placement.workers`` actors on the Ray cluster (1: one per CPU of the cluster; at most
-    as many as it has CPUs free), each holding ``problem``; a batch of one job runs in this
+    as many as it has CPUs), each holding ``problem``; a batch of one job runs in this
     process, as :class:`~posgmc.synthesis.executors.ProcessPool` does.
 
     Raises:
@@ -136,7 +137,7 @@ class RayPool:
         self.problem = problem
         self.ledger = TaskLedger()
         _connect(ray, placement.address)
-        cpus = _free_cpus(ray)
+        cpus = _cluster_cpus(ray)
         self.workers = cpus if placement.workers <= 1 else min(placement.workers, cpus)
         actor = ray.remote(num_cpus=1, max_restarts=RETRIES, max_task_retries=RETRIES)(_Worker)
         self._problem_ref = ray.put(problem)

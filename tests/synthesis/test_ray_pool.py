@@ -155,6 +155,7 @@ def pool(cluster: Any) -> Any:
 def test_jobs_run_on_every_node(cluster: Any, pool: RayPool) -> None:
     """One actor per CPU: on CI's two one-CPU nodes, the jobs run on both."""
     nodes = [n for n in cluster.nodes() if n["Alive"] and n["Resources"].get("CPU", 0) >= 1]
+    assert pool.workers == 2
     where = pool.map([_Where(0.2) for _ in range(6)])
     assert len(where) == 6 and pool.ledger.counts["where"] == 6
     assert len(set(where)) == min(2, len(nodes))
