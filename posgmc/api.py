@@ -380,8 +380,8 @@ def build(
 def _warm_up_when_large(size: int) -> None:
     """Start loading the engines' compiled kernels on a thread (once per process) as soon as the
     model being built reaches ``scc.COMPILED_MIN_SIZE`` states (or choices), so that they are
-    ready when its analysis starts; a smaller model never loads numba, whose start-up (about
-    0.5 s of CPU and 100 MB) would cost more than the kernels save."""
+    ready when its analysis starts; a smaller model never loads numba, whose start-up
+    (:mod:`posgmc.engines.kernels`) would cost more than the kernels save."""
     if size >= scc.COMPILED_MIN_SIZE:
         kernels.warm_up_in_background()
 
