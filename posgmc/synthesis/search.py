@@ -167,7 +167,8 @@ def synthesize(
     full = base.query(query, everywhere=False)
     init = model.initial_states[0]
     full_bound = Bound(
-        float(full.values[init]), float(full.lower[init]), float(full.upper[init]), full.sound
+        float(full.values[init]), float(full.lower[init]), float(full.upper[init]),
+        full.sound and full.converged, full.converged,
     )
     phases["full observation"] = time.perf_counter() - t0
     # observation-level policy iteration over deterministic FSSs first (cheap: a few value
