@@ -97,7 +97,7 @@ def test_randomisation_beats_deterministic_memoryless_on_test_game() -> None:
 
 # memory 1..2 (17 s: two runs of 8 s) runs with -m slow; seeded runs over 1..2 stay bit-identical
 # in the default run in test_scale.py::test_seeded_runs_are_bit_identical_on_the_iterative_path
-# (test-game, the same rounds) and test_compose.py::test_jobs_give_bit_identical_results
+# (test-game, the same rounds) and test_double_oracle.py::test_jobs_give_bit_identical_results
 @pytest.mark.parametrize("memory", [(1,), pytest.param((1, 2), marks=pytest.mark.slow)],
                          ids=["1", "1..2"])
 def test_same_seed_same_strategy(memory: tuple[int, ...]) -> None:
