@@ -23,7 +23,6 @@ import click
 
 from posgmc import __version__
 from posgmc.errors import InputError, MultipleErrors, PosgmcError
-from posgmc.semantics.evaluate import format_value
 
 if TYPE_CHECKING:
     from posgmc.api import CheckReport
@@ -350,6 +349,7 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
     callback=lambda _c, _p, v: _positive_finite(v, "--precision"),
     default=1e-6,
     show_default=True,
+    help="Stop iterating when the proven bounds are this close (absolute; see --relative).",
 )
 @click.option("--relative", is_flag=True, help="Precision is relative, not absolute.")
 @click.option(
@@ -408,7 +408,11 @@ def _print_stats(model: str, stats: dict[str, Any]) -> None:
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
               help="With one swept constant (--const B=0:4): draw each property against it "
               "(.png, .svg, .pdf; needs matplotlib).")
-@click.option("--state-limit", type=click.IntRange(min=1), default=None)
+@click.option("--state-limit", type=click.IntRange(min=1), default=None,
+              help="Stop building beyond this many states (an error naming the limit).")
+@click.option("-v", "--verbose", is_flag=True,
+              help="Synthesis: every number with its meaning, the search rounds, the phases' "
+              "times and the adversary phases (the JSON always has them).")
 @_common
 def check(
     model: str,
@@ -432,6 +436,7 @@ def check(
     junit: str | None,
     plot_file: str | None,
     state_limit: int | None,
+    verbose: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -470,7 +475,7 @@ def check(
             loading = time.perf_counter()
             session = api.load(model, constants=constants)
             on_start, on_outcome = (
-                _streamers(model, constants, json_lines) if streaming else (None, None)
+                _streamers(model, constants, json_lines, verbose) if streaming else (None, None)
             )
             report = api.check(
                 session,
@@ -494,9 +499,12 @@ def check(
             if export_strategy is not None and not report.errors:
                 # a property that failed has said why; "needs exactly one query" would hide it
                 if any(getattr(r, "strategies", ()) for r in report.results):
-                    _write_synthesised(export_strategy, report)
+                    written = _write_synthesised(export_strategy, report)
                 else:
                     _write_strategy(export_strategy, report)
+                    written = [export_strategy]
+                for path in written:  # on stderr when stdout is one JSON document
+                    click.echo(f"wrote {path}", err=as_json or json_lines)
         if junit is not None:
             _write_check_junit(junit, model, swept, rows)
         if plot_file is not None:
@@ -508,14 +516,17 @@ def check(
         if as_json or (json_lines and not streaming):
             click.echo(json.dumps(_json_report(model, swept, rows)))
         elif not streaming:
-            _print_report(model, swept, rows)
+            _print_report(model, swept, rows, verbose=verbose)
         return code
 
     _guard(debug, run, as_json=as_json or json_lines, consts=consts)
 
 
-def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type: ignore[no-untyped-def]
-    """(on_start, on_outcome) callbacks printing the header and each result as it comes."""
+def _streamers(model: str, constants: dict[str, Any], json_lines: bool,  # type: ignore[no-untyped-def]
+               verbose: bool = False):
+    """(on_start, on_outcome) callbacks printing the header and each result as it comes (a
+    note once per run)."""
+    seen: set[str] = set()
 
     def start(built: Any, seconds: float, warnings: tuple[str, ...]) -> None:
         stats = built.statistics()
@@ -534,7 +545,7 @@ def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type
         if json_lines:
             click.echo(json.dumps(_outcome_json(r)))
         else:
-            _print_outcome(r)
+            _print_outcome(r, verbose=verbose, seen=seen)
 
     return start, outcome
 
@@ -615,22 +626,25 @@ def _synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
                             belief=False if explicit else None, started=started)
 
 
-def _write_synthesised(directory: str, report: Any) -> None:
+def _write_synthesised(directory: str, report: Any) -> list[str]:
     """One posgmc-fss/1 file per synthesised player, <player>.json, in ``directory``; a second
     strategy of the same player (the composed defence that ``vs_fss_adversary`` is about, when it
-    is not the reported defence) goes to <player>.vs_fss.json."""
+    is not the reported defence) goes to <player>.vs_fss.json. Returns the paths written."""
     import os
 
     from posgmc.strategies.files import write_strategy
 
     os.makedirs(directory, exist_ok=True)
+    paths: list[str] = []
     for r in report.results:
         written: set[str] = set()
         for fss in getattr(r, "strategies", ()):
             name = fss.player or "agent"
-            write_strategy(fss, os.path.join(directory, f"{name}.vs_fss.json" if name in written
-                                             else f"{name}.json"))
+            paths.append(os.path.join(directory, f"{name}.vs_fss.json" if name in written
+                                      else f"{name}.json"))
+            write_strategy(fss, paths[-1])
             written.add(name)
+    return paths
 
 
 def _not_passed(r: Any) -> bool:
@@ -723,39 +737,6 @@ def _fmt(v: Any) -> str:
     return f"{v:.10g}"
 
 
-def _print_strategy_numbers(r: Any) -> None:
-    """The numbers about given strategies, each with its bounds and what it means."""
-    from posgmc.checking.results import STRATEGY_NUMBERS
-
-    for key in (*STRATEGY_NUMBERS, "full_observation"):
-        number = getattr(r, key, None)
-        if number is not None:
-            click.echo(
-                f"  {key}: {_fmt(number.value)}  [{_fmt(number.lower)}, {_fmt(number.upper)}]"
-            )
-    stats = getattr(r, "synthesis", None)
-    if stats:
-        rounds = ", ".join(
-            f"k={x['memory']}: {x['value_policy_iteration']:.8g}" for x in stats["rounds"]
-        )
-        phases = ", ".join(f"{k} {v:.2f} s" for k, v in stats["phases"].items())
-        click.echo(
-            f"  synthesis: {rounds} (best so far, by policy iteration); {phases}; time budget "
-            f"{stats['timeout']:g} s, seed {stats['seed']}"
-            + ("; PARTIAL: the budget ran out" if stats["partial"] else "")
-        )
-        if "adversaries_enumerated" in stats:
-            click.echo(
-                f"  adversaries: {stats['adversaries_enumerated']} enumerated"
-                + (" (all of them)" if stats["exhaustive"] else "")
-                + f", {stats['adversaries_ranked']} ranked by strength, defence composed against "
-                f"{stats['adversaries_kept']} ({stats['adversaries_added']} added by the double "
-                f"oracle); reported defence: {stats['defence']}'s; vs_fss_adversary over "
-                f"{stats['vs_adversaries']}, of the {stats['vs_fss_defence']} defence")
-    if getattr(r, "memory", ()):
-        click.echo("  memory: " + ", ".join(f"{p or 'agent'}={k}" for p, k in r.memory))
-
-
 def _print_multi(r: Any) -> None:
     """A multi(...) result: its answer, what it is, and the front of a Pareto query."""
     front = r.front
@@ -789,42 +770,30 @@ def _print_header(
         click.echo(f"warning: {w}", err=True)
 
 
-def _print_outcome(r: Any) -> None:
-    """One property's result (or error) as text; click.echo flushes, so it shows at once."""
-    if isinstance(r, tuple):
-        click.echo(f"{r[0]}: ERROR")
-        click.echo(r[1].render(), err=True)
-        return
-    if getattr(r, "multi", None) is not None:
+def _print_outcome(r: Any, *, verbose: bool = False, seen: set[str] | None = None) -> None:
+    """One property's result (or error) as text (:mod:`posgmc.checking.result_text`); notes in
+    ``seen`` are not repeated; click.echo flushes, so it shows at once."""
+    from posgmc.checking.result_text import result_lines
+
+    if not isinstance(r, tuple) and getattr(r, "multi", None) is not None:
         _print_multi(r)
         return
-    line = f"{r.property}: {_fmt(r.value)}"
-    if r.exact is not None:
-        line = f"{r.property}: {format_value(r.exact)}"
-    if r.lower is not None and not isinstance(r.value, bool):
-        line += f"  [{_fmt(r.lower)}, {_fmt(r.upper)}]"
-    line += f"  ({r.method}, {r.iterations} it., {r.seconds:.3f} s)"
-    if r.value is None:
-        line += "  (the proven bounds do not decide it, even after refining)"
-    if not r.converged:
-        line += ("  NOT CONVERGED: the bounds hold but are wider than the precision (iteration"
-                 " cap, or rounding of the model's numbers along very long expected paths)")
-    if not r.sound:
-        line += "  NOT PROVEN: bounds did not separate or the method is unsound"
-    click.echo(line)
-    _print_strategy_numbers(r)
-    if r.note:
-        click.echo(f"  note: {r.note}")
+    for line in result_lines(r, verbose=verbose, seen=seen):
+        click.echo(line)
+    if isinstance(r, tuple):
+        click.echo(r[1].render(), err=True)
 
 
 def _print_report(
-    model: str, swept: list[str], rows: Sequence[tuple[Mapping[str, object], CheckReport]]
+    model: str, swept: list[str], rows: Sequence[tuple[Mapping[str, object], CheckReport]],
+    *, verbose: bool = False,
 ) -> None:
     first = rows[0][1]
     _print_header(model, first.model.statistics(), first.build_seconds, first.warnings)
     if len(rows) == 1:
+        seen: set[str] = set()
         for r in first.outcomes:
-            _print_outcome(r)
+            _print_outcome(r, verbose=verbose, seen=seen)
         return
     for i, r0 in enumerate(first.outcomes):
         click.echo(f"\n{r0[0] if isinstance(r0, tuple) else r0.property}:")

@@ -169,6 +169,7 @@ class StrategyChecker:
             guaranteed=numbers.get("guaranteed", headline.guaranteed),
             vs_fss_adversary=numbers.get("vs_fss_adversary", headline.vs_fss_adversary),
             upper_bound=numbers.get("upper_bound", headline.upper_bound),
+            maximizing=maximizing,
         )
 
 

@@ -357,7 +357,7 @@ class SynthesisChecker:
             converged=True, sound=g.sound, note=note, per_initial=(value,),
             guaranteed=g, vs_fss_adversary=vs, upper_bound=ub,
             memory=((player_name, defence.memory_size),),
-            full_observation=full, synthesis=stats,
+            full_observation=full, synthesis=stats, maximizing=bare.direction is Direction.MAX,
             strategies=(defence,) + ((worst,) if worst is not None else ()) + extra,
         )
 

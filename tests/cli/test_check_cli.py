@@ -114,9 +114,9 @@ def test_negative_reach_rewards_with_a_sure_target(run, coin: str) -> None:  # t
 def test_partially_observable_needs_full_observation(run) -> None:  # type: ignore[no-untyped-def]
     # without --strategy and --full-observation, a posg property is answered by synthesis
     r = run("check", ROVER_POSG, "--prop", '<<rover>> Pmax=? [ F "goal" ]', "--memory", "1",
-            "--timeout", "5")
+            "--timeout", "5", "-v")
     assert r.exit_code == EXIT_OK, r.output
-    assert "guaranteed:" in r.output and "full_observation:" in r.output
+    assert "guaranteed:" in r.output and "(full_observation)" in r.output
     r = run("check", ROVER_POSG, "--prop", '<<rover>> Pmax=? [ F "goal" ]', "--full-observation")
     assert r.exit_code == EXIT_OK, r.output
     assert "full-observation value" in r.output
