@@ -133,6 +133,27 @@ def _const_text(setting: Any) -> str:
     return value if isinstance(value, str) else format_value(value)
 
 
+def _const_json(setting: Any) -> Any:
+    """A constant's value in JSON: a number or a Boolean as JSON has them (``"start": 3``, not
+    ``"3"``), text only for what is neither (e.g. a fraction ``1/3``)."""
+    import math
+
+    value = getattr(setting, "value", setting)
+    if not isinstance(value, str):
+        return value if isinstance(value, (bool, int, float)) else _const_text(value)
+    text = value.strip()
+    if text in ("true", "false"):
+        return text == "true"
+    for parse in (int, float):
+        try:
+            number = parse(text)
+        except ValueError:
+            continue
+        if isinstance(number, int) or math.isfinite(number):
+            return number
+    return text
+
+
 def _positive_finite(value: float, option: str) -> float:
     """A precision must be a positive finite number (nan and inf would never stop iterating)."""
     import math
@@ -533,7 +554,7 @@ def _streamers(model: str, constants: dict[str, Any], json_lines: bool,  # type:
         if json_lines:
             click.echo(json.dumps({
                 "model_file": model,
-                "constants": {n: _const_text(v) for n, v in constants.items()},
+                "constants": {n: _const_json(v) for n, v in constants.items()},
                 "model": {k: stats[k] for k in ("type", "states", "choices", "transitions")},
                 "build_seconds": round(seconds, 6),
                 "warnings": list(warnings),
@@ -717,7 +738,7 @@ def _json_report(
     def one(constants: Mapping[str, object], report: CheckReport) -> dict[str, Any]:
         stats = report.model.statistics()
         return {
-            "constants": {n: _const_text(v) for n, v in constants.items()},
+            "constants": {n: _const_json(v) for n, v in constants.items()},
             "model": {k: stats[k] for k in ("type", "states", "choices", "transitions")},
             "build_seconds": round(report.build_seconds, 6),
             "results": [_outcome_json(r) for r in report.outcomes],

@@ -40,15 +40,18 @@ __all__ = ["test", "simulate", "show_strategy"]
     "--exact", is_flag=True, help="PRISM's -exact: rational arithmetic, results compared exactly."
 )
 @click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation value.")
-@click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE")
+@click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE",
+              help="A player's finite-state strategy (posgmc-fss/1 JSON); repeatable.")
 @click.option(
     "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
 )
-@click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto")
+@click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
+              help="Synthesis: memory sizes, as for check.")
 @click.option(
-    "--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True
+    "--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True,
+    help="Synthesis: seconds per property, as for check."
 )
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True, help="Synthesis: random seed.")
 @_common
 def test(
     model: str,
@@ -157,9 +160,12 @@ def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
               help="P=? [F φ], P=? [a U b], their F<=k forms, or R=? [F φ].")
 @click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE",
               help="A player's finite-state strategy; repeatable, one per player.")
-@click.option("--runs", type=click.IntRange(min=1), default=10_000, show_default=True)
-@click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--max-steps", type=click.IntRange(min=0), default=10_000, show_default=True)
+@click.option("--runs", type=click.IntRange(min=1), default=10_000, show_default=True,
+              help="How many runs to sample.")
+@click.option("--seed", type=int, default=0, show_default=True,
+              help="Random seed: the same seed samples the same runs.")
+@click.option("--max-steps", type=click.IntRange(min=0), default=10_000, show_default=True,
+              help="A run still undecided after this many steps counts as undecided.")
 @click.option(
     "--opponent",
     type=click.Choice(["uniform", "best"]),

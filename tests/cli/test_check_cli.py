@@ -162,3 +162,18 @@ def test_export_strategy_needs_one_unbounded_query(run, tmp_path: Path) -> None:
     assert r.exit_code == EXIT_ERROR
     assert "--export-strategy needs exactly one unbounded P or R query" in r.output
     assert not out.exists()
+
+
+def test_json_gives_constants_as_numbers_and_booleans(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    path = tmp_path / "flag.nm"
+    path.write_text(COIN.replace("const double p;", "const double p;\nconst bool flag;\n"
+                                 "const int n;\nconst double q;")
+                    .replace("label \"a\" = s=1;", "label \"a\" = s=1 & (flag | n>0 | q>0);"))
+    r = run("check", str(path), "--const", "p=0.5,flag=true,n=3,q=1/4", "--prop",
+            'Pmax=? [ F "a" ]', "--json")
+    assert r.exit_code == EXIT_OK, r.output
+    assert json.loads(r.output)["constants"] == {"p": 0.5, "flag": True, "n": 3, "q": "1/4"}
+    r = run("check", str(path), "--const", "p=0.5,flag=false,n=0:1,q=0", "--prop",
+            'Pmax=? [ F "a" ]', "--json")
+    assert [run_["constants"] for run_ in json.loads(r.output)["runs"]] == [
+        {"p": 0.5, "flag": False, "n": 0, "q": 0}, {"p": 0.5, "flag": False, "n": 1, "q": 0}]
