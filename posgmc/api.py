@@ -657,7 +657,7 @@ def check(
         # unreadable or unparsable property files are reported before anything is built
         parse_properties(session, files=property_files, texts=properties)
     built = built or build(session, options=build_options, allow_extra_constants=True)
-    loaded = load_strategies(strategies) if strategies else None
+    loaded = load_strategies(strategies, model=built.model) if strategies else None
     warnings: tuple[str, ...] = ()
     if loaded:  # bound once here for the warnings; cheap whole-array work
         from posgmc.strategies.binding import bind
@@ -790,19 +790,26 @@ def synthesize(
 
 @deep_stack
 def load_strategies(
-    strategies: StrategySources,
+    strategies: StrategySources, *, model: ExplicitModel | None = None
 ) -> dict[str, FiniteStateStrategy]:
     """Strategies by player name, files read (a file's own player must be the one it is given for).
+    A file is ``posgmc-fss/1`` or the memoryless strategy of ``check --export-strategy``, read
+    against ``model`` when given (:func:`~posgmc.strategies.files.read_strategy_for`).
 
     Raises:
         InputError, StrategyError: unreadable or invalid files, or a file for another player.
     """
-    from posgmc.strategies.files import read_strategy
+    from posgmc.strategies.files import read_strategy, read_strategy_for
     from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 
     out: dict[str, FiniteStateStrategy] = {}
     for player, given in strategies.items():
-        fss = given if isinstance(given, FiniteStateStrategy) else read_strategy(given)
+        if isinstance(given, FiniteStateStrategy):
+            fss = given
+        elif model is not None:
+            fss = read_strategy_for(given, model, player=player)
+        else:
+            fss = read_strategy(given, player=player)
         if player is not None and fss.player != player:
             raise StrategyError(
                 f"the strategy is player {fss.player!r}'s, given for player {player!r}",
@@ -817,11 +824,13 @@ def load_strategies(
 # -- strategies: files, simulation ------------------------------------------------------------
 
 
-def load_strategy(path: str | Path) -> FiniteStateStrategy:
-    """Read a ``posgmc-fss/1`` strategy file (errors carry the file and JSON path)."""
+def load_strategy(path: str | Path, *, player: str | None = None) -> FiniteStateStrategy:
+    """Read a ``posgmc-fss/1`` strategy file, or the memoryless strategy file of ``check
+    --export-strategy`` (``player``: whose, when it holds several players'); errors carry the
+    file and JSON path."""
     from posgmc.strategies.files import read_strategy
 
-    return read_strategy(path)
+    return read_strategy(path, player=player)
 
 
 def save_strategy(strategy: FiniteStateStrategy, path: str | Path) -> None:
@@ -862,7 +871,7 @@ def simulate(
     if not isinstance(max_steps, int) or max_steps < 0:
         raise InputError(f"max_steps must be a non-negative integer, got {max_steps!r}")
     built = build(session, options=build_options, allow_extra_constants=True)
-    loaded = load_strategies(strategies) if strategies else {}
+    loaded = load_strategies(strategies, model=built.model) if strategies else {}
     _, (parsed,) = parse_properties(session, texts=[prop])
     src = SourceText(prop, "<--prop 1>")
     try:

@@ -45,13 +45,15 @@ def _interval(lower: float | None, upper: float | None) -> str:
     return f"  [{plain(lower)}, {plain(upper)}]"
 
 
-def role_of(key: str, *, maximizing: bool) -> str:
+def role_of(key: str, *, maximizing: bool, synthesised: bool = True) -> str:
     """The text name of one of the strategy numbers, by its role for a maximising (Pmax, Rmax)
-    or minimising (Pmin, Rmin) decision maker."""
+    or minimising (Pmin, Rmin) decision maker; ``synthesised``: the adversaries are those the
+    synthesis found, not a given strategy."""
     beyond = "above" if maximizing else "below"
     return {
         "guaranteed": "guaranteed",
-        "vs_fss_adversary": "against the adversaries found",
+        "vs_fss_adversary": "against the adversaries found" if synthesised
+        else "against the given adversary",
         "upper_bound": f"no defence {beyond}",
         "full_observation": f"no defence {beyond}, full observation",
     }[key]
@@ -107,7 +109,7 @@ def _number_line(key: str, r: PropertyResult, *, verbose: bool) -> str | None:
     if number is None:
         return None
     maximizing = True if r.maximizing is None else r.maximizing
-    role = role_of(key, maximizing=maximizing)
+    role = role_of(key, maximizing=maximizing, synthesised=r.synthesis is not None)
     line = (f"  {role}: {number_text(number.value, number.lower, number.upper)}"
             f"{_interval(number.lower, number.upper)}")
     if role != key:
