@@ -143,6 +143,8 @@ def check(
                 raise InputError("--plot draws properties against one swept constant; "
                                  f"{len(swept)} are swept",
                                  hint="give one constant a range, e.g. --const B=0:4")
+        if export_strategy is not None:
+            _check_export_extension(export_strategy)
         strategies = strategy_options(strategy_files)
         options = CheckOptions(
             solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
@@ -282,6 +284,23 @@ def _write_synthesised(directory: str, report: Any) -> list[str]:
             write_strategy(fss, paths[-1])
             written.add(name)
     return paths
+
+
+def _check_export_extension(path: str) -> None:
+    """Strategies are written as JSON: a file named ``.json``, or a directory (no extension, or
+    one that exists) for synthesised strategies; any other extension (``s.tra``) is refused before
+    any work rather than given JSON.
+
+    Raises:
+        InputError: naming --export-strategy.
+    """
+    import os
+
+    suffix = os.path.splitext(os.path.basename(path.rstrip("/" + os.sep)))[1]
+    if suffix and suffix.lower() != ".json" and not os.path.isdir(path):
+        raise InputError(f"--export-strategy {path}: strategies are written as JSON, not "
+                         f"{suffix}", hint="give a .json file (a model checker's memoryless "
+                         "strategy) or a directory (synthesised strategies, <player>.json each)")
 
 
 def not_passed(r: Any) -> bool:

@@ -177,3 +177,12 @@ def test_json_gives_constants_as_numbers_and_booleans(run, tmp_path: Path) -> No
             'Pmax=? [ F "a" ]', "--json")
     assert [run_["constants"] for run_ in json.loads(r.output)["runs"]] == [
         {"p": 0.5, "flag": False, "n": 0, "q": 0}, {"p": 0.5, "flag": False, "n": 1, "q": 0}]
+
+
+def test_export_strategy_refuses_an_extension_other_than_json(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    out = tmp_path / "s.tra"
+    r = run("check", ROVER, "--prop", '<<rover>> Pmax=? [ F "goal" ]', "--export-strategy",
+            str(out))
+    assert r.exit_code == EXIT_ERROR
+    assert f"--export-strategy {out}: strategies are written as JSON, not .tra" in r.output
+    assert "Model " not in r.output and not out.exists()  # refused before any work
