@@ -192,8 +192,9 @@ def check(
                 else:
                     _write_strategy(export_strategy, report)
                     written = [export_strategy]
-                for path in written:  # on stderr when stdout is one JSON document
-                    click.echo(f"wrote {path}", err=as_json or json_lines)
+                if not (as_json or json_lines):  # stdout is then JSON only
+                    for path in written:
+                        click.echo(f"wrote {path}")
         if junit is not None:
             _write_check_junit(junit, model, swept, rows)
         if plot_file is not None:
