@@ -121,7 +121,7 @@ def synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
     """``--memory`` settings as memory sizes: ``2``, ``1..3``, ``auto`` (1..3) for the property's
     coalition, or ``PLAYER=...`` for a named player (the decision maker or the adversary);
     ``started``: where the first property's budget starts (``SynthesisOptions.started``)."""
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
     settings = [memory] if isinstance(memory, str) else list(memory)
     unnamed: tuple[int, ...] = (1, 2, 3)
