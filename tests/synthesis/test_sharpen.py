@@ -117,7 +117,7 @@ def test_sharpening_is_taken_when_it_proves_as_much() -> None:
     iteration on the product, tests/strategies/test_verify.py) made to hold with probability
     1e-4 and given a second memory node it never enters: sharpened, it is the file's strategy
     again, which proves at least as much, so the sharpened one is reported."""
-    from posgmc.checking.dispatch import CheckOptions
+    from posgmc.checking.property_checker import CheckOptions
     from posgmc.strategies.verify import StrategyChecker
     from posgmc.syntax import parser
     from posgmc.synthesis.checker import SynthesisChecker
