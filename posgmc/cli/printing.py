@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from posgmc.checking.result_text import number_text
 from posgmc.cli.constants import const_json, const_text
 
 if TYPE_CHECKING:
@@ -111,7 +112,7 @@ def print_report(
         click.echo("\t".join(swept + ["Result"]))
         for constants, report in rows:
             r = report.outcomes[i]
-            value = "Error" if isinstance(r, tuple) else fmt(r.value)
+            value = "Error" if isinstance(r, tuple) else number_text(r.value, r.lower, r.upper)
             click.echo("\t".join([const_text(constants[n]) for n in swept] + [value]))
             if isinstance(r, tuple):
                 click.echo(r[1].render(), err=True)

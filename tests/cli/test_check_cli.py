@@ -186,3 +186,18 @@ def test_export_strategy_refuses_an_extension_other_than_json(run, tmp_path: Pat
     assert r.exit_code == EXIT_ERROR
     assert f"--export-strategy {out}: strategies are written as JSON, not .tra" in r.output
     assert "Model " not in r.output and not out.exists()  # refused before any work
+
+
+def test_values_print_as_the_shortest_decimal_inside_their_bounds(run) -> None:  # type: ignore[no-untyped-def]
+    # red_and_black's bold play from start=1 wins with exactly 0.064 (models/red_and_black
+    # README.md); interval iteration proves [0.06399999999, 0.06400100001] around 0.0640005
+    model = str(ROOT / "models" / "red_and_black" / "red_and_black.smg")
+    prop = '<<gambler,casino>> Pmax=? [ F "rich" ]'
+    r = run("check", model, "--prop", prop, "--const", "start=1")
+    assert r.exit_code == EXIT_OK, r.output
+    assert f"{prop}: 0.064  [0.06399999999, 0.06400100001]" in r.output
+    r = run("check", model, "--prop", prop, "--const", "start=1", "--json")
+    res = json.loads(r.output)["results"][0]
+    assert res["value"] != 0.064 and res["lower"] <= 0.064 <= res["upper"]  # full precision
+    r = run("check", model, "--prop", prop, "--const", "start=1:2")
+    assert r.output.splitlines()[-2:] == ["1\t0.064", "2\t0.16"]
