@@ -337,11 +337,6 @@ def _bound_cell(b: Any) -> str:
     return f"{number_text(b.value, b.lower, b.upper)} [{fmt(b.lower)}, {fmt(b.upper)}]"
 
 
-def _number_cell(b: Any) -> str:
-    """A number as the shortest decimal inside its proven bounds; ``-`` where not computed."""
-    return "-" if b is None else number_text(b.value, b.lower, b.upper)
-
-
 def _print(result: Any) -> None:
     click.echo(f"{result.property} against {result.constant}:")
     rows = [(result.constant, "value [lower, upper]", "full_observation", "upper_bound", "memory",
@@ -362,8 +357,8 @@ def _print(result: Any) -> None:
             (
                 p.setting,
                 cell,
-                _number_cell(r.full_observation if r is not None else None),
-                _number_cell(r.upper_bound if r is not None else None),
+                _bound_cell(r.full_observation if r is not None else None),
+                _bound_cell(r.upper_bound if r is not None else None),
                 ", ".join(f"{n or 'agent'}={k}" for n, k in r.memory)
                 if r is not None and r.memory
                 else "-",
