@@ -114,6 +114,8 @@ def _number_line(key: str, r: PropertyResult, *, verbose: bool) -> str | None:
             f"{_interval(number.lower, number.upper)}")
     if role != key:
         line += f"  ({key})"
+    if not number.sound:
+        line += "  NOT PROVEN: its check did not converge to proven bounds"
     if verbose and r.synthesis is not None:
         line += f"  {_meaning(key, r, maximizing)}"
     return line

@@ -91,3 +91,9 @@ def test_a_threshold_shows_guaranteed_and_the_bracket_has_its_place() -> None:
     assert lines[1] == "  guaranteed: 13.881  [13.88, 13.882469]"
     assert lines[2] == "  optimum: [13.5, 13.88]"
     assert lines[3].startswith("  how:")
+
+
+def test_an_unproven_number_says_so() -> None:
+    r = _synthesised(upper_bound=Bound(5.6, 0.0, 20.0, sound=False))
+    line = next(x for x in result_lines(r, verbose=True) if "(upper_bound)" in x)
+    assert "NOT PROVEN" in line
