@@ -199,7 +199,9 @@ def result_lines(r: PropertyResult | tuple[str, Any], *, verbose: bool = False,
         lines += [x for k in shown if (x := _number_line(k, r, verbose=verbose)) is not None]
         optimum = getattr(r, "optimum", None)
         if optimum is not None:  # the bracket on the best value any defence achieves
-            lines.append(f"  optimum: [{plain(optimum.lower)}, {plain(optimum.upper)}]")
+            method = getattr(optimum, "method", None)
+            lines.append(f"  optimum: [{plain(optimum.lower)}, {plain(optimum.upper)}]"
+                         + (f"  ({method})" if method else ""))
         lines.append(_how_found(r, stats))
         if verbose:
             lines += _synthesis_detail(stats)
