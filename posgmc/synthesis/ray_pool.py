@@ -3,7 +3,9 @@
 The problem (the built model, the objective's arrays) goes into Ray's object store once; one
 long-lived actor per worker (one CPU each) receives it when it starts and keeps it, and then
 receives only the jobs — plain data: candidate strategies, adversaries, memory sizes, logits,
-deadlines (:mod:`posgmc.synthesis.tasks`). Jobs go to whichever actor is free and the results come
+deadlines (:mod:`posgmc.synthesis.tasks`); a value several jobs of a batch share (the defence
+evaluated against each adversary) goes into the object store once for the batch and each actor
+fetches it once (:func:`shared_fields`). Jobs go to whichever actor is free and the results come
 back in the jobs' order, so a run gives ``--jobs 1``'s numbers on any cluster.
 
 Where the cluster is: ``--ray-address HOST:PORT`` (a ``ray start --head``), else Ray's own
@@ -18,10 +20,13 @@ the job. Ctrl-C (or any error) cancels the jobs still queued and ends the actors
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import socket
 import time
-from collections.abc import Sequence
+from collections import Counter
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +43,7 @@ from posgmc.synthesis.tasks import (
     timed,
 )
 
-__all__ = ["RayPool", "RETRIES", "SAME_CLOCK"]
+__all__ = ["RayPool", "RETRIES", "SAME_CLOCK", "START_SECONDS", "shared_fields"]
 
 RETRIES = 2
 """How often a dead actor is restarted and its job retried before the run fails."""
@@ -56,11 +61,70 @@ _CONNECT_SECONDS = 5.0
 (Ray itself would keep retrying for minutes)."""
 
 
+@dataclass(frozen=True)
+class _Shared:
+    """In a job sent to a worker: the value of a field that several jobs of the batch share (a
+    defence evaluated against every adversary), put in the object store once for the batch."""
+
+    ref: Any
+
+
+_PLAIN = (type(None), bool, int, float, str, bytes)
+
+
+def shared_fields(jobs: Sequence[Job], store: Callable[[Any], Any]) -> list[Job]:
+    """``jobs`` with each field value that two or more of them share (the same object, not a
+    plain number or string) replaced by ``_Shared(store(value))``, ``store`` called once per
+    value."""
+    seen: Counter[int] = Counter()
+    for job in jobs:
+        if dataclasses.is_dataclass(job):
+            seen.update(id(getattr(job, f.name)) for f in dataclasses.fields(job)
+                        if not isinstance(getattr(job, f.name), _PLAIN))
+    tokens: dict[int, _Shared] = {}
+    out: list[Job] = []
+    for job in jobs:
+        if not dataclasses.is_dataclass(job):
+            out.append(job)
+            continue
+        changes = {}
+        for f in dataclasses.fields(job):
+            value = getattr(job, f.name)
+            if not isinstance(value, _PLAIN) and seen[id(value)] > 1:
+                if id(value) not in tokens:
+                    tokens[id(value)] = _Shared(store(value))
+                changes[f.name] = tokens[id(value)]
+        out.append(dataclasses.replace(job, **changes) if changes else job)
+    return out
+
+
+_CACHED = 8
+"""How many shared values an actor keeps (the latest batches')."""
+
+
 class _Worker:
     """The actor: holds the problem, runs jobs on it."""
 
     def __init__(self, problem: Problem) -> None:
         self.problem = problem
+        self._shared: dict[Any, Any] = {}
+
+    def _resolved(self, job: Job) -> Job:
+        """``job`` with its shared fields fetched (once per value and actor)."""
+        if not dataclasses.is_dataclass(job):
+            return job
+        changes = {}
+        for f in dataclasses.fields(job):
+            value = getattr(job, f.name)
+            if isinstance(value, _Shared):
+                if value.ref not in self._shared:
+                    import ray
+
+                    if len(self._shared) >= _CACHED:
+                        del self._shared[next(iter(self._shared))]
+                    self._shared[value.ref] = ray.get(value.ref)
+                changes[f.name] = self._shared[value.ref]
+        return dataclasses.replace(job, **changes) if changes else job
 
     def ready(self) -> bool:
         return True
@@ -71,6 +135,7 @@ class _Worker:
         deadlines are moved into this process's clock (the wall clocks of a cluster's machines
         agree far better than their monotonic clocks, which count from each machine's boot)."""
         offset = (time.perf_counter() - sent_clock) - (time.time() - sent_wall)
+        job = self._resolved(job)
         if abs(offset) >= SAME_CLOCK:
             job = rebased(job, offset)
         return timed(job, self.problem)
@@ -156,6 +221,7 @@ class RayPool:
             return record_here(self.problem, self.ledger, jobs)
         ray = self._ray
         results: list[Any] = [None] * len(jobs)
+        sent = shared_fields(jobs, ray.put)
         pending: dict[Any, tuple[int, Any]] = {}
         free = list(self._actors)
         queued = iter(range(len(jobs)))
@@ -166,7 +232,7 @@ class RayPool:
                     if i is None:
                         break
                     free.remove(actor)
-                    ref = actor.run.remote(jobs[i], time.perf_counter(), time.time())
+                    ref = actor.run.remote(sent[i], time.perf_counter(), time.time())
                     pending[ref] = (i, actor)
                 if not pending:
                     break

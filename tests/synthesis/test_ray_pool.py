@@ -22,8 +22,17 @@ ray = pytest.importorskip("ray", reason="the test extra installs Ray (pip instal
 
 from posgmc.cli import main  # noqa: E402
 from posgmc.errors import InputError, WorkerError  # noqa: E402
+from posgmc.synthesis.double_oracle import RankJob, VersusJob  # noqa: E402
+from posgmc.synthesis.executors import InProcess  # noqa: E402
 from posgmc.synthesis.problem import Problem  # noqa: E402
-from posgmc.synthesis.ray_pool import RETRIES, RayPool, _connect, _reachable  # noqa: E402
+from posgmc.synthesis.ray_pool import (  # noqa: E402
+    RETRIES,
+    RayPool,
+    _connect,
+    _reachable,
+    _Shared,
+    shared_fields,
+)
 from posgmc.synthesis.tasks import Placement  # noqa: E402
 from tests.synthesis.test_double_oracle import (  # noqa: E402
     SMALL,
@@ -159,6 +168,23 @@ def test_jobs_run_on_every_node(cluster: Any, pool: RayPool) -> None:
     where = pool.map([_Where(0.2) for _ in range(6)])
     assert len(where) == 6 and pool.ledger.counts["where"] == 6
     assert len(set(where)) == min(2, len(nodes))
+
+
+def test_a_shared_defence_goes_once_and_gives_the_same_values(pool: RayPool) -> None:
+    """The candidate evaluation's jobs share the defence: it is put in the object store once
+    for the batch, the jobs carry a reference, and the values are those of one process."""
+    problem = pool.problem
+    search = _synthesised(problem.model, replace(SMALL, adversaries=3))
+    defence, adversary = search.strategies[0], search.strategies[1]
+    jobs = [VersusJob(defence, adversary), VersusJob(defence, adversary)]
+    stored: list[object] = []
+    sent = shared_fields(jobs, lambda v: stored.append(v) or len(stored))
+    assert stored == [defence, adversary]  # each shared value once, in field order
+    assert all(isinstance(j, VersusJob) and j.defence == _Shared(1) and j.adversary == _Shared(2)
+               for j in sent)
+    lone = [VersusJob(defence, adversary), RankJob(adversary)]
+    assert shared_fields(lone, lambda v: 0)[0].defence is defence  # one job only: sent whole
+    assert pool.map(jobs) == InProcess(problem).map(jobs)
 
 
 def test_a_killed_worker_has_its_job_retried(pool: RayPool, tmp_path: Path) -> None:
