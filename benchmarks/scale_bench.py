@@ -21,7 +21,8 @@ Each phase runs on three executors: in this process (1 worker), a local process 
 it). Printed per row: wall time, the speed-up over one worker, the overhead per task (the
 workers' time not spent in jobs: workers x wall - the jobs' own seconds, per task) and the bytes
 shipped per task (the job's and its result's pickles; the problem itself goes once per worker,
-shown apart). Every executor's results are checked equal to one process's. The machine's load
+shown apart; Ray sends a value the jobs of a batch share, the defence, once per batch, counted
+once here). Every executor's results are checked equal to one process's. The machine's load
 (uptime) is printed with the table: on a shared machine the speed-up is only as good as the
 cores that are free.
 """
@@ -48,6 +49,7 @@ from posgmc.synthesis.adversaries import enumerate_adversaries  # noqa: E402
 from posgmc.synthesis.double_oracle import RankJob, VersusJob  # noqa: E402
 from posgmc.synthesis.executors import Executor, executor_for  # noqa: E402
 from posgmc.synthesis.problem import Problem  # noqa: E402
+from posgmc.synthesis.ray_pool import shared_fields  # noqa: E402
 from posgmc.synthesis.search import parametrisation, problem_of  # noqa: E402
 from posgmc.synthesis.tasks import Placement  # noqa: E402
 
@@ -69,6 +71,18 @@ def uniform_defence(problem: Problem):  # type: ignore[no-untyped-def]
     par = parametrisation(problem, 1)
     la, ld = (np.zeros(s) for s in par.shapes)
     return par.strategy(*par.probabilities(la, ld))
+
+
+def bytes_per_task(jobs: list, results: list, shares: bool) -> float:  # type: ignore[type-arg]
+    """The pickles of each job and its result, averaged; ``shares``: the executor sends a value
+    that several jobs share once per batch (posgmc.synthesis.ray_pool.shared_fields), counted
+    once and spread over the jobs."""
+    once: list[bytes] = []
+    sent = shared_fields(jobs, lambda v: once.append(pickle.dumps(v, protocol=5)) or len(once)) \
+        if shares else jobs
+    per_job = [len(pickle.dumps(j, protocol=5)) + len(pickle.dumps(r, protocol=5))
+               for j, r in zip(sent, results)]
+    return float(np.mean(per_job)) + sum(map(len, once)) / len(jobs)
 
 
 def timed_map(executor: Executor, jobs: list) -> tuple[list, float, float]:  # type: ignore[type-arg]
@@ -129,9 +143,7 @@ def main() -> None:
                     assert best is not None  # noqa: S101 - repeat >= 1
                     wall, busy = best
                     one = single.setdefault(phase, wall)  # the first placement: 1 process
-                    shipped = np.mean([len(pickle.dumps(j, protocol=5))
-                                       + len(pickle.dumps(r, protocol=5))
-                                       for j, r in zip(jobs, out)])
+                    shipped = bytes_per_task(jobs, out, placement.executor == "ray")
                     overhead = (executor.workers * wall - busy) / len(jobs)
                     load = os.getloadavg()[0]
                     print(f"| {n} | {model.num_states:,} | {phase} | {len(jobs)} | {label} "

@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 from posgmc.checking.property_checker import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
@@ -785,6 +785,8 @@ def synthesize(
     seed: int = 0,
     adversaries: int = 10,
     jobs: int = 1,
+    executor: Literal["local", "ray"] = "local",
+    ray_address: str | None = None,
     zero_based_players: bool = False,
     build_options: BuildOptions = BuildOptions(),
     built: BuiltModel | None = None,
@@ -804,7 +806,10 @@ def synthesize(
         seed: random seed (the search is deterministic given the seed and a budget it keeps to).
         adversaries: how many of the strongest enumerated adversary strategies the defence is
             composed against (0: no adversary phases).
-        jobs: worker processes for independent evaluations (the results do not depend on it).
+        jobs: workers for independent evaluations (the results do not depend on it).
+        executor: where they run: ``"local"`` processes or ``"ray"`` actors on the Ray cluster
+            at ``ray_address`` (``HOST:PORT``; None: Ray's ``RAY_ADDRESS``, else a Ray started
+            for this process; ``pip install 'posgmc[ray]'``; docs/scale.md).
 
     Returns:
         The result: ``guaranteed`` (against every adversary), ``vs_fss_adversary``,
@@ -823,6 +828,7 @@ def synthesize(
     # every argument checked (SynthesisOptions names the field: timeout, seed, jobs, ...) before
     # anything is built
     options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs,
+                               executor=executor, ray_address=ray_address,
                                belief=None if memory is None else False)
     if isinstance(memory, Mapping):
         for p in memory:

@@ -140,6 +140,10 @@ def _posg():  # type: ignore[no-untyped-def]
         (lambda: api.synthesize(_posg(), REACH, seed=-1), "seed must be an int of at least 0"),
         (lambda: api.synthesize(_posg(), REACH, seed="a"), "seed must be an int of at least 0"),
         (lambda: api.synthesize(_posg(), REACH, jobs="2"), "jobs must be an int of at least 1"),
+        (lambda: api.synthesize(_posg(), REACH, executor="dask"),  # type: ignore[arg-type]
+         "executor must be 'local' or 'ray', got 'dask'"),
+        (lambda: api.synthesize(_posg(), REACH, ray_address="10.0.0.5:6379"),
+         "ray_address must be a HOST:PORT string with executor 'ray'"),
         (lambda: api.synthesize(_posg(), REACH, adversaries="a"),
          "adversaries must be an int of at least 0"),
         (lambda: api.simulate(_posg(), REACH, strategies={"rover": FORWARD}, seed=-1),
