@@ -469,6 +469,7 @@ def iter_check(
     :mod:`posgmc.strategies.verify`): ``guaranteed``, ``vs_fss_adversary``, ``upper_bound``.
     A partially observable model without strategies and without ``full_observation`` is answered
     by synthesis (:mod:`posgmc.synthesis`), configured by ``synthesis``."""
+    from posgmc.synthesis.budget import interrupted
     from posgmc.synthesis.search import SynthesisOptions
 
     synthesis = synthesis or SynthesisOptions()
@@ -511,6 +512,8 @@ def iter_check(
             elif note:
                 outcome = dataclasses.replace(outcome, note=note)
             yield prop, outcome
+            if synthesising and interrupted():
+                return  # Ctrl-C: the property it cut short reported its best; no further ones
 
 
 def _label_names(built: BuiltModel) -> set[str]:
@@ -725,10 +728,11 @@ def synthesize(
     prop: str,
     *,
     memory: int | Sequence[int] | Mapping[str, int | Sequence[int]] | None = None,
-    timeout: float = 30.0,
+    timeout: float | None = None,
     seed: int = 0,
     adversaries: int = 10,
     jobs: int = 1,
+    effort: float = 1.0,
     zero_based_players: bool = False,
     build_options: BuildOptions = BuildOptions(),
     built: BuiltModel | None = None,
@@ -744,11 +748,15 @@ def synthesize(
             with its largest size). Default: 1..3 for the decision maker, 1 for the adversary,
             and on a pomdp a belief-based controller with as many nodes as it needs (sizes
             given bound the memory).
-        timeout: seconds for the whole synthesis of the property.
-        seed: random seed (the search is deterministic given the seed and a budget it keeps to).
+        timeout: a wall-clock cap in seconds on the whole synthesis of the property (None: none);
+            when it binds, ``synthesis["cut"]`` is "timeout" and the numbers, still proven, may
+            depend on the machine.
+        seed: random seed (the search is deterministic given the model, the property, the
+            options and the seed: its extent is a work budget, docs/synthesis.md).
         adversaries: how many of the strongest enumerated adversary strategies the defence is
             composed against (0: no adversary phases).
         jobs: worker processes for independent evaluations (the results do not depend on it).
+        effort: the multiplier of every synthesis phase's work budget (1: the defaults).
 
     Returns:
         The result: ``guaranteed`` (against every adversary), ``vs_fss_adversary``,
@@ -767,8 +775,12 @@ def synthesize(
             raise InputError(f"memory sizes must be positive ints, got {v!r}")
         return out
 
+    if timeout is not None and not timeout > 0:
+        raise InputError(f"timeout must be a positive number of seconds or None, got {timeout!r}")
+    if not effort > 0 or effort == float("inf"):
+        raise InputError(f"effort must be a positive finite number, got {effort!r}")
     options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs,
-                               belief=None if memory is None else False)
+                               effort=effort, belief=None if memory is None else False)
     if isinstance(memory, Mapping):
         options = dataclasses.replace(
             options, player_memory=tuple(sorted((str(p), sizes(v)) for p, v in memory.items()))

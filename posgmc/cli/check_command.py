@@ -14,12 +14,15 @@ from posgmc.cli.group import main
 from posgmc.cli.model_commands import build_options
 from posgmc.cli.options import (
     EXIT_ERROR,
+    EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
     common,
+    effort_option,
     full_observation_option,
     memory_option,
     positive_finite,
+    progress_options,
     seed_option,
     strategy_options,
     synthesis_options,
@@ -34,8 +37,10 @@ from posgmc.cli.printing import (
     print_outcome,
     print_report,
 )
+from posgmc.cli.progress_view import progress_mode, progress_view
 from posgmc.cli.running import guard
 from posgmc.errors import InputError, PosgmcError
+from posgmc.synthesis.budget import interrupted, interruptible
 
 __all__ = ["check", "not_passed"]
 
@@ -81,7 +86,9 @@ __all__ = ["check", "not_passed"]
               help="Synthesis: worker processes for independent evaluations (results do not "
               "depend on it).")
 @timeout_option
+@effort_option
 @seed_option
+@progress_options
 @click.option("--export-strategy", type=click.Path(), default=None,
               help="Write the optimal memoryless strategy of the (single) property as JSON; for a "
               "synthesised strategy, a directory receiving <player>.json.")
@@ -110,8 +117,11 @@ def check(
     memory: tuple[str, ...],
     adversaries: int,
     jobs: int,
-    timeout: float,
+    timeout: float | None,
+    effort: float,
     seed: int,
+    progress_lines: bool,
+    quiet: bool,
     export_strategy: str | None,
     as_json: bool,
     json_lines: bool,
@@ -168,7 +178,7 @@ def check(
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
                 synthesis=synthesis_options(memory, timeout, seed, adversaries, jobs,
-                                             started=loading),
+                                            started=loading, effort=effort),
                 on_start=on_start,
                 on_outcome=on_outcome,
             )
@@ -183,6 +193,11 @@ def check(
                     _write_synthesised(export_strategy, report)
                 else:
                     _write_strategy(export_strategy, report)
+            if interrupted():
+                # Ctrl-C: the property it cut short reported (and exported) its best verified
+                # defence; no further property or constant setting is checked
+                code = EXIT_INTERRUPTED
+                break
         if junit is not None:
             _write_check_junit(junit, model, swept, rows)
         if plot_file is not None:
@@ -197,7 +212,13 @@ def check(
             print_report(model, swept, rows)
         return code
 
-    guard(debug, run, as_json=as_json or json_lines, consts=consts)
+    def shown() -> int:
+        mode = progress_mode(quiet=quiet, lines=progress_lines, json_lines=json_lines)
+        with progress_view(mode):
+            return run()
+
+    with interruptible():
+        guard(debug, shown, as_json=as_json or json_lines, consts=consts)
 
 
 def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type: ignore[no-untyped-def]

@@ -65,10 +65,15 @@ def print_strategy_numbers(r: Any) -> None:
             f"k={x['memory']}: {x['value_policy_iteration']:.8g}" for x in stats["rounds"]
         )
         phases = ", ".join(f"{k} {v:.2f} s" for k, v in stats["phases"].items())
+        cap = "" if stats.get("timeout") is None else f", --timeout {stats['timeout']:g} s"
+        cut = stats.get("cut")
         click.echo(
-            f"  synthesis: {rounds} (best so far, by policy iteration); {phases}; time budget "
-            f"{stats['timeout']:g} s, seed {stats['seed']}"
-            + ("; PARTIAL: the budget ran out" if stats["partial"] else "")
+            f"  synthesis: {rounds} (best so far, by policy iteration); {phases}; effort "
+            f"{stats.get('effort', 1.0):g}{cap}, seed {stats['seed']}"
+            + ("; PARTIAL: --timeout cut the work budget (the numbers, still proven, may depend "
+               "on the machine)" if cut == "timeout" else
+               "; INTERRUPTED: the best defence verified so far" if cut == "interrupt" else
+               "; PARTIAL: the sound check did not converge" if stats["partial"] else "")
         )
         if "adversaries_enumerated" in stats:
             click.echo(

@@ -5,16 +5,16 @@ A :class:`Problem` holds everything an evaluation needs (the model, the property
 arrays, who decides); a job is a frozen dataclass whose ``run(problem)`` returns numbers and
 strategies and depends on nothing else (no warm start carried between jobs, no clock except the
 job's own ``deadline``). So a batch gives the same results in any order and in any process:
-``--jobs N`` is bit-identical to ``--jobs 1`` for a given ``--seed`` (as long as no deadline is
-hit). :class:`ProcessPool` ships the problem to each worker once (the pool's initializer) and then
-only the small job descriptions; a distributed executor (Ray, Dask) would put the problem in its
+``--jobs N`` is bit-identical to ``--jobs 1`` for a given ``--seed``: every job's extent is counted
+in its own units (:mod:`posgmc.synthesis.budget`); only a binding ``--timeout`` cuts one short.
+:class:`ProcessPool` ships the problem to each worker once (the pool's initializer) and then only
+the small job descriptions; a distributed executor (Ray, Dask) would put the problem in its
 object store once and map :func:`run_job` over the jobs, without touching the algorithm.
 """
 
 from __future__ import annotations
 
 import multiprocessing
-import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -26,6 +26,7 @@ from posgmc.checking.dispatch import CheckOptions
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.model.explicit import ExplicitModel
 from posgmc.syntax.ast import Coalition, Direction, ProbQuery, RewardQuery
+from posgmc.synthesis import budget
 
 __all__ = ["Problem", "Job", "Executor", "InProcess", "ProcessPool", "executor_for", "run_job"]
 
@@ -135,5 +136,6 @@ def executor_for(problem: Problem, jobs: int) -> InProcess | ProcessPool:
 
 def expired(deadline: float | None) -> bool:
     """Whether ``deadline`` (a ``time.perf_counter()`` value: CLOCK_MONOTONIC on Linux, the same
-    clock in every process of the machine) has passed."""
-    return deadline is not None and time.perf_counter() > deadline
+    clock in every process of the machine) has passed, or a stop was requested
+    (:func:`posgmc.synthesis.budget.expired`)."""
+    return budget.expired(deadline)
