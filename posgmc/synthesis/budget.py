@@ -32,15 +32,18 @@ __all__ = ["Effort", "Clock", "DEFAULT_UNITS", "expired", "interruptible", "inte
            "request_stop", "clear_stop"]
 
 DEFAULT_UNITS: dict[str, int] = {
-    "families": 1000,
+    "families": 300,
+    "passes": 2,
     "improvement_rounds": 100,
-    "local_steps": 400,
+    "local_steps": 100,
     "belief_nodes": 4096,
     "milp_nodes": 200,
 }
 """The per-phase counts at effort 1 that are not :class:`~posgmc.synthesis.search.
 SynthesisOptions` fields of their own: ``families``: quotient games the deterministic search
-solves over all memory sizes (shared 1 : 3 : 2 ... among the sizes); ``improvement_rounds``:
+solves over all memory sizes (shared 1 : 3 : 2 ... among the sizes); ``passes``: passes of the
+gradient search over the memory sizes (the first from the projections of the full-observation
+optimum, further ones from new random points and the best so far, while a pass improves); ``improvement_rounds``:
 observation-level policy iteration rounds per memory size; ``local_steps``: evaluations of the
 local search around the best deterministic candidate of a round; ``belief_nodes``: belief nodes a
 pomdp's belief exploration expands; ``milp_nodes``: branch-and-bound nodes of the MILP

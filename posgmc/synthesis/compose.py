@@ -336,8 +336,10 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
             ranked.append((response, strength))
             ranked.sort(key=lambda r: sign * r[1])
         t0 = time.perf_counter()
-        # recompose from the current defence (never worse against the old set) and one new start
-        again = [composed.logits, (rng.normal(size=shapes[0]), rng.normal(size=shapes[1]))]
+        # recompose from the current defence (never worse against the old set) and ``restarts``
+        # new starts
+        again = [composed.logits] + [(rng.normal(size=shapes[0]), rng.normal(size=shapes[1]))
+                                     for _ in range(restarts)]
         composed = _compose(executor, kept, k, composed.strategy, again, iterations, learning_rate,
                             deadline)
         composed = _with_milp(problem, executor, kept, composed, k, deadline, milp_nodes)

@@ -312,7 +312,7 @@ def synthesize(
     t_search = t_verify = 0.0
     # pass 0 tries every memory size from the projected full-observation strategy (and the best
     # smaller one, embedded); later passes restart each size from new random points (and the best
-    # so far) for as long as a pass improves the best, at most _MAX_PASSES
+    # so far) for as long as a pass improves the best, at most ``passes`` (the work budget)
     params: dict[int, Parametrisation] = {}
     best_of: dict[int, tuple[FiniteStateStrategy, Bound]] = {}
     seconds_of: dict[int, float] = {}
@@ -320,13 +320,14 @@ def synthesize(
     # a memory range that does not start at 1 is warm-started from a memoryless defence (a k-FSS
     # embeds into k+1 nodes): --memory 2 searches k = 1 first and never reports less than it
     sizes = _with_warm_up(options.memory)
-    for pass_no in range(_MAX_PASSES):
+    passes = effort.default("passes")
+    for pass_no in range(passes):
         improved = False
         for i, k in enumerate(sizes):
             if expired(deadline) and best is not None:
                 break
             progress.report("gradient search", memory=k, done=pass_no * len(sizes) + i,
-                            total=_MAX_PASSES * len(sizes), unit="round")
+                            total=passes * len(sizes), unit="round")
             round_start = time.perf_counter()
             if k not in params:
                 params[k] = Parametrisation(model, player, k, query, target, remain,
@@ -498,8 +499,6 @@ def _with_warm_up(memory: tuple[int, ...]) -> tuple[int, ...]:
     return memory if min(memory) <= 1 else (1,) + tuple(memory)
 
 
-_MAX_PASSES = 4
-"""Passes over the memory sizes: further ones restart from new random points while they improve."""
 
 
 def _round(
