@@ -43,12 +43,13 @@ DEFAULT_UNITS: dict[str, int] = {
 SynthesisOptions` fields of their own: ``families``: quotient games the deterministic search
 solves over all memory sizes (shared 1 : 3 : 2 ... among the sizes); ``passes``: passes of the
 gradient search over the memory sizes (the first from the projections of the full-observation
-optimum, further ones from new random points and the best so far, while a pass improves); ``improvement_rounds``:
-observation-level policy iteration rounds per memory size; ``local_steps``: evaluations of the
-local search around the best deterministic candidate of a round; ``belief_nodes``: belief nodes a
-pomdp's belief exploration expands; ``milp_nodes``: branch-and-bound nodes of the MILP
-composition. The options' own counts (``iterations`` gradient steps per start, ``restarts``
-random starts, ``enumeration_limit`` adversary strategies, ``oracle_rounds``) scale alike."""
+optimum, further ones from new random points and the best so far, while a pass improves);
+``improvement_rounds``: observation-level policy iteration rounds per memory size;
+``local_steps``: evaluations of the local search around the best deterministic candidate of a
+round; ``belief_nodes``: belief nodes a pomdp's belief exploration expands; ``milp_nodes``:
+branch-and-bound nodes of the MILP composition. The options' own counts (``iterations``
+gradient steps per start, ``restarts`` random starts, ``enumeration_limit`` adversary
+strategies, ``compose_restarts``, ``oracle_rounds``) scale alike."""
 
 
 @dataclass(frozen=True)
