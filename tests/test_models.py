@@ -16,9 +16,10 @@ from pathlib import Path
 import pytest
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.checking.results import Bound
 from posgmc.engines.options import Method, SolverOptions
+from tests.conftest import NO_REFERENCE_PYTHON, reference_python
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 EXPECTED = {
@@ -64,7 +65,7 @@ def test_rover_values(name: str, method: Method) -> None:
 def test_posg_without_options_is_answered_by_synthesis() -> None:
     """Without strategies and without full_observation every posg property is synthesised for
     (the step-bounded one on the product with its step-counting automaton, issue #9)."""
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
     report = api.check(
         api.load(MODELS / "rover.posg"),
@@ -135,14 +136,15 @@ print(json.dumps(out))
 
 def _storm_counts(tmp_path: Path, sizes: list[int]) -> list[tuple[int, int, int]]:
     """Storm 2.0's counts of the smg twin (the posg with its observables removed) per N. Runs
-    Storm in the reference environment (/root/refenv, benchmarks/README.md); skips without it."""
+    Storm in the reference environment (POSGMC_REFERENCE_PYTHON, benchmarks/README.md); skips
+    without it."""
     import json
     import re
     import subprocess
 
-    storm_python = Path("/root/refenv/bin/python")
-    if not storm_python.exists():
-        pytest.skip("no reference environment with stormpy at /root/refenv")
+    storm_python = reference_python()
+    if storm_python is None:
+        pytest.skip(NO_REFERENCE_PYTHON)
     text = SECURE_MODEL.read_text()
     text = re.sub(r"^posg$", "smg", text, flags=re.M)
     text = re.sub(r"^\s*observables? .*$", "", text, flags=re.M)
@@ -189,7 +191,7 @@ def test_secure_autonomy_synthesis_gates() -> None:
 def _beacon_guaranteed(memory: tuple[int, ...]) -> list[Bound]:
     """The sound guaranteed bounds synthesised on models/beacon for each memory size, after
     pinning the model's size."""
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
     session = api.load(MODELS / "beacon" / "beacon.posg")
     built = api.build(session)

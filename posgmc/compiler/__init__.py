@@ -19,9 +19,8 @@ deliberately differs from Storm:
 * a merged DTMC choice is labelled with its action only when all merged choices share it.
 
 Cost: array operations per batch of states, so the time is dominated by the number of
-transitions; but each batch has a fixed overhead of about 0.1 ms per command, which dominates for
-models whose breadth-first frontier stays tiny for very many levels (a single counter to 10^5
-takes seconds).
+transitions; but each batch has a fixed overhead per command, which dominates for models whose
+breadth-first frontier stays tiny for very many levels (e.g. a single counter to 10^5).
 """
 
 from __future__ import annotations
@@ -32,7 +31,7 @@ from collections.abc import Callable
 import numpy as np
 
 from posgmc.compiler.assemble import assemble
-from posgmc.compiler.exact import exact_model, explore_exact
+from posgmc.compiler.exact_explore import exact_model, explore_exact
 from posgmc.compiler.explore import explore
 from posgmc.compiler.options import BuildOptions, BuildResult, ProgressMode, ValidationMode
 from posgmc.compiler.program import compile_program
@@ -50,7 +49,7 @@ def build_model(
     """Build the explicit model of an instantiated model.
 
     Args:
-        flat: the checked, instantiated model (``posgmc.semantics.checker.instantiate``).
+        flat: the checked, instantiated model (``posgmc.semantics.stages.instantiate``).
         options: state limit, deadlock handling, progress, observations, validation.
         on_states: called with the number of states found so far after every batch of the
             exploration (``api.build`` starts loading the engines' compiled kernels once a model

@@ -14,7 +14,6 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from engine_models import as_floats, chain_reward, game_value, layered_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -27,6 +26,7 @@ from posgmc.engines.options import SolverOptions
 from posgmc.engines.system import build_system
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.syntax.ast import ModelType
+from tests.engines.engine_models import as_floats, chain_reward, game_value, layered_models
 
 TOL = 1e-9
 
@@ -68,7 +68,7 @@ def forced(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> F
             calls.compiled.append(int(args[0].bands.size - 1))
         return out
 
-    import posgmc.engines.common as common
+    import posgmc.engines.solving as common
 
     monkeypatch.setattr(common, "solve_topological", counting)
     monkeypatch.setattr(topo, "_solve_components", counting_compiled)
