@@ -18,12 +18,14 @@ from posgmc.cli.options import (
     finite,
     full_observation_option,
     memory_option,
+    progress_options,
     seed_option,
     synthesis_options,
     timeout_option,
     zero_based_players_option,
 )
 from posgmc.cli.printing import fmt
+from posgmc.cli.progress_view import progress_mode, progress_view
 from posgmc.cli.running import guard
 from posgmc.errors import InputError, SourceSpan, SourceText, UnsupportedError
 
@@ -72,6 +74,7 @@ __all__ = ["pareto"]
 @timeout_option
 @effort_option
 @seed_option
+@progress_options
 @common
 def pareto(
     model: str,
@@ -90,6 +93,8 @@ def pareto(
     timeout: float | None,
     effort: float,
     seed: int,
+    progress_lines: bool,
+    quiet: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -166,7 +171,12 @@ def pareto(
         unproven = any(p.result is not None and not _proven(p.result) for p in result.points)
         return EXIT_ERROR if failed else EXIT_PROPERTY_FALSE if unproven else EXIT_OK
 
-    guard(debug, run, consts=consts)
+    def shown() -> int:
+        # each point of a sweep or front is reported as it completes (the tables come at the end)
+        with progress_view(progress_mode(quiet=quiet, lines=progress_lines, json_lines=False)):
+            return run()
+
+    guard(debug, shown, consts=consts)
 
 
 def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | None,

@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
-__all__ = ["Status", "report", "reporting", "current"]
+__all__ = ["Status", "report", "reporting", "current", "begin", "point_done"]
 
 
 @dataclass(frozen=True)
@@ -102,3 +102,11 @@ def reporting(sink: Sink) -> Iterator[None]:
     finally:
         _SINKS.remove(sink)
         _STATE.clear()
+
+
+def point_done(label: str, value: float | None, done: int, total: int) -> None:
+    """A point of a sweep or front is complete: its label (``B=1``, ``w=5``), its headline
+    number (proven), and how many of the points are done."""
+    begin(None)
+    report(f"point {label} done", best=value, proven=value is not None, done=done, total=total,
+           unit="point")

@@ -44,6 +44,7 @@ import numpy as np
 
 from posgmc.checking.results import Bound
 from posgmc.errors import InputError, PosgmcError, UnsupportedError
+from posgmc.synthesis import progress
 
 __all__ = ["DefencePoint", "DefenceFront", "BudgetAnswer", "defence_front",
            "defence_front_to_csv", "SCALARISED_REWARD"]
@@ -245,9 +246,13 @@ def defence_front(
     m, c = _queries(session, mission, cost)
     full = _full_observation(session, built, m.text, c.text)
     points = []
-    for w in ws + ([math.inf] if include_mission else []):
+    every = ws + ([math.inf] if include_mission else [])
+    for w in every:
         points.append(_point(session, built, m, c, w, memory=memory, timeout=timeout, effort=effort,
                              seed=seed, strategy_dir=strategy_dir, write=write_strategy))
+        done = points[-1]
+        progress.point_done(f"w={_fmt_weight(w)}", None if done.mission is None
+                            else float(done.mission.value), len(points), len(every))
     front = pareto_indices(points)
     answers = tuple(_answer(session, built, m, c, points, float(b), strategy_dir, write_strategy)
                     for b in budgets)

@@ -139,3 +139,58 @@ def test_a_stop_request_reports_the_best_verified_defence() -> None:
     assert again.guaranteed is not None
     assert (again.guaranteed.lower, again.guaranteed.upper) == (r.guaranteed.lower,
                                                                 r.guaranteed.upper)
+
+
+_BURN = "import time\nend = time.monotonic() + 600\nwhile time.monotonic() < end:\n    pass\n"
+
+
+def _rover_numbers(*extra: str) -> list[object]:
+    """Every number of the README's headline synthesis (models/rover.posg), by the CLI."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    out = subprocess.run(
+        [sys.executable, "-m", "posgmc", "check", str(root / "models" / "rover.posg"), "--prop",
+         '<<rover>> Pmax=? [ !"crash" U "goal" ]', "--json", "--quiet", *extra],
+        capture_output=True, text=True, check=True, cwd=root, timeout=900)
+    r = json.loads(out.stdout)["results"][0]
+    assert r["cut"] is None and r["partial"] is False
+    return [r[k] for k in ("guaranteed", "vs_fss_adversary", "upper_bound", "full_observation",
+                           "rounds", "deterministic", "adversaries_enumerated",
+                           "adversaries_ranked", "composed_value", "oracle")
+            if k in r] + [[x["value_policy_iteration"] for x in r["rounds"]]]
+
+
+def _without_seconds(numbers: list[object]) -> list[object]:
+    """The numbers without the wall times some entries carry."""
+    def strip(x: object) -> object:
+        if isinstance(x, dict):
+            return {k: strip(v) for k, v in x.items() if k != "seconds"}
+        if isinstance(x, list):
+            return [strip(v) for v in x]
+        return x
+    return [strip(n) for n in numbers]
+
+
+@pytest.mark.slow
+def test_the_same_numbers_on_an_idle_and_a_loaded_machine() -> None:
+    """The README's headline command prints the same numbers alone, with two CPU burners beside
+    it (on a 2-core machine: half the CPU or less), and with --jobs 2 under that load: its
+    extent is counted, not timed, and no cap is set, so nothing cuts it short."""
+    import subprocess
+    import sys
+
+    idle = _without_seconds(_rover_numbers())
+    burners = [subprocess.Popen([sys.executable, "-c", _BURN]) for _ in range(2)]
+    try:
+        loaded = _without_seconds(_rover_numbers())
+        pooled = _without_seconds(_rover_numbers("--jobs", "2"))
+    finally:
+        for b in burners:
+            b.kill()
+            b.wait()
+    assert loaded == idle
+    assert pooled == idle
