@@ -368,8 +368,8 @@ def _print(result: Any) -> None:
             (
                 p.setting,
                 cell,
-                fmt(r.full_observation.value) if r is not None and r.full_observation else "-",
-                fmt(r.upper_bound.value) if r is not None and r.upper_bound else "-",
+                _bound_cell(r.full_observation if r is not None else None),
+                _bound_cell(r.upper_bound if r is not None else None),
                 ", ".join(f"{n or 'agent'}={k}" for n, k in r.memory)
                 if r is not None and r.memory
                 else "-",

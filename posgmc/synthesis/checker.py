@@ -356,8 +356,9 @@ class SynthesisChecker:
             proven = holds(g.lower if maximize else g.upper) and g.sound
             # no defence reaches the threshold: not with full observation, nor against the
             # enumerated adversaries
-            refuted = any(not holds(b.upper if maximize else b.lower) and b.sound
-                          for b in (ub, full_shown) if b is not None)
+            bound = ub if ub is not None else full_shown
+            refuted = bound is not None and bound.sound and not holds(
+                bound.upper if maximize else bound.lower)
             value = True if proven else False if refuted else None
             kind, lower, upper = ResultKind.BOOLEAN, None, None
         player_name = self.model.player_names[player] if self.model.player_names else ""

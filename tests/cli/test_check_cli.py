@@ -162,3 +162,27 @@ def test_export_strategy_needs_an_unbounded_query(run, tmp_path: Path) -> None: 
     assert r.exit_code == EXIT_ERROR
     assert "--export-strategy: no property checked here has a strategy to export" in r.output
     assert not out.exists()
+
+
+@pytest.mark.parametrize("timeout", ["0.01", "0.3", "2"])
+def test_exit_0_only_when_every_printed_number_is_proven(run, timeout: str) -> None:  # type: ignore[no-untyped-def]
+    """Synthesis cut short at random points of its budget (rover.posg): whatever the machine's
+    speed, exit 0 comes with every printed number proven, an unproven one with exit 1 and
+    ``converged`` false; no number is a placeholder and the printed points keep the order
+    guaranteed <= vs_fss_adversary <= upper_bound (before: upper_bound 0.5 [0, 1] below
+    guaranteed 0.98763, ``sound: true``, exit 0)."""
+    r = run("check", ROVER_POSG, "--prop", '<<rover>> Pmax=? [ !"crash" U "goal" ]',
+            "--memory", "1", "--timeout", timeout, "--json")
+    assert r.exit_code in (0, 1), r.output
+    (res,) = json.loads(r.stdout)["results"]
+    numbers = [res[k] for k in ("guaranteed", "vs_fss_adversary", "upper_bound") if k in res]
+    assert numbers[0] is res["guaranteed"]
+    values = [n["value"] for n in numbers]
+    assert values == sorted(values)
+    assert all(n["lower"] <= n["value"] <= n["upper"] for n in numbers)
+    if "upper_bound" in res:
+        assert res["upper_bound"]["upper"] - res["upper_bound"]["lower"] < 1e-3  # computed
+    if r.exit_code == 0:
+        assert res["converged"] is True and res["sound"] is True
+    if res["converged"] is False or res["sound"] is False:
+        assert r.exit_code == 1

@@ -89,6 +89,13 @@ def test_every_point_of_a_posg_front_reverifies_from_its_strategy(
     assert [r["setting"] for r in rows] == ["0", "1"]
     assert float(rows[1]["lower"]) <= FRONT[memory][1] <= float(rows[1]["upper"])
     assert rows[1]["memory"] == f"rover={memory}" and rows[1]["full_observation"] == "1.0"
+    # each number with its proven bounds (upper_bound had its value only, even a placeholder)
+    for key in ("full_observation", "upper_bound"):
+        b = getattr(s.points[1].result, key)
+        assert b is not None and b.converged  # computed, not cut short
+        assert [rows[1][key], rows[1][f"{key} lower"], rows[1][f"{key} upper"]] == [
+            repr(b.value), repr(b.lower), repr(b.upper)]
+        assert float(rows[1]["lower"]) <= float(rows[1][f"{key} upper"]) + 1e-9
 
 
 @pytest.mark.parametrize(("memory", "table"), [
@@ -107,6 +114,9 @@ def test_pareto_command_table_csv_and_plot(
     lines = r.output.splitlines()
     assert lines[0] == f"{PROP} against B:"
     assert lines[2].startswith(table[0]) and lines[3].startswith(table[1])
+    # full_observation and upper_bound with their proven bounds: the full-observation value is 1
+    assert lines[1].split()[:5] == ["B", "value", "[lower,", "upper]", "full_observation"]
+    assert "1 [1, 1]" in lines[2].split("]", 1)[1]
     assert csv_file.read_text().startswith("constant,setting,value,lower,upper")
     assert plot.read_text().lstrip().startswith("<?xml") and "</svg>" in plot.read_text()
 
