@@ -114,8 +114,9 @@ def main() -> int:
     stale = 0
     for name in a.only or sorted(TABLES):
         table = TABLES[name]
+        block = render(table)  # minutes: the README is read after, so edits meanwhile stay
         text = table.readme.read_text()
-        new = replace_block(text, name, render(table))
+        new = replace_block(text, name, block)
         if new != text:
             stale += 1
             if a.check:
