@@ -37,7 +37,7 @@ from posgmc.cli.printing import (
     print_outcome,
     print_report,
 )
-from posgmc.cli.progress_view import progress_mode, progress_view
+from posgmc.cli.progress_view import before_output, progress_mode, progress_view
 from posgmc.cli.running import guard
 from posgmc.cli.strategy_export import check_destination, point_of, synthesises, write_exports
 from posgmc.errors import InputError
@@ -240,6 +240,7 @@ def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type
     """(on_start, on_outcome) callbacks printing the header and each result as it comes."""
 
     def start(built: Any, seconds: float, warnings: tuple[str, ...]) -> None:
+        before_output()
         stats = built.statistics()
         if json_lines:
             click.echo(json.dumps({
@@ -253,6 +254,7 @@ def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type
         print_header(model, stats, seconds, warnings)
 
     def outcome(r: Any) -> None:
+        before_output()
         if json_lines:
             click.echo(json.dumps(outcome_json(r)))
         else:

@@ -13,16 +13,32 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from enum import Enum
+from typing import Any
 
 import click
 
 from posgmc.synthesis import progress
 from posgmc.synthesis.budget import interrupted
 
-__all__ = ["ProgressMode", "progress_mode", "progress_view", "HEARTBEAT"]
+__all__ = ["ProgressMode", "progress_mode", "progress_view", "before_output", "HEARTBEAT"]
 
 HEARTBEAT = 2.0
 """Seconds between two ``--progress`` lines at most."""
+
+_LIVE: list[Any] = []
+"""The live display while one is shown (rich's ``Live``)."""
+
+_HOLD = [False]
+"""Whether the live line stays blank until the next progress event (a result was printed)."""
+
+
+def before_output() -> None:
+    """Blank the live status line before a result is printed on stdout: a stdout that is not a
+    terminal (``| less``) may still end on the same screen, where the line would run into the
+    result. The next progress event shows it again."""
+    _HOLD[0] = True
+    for live in _LIVE:
+        live.refresh()
 
 
 class ProgressMode(Enum):
@@ -138,12 +154,20 @@ def _live() -> Iterator[None]:
     class _Status:
         def __rich__(self) -> Text:
             status = progress.current()
-            return Text("" if status is None else _line(status), style="dim")
+            return Text("" if status is None or _HOLD[0] else _line(status), style="dim")
+
+    def sink(status: progress.Status) -> None:
+        _HOLD[0] = False
 
     console = Console(stderr=True)
     # results printed on a terminal's stdout meanwhile go above the status line; a redirected
     # stdout is left alone
     with Live(_Status(), console=console, refresh_per_second=4, transient=True,
-              redirect_stdout=_stdout_is_terminal(), redirect_stderr=False):
-        with progress.reporting(lambda status: None):
-            yield
+              redirect_stdout=_stdout_is_terminal(), redirect_stderr=False) as live:
+        _LIVE.append(live)
+        try:
+            with progress.reporting(sink):
+                yield
+        finally:
+            _LIVE.remove(live)
+            _HOLD[0] = False
