@@ -43,7 +43,14 @@ class Table:
 MISSION = '<<planner>> Pmax=? [ F "retrieved" ]'
 TIME = '<<planner>> R{"time"}min=? [ Fdiscount=0.95 "retrieved" ]'
 
+STEPS = 'R{"steps"}min=? [ F "target" ]'
+COST = 'R{"cost"}min=? [ F "opened" ]'
+
 TABLES: dict[str, Table] = {
+    "maze": Table(MODELS / "maze" / "README.md", "maze.pomdp", {"steps": STEPS},
+                  tuple(Row(("--prop", "steps", "--memory", str(k))) for k in (1, 2, 3))),
+    "tiger": Table(MODELS / "tiger" / "README.md", "tiger.pomdp", {"cost": COST},
+                   tuple(Row(("--prop", "cost", "--memory", str(k))) for k in (1, 2, 3))),
     "secure_autonomy": Table(
         MODELS / "secure_autonomy" / "README.md", "secure_autonomy.posg",
         {"mission": MISSION, "time": TIME},
