@@ -159,7 +159,7 @@ def check(
                                  f"{len(swept)} are swept",
                                  hint="give one constant a range, e.g. --const B=0:4")
         if export_strategy is not None:
-            _check_export_extension(export_strategy)
+            _check_export_extension(export_strategy, directory=None)
         strategies = strategy_options(strategy_files)
         options = CheckOptions(
             solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
@@ -184,9 +184,10 @@ def check(
             if export_strategy is not None and not rows:
                 # before any work: a destination that cannot be written is refused now, not
                 # after the whole budget
-                check_destination(export_strategy, directory=synthesises(
-                    session, given_strategies=bool(strategies),
-                    full_observation=full_observation))
+                directory = synthesises(session, given_strategies=bool(strategies),
+                                        full_observation=full_observation)
+                _check_export_extension(export_strategy, directory=directory)
+                check_destination(export_strategy, directory=directory)
             on_start, on_outcome = (
                 _streamers(model, constants, json_lines, verbose) if streaming else (None, None)
             )
@@ -300,21 +301,29 @@ def _write_check_junit(
     write_junit(path, model, cases)
 
 
-def _check_export_extension(path: str) -> None:
+def _check_export_extension(path: str, *, directory: bool | None) -> None:
     """Strategies are written as JSON: a file named ``.json``, or a directory (no extension, or
     one that exists) for synthesised strategies; any other extension (``s.tra``) is refused before
-    any work rather than given JSON.
+    any work rather than given JSON, and so is a ``.json`` name where a synthesis writes a
+    directory (``directory``: whether it does; None: not known yet).
 
     Raises:
         InputError: naming --export-strategy.
     """
     import os
 
-    suffix = os.path.splitext(os.path.basename(path.rstrip("/" + os.sep)))[1]
-    if suffix and suffix.lower() != ".json" and not os.path.isdir(path):
+    suffix = os.path.splitext(os.path.basename(path.rstrip("/" + os.sep)))[1].lower()
+    if os.path.isdir(path) or not suffix:
+        return
+    if suffix != ".json":
         raise InputError(f"--export-strategy {path}: strategies are written as JSON, not "
                          f"{suffix}", hint="give a .json file (a model checker's memoryless "
                          "strategy) or a directory (synthesised strategies, <player>.json each)")
+    if directory:
+        raise InputError(f"--export-strategy {path}: a synthesis writes a directory (the "
+                         "defence and the adversary strategy found, <player>.json each), not "
+                         "one .json file", hint="give a directory name, e.g. --export-strategy "
+                         f"{path[: -len(suffix)] or 'strategies'}/")
 
 
 def not_passed(r: Any) -> bool:
