@@ -199,3 +199,28 @@ def test_also_needs_a_synthesised_defence(tmp_path: Path) -> None:
     s = sweep(path, "P=? [ F x=1 ]", constant="p", settings=["0.5"], also=["P=? [ F x=2 ]"])
     (error,) = s.points[0].also
     assert "no synthesised strategy" in error.message
+
+
+def test_an_error_of_every_point_is_the_sweep_s_said_once(tmp_path: Path) -> None:
+    path = tmp_path / "chain.prism"
+    path.write_text(CHAIN.replace("const double p;", "const double p;\nconst int k;"))
+    r = CliRunner().invoke(main, ["pareto", str(path), "--prop", "P=? [ F x=1 ]", "--sweep",
+                                  "p=0.1:0.4:0.9"])
+    assert r.exit_code == 2
+    assert r.output.count('undefined constant "k" must be given a value') == 1, r.output
+    assert "Error" not in r.output  # no table of failed points
+    # a point of its own error keeps it, the others go on: p = 2 is no probability
+    s = sweep(path, "P=? [ F x=1 ]", constant="p", settings=["0.5", "2"], constants={"k": 1})
+    assert s.points[0].error is None and s.points[1].error is not None
+
+
+def test_the_table_prints_values_as_the_shortest_decimal_inside_their_bounds() -> None:
+    # red_and_black's bold play: exactly 0.064 from start=1 and 0.16 from start=2
+    # (models/red_and_black/README.md); interval iteration stops around them
+    model = str(ROOT / "models" / "red_and_black" / "red_and_black.smg")
+    r = CliRunner().invoke(main, ["pareto", model, "--prop",
+                                  '<<gambler,casino>> Pmax=? [ F "rich" ]', "--sweep",
+                                  "start=1:2"])
+    assert r.exit_code == 0, r.output
+    rows = [line.split()[:2] for line in r.output.splitlines()[2:4]]
+    assert rows == [["1", "0.064"], ["2", "0.16"]]
