@@ -972,9 +972,13 @@ def simulate(
     :mod:`posgmc.strategies.simulate`); players without one play uniformly, or their
     full-observation optimum with ``opponent="best"``.
 
+    ``estimate`` is None when runs reached ``max_steps`` undecided (the interval covers them).
+
     Raises:
-        InputError, StrategyError: bad model, property or strategy files.
+        InputError, StrategyError: bad arguments (naming them), model, property or strategy
+            files.
         UnsupportedError: a property simulation does not estimate.
+        LimitError: ``runs`` whose arrays would not fit in the memory available.
     """
     from posgmc.strategies.simulate import Simulation  # noqa: F401
     from posgmc.strategies.simulate import simulate as run

@@ -295,7 +295,8 @@ def _write_check_junit(
             failure = None
             if not_passed(r):
                 failure = f"{r.property}: {fmt(r.value)}" + (
-                    "" if r.converged else " (not converged)"
+                    " (not converged)" if not r.converged
+                    else " (not proven)" if r.guaranteed is not None and not r.sound else ""
                 )
             cases.append(Case(name, model, r.seconds, failure=failure))
     write_junit(path, model, cases)
