@@ -7,10 +7,11 @@ property, the objective's arrays, who decides); a job is a frozen dataclass whos
 returns numbers and strategies and depends on nothing else (no warm start carried between jobs, no
 clock except the job's own ``deadline``). So a batch gives the same results in any order and in any
 process: ``--jobs N`` (and ``--executor ray``) is bit-identical to ``--jobs 1`` for a given
-``--seed`` (as long as no deadline is hit). :class:`ProcessPool` ships the problem to each worker
-once (the pool's initializer) and then only the small job descriptions; the Ray executor puts the
-problem in Ray's object store once and long-lived actors hold it. Every executor keeps a
-:class:`~posgmc.synthesis.tasks.TaskLedger` of the jobs it ran, by phase.
+``--seed``: every job's extent is counted in its own units (:mod:`posgmc.synthesis.budget`); only
+a binding ``--timeout`` (a deadline) or Ctrl-C cuts one short. :class:`ProcessPool` ships the
+problem to each worker once (the pool's initializer) and then only the small job descriptions;
+the Ray executor puts the problem in Ray's object store once and long-lived actors hold it. Every
+executor keeps a :class:`~posgmc.synthesis.tasks.TaskLedger` of the jobs it ran, by phase.
 """
 
 from __future__ import annotations
