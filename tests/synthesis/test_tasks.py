@@ -29,12 +29,22 @@ class _Square:
         return self.x * self.x
 
 
+@dataclass(frozen=True)
+class _Staged:
+    """A job with a deadline per stage."""
+
+    deadlines: tuple[float | None, ...]
+
+    def run(self, problem: object) -> None:
+        return None
+
+
 def test_each_job_kind_names_its_phase() -> None:
     """The phases of the JSON's task counts are the names of the result's "phases" timings."""
     assert phase_of(RankJob.__new__(RankJob)) == "adversaries: ranking"
     assert phase_of(VersusJob.__new__(VersusJob)) == "adversaries: evaluation"
     assert phase_of(AscendJob.__new__(AscendJob)) == "gradient search"
-    assert phase_of(DeterministicJob((1,), (None,))) == "deterministic search"
+    assert phase_of(DeterministicJob((1,), None, (10,))) == "deterministic search"
     assert phase_of(_Square(2)) == "squares"
 
 
@@ -88,7 +98,7 @@ def test_rebased_moves_every_clock_field_and_nothing_else(
     assert moved.deadline == (None if deadline is None else deadline + offset)
     assert (moved.memory, moved.iterations, moved.learning_rate) == (2, 60, 0.3)
     assert moved.logits_action is logits
-    several = rebased(DeterministicJob((1,) * len(ends), tuple(ends)), offset)
-    assert isinstance(several, DeterministicJob)
+    several = rebased(_Staged(tuple(ends)), offset)
+    assert isinstance(several, _Staged)
     assert several.deadlines == tuple(None if e is None else e + offset for e in ends)
     assert rebased(job, 0.0) is job and rebased(_Square(3), offset) == _Square(3)
