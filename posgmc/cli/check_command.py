@@ -329,7 +329,7 @@ def _check_export_extension(path: str, *, directory: bool | None) -> None:
 
 def not_passed(r: Any) -> bool:
     """A threshold that is false or undecided, a result whose iteration did not converge, or a
-    number about finite-state strategies (given or synthesised) that is not proven: exit 0 only
-    when every such printed number is."""
+    printed number that is not proven (plain value iteration, an LP's floating-point optimum, a
+    strategy number whose check was cut short): exit 0 only when every printed number is."""
     return (r.value is False or (r.value is None and r.kind.value == "boolean")
-            or not r.converged or (r.guaranteed is not None and not r.sound))
+            or not r.converged or not r.sound)
