@@ -5,8 +5,8 @@ Exit status (fixed, documented in docs/cli.md):
 
 * 0 — success; for ``check``, every threshold property holds at the initial state(s);
 * 1 — ``check``: some threshold property does not hold or is undecided (``unknown``), a result
-  did not converge, or a number about finite-state strategies is not proven (``pareto``: a point's
-  number is not proven);
+  did not converge, or a printed number is not proven (``pareto``: a point's number is not
+  proven);
 * 2 — bad input (model, properties, constants, options) or any other error;
 * 130 — interrupted (Ctrl-C), as shells report it.
 """
