@@ -95,13 +95,17 @@ def _is_drn(text: str, path: str | None = None) -> bool:
 
 @dataclass(frozen=True, eq=False)
 class Session:
-    """A loaded model: its source, syntax tree (None for explicit DRN input) and constant values."""
+    """A loaded model: its source, syntax tree (None for explicit DRN input) and constant values.
+
+    ``strict``: PRISM's reading where Storm's differs (``semantics/dialect.py``): what only
+    Storm accepts is an error instead of a warning."""
 
     path: str | None
     source: SourceText
     syntax: ModelFile | None
     constants: Mapping[str, object] = field(default_factory=dict)
     explicit: ExplicitModel | None = None  # set for DRN input
+    strict: bool = False
 
     def with_constants(
         self, constants: ConstantValues | None = None, /, **values: object
@@ -198,6 +202,7 @@ def load(
     *,
     text: str | None = None,
     constants: ConstantValues | None = None,
+    strict: bool = False,
 ) -> Session:
     """Parse a model file (PRISM language, or Storm's explicit DRN) without checking it further.
 
@@ -205,6 +210,8 @@ def load(
         path: the model file; or None with ``text``.
         text: the model text when there is no file.
         constants: values for the model's undefined constants (names to values or strings).
+        strict: keep PRISM's reading where Storm accepts more (an int variable given int/int,
+            an observable named like a label): errors instead of warnings.
 
     Raises:
         ParseError, InputError: unreadable or unparsable input, with file/line/column.
@@ -219,6 +226,8 @@ def load(
         raise InputError(
             f"constants must be a mapping of names to values, got {type(constants).__name__}"
         )
+    if not isinstance(strict, bool):
+        raise InputError(f"strict must be True or False, got {type(strict).__name__}")
     name = str(path) if path is not None else None
     if text is not None:
         content = text
@@ -232,8 +241,9 @@ def load(
 
             # a byte-order mark is accepted as in PRISM files; the columns of errors stay right
             drn = parse_drn(content.removeprefix("\ufeff"), file=name)
-            return Session(name, source, None, dict(constants or {}), drn)
-        return Session(name, source, parser.parse_model(content, file=name), dict(constants or {}))
+            return Session(name, source, None, dict(constants or {}), drn, strict)
+        syntax = parser.parse_model(content, file=name)
+        return Session(name, source, syntax, dict(constants or {}), strict=strict)
     except PosgmcError as e:
         raise _attach(e, source) from None
 
@@ -284,17 +294,18 @@ def lint(
     constants: ConstantValues | None = None,
     property_texts: Sequence[str] = (),
     zero_based_players: bool = False,
+    strict: bool = False,
 ) -> list[PosgmcError]:
     """Every error in a model and its properties, without building anything.
 
     Constants without a value are not errors here: everything that does not depend on their values
-    is checked, and with ``constants`` everything else too.
+    is checked, and with ``constants`` everything else too. ``strict``: see :func:`load`.
     """
     property_files = _paths(property_files, "property_files")
     property_texts = _texts(property_texts, "property_texts")
     errors: list[PosgmcError] = []
     try:
-        session = load(path, constants=constants)
+        session = load(path, constants=constants, strict=strict)
     except PosgmcError as e:
         return [e]
     src = session.source
@@ -303,7 +314,7 @@ def lint(
         errors += [
             _attach(e, src)
             for e in sem.check_model(
-                session.syntax, constants=constants, allow_extra_constants=extra
+                session.syntax, constants=constants, allow_extra_constants=extra, strict=strict
             )
         ]
     for f in property_files:
@@ -341,9 +352,15 @@ def instantiate(session: Session, *, allow_extra_constants: bool = False) -> Fla
     if session.syntax is None:
         raise UnsupportedError("an explicit (DRN) model has no PRISM-language description")
     try:
-        return sem.instantiate(
-            session.syntax, constants=session.constants, allow_extra_constants=allow_extra_constants
+        flat = sem.instantiate(
+            session.syntax,
+            constants=session.constants,
+            allow_extra_constants=allow_extra_constants,
+            strict=session.strict,
         )
+        for w in flat.warnings:
+            _attach(w, session.source)
+        return flat
     except PosgmcError as e:
         raise _attach(e, session.source) from None
 
@@ -372,7 +389,8 @@ def build(
             result = build_model(flat, options=options, on_states=_warm_up_when_large)
         except PosgmcError as e:
             raise _attach(e, session.source) from None
-        built = BuiltModel(result.model, result.seconds, tuple(result.warnings), flat)
+        dialect = tuple(str(w) for w in flat.warnings)
+        built = BuiltModel(result.model, result.seconds, dialect + tuple(result.warnings), flat)
     _warm_up_when_large(built.model.num_choices)
     return built
 
