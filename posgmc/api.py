@@ -37,6 +37,7 @@ from posgmc.errors import (
     SourceText,
     UnsupportedError,
 )
+from posgmc.model.actions import choices_by_index
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics import checker as sem
 from posgmc.semantics import operators as ops
@@ -377,7 +378,11 @@ class BuiltModel:
 def build(
     session: Session, *, options: BuildOptions = BuildOptions(), allow_extra_constants: bool = False
 ) -> BuiltModel:
-    """Explore the model's reachable state space into an :class:`ExplicitModel`."""
+    """Explore the model's reachable state space into an :class:`ExplicitModel`.
+
+    Choices that share their label within their state (unlabelled ones included: a DRN POMDP
+    without choice labels) are named by their local index, ``#0``, ``#1``, ..., as Storm and
+    PAYNT name them, so that strategies and strategy files can tell them apart."""
     session = _session(session)
     _typed(options, BuildOptions, "options")
     if session.explicit is not None:
@@ -391,6 +396,12 @@ def build(
             raise _attach(e, session.source) from None
         dialect = tuple(str(w) for w in flat.warnings)
         built = BuiltModel(result.model, result.seconds, dialect + tuple(result.warnings), flat)
+    named = choices_by_index(
+        built.model.choice_actions, built.model.row_groups, built.model.action_names
+    )
+    if named is not None:
+        model = dataclasses.replace(built.model, choice_actions=named[0], action_names=named[1])
+        built = dataclasses.replace(built, model=model)
     _warm_up_when_large(built.model.num_choices)
     return built
 
