@@ -288,7 +288,7 @@ class PropertyChecker:
                 isinstance(path, Temporal)
                 and path.bound is None
                 and path.op in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL)
-                and not any(_is_temporal(o) for o in path.operands)
+                and not any(is_temporal(o) for o in path.operands)
             ):
                 until = path.op is TemporalOp.UNTIL
                 remain = self._states(path.operands[0]) if until else None
