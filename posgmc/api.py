@@ -490,9 +490,15 @@ def iter_check(
     built: BuiltModel,
     strategies: Mapping[str, FiniteStateStrategy] | None = None,
     synthesis: SynthesisOptions | None = None,
+    select: Sequence[str | int] | None = None,
 ) -> Iterator[tuple[Property, PropertyResult | PosgmcError]]:
     """Check each property in turn; a property that fails yields its error and the others go on
     (as PRISM does). Errors that concern the whole input (unparsable files) are raised.
+
+    ``select``: only these properties, by name (``"mission"`` for ``"mission": P=? [...]``) or
+    by 1-based position among the files' properties and then ``properties`` (PRISM's ``-prop``,
+    Storm's ``--propertyfilter``); an unknown name or position is an InputError before any
+    property is checked.
 
     With ``strategies`` (player name -> strategy) every property is answered under them (see
     :mod:`posgmc.strategies.verify`): ``guaranteed``, ``vs_fss_adversary``, ``upper_bound``.
@@ -518,15 +524,15 @@ def iter_check(
     )
     checker = _checker(model, options, zero_based_players, strategies,
                        synthesis if synthesising else None)
-    files = [pf for pf, _ in parsed]
-    sources: list[SourceText | None] = [src for _, src in parsed]
-    if cli_props:
-        files.append(PropertiesFile(properties=tuple(cli_props)))
-        sources.append(None)
+    files = _with_texts([pf for pf, _ in parsed], cli_props)
+    sources: list[SourceText | None] = [src for _, src in parsed] + [None] * bool(cli_props)
+    chosen = _selection(files, select)
     labels = _label_names(built)
-    for pf, src in zip(files, sources):
+    for k, (pf, src) in enumerate(zip(files, sources)):
         pf, cyclic = inline_property_references(pf, labels)
         for i, prop in enumerate(pf.properties):
+            if chosen is not None and (k, i) not in chosen:
+                continue
             outcome = cyclic.get(i) or _check_one(
                 session, built, checker, pf, prop, zero_based_players
             )
@@ -540,6 +546,51 @@ def iter_check(
             elif note:
                 outcome = dataclasses.replace(outcome, note=note)
             yield prop, outcome
+
+
+def _with_texts(files: list[PropertiesFile], texts: list[Property]) -> list[PropertiesFile]:
+    """The properties files, then the property texts as one more file."""
+    return files + [PropertiesFile(properties=tuple(texts))] if texts else files
+
+
+def _selection(
+    files: Sequence[PropertiesFile], select: Sequence[str | int] | None
+) -> set[tuple[int, int]] | None:
+    """(file, property) positions of the selected properties; None: all of them."""
+    if select is None:
+        return None
+    if isinstance(select, (str, int)) or not isinstance(select, Sequence):
+        raise InputError(
+            f"select must be a list of property names or positions, got {type(select).__name__}"
+        )
+    where = [(k, i) for k, pf in enumerate(files) for i in range(len(pf.properties))]
+    names: dict[str, tuple[int, int]] = {}
+    for k, pf in enumerate(files):
+        for i, prop in enumerate(pf.properties):
+            if prop.name is not None:
+                names.setdefault(prop.name, (k, i))
+    out: set[tuple[int, int]] = set()
+    for item in select:
+        if isinstance(item, bool) or not isinstance(item, (str, int)):
+            raise InputError(f"a selected property is a name or a position, got {item!r}")
+        text = item.strip() if isinstance(item, str) else str(item)
+        if text.isdigit():
+            n = int(text)
+            if not 1 <= n <= len(where):
+                raise InputError(
+                    f"there is no property {n}: the properties are numbered 1 to {len(where)}",
+                    hint="--select takes property names or 1-based positions",
+                )
+            out.add(where[n - 1])
+            continue
+        name = text[1:-1] if len(text) > 1 and text[0] == text[-1] == '"' else text
+        if name not in names:
+            known = ", ".join(f'"{n}"' for n in names) or "none (write \"name\": before one)"
+            raise InputError(
+                f'no property is named "{name}"', hint=f"the named properties: {known}"
+            )
+        out.add(names[name])
+    return out
 
 
 def _label_names(built: BuiltModel) -> set[str]:
@@ -629,6 +680,7 @@ def check(
     synthesis: SynthesisOptions | None = None,
     on_start: Callable[[ExplicitModel, float, tuple[str, ...]], None] | None = None,
     on_outcome: Callable[[PropertyResult | PropertyError], None] | None = None,
+    select: Sequence[str | int] | None = None,
 ) -> CheckReport:
     """Build the model (unless ``built`` is given) and check each property at the initial states.
 
@@ -656,6 +708,8 @@ def check(
             warnings, before any property is checked (to show progress).
         on_outcome: called with each outcome (as in ``outcomes``) as soon as it is computed, so
             a caller can print results while the next property is being checked.
+        select: only the properties of these names or 1-based positions (see
+            :func:`iter_check`).
 
     Which checker answers, in this order of precedence: exact mode (``options.exact``: rational
     arithmetic; given strategies and ``full_observation`` are refused with it), then synthesis (a
@@ -676,6 +730,9 @@ def check(
         options, property_files, properties, strategies, full_observation, build_options,
         synthesis,
     )
+    if select is not None:  # before the build: nothing is reported for a wrong selection
+        parsed, texts = parse_properties(session, files=property_files, texts=properties)
+        _selection(_with_texts([pf for pf, _ in parsed], texts), select)
     built = built or _build_for_check(session, property_files, properties, build_options)
     loaded = load_strategies(strategies) if strategies else None
     warnings = built.warnings + _strategy_warnings(built.model, loaded)
@@ -692,6 +749,7 @@ def check(
             built=built,
             strategies=loaded,
             synthesis=synthesis,
+            select=select,
         ),
         on_outcome,
     )

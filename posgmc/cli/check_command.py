@@ -21,7 +21,10 @@ from posgmc.cli.options import (
     memory_option,
     positive_finite,
     seed_option,
+    select_option,
+    selected,
     strategy_options,
+    strict_option,
     synthesis_options,
     timeout_option,
     zero_based_players_option,
@@ -95,6 +98,8 @@ __all__ = ["check", "not_passed"]
               help="With one swept constant (--const B=0:4): draw each property against it "
               "(.png, .svg, .pdf; needs matplotlib).")
 @click.option("--state-limit", type=click.IntRange(min=1), default=None)
+@select_option
+@strict_option
 @common
 def check(
     model: str,
@@ -118,6 +123,8 @@ def check(
     junit: str | None,
     plot_file: str | None,
     state_limit: int | None,
+    select: tuple[str, ...],
+    strict: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -154,7 +161,7 @@ def check(
             # the first synthesised property's --timeout counts from here: loading and
             # building the model are inside it
             loading = time.perf_counter()
-            session = api.load(model, constants=constants)
+            session = api.load(model, constants=constants, strict=strict)
             on_start, on_outcome = (
                 _streamers(model, constants, json_lines) if streaming else (None, None)
             )
@@ -171,6 +178,7 @@ def check(
                                              started=loading),
                 on_start=on_start,
                 on_outcome=on_outcome,
+                select=selected(select),
             )
             if report.errors:
                 code = EXIT_ERROR

@@ -10,7 +10,13 @@ import click
 
 from posgmc.cli.constants import expand_constants, single_constants
 from posgmc.cli.group import main
-from posgmc.cli.options import EXIT_ERROR, EXIT_OK, common, zero_based_players_option
+from posgmc.cli.options import (
+    EXIT_ERROR,
+    EXIT_OK,
+    common,
+    strict_option,
+    zero_based_players_option,
+)
 from posgmc.cli.running import guard
 from posgmc.errors import MultipleErrors, PosgmcError
 
@@ -28,6 +34,7 @@ __all__ = ["lint", "build", "build_options"]
     help="Every argument is a model (as pre-commit passes changed files); a properties file "
     "beside it with the same name and .props is checked with it; .props arguments are skipped.",
 )
+@strict_option
 @common
 def lint(
     model: str,
@@ -35,6 +42,7 @@ def lint(
     prop_texts: tuple[str, ...],
     zero_based_players: bool,
     each: bool,
+    strict: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -63,6 +71,7 @@ def lint(
                     constants=constants,
                     property_texts=prop_texts,
                     zero_based_players=zero_based_players,
+                    strict=strict,
                 ):
                     errors += e.errors if isinstance(e, MultipleErrors) else [e]
         seen = set()
@@ -98,6 +107,7 @@ def lint(
     "--no-fix-deadlocks", is_flag=True, help="Deadlock states are an error instead of self-loops."
 )
 @click.option("--progress/--no-progress", default=None, help="Report build progress on stderr.")
+@strict_option
 @common
 def build(
     model: str,
@@ -106,6 +116,7 @@ def build(
     state_limit: int | None,
     no_fix_deadlocks: bool,
     progress: bool | None,
+    strict: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -113,7 +124,9 @@ def build(
     from posgmc import api
 
     def run() -> int:
-        session = api.load(model, constants=single_constants(consts, what="build"))
+        session = api.load(
+            model, constants=single_constants(consts, what="build"), strict=strict
+        )
         built = api.build(session, options=build_options(state_limit, no_fix_deadlocks, progress))
         stats = built.model.statistics()
         stats["build_seconds"] = round(built.seconds, 6)
