@@ -107,6 +107,13 @@ def lint(
     "--no-fix-deadlocks", is_flag=True, help="Deadlock states are an error instead of self-loops."
 )
 @click.option("--progress/--no-progress", default=None, help="Report build progress on stderr.")
+@click.option(
+    "--observer",
+    metavar="PLAYER",
+    default=None,
+    help="--export drn of a posg: the player whose observations the file carries (DRN has one "
+    "observation per state): the POSMG file PAYNT reads, PLAYER its partially observing player.",
+)
 @strict_option
 @common
 def build(
@@ -116,6 +123,7 @@ def build(
     state_limit: int | None,
     no_fix_deadlocks: bool,
     progress: bool | None,
+    observer: str | None,
     strict: bool,
     consts: tuple[str, ...],
     debug: bool,
@@ -124,6 +132,8 @@ def build(
     from posgmc import api
 
     def run() -> int:
+        if observer is not None and (export is None or export[0] != "drn"):
+            raise click.UsageError("--observer chooses the observations of --export drn")
         session = api.load(
             model, constants=single_constants(consts, what="build"), strict=strict
         )
@@ -131,7 +141,7 @@ def build(
         stats = built.model.statistics()
         stats["build_seconds"] = round(built.seconds, 6)
         if export is not None:
-            _export(built.model, export[0], export[1])
+            _export(built.model, export[0], export[1], observer)
             stats["exported"] = {"format": export[0], "file": export[1]}
         for w in built.warnings:
             click.echo(f"warning: {w}", err=True)
@@ -155,11 +165,11 @@ def build_options(state_limit: int | None, no_fix_deadlocks: bool, progress: boo
     return BuildOptions(**kwargs)
 
 
-def _export(model: Any, fmt: str, path: str) -> None:
+def _export(model: Any, fmt: str, path: str, observer: str | None = None) -> None:
     if fmt == "drn":
         from posgmc.io.drn import write_drn
 
-        write_drn(model, path)
+        write_drn(model, path, observer=observer)
     elif fmt == "prism":
         from posgmc.io.prism_explicit import write_prism_explicit
 
