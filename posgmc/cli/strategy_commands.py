@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import click
 
@@ -19,9 +19,6 @@ from posgmc.cli.options import (
 from posgmc.cli.printing import fmt
 from posgmc.cli.running import guard
 
-if TYPE_CHECKING:
-    pass
-
 __all__ = ["simulate", "show_strategy"]
 
 
@@ -32,8 +29,8 @@ __all__ = ["simulate", "show_strategy"]
 @click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE",
               help="A player's finite-state strategy; repeatable, one per player.")
 @click.option("--runs", type=click.IntRange(min=1), default=10_000, show_default=True)
-@click.option("--seed", type=int, default=0, show_default=True,
-              help="Random seed of the sampled runs.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Random seed of the sampled runs (a non-negative integer).")
 @click.option("--max-steps", type=click.IntRange(min=0), default=10_000, show_default=True)
 @click.option(
     "--opponent",
@@ -85,8 +82,11 @@ def simulate(
             f"  ({interval}; {result.runs} runs, seed {result.seed})"
         )
         if result.undecided:
-            click.echo(f"  {result.undecided} runs reached --max-steps undecided; the interval "
-                       "counts them both ways")
+            click.echo(f"  {result.undecided} of {result.runs} runs reached --max-steps "
+                       "undecided" + ("" if result.estimate is not None else
+                                      ": no point estimate; the interval "
+                                      + ("counts them both ways" if result.kind == "probability"
+                                         else "has no upper end (their rewards are unknown)")))
         if trace:
             _print_trace(result.trace)
         return EXIT_OK

@@ -20,6 +20,7 @@ from posgmc.cli.options import (
     EXIT_PROPERTY_FALSE,
     full_observation_option,
     memory_option,
+    nonnegative_finite,
     seed_option,
     select_option,
     selected,
@@ -44,6 +45,7 @@ F = Callable[..., Any]
 # the options a run takes, from the command line or from an argument file's line
 _RUN_OPTIONS: list[Callable[[F], F]] = [
     click.option("--tolerance", type=float, default=1e-5, show_default=True,
+                 callback=lambda _c, _p, v: nonnegative_finite(v, "--tolerance"),
                  help="Relative tolerance for numbers (PRISM's test mode: 1e-5)."),
     click.option("--exact", is_flag=True,
                  help="PRISM's -exact: rational arithmetic, decimal RESULT lines compared "
