@@ -1,9 +1,9 @@
 """Record what Storm builds from the PAYNT models vendored under ``tests/data/paynt/models``, as the
 reference counts of ``tests/compiler/test_paynt_models.py``.
 
-Run it with the reference environment (stormpy), never with posgmc's:
+Run it with the reference environment (stormpy 2.0.0), never with posgmc's:
 
-    /path/to/refenv/bin/python benchmarks/paynt_counts.py
+    $POSGMC_REFERENCE_PYTHON benchmarks/paynt_counts.py        # from the checkout's root
 
 Every model file (PRISM-language ``sketch.templ``/``.prism``/``.pm``/``.nm``, or DRN) is built
 with Storm's sparse builder and state valuations on: with them Storm checks that every assignment
