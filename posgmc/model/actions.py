@@ -94,6 +94,36 @@ def conflict_message(
     return message, hint
 
 
+def _shared_labels(
+    actions: np.ndarray,
+    row_groups: np.ndarray,
+    sizes: np.ndarray,
+    state_of: np.ndarray,
+    widest: int,
+    num_actions: int,
+) -> np.ndarray:
+    """bool[C]: choices whose label another choice of their state has. States of a few choices
+    (the usual case) compare each choice with the ones 1, 2, ... places after it, in passes over
+    the whole array; wider ones sort the (state, label) pairs."""
+    clash = np.zeros(actions.size, dtype=bool)
+    if widest <= 8:
+        local = np.arange(actions.size) - row_groups[state_of]
+        room = sizes[state_of] - local  # choices from this one to the state's end
+        for d in range(1, widest):
+            idx = np.flatnonzero(room > d)
+            same = idx[actions[idx] == actions[idx + d]]
+            clash[same] = True
+            clash[same + d] = True
+        return clash
+    pair = state_of * max(1, num_actions) + actions
+    order = np.argsort(pair, kind="stable")
+    ordered = pair[order]
+    same_sorted = ordered[1:] == ordered[:-1]
+    clash[order[1:][same_sorted]] = True
+    clash[order[:-1][same_sorted]] = True
+    return clash
+
+
 def choices_by_index(
     choice_actions: np.ndarray, row_groups: np.ndarray, action_names: tuple[str, ...]
 ) -> tuple[np.ndarray, tuple[str, ...]] | None:
@@ -108,10 +138,12 @@ def choices_by_index(
     """
     if choice_actions.size == 0:
         return None
-    state_of = np.repeat(np.arange(row_groups.size - 1), np.diff(row_groups))
-    pair = state_of.astype(np.int64) * max(1, len(action_names)) + choice_actions
-    _, inverse, counts = np.unique(pair, return_inverse=True, return_counts=True)
-    clash = counts[inverse.reshape(-1)] > 1
+    sizes = np.diff(row_groups)
+    widest = int(sizes.max(initial=0))
+    if widest <= 1:
+        return None
+    state_of = np.repeat(np.arange(sizes.size, dtype=np.int64), sizes)
+    clash = _shared_labels(choice_actions, row_groups, sizes, state_of, widest, len(action_names))
     if not clash.any():
         return None
     local = np.arange(choice_actions.size) - row_groups[state_of]
