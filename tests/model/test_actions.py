@@ -44,3 +44,12 @@ def test_every_state_offers_distinct_names(states: list[list[int]]) -> None:
         for k, (label, name) in enumerate(zip(labels, got)):
             # a label unique in its state is kept; the others are the local index
             assert name == (base[label] if labels.count(label) == 1 else f"#{k}")
+
+
+def test_a_wide_state_takes_the_sorting_path() -> None:
+    # 12 choices in one state (more than the pairwise passes handle): labels a, '', a, '', ...
+    acts = np.array([1, 0] * 6, dtype=np.int32)
+    named = choices_by_index(acts, np.array([0, 12]), ("", "a"))
+    assert named is not None
+    ids, names = named
+    assert [names[i] for i in ids.tolist()] == [f"#{k}" for k in range(12)]
