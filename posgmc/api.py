@@ -734,7 +734,7 @@ def check(
         parsed, texts = parse_properties(session, files=property_files, texts=properties)
         _selection(_with_texts([pf for pf, _ in parsed], texts), select)
     built = built or _build_for_check(session, property_files, properties, build_options)
-    loaded = load_strategies(strategies) if strategies else None
+    loaded = load_strategies(strategies, model=built.model) if strategies else None
     warnings = built.warnings + _strategy_warnings(built.model, loaded)
     if on_start is not None:
         on_start(built.model, built.seconds, warnings)
@@ -935,20 +935,27 @@ def synthesize(
 
 @deep_stack
 def load_strategies(
-    strategies: StrategySources,
+    strategies: StrategySources, *, model: ExplicitModel | None = None
 ) -> dict[str, FiniteStateStrategy]:
     """Strategies by player name, files read (a file's own player must be the one it is given for).
+    A file is ``posgmc-fss/1`` or the memoryless strategy of ``check --export-strategy``, read
+    against ``model`` when given (:func:`~posgmc.strategies.files.read_strategy_for`).
 
     Raises:
         InputError, StrategyError: unreadable or invalid files, or a file for another player.
     """
-    from posgmc.strategies.files import read_strategy
+    from posgmc.strategies.files import read_strategy, read_strategy_for
     from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 
     _strategy_sources(strategies)
     out: dict[str, FiniteStateStrategy] = {}
     for player, given in strategies.items():
-        fss = given if isinstance(given, FiniteStateStrategy) else read_strategy(given)
+        if isinstance(given, FiniteStateStrategy):
+            fss = given
+        elif model is not None:
+            fss = read_strategy_for(given, model, player=player)
+        else:
+            fss = read_strategy(given, player=player)
         # a pomdp's one player has no name; its strategy file is written as agent.json and
         # given back as --strategy agent=...
         if player is not None and fss.player != player and not (
@@ -998,8 +1005,10 @@ def _strategy_path(path: object, what: str) -> str | Path:
 # -- strategies: files, simulation ------------------------------------------------------------
 
 
-def load_strategy(path: str | Path) -> FiniteStateStrategy:
-    """Read a ``posgmc-fss/1`` strategy file (errors carry the file and JSON path).
+def load_strategy(path: str | Path, *, player: str | None = None) -> FiniteStateStrategy:
+    """Read a ``posgmc-fss/1`` strategy file, or the memoryless strategy file of ``check
+    --export-strategy`` (``player``: whose, when it holds several players'); errors carry the
+    file and JSON path.
 
     Raises:
         InputError: ``path`` is not a path, or the file cannot be read or is not JSON.
@@ -1007,7 +1016,7 @@ def load_strategy(path: str | Path) -> FiniteStateStrategy:
     """
     from posgmc.strategies.files import read_strategy
 
-    return read_strategy(_strategy_path(path, "path"))
+    return read_strategy(_strategy_path(path, "path"), player=player)
 
 
 def save_strategy(strategy: FiniteStateStrategy, path: str | Path) -> None:
@@ -1060,7 +1069,7 @@ def simulate(
     if strategies is not None:
         _strategy_sources(strategies)
     built = build(session, options=build_options, allow_extra_constants=True)
-    loaded = load_strategies(strategies) if strategies else {}
+    loaded = load_strategies(strategies, model=built.model) if strategies else {}
     _, (parsed,) = parse_properties(session, texts=[prop])
     src = SourceText(prop, "<--prop 1>")
     try:

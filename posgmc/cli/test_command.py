@@ -51,7 +51,8 @@ _RUN_OPTIONS: list[Callable[[F], F]] = [
                  help="PRISM's -exact: rational arithmetic, decimal RESULT lines compared "
                  "exactly."),
     full_observation_option,
-    click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE"),
+    click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE",
+                 help="A player's finite-state strategy (posgmc-fss/1 JSON); repeatable."),
     zero_based_players_option,
     memory_option,
     timeout_option,
@@ -205,7 +206,7 @@ def _run_one(r: Run, o: dict[str, Any], tally: _Tally) -> None:
         if i == 0:
             _check_result_lines(session, props)  # before any work: nothing half-reported
         built = api.build(session, allow_extra_constants=True, options=BuildOptions(exact=exact))
-        loaded = api.load_strategies(strategies) if strategies else None
+        loaded = api.load_strategies(strategies, model=built.model) if strategies else None
         started = time.perf_counter()
         for prop, outcome in api.iter_check(
             session, property_files=props, built=built, full_observation=o["full_observation"],

@@ -131,7 +131,7 @@ def test_cli_synthesises_exports_and_the_file_rechecks(tmp_path: Path, memory: s
                                   "--zero-based-players", "--memory", memory, "--timeout", "30",
                                   "--export-strategy", str(out), "--json"])
     assert r.exit_code == 0, r.output
-    res = json.loads(r.output)["results"][0]
+    res = json.loads(r.stdout)["results"][0]  # stdout: the "wrote ..." lines go to stderr
     assert set(res) >= {"guaranteed", "full_observation", "memory", "partial", "phases", "rounds"}
     again = CliRunner().invoke(
         main,
@@ -258,7 +258,7 @@ def test_cli_memory_per_player_and_adversary_memory(tmp_path: Path) -> None:
                                   "--memory", "rover=2", "--memory", "jammer=2", "--timeout", "20",
                                   "--json", "--export-strategy", str(out)])
     assert r.exit_code == 0, r.output
-    res = json.loads(r.output)["results"][0]
+    res = json.loads(r.stdout)["results"][0]  # stdout: the "wrote ..." lines go to stderr
     assert res["memory"] == {"rover": 2} and res["adversary_memory"] == 2
     assert 0.9 - 1e-6 <= res["guaranteed"]["upper"] and res["guaranteed"]["lower"] <= 0.9 + 1e-6
     # the worst two-node jammer found is exported beside the defence, and reads back
