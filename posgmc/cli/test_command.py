@@ -18,6 +18,7 @@ from posgmc.cli.options import (
     EXIT_ERROR,
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
+    effort_option,
     full_observation_option,
     memory_option,
     nonnegative_finite,
@@ -56,6 +57,7 @@ _RUN_OPTIONS: list[Callable[[F], F]] = [
     zero_based_players_option,
     memory_option,
     timeout_option,
+    effort_option,
     seed_option,
     select_option,
     strict_option,
@@ -211,7 +213,9 @@ def _run_one(r: Run, o: dict[str, Any], tally: _Tally) -> None:
         for prop, outcome in api.iter_check(
             session, property_files=props, built=built, full_observation=o["full_observation"],
             zero_based_players=o["zero_based_players"], strategies=loaded,
-            synthesis=synthesis_options(o["memory"], o["timeout"], o["seed"]),
+            synthesis=synthesis_options(
+                o["memory"], o["timeout"], o["seed"], effort=o["effort"]
+            ),
             options=CheckOptions(exact=exact), select=selected(o["select"]),
         ):
             seconds, started = time.perf_counter() - started, time.perf_counter()
