@@ -24,7 +24,10 @@ from posgmc.cli.options import (
     positive_finite,
     progress_options,
     seed_option,
+    select_option,
+    selected,
     strategy_options,
+    strict_option,
     synthesis_options,
     timeout_option,
     zero_based_players_option,
@@ -109,6 +112,8 @@ __all__ = ["check", "not_passed"]
 @click.option("-v", "--verbose", is_flag=True,
               help="Synthesis: every number with its meaning, the search rounds, the phases' "
               "times and the adversary phases (the JSON always has them).")
+@select_option
+@strict_option
 @common
 def check(
     model: str,
@@ -136,6 +141,8 @@ def check(
     plot_file: str | None,
     state_limit: int | None,
     verbose: bool,
+    select: tuple[str, ...],
+    strict: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -180,7 +187,7 @@ def check(
             # the first synthesised property's --timeout counts from here: loading and
             # building the model are inside it
             loading = time.perf_counter()
-            session = api.load(model, constants=constants)
+            session = api.load(model, constants=constants, strict=strict)
             if export_strategy is not None and not rows:
                 # before any work: a destination that cannot be written is refused now, not
                 # after the whole budget
@@ -204,6 +211,7 @@ def check(
                                             started=loading, effort=effort),
                 on_start=on_start,
                 on_outcome=on_outcome,
+                select=selected(select),
             )
             if report.errors:
                 code = EXIT_ERROR
