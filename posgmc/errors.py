@@ -44,6 +44,8 @@ class SourceText:
 class PosgmcError(Exception):
     """Base class of every error posgmc raises on purpose."""
 
+    kind = "error"  # the word render() puts after the position
+
     def __init__(
         self,
         message: str,
@@ -74,7 +76,7 @@ class PosgmcError(Exception):
 
     def render(self) -> str:
         """``file:line:col: error: message``, the source line with a caret, and the hint."""
-        kind = "error"
+        kind = self.kind
         if self.span is None:
             head = f"{kind}: {self.message}"
             return head + (f"\n  hint: {self.hint}" if self.hint else "")
@@ -120,6 +122,14 @@ class BuildError(InputError):
 
 class ModelFormatError(InputError):
     """An explicit model file (DRN, ...) is malformed."""
+
+
+class DialectWarning(PosgmcError):
+    """Input that PRISM refuses but Storm (and so PAYNT) accepts, read as Storm reads it. Never
+    raised: collected beside the errors and shown as a positioned warning; ``--strict`` turns
+    each into a :class:`SemanticError`."""
+
+    kind = "warning"
 
 
 class UnsupportedError(PosgmcError):

@@ -32,6 +32,19 @@ ROVER = str(Path(__file__).resolve().parents[1] / "models" / "rover.smg")
             "properties must be a string or a list",
         ),
         (lambda: api.build(api.load(ROVER), options=None), "options must be a BuildOptions"),
+        (lambda: api.load(ROVER, strict="yes"), "strict must be True or False, got str"),
+        (
+            lambda: api.check(api.load(ROVER), properties=["P>0 [ F x=1 ]"], select="1"),
+            "select must be a list of property names or positions, got str",
+        ),
+        (
+            lambda: api.check(api.load(ROVER), properties=["P>0 [ F x=1 ]"], select=[1.5]),
+            "a selected property is a name or a position, got 1.5",
+        ),
+        (
+            lambda: api.check(api.load(ROVER), properties=["P>0 [ F x=1 ]"], select=[2]),
+            "there is no property 2: the properties are numbered 1 to 1",
+        ),
     ],
 )
 def test_bad_arguments_raise_input_errors(call, words: str) -> None:  # type: ignore[no-untyped-def]

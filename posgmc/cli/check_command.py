@@ -25,7 +25,10 @@ from posgmc.cli.options import (
     positive_finite,
     progress_options,
     seed_option,
+    select_option,
+    selected,
     strategy_options,
+    strict_option,
     synthesis_options,
     timeout_option,
     zero_based_players_option,
@@ -108,6 +111,8 @@ __all__ = ["check", "not_passed"]
 @click.option("-v", "--verbose", is_flag=True,
               help="Synthesis: every number with its meaning, the search rounds, the phases' "
               "times and the adversary phases (the JSON always has them).")
+@select_option
+@strict_option
 @common
 def check(
     model: str,
@@ -137,6 +142,8 @@ def check(
     plot_file: str | None,
     state_limit: int | None,
     verbose: bool,
+    select: tuple[str, ...],
+    strict: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -181,7 +188,7 @@ def check(
             # the first synthesised property's --timeout counts from here: loading and
             # building the model are inside it
             loading = time.perf_counter()
-            session = api.load(model, constants=constants)
+            session = api.load(model, constants=constants, strict=strict)
             if export_strategy is not None and not rows:
                 # before any work: a destination that cannot be written is refused now, not
                 # after the whole budget
@@ -206,6 +213,7 @@ def check(
                                              executor=executor, ray_address=ray_address),
                 on_start=on_start,
                 on_outcome=on_outcome,
+                select=selected(select),
             )
             if report.errors:
                 code = EXIT_ERROR
@@ -331,7 +339,7 @@ def _check_export_extension(path: str, *, directory: bool | None) -> None:
 
 def not_passed(r: Any) -> bool:
     """A threshold that is false or undecided, a result whose iteration did not converge, or a
-    number about finite-state strategies (given or synthesised) that is not proven: exit 0 only
-    when every such printed number is."""
+    printed number that is not proven (plain value iteration, an LP's floating-point optimum, a
+    strategy number whose check was cut short): exit 0 only when every printed number is."""
     return (r.value is False or (r.value is None and r.kind.value == "boolean")
-            or not r.converged or (r.guaranteed is not None and not r.sound))
+            or not r.converged or not r.sound)

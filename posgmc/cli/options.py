@@ -5,8 +5,8 @@ Exit status (fixed, documented in docs/cli.md):
 
 * 0 — success; for ``check``, every threshold property holds at the initial state(s);
 * 1 — ``check``: some threshold property does not hold or is undecided (``unknown``), a result
-  did not converge, or a number about finite-state strategies is not proven (``pareto``: a point's
-  number is not proven);
+  did not converge, or a printed number is not proven (``pareto``: a point's number is not
+  proven);
 * 2 — bad input (model, properties, constants, options) or any other error;
 * 130 — interrupted (Ctrl-C), as shells report it.
 """
@@ -20,9 +20,10 @@ import click
 
 __all__ = [
     "EXIT_OK", "EXIT_PROPERTY_FALSE", "EXIT_ERROR", "EXIT_INTERRUPTED",
-    "common", "zero_based_players_option", "full_observation_option", "memory_option",
-    "timeout_option", "effort_option", "progress_options", "seed_option", "executor_options",
-    "positive_finite", "finite", "nonnegative_finite",
+    "common", "strict_option", "select_option", "selected", "zero_based_players_option",
+    "full_observation_option", "memory_option", "timeout_option", "effort_option",
+    "progress_options", "seed_option", "executor_options", "positive_finite", "finite",
+    "nonnegative_finite",
     "memory_sizes", "synthesis_options", "strategy_options",
 ]
 
@@ -72,6 +73,36 @@ def common(f: F) -> F:
         help="Values for undefined constants (PRISM syntax); ranges N=1:5 or N=1:1:5 sweep.",
     )(f)
     return f
+
+
+def strict_option(f: F) -> F:
+    return click.option(
+        "--strict",
+        is_flag=True,
+        help="PRISM's reading where Storm accepts more (an int variable given int/int, an "
+        "observable named like a label): errors instead of warnings.",
+    )(f)
+
+
+def select_option(f: F) -> F:
+    return click.option(
+        "--select",
+        "select",
+        multiple=True,
+        metavar="NAME|INDEX[,...]",
+        help="Only these properties of the properties files: by name (\"name\": P=? [...]) or "
+        "1-based position (PRISM's -prop, Storm's --propertyfilter); repeatable.",
+    )(f)
+
+
+def selected(values: Sequence[str]) -> list[str] | None:
+    """``--select a,2 --select b`` as ``["a", "2", "b"]``; None when not given."""
+    if not values:
+        return None
+    out = [part.strip() for v in values for part in v.split(",")]
+    if any(not part for part in out):
+        raise click.BadParameter("an empty property name or position", param_hint="'--select'")
+    return out
 
 
 def zero_based_players_option(f: F) -> F:

@@ -11,7 +11,9 @@ What binding checks (each a :class:`StrategyError` naming the file and JSON path
 * every action label the strategy plays is a label of the model and is enabled under the rule's
   observation (states a player cannot tell apart offer it the same labels; the PRISM compiler
   checks that, and binding checks it again for DRN input);
-* no state of the player offers two choices with one label (a strategy names actions by label).
+* no state of the player offers two choices with one label (a strategy names actions by label;
+  :func:`posgmc.api.build` names such choices by their local index, ``#0``, ``#1``, ..., with
+  :func:`posgmc.model.actions.choices_by_index`).
 
 Rules for observations the model never produces are not errors; they are returned as warnings.
 Whether every (memory, observation) pair *reached* under the strategy has a rule is a question of
@@ -53,6 +55,11 @@ class PlayerView:
     observables: tuple[str, ...]
     state_obs: np.ndarray
     obs_values: np.ndarray
+
+    @property
+    def who(self) -> str:
+        """The player as messages name it (a POMDP's single agent has no name)."""
+        return f"player {self.name!r}" if self.name else "the agent"
 
     @property
     def num_observations(self) -> int:
@@ -189,7 +196,7 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
     view = player_view(model, p)
     if fss.observables != view.observables:
         raise StrategyError(
-            f"the observables {list(fss.observables)} are not those of player {view.name!r}: "
+            f"the observables {list(fss.observables)} are not those of {view.who}: "
             f"{list(view.observables)}",
             path="observables",
             file=file,
@@ -213,7 +220,7 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
     ruled = fss.has_rule.any(axis=0)
     warnings = tuple(
         f"{file or 'strategy'}: {_where(fss, int(np.argmax(fss.has_rule[:, z])), z) or ''}: "
-        f"the model never shows player {view.name!r} the observation {fss.describe_observation(z)}"
+        f"the model never shows {view.who} the observation {fss.describe_observation(z)}"
         for z in np.flatnonzero(ruled & ~produced).tolist()
     )
 
@@ -242,9 +249,10 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
     if np.any(counts > 1):
         s, a = divmod(int(uniq[np.argmax(counts > 1)]), A)
         raise InputError(
-            f"state {_state_text(model, s)} of player {view.name!r} offers two choices labelled "
+            f"{_state_text(model, s)} of {view.who} offers two choices labelled "
             f"{model.action_names[a]!r}; a strategy names actions by label",
-            hint="give each command of the player's states a distinct action label",
+            hint="give each command of the player's states a distinct action label (api.build "
+            "names such choices by their local index, #0, #1, ...)",
         )
     offered = np.zeros((Zm, A), dtype=bool)
     offered[view.state_obs[states], acts] = True
@@ -255,7 +263,7 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
     if np.any(disagree):
         z, a = map(int, np.argwhere(disagree)[0])
         raise InputError(
-            f"states of player {view.name!r} with the observation {view.describe(z)} offer "
+            f"states of {view.who} with the observation {view.describe(z)} offer "
             f"different actions: {model.action_names[a]!r} is enabled in some of them only",
             hint="states a player cannot tell apart must offer it the same action labels",
         )
@@ -279,7 +287,9 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
 
 
 def _state_text(model: ExplicitModel, s: int) -> str:
-    return model.describe_state(s)
+    """``state 3`` or ``the state (x=1, y=2)``."""
+    text = model.describe_state(s)
+    return text if text.startswith("state ") else f"the state {text}"
 
 
 def memoryless_strategy(
@@ -311,7 +321,7 @@ def memoryless_strategy(
     if np.any(chosen[z] != acts):
         s = int(states[np.argmax(chosen[z] != acts)])
         raise StrategyError(
-            f"the choices are not observation-based: state {_state_text(model, s)} and another "
+            f"the choices are not observation-based: {_state_text(model, s)} and another "
             f"state with the observation {view.describe(int(view.state_obs[s]))} play different "
             "actions"
         )
