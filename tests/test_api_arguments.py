@@ -1,5 +1,4 @@
-"""The Python API validates its arguments and raises documented PosgmcError subclasses (issue
-#13)."""
+"""The Python API validates its arguments and raises documented PosgmcError subclasses."""
 
 from __future__ import annotations
 
@@ -119,7 +118,7 @@ def _posg():  # type: ignore[no-untyped-def]
 @pytest.mark.parametrize(
     ("call", "words"),
     [
-        # each raised a raw TypeError, AttributeError or ValueError before
+        # each would otherwise surface as a raw TypeError, AttributeError or ValueError
         (lambda: api.check(_posg(), properties=[REACH], strategies={"rover": None}),
          r"strategies\['rover'\] must be a FiniteStateStrategy or a strategy file's path, got "
          "NoneType"),
@@ -183,7 +182,7 @@ def test_save_strategy_writes_no_file_named_after_a_bad_path(
 
 
 def test_simulate_refuses_runs_that_cannot_fit_before_allocating() -> None:
-    """10^11 runs: numpy's MemoryError (745 GiB) before; 10^9 were killed by the OOM killer."""
+    """10^11 runs would need 745 GiB (numpy's MemoryError); 10^9 would meet the OOM killer."""
     from posgmc.errors import LimitError
 
     with pytest.raises(LimitError, match=r"100000000000 runs: simulating them together needs "

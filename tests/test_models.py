@@ -64,7 +64,7 @@ def test_rover_values(name: str, method: Method) -> None:
 
 def test_posg_without_options_is_answered_by_synthesis() -> None:
     """Without strategies and without full_observation every posg property is synthesised for
-    (the step-bounded one on the product with its step-counting automaton, issue #9)."""
+    (the step-bounded one on the product with its step-counting automaton)."""
     from posgmc.synthesis.options import SynthesisOptions
 
     report = api.check(
@@ -233,8 +233,8 @@ def test_beacon_memory_helps() -> None:
 
 @pytest.mark.slow
 def test_beacon_more_memory_never_hurts() -> None:
-    """guaranteed for k = 2, 3: 0.9 both (models/beacon/README.md): non-decreasing. Slow: 25 s
-    (k = 3 alone took 15 s of the default run)."""
+    """guaranteed for k = 2, 3: 0.9 both (models/beacon/README.md): non-decreasing. Slow: k = 3
+    is the expensive synthesis."""
     got = _beacon_guaranteed((2, 3))
     for g in got:
         assert g.lower <= 0.9 <= g.upper and g.upper - g.lower <= 2e-6
@@ -242,7 +242,7 @@ def test_beacon_more_memory_never_hurts() -> None:
 
 
 # the same command, with its whole output, is the tutorial's last one (tests/test_tutorial.py,
-# in the default run), so this copy runs with -m slow only (it took 30 s of the default run)
+# in the default run), so this copy runs with -m slow only (it would repeat that work)
 @pytest.mark.slow
 def test_beacon_results_pass_with_memory() -> None:
     code, output = _run_cli("test", str(MODELS / "beacon" / "beacon.posg"),

@@ -1,4 +1,4 @@
-"""``import posgmc`` gives the stages, records and errors at top level (issue #11's library API)."""
+"""``import posgmc`` gives the stages, records and errors at top level (the library API)."""
 
 from __future__ import annotations
 

@@ -34,7 +34,7 @@ def test_products_keep_the_variable_boolean() -> None:
 
 @pytest.mark.parametrize("flag", [False, True])
 def test_boolean_constant_as_property(flag: bool) -> None:
-    # issue #14: a Boolean constant as a property printed the number 0.0 instead of false
+    # a Boolean property prints false/true, never the number 0.0 or 1.0
     report = api.check(api.load(text=MODEL, constants={"flag": flag}), properties=["flag", "!flag"])
     first, negated = report.results
     assert first.value is flag and negated.value is (not flag)

@@ -1,4 +1,4 @@
-"""R[co-safe LTL] collects reward until the product reaches acceptance, PRISM's way (issue #14).
+"""R[co-safe LTL] collects reward until the product reaches acceptance, PRISM's way.
 
 PRISM's rule (its regression files dtmc_rewards.pm.cosafety.props / mdp_rewards.nm.cosafety.props):
 a state formula, the constant ``true`` included, holds at a position of the path, so it is

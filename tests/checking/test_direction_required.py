@@ -1,5 +1,5 @@
-"""P=? / R=? on a model with nondeterminism needs min or max, as in PRISM and Storm (issue #11:
-it silently answered Pmax)."""
+"""P=? / R=? on a model with nondeterminism needs min or max, as in PRISM and Storm: answering
+one of them silently (Pmax) would hide which question was answered."""
 
 from __future__ import annotations
 

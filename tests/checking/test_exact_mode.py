@@ -1,8 +1,8 @@
-"""Exact mode (PRISM's ``-exact``, issue #14): built and solved in rational arithmetic.
+"""Exact mode (PRISM's ``-exact``): built and solved in rational arithmetic.
 
-Before this mode existed, ``--method exact`` solved the floating-point model exactly, so a guard
-that holds only in doubles and a probability that a double cannot hold gave wrong values labelled
-"exact" (PRISM's ``functionality/verify/exact/exact-eval-4`` and ``exact-literal`` tests, and
+Solving the floating-point model exactly is not enough: a guard that holds only in doubles and a
+probability that a double cannot hold would give wrong values labelled "exact" (PRISM's
+``functionality/verify/exact/exact-eval-4`` and ``exact-literal`` tests, and
 ``bugfixes/exact-pow``). The models here are our own versions of those situations; every expected
 value is derived by hand next to it.
 """

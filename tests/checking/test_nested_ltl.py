@@ -1,6 +1,6 @@
-"""Queries nested in LTL formulas are evaluated in every state (issue #14: PRISM's
-supersimple.pm.boundedltl.props; before, an LTL query's product followed only the initial states,
-so a nested one was NaN, i.e. false, everywhere else)."""
+"""Queries nested in LTL formulas are evaluated in every state (PRISM's
+supersimple.pm.boundedltl.props): a product that followed only the initial states would leave a
+nested query NaN, i.e. false, everywhere else."""
 
 from __future__ import annotations
 

@@ -101,7 +101,7 @@ def test_prism_games_results(benchmarks: Path, model: str, props: str, consts: s
 @pytest.mark.parametrize("model,props,consts", CASES)
 def test_posgmc_test_passes_prism_games_result_lines(benchmarks: Path, model: str, props: str,
                                                     consts: str) -> None:
-    """The same files through ``posgmc test`` (issue #10: the CI command users run on theirs)."""
+    """The same files through ``posgmc test`` (the CI command users run on theirs)."""
     from click.testing import CliRunner
 
     from posgmc.cli import main

@@ -1,8 +1,8 @@
-"""Bounds that hold through arithmetic, and thresholds decided only on proof (issue #11).
+"""Bounds that hold through arithmetic, and thresholds decided only on proof.
 
-Each case failed before: a straddling threshold was decided by the midpoint and reported sound,
-division by 0 printed 1.797e308 as a sound value, functions of queries dropped the engine's
-interval, and property expressions failed silently where the model compiler reports an error.
+Each case guards a way to go wrong: a straddling threshold decided by the midpoint and reported
+sound, division by 0 printed as a sound 1.797e308, functions of queries dropping the engine's
+interval, and property expressions failing silently where the model compiler reports an error.
 """
 
 from __future__ import annotations
@@ -51,8 +51,8 @@ def test_comparison_inside_the_interval_is_unknown_not_guessed() -> None:
 
 
 def test_rover_threshold_between_bounds_and_exact_value() -> None:
-    # the exact value is 0.9876561794 (F<=10^20 reaches the fixpoint, tests/engines); before,
-    # ">= 0.98765634" was reported true from the midpoint 0.98765635
+    # the exact value is 0.9876561794 (F<=10^20 reaches the fixpoint, tests/engines); the
+    # midpoint 0.98765635 would wrongly make ">= 0.98765634" true
     session = api.load(ROOT / "models" / "rover.smg")
     for prop in ('<<rover>> Pmax=? [F "goal"] >= 0.98765634', '<<rover>> P>=0.98765634 [F "goal"]'):
         r = api.check(session, properties=[prop]).results[0]

@@ -1,4 +1,4 @@
-"""`posgmc test`: PRISM's RESULT convention for CI (issue #10), and its JUnit report."""
+"""`posgmc test`: PRISM's RESULT convention for CI, and its JUnit report."""
 
 from __future__ import annotations
 

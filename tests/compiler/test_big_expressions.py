@@ -1,7 +1,8 @@
-"""Machine-generated expressions, wide and deep, build and check (issue #13).
+"""Machine-generated expressions, wide and deep, build and check.
 
-Each of these raised "internal error: SyntaxError: too many nested parentheses" (from the
-generated numpy code) or RecursionError before; ``lint`` said ok for the same files. Expected
+Each of these is deep or wide enough to raise "internal error: SyntaxError: too many nested
+parentheses" (in generated numpy code) or RecursionError in a naive compiler, while ``lint``
+would say ok for the same files. Expected
 values are hand derivations given beside each case.
 """
 
@@ -127,8 +128,8 @@ def _cube_model(tmp_path: Path, guard: str) -> str:
 def test_int_overflow_is_an_error_for_variables_and_constants(
     tmp_path: Path, guard: str, column: int
 ) -> None:
-    # 3e9^3 = 2.7e28 > 2^63: numpy wrapped the variable product to 0 while the constant one was
-    # exact (issue #13); now both are the same positioned error
+    # 3e9^3 = 2.7e28 > 2^63: numpy would wrap the variable product to 0 while the constant one is
+    # exact; both are the same positioned error
     r = CliRunner().invoke(main, ["build", _cube_model(tmp_path, guard)])
     assert r.exit_code == 2, r.output
     assert f"cube.prism:6:{column}: error: integer overflow" in r.output

@@ -2,7 +2,7 @@
 only the linear solves' rounding makes look better must not cycle for ever nor be kept when it
 loses.
 
-Found on PAYNT's attacker-one-defender (issue #9): during the gradient search the nested policy
+Found on PAYNT's attacker-one-defender: during the gradient search the nested policy
 iteration of a product switched between rows whose values differed by rounding, closing end
 components (values dropping from 0.99999 to 0) and switching back, without end.
 """

@@ -1,5 +1,5 @@
-"""Huge step bounds stop at the iteration's exact fixpoint (issue #13: F<=10^20 used to run
-forever); the result is bit for bit what all the steps would give."""
+"""Huge step bounds stop at the iteration's exact fixpoint (F<=10^20 must not run
+for ever); the result is bit for bit what all the steps would give."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Mutation fuzzing of model and property files (issue #13): the corpus, the mutations and the
+"""Mutation fuzzing of model and property files: the corpus, the mutations and the
 oracle shared by the bounded hypothesis test (``tests/fuzz/test_fuzz.py``) and the long run
 (``benchmarks/fuzz.py``).
 

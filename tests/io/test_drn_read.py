@@ -914,7 +914,7 @@ def _conflict(**actions: str) -> str:
 
 
 def test_same_observation_different_actions_is_refused_as_in_prism() -> None:
-    # issue #13: accepted from DRN while the same POMDP written in PRISM was an error
+    # DRN is held to the same rule as the same POMDP written in PRISM, where this is an error
     from posgmc.errors import ModelFormatError
 
     text = _conflict(a0="a", b0="b", a1="a", b1="b")
@@ -933,7 +933,7 @@ def test_same_observation_different_actions_is_refused_as_in_prism() -> None:
 
 
 def test_a_nul_character_is_a_positioned_error() -> None:
-    # found by the long fuzz run (issue #13): numpy's strings dropped it and int() failed later
+    # found by the long fuzz run: numpy's strings drop it and int() would fail later
     from posgmc.errors import ModelFormatError
 
     text = _conflict(a0="a", b0="b", a1="a", b1="a").replace("state 1 {1}", "state 1\x00 {1}")

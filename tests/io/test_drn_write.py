@@ -182,7 +182,7 @@ def test_write_error_leaves_no_file(tmp_path: Path, monkeypatch: pytest.MonkeyPa
         raise OSError("disk full")
 
     monkeypatch.setattr(atomic.os, "replace", failing_replace)
-    # the error names the user's path, never the temporary file (issue #13)
+    # the error names the user's path, never the temporary file
     with pytest.raises(InputError, match=f"cannot write {tmp_path / 'm.drn'}: disk full"):
         write_drn(tiny_mdp(), tmp_path / "m.drn")
     monkeypatch.setattr(atomic.os, "replace", real_replace)
@@ -307,7 +307,7 @@ def test_written_files_get_ordinary_permissions(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("chunk", [1, 2, 3, 7, 1000])
 def test_chunked_text_equals_the_whole(chunk: int) -> None:
-    # issue #13: the writer streams chunks of states; any chunking gives the same text
+    # the writer streams chunks of states; any chunking gives the same text
     from posgmc.io.drn.writer import iter_drn
 
     for path in ("models/rover.smg", "models/rover.posg"):

@@ -46,8 +46,8 @@ def test_a_run_is_decided_at_the_formulas_step_bound() -> None:
 
 
 def test_max_steps_zero_has_no_estimate_below_its_bound() -> None:
-    """No step taken: every run undecided, no point estimate, the interval everything (before:
-    estimate 0 below the lower end 1.7e-18)."""
+    """No step taken: every run undecided, no point estimate, the interval everything (an
+    estimate 0 would lie below the lower end 1.7e-18)."""
     r = _forward(REACH, max_steps=0)
     assert r.undecided == r.runs and r.estimate is None and (r.lower, r.upper) == (0.0, 1.0)
 

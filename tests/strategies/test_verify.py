@@ -63,7 +63,7 @@ def test_rover_strategies_guaranteed(name: str) -> None:
     ).results[0]
     assert r.guaranteed.lower - 1e-12 <= exact.value <= r.guaranteed.upper + 1e-12
     # no partially observing rover beats the full-observation optimum (models/rover.props: exact
-    # value 0.98765618, issue #11)
+    # value 0.98765618)
     assert r.guaranteed.upper < 0.98765618
 
 

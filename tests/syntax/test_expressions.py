@@ -237,7 +237,7 @@ def test_model_expressions_reject_labels() -> None:
 
 @pytest.mark.parametrize("text", ["0." + "0" * 6000 + "1", "1" * 6000 + ".5"])
 def test_a_double_with_thousands_of_digits_is_a_positioned_error(text: str) -> None:
-    # issue #13 (fuzzing): Python refuses to convert more than 4300 digits ("internal error")
+    # found by fuzzing: Python refuses to convert more than 4300 digits ("internal error")
     with pytest.raises(ParseError, match="has more than 1000 digits") as info:
         parse_expression(text)
     assert info.value.span is not None and info.value.span.column == 1

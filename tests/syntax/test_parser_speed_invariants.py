@@ -237,7 +237,7 @@ GOLDEN: dict[str, str] = {
     "benchmarks/smg/smg_example/smg_example.prism.cosafe.props": "48ee9f2792c1de3b",
     "benchmarks/smg/smg_example/smg_example.prism.props": "5b8dfba43edb0c91",
     "models/rover.posg": "0d7910599d19776c",
-    "models/rover.props": "f8d27d02260b693e",  # RESULT lines added (issue #10's posgmc test)
+    "models/rover.props": "f8d27d02260b693e",  # with RESULT lines for posgmc test
     "models/rover.smg": "a8f01c881700421e",
 }
 

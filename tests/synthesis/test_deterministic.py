@@ -1,6 +1,6 @@
 """The direct search over deterministic FSSs (posgmc.synthesis.deterministic): on small random
 POSGs, against brute force over every deterministic k-node FSS of the decision maker, each
-evaluated independently by the strategy checker against the omniscient adversary (issue #9)."""
+evaluated independently by the strategy checker against the omniscient adversary."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """The one-sided method and the double oracle (posgmc.synthesis.double_oracle), the whole synthesis
 pipeline's invariants on small random POSGs where brute force over every deterministic
-memoryless strategy of both players is feasible, and --jobs (issue #9)."""
+memoryless strategy of both players is feasible, and --jobs."""
 
 from __future__ import annotations
 

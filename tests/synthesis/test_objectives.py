@@ -1,4 +1,4 @@
-"""Synthesis of co-safe LTL, step-bounded and Cdiscount objectives (issue #9): on the product
+"""Synthesis of co-safe LTL, step-bounded and Cdiscount objectives: on the product
 with the formula's automaton, whose state the strategies do not observe
 (posgmc.synthesis.objectives)."""
 

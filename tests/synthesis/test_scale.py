@@ -1,4 +1,4 @@
-"""Synthesis at scale (issue #9): the warm-started iterative evaluation of large products agrees
+"""Synthesis at scale: the warm-started iterative evaluation of large products agrees
 with the exact one, a memory range is warm-started from a memoryless defence, the QMDP start,
 and seeded runs stay bit-identical."""
 

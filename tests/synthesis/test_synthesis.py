@@ -1,4 +1,4 @@
-"""Synthesis of the decision maker's finite-state strategy (issue #9): exact gradients, the
+"""Synthesis of the decision maker's finite-state strategy: exact gradients, the
 full-observation case, randomisation, memory, determinism, verified and exportable results."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Defender trade-off fronts on partially observable games (issue #15): one synthesised defence
+"""Defender trade-off fronts on partially observable games: one synthesised defence
 per scalarisation weight, both objectives verified under each from its exported posgmc-fss/1
 file, the front and the constrained answers taken from those proven numbers.
 

@@ -1,4 +1,4 @@
-"""Pareto fronts of multi(...) queries as a library call, a table, CSV and a picture (issue #15);
+"""Pareto fronts of multi(...) queries as a library call, a table, CSV and a picture;
 the values themselves are pinned in tests/checking/test_multi.py."""
 
 from __future__ import annotations

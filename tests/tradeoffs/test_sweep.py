@@ -1,4 +1,4 @@
-"""Trade-off fronts by sweeping a constant (issue #15): every point verified, every synthesised
+"""Trade-off fronts by sweeping a constant: every point verified, every synthesised
 point re-verified from its exported strategy, CSV and plot written whole."""
 
 from __future__ import annotations
