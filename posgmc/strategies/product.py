@@ -34,6 +34,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
+from posgmc.resources import check_allocation
 from posgmc.strategies.binding import BoundStrategy, _state_text
 from posgmc.strategies.fss import StrategyError
 from posgmc.syntax.ast import ModelType
@@ -88,6 +89,13 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
     choice_states = model.choice_states
     num_choices = np.diff(rg)
 
+    # the product is laid out over all S·K pairs before the reachable part is cut out
+    check_allocation(
+        (48.0 * S + 24.0 * T.nnz) * K,
+        f"the product of the model ({S:,} states) with the strategies' memory "
+        f"({' x '.join(map(str, ks))} = {K:,} joint memory nodes)",
+        hint="use strategies with fewer memory nodes, or a smaller model",
+    )
     fixed_by = np.full(S, -1, dtype=np.int64)
     for i, b in enumerate(strategies):
         fixed_by[b.owned] = i
@@ -144,23 +152,30 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
             continue
         n = np.broadcast_to(node, (ci.size, K)).copy()
         cc = np.broadcast_to(ci[:, None], (ci.size, K)).copy()
-        w = b.action_probability(model, n, cc)  # [Ci, K]
-        d = b.update_rows(model, n, cc)  # [Ci, K, k]
+        e = b.entries(model, n, cc)  # [Ci, K], -1 where the choice is not played
+        fss = b.fss
+        w = np.where(e >= 0, fss.choice_probability[np.maximum(e, 0)], 0.0) \
+            if fss.choice_probability.size else np.zeros(e.shape)
         s_ci = choice_states[ci]
         prow = row_start[(s_ci * K)[:, None] + memories]  # [Ci, K]
         row_weight_parts.append((prow.ravel(), cc.ravel(), w.ravel()))
         sure = w == 1.0
         row_action[prow[sure]] = model.choice_actions[cc[sure]]
         Ti = T[ci].tocoo()
-        loc = Ti.row  # index into ci
-        # value [E, K, k]: w * δ * q; target (s'*K + m + (n' - n) * stride)
-        val = (w[loc][:, :, None] * d[loc]) * Ti.data[:, None, None]
-        nprime = np.arange(k, dtype=np.int64)
-        col = (Ti.col.astype(np.int64)[:, None, None] * K + memories[None, :, None]
-               + (nprime[None, None, :] - node[None, :, None]) * stride)
-        row = np.broadcast_to(prow[loc][:, :, None], val.shape)
+        # one product transition per (model transition, memory, memory update) with weight > 0:
+        # value w·δ(n')·q, target s'·K + m + (n' - n)·stride; the memory updates are the
+        # strategy's own lists, so the work is what the strategy writes, not k per pair
+        t, m = np.nonzero(e[Ti.row] >= 0)  # [M] pairs of a transition and a memory
+        ee = e[Ti.row[t], m]
+        lo = fss.update_start[ee]
+        num = fss.update_start[ee + 1] - lo
+        pick = np.repeat(np.arange(t.size), num)
+        u = np.repeat(lo - np.cumsum(num) + num, num) + np.arange(int(num.sum()))
+        val = w[Ti.row[t], m][pick] * fss.update_probability[u] * Ti.data[t][pick]
+        col = (Ti.col.astype(np.int64)[t][pick] * K + m[pick]
+               + (fss.update_node[u] - node[m][pick]) * stride)
         keep = val > 0
-        rows_parts.append(row[keep])
+        rows_parts.append(prow[Ti.row[t], m][pick][keep])
         cols_parts.append(col[keep])
         vals_parts.append(val[keep])
 

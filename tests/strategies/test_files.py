@@ -51,8 +51,8 @@ def strategies(draw: st.DrawFn) -> FiniteStateStrategy:
     action[rng.random((k, num_obs)) < 0.2] = 0.0  # some (memory, observation) without a rule
     update = rng.random((k, num_obs, num_act, k)) ** 3
     update /= update.sum(axis=3, keepdims=True)
-    return FiniteStateStrategy(
-        player="p", memory_size=k, initial_memory=int(rng.integers(k)), observables=("o",),
+    return FiniteStateStrategy.from_arrays(
+        player="p", initial_memory=int(rng.integers(k)), observables=("o",),
         observation_values=values, actions=tuple(f"a{i}" for i in range(num_act)),
         action=action, update=update * (action[..., None] > 0),
         boolean=(True,) if boolean else (),
