@@ -48,7 +48,7 @@ from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.deterministic import DeterministicResult, deterministic_phase
 from posgmc.synthesis.improvement import improvement_phase
 from posgmc.synthesis.jobs import Executor, Problem, executor_for
-from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
+from posgmc.synthesis.parametric import ITERATIVE_STATES, Layout, Parametrisation
 
 __all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
 
@@ -622,6 +622,15 @@ def problem_of(model: ExplicitModel, expr: Expr, *, player: int, adversary: int 
     if not isinstance(expr, (ProbQuery, RewardQuery)) or expr.threshold is not None:
         raise UnsupportedError("synthesis takes one P or R query with min or max (=?)", expr.span,
                                hint="write <<player>> Pmax=? [ F \"goal\" ]")
+    if not Layout.of(model, player).used_obs.size:
+        name = model.player_names[player] if model.player_names else "the agent"
+        raise InputError(
+            f"player {name!r} never has a move: none of its actions is enabled in any state, so "
+            "there is no strategy to synthesise",
+            expr.span,
+            hint="its value is that of the other players' choices alone: check the property with "
+            "--full-observation, or give the coalition to a player that moves",
+        )
     base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar)
     query = replace(expr, direction=base.direction_of(expr))
     target, remain, rewards, discount = _objective(model, query, base)
