@@ -20,7 +20,7 @@ import resource
 
 from posgmc.errors import LimitError
 
-__all__ = ["available_bytes", "resident_bytes", "check_allocation", "format_bytes"]
+__all__ = ["available_bytes", "resident_bytes", "check_allocation", "format_bytes", "usable_cpus"]
 
 _SAFETY = 0.9
 """The share of what is available that one allocation may take: the rest is headroom for the
@@ -99,3 +99,12 @@ def check_allocation(num_bytes: float, what: str, *, hint: str | None = None) ->
         "memory is available",
         hint=hint,
     )
+
+
+def usable_cpus() -> int:
+    """The processors this process may run on (its CPU affinity; the machine's count where that
+    cannot be read): more worker processes than this only compete for them."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)

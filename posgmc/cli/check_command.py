@@ -16,6 +16,7 @@ from posgmc.cli.options import (
     EXIT_ERROR,
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
+    capped_jobs,
     common,
     full_observation_option,
     memory_option,
@@ -126,6 +127,11 @@ def check(
     from posgmc.checking.dispatch import CheckOptions
     from posgmc.engines.options import Method, SolverOptions
 
+    # a --timeout the user gives bounds the whole run, building the model included (the
+    # default budget is synthesis's alone: a plain check of a large model is not cut short)
+    timed = click.get_current_context().get_parameter_source("timeout") \
+        is not click.core.ParameterSource.DEFAULT
+
     def run() -> int:
         if not props and not prop_texts:
             raise click.UsageError("give a properties file or --prop TEXT")
@@ -138,6 +144,7 @@ def check(
                                  f"{len(swept)} are swept",
                                  hint="give one constant a range, e.g. --const B=0:4")
         strategies = strategy_options(strategy_files)
+        workers = capped_jobs(jobs)
         options = CheckOptions(
             solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
             keep_strategy=export_strategy is not None,
@@ -163,11 +170,12 @@ def check(
                 property_files=props,
                 properties=prop_texts,
                 options=options,
-                build_options=build_options(state_limit, False, None),
+                build_options=build_options(state_limit, False, None,
+                                            deadline=loading + timeout if timed else None),
                 full_observation=full_observation,
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
-                synthesis=synthesis_options(memory, timeout, seed, adversaries, jobs,
+                synthesis=synthesis_options(memory, timeout, seed, adversaries, workers,
                                              started=loading),
                 on_start=on_start,
                 on_outcome=on_outcome,

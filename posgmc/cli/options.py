@@ -143,6 +143,18 @@ def synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
                             belief=False if explicit else None, started=started)
 
 
+def capped_jobs(jobs: int) -> int:
+    """``--jobs`` capped at the processors posgmc may use, saying so on stderr when it is."""
+    from posgmc.resources import usable_cpus
+
+    usable = usable_cpus()
+    if jobs > usable:
+        click.echo(f"warning: --jobs {jobs} capped at {usable}: the processors available to "
+                   "posgmc (more workers only compete for them)", err=True)
+        return usable
+    return jobs
+
+
 def strategy_options(values: Sequence[str]) -> dict[str | None, str]:
     """``("rover=r.json", "a.json")`` -> {"rover": "r.json", None: "a.json"} (None: the file's
     own player).

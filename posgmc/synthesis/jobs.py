@@ -25,6 +25,7 @@ import numpy as np
 from posgmc.checking.dispatch import CheckOptions
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.model.explicit import ExplicitModel
+from posgmc.resources import usable_cpus
 from posgmc.syntax.ast import Coalition, Direction, ProbQuery, RewardQuery
 
 __all__ = ["Problem", "Job", "Executor", "InProcess", "ProcessPool", "executor_for", "run_job"]
@@ -129,8 +130,11 @@ class ProcessPool:
 
 
 def executor_for(problem: Problem, jobs: int) -> InProcess | ProcessPool:
-    """``jobs`` = 1: in this process; more: a local process pool of that many workers."""
-    return InProcess(problem) if jobs <= 1 else ProcessPool(problem, jobs)
+    """``jobs`` = 1: in this process; more: a local process pool of that many workers, at most
+    one per usable processor (:func:`~posgmc.resources.usable_cpus`: more only compete for
+    them, and each costs a process start)."""
+    workers = min(jobs, usable_cpus())
+    return InProcess(problem) if workers <= 1 else ProcessPool(problem, workers)
 
 
 def expired(deadline: float | None) -> bool:
