@@ -317,7 +317,7 @@ class FiniteStateStrategy:
             r = int(np.argmax(bad))
             raise StrategyError(
                 f"the action distribution of memory {int(self.rule_memory[r])}, observation "
-                f"{int(self.rule_observation[r])} sums to {sums[r]!r}, not 1"
+                f"{int(self.rule_observation[r])} sums to {float(sums[r])!r}, not 1"
             )
         usums = np.bincount(entry, weights=self.update_probability, minlength=E)
         bad = np.abs(usums - 1.0) > PROBABILITY_TOLERANCE
@@ -327,7 +327,7 @@ class FiniteStateStrategy:
             raise StrategyError(
                 f"the memory update of memory {int(self.rule_memory[r])}, observation "
                 f"{int(self.rule_observation[r])}, action {self.actions[self.choice_action[e]]!r} "
-                f"sums to {usums[e]!r}, not 1"
+                f"sums to {float(usums[e])!r}, not 1"
             )
         if self.rule_source is not None and (
             self.rule_source.shape != (R,) or self.rule_source.dtype != np.int64
@@ -454,7 +454,7 @@ class FiniteStateStrategy:
         if np.any(bad):
             n, z = map(int, np.argwhere(bad)[0])
             raise StrategyError(f"the action distribution of memory {n}, observation {z} sums to "
-                                f"{sums[n, z]!r}, not 1")
+                                f"{float(sums[n, z])!r}, not 1")
         ruled = np.argwhere(sums > 0)
         rule_of = np.full((k, Z), -1, dtype=np.int64)
         rule_of[ruled[:, 0], ruled[:, 1]] = np.arange(ruled.shape[0])
@@ -470,7 +470,7 @@ class FiniteStateStrategy:
                 e = int(np.argmax(bad_u))
                 raise StrategyError(
                     f"the memory update of memory {int(en[e])}, observation {int(ez[e])}, action "
-                    f"{actions[int(ea[e])]!r} sums to {usums[e]!r}, not 1"
+                    f"{actions[int(ea[e])]!r} sums to {float(usums[e])!r}, not 1"
                 )
             u_entry, u_node = np.nonzero(rows > 0)
             u_prob = rows[u_entry, u_node]
