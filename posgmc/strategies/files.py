@@ -129,7 +129,7 @@ def _probability(value: Any, path: str, file: str | None) -> float:
 def _distribution(value: Any, path: str, file: str | None, what: str) -> dict[str, float]:
     if not isinstance(value, dict) or not value:
         raise _fail(f"{what} must be a non-empty object of probabilities", path, file)
-    out = {str(k): _probability(v, f"{path}.{_key(k)}", file) for k, v in value.items()}
+    out = {str(k): _probability(v, _child(path, str(k)), file) for k, v in value.items()}
     total = math.fsum(out.values())
     if abs(total - 1.0) > PROBABILITY_TOLERANCE:
         raise _fail(f"the probabilities of {what} sum to {total!r}, not 1", path, file)
@@ -137,8 +137,17 @@ def _distribution(value: Any, path: str, file: str | None, what: str) -> dict[st
 
 
 def _key(name: str) -> str:
-    """A JSON object key as a path component, cut when it is very long."""
+    """A JSON object key for a message, cut when it is very long."""
     return name if len(name) <= 60 else f"{name[:40]}...({len(name)} characters)"
+
+
+def _child(path: str, key: str) -> str:
+    """The JSON path of member ``key`` of the object at ``path``: ``rules[0].action.fwd``, or
+    ``["a b"]`` for a key that is empty or not a plain name."""
+    shown = _key(key)
+    if key and all(c.isalnum() or c in "_-" for c in key):
+        return f"{path}.{shown}" if path else shown
+    return f"{path}[{json.dumps(shown)}]"
 
 
 def strategy_from_json(doc: Any, *, file: str | None = None) -> FiniteStateStrategy:
@@ -155,8 +164,8 @@ def strategy_from_json(doc: Any, *, file: str | None = None) -> FiniteStateStrat
     for key in doc:
         if key not in _TOP_KEYS:
             raise _fail(
-                f"unknown field {_key(key)!r} (fields: {', '.join(sorted(_TOP_KEYS))})", _key(key),
-                file
+                f"unknown field {_key(key)!r} (fields: {', '.join(sorted(_TOP_KEYS))})",
+                _child("", key), file
             )
     if doc.get("format") != FORMAT:
         raise _fail(
@@ -208,7 +217,7 @@ def strategy_from_json(doc: Any, *, file: str | None = None) -> FiniteStateStrat
             if key not in _RULE_KEYS:
                 raise _fail(
                     f"unknown field {_key(key)!r} (fields: {', '.join(sorted(_RULE_KEYS))})",
-                    f"{here}.{_key(key)}", file
+                    _child(here, key), file
                 )
         for key in ("memory", "observation", "action"):
             if key not in rule:
@@ -234,7 +243,7 @@ def strategy_from_json(doc: Any, *, file: str | None = None) -> FiniteStateStrat
         for label in update:
             if label not in action:
                 raise _fail(f"an update for action {_key(label)!r}, which the rule does not play",
-                            f"{here}.update.{_key(label)}", file)
+                            _child(f"{here}.update", label), file)
         for label, prob in action.items():
             e = len(entry_rule)
             entry_rule.append(i)
@@ -245,14 +254,14 @@ def strategy_from_json(doc: Any, *, file: str | None = None) -> FiniteStateStrat
                 update_node.append(n)
                 update_prob.append(1.0)
                 continue
-            upath = f"{here}.update.{_key(label)}"
+            upath = _child(f"{here}.update", label)
             nodes = _distribution(update[label], upath, file, f"the update of {_key(label)!r}")
             for node, q in nodes.items():
                 m = int(node) if node.isascii() and node.isdigit() and len(node) <= _DIGITS \
                     else -1
                 if str(m) != node or not 0 <= m < k:
                     raise _fail(f"{_key(node)!r} is not a memory node (0..{k - 1})",
-                                f"{upath}.{_key(node)}", file)
+                                _child(upath, node), file)
                 update_entry.append(e)
                 update_node.append(m)
                 update_prob.append(q)
@@ -294,7 +303,7 @@ def _observation(value: Any, observables: list[str], boolean: list[bool], path: 
     for key in value:
         if key not in observables:
             raise _fail(f"{_key(key)!r} is not one of the observables ({', '.join(observables)})",
-                        f"{path}.{_key(key)}", file)
+                        _child(path, key), file)
     out = []
     for j, name in enumerate(observables):
         if name not in value:
