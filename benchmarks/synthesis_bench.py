@@ -41,7 +41,7 @@ def first_property(directory: Path) -> str:
 def ours(directory: Path, timeout: float) -> dict[str, object]:
     sys.path.insert(0, str(ROOT))
     from posgmc import api
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
     prop = first_property(directory)
     started = time.perf_counter()

@@ -24,10 +24,10 @@ from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-from posgmc.checking.dispatch import CheckOptions, PropertyChecker
+from posgmc.checking.property_checker import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.compiler import BuildOptions, build_model
-from posgmc.deep import deep_generator, deep_stack
+from posgmc.deep_stack import deep_generator, deep_stack
 from posgmc.engines import kernels, scc
 from posgmc.errors import (
     InputError,
@@ -38,8 +38,8 @@ from posgmc.errors import (
     UnsupportedError,
 )
 from posgmc.model.explicit import ExplicitModel
-from posgmc.semantics import checker as sem
 from posgmc.semantics import operators as ops
+from posgmc.semantics import stages as sem
 from posgmc.semantics.evaluate import Value, evaluate_constant
 from posgmc.semantics.flat import FlatModel
 from posgmc.semantics.properties import QueryResolver, resolve_queries
@@ -53,7 +53,7 @@ if TYPE_CHECKING:
     from posgmc.strategies.fss import FiniteStateStrategy
     from posgmc.strategies.simulate import Simulation
     from posgmc.synthesis.checker import SynthesisChecker
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
 StrategySources = (
     Mapping[str, "FiniteStateStrategy | str | Path"]
@@ -469,7 +469,7 @@ def iter_check(
     :mod:`posgmc.strategies.verify`): ``guaranteed``, ``vs_fss_adversary``, ``upper_bound``.
     A partially observable model without strategies and without ``full_observation`` is answered
     by synthesis (:mod:`posgmc.synthesis`), configured by ``synthesis``."""
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
     synthesis = synthesis or SynthesisOptions()
     parsed, cli_props = parse_properties(session, files=property_files, texts=properties)
@@ -527,9 +527,12 @@ def _checker(
     strategies: Mapping[str, FiniteStateStrategy] | None,
     synthesis: SynthesisOptions | None = None,
 ) -> PropertyChecker | StrategyChecker | SynthesisChecker:
+    """The checker that answers (each answers :class:`~posgmc.checking.protocols.Checker`'s
+    ``check``), in :func:`check`'s order of precedence: exact mode, synthesis, given strategies,
+    the plain checker."""
     coalition_of = _resolver(model, zero_based_players).coalition_of
     if options.exact:
-        from posgmc.checking.exact import ExactChecker
+        from posgmc.checking.exact_checker import ExactChecker
 
         return ExactChecker(model, coalition_of=coalition_of, scalar=_scalar, options=options)
     if synthesis is not None:
@@ -625,6 +628,12 @@ def check(
         on_outcome: called with each outcome (as in ``outcomes``) as soon as it is computed, so
             a caller can print results while the next property is being checked.
 
+    Which checker answers, in this order of precedence: exact mode (``options.exact``: rational
+    arithmetic; given strategies and ``full_observation`` are refused with it), then synthesis (a
+    partially observable model checked without ``strategies`` and without ``full_observation``),
+    then the given ``strategies``, else the plain checker (a partially observable model read with
+    ``full_observation``).
+
     Returns:
         The report; ``errors`` holds (property text, error) for properties that could not be
         checked, ``results`` the others, in order.
@@ -634,16 +643,63 @@ def check(
         UnsupportedError: a partially observable model without ``full_observation``.
     """
     session = _session(session)
+    property_files, properties, build_options, synthesis = _check_arguments(
+        options, property_files, properties, strategies, full_observation, build_options,
+        synthesis,
+    )
+    built = built or _build_for_check(session, property_files, properties, build_options)
+    loaded = load_strategies(strategies) if strategies else None
+    warnings = built.warnings + _strategy_warnings(built.model, loaded)
+    if on_start is not None:
+        on_start(built.model, built.seconds, warnings)
+    outcomes = _outcomes(
+        iter_check(
+            session,
+            property_files=property_files,
+            properties=properties,
+            options=options,
+            full_observation=full_observation,
+            zero_based_players=zero_based_players,
+            built=built,
+            strategies=loaded,
+            synthesis=synthesis,
+        ),
+        on_outcome,
+    )
+    return CheckReport(
+        built.model,
+        built.seconds,
+        tuple(o for o in outcomes if not isinstance(o, PropertyError)),
+        warnings,
+        tuple(o for o in outcomes if isinstance(o, PropertyError)),
+        tuple(outcomes),
+    )
+
+
+def _check_arguments(
+    options: CheckOptions,
+    property_files: Sequence[str | Path],
+    properties: Sequence[str | Property],
+    strategies: StrategySources | None,
+    full_observation: bool,
+    build_options: BuildOptions,
+    synthesis: SynthesisOptions | None,
+) -> tuple[tuple[str | Path, ...], tuple[str | Property, ...], BuildOptions,
+           SynthesisOptions | None]:
+    """:func:`check`'s arguments validated (InputError naming the argument), with exact mode's
+    build options and the synthesis budget's start (here, unless the caller set it: building the
+    model is inside the first synthesised property's budget)."""
+    if synthesis is not None:
+        from posgmc.synthesis.options import SynthesisOptions
+
+        _typed(synthesis, SynthesisOptions, "synthesis")
     if synthesis is not None and synthesis.started is None:
-        # the first synthesised property's budget counts from here: building the model counts
         synthesis = dataclasses.replace(synthesis, started=time.perf_counter())
     _typed(options, CheckOptions, "options")
-    property_files = _paths(property_files, "property_files")
-    properties = _property_items(properties)
-    if strategies is not None and not isinstance(strategies, Mapping):
-        raise InputError(
-            f"strategies must map player names to strategies, got {type(strategies).__name__}"
-        )
+    files = _paths(property_files, "property_files")
+    items = _property_items(properties)
+    if strategies is not None:
+        _strategy_sources(strategies)
     if options.exact:
         if strategies or full_observation:
             raise InputError(
@@ -652,49 +708,49 @@ def check(
                 hint="drop --exact, or drop --strategy / --full-observation",
             )
         build_options = dataclasses.replace(build_options, exact=True)
-    if built is None:
-        _check_constant_names(session, property_files)
-        # unreadable or unparsable property files are reported before anything is built
-        parse_properties(session, files=property_files, texts=properties)
-    built = built or build(session, options=build_options, allow_extra_constants=True)
-    loaded = load_strategies(strategies) if strategies else None
-    warnings: tuple[str, ...] = ()
-    if loaded:  # bound once here for the warnings; cheap whole-array work
-        from posgmc.strategies.binding import bind
+    return files, items, build_options, synthesis
 
-        warnings = tuple(w for fss in loaded.values() for w in bind(built.model, fss).warnings)
-    if on_start is not None:
-        on_start(built.model, built.seconds, built.warnings + warnings)
-    results: list[PropertyResult] = []
-    errors: list[PropertyError] = []
+
+def _build_for_check(
+    session: Session,
+    property_files: Sequence[str | Path],
+    properties: Sequence[str | Property],
+    build_options: BuildOptions,
+) -> BuiltModel:
+    """The model built for :func:`check`, after what can be reported without building it:
+    constants no file declares, unreadable or unparsable property files."""
+    _check_constant_names(session, property_files)
+    parse_properties(session, files=property_files, texts=properties)
+    return build(session, options=build_options, allow_extra_constants=True)
+
+
+def _strategy_warnings(
+    model: ExplicitModel, strategies: Mapping[str, FiniteStateStrategy] | None
+) -> tuple[str, ...]:
+    """What binding the given strategies to the model warns about (bound once here for the
+    warnings; cheap whole-array work)."""
+    if not strategies:
+        return ()
+    from posgmc.strategies.binding import bind
+
+    return tuple(w for fss in strategies.values() for w in bind(model, fss).warnings)
+
+
+def _outcomes(
+    checked: Iterator[tuple[Property, PropertyResult | PosgmcError]],
+    on_outcome: Callable[[PropertyResult | PropertyError], None] | None,
+) -> list[PropertyResult | PropertyError]:
+    """Each property's result, or its error with the property's text, in order; each handed to
+    ``on_outcome`` as soon as it is known."""
     outcomes: list[PropertyResult | PropertyError] = []
-    for prop, outcome in iter_check(
-        session,
-        property_files=property_files,
-        properties=properties,
-        options=options,
-        full_observation=full_observation,
-        zero_based_players=zero_based_players,
-        built=built,
-        strategies=loaded,
-        synthesis=synthesis,
-    ):
-        if isinstance(outcome, PosgmcError):
-            errors.append(PropertyError(prop.text or format_expr(prop.expr), outcome))
-            outcomes.append(errors[-1])
-        else:
-            results.append(outcome)
-            outcomes.append(outcome)
+    for prop, outcome in checked:
+        outcomes.append(
+            PropertyError(prop.text or format_expr(prop.expr), outcome)
+            if isinstance(outcome, PosgmcError) else outcome
+        )
         if on_outcome is not None:
             on_outcome(outcomes[-1])
-    return CheckReport(
-        built.model,
-        built.seconds,
-        tuple(results),
-        built.warnings + warnings,
-        tuple(errors),
-        tuple(outcomes),
-    )
+    return outcomes
 
 
 def _check_constant_names(session: Session, property_files: Sequence[str | Path]) -> None:
@@ -759,22 +815,24 @@ def synthesize(
     Raises:
         PosgmcError: the model, the property, or an objective synthesis does not cover.
     """
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions, memory_sizes
 
-    def sizes(v: int | Sequence[int]) -> tuple[int, ...]:
-        out = (v,) if isinstance(v, int) else tuple(v)
-        if not out or any(not isinstance(k, int) or isinstance(k, bool) or k < 1 for k in out):
-            raise InputError(f"memory sizes must be positive ints, got {v!r}")
-        return out
-
+    session = _session(session)
+    if not isinstance(prop, str):
+        raise InputError(f"prop must be a property text, got {type(prop).__name__}")
+    # every argument checked (SynthesisOptions names the field: timeout, seed, jobs, ...) before
+    # anything is built
     options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs,
                                belief=None if memory is None else False)
     if isinstance(memory, Mapping):
-        options = dataclasses.replace(
-            options, player_memory=tuple(sorted((str(p), sizes(v)) for p, v in memory.items()))
-        )
+        for p in memory:
+            if not isinstance(p, str):
+                raise InputError(f"memory must map player names (strings) to sizes, got the key "
+                                 f"{p!r}")
+        options = dataclasses.replace(options, player_memory=tuple(sorted(
+            (p, memory_sizes(v, f"memory[{p!r}]")) for p, v in memory.items())))
     elif memory is not None:
-        options = dataclasses.replace(options, memory=sizes(memory))
+        options = dataclasses.replace(options, memory=memory_sizes(memory, "memory"))
     report = check(session, properties=[prop], build_options=build_options,
                    zero_based_players=zero_based_players, built=built, synthesis=options)
     outcome = report.outcomes[0]
@@ -800,10 +858,14 @@ def load_strategies(
     from posgmc.strategies.files import read_strategy
     from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 
+    _strategy_sources(strategies)
     out: dict[str, FiniteStateStrategy] = {}
     for player, given in strategies.items():
         fss = given if isinstance(given, FiniteStateStrategy) else read_strategy(given)
-        if player is not None and fss.player != player:
+        # a pomdp's one player has no name; its strategy file is written as agent.json and
+        # given back as --strategy agent=...
+        if player is not None and fss.player != player and not (
+                player == "agent" and fss.player == ""):
             raise StrategyError(
                 f"the strategy is player {fss.player!r}'s, given for player {player!r}",
                 path="player",
@@ -814,21 +876,65 @@ def load_strategies(
 
 
 
+def _strategy_sources(strategies: object) -> None:
+    """``strategies`` maps player names (or None: the file's own player) to strategies or
+    strategy files.
+
+    Raises:
+        InputError: anything else, naming the argument and the entry.
+    """
+    from posgmc.strategies.fss import FiniteStateStrategy
+
+    if not isinstance(strategies, Mapping):
+        raise InputError(
+            f"strategies must map player names to strategies, got {type(strategies).__name__}",
+            hint='e.g. strategies={"rover": "rover.json"}',
+        )
+    for player, given in strategies.items():
+        if player is not None and not isinstance(player, str):
+            raise InputError(f"strategies: a player is named by a string, got {player!r}")
+        if not isinstance(given, (FiniteStateStrategy, str, Path)):
+            raise InputError(
+                f"strategies[{player!r}] must be a FiniteStateStrategy or a strategy file's path, "
+                f"got {type(given).__name__}",
+                hint="decode a bytes path first" if isinstance(given, bytes) else None,
+            )
+
+
+def _strategy_path(path: object, what: str) -> str | Path:
+    if not isinstance(path, (str, Path)):
+        raise InputError(f"{what} must be a file path (str or Path), got {type(path).__name__}",
+                         hint="decode a bytes path first" if isinstance(path, bytes) else None)
+    return path
+
+
 # -- strategies: files, simulation ------------------------------------------------------------
 
 
 def load_strategy(path: str | Path) -> FiniteStateStrategy:
-    """Read a ``posgmc-fss/1`` strategy file (errors carry the file and JSON path)."""
+    """Read a ``posgmc-fss/1`` strategy file (errors carry the file and JSON path).
+
+    Raises:
+        InputError: ``path`` is not a path, or the file cannot be read or is not JSON.
+        StrategyError: not a valid strategy (with its JSON path).
+    """
     from posgmc.strategies.files import read_strategy
 
-    return read_strategy(path)
+    return read_strategy(_strategy_path(path, "path"))
 
 
 def save_strategy(strategy: FiniteStateStrategy, path: str | Path) -> None:
-    """Write a strategy as a ``posgmc-fss/1`` file (atomically)."""
-    from posgmc.strategies.files import write_strategy
+    """Write a strategy as a ``posgmc-fss/1`` file (atomically).
 
-    write_strategy(strategy, path)
+    Raises:
+        InputError: ``strategy`` is not a strategy or ``path`` not a path (a file named ``None``
+            was written before), or the file cannot be written.
+    """
+    from posgmc.strategies.files import write_strategy
+    from posgmc.strategies.fss import FiniteStateStrategy
+
+    _typed(strategy, FiniteStateStrategy, "strategy")
+    write_strategy(strategy, _strategy_path(path, "path"))
 
 
 @deep_stack
@@ -857,10 +963,15 @@ def simulate(
     from posgmc.strategies.simulate import simulate as run
 
     session = _session(session)
-    if not isinstance(runs, int) or runs < 1:
-        raise InputError(f"runs must be a positive integer, got {runs!r}")
-    if not isinstance(max_steps, int) or max_steps < 0:
-        raise InputError(f"max_steps must be a non-negative integer, got {max_steps!r}")
+    if not isinstance(prop, str):
+        raise InputError(f"prop must be a property text, got {type(prop).__name__}")
+    for name, value, least in (("runs", runs, 1), ("max_steps", max_steps, 0), ("seed", seed, 0)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < least:
+            raise InputError(f"{name} must be an int of at least {least}, got {value!r}")
+    if opponent not in ("uniform", "best"):
+        raise InputError(f"opponent must be 'uniform' or 'best', got {opponent!r}")
+    if strategies is not None:
+        _strategy_sources(strategies)
     built = build(session, options=build_options, allow_extra_constants=True)
     loaded = load_strategies(strategies) if strategies else {}
     _, (parsed,) = parse_properties(session, texts=[prop])

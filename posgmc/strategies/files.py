@@ -37,7 +37,7 @@ import numpy as np
 
 from posgmc.errors import InputError, SourceSpan, SourceText
 from posgmc.strategies.fss import (
-    MAX_MEMORY,
+    MAX_MEMORY_SIZE,
     PROBABILITY_TOLERANCE,
     FiniteStateStrategy,
     StrategyError,
@@ -180,8 +180,8 @@ def strategy_from_json(doc: Any, *, file: str | None = None) -> FiniteStateStrat
     k = _int(doc["memory_size"], "memory_size", file, "memory_size")
     if k < 1:
         raise _fail(f"memory_size must be at least 1, got {k}", "memory_size", file)
-    if k > MAX_MEMORY:
-        raise _fail(f"memory_size {k} is more than the largest supported, {MAX_MEMORY}",
+    if k > MAX_MEMORY_SIZE:
+        raise _fail(f"memory_size {k} is more than the largest supported, {MAX_MEMORY_SIZE}",
                     "memory_size", file)
     n_init = _int(doc.get("initial_memory", 0), "initial_memory", file, "initial_memory")
     if not 0 <= n_init < k:

@@ -20,7 +20,7 @@ Only what is written is stored: memory grows with R + E + U, never with k²·Z·
 field               shape, dtype               invariant
 ==================  =========================  ==================================================
 player              str                        the player's name ("" for a pomdp's agent)
-memory_size         int                        1 <= k <= MAX_MEMORY
+memory_size         int                        1 <= k <= MAX_MEMORY_SIZE
 initial_memory      int                        in [0, k)
 observables         tuple[str, ...]            the player's observables, in declaration order
 observation_values  int64[Z, len(observables)] distinct rows; row z is observation z
@@ -64,12 +64,12 @@ import numpy as np
 from posgmc.errors import InputError
 from posgmc.resources import check_allocation
 
-__all__ = ["FiniteStateStrategy", "StrategyError", "PROBABILITY_TOLERANCE", "MAX_MEMORY"]
+__all__ = ["FiniteStateStrategy", "StrategyError", "PROBABILITY_TOLERANCE", "MAX_MEMORY_SIZE"]
 
 PROBABILITY_TOLERANCE = 1e-9
 """How far a distribution's sum may be from 1."""
 
-MAX_MEMORY = (1 << 31) - 1
+MAX_MEMORY_SIZE = (1 << 31) - 1
 """The largest memory size: a memory node, and the product of a model state with one, must be
 addressable by 64-bit integers."""
 
@@ -259,8 +259,8 @@ class FiniteStateStrategy:
         k, Z, A, R = self.memory_size, self.num_observations, self.num_actions, self.num_rules
         if k < 1:
             raise StrategyError(f"memory_size must be at least 1, got {k}")
-        if k > MAX_MEMORY:
-            raise StrategyError(f"memory_size {k} is more than the largest supported, {MAX_MEMORY}")
+        if k > MAX_MEMORY_SIZE:
+            raise StrategyError(f"memory_size {k} is more than the largest supported, {MAX_MEMORY_SIZE}")
         if not 0 <= self.initial_memory < k:
             raise StrategyError(f"initial_memory {self.initial_memory} is not a node in 0..{k - 1}")
         columns = len(self.observables) or 1  # no observables: the observation's id (DRN)
