@@ -260,7 +260,9 @@ class FiniteStateStrategy:
         if k < 1:
             raise StrategyError(f"memory_size must be at least 1, got {k}")
         if k > MAX_MEMORY_SIZE:
-            raise StrategyError(f"memory_size {k} is more than the largest supported, {MAX_MEMORY_SIZE}")
+            raise StrategyError(
+                f"memory_size {k} is more than the largest supported, {MAX_MEMORY_SIZE}"
+            )
         if not 0 <= self.initial_memory < k:
             raise StrategyError(f"initial_memory {self.initial_memory} is not a node in 0..{k - 1}")
         columns = len(self.observables) or 1  # no observables: the observation's id (DRN)
