@@ -254,7 +254,7 @@ def _calls(directory: Path) -> dict[str, tuple[Callable[..., Any], dict[str, Any
     rover = str(MODELS["rover"])
     forward = str(ROOT / "models" / "rover" / "forward.fss.json")
     return {
-        "load": (api.load, {"model": rover, "constants": {"N": 6}}),
+        "load": (api.load, {"path": rover, "constants": {"N": 6}}),
         "build": (lambda **kw: api.build(api.load(rover), **kw), {"options": None}),
         "check": (lambda **kw: api.check(api.load(rover), **kw),
                   {"properties": [PROPERTIES["rover"]], "strategies": {"rover": forward}}),
