@@ -107,7 +107,8 @@ def timeout_option(f: F) -> F:
         default=30.0,
         show_default=True,
         help="Synthesis: seconds per property (per point of a sweep or front), the first counted "
-        "from the start (loading included); anytime: the best defence so far is verified.",
+        "from the start (loading included); anytime: the best defence so far is verified. "
+        "Given on the command line, it also stops a model build that outlasts it.",
     )(f)
 
 
