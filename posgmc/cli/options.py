@@ -108,7 +108,7 @@ def timeout_option(f: F) -> F:
         show_default=True,
         help="Synthesis: seconds per property (per point of a sweep or front), the first counted "
         "from the start (loading included); anytime: the best defence so far is verified. "
-        "Given on the command line, it also stops a model build that outlasts it.",
+        "For check, given on the command line, it also stops a model build that outlasts it.",
     )(f)
 
 
