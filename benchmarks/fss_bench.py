@@ -138,7 +138,9 @@ def main() -> int:
     args = parser.parse_args()
     print(f"checkout: {args.root}\n")
     _synthesis_path(args.root.resolve(), args.repeat)
-    _large_files(args.root.resolve(), [int(n) for n in args.nodes.split(",")], args.dense_limit)
+    if args.nodes:
+        _large_files(args.root.resolve(), [int(n) for n in args.nodes.split(",")],
+                     args.dense_limit)
     return 0
 
 

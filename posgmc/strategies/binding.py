@@ -140,7 +140,7 @@ class BoundStrategy:
         states = model.choice_states[choices]
         z = self.strategy_observation(states)
         a = self.action_map[model.choice_actions[choices]]
-        return self.fss.entry_of(self.fss.rule_of(memory, z), a)
+        return self.fss.entry_at(memory, z, a)
 
     def action_probability(self, model: ExplicitModel, memory: np.ndarray,
                            choices: np.ndarray) -> np.ndarray:

@@ -74,6 +74,11 @@ MAX_MEMORY_SIZE = (1 << 31) - 1
 addressable by 64-bit integers."""
 
 
+_TABLE_ENTRIES = 1 << 22
+"""Up to this many (n, z, a) triples, :meth:`FiniteStateStrategy.entry_at` uses a direct table
+(32 MB at most)."""
+
+
 class StrategyError(InputError):
     """A strategy (file or object) is malformed or does not fit the model.
 
@@ -173,6 +178,29 @@ class FiniteStateStrategy:
         pos = np.minimum(np.searchsorted(keys, want), keys.size - 1)
         ok = (keys[pos] == want) & (rule >= 0) & (action >= 0)
         return np.where(ok, pos, -1).astype(np.int64)
+
+    def entry_at(self, memory: np.ndarray, observation: np.ndarray,
+                 action: np.ndarray) -> np.ndarray:
+        """int64[...]: the played-action entry of each (n, z, a), -1 where the strategy does not
+        play a there (also where z or a is -1). A direct table when k·Z·A is small (the
+        strategies synthesis makes), binary searches over the rules otherwise."""
+        memory = np.asarray(memory, dtype=np.int64)
+        observation = np.asarray(observation, dtype=np.int64)
+        action = np.asarray(action, dtype=np.int64)
+        Z, A = self.num_observations, self.num_actions
+        if self.memory_size * Z * A > _TABLE_ENTRIES:
+            return self.entry_of(self.rule_of(memory, observation), action)
+        if "entry" not in self._dense:
+            table = np.full(self.memory_size * Z * A, -1, dtype=np.int64)
+            rule = _segment_ids(self.choice_start)
+            table[(self.rule_memory[rule] * Z + self.rule_observation[rule]) * A
+                  + self.choice_action] = np.arange(self.choice_action.size)
+            table.setflags(write=False)
+            self._dense["entry"] = table
+        ok = (observation >= 0) & (action >= 0)
+        flat = np.where(ok, (memory * Z + observation) * A + action, 0)
+        return np.where(ok, self._dense["entry"][flat], -1) if flat.size and Z * A else \
+            np.full(np.shape(flat), -1, dtype=np.int64)
 
     def rule_path(self, n: int, z: int) -> str | None:
         """The JSON path of the rule for memory n under observation z, if read from a file."""

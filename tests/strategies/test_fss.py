@@ -95,6 +95,7 @@ def test_rules_give_back_the_dense_arrays(arrays: tuple[np.ndarray, np.ndarray])
     n, z, a = np.meshgrid(np.arange(k), np.arange(Z), np.arange(A), indexing="ij")
     e = g.entry_of(g.rule_of(n, z), a)
     assert np.array_equal(e >= 0, action > 0)
+    assert np.array_equal(g.entry_at(n, z, a), e)  # the direct table agrees with the search
     gamma = np.zeros(action.shape)
     gamma[e >= 0] = g.choice_probability[e[e >= 0]]
     assert np.array_equal(gamma, action)
