@@ -36,7 +36,7 @@ from scipy.sparse import csgraph
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
 from posgmc.resources import check_allocation
 from posgmc.strategies.binding import BoundStrategy, _state_text
-from posgmc.strategies.fss import StrategyError
+from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 from posgmc.syntax.ast import ModelType
 
 __all__ = ["StrategyProduct", "strategy_product"]
@@ -83,7 +83,10 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
     if len(set(players)) != len(players):
         raise StrategyError("two strategies for one player")
     S, rg, T = model.num_states, model.row_groups, model.transitions
-    ks = [b.memory_size for b in strategies]
+    # only the memory nodes each strategy can enter (from its initial node, along its updates)
+    # are laid out: a memory_size far above the nodes its rules use costs nothing
+    nodes = [_entered_nodes(b.fss) for b in strategies]
+    ks = [int(n.size) for n in nodes]
     K = math.prod(ks)
     strides = [math.prod(ks[i + 1:]) for i in range(len(ks))]
     choice_states = model.choice_states
@@ -134,12 +137,13 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
     missing_parts: list[np.ndarray] = []
     for i, b in enumerate(strategies):
         k, stride = ks[i], strides[i]
+        orig = nodes[i]  # compact node -> the strategy's node
         ci = np.flatnonzero(fixed_by[choice_states] == i)
         owned_states = np.flatnonzero(fixed_by == i)
         node = (memories // stride) % k  # [K]
         if owned_states.size:
             miss = b.missing_rule(
-                np.broadcast_to(node, (owned_states.size, K)).copy(),
+                np.broadcast_to(orig[node], (owned_states.size, K)).copy(),
                 np.broadcast_to(owned_states[:, None], (owned_states.size, K)).copy(),
             )
             ps = (owned_states[:, None] * K + memories)[miss]
@@ -150,7 +154,7 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
             vals_parts.append(np.ones(ps.size))
         if not ci.size:
             continue
-        n = np.broadcast_to(node, (ci.size, K)).copy()
+        n = np.broadcast_to(orig[node], (ci.size, K)).copy()
         cc = np.broadcast_to(ci[:, None], (ci.size, K)).copy()
         e = b.entries(model, n, cc)  # [Ci, K], -1 where the choice is not played
         fss = b.fss
@@ -172,8 +176,8 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
         pick = np.repeat(np.arange(t.size), num)
         u = np.repeat(lo - np.cumsum(num) + num, num) + np.arange(int(num.sum()))
         val = w[Ti.row[t], m][pick] * fss.update_probability[u] * Ti.data[t][pick]
-        col = (Ti.col.astype(np.int64)[t][pick] * K + m[pick]
-               + (fss.update_node[u] - node[m][pick]) * stride)
+        target = np.searchsorted(orig, fss.update_node[u])  # entered: every target is there
+        col = Ti.col.astype(np.int64)[t][pick] * K + m[pick] + (target - node[m][pick]) * stride
         keep = val > 0
         rows_parts.append(prow[Ti.row[t], m][pick][keep])
         cols_parts.append(col[keep])
@@ -187,7 +191,8 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
     full.sum_duplicates()
 
     # -- the reachable part -------------------------------------------------------------------
-    m0 = sum(b.fss.initial_memory * strides[i] for i, b in enumerate(strategies))
+    m0 = sum(int(np.searchsorted(nodes[i], b.fss.initial_memory)) * strides[i]
+             for i, b in enumerate(strategies))
     init = model.initial_states * K + m0
     row_state = np.repeat(np.arange(N, dtype=np.int64), counts)
     coo = full.tocoo()
@@ -201,7 +206,7 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
     for i, ps in enumerate(missing_parts):
         hit = ps[reached[ps]]
         if hit.size:
-            _missing_rule_error(model, strategies[i], int(hit[0]), K, strides[i])
+            _missing_rule_error(model, strategies[i], int(hit[0]), K, strides[i], nodes[i])
 
     keep_states = np.flatnonzero(reached)
     new_index = np.full(N, -1, dtype=np.int64)
@@ -215,7 +220,7 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
 
     state_of = keep_states // K
     mem = keep_states % K
-    memory_of = np.stack([(mem // strides[i]) % ks[i] for i in range(len(ks))], axis=1) \
+    memory_of = np.stack([nodes[i][(mem // strides[i]) % ks[i]] for i in range(len(ks))], axis=1) \
         if ks else np.zeros((keep_states.size, 0), dtype=np.int64)
 
     # -- rewards: action rewards mixed by the strategies' weights ------------------------------
@@ -268,11 +273,28 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
     return StrategyProduct(product, state_of, memory_of, strategies, new_init)
 
 
+def _entered_nodes(fss: FiniteStateStrategy) -> np.ndarray:
+    """int64[k']: the memory nodes the strategy can enter, sorted: its initial node and every
+    node an update of an entered node's rules leads to (a search over the nodes its rules name,
+    never over all ``memory_size`` nodes)."""
+    named = np.unique(np.concatenate([[fss.initial_memory], fss.rule_memory, fss.update_node]))
+    entry_rule = np.repeat(np.arange(fss.num_rules), np.diff(fss.choice_start))
+    source = fss.rule_memory[entry_rule[np.repeat(np.arange(fss.choice_action.size),
+                                                   np.diff(fss.update_start))]]
+    graph = sp.csr_matrix(
+        (np.ones(source.size, dtype=np.int8),
+         (np.searchsorted(named, source), np.searchsorted(named, fss.update_node))),
+        shape=(named.size, named.size))
+    start = int(np.searchsorted(named, fss.initial_memory))
+    order = csgraph.breadth_first_order(graph, start, directed=True, return_predecessors=False)
+    return np.asarray(named[np.sort(order)], dtype=np.int64)
+
+
 def _missing_rule_error(
-    model: ExplicitModel, b: BoundStrategy, ps: int, K: int, stride: int
+    model: ExplicitModel, b: BoundStrategy, ps: int, K: int, stride: int, nodes: np.ndarray
 ) -> None:
     s, m = divmod(ps, K)
-    n = (m // stride) % b.memory_size
+    n = int(nodes[(m // stride) % nodes.size])
     fss = b.fss
     raise StrategyError(
         f"no rule for memory {n} under the observation "
