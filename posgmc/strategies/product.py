@@ -170,16 +170,25 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
         # value w·δ(n')·q, target s'·K + m + (n' - n)·stride; the memory updates are the
         # strategy's own lists, so the work is what the strategy writes, not k per pair
         t, m = np.nonzero(e[Ti.row] >= 0)  # [M] pairs of a transition and a memory
-        ee = e[Ti.row[t], m]
+        rt = Ti.row[t]
+        ee = e[rt, m]
         lo = fss.update_start[ee]
         num = fss.update_start[ee + 1] - lo
-        pick = np.repeat(np.arange(t.size), num)
-        u = np.repeat(lo - np.cumsum(num) + num, num) + np.arange(int(num.sum()))
-        val = w[Ti.row[t], m][pick] * fss.update_probability[u] * Ti.data[t][pick]
-        target = np.searchsorted(orig, fss.update_node[u])  # entered: every target is there
-        col = Ti.col.astype(np.int64)[t][pick] * K + m[pick] + (target - node[m][pick]) * stride
+        wv, qv, pr = w[rt, m], Ti.data[t], prow[rt, m]
+        base = Ti.col.astype(np.int64)[t] * K + m - node[m] * stride
+        if np.all(num == 1):  # one next node each (deterministic updates): nothing to expand
+            u = lo
+        else:
+            pick = np.repeat(np.arange(t.size), num)
+            u = np.repeat(lo - np.cumsum(num) + num, num) + np.arange(int(num.sum()))
+            wv, qv, pr, base = wv[pick], qv[pick], pr[pick], base[pick]
+        val = wv * fss.update_probability[u] * qv  # (w·δ)·q, as the dense product computed it
+        # every target is an entered node; all k entered: compact and own numbers agree
+        target = fss.update_node[u] if orig.size == fss.memory_size \
+            else np.searchsorted(orig, fss.update_node[u])
+        col = base + target * stride
         keep = val > 0
-        rows_parts.append(prow[Ti.row[t], m][pick][keep])
+        rows_parts.append(pr[keep])
         cols_parts.append(col[keep])
         vals_parts.append(val[keep])
 
