@@ -99,7 +99,7 @@ def _mutate_doc(doc: Any, rng: random.Random) -> Any:
             many = []
             for i in range(rng.choice([10, 200, 2000])):
                 r = json.loads(json.dumps(rule))
-                if isinstance(r.get("observation"), dict):
+                if isinstance(r, dict) and isinstance(r.get("observation"), dict):
                     r["observation"] = {k: 1000 + i for k in r["observation"]}
                 many.append(r)
             doc["rules"] += many
