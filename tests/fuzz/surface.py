@@ -15,8 +15,8 @@ failure replays from its index.
 * **option values**: ``check``, ``simulate``, ``show-strategy`` and ``build`` of the rover with
   one to three options set to values drawn from a list of hostile ones (``nan``, ``inf``,
   ``-1``, ``0``, 20-digit numbers, empty text, ranges, ``PLAYER=`` forms, paths under a file).
-  Oracle: exit code 0, 1 or 2 and no ``internal error`` (every run has a time budget of at most
-  two seconds).
+  Oracle: exit code 0, 1 or 2, no ``internal error``, and done within two minutes (every run has
+  a time budget of at most two seconds).
 * **library arguments**: ``load``, ``build``, ``check``, ``synthesize``, ``simulate``,
   ``load_strategy`` and ``save_strategy`` with one argument replaced by a hostile value (None,
   numbers, bytes, NaN, lists, dicts, objects). Oracle: the call returns or raises a
@@ -174,9 +174,23 @@ def check_strategy_text(model: str, text: str, directory: Path) -> str:
 
 _NUMBERS = ["nan", "inf", "-inf", "-1", "0", "1e999", "99999999999999999999", "", "abc", "0.5",
             "1", "-0", "1e-300"]
+# a huge but valid budget is a legitimately long run, not a hostile value: at most 2 seconds here
+_TIMEOUTS = [v for v in _NUMBERS if v not in ("99999999999999999999",)] + ["2"]
+_SECONDS = 120
+"""The longest a command line may run: longer is a failure (a budget or deadline not held)."""
+
+
+class _TookTooLong(BaseException):  # noqa: N818 - not an Exception, so CliRunner lets it through
+    pass
+
+
+def _alarm(*_: object) -> None:
+    raise _TookTooLong
+
+
 _OPTIONS: dict[str, list[list[str]]] = {
     "check": [
-        ["--timeout", *_NUMBERS], ["--memory", "0", "-1", "1..200", "200..1", "auto", "rover=0",
+        ["--timeout", *_TIMEOUTS], ["--memory", "0", "-1", "1..200", "200..1", "auto", "rover=0",
                                    "nobody=1", "99999999999999999999", "", "1..", "attacker=3"],
         ["--jobs", *_NUMBERS], ["--seed", *_NUMBERS], ["--precision", *_NUMBERS],
         ["--adversaries", *_NUMBERS], ["--state-limit", *_NUMBERS],
@@ -221,8 +235,18 @@ def check_option_arguments(args: list[str], directory: Path) -> str:
     fixed = [str(ROOT / a) if a.startswith("models") else
              (a.split("=", 1)[0] + "=" + str(ROOT / a.split("=", 1)[1])
               if "=models" in a else a) for a in args]
-    with _cwd(directory):
-        result = CliRunner().invoke(main, fixed)
+    import signal
+
+    old = signal.signal(signal.SIGALRM, _alarm)
+    signal.alarm(_SECONDS)
+    try:
+        with _cwd(directory):
+            result = CliRunner().invoke(main, fixed)
+    except _TookTooLong:
+        raise OracleFailure(f"posgmc {' '.join(args)}: still running after {_SECONDS} s") from None
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
     if "internal error" in result.output or result.exit_code not in (0, 1, 2):
         raise OracleFailure(f"posgmc {' '.join(args)}: exit {result.exit_code}: "
                             f"{result.output.strip().splitlines()[-1:] or result.exception!r}")
