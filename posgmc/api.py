@@ -380,8 +380,8 @@ def build(
 def _warm_up_when_large(size: int) -> None:
     """Start loading the engines' compiled kernels on a thread (once per process) as soon as the
     model being built reaches ``scc.COMPILED_MIN_SIZE`` states (or choices), so that they are
-    ready when its analysis starts; a smaller model never loads numba, whose start-up (about
-    0.5 s of CPU and 100 MB) would cost more than the kernels save."""
+    ready when its analysis starts; a smaller model never loads numba, whose start-up
+    (:mod:`posgmc.engines.kernels`) would cost more than the kernels save."""
     if size >= scc.COMPILED_MIN_SIZE:
         kernels.warm_up_in_background()
 
@@ -648,7 +648,7 @@ def check(
         synthesis,
     )
     built = built or _build_for_check(session, property_files, properties, build_options)
-    loaded = load_strategies(strategies) if strategies else None
+    loaded = load_strategies(strategies, model=built.model) if strategies else None
     warnings = built.warnings + _strategy_warnings(built.model, loaded)
     if on_start is not None:
         on_start(built.model, built.seconds, warnings)
@@ -848,20 +848,27 @@ def synthesize(
 
 @deep_stack
 def load_strategies(
-    strategies: StrategySources,
+    strategies: StrategySources, *, model: ExplicitModel | None = None
 ) -> dict[str, FiniteStateStrategy]:
     """Strategies by player name, files read (a file's own player must be the one it is given for).
+    A file is ``posgmc-fss/1`` or the memoryless strategy of ``check --export-strategy``, read
+    against ``model`` when given (:func:`~posgmc.strategies.files.read_strategy_for`).
 
     Raises:
         InputError, StrategyError: unreadable or invalid files, or a file for another player.
     """
-    from posgmc.strategies.files import read_strategy
+    from posgmc.strategies.files import read_strategy, read_strategy_for
     from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 
     _strategy_sources(strategies)
     out: dict[str, FiniteStateStrategy] = {}
     for player, given in strategies.items():
-        fss = given if isinstance(given, FiniteStateStrategy) else read_strategy(given)
+        if isinstance(given, FiniteStateStrategy):
+            fss = given
+        elif model is not None:
+            fss = read_strategy_for(given, model, player=player)
+        else:
+            fss = read_strategy(given, player=player)
         # a pomdp's one player has no name; its strategy file is written as agent.json and
         # given back as --strategy agent=...
         if player is not None and fss.player != player and not (
@@ -911,8 +918,10 @@ def _strategy_path(path: object, what: str) -> str | Path:
 # -- strategies: files, simulation ------------------------------------------------------------
 
 
-def load_strategy(path: str | Path) -> FiniteStateStrategy:
-    """Read a ``posgmc-fss/1`` strategy file (errors carry the file and JSON path).
+def load_strategy(path: str | Path, *, player: str | None = None) -> FiniteStateStrategy:
+    """Read a ``posgmc-fss/1`` strategy file, or the memoryless strategy file of ``check
+    --export-strategy`` (``player``: whose, when it holds several players'); errors carry the
+    file and JSON path.
 
     Raises:
         InputError: ``path`` is not a path, or the file cannot be read or is not JSON.
@@ -920,7 +929,7 @@ def load_strategy(path: str | Path) -> FiniteStateStrategy:
     """
     from posgmc.strategies.files import read_strategy
 
-    return read_strategy(_strategy_path(path, "path"))
+    return read_strategy(_strategy_path(path, "path"), player=player)
 
 
 def save_strategy(strategy: FiniteStateStrategy, path: str | Path) -> None:
@@ -973,7 +982,7 @@ def simulate(
     if strategies is not None:
         _strategy_sources(strategies)
     built = build(session, options=build_options, allow_extra_constants=True)
-    loaded = load_strategies(strategies) if strategies else {}
+    loaded = load_strategies(strategies, model=built.model) if strategies else {}
     _, (parsed,) = parse_properties(session, texts=[prop])
     src = SourceText(prop, "<--prop 1>")
     try:

@@ -9,7 +9,7 @@ from typing import Any
 
 import click
 
-from posgmc.cli.constants import const_text, expand_constants
+from posgmc.cli.constants import const_json, const_text, expand_constants
 from posgmc.cli.group import main
 from posgmc.cli.model_commands import build_options
 from posgmc.cli.options import (
@@ -54,6 +54,7 @@ __all__ = ["check", "not_passed"]
     callback=lambda _c, _p, v: positive_finite(v, "--precision"),
     default=1e-6,
     show_default=True,
+    help="Stop iterating when the proven bounds are this close (absolute; see --relative).",
 )
 @click.option("--relative", is_flag=True, help="Precision is relative, not absolute.")
 @click.option(
@@ -97,7 +98,11 @@ __all__ = ["check", "not_passed"]
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
               help="With one swept constant (--const B=0:4): draw each property against it "
               "(.png, .svg, .pdf; needs matplotlib).")
-@click.option("--state-limit", type=click.IntRange(min=1), default=None)
+@click.option("--state-limit", type=click.IntRange(min=1), default=None,
+              help="Stop building beyond this many states (an error naming the limit).")
+@click.option("-v", "--verbose", is_flag=True,
+              help="Synthesis: every number with its meaning, the search rounds, the phases' "
+              "times and the adversary phases (the JSON always has them).")
 @common
 def check(
     model: str,
@@ -121,6 +126,7 @@ def check(
     junit: str | None,
     plot_file: str | None,
     state_limit: int | None,
+    verbose: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -148,6 +154,8 @@ def check(
                 raise InputError("--plot draws properties against one swept constant; "
                                  f"{len(swept)} are swept",
                                  hint="give one constant a range, e.g. --const B=0:4")
+        if export_strategy is not None:
+            _check_export_extension(export_strategy)
         strategies = strategy_options(strategy_files)
         workers = capped_jobs(jobs)
         options = CheckOptions(
@@ -177,7 +185,7 @@ def check(
                     session, given_strategies=bool(strategies),
                     full_observation=full_observation))
             on_start, on_outcome = (
-                _streamers(model, constants, json_lines) if streaming else (None, None)
+                _streamers(model, constants, json_lines, verbose) if streaming else (None, None)
             )
             report = api.check(
                 session,
@@ -217,21 +225,24 @@ def check(
         if as_json or (json_lines and not streaming):
             click.echo(json.dumps(json_report(model, swept, rows)))
         elif not streaming:
-            print_report(model, swept, rows)
+            print_report(model, swept, rows, verbose=verbose)
         return code
 
     guard(debug, run, as_json=as_json or json_lines, consts=consts)
 
 
-def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type: ignore[no-untyped-def]
-    """(on_start, on_outcome) callbacks printing the header and each result as it comes."""
+def _streamers(model: str, constants: dict[str, Any], json_lines: bool,  # type: ignore[no-untyped-def]
+               verbose: bool = False):
+    """(on_start, on_outcome) callbacks printing the header and each result as it comes (a
+    note once per run)."""
+    seen: set[str] = set()
 
     def start(built: Any, seconds: float, warnings: tuple[str, ...]) -> None:
         stats = built.statistics()
         if json_lines:
             click.echo(json.dumps({
                 "model_file": model,
-                "constants": {n: const_text(v) for n, v in constants.items()},
+                "constants": {n: const_json(v) for n, v in constants.items()},
                 "model": {k: stats[k] for k in ("type", "states", "choices", "transitions")},
                 "build_seconds": round(seconds, 6),
                 "warnings": list(warnings),
@@ -243,7 +254,7 @@ def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type
         if json_lines:
             click.echo(json.dumps(outcome_json(r)))
         else:
-            print_outcome(r)
+            print_outcome(r, verbose=verbose, seen=seen)
 
     return start, outcome
 
@@ -272,6 +283,23 @@ def _write_check_junit(
                 )
             cases.append(Case(name, model, r.seconds, failure=failure))
     write_junit(path, model, cases)
+
+
+def _check_export_extension(path: str) -> None:
+    """Strategies are written as JSON: a file named ``.json``, or a directory (no extension, or
+    one that exists) for synthesised strategies; any other extension (``s.tra``) is refused before
+    any work rather than given JSON.
+
+    Raises:
+        InputError: naming --export-strategy.
+    """
+    import os
+
+    suffix = os.path.splitext(os.path.basename(path.rstrip("/" + os.sep)))[1]
+    if suffix and suffix.lower() != ".json" and not os.path.isdir(path):
+        raise InputError(f"--export-strategy {path}: strategies are written as JSON, not "
+                         f"{suffix}", hint="give a .json file (a model checker's memoryless "
+                         "strategy) or a directory (synthesised strategies, <player>.json each)")
 
 
 def not_passed(r: Any) -> bool:

@@ -7,6 +7,7 @@ from typing import Any
 
 import click
 
+from posgmc.checking.result_text import number_text
 from posgmc.cli.constants import const_text, single_constants
 from posgmc.cli.group import main
 from posgmc.cli.options import (
@@ -320,7 +321,7 @@ def _also_cell(a: Any) -> str:
     g = getattr(a, "guaranteed", None)
     if g is None:
         return "Error" if a is not None else "-"
-    return f"{fmt(g.value)} [{fmt(g.lower)}, {fmt(g.upper)}]"
+    return _bound_cell(g)
 
 
 def _proven(r: Any) -> bool:
@@ -329,8 +330,11 @@ def _proven(r: Any) -> bool:
 
 
 def _bound_cell(b: Any) -> str:
-    """A number with its proven bounds; ``-`` where it was not computed."""
-    return "-" if b is None else f"{fmt(b.value)} [{fmt(b.lower)}, {fmt(b.upper)}]"
+    """A number with its proven bounds (the number as the shortest decimal inside them); ``-``
+    where it was not computed."""
+    if b is None:
+        return "-"
+    return f"{number_text(b.value, b.lower, b.upper)} [{fmt(b.lower)}, {fmt(b.upper)}]"
 
 
 def _print(result: Any) -> None:
@@ -344,7 +348,7 @@ def _print(result: Any) -> None:
             rows.append((p.setting, "Error", "", "", "", "", *("" for _ in result.also)))
             click.echo(p.error.render(), err=True)
             continue
-        cell = "-" if b is None else f"{fmt(b.value)} [{fmt(b.lower)}, {fmt(b.upper)}]"
+        cell = _bound_cell(b)
         if r is not None and r.synthesis and r.synthesis.get("partial"):
             cell += " (partial)"
         if r is not None and not _proven(r):
@@ -353,8 +357,8 @@ def _print(result: Any) -> None:
             (
                 p.setting,
                 cell,
-                fmt(r.full_observation.value) if r is not None and r.full_observation else "-",
-                fmt(r.upper_bound.value) if r is not None and r.upper_bound else "-",
+                _bound_cell(r.full_observation if r is not None else None),
+                _bound_cell(r.upper_bound if r is not None else None),
                 ", ".join(f"{n or 'agent'}={k}" for n, k in r.memory)
                 if r is not None and r.memory
                 else "-",

@@ -37,6 +37,7 @@ from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.problem import POLICY, Problem
 from posgmc.synthesis.result import SynthesisResult
 from posgmc.synthesis.search import _better, problem_of, synthesize
+from posgmc.synthesis.sharpen import Sharpening, keeps_original, sharpen
 
 __all__ = ["SynthesisChecker"]
 
@@ -131,6 +132,7 @@ class SynthesisChecker:
                 .guaranteed
             )
 
+        sharpened: dict[str, object] | None = None
         if composed is not None:
             # policy iteration first (cheap); the sound engines only for a real gain, since a
             # randomised strategy's near-deterministic loops make interval iteration slow
@@ -139,6 +141,8 @@ class SynthesisChecker:
             if sign * rough.value > sign * g.value + _GAIN * max(1.0, abs(g.value)):
                 g_composed = guaranteed_of(composed, verify)
                 assert g_composed is not None  # noqa: S101 - as above
+                composed, g_composed, sharpened = self._sharpened(
+                    composed, g_composed, lambda f: guaranteed_of(f, verify), maximize)
                 if _better(g_composed, g, maximize):
                     defence, g = composed, g_composed
         enumerated = found.enumeration.strategies
@@ -188,11 +192,35 @@ class SynthesisChecker:
             if vs_from_composed or (composed is not None and defence is composed)
             else "search",
             "composed_value": None if found.composed is None else found.composed.value,
+            "composed_sharpening": sharpened if defence is composed else None,
             "oracle": [{"response_value": v, "exhaustive": e} for v, e in found.responses],
         }
         return _AdversaryOutcome(defence, g, vs, ub, worst,
                                  composed if vs_from_composed else None, vs_from_composed,
                                  found.partial, phases, stats)
+
+    @staticmethod
+    def _sharpened(strategy: FiniteStateStrategy, g: Bound,
+                   verified: Callable[[FiniteStateStrategy], Bound | None], maximize: bool,
+                   ) -> tuple[FiniteStateStrategy, Bound, dict[str, object] | None]:
+        """The strategy sharpened (:mod:`posgmc.synthesis.sharpen`) and its proven
+        ``guaranteed`` (``verified``, the caller's sound check), unless the original proves
+        strictly more; and what was done, for the statistics (None: nothing to sharpen)."""
+        t0 = time.perf_counter()
+        s: Sharpening = sharpen(strategy)
+        if not s.changed:
+            return strategy, g, None
+        g_sharp = verified(s.strategy)
+        assert g_sharp is not None  # noqa: S101 - the decision maker's strategy is given
+        kept = keeps_original(g, g_sharp, maximize=maximize)
+        record: dict[str, object] = {
+            "probabilities": s.probabilities, "nodes_dropped": s.nodes_dropped,
+            "reported": "original" if kept else "sharpened",
+            "guaranteed_original": g.to_json(), "guaranteed_sharpened": g_sharp.to_json(),
+            "seconds": round(time.perf_counter() - t0, 3),
+            "text": ("not sharpened: the sharpened strategy proves less" if kept else s.text()),
+        }
+        return (strategy, g, record) if kept else (s.strategy, g_sharp, record)
 
     def _on_product(self, expr: ProbQuery | RewardQuery, *, text: str,
                     name: str | None) -> PropertyResult:
@@ -297,6 +325,18 @@ class SynthesisChecker:
                 check_options=_until(self.options, started + budget * _ADVERSARY_END),
                 executor=executor,
             )
+            # the search's defence made readable (near-0/1 probabilities exact, unreachable
+            # nodes dropped) before the adversary phases, so that every number is about it
+            strategy, g_search, search_sharpening = self._sharpened(
+                result.strategy, result.guaranteed,
+                lambda f: StrategyChecker(
+                    self.model, {f.player: f}, coalition_of=self.coalition_of,
+                    scalar=self.scalar,
+                    options=_until(self.options, started + budget * _ADVERSARY_END),
+                ).check(bare, text="synthesis").guaranteed,
+                problem.maximize)
+            if strategy is not result.strategy:
+                result = dataclasses.replace(result, strategy=strategy, guaranteed=g_search)
             adversaries = None
             if adversary is not None and settings.adversaries > 0:
                 deadline = started + budget * _ADVERSARY_END
@@ -338,8 +378,9 @@ class SynthesisChecker:
             proven = holds(g.lower if maximize else g.upper) and g.sound
             # no defence reaches the threshold: not with full observation, nor against the
             # enumerated adversaries
-            refuted = any(not holds(b.upper if maximize else b.lower) and b.sound
-                          for b in (ub, full_shown) if b is not None)
+            bound = ub if ub is not None else full_shown
+            refuted = bound is not None and bound.sound and not holds(
+                bound.upper if maximize else bound.lower)
             value = True if proven else False if refuted else None
             kind, lower, upper = ResultKind.BOOLEAN, None, None
         player_name = self.model.player_names[player] if self.model.player_names else ""
@@ -366,6 +407,14 @@ class SynthesisChecker:
         extra: tuple = ()  # type: ignore[type-arg]
         if adversaries is not None:
             stats.update(adversaries.stats)
+        # what was sharpened of the reported defence (the composed one's, when it is reported)
+        composed_sharpening = stats.pop("composed_sharpening", None)
+        sharpening = composed_sharpening if stats.get("defence") == "composed" else \
+            search_sharpening
+        if sharpening is not None:
+            stats["sharpening"] = sharpening
+            stats["sharpened"] = sharpening["text"]  # type: ignore[index]
+        if adversaries is not None:
             stats["adversary_memory"] = settings.adversary_memory
             adversary_kind = ("memoryless" if settings.adversary_memory == 1
                               else f"{settings.adversary_memory}-node finite-state")
@@ -400,6 +449,7 @@ class SynthesisChecker:
             guaranteed=g, vs_fss_adversary=vs, upper_bound=ub,
             memory=((player_name, defence.memory_size),),
             full_observation=full_shown, synthesis=stats,
+            maximizing=bare.direction is Direction.MAX,
             # Boolean observables written true/false in strategy files, as in the model
             strategies=tuple(with_boolean_observables(f, self.model) for f in
                              (defence,) + ((worst,) if worst is not None else ()) + extra),

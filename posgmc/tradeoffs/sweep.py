@@ -122,7 +122,21 @@ def sweep(
                 write_strategy(fss, os.path.join(where, f"{fss.player or 'agent'}.json"))
         points.append(SweepPoint(text, _number(text), outcome, None, where,
                                  _also(session, also, outcome)))
+    _raise_common_error(points)
     return Sweep(constant, prop, tuple(points), tuple(also))
+
+
+def _raise_common_error(points: Sequence[SweepPoint]) -> None:
+    """An error that every point has alike (a constant not declared or left without a value, an
+    unreadable file, a malformed property) is about the sweep, not its points: raised once, not
+    reported per point.
+
+    Raises:
+        PosgmcError: the error every point has.
+    """
+    errors = [p.error for p in points if p.error is not None]
+    if points and len(errors) == len(points) and len({e.render() for e in errors}) == 1:
+        raise errors[0]
 
 
 def _also(session: Any, props: Sequence[str], outcome: PropertyResult) -> tuple[Any, ...]:

@@ -12,7 +12,7 @@ from posgmc import api
 from posgmc.strategies.simulate import wilson
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
-from tests.strategies.test_verify import games
+from tests.strategies.helpers import drawn_game
 
 ROOT = Path(__file__).resolve().parents[2]
 ROVER = ROOT / "models" / "rover.posg"
@@ -76,7 +76,7 @@ def test_estimate_agrees_with_the_exact_profile_value(seed: int) -> None:
     """On random small POSGs with both players' strategies fixed, the exact value (the Markov
     chain of the profile) lies within 4 standard errors of a 20 000-run estimate (fixed seeds:
     deterministic)."""
-    model, p0, p1 = _game(seed)
+    model, p0, p1 = drawn_game(seed)
     prop = '<<p0>> Pmax=? [ F "goal" ]'
     exact = StrategyChecker(
         model,
@@ -95,21 +95,6 @@ def test_estimate_agrees_with_the_exact_profile_value(seed: int) -> None:
         assert sim.estimate is None and sim.lower - 4 * se <= v <= sim.upper + 4 * se
     else:
         assert sim.estimate is not None and abs(sim.estimate - v) <= 4 * se
-
-
-def _game(seed: int):  # type: ignore[no-untyped-def]
-    """A random game from the hypothesis strategy of test_verify, drawn reproducibly."""
-    from hypothesis import find, settings
-
-    count = {"n": 0}
-
-    def pick(_: object) -> bool:
-        count["n"] += 1
-        return count["n"] > seed
-
-    return find(
-        games(), pick, settings=settings(database=None, derandomize=True, max_examples=1000)
-    )
 
 
 def test_same_seed_same_result_and_rewards() -> None:

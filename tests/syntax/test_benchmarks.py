@@ -1,4 +1,4 @@
-"""Every PRISM-language model and property file among the shared benchmarks parses.
+"""Every PRISM-language model and property file among the vendored benchmarks parses.
 
 DRN files (PAYNT's ``sketch.templ`` exported by Storm/PRISM) are skipped: they are explicit models
 read by ``posgmc.io``, not PRISM text. Counts and ``// RESULT`` values below are read off the
@@ -32,8 +32,6 @@ def _is_drn(path: Path) -> bool:
 
 
 def _model_files() -> list[Path]:
-    if not BENCHMARKS.is_dir():
-        return []
     files = [
         p
         for p in sorted(BENCHMARKS.rglob("*"))
@@ -43,8 +41,6 @@ def _model_files() -> list[Path]:
 
 
 def _props_files() -> list[Path]:
-    if not BENCHMARKS.is_dir():
-        return []
     return sorted(p for p in BENCHMARKS.rglob("*.props") if p.is_file())
 
 
