@@ -334,8 +334,8 @@ def test_show_strategy_of_twenty_thousand_nodes(tmp_path: Path) -> None:
     r = run("show-strategy", str(f))
     assert r.exit_code == 0
     lines = r.output.splitlines()
-    assert lines[0] == "strategy of player 'rover': 20000 memory nodes, initial node 0, " \
-        "deterministic"
+    assert lines[0] == "strategy of player 'rover': 20000 memory nodes, 7 observations, " \
+        "140000 rules, initial node 0, deterministic"
     assert len(lines) == 2 + 7 * k and lines[-1].split() == ["19999", "{x=6}", "done:", "1",
                                                               "done", "->", "0"]
     doc["memory_size"], doc["rules"] = 1_000_000, rules[:7]
