@@ -42,6 +42,10 @@ from posgmc.errors import InputError
 __all__ = ["check", "not_passed"]
 
 
+BUILD_GRACE = 1.0
+"""Seconds a model build may always take under a given --timeout."""
+
+
 @main.command()
 @click.argument("model", type=click.Path(dir_okay=False))
 @click.argument("props", nargs=-1, type=click.Path(dir_okay=False))
@@ -136,7 +140,9 @@ def check(
     from posgmc.engines.options import Method, SolverOptions
 
     # a --timeout the user gives bounds the whole run, building the model included (the
-    # default budget is synthesis's alone: a plain check of a large model is not cut short)
+    # default budget is synthesis's alone: a plain check of a large model is not cut short); the
+    # build is given at least BUILD_GRACE, so that a tiny budget still reports what synthesis
+    # found on a small model rather than no model at all
     timed = click.get_current_context().get_parameter_source("timeout") \
         is not click.core.ParameterSource.DEFAULT
 
@@ -192,8 +198,9 @@ def check(
                 property_files=props,
                 properties=prop_texts,
                 options=options,
-                build_options=build_options(state_limit, False, None,
-                                            deadline=loading + timeout if timed else None),
+                build_options=build_options(
+                    state_limit, False, None,
+                    deadline=loading + max(timeout, BUILD_GRACE) if timed else None),
                 full_observation=full_observation,
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
