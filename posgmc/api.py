@@ -469,6 +469,7 @@ def iter_check(
     :mod:`posgmc.strategies.verify`): ``guaranteed``, ``vs_fss_adversary``, ``upper_bound``.
     A partially observable model without strategies and without ``full_observation`` is answered
     by synthesis (:mod:`posgmc.synthesis`), configured by ``synthesis``."""
+    from posgmc.synthesis.budget import interrupted
     from posgmc.synthesis.options import SynthesisOptions
 
     synthesis = synthesis or SynthesisOptions()
@@ -511,6 +512,8 @@ def iter_check(
             elif note:
                 outcome = dataclasses.replace(outcome, note=note)
             yield prop, outcome
+            if synthesising and interrupted():
+                return  # Ctrl-C: the property it cut short reported its best; no further ones
 
 
 def _label_names(built: BuiltModel) -> set[str]:
@@ -781,10 +784,11 @@ def synthesize(
     prop: str,
     *,
     memory: int | Sequence[int] | Mapping[str, int | Sequence[int]] | None = None,
-    timeout: float = 30.0,
+    timeout: float | None = None,
     seed: int = 0,
     adversaries: int = 10,
     jobs: int = 1,
+    effort: float = 1.0,
     zero_based_players: bool = False,
     build_options: BuildOptions = BuildOptions(),
     built: BuiltModel | None = None,
@@ -800,11 +804,15 @@ def synthesize(
             with its largest size). Default: 1..3 for the decision maker, 1 for the adversary,
             and on a pomdp a belief-based controller with as many nodes as it needs (sizes
             given bound the memory).
-        timeout: seconds for the whole synthesis of the property.
-        seed: random seed (the search is deterministic given the seed and a budget it keeps to).
+        timeout: a wall-clock cap in seconds on the whole synthesis of the property (None: none);
+            when it binds, ``synthesis["cut"]`` is "timeout" and the numbers, still proven, may
+            depend on the machine.
+        seed: random seed (the search is deterministic given the model, the property, the
+            options and the seed: its extent is a work budget, docs/synthesis.md).
         adversaries: how many of the strongest enumerated adversary strategies the defence is
             composed against (0: no adversary phases).
         jobs: worker processes for independent evaluations (the results do not depend on it).
+        effort: the multiplier of every synthesis phase's work budget (1: the defaults).
 
     Returns:
         The result: ``guaranteed`` (against every adversary), ``vs_fss_adversary``,
@@ -820,10 +828,10 @@ def synthesize(
     session = _session(session)
     if not isinstance(prop, str):
         raise InputError(f"prop must be a property text, got {type(prop).__name__}")
-    # every argument checked (SynthesisOptions names the field: timeout, seed, jobs, ...) before
-    # anything is built
+    # every argument checked (SynthesisOptions names the field: timeout, effort, seed, jobs, ...)
+    # before anything is built
     options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs,
-                               belief=None if memory is None else False)
+                               effort=effort, belief=None if memory is None else False)
     if isinstance(memory, Mapping):
         for p in memory:
             if not isinstance(p, str):
@@ -964,9 +972,13 @@ def simulate(
     :mod:`posgmc.strategies.simulate`); players without one play uniformly, or their
     full-observation optimum with ``opponent="best"``.
 
+    ``estimate`` is None when runs reached ``max_steps`` undecided (the interval covers them).
+
     Raises:
-        InputError, StrategyError: bad model, property or strategy files.
+        InputError, StrategyError: bad arguments (naming them), model, property or strategy
+            files.
         UnsupportedError: a property simulation does not estimate.
+        LimitError: ``runs`` whose arrays would not fit in the memory available.
     """
     from posgmc.strategies.simulate import Simulation  # noqa: F401
     from posgmc.strategies.simulate import simulate as run

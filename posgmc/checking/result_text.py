@@ -141,8 +141,14 @@ def _how_found(r: PropertyResult, stats: Mapping[str, Any]) -> str:
     sharpened = stats.get("sharpened")
     if sharpened:
         line += f"; {sharpened}"
-    if stats.get("partial"):
-        line += "; PARTIAL: the budget ran out"
+    cut = stats.get("cut")
+    if cut == "timeout":
+        line += ("; PARTIAL: --timeout cut the work budget (the numbers, still proven, may depend "
+                 "on the machine)")
+    elif cut == "interrupt":
+        line += "; INTERRUPTED: the best defence verified so far"
+    elif stats.get("partial"):
+        line += "; PARTIAL: a sound check did not converge"
     return line
 
 
@@ -156,7 +162,8 @@ def _synthesis_detail(stats: Mapping[str, Any]) -> list[str]:
         lines.append(f"  rounds: {rounds} (best defence so far per memory size, by policy "
                      "iteration)")
     phases = ", ".join(f"{k} {v:.2f} s" for k, v in stats.get("phases", {}).items())
-    budget = f"time budget {stats['timeout']:g} s, seed {stats['seed']}" if "timeout" in stats \
+    cap = "" if stats.get("timeout") is None else f", --timeout {stats['timeout']:g} s"
+    budget = f"effort {stats.get('effort', 1.0):g}{cap}, seed {stats['seed']}" if "seed" in stats \
         else ""
     lines.append("  phases: " + "; ".join(p for p in (phases, budget) if p))
     if "adversaries_enumerated" in stats:

@@ -14,13 +14,16 @@ from posgmc.cli.group import main
 from posgmc.cli.model_commands import build_options
 from posgmc.cli.options import (
     EXIT_ERROR,
+    EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
     capped_jobs,
     common,
+    effort_option,
     full_observation_option,
     memory_option,
     positive_finite,
+    progress_options,
     seed_option,
     strategy_options,
     synthesis_options,
@@ -35,9 +38,11 @@ from posgmc.cli.printing import (
     print_outcome,
     print_report,
 )
+from posgmc.cli.progress_view import before_output, progress_mode, progress_view
 from posgmc.cli.running import guard
 from posgmc.cli.strategy_export import check_destination, point_of, synthesises, write_exports
 from posgmc.errors import InputError
+from posgmc.synthesis.budget import interrupted, interruptible
 
 __all__ = ["check", "not_passed"]
 
@@ -88,7 +93,9 @@ BUILD_GRACE = 1.0
               help="Synthesis: worker processes for independent evaluations (results do not "
               "depend on it).")
 @timeout_option
+@effort_option
 @seed_option
+@progress_options
 @click.option("--export-strategy", type=click.Path(), default=None,
               help="Write the optimal memoryless strategy of the property as JSON; for a "
               "synthesised strategy, a directory receiving <player>.json. Several properties or "
@@ -122,8 +129,11 @@ def check(
     memory: tuple[str, ...],
     adversaries: int,
     jobs: int,
-    timeout: float,
+    timeout: float | None,
+    effort: float,
     seed: int,
+    progress_lines: bool,
+    quiet: bool,
     export_strategy: str | None,
     as_json: bool,
     json_lines: bool,
@@ -138,13 +148,6 @@ def check(
     from posgmc import api
     from posgmc.checking.property_checker import CheckOptions
     from posgmc.engines.options import Method, SolverOptions
-
-    # a --timeout the user gives bounds the whole run, building the model included (the
-    # default budget is synthesis's alone: a plain check of a large model is not cut short); the
-    # build is given at least BUILD_GRACE, so that a tiny budget still reports what synthesis
-    # found on a small model rather than no model at all
-    timed = click.get_current_context().get_parameter_source("timeout") \
-        is not click.core.ParameterSource.DEFAULT
 
     def run() -> int:
         if not props and not prop_texts:
@@ -161,7 +164,7 @@ def check(
                                  f"{len(swept)} are swept",
                                  hint="give one constant a range, e.g. --const B=0:4")
         if export_strategy is not None:
-            _check_export_extension(export_strategy)
+            _check_export_extension(export_strategy, directory=None)
         strategies = strategy_options(strategy_files)
         workers = capped_jobs(jobs)
         options = CheckOptions(
@@ -187,9 +190,10 @@ def check(
             if export_strategy is not None and not rows:
                 # before any work: a destination that cannot be written is refused now, not
                 # after the whole budget
-                check_destination(export_strategy, directory=synthesises(
-                    session, given_strategies=bool(strategies),
-                    full_observation=full_observation))
+                directory = synthesises(session, given_strategies=bool(strategies),
+                                        full_observation=full_observation)
+                _check_export_extension(export_strategy, directory=directory)
+                check_destination(export_strategy, directory=directory)
             on_start, on_outcome = (
                 _streamers(model, constants, json_lines, verbose) if streaming else (None, None)
             )
@@ -200,12 +204,15 @@ def check(
                 options=options,
                 build_options=build_options(
                     state_limit, False, None,
-                    deadline=loading + max(timeout, BUILD_GRACE) if timed else None),
+                    # a --timeout bounds the whole run, the build included, which is given
+                    # at least BUILD_GRACE: a tiny budget still reports what synthesis found
+                    # on a small model rather than no model at all
+                    deadline=None if timeout is None else loading + max(timeout, BUILD_GRACE)),
                 full_observation=full_observation,
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
                 synthesis=synthesis_options(memory, timeout, seed, adversaries, workers,
-                                             started=loading),
+                                            started=loading, effort=effort),
                 on_start=on_start,
                 on_outcome=on_outcome,
             )
@@ -221,6 +228,11 @@ def check(
                                           point=point_of(constants, swept),
                                           several_points=len(combos) > 1):
                     click.echo(f"wrote {path}", err=as_json or json_lines)
+            if interrupted():
+                # Ctrl-C: the property it cut short reported (and exported) its best verified
+                # defence; no further property or constant setting is checked
+                code = EXIT_INTERRUPTED
+                break
         if junit is not None:
             _write_check_junit(junit, model, swept, rows)
         if plot_file is not None:
@@ -235,7 +247,13 @@ def check(
             print_report(model, swept, rows, verbose=verbose)
         return code
 
-    guard(debug, run, as_json=as_json or json_lines, consts=consts)
+    def shown() -> int:
+        mode = progress_mode(quiet=quiet, lines=progress_lines, json_lines=json_lines)
+        with progress_view(mode):
+            return run()
+
+    with interruptible():
+        guard(debug, shown, as_json=as_json or json_lines, consts=consts)
 
 
 def _streamers(model: str, constants: dict[str, Any], json_lines: bool,  # type: ignore[no-untyped-def]
@@ -245,6 +263,7 @@ def _streamers(model: str, constants: dict[str, Any], json_lines: bool,  # type:
     seen: set[str] = set()
 
     def start(built: Any, seconds: float, warnings: tuple[str, ...]) -> None:
+        before_output()
         stats = built.statistics()
         if json_lines:
             click.echo(json.dumps({
@@ -258,6 +277,7 @@ def _streamers(model: str, constants: dict[str, Any], json_lines: bool,  # type:
         print_header(model, stats, seconds, warnings)
 
     def outcome(r: Any) -> None:
+        before_output()
         if json_lines:
             click.echo(json.dumps(outcome_json(r)))
         else:
@@ -286,27 +306,36 @@ def _write_check_junit(
             failure = None
             if not_passed(r):
                 failure = f"{r.property}: {fmt(r.value)}" + (
-                    "" if r.converged else " (not converged)"
+                    " (not converged)" if not r.converged
+                    else " (not proven)" if r.guaranteed is not None and not r.sound else ""
                 )
             cases.append(Case(name, model, r.seconds, failure=failure))
     write_junit(path, model, cases)
 
 
-def _check_export_extension(path: str) -> None:
+def _check_export_extension(path: str, *, directory: bool | None) -> None:
     """Strategies are written as JSON: a file named ``.json``, or a directory (no extension, or
     one that exists) for synthesised strategies; any other extension (``s.tra``) is refused before
-    any work rather than given JSON.
+    any work rather than given JSON, and so is a ``.json`` name where a synthesis writes a
+    directory (``directory``: whether it does; None: not known yet).
 
     Raises:
         InputError: naming --export-strategy.
     """
     import os
 
-    suffix = os.path.splitext(os.path.basename(path.rstrip("/" + os.sep)))[1]
-    if suffix and suffix.lower() != ".json" and not os.path.isdir(path):
+    suffix = os.path.splitext(os.path.basename(path.rstrip("/" + os.sep)))[1].lower()
+    if os.path.isdir(path) or not suffix:
+        return
+    if suffix != ".json":
         raise InputError(f"--export-strategy {path}: strategies are written as JSON, not "
                          f"{suffix}", hint="give a .json file (a model checker's memoryless "
                          "strategy) or a directory (synthesised strategies, <player>.json each)")
+    if directory:
+        raise InputError(f"--export-strategy {path}: a synthesis writes a directory (the "
+                         "defence and the adversary strategy found, <player>.json each), not "
+                         "one .json file", hint="give a directory name, e.g. --export-strategy "
+                         f"{path[: -len(suffix)] or 'strategies'}/")
 
 
 def not_passed(r: Any) -> bool:

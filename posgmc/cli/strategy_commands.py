@@ -15,6 +15,7 @@ from posgmc.cli.options import (
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
     common,
+    effort_option,
     full_observation_option,
     memory_option,
     nonnegative_finite,
@@ -51,6 +52,7 @@ __all__ = ["test", "simulate", "show_strategy"]
 @zero_based_players_option
 @memory_option
 @timeout_option
+@effort_option
 @seed_option
 @common
 def test(
@@ -63,7 +65,8 @@ def test(
     strategy_files: tuple[str, ...],
     zero_based_players: bool,
     memory: tuple[str, ...],
-    timeout: float,
+    timeout: float | None,
+    effort: float,
     seed: int,
     consts: tuple[str, ...],
     debug: bool,
@@ -96,7 +99,7 @@ def test(
             for prop, outcome in api.iter_check(
                 session, property_files=props, built=built, full_observation=full_observation,
                 zero_based_players=zero_based_players, strategies=loaded,
-                synthesis=synthesis_options(memory, timeout, seed),
+                synthesis=synthesis_options(memory, timeout, seed, effort=effort),
                 options=CheckOptions(exact=exact),
             ):
                 seconds, started = time.perf_counter() - started, time.perf_counter()

@@ -24,6 +24,8 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.observables import with_boolean_observables
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
+from posgmc.synthesis import progress
+from posgmc.synthesis.budget import Clock
 from posgmc.synthesis.double_oracle import (
     RESPONSE_EXHAUSTIVE,
     VersusJob,
@@ -48,10 +50,11 @@ check can be slow."""
 
 
 _SEARCH_SHARE = 0.7
-"""The part of the budget for the search (deterministic and gradient)."""
+"""Under a wall-clock cap: the part of it for the search (deterministic and gradient)."""
 
 _ADVERSARY_END = 0.85
-"""Where in the budget the adversary phases end; the rest is for the sound checks."""
+"""Under a wall-clock cap: where in it the adversary phases end; the rest is for the sound
+checks."""
 
 
 _POOL_BATCH = 4
@@ -59,10 +62,12 @@ _POOL_BATCH = 4
 until the adversary phases' deadline (the kept ones, strongest first, come first)."""
 
 
-def _until(options: CheckOptions, deadline: float) -> CheckOptions:
-    """``options`` whose iterative solves stop at ``deadline`` (their bounds stay proven), with
-    at least a little time when it has passed already: a check that cannot iterate at all proves
-    only the trivial bounds."""
+def _until(options: CheckOptions, deadline: float | None) -> CheckOptions:
+    """``options`` whose iterative solves stop at ``deadline`` (the wall-clock cap; their bounds
+    stay proven), with at least a little time when it has passed already: a check that cannot
+    iterate at all proves only the trivial bounds. None: ``options``."""
+    if deadline is None:
+        return options
     floor = time.perf_counter() + 0.2
     return dataclasses.replace(options, solver=dataclasses.replace(
         options.solver, deadline=max(deadline, floor)))
@@ -100,20 +105,25 @@ class SynthesisChecker:
         return next(iter(players))
 
     def _adversary_phases(self, problem: Problem, executor: Executor, result: SynthesisResult,
-                          settings: SynthesisOptions, deadline: float,
+                          settings: SynthesisOptions, deadline: float | None,
                           verify: CheckOptions) -> _AdversaryOutcome:
         """Enumerate, rank and keep the adversary's strategies, compose the defence against them
         and run the double oracle (:mod:`posgmc.synthesis.double_oracle`); then choose the reported
         defence — the search's or the composed one, whichever proves the better ``guaranteed``
         (the headline; so it is never worse than the search's) — and verify the numbers (with
         ``verify``, whose solver deadline ends the budget)."""
+        effort = settings.budget
         found = one_sided(problem, executor, defence=result.strategy, keep=settings.adversaries,
                           adversary_memory=settings.adversary_memory,
-                          enumeration_limit=settings.enumeration_limit,
-                          restarts=settings.compose_restarts, oracle_rounds=settings.oracle_rounds,
-                          iterations=settings.iterations, learning_rate=settings.learning_rate,
-                          seed=settings.seed, deadline=deadline)
+                          enumeration_limit=effort.units(settings.enumeration_limit),
+                          restarts=effort.units(settings.compose_restarts),
+                          oracle_rounds=effort.units(settings.oracle_rounds),
+                          iterations=effort.units(settings.iterations),
+                          learning_rate=settings.learning_rate,
+                          seed=settings.seed, deadline=deadline,
+                          milp_nodes=effort.default("milp_nodes"))
         t0 = time.perf_counter()
+        progress.report("adversaries: verification")
         maximize = problem.maximize
         defence, g = result.strategy, result.guaranteed
         composed = found.composed.strategy if found.composed is not None else None
@@ -229,20 +239,22 @@ class SynthesisChecker:
         automaton, so they are strategies of the game); the defence's ``guaranteed`` is then
         recomputed on the game itself, as ``--strategy`` would."""
         started = self._budget_start()
+        clock = Clock(started, self.synthesis.timeout)
         lifted, query = lift(self.model, expr, PropertyChecker(
             self.model, coalition_of=self.coalition_of, scalar=self.scalar))
-        # the budget: the synthesis on the product, then the last tenth for the recomputation
+        # under a cap: the synthesis on the product, then the last tenth for the recomputation
         budget = self.synthesis.timeout
         inner = SynthesisChecker(lifted, coalition_of=self.coalition_of, scalar=self.scalar,
                                  options=self.options, synthesis=dataclasses.replace(
-                                     self.synthesis, timeout=0.9 * budget, started=started))
+                                     self.synthesis, timeout=None if budget is None
+                                     else 0.9 * budget, started=started))
         result = inner.check(query, text=text, name=name)
         defence = result.strategies[0]
         bare = expr if expr.threshold is None else dataclasses.replace(
             expr, threshold=None, direction=Direction.MAX if expr.threshold.op in (
                 ComparisonOp.GE, ComparisonOp.GT) else Direction.MIN)
         g = StrategyChecker(self.model, {defence.player: defence}, coalition_of=self.coalition_of,
-                            scalar=self.scalar, options=_until(self.options, started + budget)
+                            scalar=self.scalar, options=_until(self.options, clock.end)
                             ).check(bare, text=text).guaranteed
         assert g is not None  # noqa: S101 - the decision maker's strategy is given
         note = (result.note or "") + ("; synthesised on the product with the formula's automaton, "
@@ -294,11 +306,14 @@ class SynthesisChecker:
             maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
             bare = dataclasses.replace(expr, threshold=None,
                                        direction=Direction.MAX if maximize else Direction.MIN)
-        # the time budget T: 7/10 for the search (the deterministic search, then the gradient
+        # the work budget is counted per phase (budget.py); a wall-clock cap T (--timeout) is
+        # shared: up to 7/10 of it for the search (the deterministic search, then the gradient
         # search), up to 17/20 for the adversary phases, the rest for the sound checks of the
-        # reported numbers, which stop at the end of the budget (interval iteration stopped
-        # early: bounds still proven, only wider; the result then says partial)
+        # reported numbers, which stop at the end of the cap (interval iteration stopped early:
+        # bounds still proven, only wider; the result then says partial, cut by the timeout)
         started = self._budget_start()
+        clock = Clock(started, self.synthesis.timeout)
+        progress.begin(text)
         others = [p for p in range(len(self.model.player_names)) if p != player]
         names = self.model.player_names
         settings = self.synthesis.for_players(
@@ -313,8 +328,8 @@ class SynthesisChecker:
             phases_follow = adversary is not None and settings.adversaries > 0
             # without adversary phases the search has their time too
             search = dataclasses.replace(
-                settings, timeout=budget * (_SEARCH_SHARE if phases_follow else _ADVERSARY_END),
-                started=started)
+                settings, timeout=None if budget is None else
+                budget * (_SEARCH_SHARE if phases_follow else _ADVERSARY_END), started=started)
             result = synthesize(
                 self.model,
                 bare,
@@ -322,7 +337,7 @@ class SynthesisChecker:
                 coalition_of=self.coalition_of,
                 scalar=self.scalar,
                 options=search,
-                check_options=_until(self.options, started + budget * _ADVERSARY_END),
+                check_options=_until(self.options, clock.at(_ADVERSARY_END)),
                 executor=executor,
             )
             # the search's defence made readable (near-0/1 probabilities exact, unreachable
@@ -332,18 +347,19 @@ class SynthesisChecker:
                 lambda f: StrategyChecker(
                     self.model, {f.player: f}, coalition_of=self.coalition_of,
                     scalar=self.scalar,
-                    options=_until(self.options, started + budget * _ADVERSARY_END),
+                    options=_until(self.options, clock.at(_ADVERSARY_END)),
                 ).check(bare, text="synthesis").guaranteed,
                 problem.maximize)
             if strategy is not result.strategy:
                 result = dataclasses.replace(result, strategy=strategy, guaranteed=g_search)
             adversaries = None
             if adversary is not None and settings.adversaries > 0:
-                deadline = started + budget * _ADVERSARY_END
-                adversaries = self._adversary_phases(problem, executor, result, settings, deadline,
-                                                     _until(self.options, started + budget))
-        # the sound checks stopped at the end of the budget: wider (still proven) bounds
-        late = time.perf_counter() > started + self.synthesis.timeout
+                adversaries = self._adversary_phases(problem, executor, result, settings,
+                                                     clock.at(_ADVERSARY_END),
+                                                     _until(self.options, clock.end))
+        # what cut the work budget short, if anything: the cap (the sound checks then stopped at
+        # its end: wider, still proven bounds) or an interrupt
+        cut = result.cut or clock.cut()
         defence, g, full = adversaries.defence if adversaries else result.strategy, \
             adversaries.guaranteed if adversaries else result.guaranteed, result.full_observation
         vs = ub = worst = None
@@ -362,6 +378,8 @@ class SynthesisChecker:
         g = ordered["guaranteed"] or g
         vs, ub = ordered["vs_fss_adversary"], ordered["upper_bound"]
         full_shown = ordered["full_observation"]
+        progress.report("done", best=g.lower if bare.direction is Direction.MAX else g.upper,
+                        proven=g.sound)
         value: float | bool | None = g.value
         kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
         lower: float | None = g.lower
@@ -389,7 +407,9 @@ class SynthesisChecker:
                 f"{direction} this against every adversary (checked by {result.method}); "
                 f"full_observation: the value if it saw everything")
         stats: dict[str, object] = {
-            "partial": result.partial or bool(adversaries and adversaries.partial) or late,
+            "partial": result.partial or bool(adversaries and adversaries.partial)
+            or cut is not None,
+            "cut": cut,
             "phases": {k: round(v, 3) for k, v in result.phases.items()},
             "rounds": [
                 {"memory": r.memory, "value_policy_iteration": r.guaranteed.value,
@@ -397,6 +417,7 @@ class SynthesisChecker:
                 for r in result.rounds
             ],
             "timeout": self.synthesis.timeout,
+            "effort": self.synthesis.effort,
             "seed": self.synthesis.seed,
             "deterministic": [
                 {"memory": d.memory, "value": d.value, "exhaustive": d.exhaustive,

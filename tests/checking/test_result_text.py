@@ -56,7 +56,7 @@ def test_verbose_names_each_bound_by_its_role_for_a_minimiser() -> None:
     assert "  no defence below: 5.517  [5.517, 5.517]  (upper_bound)" in text
     assert "  no defence below, full observation: 0  [0, 1e-06]  (full_observation)" in text
     assert "ensures at most this against every adversary" in text
-    assert "rounds: k=1: 17.5, k=2: 13.88" in text and "time budget 30 s, seed 0" in text
+    assert "rounds: k=1: 17.5, k=2: 13.88" in text and "effort 1, --timeout 30 s, seed 0" in text
     assert "4 strategies enumerated (all of them)" in text
     assert role_of("upper_bound", maximizing=True) == "no defence above"
 
@@ -73,10 +73,15 @@ def test_a_partial_randomised_defence_says_so() -> None:
     mixed = FiniteStateStrategy.from_arrays(
         player="planner", observables=("x",), observation_values=np.array([[0], [1]]),
         actions=("a", "b"), action=np.full((2, 2, 2), 0.5))
-    stats = {**(_synthesised().synthesis or {}), "partial": True, "defence": "composed"}
+    stats = {**(_synthesised().synthesis or {}), "partial": True, "cut": "timeout",
+             "defence": "composed"}
     line = result_lines(_synthesised(strategies=(mixed,), synthesis=stats))[1]
     assert "randomised strategy" in line and "composed against the 4 strongest" in line
-    assert line.endswith("; PARTIAL: the budget ran out")
+    assert line.endswith("; PARTIAL: --timeout cut the work budget (the numbers, still proven, "
+                         "may depend on the machine)")
+    interrupted = {**stats, "cut": "interrupt"}
+    line = result_lines(_synthesised(strategies=(mixed,), synthesis=interrupted))[1]
+    assert line.endswith("; INTERRUPTED: the best defence verified so far")
 
 
 def test_a_threshold_shows_guaranteed_and_the_bracket_has_its_place() -> None:

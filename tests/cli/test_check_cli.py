@@ -225,3 +225,12 @@ def test_exit_0_only_when_every_printed_number_is_proven(run, timeout: str) -> N
         assert res["converged"] is True and res["sound"] is True
     if res["converged"] is False or res["sound"] is False:
         assert r.exit_code == 1
+
+
+def test_a_synthesis_refuses_a_json_file_name_for_its_directory(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    out = tmp_path / "s.json"
+    r = run("check", ROVER_POSG, "--prop", '<<rover>> Pmax=? [ F "goal" ]', "--memory", "1",
+            "--export-strategy", str(out))
+    assert r.exit_code == EXIT_ERROR
+    assert f"--export-strategy {out}: a synthesis writes a directory" in r.output
+    assert "Model " not in r.output and not out.exists()  # refused before any work

@@ -47,6 +47,20 @@ def test_a_fully_observable_sweep_is_the_value_per_point(tmp_path: Path) -> None
         assert p.result is not None and p.result.guaranteed is None
 
 
+
+def test_pareto_reports_each_point_as_it_completes(tmp_path: Path) -> None:
+    """--progress: one "point p=... done" line on stderr per point, in order, with its number
+    (the chain's values by hand: 0.1, 0.5, 0.9), before the table on stdout."""
+    path = tmp_path / "chain.prism"
+    path.write_text(CHAIN)
+    r = CliRunner().invoke(main, ["pareto", str(path), "--prop", "P=? [ F x=1 ]", "--sweep",
+                                  "p=0.1:0.4:0.9", "--progress"])
+    assert r.exit_code == 0, r.output
+    done = [x for x in r.stderr.splitlines() if " done" in x]
+    assert [x.split("point ")[1].split(" done")[0] for x in done] == ["p=0.1", "p=0.5", "p=0.9"]
+    for line, want in zip(done, ("0.1", "0.5", "0.9")):
+        assert f"guaranteed {want}" in line and "point " in line
+
 # the guaranteed front over B = 0, 1 per memory size (models/beacon/README.md): a memoryless rover
 # reaches the exits not knowing which is safe, a coin flip whatever the budget; with two nodes
 # 0.9^B. The synthesis tests below run with one node by default (half the time: 8 s against 17 s
