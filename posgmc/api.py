@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 from posgmc.checking.property_checker import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
@@ -37,6 +37,7 @@ from posgmc.errors import (
     SourceText,
     UnsupportedError,
 )
+from posgmc.model.actions import choices_by_index
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics import operators as ops
 from posgmc.semantics import stages as sem
@@ -95,13 +96,17 @@ def _is_drn(text: str, path: str | None = None) -> bool:
 
 @dataclass(frozen=True, eq=False)
 class Session:
-    """A loaded model: its source, syntax tree (None for explicit DRN input) and constant values."""
+    """A loaded model: its source, syntax tree (None for explicit DRN input) and constant values.
+
+    ``strict``: PRISM's reading where Storm's differs (``semantics/dialect.py``): what only
+    Storm accepts is an error instead of a warning."""
 
     path: str | None
     source: SourceText
     syntax: ModelFile | None
     constants: Mapping[str, object] = field(default_factory=dict)
     explicit: ExplicitModel | None = None  # set for DRN input
+    strict: bool = False
 
     def with_constants(
         self, constants: ConstantValues | None = None, /, **values: object
@@ -198,6 +203,7 @@ def load(
     *,
     text: str | None = None,
     constants: ConstantValues | None = None,
+    strict: bool = False,
 ) -> Session:
     """Parse a model file (PRISM language, or Storm's explicit DRN) without checking it further.
 
@@ -205,6 +211,8 @@ def load(
         path: the model file; or None with ``text``.
         text: the model text when there is no file.
         constants: values for the model's undefined constants (names to values or strings).
+        strict: keep PRISM's reading where Storm accepts more (an int variable given int/int,
+            an observable named like a label): errors instead of warnings.
 
     Raises:
         ParseError, InputError: unreadable or unparsable input, with file/line/column.
@@ -219,6 +227,8 @@ def load(
         raise InputError(
             f"constants must be a mapping of names to values, got {type(constants).__name__}"
         )
+    if not isinstance(strict, bool):
+        raise InputError(f"strict must be True or False, got {type(strict).__name__}")
     name = str(path) if path is not None else None
     if text is not None:
         content = text
@@ -232,8 +242,9 @@ def load(
 
             # a byte-order mark is accepted as in PRISM files; the columns of errors stay right
             drn = parse_drn(content.removeprefix("\ufeff"), file=name)
-            return Session(name, source, None, dict(constants or {}), drn)
-        return Session(name, source, parser.parse_model(content, file=name), dict(constants or {}))
+            return Session(name, source, None, dict(constants or {}), drn, strict)
+        syntax = parser.parse_model(content, file=name)
+        return Session(name, source, syntax, dict(constants or {}), strict=strict)
     except PosgmcError as e:
         raise _attach(e, source) from None
 
@@ -284,17 +295,18 @@ def lint(
     constants: ConstantValues | None = None,
     property_texts: Sequence[str] = (),
     zero_based_players: bool = False,
+    strict: bool = False,
 ) -> list[PosgmcError]:
     """Every error in a model and its properties, without building anything.
 
     Constants without a value are not errors here: everything that does not depend on their values
-    is checked, and with ``constants`` everything else too.
+    is checked, and with ``constants`` everything else too. ``strict``: see :func:`load`.
     """
     property_files = _paths(property_files, "property_files")
     property_texts = _texts(property_texts, "property_texts")
     errors: list[PosgmcError] = []
     try:
-        session = load(path, constants=constants)
+        session = load(path, constants=constants, strict=strict)
     except PosgmcError as e:
         return [e]
     src = session.source
@@ -303,7 +315,7 @@ def lint(
         errors += [
             _attach(e, src)
             for e in sem.check_model(
-                session.syntax, constants=constants, allow_extra_constants=extra
+                session.syntax, constants=constants, allow_extra_constants=extra, strict=strict
             )
         ]
     for f in property_files:
@@ -341,9 +353,15 @@ def instantiate(session: Session, *, allow_extra_constants: bool = False) -> Fla
     if session.syntax is None:
         raise UnsupportedError("an explicit (DRN) model has no PRISM-language description")
     try:
-        return sem.instantiate(
-            session.syntax, constants=session.constants, allow_extra_constants=allow_extra_constants
+        flat = sem.instantiate(
+            session.syntax,
+            constants=session.constants,
+            allow_extra_constants=allow_extra_constants,
+            strict=session.strict,
         )
+        for w in flat.warnings:
+            _attach(w, session.source)
+        return flat
     except PosgmcError as e:
         raise _attach(e, session.source) from None
 
@@ -360,7 +378,11 @@ class BuiltModel:
 def build(
     session: Session, *, options: BuildOptions = BuildOptions(), allow_extra_constants: bool = False
 ) -> BuiltModel:
-    """Explore the model's reachable state space into an :class:`ExplicitModel`."""
+    """Explore the model's reachable state space into an :class:`ExplicitModel`.
+
+    Choices that share their label within their state (unlabelled ones included: a DRN POMDP
+    without choice labels) are named by their local index, ``#0``, ``#1``, ..., as Storm and
+    PAYNT name them, so that strategies and strategy files can tell them apart."""
     session = _session(session)
     _typed(options, BuildOptions, "options")
     if session.explicit is not None:
@@ -372,7 +394,14 @@ def build(
             result = build_model(flat, options=options, on_states=_warm_up_when_large)
         except PosgmcError as e:
             raise _attach(e, session.source) from None
-        built = BuiltModel(result.model, result.seconds, tuple(result.warnings), flat)
+        dialect = tuple(str(w) for w in flat.warnings)
+        built = BuiltModel(result.model, result.seconds, dialect + tuple(result.warnings), flat)
+    named = choices_by_index(
+        built.model.choice_actions, built.model.row_groups, built.model.action_names
+    )
+    if named is not None:
+        model = dataclasses.replace(built.model, choice_actions=named[0], action_names=named[1])
+        built = dataclasses.replace(built, model=model)
     _warm_up_when_large(built.model.num_choices)
     return built
 
@@ -461,9 +490,15 @@ def iter_check(
     built: BuiltModel,
     strategies: Mapping[str, FiniteStateStrategy] | None = None,
     synthesis: SynthesisOptions | None = None,
+    select: Sequence[str | int] | None = None,
 ) -> Iterator[tuple[Property, PropertyResult | PosgmcError]]:
     """Check each property in turn; a property that fails yields its error and the others go on
     (as PRISM does). Errors that concern the whole input (unparsable files) are raised.
+
+    ``select``: only these properties, by name (``"mission"`` for ``"mission": P=? [...]``) or
+    by 1-based position among the files' properties and then ``properties`` (PRISM's ``-prop``,
+    Storm's ``--propertyfilter``); an unknown name or position is an InputError before any
+    property is checked.
 
     With ``strategies`` (player name -> strategy) every property is answered under them (see
     :mod:`posgmc.strategies.verify`): ``guaranteed``, ``vs_fss_adversary``, ``upper_bound``.
@@ -490,15 +525,15 @@ def iter_check(
     )
     checker = _checker(model, options, zero_based_players, strategies,
                        synthesis if synthesising else None)
-    files = [pf for pf, _ in parsed]
-    sources: list[SourceText | None] = [src for _, src in parsed]
-    if cli_props:
-        files.append(PropertiesFile(properties=tuple(cli_props)))
-        sources.append(None)
+    files = _with_texts([pf for pf, _ in parsed], cli_props)
+    sources: list[SourceText | None] = [src for _, src in parsed] + [None] * bool(cli_props)
+    chosen = _selection(files, select)
     labels = _label_names(built)
-    for pf, src in zip(files, sources):
+    for k, (pf, src) in enumerate(zip(files, sources)):
         pf, cyclic = inline_property_references(pf, labels)
         for i, prop in enumerate(pf.properties):
+            if chosen is not None and (k, i) not in chosen:
+                continue
             outcome = cyclic.get(i) or _check_one(
                 session, built, checker, pf, prop, zero_based_players
             )
@@ -514,6 +549,51 @@ def iter_check(
             yield prop, outcome
             if synthesising and interrupted():
                 return  # Ctrl-C: the property it cut short reported its best; no further ones
+
+
+def _with_texts(files: list[PropertiesFile], texts: list[Property]) -> list[PropertiesFile]:
+    """The properties files, then the property texts as one more file."""
+    return files + [PropertiesFile(properties=tuple(texts))] if texts else files
+
+
+def _selection(
+    files: Sequence[PropertiesFile], select: Sequence[str | int] | None
+) -> set[tuple[int, int]] | None:
+    """(file, property) positions of the selected properties; None: all of them."""
+    if select is None:
+        return None
+    if isinstance(select, (str, int)) or not isinstance(select, Sequence):
+        raise InputError(
+            f"select must be a list of property names or positions, got {type(select).__name__}"
+        )
+    where = [(k, i) for k, pf in enumerate(files) for i in range(len(pf.properties))]
+    names: dict[str, tuple[int, int]] = {}
+    for k, pf in enumerate(files):
+        for i, prop in enumerate(pf.properties):
+            if prop.name is not None:
+                names.setdefault(prop.name, (k, i))
+    out: set[tuple[int, int]] = set()
+    for item in select:
+        if isinstance(item, bool) or not isinstance(item, (str, int)):
+            raise InputError(f"a selected property is a name or a position, got {item!r}")
+        text = item.strip() if isinstance(item, str) else str(item)
+        if text.isdigit():
+            n = int(text)
+            if not 1 <= n <= len(where):
+                raise InputError(
+                    f"there is no property {n}: the properties are numbered 1 to {len(where)}",
+                    hint="--select takes property names or 1-based positions",
+                )
+            out.add(where[n - 1])
+            continue
+        name = text[1:-1] if len(text) > 1 and text[0] == text[-1] == '"' else text
+        if name not in names:
+            known = ", ".join(f'"{n}"' for n in names) or "none (write \"name\": before one)"
+            raise InputError(
+                f'no property is named "{name}"', hint=f"the named properties: {known}"
+            )
+        out.add(names[name])
+    return out
 
 
 def _label_names(built: BuiltModel) -> set[str]:
@@ -603,6 +683,7 @@ def check(
     synthesis: SynthesisOptions | None = None,
     on_start: Callable[[ExplicitModel, float, tuple[str, ...]], None] | None = None,
     on_outcome: Callable[[PropertyResult | PropertyError], None] | None = None,
+    select: Sequence[str | int] | None = None,
 ) -> CheckReport:
     """Build the model (unless ``built`` is given) and check each property at the initial states.
 
@@ -630,6 +711,8 @@ def check(
             warnings, before any property is checked (to show progress).
         on_outcome: called with each outcome (as in ``outcomes``) as soon as it is computed, so
             a caller can print results while the next property is being checked.
+        select: only the properties of these names or 1-based positions (see
+            :func:`iter_check`).
 
     Which checker answers, in this order of precedence: exact mode (``options.exact``: rational
     arithmetic; given strategies and ``full_observation`` are refused with it), then synthesis (a
@@ -650,6 +733,9 @@ def check(
         options, property_files, properties, strategies, full_observation, build_options,
         synthesis,
     )
+    if select is not None:  # before the build: nothing is reported for a wrong selection
+        parsed, texts = parse_properties(session, files=property_files, texts=properties)
+        _selection(_with_texts([pf for pf, _ in parsed], texts), select)
     built = built or _build_for_check(session, property_files, properties, build_options)
     loaded = load_strategies(strategies, model=built.model) if strategies else None
     warnings = built.warnings + _strategy_warnings(built.model, loaded)
@@ -666,6 +752,7 @@ def check(
             built=built,
             strategies=loaded,
             synthesis=synthesis,
+            select=select,
         ),
         on_outcome,
     )
@@ -789,6 +876,8 @@ def synthesize(
     adversaries: int = 10,
     jobs: int = 1,
     effort: float = 1.0,
+    executor: Literal["local", "ray"] = "local",
+    ray_address: str | None = None,
     zero_based_players: bool = False,
     build_options: BuildOptions = BuildOptions(),
     built: BuiltModel | None = None,
@@ -811,8 +900,11 @@ def synthesize(
             options and the seed: its extent is a work budget, docs/synthesis.md).
         adversaries: how many of the strongest enumerated adversary strategies the defence is
             composed against (0: no adversary phases).
-        jobs: worker processes for independent evaluations (the results do not depend on it).
+        jobs: workers for independent evaluations (the results do not depend on it).
         effort: the multiplier of every synthesis phase's work budget (1: the defaults).
+        executor: where they run: ``"local"`` processes or ``"ray"`` actors on the Ray cluster
+            at ``ray_address`` (``HOST:PORT``; None: Ray's ``RAY_ADDRESS``, else a Ray started
+            for this process; ``pip install 'posgmc[ray]'``; docs/scale.md).
 
     Returns:
         The result: ``guaranteed`` (against every adversary), ``vs_fss_adversary``,
@@ -831,7 +923,8 @@ def synthesize(
     # every argument checked (SynthesisOptions names the field: timeout, effort, seed, jobs, ...)
     # before anything is built
     options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs,
-                               effort=effort, belief=None if memory is None else False)
+                               effort=effort, executor=executor, ray_address=ray_address,
+                               belief=None if memory is None else False)
     if isinstance(memory, Mapping):
         for p in memory:
             if not isinstance(p, str):

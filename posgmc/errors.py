@@ -44,6 +44,8 @@ class SourceText:
 class PosgmcError(Exception):
     """Base class of every error posgmc raises on purpose."""
 
+    kind = "error"  # the word render() puts after the position
+
     def __init__(
         self,
         message: str,
@@ -74,7 +76,7 @@ class PosgmcError(Exception):
 
     def render(self) -> str:
         """``file:line:col: error: message``, the source line with a caret, and the hint."""
-        kind = "error"
+        kind = self.kind
         if self.span is None:
             head = f"{kind}: {self.message}"
             return head + (f"\n  hint: {self.hint}" if self.hint else "")
@@ -122,6 +124,14 @@ class ModelFormatError(InputError):
     """An explicit model file (DRN, ...) is malformed."""
 
 
+class DialectWarning(PosgmcError):
+    """Input that PRISM refuses but Storm (and so PAYNT) accepts, read as Storm reads it. Never
+    raised: collected beside the errors and shown as a positioned warning; ``--strict`` turns
+    each into a :class:`SemanticError`."""
+
+    kind = "warning"
+
+
 class UnsupportedError(PosgmcError):
     """The input is valid but asks for something this build does not do; the hint says what to do
     instead."""
@@ -129,6 +139,11 @@ class UnsupportedError(PosgmcError):
 
 class LimitError(PosgmcError):
     """A resource limit (states, memory, time) set by the user or by default was reached."""
+
+
+class WorkerError(PosgmcError):
+    """A worker that ran part of the computation (a process of the local pool, an actor on a
+    Ray cluster) died, and retrying did not help; the message names the task."""
 
 
 @dataclass

@@ -32,6 +32,19 @@ ROVER = str(Path(__file__).resolve().parents[1] / "models" / "rover.smg")
             "properties must be a string or a list",
         ),
         (lambda: api.build(api.load(ROVER), options=None), "options must be a BuildOptions"),
+        (lambda: api.load(ROVER, strict="yes"), "strict must be True or False, got str"),
+        (
+            lambda: api.check(api.load(ROVER), properties=["P>0 [ F x=1 ]"], select="1"),
+            "select must be a list of property names or positions, got str",
+        ),
+        (
+            lambda: api.check(api.load(ROVER), properties=["P>0 [ F x=1 ]"], select=[1.5]),
+            "a selected property is a name or a position, got 1.5",
+        ),
+        (
+            lambda: api.check(api.load(ROVER), properties=["P>0 [ F x=1 ]"], select=[2]),
+            "there is no property 2: the properties are numbered 1 to 1",
+        ),
     ],
 )
 def test_bad_arguments_raise_input_errors(call, words: str) -> None:  # type: ignore[no-untyped-def]
@@ -142,6 +155,10 @@ def _posg():  # type: ignore[no-untyped-def]
         (lambda: api.synthesize(_posg(), REACH, seed=-1), "seed must be an int of at least 0"),
         (lambda: api.synthesize(_posg(), REACH, seed="a"), "seed must be an int of at least 0"),
         (lambda: api.synthesize(_posg(), REACH, jobs="2"), "jobs must be an int of at least 1"),
+        (lambda: api.synthesize(_posg(), REACH, executor="dask"),  # type: ignore[arg-type]
+         "executor must be 'local' or 'ray', got 'dask'"),
+        (lambda: api.synthesize(_posg(), REACH, ray_address="10.0.0.5:6379"),
+         "ray_address must be a HOST:PORT string with executor 'ray'"),
         (lambda: api.synthesize(_posg(), REACH, adversaries="a"),
          "adversaries must be an int of at least 0"),
         (lambda: api.simulate(_posg(), REACH, strategies={"rover": FORWARD}, seed=-1),

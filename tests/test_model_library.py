@@ -114,6 +114,19 @@ def test_every_folder_is_checked() -> None:
         assert f"`{folder}/`" in index, folder
 
 
+def test_the_argument_files_hold_these_runs() -> None:
+    """``posgmc test models`` runs what CASES lists: each properties file's argument file (one run a
+    line; PRISM's -const for --const) holds exactly the CASES arguments."""
+    from posgmc.cli.test_suite import read_args_file
+
+    for folder in {c[0] for c in CASES}:
+        for props in sorted((MODELS / folder).glob("*.props")):
+            runs = [list(args) for args, _ in read_args_file(Path(f"{props}.args"))]
+            want = [_strategy_paths(MODELS / folder, c[3]) for c in CASES
+                    if c[0] == folder and c[2] == props.name]
+            assert runs == want, props
+
+
 @pytest.mark.parametrize(("folder", "model", "constants"), sorted(SIZES))
 def test_sizes(folder: str, model: str, constants: tuple[tuple[str, object], ...]) -> None:
     session = api.load(MODELS / folder / model, constants=dict(constants))

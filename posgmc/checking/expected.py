@@ -10,7 +10,9 @@ tolerance of the result (PRISM: ``1e-5·|v| + 1e-12``) or within the result's pr
 grades with a result's own accuracy when it has one), an interval when the value ± that tolerance
 (or the bounds) meets it; ``~v`` asks only for closeness in exact mode; an expected value may be an
 expression over the constants (``RESULT: 1/N``), as PRISM allows. ``Error:a,b`` passes when the
-message contains every comma-separated word. In exact mode the fraction must be equal. The rules are
+message contains every comma-separated word. In exact mode a RESULT written as an integer or a
+fraction must be equal to the exact value; one written as a decimal is a rounding of it
+(0.0964314037 for 608/6305), graded within the tolerance like any number. The rules are
 PRISM's (``prism/src/prism/ResultTesting.java``), and the applicable line is the first whose
 constants all match (``Property.getExpectedResultString``).
 """
@@ -244,7 +246,7 @@ def grade(
     approximate = text.startswith("~")
     body = text[1:] if approximate else text
     exact = getattr(outcome, "exact", None) if expected.number is None else None
-    if exact is not None and not body.startswith("["):
+    if exact is not None and not body.startswith("[") and not any(c in body for c in ".eE"):
         # exact mode (PRISM's -exact test rule): the fraction must be equal; "~v" only close
         try:
             wanted = Fraction(body)

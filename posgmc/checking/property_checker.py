@@ -24,6 +24,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from posgmc.checking import decide
 from posgmc.checking import intervals as iv
 from posgmc.checking.ctl import quantified_states
 from posgmc.checking.filters import apply_filter
@@ -243,12 +244,19 @@ class PropertyChecker:
 
     def _threshold(self, expr: ProbQuery | RewardQuery, q: QueryValue) -> QueryValue:
         """``P>=p [...]``: true where the proven bounds are above the threshold, false where they
-        are below, undecided (``lower < upper``) where the interval straddles it after
-        refinement (see :meth:`_refined`)."""
+        are below; where the interval straddles it after refinement (see :meth:`_refined`),
+        decided exactly on a small model (:mod:`posgmc.checking.decide`), else undecided
+        (``lower < upper``). The threshold is the interval of the floats around its exact
+        value, so that no rounding of it decides anything."""
         assert expr.threshold is not None  # noqa: S101 - guaranteed by caller
-        bound = float(self.scalar(expr.threshold.value))
+        given = self.scalar(expr.threshold.value)
+        exact_bound = _fraction(given)
         cmp = _COMPARISON[expr.threshold.op]
-        threshold = iv.exact(np.full(self.model.num_states, bound))
+        S = self.model.num_states
+        if exact_bound is None:
+            threshold = iv.exact(np.full(S, float(given)))
+        else:
+            threshold = _outward_values([exact_bound] * S)
         decided = iv.binary(cmp, q, threshold)
         init = self.model.initial_states
         if not np.all(decided.decided[init]):
@@ -256,7 +264,55 @@ class PropertyChecker:
                 expr, q, lambda r: bool(np.all(iv.binary(cmp, r, threshold).decided[init]))
             )
             decided = iv.binary(cmp, q, threshold)
+        if not np.all(decided.decided[init]) and exact_bound is not None:
+            exact = self._decided_exactly(expr, q, exact_bound, decided)
+            if exact is not None:
+                return exact
         return replace(decided, engine=q.engine, method=q.method)
+
+    def _decided_exactly(
+        self, expr: ProbQuery | RewardQuery, q: QueryValue, bound: Fraction, decided: QueryValue
+    ) -> QueryValue | None:
+        """The threshold decided at the initial states between exact bounds of the value
+        (:mod:`posgmc.checking.decide`); None where the model is too large or the query is not
+        one that is solved exactly."""
+        m = self.model
+        if m.num_states > _RATIONAL_LIMIT:
+            return None
+        bare = replace(expr, threshold=None, direction=self.direction_of(expr))
+        maximize = self._maximize(bare)
+        bounds: tuple[list[decide.Exact], list[decide.Exact]] | None = None
+        if isinstance(expr, ProbQuery):
+            path = expr.path
+            if (
+                isinstance(path, Temporal)
+                and path.bound is None
+                and path.op in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL)
+                and not any(is_temporal(o) for o in path.operands)
+            ):
+                until = path.op is TemporalOp.UNTIL
+                remain = self._states(path.operands[0]) if until else None
+                target = self._states(path.operands[-1])
+                bounds = decide.reach_bounds(m, target, remain, maximize)
+        elif expr.objective.kind is RewardKind.REACH and expr.objective.target is not None:
+            target = self._states(expr.objective.target)
+            rewards = reward_structure(m, expr).choice_rewards(m.row_groups)
+            bounds = decide.reward_bounds(m, rewards, target, maximize, q.values)
+        if bounds is None:
+            return None
+        lower, upper = bounds
+        assert expr.threshold is not None  # noqa: S101 - guaranteed by caller
+        op = expr.threshold.op
+        init = m.initial_states
+        answers = [decide.decide(op, lower[int(s)], upper[int(s)], bound) for s in init]
+        if any(a is None for a in answers):
+            return None
+        low, high = decided.lower.copy(), decided.upper.copy()
+        low[init] = high[init] = np.array(answers, dtype=bool)
+        return QueryValue(
+            low.copy(), low, high, engine=q.engine, iterations=q.iterations,
+            method="exact (rational)",
+        )
 
     def _refined(self, expr: ProbQuery | RewardQuery, q: QueryValue, done) -> QueryValue:  # type: ignore[no-untyped-def]
         """The query solved again until ``done``: with finer precision (:meth:`_finer`), then, for
@@ -698,6 +754,19 @@ class PropertyChecker:
 
 _RATIONAL_LIMIT = 300
 """Models up to this many states may be solved in rational arithmetic to decide a threshold."""
+
+
+def _fraction(value: object) -> Fraction | None:
+    """A threshold's exact value: a Fraction as it is, an int exactly, a float as the decimal
+    it was written as (None: not a finite number)."""
+    if isinstance(value, Fraction):
+        return value
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        return Fraction(int(value))
+    if isinstance(value, (float, np.floating)) and np.isfinite(value):
+        short = Fraction(float(value)).limit_denominator(10**12)
+        return short if float(short) == float(value) else Fraction(float(value))
+    return None
 
 
 def _outward_values(values: list[Fraction] | list[Fraction | None]) -> QueryValue:

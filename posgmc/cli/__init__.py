@@ -4,11 +4,18 @@
 The package reads as the command line: :mod:`~posgmc.cli.group` holds the command group,
 :mod:`~posgmc.cli.options` the options several commands share (each declared once) and the exit
 codes, :mod:`~posgmc.cli.running` how a command runs and fails, and one module per command family
-registers its commands on the group: model (``lint``, ``build``), ``check``, strategies (``test``,
-``simulate``, ``show-strategy``) and trade-offs (``pareto``).
+registers its commands on the group: model (``lint``, ``build``), ``check``, ``test`` (with
+:mod:`~posgmc.cli.test_suite`, what it runs), strategies (``simulate``, ``show-strategy``) and
+trade-offs (``pareto``).
 """
 
-from posgmc.cli import check_command, model_commands, strategy_commands, tradeoff_commands
+from posgmc.cli import (
+    check_command,
+    model_commands,
+    strategy_commands,
+    test_command,
+    tradeoff_commands,
+)
 from posgmc.cli.constants import expand_constants
 from posgmc.cli.group import main
 from posgmc.cli.options import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_OK, EXIT_PROPERTY_FALSE
@@ -17,4 +24,4 @@ __all__ = ["main", "expand_constants", "EXIT_OK", "EXIT_PROPERTY_FALSE", "EXIT_E
            "EXIT_INTERRUPTED"]
 
 # the command modules register themselves on ``main`` when imported
-del check_command, model_commands, strategy_commands, tradeoff_commands
+del check_command, model_commands, strategy_commands, test_command, tradeoff_commands

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 import time
-from typing import Any
+from typing import Any, Literal
 
 import click
 
@@ -20,12 +20,16 @@ from posgmc.cli.options import (
     capped_jobs,
     common,
     effort_option,
+    executor_options,
     full_observation_option,
     memory_option,
     positive_finite,
     progress_options,
     seed_option,
+    select_option,
+    selected,
     strategy_options,
+    strict_option,
     synthesis_options,
     timeout_option,
     zero_based_players_option,
@@ -89,9 +93,7 @@ BUILD_GRACE = 1.0
 @click.option("--adversaries", type=click.IntRange(min=0), default=10, show_default=True,
               help="Synthesis: how many of the strongest enumerated adversary strategies the "
               "defence is composed against (0: no adversary phases).")
-@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Synthesis: worker processes for independent evaluations (results do not "
-              "depend on it).")
+@executor_options
 @timeout_option
 @effort_option
 @seed_option
@@ -114,6 +116,8 @@ BUILD_GRACE = 1.0
 @click.option("-v", "--verbose", is_flag=True,
               help="Synthesis: every number with its meaning, the search rounds, the phases' "
               "times and the adversary phases (the JSON always has them).")
+@select_option
+@strict_option
 @common
 def check(
     model: str,
@@ -129,6 +133,8 @@ def check(
     memory: tuple[str, ...],
     adversaries: int,
     jobs: int,
+    executor: Literal["local", "ray"],
+    ray_address: str | None,
     timeout: float | None,
     effort: float,
     seed: int,
@@ -141,6 +147,8 @@ def check(
     plot_file: str | None,
     state_limit: int | None,
     verbose: bool,
+    select: tuple[str, ...],
+    strict: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -166,7 +174,7 @@ def check(
         if export_strategy is not None:
             _check_export_extension(export_strategy, directory=None)
         strategies = strategy_options(strategy_files)
-        workers = capped_jobs(jobs)
+        workers = capped_jobs(jobs) if executor == "local" else jobs  # a Ray cluster: its own
         options = CheckOptions(
             solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
             keep_strategy=export_strategy is not None,
@@ -186,7 +194,7 @@ def check(
             # the first synthesised property's --timeout counts from here: loading and
             # building the model are inside it
             loading = time.perf_counter()
-            session = api.load(model, constants=constants)
+            session = api.load(model, constants=constants, strict=strict)
             if export_strategy is not None and not rows:
                 # before any work: a destination that cannot be written is refused now, not
                 # after the whole budget
@@ -212,9 +220,11 @@ def check(
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
                 synthesis=synthesis_options(memory, timeout, seed, adversaries, workers,
-                                            started=loading, effort=effort),
+                                             started=loading, effort=effort,
+                                             executor=executor, ray_address=ray_address),
                 on_start=on_start,
                 on_outcome=on_outcome,
+                select=selected(select),
             )
             if report.errors:
                 code = EXIT_ERROR
@@ -340,7 +350,7 @@ def _check_export_extension(path: str, *, directory: bool | None) -> None:
 
 def not_passed(r: Any) -> bool:
     """A threshold that is false or undecided, a result whose iteration did not converge, or a
-    number about finite-state strategies (given or synthesised) that is not proven: exit 0 only
-    when every such printed number is."""
+    printed number that is not proven (plain value iteration, an LP's floating-point optimum, a
+    strategy number whose check was cut short): exit 0 only when every printed number is."""
     return (r.value is False or (r.value is None and r.kind.value == "boolean")
-            or not r.converged or (r.guaranteed is not None and not r.sound))
+            or not r.converged or not r.sound)

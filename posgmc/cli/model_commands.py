@@ -10,7 +10,13 @@ import click
 
 from posgmc.cli.constants import expand_constants, single_constants
 from posgmc.cli.group import main
-from posgmc.cli.options import EXIT_ERROR, EXIT_OK, common, zero_based_players_option
+from posgmc.cli.options import (
+    EXIT_ERROR,
+    EXIT_OK,
+    common,
+    strict_option,
+    zero_based_players_option,
+)
 from posgmc.cli.running import guard
 from posgmc.errors import MultipleErrors, PosgmcError
 
@@ -28,6 +34,7 @@ __all__ = ["lint", "build", "build_options"]
     help="Every argument is a model (as pre-commit passes changed files); a properties file "
     "beside it with the same name and .props is checked with it; .props arguments are skipped.",
 )
+@strict_option
 @common
 def lint(
     model: str,
@@ -35,6 +42,7 @@ def lint(
     prop_texts: tuple[str, ...],
     zero_based_players: bool,
     each: bool,
+    strict: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -63,6 +71,7 @@ def lint(
                     constants=constants,
                     property_texts=prop_texts,
                     zero_based_players=zero_based_players,
+                    strict=strict,
                 ):
                     errors += e.errors if isinstance(e, MultipleErrors) else [e]
         seen = set()
@@ -98,6 +107,14 @@ def lint(
     "--no-fix-deadlocks", is_flag=True, help="Deadlock states are an error instead of self-loops."
 )
 @click.option("--progress/--no-progress", default=None, help="Report build progress on stderr.")
+@click.option(
+    "--observer",
+    metavar="PLAYER",
+    default=None,
+    help="--export drn of a posg: the player whose observations the file carries (DRN has one "
+    "observation per state): the POSMG file PAYNT reads, PLAYER its partially observing player.",
+)
+@strict_option
 @common
 def build(
     model: str,
@@ -106,6 +123,8 @@ def build(
     state_limit: int | None,
     no_fix_deadlocks: bool,
     progress: bool | None,
+    observer: str | None,
+    strict: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -113,12 +132,16 @@ def build(
     from posgmc import api
 
     def run() -> int:
-        session = api.load(model, constants=single_constants(consts, what="build"))
+        if observer is not None and (export is None or export[0] != "drn"):
+            raise click.UsageError("--observer chooses the observations of --export drn")
+        session = api.load(
+            model, constants=single_constants(consts, what="build"), strict=strict
+        )
         built = api.build(session, options=build_options(state_limit, no_fix_deadlocks, progress))
         stats = built.model.statistics()
         stats["build_seconds"] = round(built.seconds, 6)
         if export is not None:
-            _export(built.model, export[0], export[1])
+            _export(built.model, export[0], export[1], observer)
             stats["exported"] = {"format": export[0], "file": export[1]}
         for w in built.warnings:
             click.echo(f"warning: {w}", err=True)
@@ -145,11 +168,11 @@ def build_options(state_limit: int | None, no_fix_deadlocks: bool, progress: boo
     return BuildOptions(**kwargs)
 
 
-def _export(model: Any, fmt: str, path: str) -> None:
+def _export(model: Any, fmt: str, path: str, observer: str | None = None) -> None:
     if fmt == "drn":
         from posgmc.io.drn import write_drn
 
-        write_drn(model, path)
+        write_drn(model, path, observer=observer)
     elif fmt == "prism":
         from posgmc.io.prism_explicit import write_prism_explicit
 

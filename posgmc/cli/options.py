@@ -5,8 +5,8 @@ Exit status (fixed, documented in docs/cli.md):
 
 * 0 — success; for ``check``, every threshold property holds at the initial state(s);
 * 1 — ``check``: some threshold property does not hold or is undecided (``unknown``), a result
-  did not converge, or a number about finite-state strategies is not proven (``pareto``: a point's
-  number is not proven);
+  did not converge, or a printed number is not proven (``pareto``: a point's number is not
+  proven);
 * 2 — bad input (model, properties, constants, options) or any other error;
 * 130 — interrupted (Ctrl-C), as shells report it.
 """
@@ -14,15 +14,16 @@ Exit status (fixed, documented in docs/cli.md):
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, TypeVar
+from typing import Any, Literal, TypeVar
 
 import click
 
 __all__ = [
     "EXIT_OK", "EXIT_PROPERTY_FALSE", "EXIT_ERROR", "EXIT_INTERRUPTED",
-    "common", "zero_based_players_option", "full_observation_option", "memory_option",
-    "timeout_option", "effort_option", "progress_options", "seed_option", "positive_finite",
-    "finite", "nonnegative_finite",
+    "common", "strict_option", "select_option", "selected", "zero_based_players_option",
+    "full_observation_option", "memory_option", "timeout_option", "effort_option",
+    "progress_options", "seed_option", "executor_options", "positive_finite", "finite",
+    "nonnegative_finite",
     "memory_sizes", "synthesis_options", "strategy_options",
 ]
 
@@ -72,6 +73,36 @@ def common(f: F) -> F:
         help="Values for undefined constants (PRISM syntax); ranges N=1:5 or N=1:1:5 sweep.",
     )(f)
     return f
+
+
+def strict_option(f: F) -> F:
+    return click.option(
+        "--strict",
+        is_flag=True,
+        help="PRISM's reading where Storm accepts more (an int variable given int/int, an "
+        "observable named like a label): errors instead of warnings.",
+    )(f)
+
+
+def select_option(f: F) -> F:
+    return click.option(
+        "--select",
+        "select",
+        multiple=True,
+        metavar="NAME|INDEX[,...]",
+        help="Only these properties of the properties files: by name (\"name\": P=? [...]) or "
+        "1-based position (PRISM's -prop, Storm's --propertyfilter); repeatable.",
+    )(f)
+
+
+def selected(values: Sequence[str]) -> list[str] | None:
+    """``--select a,2 --select b`` as ``["a", "2", "b"]``; None when not given."""
+    if not values:
+        return None
+    out = [part.strip() for v in values for part in v.split(",")]
+    if any(not part for part in out):
+        raise click.BadParameter("an empty property name or position", param_hint="'--select'")
+    return out
 
 
 def zero_based_players_option(f: F) -> F:
@@ -146,6 +177,25 @@ def seed_option(f: F) -> F:
     )(f)
 
 
+def executor_options(f: F) -> F:
+    """``--jobs``, ``--executor`` and ``--ray-address``: where independent evaluations run."""
+    f = click.option(
+        "--ray-address", default=None, metavar="HOST:PORT",
+        help="With --executor ray: the cluster's head (`ray start --head`); default: Ray's "
+        "RAY_ADDRESS, else a Ray started on this machine for the run.",
+    )(f)
+    f = click.option(
+        "--executor", type=click.Choice(["local", "ray"]), default="local", show_default=True,
+        help="Where --jobs run: local processes, or actors on a Ray cluster (pip install "
+        "'posgmc[ray]'; --jobs 1: one actor per CPU of the cluster). Same results.",
+    )(f)
+    f = click.option(
+        "--jobs", type=click.IntRange(min=1), default=1, show_default=True,
+        help="Synthesis: workers for independent evaluations (results do not depend on it).",
+    )(f)
+    return f
+
+
 def memory_sizes(text: str, given: str) -> tuple[int, ...]:
     from posgmc.synthesis.options import MAX_MEMORY
 
@@ -166,12 +216,17 @@ def memory_sizes(text: str, given: str) -> tuple[int, ...]:
 
 
 def synthesis_options(memory: Sequence[str] | str, timeout: float | None, seed: int,
-                      adversaries: int = 10, jobs: int = 1, started: float | None = None,
-                      effort: float = 1.0) -> Any:
+                       adversaries: int = 10, jobs: int = 1, started: float | None = None,
+                       effort: float = 1.0, executor: Literal["local", "ray"] = "local",
+                       ray_address: str | None = None) -> Any:
     """``--memory`` settings as memory sizes: ``2``, ``1..3``, ``auto`` (1..3) for the property's
     coalition, or ``PLAYER=...`` for a named player (the decision maker or the adversary);
-    ``started``: where the first property's budget starts (``SynthesisOptions.started``)."""
+    ``started``: where the first property's budget starts (``SynthesisOptions.started``);
+    ``executor``/``ray_address``: :func:`executor_options`."""
     from posgmc.synthesis.options import SynthesisOptions
+
+    if ray_address is not None and executor != "ray":
+        raise click.BadParameter("is for --executor ray", param_hint="'--ray-address'")
 
     settings = [memory] if isinstance(memory, str) else list(memory)
     unnamed: tuple[int, ...] = (1, 2, 3)
@@ -189,7 +244,8 @@ def synthesis_options(memory: Sequence[str] | str, timeout: float | None, seed: 
     # nodes; sizes given explicitly bound the strategy's memory
     explicit = any(given.split("=", 1)[-1].strip() != "auto" for given in settings)
     return SynthesisOptions(memory=unnamed, timeout=timeout, seed=seed, adversaries=adversaries,
-                            jobs=jobs, player_memory=tuple(sorted(named.items())),
+                            jobs=jobs, executor=executor, ray_address=ray_address,
+                            player_memory=tuple(sorted(named.items())),
                             belief=False if explicit else None, started=started, effort=effort)
 
 

@@ -1,158 +1,26 @@
-"""The commands about results and strategies: ``test`` (PRISM's RESULT convention for CI),
-``simulate`` and ``show-strategy``."""
+"""The commands about strategies: ``simulate`` and ``show-strategy``."""
 
 from __future__ import annotations
 
 import dataclasses
 import json
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import click
 
-from posgmc.cli.constants import const_text, expand_constants, single_constants
+from posgmc.cli.constants import single_constants
 from posgmc.cli.group import main
 from posgmc.cli.options import (
     EXIT_OK,
-    EXIT_PROPERTY_FALSE,
     common,
-    effort_option,
-    full_observation_option,
-    memory_option,
-    nonnegative_finite,
-    seed_option,
     strategy_options,
-    synthesis_options,
-    timeout_option,
     zero_based_players_option,
 )
 from posgmc.cli.printing import fmt
 from posgmc.cli.running import guard
 from posgmc.errors import InputError
 
-if TYPE_CHECKING:
-    from posgmc.api import Session
-
-__all__ = ["test", "simulate", "show_strategy"]
-
-
-@main.command("test")
-@click.argument("model", type=click.Path(dir_okay=False))
-@click.argument("props", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--tolerance", type=float, default=1e-5, show_default=True,
-              callback=lambda _c, _p, v: nonnegative_finite(v, "--tolerance"),
-              help="Relative tolerance for numbers (PRISM's test mode: 1e-5).")
-@click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
-              help="Also write a JUnit XML report (one test case per checked property).")
-@click.option(
-    "--exact", is_flag=True, help="PRISM's -exact: rational arithmetic, results compared exactly."
-)
-@full_observation_option
-@click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE",
-              help="A player's finite-state strategy (posgmc-fss/1 JSON); repeatable.")
-@zero_based_players_option
-@memory_option
-@timeout_option
-@effort_option
-@seed_option
-@common
-def test(
-    model: str,
-    props: tuple[str, ...],
-    tolerance: float,
-    junit: str | None,
-    exact: bool,
-    full_observation: bool,
-    strategy_files: tuple[str, ...],
-    zero_based_players: bool,
-    memory: tuple[str, ...],
-    timeout: float | None,
-    effort: float,
-    seed: int,
-    consts: tuple[str, ...],
-    debug: bool,
-) -> None:
-    """Check every property of PROPS that has a // RESULT line against it (PRISM's -test)."""
-    import time
-
-    from posgmc import api
-    from posgmc.checking.expected import expected_for, grade
-    from posgmc.checking.property_checker import CheckOptions
-    from posgmc.compiler.options import BuildOptions
-    from posgmc.io.junit import Case, write_junit
-
-    def run() -> int:
-        swept, combos = expand_constants(consts)
-        strategies = strategy_options(strategy_files) or None
-        passed = failed = unchecked = 0
-        cases: list[Case] = []
-        for i, constants in enumerate(combos or [{}]):
-            texts = {n: const_text(v) for n, v in constants.items()}
-            label = ",".join(f"{n}={texts[n]}" for n in swept)
-            session = api.load(model, constants=constants)
-            if i == 0:
-                _check_result_lines(session, props)  # before any work: nothing half-reported
-            built = api.build(
-                session, allow_extra_constants=True, options=BuildOptions(exact=exact)
-            )
-            loaded = api.load_strategies(strategies, model=built.model) if strategies else None
-            started = time.perf_counter()
-            for prop, outcome in api.iter_check(
-                session, property_files=props, built=built, full_observation=full_observation,
-                zero_based_players=zero_based_players, strategies=loaded,
-                synthesis=synthesis_options(memory, timeout, seed, effort=effort),
-                options=CheckOptions(exact=exact),
-            ):
-                seconds, started = time.perf_counter() - started, time.perf_counter()
-                where = f"{prop.span.file}:{prop.span.line}"
-                name = (prop.text or "") + (f" ({label})" if label else "")
-                exp = expected_for(prop, texts)
-                if exp is None:
-                    unchecked += 1
-                    cases.append(Case(name, where, seconds, skipped="no RESULT line"))
-                    continue
-                try:
-                    verdict = grade(exp, outcome, tolerance=tolerance, constants=texts)
-                except ValueError as e:
-
-                    raise InputError(str(e), exp.span) from None
-                if verdict.passed is None:
-                    unchecked += 1
-                    cases.append(Case(name, where, seconds, skipped="RESULT: ?"))
-                    continue
-                what = f" ({exp.number})" if exp.number else ""
-                if verdict.passed:
-                    passed += 1
-                    click.echo(f"PASS {where}: {name}: {verdict.actual}{what}")
-                    cases.append(Case(name, where, seconds))
-                else:
-                    failed += 1
-                    message = f"expected {verdict.expected}{what}, got {verdict.actual}"
-                    click.echo(f"FAIL {where}: {name}: {message}")
-                    cases.append(Case(name, where, seconds, failure=message))
-        if junit is not None:
-            write_junit(junit, model, cases)
-        summary = f"{passed} passed, {failed} failed"
-        click.echo(summary + (f", {unchecked} skipped" if unchecked else ""))
-        return EXIT_PROPERTY_FALSE if failed else EXIT_OK
-
-    guard(debug, run, consts=consts)
-
-
-def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
-    """Every RESULT line of the property files is well formed (InputError with its position)."""
-    from posgmc import api
-    from posgmc.checking.expected import check_form
-
-    parsed, _ = api.parse_properties(session, files=props)
-    model_constants = [c.name for c in session.syntax.constants] if session.syntax else []
-    for pf, _src in parsed:
-        names = model_constants + [c.name for c in pf.constants]
-        for prop in pf.properties:
-            for exp in prop.expected:
-                try:
-                    check_form(exp.text.strip(), names)
-                except ValueError as e:
-                    raise InputError(str(e), exp.span) from None
+__all__ = ["simulate", "show_strategy"]
 
 
 @main.command()

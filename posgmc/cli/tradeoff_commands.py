@@ -352,9 +352,23 @@ def _bound_cell(b: Any) -> str:
     return f"{number_text(b.value, b.lower, b.upper)} [{fmt(b.lower)}, {fmt(b.upper)}]"
 
 
+def _bound_headers(result: Any) -> tuple[str, str]:
+    """The full_observation and upper_bound columns' names by their role for the decision
+    maker's direction (``no defence above`` for a maximiser, ``below`` for a minimiser), with the
+    JSON/CSV name beside; the JSON names alone when no point says its direction."""
+    from posgmc.checking.result_text import role_of
+
+    directions = [p.result.maximizing for p in result.points
+                  if p.result is not None and p.result.maximizing is not None]
+    if not directions:
+        return "full_observation", "upper_bound"
+    full = f"{role_of('full_observation', maximizing=directions[0])} (full_observation)"
+    return full, f"{role_of('upper_bound', maximizing=directions[0])} (upper_bound)"
+
+
 def _print(result: Any) -> None:
     click.echo(f"{result.property} against {result.constant}:")
-    rows = [(result.constant, "value [lower, upper]", "full_observation", "upper_bound", "memory",
+    rows = [(result.constant, "value [lower, upper]", *_bound_headers(result), "memory",
              "strategies", *result.also)]
     for p in result.points:
         b = p.main_number()

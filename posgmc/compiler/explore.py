@@ -29,7 +29,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from posgmc.compiler.compile_expr import Columns, CompiledExpr, EvaluationError
+from posgmc.compiler.compile_expr import Columns, CompiledExpr, EvaluationError, ExprType
 from posgmc.compiler.options import BuildOptions, ProgressMode
 from posgmc.compiler.program import Assignment, Command, Generator, GeneratorKind, Program
 from posgmc.compiler.state_space import StateIndex, make_index
@@ -357,6 +357,37 @@ class _Expander:
         except EvaluationError as err:
             raise self.fail(err.message, err.span, err.row) from None
 
+    def whole(
+        self, new: Any, a: Assignment, sub: Columns, prob: np.ndarray | float, cmd: Command
+    ) -> Any:
+        """The values of an int/int expression (Storm's typing, accepted by the semantic stage)
+        assigned to an int variable, as ints; a value that is not whole, where the update can
+        happen, is an error (Storm would truncate its double toward zero)."""
+        if isinstance(new, np.ndarray):
+            with np.errstate(invalid="ignore"):
+                ok = np.floor(new) == new
+            values: Any = new
+        else:
+            ok = np.asarray(math.isfinite(new) and new == math.floor(new))
+            values = np.full(sub.n, new, dtype=object)
+        if not ok.all():
+            bad = np.broadcast_to(~ok, (sub.n,)) & (np.asarray(prob) != 0)
+            if bad.any():
+                r = int(np.flatnonzero(bad)[0])
+                value = values[r]
+                name = self.program.variable_names[a.variable]
+                raise self.fail(
+                    f"{cmd.text} assigns {value} to int variable '{name}', which is not a "
+                    "whole number,",
+                    a.span,
+                    sub.root_row(r),
+                    hint="Storm would truncate it toward zero; write floor(...), ceil(...) or "
+                    "round(...) to say which whole number is meant",
+                )
+        if isinstance(new, np.ndarray):
+            return np.where(ok, new, 0).astype(np.int64)
+        return int(new) if ok.all() else 0
+
     # -- one batch ----------------------------------------------------------------------------
 
     def expand(self, keys: np.ndarray) -> list[_Block]:
@@ -459,6 +490,8 @@ class _Expander:
             if lay.is_bool:
                 delta = np.asarray(new, dtype=np.int64) - old.astype(np.int64)
             else:
+                if a.value.type is ExprType.DOUBLE:
+                    new = self.whole(new, a, sub, prob, cmd)
                 bad = (new < lay.low) | (new > lay.high)
                 if np.any(bad):
                     bad = np.broadcast_to(bad, (sub.n,)) & (np.asarray(prob) != 0)

@@ -10,7 +10,17 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["action_signatures", "conflict_message", "labels_of", "observation_action_conflict"]
+__all__ = [
+    "INDEX_PREFIX",
+    "action_signatures",
+    "choices_by_index",
+    "conflict_message",
+    "labels_of",
+    "observation_action_conflict",
+]
+
+INDEX_PREFIX = "#"
+"""A choice named by its local index: ``#0`` is the first choice of its state."""
 
 
 def action_signatures(
@@ -82,3 +92,71 @@ def conflict_message(
         "or make the commands' guards depend only on observed values"
     )
     return message, hint
+
+
+def _shared_labels(
+    actions: np.ndarray,
+    row_groups: np.ndarray,
+    sizes: np.ndarray,
+    state_of: np.ndarray,
+    widest: int,
+    num_actions: int,
+) -> np.ndarray:
+    """bool[C]: choices whose label another choice of their state has. States of a few choices
+    (the usual case) compare each choice with the ones 1, 2, ... places after it, in passes over
+    the whole array; wider ones sort the (state, label) pairs."""
+    clash = np.zeros(actions.size, dtype=bool)
+    if widest <= 8:
+        local = np.arange(actions.size) - row_groups[state_of]
+        room = sizes[state_of] - local  # choices from this one to the state's end
+        for d in range(1, widest):
+            idx = np.flatnonzero(room > d)
+            same = idx[actions[idx] == actions[idx + d]]
+            clash[same] = True
+            clash[same + d] = True
+        return clash
+    pair = state_of * max(1, num_actions) + actions
+    order = np.argsort(pair, kind="stable")
+    ordered = pair[order]
+    same_sorted = ordered[1:] == ordered[:-1]
+    clash[order[1:][same_sorted]] = True
+    clash[order[:-1][same_sorted]] = True
+    return clash
+
+
+def choices_by_index(
+    choice_actions: np.ndarray, row_groups: np.ndarray, action_names: tuple[str, ...]
+) -> tuple[np.ndarray, tuple[str, ...]] | None:
+    """Names a strategy can use for every choice: a choice whose label is unique in its state
+    keeps it; choices that share a label in their state (unlabelled ones included, as in a DRN
+    POMDP without choice labels, e.g. Cassandra's hallway) are named by their local index,
+    ``#0``, ``#1``, ..., as Storm and PAYNT name choices. None when no state has such choices.
+
+    Returns:
+        The new choice action ids and action names (the old names first, then the ``#k`` names
+        that are not among them, by k).
+    """
+    if choice_actions.size == 0:
+        return None
+    sizes = np.diff(row_groups)
+    widest = int(sizes.max(initial=0))
+    if widest <= 1:
+        return None
+    state_of = np.repeat(np.arange(sizes.size, dtype=np.int64), sizes)
+    clash = _shared_labels(choice_actions, row_groups, sizes, state_of, widest, len(action_names))
+    if not clash.any():
+        return None
+    local = np.arange(choice_actions.size) - row_groups[state_of]
+    ks = np.unique(local[clash]).tolist()
+    names = list(action_names)
+    position = {n: i for i, n in enumerate(names)}
+    ids = np.empty(max(ks) + 1, dtype=np.int64)
+    for k in ks:
+        name = f"{INDEX_PREFIX}{k}"
+        if name not in position:
+            position[name] = len(names)
+            names.append(name)
+        ids[k] = position[name]
+    out = choice_actions.astype(np.int64, copy=True)
+    out[clash] = ids[local[clash]]
+    return out.astype(choice_actions.dtype), tuple(names)

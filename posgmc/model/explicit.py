@@ -44,7 +44,7 @@ exact_probabilities object[nnz] or None          exact mode (PRISM's ``-exact``)
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from types import MappingProxyType
 from typing import Any
 
@@ -115,6 +115,11 @@ class RewardModel:
         return total
 
 
+def _unpickled_model(values: dict[str, Any]) -> ExplicitModel:
+    """The model pickled by :meth:`ExplicitModel.__reduce__`."""
+    return ExplicitModel(**{**values, "labels": MappingProxyType(values["labels"])})
+
+
 @dataclass(frozen=True, eq=False)
 class ExplicitModel:
     """See the module docstring for every field's shape, dtype and invariant."""
@@ -143,6 +148,14 @@ class ExplicitModel:
             self.choice_actions, self.state_players, self.state_values, self.deadlocks,
             self.exact_probabilities, *self.labels.values(),
         )
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled by its fields, the labels as a plain dict (a read-only mapping view does not
+        pickle; derived arrays cached on the model are recomputed where it is unpickled): how a
+        built model reaches a worker on another machine (:mod:`posgmc.synthesis.ray_pool`)."""
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        values["labels"] = dict(self.labels)
+        return (_unpickled_model, (values,))
 
     # -- sizes, counted as Storm counts them ----------------------------------------------------
 

@@ -25,6 +25,7 @@ from posgmc.errors import (
     UnsupportedError,
 )
 from posgmc.semantics.constants import ConstantValues, ConstRange, ConstSetting, resolve_constants
+from posgmc.semantics.dialect import INT_DIVISION, Dialect
 from posgmc.semantics.evaluate import Value, evaluate, free_names, simplify, substitute
 from posgmc.semantics.flat import (
     FlatAssignment,
@@ -138,6 +139,7 @@ class ModelAnalysis:
     players: tuple[PlayerInfo, ...]
     observations: Observations
     errors: list[PosgmcError] = field(default_factory=list)
+    warnings: list[PosgmcError] = field(default_factory=list)  # DialectWarning, source order
 
     def value(self, e: Expr) -> Value | None:
         """The value of a constant expression, or None if it depends on an unknown constant or
@@ -184,9 +186,31 @@ def check_constant_definition(c: ConstantDecl, tc: TypeChecker) -> None:
     )
 
 
+@dataclass(frozen=True)
+class _Typing:
+    """The model's type checker, one that types int/int as int (Storm's typing), and the
+    dialect that decides what a difference between the two means."""
+
+    tc: TypeChecker
+    storm: TypeChecker
+    dialect: Dialect
+
+    def int_value(
+        self, expr: Expr, found: Type | None, message: str, errors: list[PosgmcError]
+    ) -> bool:
+        """Does ``expr``, typed ``found`` by PRISM's rules, go where an int is needed? A double
+        that Storm types as int (int/int) does, with a warning (an error when strict); the
+        caller reports any other mismatch."""
+        if found is not Type.DOUBLE or self.storm.check(expr) is not Type.INT:
+            return found is None or Type.INT.accepts(found)
+        self.dialect.storm_only(errors, message, span_or_none(expr.span), INT_DIVISION)
+        return True
+
+
 def _check_variable(
-    v: VariableDecl, tc: TypeChecker, errors: list[PosgmcError], *, has_init_block: bool
+    v: VariableDecl, typing: _Typing, errors: list[PosgmcError], *, has_init_block: bool
 ) -> None:
+    tc = typing.tc
     if v.type is VarType.DOUBLE:
         errors.append(
             UnsupportedError(
@@ -211,7 +235,14 @@ def _check_variable(
             tc.expect(v.high, Type.INT, what, constant=what)
     if v.init is not None:
         what = f'the initial value of variable "{v.name}"'
-        tc.expect(v.init, Type.of(v.type), what, constant=what)
+        if v.type is VarType.INT:
+            t = tc.check(v.init, constant=what)
+            message = f'the initial value of int variable "{v.name}" divides ints'
+            if not typing.int_value(v.init, t, message, errors):
+                report(errors, f"{what} must be an int, found {t.value if t else '?'}",
+                       v.init.span)
+        else:
+            tc.expect(v.init, Type.of(v.type), what, constant=what)
         if has_init_block:
             report(
                 errors,
@@ -223,8 +254,9 @@ def _check_variable(
 
 
 def _check_module(
-    m: Module, resolved: ResolvedModel, tc: TypeChecker, errors: list[PosgmcError]
+    m: Module, resolved: ResolvedModel, typing: _Typing, errors: list[PosgmcError]
 ) -> None:
+    tc = typing.tc
     own = {v.name: Type.of(v.type) for v in m.variables}
     for c in m.commands:
         tc.expect(c.guard, Type.BOOL, "a guard")
@@ -242,8 +274,7 @@ def _check_module(
                     # the module's own variable, even if its name clashes with another
                     # definition (reported as a duplicate)
                     target = own[a.variable]
-                    if vt is not None and not target.accepts(vt):
-                        _assign_error(errors, vt, target, a.variable, a.value.span)
+                    _check_assignment(typing, errors, vt, target, a.variable, a.value)
                     continue
                 sym = resolved.lookup(a.variable)
                 if sym is None:
@@ -265,8 +296,25 @@ def _check_module(
                         a.span,
                         hint="a module may only update its own variables and global ones",
                     )
-                if vt is not None and sym.type is not None and not sym.type.accepts(vt):
-                    _assign_error(errors, vt, sym.type, a.variable, a.value.span)
+                if sym.type is not None:
+                    _check_assignment(typing, errors, vt, sym.type, a.variable, a.value)
+
+
+def _check_assignment(
+    typing: _Typing,
+    errors: list[PosgmcError],
+    value: Type | None,
+    target: Type,
+    name: str,
+    expr: Expr,
+) -> None:
+    if value is None or target.accepts(value):
+        return
+    if target is Type.INT:
+        message = f'the value assigned to int variable "{name}" divides ints'
+        if typing.int_value(expr, value, message, errors):
+            return
+    _assign_error(errors, value, target, name, expr.span)
 
 
 def _assign_error(
@@ -299,8 +347,17 @@ def _value_checks(analysis: ModelAnalysis, errors: list[PosgmcError]) -> None:
             report(errors, f'the range [{low}..{high}] of variable "{v.name}" is empty', v.span)
             continue
         if v.init is not None:
-            init = analysis.value(v.init)
-            if _is_int(init) and not low <= init <= high:
+            init = _whole(analysis.value(v.init))
+            typed = not any(e.span == span_or_none(v.init.span) for e in errors)
+            if typed and isinstance(init, (Fraction, float)):  # int/int, as Storm types it
+                report(
+                    errors,
+                    f'the initial value {init} of int variable "{v.name}" is not a whole number',
+                    v.init.span,
+                    hint="Storm would truncate it toward zero; write floor(...), ceil(...) or "
+                    "round(...) to say which whole number is meant",
+                )
+            elif _is_int(init) and not low <= init <= high:
                 report(
                     errors,
                     f'the initial value {init} of variable "{v.name}" is outside its range '
@@ -313,6 +370,15 @@ def _value_checks(analysis: ModelAnalysis, errors: list[PosgmcError]) -> None:
             report(errors, f'the value of constant "{c.name}" is not finite ({val})', c.span)
 
 
+def _whole(v: Value | None) -> Value | None:
+    """A number that is whole as an int (Storm's int/int gives one); anything else as it is."""
+    if isinstance(v, Fraction) and v.denominator == 1:
+        return int(v)
+    if isinstance(v, float) and v.is_integer():
+        return int(v)
+    return v
+
+
 def _is_int(v: object) -> TypeGuard[int]:
     return isinstance(v, int) and not isinstance(v, bool)
 
@@ -322,6 +388,7 @@ def analyse_model(
     *,
     constants: Mapping[str, object] | None = None,
     allow_extra_constants: bool = False,
+    strict: bool = False,
 ) -> ModelAnalysis:
     """Run every model pass and collect the errors (unsorted) in the returned record.
 
@@ -330,11 +397,17 @@ def analyse_model(
         constants: user values for undefined constants (text, Python values, ConstSetting).
         allow_extra_constants: do not report names in ``constants`` that the model does not
             declare (they may be properties-file constants).
+        strict: PRISM's reading where Storm's differs (``dialect.py``): errors instead of
+            warnings.
     """
     errors: list[PosgmcError] = []
     resolved = resolve_model(model, errors)
     hint = _undefined_hint(resolved)
     tc = TypeChecker(lookup=resolved.lookup, errors=errors, undefined_hint=hint)
+    dialect = Dialect(strict)
+    # its errors are the model checker's, already reported: only its types are wanted
+    storm_tc = TypeChecker(lookup=resolved.lookup, errors=[], int_division=True)
+    typing = _Typing(tc, storm_tc, dialect)
 
     for c in resolved.constants:
         if c.value is not None:
@@ -343,13 +416,13 @@ def analyse_model(
         tc.check(body)
     has_init_block = resolved.init is not None
     for v in resolved.globals:
-        _check_variable(v, tc, errors, has_init_block=has_init_block)
+        _check_variable(v, typing, errors, has_init_block=has_init_block)
     for m in resolved.modules:
         if m.name in resolved.broken_modules:
             continue
         for v in m.variables:
-            _check_variable(v, tc, errors, has_init_block=has_init_block)
-        _check_module(m, resolved, tc, errors)
+            _check_variable(v, typing, errors, has_init_block=has_init_block)
+        _check_module(m, resolved, typing, errors)
     for d in resolved.labels:
         tc.expect(d.expr, Type.BOOL, f'label "{d.name}"')
     actions = set(resolved.actions)
@@ -378,8 +451,10 @@ def analyse_model(
             )
         )
     players = check_players(resolved, errors)
-    observations = check_observables(resolved, tc, errors)
-    analysis = ModelAnalysis(resolved, values, players, observations, errors)
+    observations = check_observables(resolved, tc, errors, dialect)
+    analysis = ModelAnalysis(
+        resolved, values, players, observations, errors, dialect.warnings
+    )
     _value_checks(analysis, errors)
     return analysis
 
@@ -412,7 +487,7 @@ class _Instantiator:
         return simplify(substitute(e, self.values), variable_types=self.types)
 
     def int_value(self, e: Expr) -> int:
-        v = evaluate(e, self.values)
+        v = _whole(evaluate(e, self.values))  # a whole int/int (Storm's typing) is an int
         if isinstance(v, bool):
             return int(v)
         if not isinstance(v, int):
@@ -516,6 +591,7 @@ def build_flat_model(analysis: ModelAnalysis) -> FlatModel:
             if c.name in analysis.constants.values
         ),
         file=model.file,
+        warnings=tuple(sort_errors(analysis.warnings)),
     )
 
 

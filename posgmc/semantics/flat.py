@@ -8,10 +8,10 @@ except through spans (for build-time errors that point into the model text).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 
-from posgmc.errors import SourceSpan
+from posgmc.errors import PosgmcError, SourceSpan
 from posgmc.syntax.ast import NO_SPAN, Expr, ModelType, VarType
 
 ConstValue = int | Fraction | float | bool
@@ -124,6 +124,8 @@ class FlatModel:
     init: Expr | None
     constants: tuple[tuple[str, ConstValue], ...]
     file: str | None = None
+    # input read as Storm reads it where PRISM refuses it (DialectWarning), in source order
+    warnings: tuple[PosgmcError, ...] = field(default=(), compare=False)
 
     @property
     def actions(self) -> tuple[str, ...]:

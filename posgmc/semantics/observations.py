@@ -19,8 +19,10 @@ Names (PRISM-games ``ModulesFile.addObservable`` -> ``checkAndAddQuotedIdentifie
 observable's name lives in the *quoted* namespace it shares with labels, not in the namespace of
 variables. Hence ``observable "d1y" = d1y;`` and even ``observable "p2x" = p1x;`` beside a variable
 ``p2x`` are legal, as PRISM-games accepts them (the ``attacker-defender*`` and ``pursuit-evasion``
-models listed in benchmarks' LINT_EXCEPTIONS; Storm rejects them); an observable named like a
-label, or two observables of one name in one scope, are errors. An ``observables`` list names
+models listed in benchmarks' LINT_EXCEPTIONS; Storm rejects them); two observables of one name in
+one scope are an error. An observable named like a label is PRISM's error too, but Storm keeps the
+two apart (PAYNT's ``maze-10``): it is accepted with a warning, the label keeping the name in
+properties, and refused with ``strict`` (``dialect.py``). An ``observables`` list names
 variables only ("Observable variables list can only contain variables"); its entries are
 observables named after the variables. The same name may be declared by several posg players only
 with the same definition, so that it means one thing when a property uses it as a label.
@@ -35,6 +37,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from posgmc.errors import PosgmcError, SourceSpan, UnsupportedError
+from posgmc.semantics.dialect import LABEL_OBSERVABLE, Dialect
 from posgmc.semantics.resolve import ResolvedModel, position
 from posgmc.semantics.symbols import (
     SymbolKind,
@@ -117,17 +120,18 @@ def _check_scope(
     infos: list[ObservableInfo],
     labels: dict[str, SourceSpan],
     errors: list[PosgmcError],
+    dialect: Dialect,
 ) -> tuple[ObservableInfo, ...]:
     seen: dict[str, ObservableInfo] = {}
     for o in sorted(infos, key=lambda o: position(o.span)):
-        if o.name in labels:
-            report(
+        if o.name in labels and o.name not in seen:
+            dialect.storm_only(
                 errors,
                 f'observable "{o.name}" has the name of label "{o.name}"{line_of(labels[o.name])}',
-                o.span,
-                hint="labels and observables share one namespace; rename one of them",
+                span_or_none(o.span),
+                LABEL_OBSERVABLE,
             )
-        elif o.name in seen:
+        if o.name in seen:
             report(
                 errors,
                 f'observable "{o.name}" is already declared{line_of(seen[o.name].span)}',
@@ -139,7 +143,7 @@ def _check_scope(
 
 
 def check_observables(
-    resolved: ResolvedModel, tc: TypeChecker, errors: list[PosgmcError]
+    resolved: ResolvedModel, tc: TypeChecker, errors: list[PosgmcError], dialect: Dialect
 ) -> Observations:
     """Check where observables are declared, what they name, and their types.
 
@@ -147,6 +151,7 @@ def check_observables(
         resolved: the resolved model (observable expressions have formulas inlined).
         tc: the model's type checker (model expressions: no labels, no queries).
         errors: where errors are appended.
+        dialect: what a name shared with a label means (Storm: nothing; PRISM: an error).
 
     Returns:
         The checked observables (see :class:`Observations`).
@@ -171,7 +176,7 @@ def check_observables(
                 hint="move them into the block of the player who observes them",
             )
         else:
-            top = _check_scope(_entries(top_decls, resolved, tc, errors), labels, errors)
+            top = _check_scope(_entries(top_decls, resolved, tc, errors), labels, errors, dialect)
     elif mtype is ModelType.POMDP:
         span = resolved.model.span if resolved.model.span.line else SourceSpan(1, 1)
         report(
@@ -197,7 +202,7 @@ def check_observables(
         if p.name in per_player:
             continue  # doubly defined player: reported by the player checks
         per_player[p.name] = _check_scope(
-            _entries(p.observables, resolved, tc, errors), labels, errors
+            _entries(p.observables, resolved, tc, errors), labels, errors, dialect
         )
     if mtype is ModelType.POSG and resolved.players and not per_player:
         report(

@@ -42,6 +42,7 @@ def check_model(
     *,
     constants: Mapping[str, object] | None = None,
     allow_extra_constants: bool = False,
+    strict: bool = False,
 ) -> list[PosgmcError]:
     """Lint a model: every error found, in source order (duplicates removed).
 
@@ -56,13 +57,16 @@ def check_model(
         allow_extra_constants: accept names the model does not declare (set when the same mapping
             also holds properties-file constants; ``check_properties`` reports names unknown to
             both files).
+        strict: PRISM's reading where Storm's differs (``dialect.py``): what Storm alone
+            accepts is an error; otherwise it is not reported here (``instantiate`` carries
+            the warnings in the FlatModel).
 
     Returns:
         The errors (empty: the model is valid). Spans carry the model's file name when the parser
         recorded it; attach a SourceText for rendering.
     """
     analysis = analyse_model(
-        model, constants=constants, allow_extra_constants=allow_extra_constants
+        model, constants=constants, allow_extra_constants=allow_extra_constants, strict=strict
     )
     return sort_errors(analysis.errors)
 
@@ -72,6 +76,7 @@ def instantiate(
     *,
     constants: Mapping[str, object] | None = None,
     allow_extra_constants: bool = False,
+    strict: bool = False,
 ) -> FlatModel:
     """Check a model and build its :class:`FlatModel` (constants substituted, formulas inlined,
     renamed modules expanded, expressions folded).
@@ -80,6 +85,8 @@ def instantiate(
         model: the parsed model file.
         constants: values for the undefined constants (see :func:`check_model`).
         allow_extra_constants: see :func:`check_model`.
+        strict: see :func:`check_model`; otherwise ``FlatModel.warnings`` lists what was read
+            as Storm reads it.
 
     Returns:
         The instantiated model.
@@ -89,7 +96,7 @@ def instantiate(
         ConstantError: constants still undefined (naming all of them).
     """
     analysis = analyse_model(
-        model, constants=constants, allow_extra_constants=allow_extra_constants
+        model, constants=constants, allow_extra_constants=allow_extra_constants, strict=strict
     )
     raise_errors(analysis.errors)
     if analysis.constants.undefined:

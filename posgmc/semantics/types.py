@@ -68,6 +68,8 @@ class TypeChecker:
         allow_queries: whether ``P``/``R`` operators may appear (properties only).
         undefined_hint: optional extra hint for an undefined identifier (e.g. "labels are quoted").
         unknown_label_hint: optional extra hint for an unknown quoted name.
+        int_division: type ``int / int`` as int, as Storm does (PRISM: always double); used to
+            tell Storm's int-valued divisions from real doubles (see ``dialect.py``).
     """
 
     def __init__(
@@ -79,6 +81,7 @@ class TypeChecker:
         allow_queries: bool = False,
         undefined_hint: Callable[[str], str | None] | None = None,
         unknown_label_hint: Callable[[str], str | None] | None = None,
+        int_division: bool = False,
     ) -> None:
         self._lookup = lookup
         self._errors = errors
@@ -88,6 +91,7 @@ class TypeChecker:
         self._unknown_label_hint = unknown_label_hint
         self._constant: str | None = None
         self._query_depth = 0
+        self._int_division = int_division
 
     # -- public ----------------------------------------------------------------------------------
 
@@ -220,7 +224,7 @@ class TypeChecker:
                 ok = False
         if not ok:
             return None
-        if e.op is BinaryOp.DIV or Type.DOUBLE in (t1, t2):
+        if Type.DOUBLE in (t1, t2) or (e.op is BinaryOp.DIV and not self._int_division):
             return Type.DOUBLE
         return Type.INT
 

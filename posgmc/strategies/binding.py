@@ -11,7 +11,9 @@ What binding checks (each a :class:`StrategyError` naming the file and JSON path
 * every action label the strategy plays is a label of the model and is enabled under the rule's
   observation (states a player cannot tell apart offer it the same labels; the PRISM compiler
   checks that, and binding checks it again for DRN input);
-* no state of the player offers two choices with one label (a strategy names actions by label).
+* no state of the player offers two choices with one label (a strategy names actions by label;
+  :func:`posgmc.api.build` names such choices by their local index, ``#0``, ``#1``, ..., with
+  :func:`posgmc.model.actions.choices_by_index`).
 
 Rules for observations the model never produces are not errors; they are returned as warnings.
 Whether every (memory, observation) pair *reached* under the strategy has a rule is a question of
@@ -53,6 +55,11 @@ class PlayerView:
     observables: tuple[str, ...]
     state_obs: np.ndarray
     obs_values: np.ndarray
+
+    @property
+    def who(self) -> str:
+        """The player as messages name it (a POMDP's single agent has no name)."""
+        return f"player {self.name!r}" if self.name else "the agent"
 
     @property
     def num_observations(self) -> int:
@@ -191,7 +198,7 @@ def _rule_where(fss: FiniteStateStrategy, r: int, tail: str = "") -> str | None:
     return f"rules[{int(fss.rule_source[r])}]{tail}"
 
 
-def _unseen_warnings(fss: FiniteStateStrategy, player: str, produced: np.ndarray
+def _unseen_warnings(fss: FiniteStateStrategy, who: str, produced: np.ndarray
                      ) -> tuple[str, ...]:
     """Warnings for the rules about observations the model never shows the player: the first
     few by name, then how many more (linear in the rules)."""
@@ -202,14 +209,14 @@ def _unseen_warnings(fss: FiniteStateStrategy, player: str, produced: np.ndarray
         unseen = unseen[np.argsort(fss.rule_source[unseen], kind="stable")]
     file = fss.source or "strategy"
     out = [
-        f"{file}: {_rule_where(fss, r) or ''}: the model never shows player {player!r} the "
+        f"{file}: {_rule_where(fss, r) or ''}: the model never shows {who} the "
         f"observation {fss.describe_observation(int(fss.rule_observation[r]))}"
         for r in unseen[:_SHOWN_WARNINGS].tolist()
     ]
     if unseen.size > _SHOWN_WARNINGS:
         out.append(
             f"{file}: {unseen.size - _SHOWN_WARNINGS} more rules ({unseen.size} in all) are for "
-            f"observations the model never shows player {player!r}"
+            f"observations the model never shows {who}"
         )
     return tuple(out)
 
@@ -232,7 +239,7 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
     view = player_view(model, p)
     if fss.observables != view.observables:
         raise StrategyError(
-            f"the observables {list(fss.observables)} are not those of player {view.name!r}: "
+            f"the observables {list(fss.observables)} are not those of {view.who}: "
             f"{list(view.observables)}",
             path="observables",
             file=file,
@@ -255,7 +262,7 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
     produced = np.zeros(Zs, dtype=bool)
     owned_obs = np.unique(view.state_obs[owned])
     produced[obs_map[owned_obs][obs_map[owned_obs] >= 0]] = True
-    warnings = _unseen_warnings(fss, view.name, produced)
+    warnings = _unseen_warnings(fss, view.who, produced)
 
     # -- actions ---------------------------------------------------------------------------------
     names = {a: i for i, a in enumerate(model.action_names)}
@@ -285,9 +292,10 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
     if np.any(counts > 1):
         s, a = divmod(int(uniq[np.argmax(counts > 1)]), A)
         raise InputError(
-            f"state {_state_text(model, s)} of player {view.name!r} offers two choices labelled "
+            f"{_state_text(model, s)} of {view.who} offers two choices labelled "
             f"{model.action_names[a]!r}; a strategy names actions by label",
-            hint="give each command of the player's states a distinct action label",
+            hint="give each command of the player's states a distinct action label (api.build "
+            "names such choices by their local index, #0, #1, ...)",
         )
     offered = np.zeros((Zm, A), dtype=bool)
     offered[view.state_obs[states], acts] = True
@@ -298,7 +306,7 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
     if np.any(disagree):
         z, a = map(int, np.argwhere(disagree)[0])
         raise InputError(
-            f"states of player {view.name!r} with the observation {view.describe(z)} offer "
+            f"states of {view.who} with the observation {view.describe(z)} offer "
             f"different actions: {model.action_names[a]!r} is enabled in some of them only",
             hint="states a player cannot tell apart must offer it the same action labels",
         )
@@ -320,7 +328,9 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
 
 
 def _state_text(model: ExplicitModel, s: int) -> str:
-    return model.describe_state(s)
+    """``state 3`` or ``the state (x=1, y=2)``."""
+    text = model.describe_state(s)
+    return text if text.startswith("state ") else f"the state {text}"
 
 
 def memoryless_strategy(
@@ -352,7 +362,7 @@ def memoryless_strategy(
     if np.any(chosen[z] != acts):
         s = int(states[np.argmax(chosen[z] != acts)])
         raise StrategyError(
-            f"the choices are not observation-based: state {_state_text(model, s)} and another "
+            f"the choices are not observation-based: {_state_text(model, s)} and another "
             f"state with the observation {view.describe(int(view.state_obs[s]))} play different "
             "actions"
         )

@@ -349,6 +349,15 @@ def unexpected_token(
     message = f"expected {wanted} but found {found}"
     hint: str | None = None
 
+    if token.value == "hole" and expected & _MODEL_TOP:
+        # PAYNT's sketches (sketch.templ) declare "hole int x in {1,2};" at the top level
+        return ParseError(
+            "'hole' declares a parameter of a PAYNT sketch: this file describes a family of "
+            "models, one per value of its holes, and posgmc checks single models",
+            span,
+            hint="give each hole one value (hole int x in {1,2}; -> const int x = 1;) to check "
+            "that member of the family; PAYNT searches the family",
+        )
     closers = [c for c in _BLOCKS if c in expected]
     if closers:
         closer = closers[0]

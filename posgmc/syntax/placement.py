@@ -1,12 +1,13 @@
 """Where temporal operators may stand: only directly inside ``P[..]``/``R[..]`` (and nested in
-path formulas there), checked on the syntax tree as PRISM's parser does."""
+path formulas there), checked on the syntax tree as PRISM's parser does; and what an unparenthesised
+unary temporal operator takes as its operand (:func:`binary`)."""
 
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterable
 
-from posgmc.errors import ParseError
+from posgmc.errors import ParseError, SourceSpan
 from posgmc.syntax.ast import (
     Binary,
     BinaryOp,
@@ -22,6 +23,29 @@ from posgmc.syntax.ast import (
     Temporal,
     Unary,
 )
+
+
+def binary(op: BinaryOp, left: Expr, right: Expr, span: SourceSpan) -> Expr:
+    """The node for ``left op right`` as the grammar reduced it, read as Storm reads an
+    unparenthesised unary temporal operator on its left: ``X y=6`` (which PRISM's precedence
+    makes ``(X y) = 6``, a type error there) is ``X (y=6)``, so ``F (y=5 & X y=6)`` means
+    ``F (y=5 & X (y=6))``. Applied at each reduction, ``X y+1 = 6`` becomes ``X (y+1 = 6)``.
+    Connectives keep PRISM's reading (``X a & b`` is ``(X a) & b`` in both tools), and so does
+    a parenthesised ``(X y) = 6``, which stays an error."""
+    if (
+        op not in _CONNECTIVES
+        and isinstance(left, Temporal)
+        and len(left.operands) == 1
+        and (left.span.line, left.span.column) == (span.line, span.column)
+        and span.line > 0
+    ):
+        operand = left.operands[0]
+        inner = SourceSpan(
+            operand.span.line, operand.span.column, span.end_line, span.end_column, span.file
+        )
+        joined = Binary(op, operand, right, span=inner)
+        return dataclasses.replace(left, operands=(joined,), span=span)
+    return Binary(op, left, right, span=span)
 
 
 def contains_temporal(expr: Expr) -> bool:

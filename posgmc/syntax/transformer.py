@@ -28,9 +28,9 @@ from lark.grammar import Rule, Terminal
 from posgmc.errors import SourceSpan
 from posgmc.syntax.actions_expr import ExpressionActions
 from posgmc.syntax.actions_model import ModelActions
-from posgmc.syntax.ast import Binary, BinaryOp
+from posgmc.syntax.ast import BinaryOp
 from posgmc.syntax.items import PropertyItem
-from posgmc.syntax.placement import check_temporal_placement, contains_temporal
+from posgmc.syntax.placement import binary, check_temporal_placement, contains_temporal
 
 __all__ = [
     "AstBuilder",
@@ -141,7 +141,7 @@ def _rule_action(rule: Rule) -> RuleAction | None:
         op = _BINARY_OPS[name]
         if [i for i, _ in kept] != [0, 2] or size != 3:
             raise TypeError(f"grammar rule {rule} is not a binary operator")
-        return lambda b, c, s, e: Binary(op, c[0], c[2], span=_extent(b, s, e))
+        return lambda b, c, s, e: binary(op, c[0], c[2], _extent(b, s, e))
     method = getattr(AstBuilder, name, None)
     if method is None or name.startswith("_"):
         raise TypeError(f"no action for grammar rule {rule}")

@@ -323,7 +323,7 @@ class SynthesisChecker:
         adversary = others[0] if len(others) == 1 else None
         problem = problem_of(self.model, bare, player=player, adversary=adversary,
                              coalition_of=self.coalition_of, scalar=self.scalar)
-        with closing(executor_for(problem, settings.jobs)) as executor:
+        with closing(executor_for(problem, settings.placement)) as executor:
             budget = self.synthesis.timeout
             phases_follow = adversary is not None and settings.adversaries > 0
             # without adversary phases the search has their time too
@@ -357,6 +357,8 @@ class SynthesisChecker:
                 adversaries = self._adversary_phases(problem, executor, result, settings,
                                                      clock.at(_ADVERSARY_END),
                                                      _until(self.options, clock.end))
+            where = {"executor": executor.kind, "workers": executor.workers,
+                     "tasks": executor.ledger.to_json()}
         # what cut the work budget short, if anything: the cap (the sound checks then stopped at
         # its end: wider, still proven bounds) or an interrupt
         cut = result.cut or clock.cut()
@@ -410,6 +412,7 @@ class SynthesisChecker:
             "partial": result.partial or bool(adversaries and adversaries.partial)
             or cut is not None,
             "cut": cut,
+            "synthesis": where,
             "phases": {k: round(v, 3) for k, v in result.phases.items()},
             "rounds": [
                 {"memory": r.memory, "value_policy_iteration": r.guaranteed.value,

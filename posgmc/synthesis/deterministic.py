@@ -40,6 +40,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 import scipy.sparse as sp
@@ -608,6 +609,8 @@ class DeterministicJob:
     before (by :mod:`posgmc.synthesis.improvement`), each the first incumbent of its size and
     the larger ones when better than the smaller size's result. ``run`` returns the best
     defence with at most k nodes for each size reached."""
+
+    PHASE: ClassVar[str] = "deterministic search"
 
     memory: tuple[int, ...]
     deadline: float | None

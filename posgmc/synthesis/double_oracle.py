@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -68,6 +69,8 @@ _TEMPERATURE = 1e-3
 class RankJob:
     """The decision maker's full-information optimum against ``adversary`` (policy iteration)."""
 
+    PHASE: ClassVar[str] = "adversaries: ranking"
+
     adversary: FiniteStateStrategy
 
     def run(self, problem: Problem) -> float:
@@ -81,6 +84,8 @@ class RankJob:
 @dataclass(frozen=True, eq=False)
 class VersusJob:
     """The value of the profile (``defence``, ``adversary``): a Markov chain's linear solve."""
+
+    PHASE: ClassVar[str] = "adversaries: evaluation"
 
     defence: FiniteStateStrategy
     adversary: FiniteStateStrategy
@@ -109,6 +114,8 @@ class Composed:
 class ComposeJob:
     """Adam on min_j V_j(θ) over ``adversaries`` from ``logits``; returns a :class:`Composed`
     (the best of the best iterate, its sharpened and its deterministic version)."""
+
+    PHASE: ClassVar[str] = "adversaries: composition"
 
     adversaries: tuple[FiniteStateStrategy, ...]
     memory: int
@@ -167,6 +174,8 @@ class ResponseJob:
     """Gradient synthesis of the adversary's ``memory``-node FSS against the fixed ``defence``
     (a POMDP for the adversary) from ``logits``; returns the best of its best iterate's
     deterministic, sharpened and randomised versions, with its value (the decision maker's)."""
+
+    PHASE: ClassVar[str] = "adversaries: double oracle"
 
     defence: FiniteStateStrategy
     memory: int

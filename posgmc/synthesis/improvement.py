@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -167,6 +168,8 @@ class ImprovementJob:
     :mod:`posgmc.synthesis.executors`), each size started from the best smaller defence as well as
     from the quotient's optimum, the better kept; ``deadline``: a ``time.perf_counter()`` value.
     ``run`` returns the best defence with at most k nodes for each size reached."""
+
+    PHASE: ClassVar[str] = "policy iteration (observations)"
 
     memory: tuple[int, ...]
     deadline: float | None

@@ -220,27 +220,48 @@ class _Program:
         self.row_hi.append(np.broadcast_to(np.asarray(hi, dtype=np.float64), (count,)).copy())
         self.num_rows += count
 
-    def solve(self, objective: int, sense: float, time_limit: float | None,  # type: ignore[no-untyped-def]
+    def solve(self, objective: int, sense: float, deadline: float | None,  # type: ignore[no-untyped-def]
               node_limit: int | None = None):
-        """Optimise column ``objective`` (maximise for ``sense`` +1, minimise for -1), within
-        ``time_limit`` seconds and ``node_limit`` branch-and-bound nodes."""
+        """Optimise column ``objective`` (maximise for ``sense`` +1, minimise for -1), until
+        ``deadline`` (a ``time.perf_counter()`` value) and within ``node_limit``
+        branch-and-bound nodes; None when the deadline has passed before HiGHS could start.
+
+        HiGHS (1.12, scipy's) reports "solve error" (status 4, no solution) when the optimum it
+        found on its presolved program, feasible there within its tolerance, violates a row of
+        the original program by a hair more than that tolerance after postsolve (seen with a
+        least fixed point, whose rows are all tight at the optimum: t pushed one tolerance below
+        x(init)). That says nothing about the program (HiGHS had found an optimum, within
+        tolerance), so the solve is repeated without presolve, on the original rows,
+        which are then the rows HiGHS's tolerance applied to (with a fresh ``node_limit``)."""
         cost = np.zeros(self.num_vars)
         cost[objective] = -sense
         matrix = sp.csr_matrix(
             (np.concatenate(self.vals), (np.concatenate(self.rows), np.concatenate(self.cols))),
             shape=(self.num_rows, self.num_vars),
         )
-        # HiGHS stops within 1e-4 (relative) of the optimum by default: ask for the optimum
-        options: dict[str, object] = {"disp": False, "mip_rel_gap": 1e-9}
-        if time_limit is not None:
-            options["time_limit"] = time_limit
-        if node_limit is not None:
-            options["node_limit"] = node_limit
-        return milp(cost, integrality=np.concatenate(self.integer),
-                    bounds=LinearBounds(np.concatenate(self.lower), np.concatenate(self.upper)),
-                    constraints=LinearConstraint(matrix, np.concatenate(self.row_lo),
-                                                 np.concatenate(self.row_hi)),
-                    options=options)
+        res = None
+        for presolve in (True, False):
+            # HiGHS stops within 1e-4 (relative) of the optimum by default: ask for the optimum
+            options: dict[str, object] = {"disp": False, "mip_rel_gap": 1e-9,
+                                          "presolve": presolve}
+            if deadline is not None:
+                left = deadline - time.perf_counter()
+                if left <= 0:
+                    return res
+                options["time_limit"] = left
+            if node_limit is not None:
+                options["node_limit"] = node_limit
+            res = milp(cost, integrality=np.concatenate(self.integer),
+                       bounds=LinearBounds(np.concatenate(self.lower), np.concatenate(self.upper)),
+                       constraints=LinearConstraint(matrix, np.concatenate(self.row_lo),
+                                                    np.concatenate(self.row_hi)),
+                       options=options)
+            if res.status != _SOLVE_ERROR:
+                return res
+        return res
+
+
+_SOLVE_ERROR = 4  # scipy.optimize.milp's status for HiGHS's "solve error" (_Program.solve)
 
 
 def _product(problem: Problem, adversary: FiniteStateStrategy, par: Parametrisation,
@@ -340,13 +361,8 @@ def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *
         x = _bellman(prog, p, t, sign, problem.discount, lo, hi)
         if encoding == Encoding.RANKING:
             _ranking(prog, p, x)
-    left = None
-    if deadline is not None:
-        left = deadline - time.perf_counter()
-        if left <= 0:
-            return None
-    res = prog.solve(t, sign, left, nodes)
-    if res.x is None:
+    res = prog.solve(t, sign, deadline, nodes)
+    if res is None or res.x is None:
         return None
     chosen = np.round(res.x[d]) > 0.5
     gamma = np.zeros((memory, Zu, Au))

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Literal
 
 from posgmc.errors import InputError
 from posgmc.synthesis.budget import Effort
+from posgmc.synthesis.tasks import Placement
 
 __all__ = ["AUTO_MEMORY", "MAX_MEMORY", "SynthesisOptions", "memory_sizes"]
 
@@ -69,8 +71,11 @@ class SynthesisOptions:
     decision maker.
     ``player_memory``: memory sizes by player name (``--memory rover=1..3 --memory
     attacker=2``); the decision maker's entry replaces ``memory``, the adversary's (its largest
-    size) ``adversary_memory``. ``jobs``: worker processes for independent evaluations
-    (:mod:`posgmc.synthesis.executors`; results do not depend on it). ``started``: the
+    size) ``adversary_memory``. ``jobs``: workers for independent evaluations
+    (:mod:`posgmc.synthesis.executors`; results do not depend on it); ``executor``: where they
+    run, "local" (this process or a local process pool) or "ray" (actors on the Ray cluster at
+    ``ray_address``: HOST:PORT, None: Ray's ``RAY_ADDRESS`` or a Ray started for the run;
+    :mod:`posgmc.synthesis.ray_pool`). ``started``: the
     ``time.perf_counter()`` value from which the first synthesised property's ``timeout`` counts
     (the CLI and :func:`posgmc.api.check` set it where the run starts, so that loading and
     building the model are inside the budget); None: from the start of its synthesis."""
@@ -87,6 +92,8 @@ class SynthesisOptions:
     adversary_memory: int = 1
     player_memory: tuple[tuple[str, tuple[int, ...]], ...] = ()
     jobs: int = 1
+    executor: Literal["local", "ray"] = "local"
+    ray_address: str | None = None
     enumeration_limit: int = 100
     compose_restarts: int = 0
     oracle_rounds: int = 1
@@ -126,6 +133,17 @@ class SynthesisOptions:
             raise InputError(f"started must be a time.perf_counter() value, got {self.started!r}")
         if self.belief is not None and not isinstance(self.belief, bool):
             raise InputError(f"belief must be True, False or None, got {self.belief!r}")
+        if self.executor not in ("local", "ray"):
+            raise InputError(f"executor must be 'local' or 'ray', got {self.executor!r}")
+        if self.ray_address is not None and (not isinstance(self.ray_address, str)
+                                             or self.executor != "ray"):
+            raise InputError(f"ray_address must be a HOST:PORT string with executor 'ray', got "
+                             f"{self.ray_address!r} with executor {self.executor!r}")
+
+    @property
+    def placement(self) -> Placement:
+        """Where the independent evaluations run."""
+        return Placement(self.executor, self.jobs, self.ray_address)
 
     def for_players(self, decision_maker: str, adversary: str | None,
                     players: tuple[str, ...]) -> SynthesisOptions:

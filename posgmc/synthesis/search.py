@@ -20,6 +20,7 @@ from __future__ import annotations
 import time
 from contextlib import closing
 from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import numpy as np
 
@@ -143,7 +144,7 @@ def synthesize(
             coalition_of=coalition_of,
             scalar=scalar,
         )
-        with closing(executor_for(problem, options.jobs)) as own:
+        with closing(executor_for(problem, options.placement)) as own:
             return synthesize(model, expr, player=player, coalition_of=coalition_of,
                               scalar=scalar, options=options, check_options=check_options,
                               executor=own)
@@ -495,6 +496,8 @@ class AscendJob:
     """One start of the gradient search against the omniscient adversary: the defence's memory
     size, the start logits, Adam's settings and the deadline. ``run`` returns the best iterate's
     logits and the number of evaluations."""
+
+    PHASE: ClassVar[str] = "gradient search"
 
     memory: int
     logits_action: np.ndarray

@@ -234,3 +234,93 @@ def test_a_synthesis_refuses_a_json_file_name_for_its_directory(run, tmp_path: P
     assert r.exit_code == EXIT_ERROR
     assert f"--export-strategy {out}: a synthesis writes a directory" in r.output
     assert "Model " not in r.output and not out.exists()  # refused before any work
+
+
+# -- --select and --strict ----------------------------------------------------------------------
+
+# by hand: s=0 moves to s=1 with 1/3, else to s=2
+THIRD = """dtmc
+module m
+  s : [0..2] init 0;
+  [] s=0 -> 1/3:(s'=1) + 2/3:(s'=2);
+  [] s>0 -> true;
+endmodule
+"""
+SELECT_PROPS = '"first": P=? [ F s=1 ];\n"mission": P=? [ F s=2 ];\nP>1/3 [ F s=1 ];\n'
+
+
+def _third(tmp_path: Path) -> tuple[str, str]:
+    m, p = tmp_path / "m.prism", tmp_path / "m.props"
+    m.write_text(THIRD)
+    p.write_text(SELECT_PROPS)
+    return str(m), str(p)
+
+
+@pytest.mark.parametrize(
+    ("select", "shown"),
+    [
+        (["mission"], ['"mission":']),
+        (['"mission"'], ['"mission":']),
+        (["3,first"], ['"first":', "P>1/3"]),  # in file order, whatever the selection's order
+        (["2", "1"], ['"first":', '"mission":']),
+    ],
+)
+def test_select_picks_properties_by_name_or_position(
+    tmp_path: Path, select: list[str], shown: list[str]
+) -> None:
+    m, p = _third(tmp_path)
+    args = ["check", m, p]
+    for s in select:
+        args += ["--select", s]
+    r = CliRunner().invoke(main, args)
+    lines = [ln for ln in r.output.splitlines() if ": " in ln and not ln.startswith("Model")]
+    assert [ln.split(" ")[0] for ln in lines] == shown, r.output
+    # P>1/3 on exactly 1/3 is decided false (exit 1), the =? queries exit 0
+    assert r.exit_code == (EXIT_PROPERTY_FALSE if "P>1/3" in shown else EXIT_OK)
+
+
+@pytest.mark.parametrize(
+    ("select", "message"),
+    [
+        ("4", "there is no property 4: the properties are numbered 1 to 3"),
+        ("nope", 'no property is named "nope"'),
+        ("a,,b", "an empty property name or position"),
+    ],
+)
+def test_a_wrong_selection_is_refused_before_any_work(
+    tmp_path: Path, select: str, message: str
+) -> None:
+    m, p = _third(tmp_path)
+    r = CliRunner().invoke(main, ["check", m, p, "--select", select])
+    assert r.exit_code == EXIT_ERROR
+    assert message in r.output and "Model" not in r.output
+
+
+# an int variable given int/int and an observable named like a label: Storm reads both
+STORMISH = """pomdp
+const int N = 4;
+module m
+  x : [0..4] init N/2;
+  [] x<4 -> (x'=(x+2)/2*2);
+  [] x=4 -> true;
+endmodule
+label "top" = x=4;
+observable "top" = x=4;
+"""
+
+
+def test_storms_reading_warns_and_strict_refuses(tmp_path: Path) -> None:
+    m = tmp_path / "m.prism"
+    m.write_text(STORMISH)
+    r = CliRunner().invoke(main, ["build", str(m)])
+    assert r.exit_code == EXIT_OK, r.output
+    warnings = [ln for ln in r.output.splitlines() if ln.startswith("warning:")]
+    assert [w.split(": ")[1] for w in warnings] == [f"{m}:4:19", f"{m}:5:17", f"{m}:9:1"]
+    assert all("accepted as in Storm" in w and "PRISM's rule" in w for w in warnings)
+    # by hand: x = 2 -> (2+2)/2*2 = 4; two states
+    assert "States:       2" in r.output
+    r = CliRunner().invoke(main, ["build", str(m), "--strict"])
+    assert r.exit_code == EXIT_ERROR
+    assert r.output.count("error:") == 3 and "PRISM's rule" in r.output
+    r = CliRunner().invoke(main, ["lint", str(m), "--strict"])
+    assert r.exit_code == EXIT_ERROR and "3 error(s)" in r.output

@@ -127,6 +127,29 @@ def test_build_export_drn_round_trip(run, tmp_path: Path) -> None:  # type: igno
     )
 
 
+def test_build_exports_the_posmg_drn_paynt_reads(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    # beacon: both players observe partially, and DRN carries one observation per state
+    beacon = str(ROOT / "models" / "beacon" / "beacon.posg")
+    out = tmp_path / "beacon.drn"
+    r = run("build", beacon, "--export", "drn", str(out))
+    assert r.exit_code == EXIT_ERROR and "--observer PLAYER" in r.output and not out.exists()
+    r = run("build", beacon, "--export", "drn", str(out), "--observer", "rover", "--json")
+    assert r.exit_code == EXIT_OK, r.output
+    stats = json.loads(r.stdout)
+    # 61 states, 81 choices, 96 transitions: what PAYNT 0.5.0 reads from the exported file
+    # (paynt.parser.drn_parser.DrnParser.parse_drn gives a Posmg with these counts)
+    assert (stats["states"], stats["choices"], stats["transitions"]) == (61, 81, 96)
+    text = out.read_text()
+    assert "@type: POSMG" in text and "state 0 {15} <1> init" in text
+    again = json.loads(run("build", str(out), "--json").stdout)
+    assert (again["states"], again["choices"], again["transitions"]) == (61, 81, 96)
+    # the file carries the rover's 15 observation ids; the jammer's 21 states (the other
+    # player, who sees everything in PAYNT's reading) have one id each
+    assert again["observations"] == {"rover": 36, "jammer": 36}
+    r = run("build", beacon, "--observer", "rover")
+    assert r.exit_code == EXIT_ERROR and "--observer chooses the observations" in r.output
+
+
 def test_const_errors_point_into_the_option(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     m = tmp_path / "c.prism"
     m.write_text(

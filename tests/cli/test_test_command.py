@@ -199,3 +199,103 @@ def test_a_malformed_line_stops_the_run_before_any_check(tmp_path: Path) -> None
     assert r.exit_code == 2
     assert "PASS" not in r.output and f"{p}:3:4: error: RESULT interval" in r.output
     assert not junit.exists()
+
+
+# -- PRISM's test mode over files and folders, with argument files ------------------------------
+
+
+def _suite(tmp_path: Path) -> Path:
+    """A folder holding one model (MODEL, by hand: P(F (x=1 & X x=2)) = p) with two properties
+    files and their argument files: PRISM's switches, an ignored engine switch, one run per
+    line."""
+    folder = tmp_path / "suite"
+    folder.mkdir()
+    (folder / "m.prism").write_text(MODEL)
+    (folder / "m.props").write_text("// RESULT: 1\nP=? [ F x=2 ];\n")
+    (folder / "m.props.args").write_text("// one run\n-const p=0.5 -ex -epsilon 1e-8\n")
+    (folder / "extra.props").write_text(
+        "// RESULT (p=0.25): 0.25\n// RESULT (p=0.5): 0.5\nP=? [ F (x=1 & X x=2) ];\n"
+    )
+    (folder / "extra.props.args").write_text("-const p=0.25\n--const p=0.5\n")
+    return folder
+
+
+def test_a_folder_runs_every_model_with_its_argument_files(tmp_path: Path) -> None:
+    folder = _suite(tmp_path)
+    junit = tmp_path / "all.xml"
+    r = CliRunner().invoke(main, ["test", str(folder), "--junit", str(junit)])
+    assert r.exit_code == 0, r.output
+    lines = r.output.strip().splitlines()
+    # extra.props (name order) once per line of its argument file, then m.props
+    heads = [ln for ln in lines if ln.startswith("== ")]
+    assert [h.split("  (")[0].split(" ", 2)[2] for h in heads] == [
+        "extra.props --const p=0.25",
+        "extra.props --const p=0.5",
+        "m.props --const p=0.5",
+    ]
+    assert heads[0].endswith(f"({folder / 'extra.props.args'}:1)")
+    assert lines[-1] == "3 passed, 0 failed"
+    assert 'tests="3"' in junit.read_text() and 'failures="0"' in junit.read_text()
+
+
+def test_a_model_file_finds_its_properties(tmp_path: Path) -> None:
+    folder = _suite(tmp_path)
+    (folder / "m.props.args").write_text("-const p=0.5\n")
+    (folder / "extra.props.args").unlink()
+    r = CliRunner().invoke(main, ["test", str(folder / "m.prism"), "--const", "p=0.25"])
+    # the command line's p=0.25 for extra.props (its RESULT for p=0.25 passes); m.props'
+    # argument line sets p=0.5 in place of it (P(F x=2) = 1 whatever p)
+    assert r.exit_code == 0, r.output
+    assert r.output.strip().splitlines()[-1] == "2 passed, 0 failed"
+
+
+def test_a_failing_run_fails_the_total(tmp_path: Path) -> None:
+    folder = _suite(tmp_path)
+    (folder / "extra.props.args").write_text("-const p=0.25\n-const p=0.75\n")
+    r = CliRunner().invoke(main, ["test", str(folder)])
+    # p=0.75 has no RESULT line of its own: skipped, not failed; make one fail instead
+    assert r.exit_code == 0, r.output
+    (folder / "extra.props").write_text("// RESULT: 0.5\nP=? [ F (x=1 & X x=2) ];\n")
+    r = CliRunner().invoke(main, ["test", str(folder)])
+    assert r.exit_code == 1
+    assert r.output.strip().splitlines()[-1] == "1 passed, 2 failed"
+    assert "FAIL " in r.output and "expected 0.5, got 0.25" in r.output
+
+
+@pytest.mark.parametrize(
+    ("line", "message"),
+    [
+        ("-sparse -bogus\n", "unknown switch -bogus in an argument file"),
+        ("-const\n", "-const needs a value"),
+        ("--no-such-option\n", "No such option '--no-such-option'"),
+    ],
+)
+def test_a_bad_argument_line_names_its_file_and_line(
+    tmp_path: Path, line: str, message: str
+) -> None:
+    folder = _suite(tmp_path)
+    (folder / "m.props.args").write_text("// comment\n" + line)
+    r = CliRunner().invoke(main, ["test", str(folder / "m.prism")])
+    assert r.exit_code == 2
+    assert message in r.output
+    assert f"{folder / 'm.props.args'}:2" in r.output
+
+
+def test_the_shipped_smg_models_pass_in_folder_mode() -> None:
+    # the cheap folders (no synthesis): their argument files hold the runs tests/
+    # test_model_library.py lists: tennis twice (receiver first or not), red_and_black swept
+    r = CliRunner().invoke(main, ["test", str(ROOT / "models" / "tennis"),
+                                  str(ROOT / "models" / "red_and_black")])
+    assert r.exit_code == 0, r.output
+    assert r.output.strip().splitlines()[-1] == "19 passed, 0 failed, 6 skipped"
+
+
+def test_exact_mode_reads_decimal_results_as_roundings() -> None:
+    # red_and_black at start=3: "casino" is exactly 608/6305 = 0.09643140364..., written
+    # 0.0964314037 in its RESULT line; "bold" is 32/125 = 0.256 exactly
+    where = ROOT / "models" / "red_and_black"
+    r = CliRunner().invoke(main, ["test", str(where / "red_and_black.smg"),
+                                  str(where / "red_and_black.props"), "--const", "start=3",
+                                  "--exact"])
+    assert r.exit_code == 0, r.output
+    assert r.output.strip().splitlines()[-1] == "3 passed, 0 failed"

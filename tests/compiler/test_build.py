@@ -288,6 +288,36 @@ endmodule
     assert model.num_states == 2
 
 
+def test_int_division_assigned_to_an_int_variable() -> None:
+    # Storm's typing (semantics/dialect.py): int/int goes into an int variable when the value is
+    # whole. By hand: x=0 -> (0+2)/2*2 = 2 -> (2+2)/2*2 = 4 -> 6/2*2 = 6, and y = x/2 = 0, 1, 2;
+    # Storm 2.0 builds the same 4 states, whose values it reads from its double evaluation
+    text = """dtmc
+const int N = 6;
+module m
+  x : [0..6] init 0;
+  y : [0..3] init N/6;
+  [] x<N -> (x'=(x+2)/2*2) & (y'=(x+2)/4*2);
+  [] x=N -> true;
+endmodule
+"""
+    model = build(text.replace("(x+2)/4*2", "x/2")).model
+    assert model.num_states == 4
+    assert [valuation(model, s) for s in range(4)] == [
+        {"x": 0, "y": 1}, {"x": 2, "y": 0}, {"x": 4, "y": 1}, {"x": 6, "y": 2}
+    ]
+    # (0+2)/4*2 = 1 is whole; from x=2, (2+2)/4*2 = 2 too; from x=4, 6/4*2 = 3; all whole
+    assert build(text).model.num_states == 4
+    # a value that is not whole, where the update can happen, is an error naming the state
+    # (Storm truncates its double toward zero: it would give 0 here)
+    err = build_error(text.replace("(x+2)/4*2", "(x+1)/2"))
+    assert err.message == (
+        "command [] of module m assigns 0.5 to int variable 'y', which is not a whole number, "
+        "in state (x=0, y=1)"
+    )
+    assert err.span is not None and (err.span.line, err.span.column) == (6, 30)
+
+
 def test_failing_expression_names_the_state() -> None:
     err = build_error(
         """mdp

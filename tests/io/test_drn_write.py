@@ -119,7 +119,9 @@ def test_posg_with_different_observations_needs_an_observer() -> None:
         drn_text(model)
     assert "observe the game differently" in info.value.message
     assert info.value.hint is not None and "observer=" in info.value.hint
-    for observer, ids in (("p1", [0, 1, 1]), (1, [0, 1, 2])):
+    # the observer's ids at its own states; the other player's states (PAYNT: it sees
+    # everything) get ids of their own after the observer's
+    for observer, ids in (("p1", [0, 2, 1]), (1, [3, 1, 4])):
         again = parse_drn(drn_text(model, observer=observer))
         assert again.observations[0].state_ids.tolist() == ids
     with pytest.raises(UnsupportedError):

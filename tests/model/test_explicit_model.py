@@ -370,3 +370,21 @@ def test_the_model_package_needs_no_front_end() -> None:
     from posgmc.syntax.ast import ModelType as Written
 
     assert Compiled is Written  # one enum, named by both
+
+
+def test_a_model_pickles_with_its_labels() -> None:
+    """A built model pickles (its labels are a read-only mapping view, which does not): how it
+    reaches a Ray worker (posgmc/synthesis/ray_pool.py). Every field survives, arrays stay
+    read-only."""
+    import pickle
+
+    model = mdp(labels={"goal": np.array([False, True])})
+    again = pickle.loads(pickle.dumps(model))
+    assert (again.num_states, again.num_choices) == (2, 3)
+    assert again.labels.keys() == model.labels.keys() and "goal" in again.labels
+    assert np.array_equal(again.label("goal"), [False, True])
+    assert (again.transitions != model.transitions).nnz == 0
+    assert again.action_names == model.action_names
+    assert not again.row_groups.flags.writeable
+    with pytest.raises(TypeError):
+        again.labels["other"] = np.array([True, True])  # type: ignore[index]

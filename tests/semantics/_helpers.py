@@ -22,9 +22,11 @@ def model(text: str) -> ModelFile:
     return parse_model(text, file="m.prism")
 
 
-def lint(text: str, *, constants: Mapping[str, object] | None = None) -> list[Diag]:
+def lint(
+    text: str, *, constants: Mapping[str, object] | None = None, strict: bool = False
+) -> list[Diag]:
     """The errors of a model text, in the order check_model reports them."""
-    return [diag(e) for e in check_model(model(text), constants=constants)]
+    return [diag(e) for e in check_model(model(text), constants=constants, strict=strict)]
 
 
 def lint_props(

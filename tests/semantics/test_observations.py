@@ -90,15 +90,34 @@ def test_observable_named_like_a_variable_is_legal() -> None:
     assert fm.observables is not None and [o.name for o in fm.observables] == ["x", "y"]
 
 
-def test_observable_and_label_share_a_namespace() -> None:
-    text = (
-        'pomdp\nobservables x endobservables\nobservable "x" = y;\n' + BODY + 'label "x" = true;\n'
-    )
-    assert lint(text) == [
-        ("SemanticError", 'observable "x" has the name of label "x" (line 10)', 2, 13),
-        ("SemanticError", 'observable "x" has the name of label "x" (line 10)', 3, 1),
+def test_observable_named_like_a_label_is_storms_reading() -> None:
+    # Storm keeps labels and observables apart (PAYNT's maze-10: label "goal" and observable
+    # "goal"): accepted with a warning naming PRISM's rule, the label keeping the name for
+    # properties; strict keeps PRISM's rule (one namespace), as an error
+    text = 'pomdp\nobservable "x" = y;\n' + BODY + 'label "x" = x=1;\n'
+    assert lint(text) == []
+    fm = instantiate(model(text))
+    assert fm.observables is not None and [o.name for o in fm.observables] == ["x"]
+    assert dict(fm.labels) == {"x": Binary(BinaryOp.EQ, Ident("x"), IntLit(1))}
+    (w,) = fm.warnings
+    assert (type(w).__name__, w.span.line if w.span else None) == ("DialectWarning", 2)
+    assert w.message.startswith('observable "x" has the name of label "x" (line 9): accepted')
+    assert "PRISM's rule" in w.message
+    assert lint(text, strict=True) == [
+        (
+            "SemanticError",
+            'observable "x" has the name of label "x" (line 9) (PRISM\'s rule: properties may '
+            "use a named observable as a label, so the names must differ)",
+            2,
+            1,
+        )
     ]
+
+
+def test_observable_declared_twice() -> None:
     text = 'pomdp\nobservables x endobservables\nobservable "x" = y;\n' + BODY
+    assert lint(text) == [("SemanticError", 'observable "x" is already declared (line 2)', 3, 1)]
+    text += 'label "x" = true;\n'
     assert lint(text) == [("SemanticError", 'observable "x" is already declared (line 2)', 3, 1)]
 
 

@@ -30,7 +30,8 @@ def wrap(body: str, *, decls: str = "") -> str:
         ("  [] x -> (x'=0);\n", "a guard must be Boolean, found int", 6),
         ("  [] b -> (x'=true);\n", 'cannot assign a bool value to int variable "x"', 15),
         ("  [] b -> (b'=2);\n", 'cannot assign an int value to bool variable "b"', 15),
-        ("  [] b -> (x'=x/2);\n", 'cannot assign a double value to int variable "x"', 15),
+        ("  [] b -> (x'=x/2.0);\n", 'cannot assign a double value to int variable "x"', 15),
+        ("  [] b -> (x'=p/2);\n", 'cannot assign a double value to int variable "x"', 15),
         ("  [] b -> (x'=p);\n", 'cannot assign a double value to int variable "x"', 15),
         (
             "  [] b -> true : (x'=0);\n",
@@ -181,3 +182,39 @@ endmodule
         # the use of g as a guard: the error points at the use, not at the definition
         ("SemanticError", "a guard must be Boolean, found int", 6, 6),
     ]
+
+
+def test_int_division_into_an_int_variable_is_storms_reading() -> None:
+    # Storm types int/int as int (Type::divide keeps the larger operand type), so PAYNT's
+    # lanes-100-combined-new updates "y'=SIZE/2+1" and geo-2-8 initialises "init gMAX/2":
+    # accepted with a warning naming PRISM's rule; strict keeps PRISM's rule as an error
+    text = wrap("  [] b -> (x'=(x+1)/2);\n", decls="const int N = 4;\n").replace(
+        "init 0;", "init N/2;", 1
+    )
+    assert lint(text) == []
+    strict = lint(text, strict=True)
+    assert [(d[0], d[2], d[3]) for d in strict] == [
+        ("SemanticError", 5, 19),
+        ("SemanticError", 7, 15),
+    ]
+    assert strict[0][1].startswith('the initial value of int variable "x" divides ints (PRISM')
+    assert strict[1][1] == (
+        'the value assigned to int variable "x" divides ints (PRISM\'s rule: "/" gives a double, '
+        "which an int variable does not take)"
+    )
+
+
+def test_int_division_with_a_double_operand_stays_an_error() -> None:
+    # Storm refuses these too ("illegally assigning a value of type 'rational'")
+    text = wrap("  [] b -> (x'=(x+p)/2);\n").replace("init 0;", "init 3/2.0;", 1)
+    assert lint(text) == [
+        ("SemanticError", 'the initial value of variable "x" must be an int, found double', 4, 19),
+        ("SemanticError", 'cannot assign a double value to int variable "x"', 6, 15),
+    ]
+
+
+def test_an_initial_int_division_must_be_whole() -> None:
+    text = wrap("", decls="const int N = 5;\n").replace("init 0;", "init N/2;", 1)
+    ((kind, message, line, column),) = lint(text)
+    assert (kind, line, column) == ("SemanticError", 5, 19)
+    assert message == 'the initial value 5/2 of int variable "x" is not a whole number'

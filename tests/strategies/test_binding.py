@@ -1,5 +1,6 @@
-"""Binding a strategy to a model: linear in the rules, and rules for observations the model never
-shows are summarised as warnings (the first few by name, then a count)."""
+"""Binding strategies to models: a model whose choices carry no labels (a DRN POMDP as Storm writes it, like
+Cassandra's hallway in PAYNT's SAYNT set): choices are named by their local index, ``#0``, ``#1``,
+in the built model, in strategies and in strategy files."""
 
 from __future__ import annotations
 
@@ -7,10 +8,83 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from posgmc import api
+from posgmc.errors import InputError
+from posgmc.io.drn import parse_drn
 from posgmc.strategies.binding import bind
-from posgmc.strategies.files import strategy_from_json
+from posgmc.strategies.files import read_strategy, strategy_from_json
+from posgmc.strategies.fss import StrategyError
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "compat"
+MODEL = DATA / "unlabelled_pomdp.drn"
+GOAL = 'Pmax=? [ F "goal" ]'
+
+
+def _strategy(tmp_path: Path, at_obs1: str, at_obs0: str = "#0") -> str:
+    path = tmp_path / "agent.json"
+    path.write_text(json.dumps({
+        "format": "posgmc-fss/1", "player": "", "memory_size": 1, "initial_memory": 0,
+        "observables": [],
+        "rules": [
+            {"memory": 0, "observation": 0, "action": {at_obs0: 1.0}},
+            {"memory": 0, "observation": 1, "action": {at_obs1: 1.0}},
+            {"memory": 0, "observation": 2, "action": {"": 1.0}},
+        ],
+    }))
+    return str(path)
+
+
+def test_unlabelled_choices_are_named_by_local_index() -> None:
+    model = api.build(api.load(MODEL)).model
+    # Storm 2.0 (stormpy.build_model_from_drn): 4 states, 7 choices, 8 transitions, 3 observations
+    assert (model.num_states, model.num_choices, model.num_transitions) == (4, 7, 8)
+    names = [model.action_names[a] for a in model.choice_actions.tolist()]
+    # states 0-2 offer two unlabelled choices each; state 3's single one keeps the empty label
+    assert names == ["#0", "#1", "#0", "#1", "#0", "#1", ""]
+
+
+@pytest.mark.parametrize(("action", "value"), [("#1", 1.0), ("#0", 0.5)])
+def test_a_strategy_file_names_choices_by_index(tmp_path: Path, action: str, value: float) -> None:
+    # by hand: observation 1 covers states 1 and 2. #1 everywhere: 0 -#0-> 1 -#1-> 2 -#1-> 3,
+    # goal with probability 1. #0 there: state 1 reaches 3 or 2 with 0.5 each, and state 2
+    # then loops on itself: 0.5
+    report = api.check(
+        api.load(MODEL), properties=[GOAL], strategies={"": _strategy(tmp_path, action)}
+    )
+    (result,) = report.results
+    g = result.guaranteed
+    assert g is not None and g.lower <= value <= g.upper and g.upper - g.lower < 1e-5
+
+
+def test_an_index_the_states_do_not_offer_is_a_strategy_error(tmp_path: Path) -> None:
+    with pytest.raises(StrategyError) as info:
+        api.check(api.load(MODEL), properties=[GOAL], strategies={"": _strategy(tmp_path, "#2")})
+    assert "the model has no action labelled '#2'" in info.value.message
+
+
+def test_the_raw_model_error_names_the_agent_and_the_state_once(tmp_path: Path) -> None:
+    # a model not built through api.build keeps the DRN's unlabelled choices
+    raw = parse_drn(MODEL.read_text(), file=str(MODEL))
+    fss = read_strategy(_strategy(tmp_path, "", at_obs0=""))
+    with pytest.raises(InputError) as info:
+        bind(raw, fss)
+    assert info.value.message.startswith("state 0 of the agent offers two choices labelled ''")
+
+
+def test_an_exported_strategy_reads_back(tmp_path: Path) -> None:
+    from posgmc.strategies.files import write_strategy
+
+    path = tmp_path / "agent.json"
+    fss = read_strategy(_strategy(tmp_path, "#1"))
+    write_strategy(fss, path)
+    again = read_strategy(str(path))
+    assert again.actions == fss.actions and "#1" in again.actions
+    assert np.array_equal(again.action, fss.action)
+
+
+# -- many rules for observations the model never shows: linear, summarised ---------------------
 
 ROOT = Path(__file__).resolve().parents[2]
 ROVER = ROOT / "models" / "rover.posg"

@@ -120,3 +120,21 @@ def test_cli_filters_and_their_errors(tmp_path: Path) -> None:
     r = CliRunner().invoke(main, ["show-strategy", str(REMEMBER), "--node", "3"])
     assert r.exit_code == 2 and "--node 3: the strategy of player 'rover' has memory nodes 0..2" \
         in r.output
+
+
+def test_observations_of_a_drn_strategy_are_filtered_by_id() -> None:
+    import numpy as np
+
+    from posgmc.cli.strategy_commands import _observation_filter
+    from posgmc.strategies.fss import FiniteStateStrategy
+    from posgmc.strategies.render import matching_observations
+
+    # a strategy of a DRN model: no observables, observations named by their ids 0, 3, 7
+    fss = FiniteStateStrategy.from_arrays(
+        player="", observables=(), observation_values=np.array([[0], [3], [7]]),
+        actions=("a",), action=np.ones((1, 3, 1)))
+    assert _observation_filter("3") == {"": 3}
+    assert matching_observations(fss, {"": 3}).tolist() == [False, True, False]
+    assert _observation_filter("x=1,ok=true") == {"x": 1, "ok": 1}
+    lines = strategy_table(fss, compact=True).splitlines()
+    assert lines[2:] == ["0       observation 0|3|7  a: 1    a -> 0"]

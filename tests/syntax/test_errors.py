@@ -267,3 +267,19 @@ def test_huge_exponent_is_rejected() -> None:
         parse_expression("x < 1e999999999", file="e")
     assert "out of range" in info.value.message
     assert info.value.span == SourceSpan(1, 5, 1, 16, "e")
+
+
+@pytest.mark.parametrize(
+    "hole",
+    ["hole int o1x in {3,4,5};", "hole double p in {0.1, 0.2};", "hole bool b in {true};"],
+)
+def test_a_paynt_sketch_is_refused_as_a_family_of_models(hole: str) -> None:
+    # PAYNT's sketch.templ files (e.g. pomdp/sketches/avoid-smaller-family) declare holes at the
+    # top level, between ordinary declarations: one message at the first hole, whatever follows
+    text = "pomdp\nconst int N = 3;\n" + hole + "\n" + hole.replace(" in", "2 in") + "\n"
+    err = _model_error(text + "module m\n  x : [0..1] init 0;\n  [] true -> true;\nendmodule\n")
+    assert isinstance(err, ParseError)
+    assert err.message.startswith("'hole' declares a parameter of a PAYNT sketch: this file ")
+    assert "family of models" in err.message
+    assert _where(err) == (3, 1)
+    assert "const" in (err.hint or "")

@@ -316,12 +316,31 @@ def test_storm_temporal_operands_parse_as_parenthesised(storm: str, prism: str) 
     assert parse_property(storm).expr == parse_property(prism).expr
 
 
-def test_temporal_operand_of_a_comparison_says_where_the_parentheses_go() -> None:
+@pytest.mark.parametrize(
+    ("storm", "parenthesised"),
+    [
+        ("P=? [ F (y=5 & X y=6) ]", "P=? [ F (y=5 & X (y=6)) ]"),
+        ("P=? [ F (a & X x+1>=2) ]", "P=? [ F (a & X ((x+1)>=2)) ]"),
+        ("P=? [ F<=3 (a & F<=2 x*2=4) ]", "P=? [ F<=3 (a & F<=2 (x*2=4)) ]"),
+        ("P=? [ X y=6 ]", "P=? [ X (y=6) ]"),
+    ],
+)
+def test_temporal_operand_of_a_comparison_is_read_as_storm_reads_it(
+    storm: str, parenthesised: str
+) -> None:
+    # PRISM's precedence makes X y=6 into (X y)=6, a type error; Storm 2.0 reads
+    # P=? [F (y=5 & X y=6)] as P=? [F ((y = 5) & (X (y = 6)))] (its printed formula)
+    got = parse_property(storm).expr
+    assert got == parse_property(parenthesised).expr
+    assert isinstance(got, ProbQuery) and isinstance(got.path, Temporal)
+
+
+def test_parenthesised_temporal_compared_stays_an_error() -> None:
     with pytest.raises(ParseError) as info:
-        parse_property("P=? [ F (a & X x=1) ]")
+        parse_property("P=? [ F (a & (X x)=1) ]")
     err = info.value
     assert 'cannot be an operand of "="' in err.message
-    assert err.span is not None and (err.span.line, err.span.column) == (1, 14)
+    assert err.span is not None and (err.span.line, err.span.column) == (1, 15)
     assert "X (x = 1)" in (err.hint or "")
 
 

@@ -45,7 +45,8 @@ def _synthesised(model, options: SynthesisOptions = SMALL):  # type: ignore[no-u
 
 
 def _without_times(doc: dict) -> dict:  # type: ignore[type-arg]
-    out = {k: v for k, v in doc.items() if k not in ("seconds", "phases")}
+    # "synthesis": where the jobs ran and their times (the task counts: test_jobs_... below)
+    out = {k: v for k, v in doc.items() if k not in ("seconds", "phases", "synthesis")}
     out["rounds"] = [{k: v for k, v in r.items() if k != "seconds"} for r in doc["rounds"]]
     out["deterministic"] = [{k: v for k, v in r.items() if k != "seconds"}
                             for r in doc.get("deterministic", [])]
@@ -168,6 +169,12 @@ def test_jobs_give_bit_identical_results() -> None:
     one = _synthesised(model, replace(SMALL, memory=(1, 2), adversaries=3))
     two = _synthesised(model, replace(SMALL, memory=(1, 2), adversaries=3, jobs=2))
     assert _without_times(two.to_json()) == _without_times(one.to_json())
+    ran = {w: r.synthesis["synthesis"] for w, r in (("one", one), ("two", two))}
+    assert (ran["one"]["executor"], ran["one"]["workers"]) == ("local", 1)
+    assert (ran["two"]["executor"], ran["two"]["workers"]) == ("local", 2)
+    assert {p: t["count"] for p, t in ran["one"]["tasks"].items()} == \
+        {p: t["count"] for p, t in ran["two"]["tasks"].items()}
+    assert ran["one"]["tasks"]["adversaries: ranking"]["count"] > 1
     for a, b in zip(one.strategies, two.strategies):
         assert np.array_equal(a.action, b.action) and np.array_equal(a.update, b.update)
 

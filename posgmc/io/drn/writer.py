@@ -57,7 +57,8 @@ def write_drn(
         header_comment: text written as ``//`` comment lines at the top.
         valuations: write each state's variable values as Storm does (a ``//[x=1\\t& y=0]`` line).
         observer: for a POSG whose players observe differently, the player (index or name) whose
-            observation ids are written; PAYNT uses only the optimizing player's.
+            observation ids are written; PAYNT uses only the optimizing player's, the others
+            seeing everything, so their states get ids of their own.
 
     Raises:
         UnsupportedError: the model holds something DRN cannot carry (see :func:`drn_text`),
@@ -294,14 +295,22 @@ def _written_observations(model: ExplicitModel, observer: int | str | None) -> n
             raise UnsupportedError(
                 f"player {observer} observes the full state; it has no observation ids"
             )
-        return obs.state_ids
+        if model.state_players is None or not model.player_names:
+            return obs.state_ids
+        # PAYNT's POSMG: the other players see everything, so their states get ids of their own
+        # (read back, each of them then looks unlike every other state)
+        ids = obs.state_ids.astype(np.int64, copy=True)
+        others = np.flatnonzero(model.state_players != int(index))
+        ids[others] = int(obs.state_ids.max(initial=-1)) + 1 + np.arange(others.size)
+        return ids
     first = model.observations[0].state_ids
     if all(np.array_equal(o.state_ids, first) for o in model.observations[1:]):
         return first
     raise UnsupportedError(
         "the players observe the game differently, but DRN carries one observation per state",
-        hint="pass observer=<player> to write the observations of the partially observing "
-        "player the property optimizes for (PAYNT uses only that player's)",
+        hint="choose the partially observing player the property optimizes for, whose "
+        "observations PAYNT uses: --observer PLAYER with --export drn (observer= in "
+        "write_drn)",
     )
 
 
