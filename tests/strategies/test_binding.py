@@ -1,6 +1,7 @@
-"""Binding strategies to models: a model whose choices carry no labels (a DRN POMDP as Storm writes it, like
-Cassandra's hallway in PAYNT's SAYNT set): choices are named by their local index, ``#0``, ``#1``,
-in the built model, in strategies and in strategy files."""
+"""Binding strategies to models. A model whose choices carry no labels (a DRN POMDP as Storm
+writes it, like Cassandra's hallway in PAYNT's SAYNT set): choices are named by their local index,
+``#0``, ``#1``, in the built model, in strategies and in strategy files. Many rules for
+observations the model never shows: binding is linear and the warnings are summarised."""
 
 from __future__ import annotations
 
