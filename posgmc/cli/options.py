@@ -140,7 +140,8 @@ def timeout_option(f: F) -> F:
         help="Synthesis: a wall-clock cap in seconds per property (per point of a sweep or "
         "front), the first counted from the start (loading included); default none. When it "
         "binds, the best defence so far is verified and the result says the timeout cut the "
-        "work budget (the numbers may then depend on the machine).",
+        "work budget (the numbers may then depend on the machine). For check, it also stops a "
+        "model build that outlasts it (after at least one second).",
     )(f)
 
 
@@ -246,6 +247,18 @@ def synthesis_options(memory: Sequence[str] | str, timeout: float | None, seed: 
                             jobs=jobs, executor=executor, ray_address=ray_address,
                             player_memory=tuple(sorted(named.items())),
                             belief=False if explicit else None, started=started, effort=effort)
+
+
+def capped_jobs(jobs: int) -> int:
+    """``--jobs`` capped at the processors posgmc may use, saying so on stderr when it is."""
+    from posgmc.resources import usable_cpus
+
+    usable = usable_cpus()
+    if jobs > usable:
+        click.echo(f"warning: --jobs {jobs} capped at {usable}: the processors available to "
+                   "posgmc (more workers only compete for them)", err=True)
+        return usable
+    return jobs
 
 
 def strategy_options(values: Sequence[str]) -> dict[str | None, str]:
