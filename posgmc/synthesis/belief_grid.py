@@ -52,13 +52,16 @@ from posgmc.synthesis.jobs import Problem
 from posgmc.synthesis.parametric import Layout
 
 __all__ = ["GridAbstraction", "GridBound", "freudenthal", "grid_abstraction", "grid_bound",
-           "full_observation_bounds", "RESOLUTIONS", "MAX_VERTICES"]
+           "full_observation_bounds", "RESOLUTIONS", "MAX_VERTICES", "PRECISION"]
 
-RESOLUTIONS = (2, 4, 8, 16, 32, 64)
+RESOLUTIONS = tuple(2 ** i for i in range(1, 11))
 """The grid resolutions tried in turn while the budget lasts (each grid refines the previous)."""
 
 MAX_VERTICES = 400_000
 """Grid vertices explored at most in one abstraction (the time budget usually ends it first)."""
+
+PRECISION = 1e-8
+"""The relative precision the abstraction is solved to (its bound side is what is reported)."""
 
 _SNAP = 1e-9
 """Cumulative coordinates within this (relative to N) of an integer are that integer: float
@@ -104,7 +107,7 @@ class GridAbstraction:
     ``expanded``: bool[vertices], False where the vertex is cut off (one choice giving its
     full-observation bound); ``action``: int64[C], the model's action index of each choice of an
     expanded vertex (-1 for cut-offs and sinks); ``rewards``: float64[C] (None for a
-    probability); ``target``: bool[states]; ``discount``; ``maximize``."""
+    probability); ``target``: bool[states]; ``discount``; ``maximize``; ``resolution``: N."""
 
     model: ExplicitModel
     beliefs: sp.csr_matrix
@@ -115,6 +118,9 @@ class GridAbstraction:
     discount: float
     maximize: bool
     resolution: int
+    exact: bool
+    """Complete and every successor belief is a grid vertex: the abstraction *is* the reachable
+    belief MDP, so its optimum is the POMDP's (no finer grid can tighten it)."""
 
     @property
     def vertices(self) -> int:
@@ -255,6 +261,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     e_vertex: list[np.ndarray] = []
     e_prob: list[np.ndarray] = []
     num_choices = 0
+    on_grid = True  # every posterior so far is a vertex itself
     done = 0  # vertices [0, done) expanded
     while done < len(grid.rows) and done < max_vertices:
         if deadline is not None and time.perf_counter() > deadline:
@@ -300,6 +307,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             for lo, hi in zip(starts.tolist(), ends.tolist()):
                 w = float(data[lo:hi].sum())
                 counts, lam = freudenthal(data[lo:hi] / w, resolution)
+                on_grid = on_grid and lam.size == 1
                 row = int(pair[lo] // (dyn.Z + 1))
                 vs = [grid.vertex(col[lo:hi], c) for c in counts]
                 e_choice.append(np.full(lam.size, cid[row], dtype=np.int64))
@@ -308,13 +316,14 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
         num_choices += order.size
         done = last
     return _assemble(problem, dyn, grid, done, resolution, cutoff, c_vertex, c_action, c_stop,
-                     c_reward, e_choice, e_vertex, e_prob)
+                     c_reward, e_choice, e_vertex, e_prob, on_grid)
 
 
 def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, done: int, resolution: int,
               cutoff: np.ndarray, c_vertex: list[np.ndarray], c_action: list[np.ndarray],
               c_stop: list[np.ndarray], c_reward: list[np.ndarray], e_choice: list[np.ndarray],
-              e_vertex: list[np.ndarray], e_prob: list[np.ndarray]) -> GridAbstraction:
+              e_vertex: list[np.ndarray], e_prob: list[np.ndarray],
+              on_grid: bool) -> GridAbstraction:
     """The abstraction MDP: expanded vertices with their choices, cut-off vertices with one
     choice worth their full-observation bound, then the target and the sink."""
     V = len(grid.rows)
@@ -392,20 +401,23 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, done: int, resoluti
     expanded = np.zeros(V, dtype=bool)
     expanded[:done] = True
     return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,
-                           problem.discount, problem.maximize, resolution)
+                           problem.discount, problem.maximize, resolution,
+                           on_grid and done == V)
 
 
 @dataclass(frozen=True)
 class GridBound:
     """The best proven bound found: ``value`` bounds the optimum over all strategies from above
     when the agent maximises (below when it minimises); ``resolution``, ``vertices`` and
-    ``complete`` describe the abstraction that proved it; ``tried``: (resolution, bound) of every
-    abstraction solved; ``seconds``: time spent."""
+    ``complete`` describe the abstraction that proved it (``exact``: it is the reachable belief
+    MDP itself, so the bound is the optimum up to the solver's precision); ``tried``:
+    (resolution, bound) of every abstraction solved; ``seconds``: time spent."""
 
     value: float
     resolution: int
     vertices: int
     complete: bool
+    exact: bool
     tried: tuple[tuple[int, float], ...]
     seconds: float
 
@@ -433,7 +445,7 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
         cutoff = full_observation_bounds(problem, deadline)
     best: GridBound | None = None
     tried: list[tuple[int, float]] = []
-    for i, N in enumerate(resolutions):
+    for N in resolutions:
         now = time.perf_counter()
         if now > deadline:
             break
@@ -442,16 +454,18 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
         abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until)
         if abstraction is None:
             return None
-        result = abstraction.solve(SolverOptions(deadline=deadline, want_strategy=False))
+        result = abstraction.solve(SolverOptions(precision=PRECISION, relative=True,
+                                                 deadline=deadline, want_strategy=False))
         if not result.sound:
             continue
         value = float(result.upper[0] if problem.maximize else result.lower[0])
         tried.append((N, value))
         if best is None or sign * value < sign * best.value:
-            best = GridBound(value, N, abstraction.vertices, abstraction.complete, (), 0.0)
-        if target is not None and sign * best.value <= sign * target:
+            best = GridBound(value, N, abstraction.vertices, abstraction.complete,
+                             abstraction.exact, (), 0.0)
+        if abstraction.exact or (target is not None and sign * best.value <= sign * target):
             break
     if best is None:
         return None
-    return GridBound(best.value, best.resolution, best.vertices, best.complete, tuple(tried),
-                     time.perf_counter() - t0)
+    return GridBound(best.value, best.resolution, best.vertices, best.complete, best.exact,
+                     tuple(tried), time.perf_counter() - t0)

@@ -17,12 +17,13 @@ from posgmc.checking.dispatch import (
     PropertyChecker,
     ScalarEvaluator,
 )
-from posgmc.checking.results import Bound, PropertyResult, ResultKind
+from posgmc.checking.results import Bound, Optimum, PropertyResult, ResultKind
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
+from posgmc.synthesis.bracket import DEFAULT_SHARE, GAP_SHARE, optimum_of
 from posgmc.synthesis.compose import (
     RESPONSE_EXHAUSTIVE,
     VersusJob,
@@ -221,10 +222,20 @@ class SynthesisChecker:
         assert g is not None  # noqa: S101 - the decision maker's strategy is given
         note = (result.note or "") + ("; synthesised on the product with the formula's automaton, "
                                       "whose state the strategies do not observe")
+        optimum = result.optimum
+        if optimum is not None:
+            # the product's bracket bounds the same optimum (the automaton is deterministic);
+            # its achieved side is the defence's number recomputed on the game
+            maximize = PropertyChecker(self.model, coalition_of=self.coalition_of,
+                                       scalar=self.scalar).direction_of(bare) is Direction.MAX
+            optimum = dataclasses.replace(
+                optimum, lower=g.lower if maximize else optimum.lower,
+                upper=optimum.upper if maximize else g.upper, sound=optimum.sound and g.sound)
         if expr.threshold is not None:
-            return dataclasses.replace(result, guaranteed=g, note=note)
+            return dataclasses.replace(result, guaranteed=g, note=note, optimum=optimum)
         return dataclasses.replace(
             result,
+            optimum=optimum,
             guaranteed=g,
             value=g.value,
             lower=g.lower,
@@ -265,8 +276,11 @@ class SynthesisChecker:
         adversary = others[0] if len(others) == 1 else None
         problem = problem_of(self.model, bare, player=player, adversary=adversary,
                              coalition_of=self.coalition_of, scalar=self.scalar)
+        bracketing = settings.bracket
         with closing(executor_for(problem, settings.jobs)) as executor:
-            budget = self.synthesis.timeout
+            # with --gap the bound side has its share of the budget; without, a little on top
+            budget = self.synthesis.timeout * (
+                1.0 - GAP_SHARE if bracketing and settings.gap is not None else 1.0)
             phases_follow = adversary is not None and settings.adversaries > 0
             # without adversary phases the search has their time too
             search = dataclasses.replace(
@@ -288,13 +302,22 @@ class SynthesisChecker:
                 adversaries = self._adversary_phases(problem, executor, result, settings, deadline,
                                                      _until(self.options, started + budget))
         # the sound checks stopped at the end of the budget: wider (still proven) bounds
-        late = time.perf_counter() > started + self.synthesis.timeout
+        late = time.perf_counter() > started + budget
         defence, g, full = adversaries.defence if adversaries else result.strategy, \
             adversaries.guaranteed if adversaries else result.guaranteed, result.full_observation
         vs = ub = worst = None
         if adversaries is not None:
             vs, ub, worst = adversaries.vs, adversaries.ub, adversaries.worst
             result.phases.update(adversaries.phases)
+        optimum: Optimum | None = None
+        bracket_stats: dict[str, object] = {}
+        if bracketing:
+            now = time.perf_counter()
+            end = started + self.synthesis.timeout if settings.gap is not None else \
+                now + DEFAULT_SHARE * max(now - started, 1.0)
+            optimum, bracket_stats = optimum_of(problem, g, full, ub, deadline=end,
+                                                gap=settings.gap)
+            result.phases["optimum bound"] = time.perf_counter() - now
         value: float | bool | None = g.value
         kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
         lower: float | None = g.lower
@@ -310,9 +333,11 @@ class SynthesisChecker:
             maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
             proven = holds(g.lower if maximize else g.upper) and g.sound
             # no defence reaches the threshold: not with full observation, nor against the
-            # enumerated adversaries
+            # enumerated adversaries, nor where the optimum's bound side misses it
             bound = ub if ub is not None else full
             refuted = not holds(bound.upper if maximize else bound.lower) and bound.sound
+            if optimum is not None and optimum.sound:
+                refuted = refuted or not holds(optimum.upper if maximize else optimum.lower)
             value = True if proven else False if refuted else None
             kind, lower, upper = ResultKind.BOOLEAN, None, None
         player_name = self.model.player_names[player] if self.model.player_names else ""
@@ -320,6 +345,11 @@ class SynthesisChecker:
         note = (f"guaranteed: the synthesised strategy of {player_name or 'the agent'!s} ensures "
                 f"{direction} this against every adversary (checked by {result.method}); "
                 f"full_observation: the value if it saw everything")
+        if optimum is not None:
+            note += ("; optimum: proven bounds on the best value any strategy of "
+                     f"{player_name or 'the agent'} (any memory) achieves against every "
+                     f"adversary, the {'upper' if problem.maximize else 'lower'}"
+                     f" one by {optimum.method}")
         stats: dict[str, object] = {
             "partial": result.partial or bool(adversaries and adversaries.partial) or late,
             "phases": {k: round(v, 3) for k, v in result.phases.items()},
@@ -336,6 +366,10 @@ class SynthesisChecker:
                 for d in result.deterministic
             ],
         }
+        if optimum is not None:
+            stats["optimum_bound"] = bracket_stats
+            if settings.gap is not None:
+                stats["gap_met"] = settings.gap.met(optimum.lower, optimum.upper)
         extra: tuple = ()  # type: ignore[type-arg]
         if adversaries is not None:
             stats.update(adversaries.stats)
@@ -357,7 +391,7 @@ class SynthesisChecker:
             converged=True, sound=g.sound, note=note, per_initial=(value,),
             guaranteed=g, vs_fss_adversary=vs, upper_bound=ub,
             memory=((player_name, defence.memory_size),),
-            full_observation=full, synthesis=stats,
+            full_observation=full, optimum=optimum, synthesis=stats,
             strategies=(defence,) + ((worst,) if worst is not None else ()) + extra,
         )
 

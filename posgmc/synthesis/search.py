@@ -45,6 +45,7 @@ from posgmc.syntax.ast import (
 )
 from posgmc.synthesis import belief
 from posgmc.synthesis.ascent import LOGIT, ascend
+from posgmc.synthesis.bracket import Gap
 from posgmc.synthesis.deterministic import DeterministicResult, deterministic_phase
 from posgmc.synthesis.improvement import improvement_phase
 from posgmc.synthesis.jobs import Executor, Problem, executor_for
@@ -79,7 +80,10 @@ class SynthesisOptions:
     (:mod:`posgmc.synthesis.jobs`; results do not depend on it). ``started``: the
     ``time.perf_counter()`` value from which the first synthesised property's ``timeout`` counts
     (the CLI and :func:`posgmc.api.check` set it where the run starts, so that loading and
-    building the model are inside the budget); None: from the start of its synthesis."""
+    building the model are inside the budget); None: from the start of its synthesis.
+    ``bracket``: also prove the other side of the optimum (:mod:`posgmc.synthesis.bracket`);
+    ``gap``: refine the bracket until it is this narrow (the budget is then shared between the
+    two sides; None: the bound side gets a small extra share, ``bracket.DEFAULT_SHARE``)."""
 
     memory: tuple[int, ...] = AUTO_MEMORY
     timeout: float = 30.0
@@ -97,6 +101,8 @@ class SynthesisOptions:
     oracle_rounds: int = 8
     started: float | None = None
     belief: bool | None = None
+    bracket: bool = True
+    gap: Gap | None = None
 
     def for_players(self, decision_maker: str, adversary: str | None,
                     players: tuple[str, ...]) -> SynthesisOptions:

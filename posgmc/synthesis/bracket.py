@@ -1,0 +1,117 @@
+"""The optimum bracket of a synthesised property: ``lower <= optimum <= upper`` for the best value
+any strategy of the decision maker (any memory, randomised) achieves against an omniscient
+adversary.
+
+One side is the synthesised strategy's proven ``guaranteed`` (some strategy achieves it, so the
+optimum is at least that much for a maximiser, at most for a minimiser). The other side (the
+*bound side*) is the tightest of the proven bounds that hold for every strategy:
+
+* ``full_observation``: a decision maker that sees the state does at least as well;
+* on a game, ``upper_bound``: the decision maker seeing everything against one fixed adversary
+  strategy (the strongest enumerated). Any fixed adversary bounds the max-min, because the
+  omniscient adversary of ``guaranteed`` may play it;
+* on a POMDP, the belief-grid abstraction (:mod:`posgmc.synthesis.belief_grid`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+from posgmc.checking.results import Bound, Optimum
+from posgmc.errors import InputError
+from posgmc.synthesis import belief, belief_grid
+from posgmc.synthesis.jobs import Problem
+
+__all__ = ["Gap", "DEFAULT_SHARE", "GAP_SHARE", "optimum_of"]
+
+DEFAULT_SHARE = 0.08
+"""Without ``--gap``: the bound side gets this part of the time budget on top of it (so a run
+takes at most this much longer than the search alone)."""
+
+GAP_SHARE = 0.3
+"""With ``--gap``: the part of the time budget kept for the bound side (the search gets the
+rest); it stops as soon as the gap is closed."""
+
+
+@dataclass(frozen=True)
+class Gap:
+    """A requested bracket width: ``value`` absolute, or relative (a fraction of the larger
+    magnitude of the two sides) when ``relative``."""
+
+    value: float
+    relative: bool = False
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.value) and self.value >= 0):
+            raise InputError(f"the gap must be a finite number >= 0, got {self.value!r}")
+
+    @staticmethod
+    def parse(text: str) -> Gap:
+        """``"0.05"`` (absolute) or ``"5%"`` (relative).
+
+        Raises:
+            InputError: anything else.
+        """
+        t = text.strip()
+        relative = t.endswith("%")
+        try:
+            v = float(t[:-1] if relative else t)
+        except ValueError:
+            raise InputError(f"--gap takes a number or a percentage (0.05, 5%), got {text!r}",
+                             hint="write --gap 0.01 or --gap 1%") from None
+        return Gap(v / 100.0 if relative else v, relative)
+
+    def width(self, a: float, b: float) -> float:
+        """The allowed width for a bracket with sides ``a`` and ``b``."""
+        if not self.relative:
+            return self.value
+        scale = max(abs(a), abs(b))
+        return self.value * scale if math.isfinite(scale) else 0.0
+
+    def met(self, lower: float, upper: float) -> bool:
+        return upper - lower <= self.width(lower, upper) if math.isfinite(upper - lower) \
+            else lower == upper
+
+
+def optimum_of(problem: Problem, guaranteed: Bound, full_observation: Bound,
+               upper_bound: Bound | None, *, deadline: float,
+               gap: Gap | None = None) -> tuple[Optimum, dict[str, object]]:
+    """The bracket and its statistics (JSON-ready) for the problem whose synthesised strategy
+    proves ``guaranteed``; the belief grid (a POMDP) runs until ``deadline`` or until the gap
+    (``gap``, else closed to 1e-6) is reached."""
+    t0 = time.perf_counter()
+    maximize = problem.maximize
+    sign = 1.0 if maximize else -1.0
+    # the achievable side: what the synthesised strategy proves
+    achieved = guaranteed.lower if maximize else guaranteed.upper
+    candidates: list[tuple[float, str]] = []
+    if full_observation.sound:
+        candidates.append((full_observation.upper if maximize else full_observation.lower,
+                           "full observation"))
+    if upper_bound is not None and upper_bound.sound:
+        candidates.append((upper_bound.upper if maximize else upper_bound.lower,
+                           "omniscient decision maker against the strongest adversary found"))
+    stats: dict[str, object] = {}
+    if belief.applies(problem) and guaranteed.sound:
+        want = gap if gap is not None else Gap(1e-6)
+        # stop refining once the bound side is within the gap of the achieved side
+        stop_at = achieved + sign * want.width(achieved, achieved)
+        found = belief_grid.grid_bound(problem, deadline=deadline, target=stop_at)
+        if found is not None:
+            kind = "exact belief MDP" if found.exact else "complete" if found.complete else \
+                "frontier cut off at full observation"
+            candidates.append((found.value, f"belief grid (resolution {found.resolution}, "
+                                            f"{found.vertices} vertices, {kind})"))
+            stats = {"resolution": found.resolution, "vertices": found.vertices,
+                     "complete": found.complete, "exact": found.exact,
+                     "tried": [{"resolution": n, "bound": v} for n, v in found.tried]}
+    stats["seconds"] = round(time.perf_counter() - t0, 3)
+    sound = guaranteed.sound and bool(candidates)
+    if candidates:
+        bound, method = min(candidates, key=lambda c: sign * c[0])
+    else:
+        bound, method = sign * math.inf, "none"
+    lower, upper = (achieved, bound) if maximize else (bound, achieved)
+    return Optimum(lower, upper, method, sound), stats
