@@ -329,7 +329,7 @@ def worker(spec: dict[str, Any]) -> None:
     from posgmc import api
     from posgmc.checking.dispatch import CheckOptions
     from posgmc.checking.expected import Verdict, expected_for, grade
-    from posgmc.cli import _const_text, expand_constants
+    from posgmc.cli.constants import const_text, expand_constants
     from posgmc.compiler.options import BuildOptions
     from posgmc.errors import PosgmcError
 
@@ -355,7 +355,7 @@ def worker(spec: dict[str, Any]) -> None:
             return prop.name == only or (only.isdigit() and int(only) == index + 1)
 
         for constants in combos or [{}]:
-            given = {n: _const_text(v) for n, v in constants.items()}
+            given = {n: const_text(v) for n, v in constants.items()}
             label = ",".join(f"{n}={v}" for n, v in given.items())
             # PRISM matches RESULT (c=v) against every constant, the defined ones too
             texts = _defined_constants(declared, given)

@@ -39,7 +39,7 @@ from posgmc.errors import InputError, SourceSpan, SourceText
 from posgmc.strategies.fss import PROBABILITY_TOLERANCE, FiniteStateStrategy, StrategyError
 
 __all__ = ["FORMAT", "read_strategy", "parse_strategy", "strategy_from_json", "strategy_to_json",
-           "write_strategy", "dump_strategy"]
+           "write_strategy", "dump_strategy", "write_memoryless_strategy"]
 
 FORMAT = "posgmc-fss/1"
 _TOP_KEYS = {"format", "player", "memory_size", "initial_memory", "observables", "rules"}
@@ -311,3 +311,37 @@ def write_strategy(fss: FiniteStateStrategy, path: str | Path) -> None:
     from posgmc.io.atomic import atomic_write_text
 
     atomic_write_text(str(path), dump_strategy(fss))
+
+
+def write_memoryless_strategy(path: str | Path, property_text: str, model: Any,
+                              strategy: Any) -> None:
+    """A model checker's memoryless strategy (one choice per deciding state, -1 elsewhere) as JSON,
+    one line per deciding state, written as it is encoded: a large game's strategy never exists as
+    one document in memory (indented ``json.dumps`` runs the pure-Python encoder over the whole
+    document)."""
+    from posgmc.io.atomic import atomic_open
+
+    m = model
+    strategy = np.asarray(strategy)
+    # only the states where the strategy chooses; their fields gathered as whole arrays
+    chosen = np.flatnonzero(strategy >= 0)
+    choices = strategy[chosen]
+    local = (choices - m.row_groups[chosen]).tolist()
+    actions = m.choice_actions[choices].tolist()
+    names = list(m.variable_names)
+    values = m.state_values[chosen].tolist() if names else None
+    players = m.state_players[chosen].tolist() if m.player_names else None
+    encode = json.JSONEncoder().encode  # compact, C-accelerated
+    with atomic_open(path) as handle:
+        handle.write(
+            '{"property": ' + encode(property_text) + ', "memoryless": true, '
+            '"states": ['
+        )
+        for i, (s, c, a) in enumerate(zip(chosen.tolist(), local, actions)):
+            entry: dict[str, object] = {"state": s, "choice": c, "action": m.action_names[a]}
+            if values is not None:
+                entry["valuation"] = dict(zip(names, values[i]))
+            if players is not None:
+                entry["player"] = m.player_names[players[i]]
+            handle.write(("\n  " if i == 0 else ",\n  ") + encode(entry))
+        handle.write("\n]}\n")

@@ -1,6 +1,5 @@
 """The commands about results and strategies: ``test`` (PRISM's RESULT convention for CI),
-``simulate`` and ``show-strategy``. Thin, like :mod:`posgmc.cli`, whose group and helpers they
-use."""
+``simulate`` and ``show-strategy``."""
 
 from __future__ import annotations
 
@@ -10,18 +9,22 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from posgmc.cli import (
+from posgmc.cli.constants import const_text, expand_constants, single_constants
+from posgmc.cli.group import main
+from posgmc.cli.options import (
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
-    _common,
-    _const_text,
-    _fmt,
-    _guard,
-    _synthesis_options,
-    expand_constants,
-    main,
+    common,
+    full_observation_option,
+    memory_option,
+    seed_option,
     strategy_options,
+    synthesis_options,
+    timeout_option,
+    zero_based_players_option,
 )
+from posgmc.cli.printing import fmt
+from posgmc.cli.running import guard
 
 if TYPE_CHECKING:
     from posgmc.api import Session
@@ -39,17 +42,13 @@ __all__ = ["test", "simulate", "show_strategy"]
 @click.option(
     "--exact", is_flag=True, help="PRISM's -exact: rational arithmetic, results compared exactly."
 )
-@click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation value.")
+@full_observation_option
 @click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE")
-@click.option(
-    "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
-)
-@click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto")
-@click.option(
-    "--timeout", type=click.FloatRange(min=0, min_open=True), default=30.0, show_default=True
-)
-@click.option("--seed", type=int, default=0, show_default=True)
-@_common
+@zero_based_players_option
+@memory_option
+@timeout_option
+@seed_option
+@common
 def test(
     model: str,
     props: tuple[str, ...],
@@ -80,7 +79,7 @@ def test(
         passed = failed = unchecked = 0
         cases: list[Case] = []
         for i, constants in enumerate(combos or [{}]):
-            texts = {n: _const_text(v) for n, v in constants.items()}
+            texts = {n: const_text(v) for n, v in constants.items()}
             label = ",".join(f"{n}={texts[n]}" for n in swept)
             session = api.load(model, constants=constants)
             if i == 0:
@@ -93,7 +92,7 @@ def test(
             for prop, outcome in api.iter_check(
                 session, property_files=props, built=built, full_observation=full_observation,
                 zero_based_players=zero_based_players, strategies=loaded,
-                synthesis=_synthesis_options(memory, timeout, seed),
+                synthesis=synthesis_options(memory, timeout, seed),
                 options=CheckOptions(exact=exact),
             ):
                 seconds, started = time.perf_counter() - started, time.perf_counter()
@@ -130,7 +129,7 @@ def test(
         click.echo(summary + (f", {unchecked} skipped" if unchecked else ""))
         return EXIT_PROPERTY_FALSE if failed else EXIT_OK
 
-    _guard(debug, run, consts=consts)
+    guard(debug, run, consts=consts)
 
 
 def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
@@ -158,7 +157,8 @@ def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
 @click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE",
               help="A player's finite-state strategy; repeatable, one per player.")
 @click.option("--runs", type=click.IntRange(min=1), default=10_000, show_default=True)
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True,
+              help="Random seed of the sampled runs.")
 @click.option("--max-steps", type=click.IntRange(min=0), default=10_000, show_default=True)
 @click.option(
     "--opponent",
@@ -168,13 +168,11 @@ def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
     help="How players without a strategy play: uniformly, or their full-observation optimum.",
 )
 @click.option("--trace", is_flag=True, help="Also print one sampled path, step by step.")
-@click.option(
-    "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
-)
+@zero_based_players_option
 @click.option(
     "--json", "as_json", is_flag=True, help='Print {"estimate", "lower", "upper", "runs", ...}.'
 )
-@_common
+@common
 def simulate(
     model: str,
     prop_text: str,
@@ -193,12 +191,7 @@ def simulate(
     from posgmc import api
 
     def run() -> int:
-        _, combos = expand_constants(consts)
-        if len(combos) > 1:
-            raise click.BadParameter(
-                "simulate takes single constant values", param_hint="'--const'"
-            )
-        session = api.load(model, constants=combos[0] if combos else {})
+        session = api.load(model, constants=single_constants(consts, what="simulate"))
         result = api.simulate(
             session, prop_text, strategies=strategy_options(strategy_files) or None, runs=runs,
             seed=seed, max_steps=max_steps, opponent=opponent, trace=trace,
@@ -212,8 +205,8 @@ def simulate(
             return EXIT_OK
         interval = "Wilson 95 %" if result.kind == "probability" else "normal 95 %, an estimate"
         click.echo(
-            f"{result.property}: {_fmt(result.estimate)}  "
-            f"[{_fmt(result.lower)}, {_fmt(result.upper)}]"
+            f"{result.property}: {fmt(result.estimate)}  "
+            f"[{fmt(result.lower)}, {fmt(result.upper)}]"
             f"  ({interval}; {result.runs} runs, seed {result.seed})"
         )
         if result.undecided:
@@ -223,7 +216,7 @@ def simulate(
             _print_trace(result.trace)
         return EXIT_OK
 
-    _guard(debug, run, as_json=as_json, consts=consts)
+    guard(debug, run, as_json=as_json, consts=consts)
 
 
 def _print_trace(steps: Any) -> None:
@@ -246,7 +239,7 @@ def _print_trace(steps: Any) -> None:
               help="Check the strategy against this model (observables, labels).")
 @click.option("--dot", "dot_file", type=click.Path(dir_okay=False), default=None,
               help="Also write the strategy as a DOT graph.")
-@_common
+@common
 def show_strategy(
     file: str, model_file: str | None, dot_file: str | None, consts: tuple[str, ...], debug: bool
 ) -> None:
@@ -259,8 +252,8 @@ def show_strategy(
         if model_file is not None:
             from posgmc.strategies.binding import bind
 
-            _, combos = expand_constants(consts)
-            built = api.build(api.load(model_file, constants=combos[0] if combos else {}))
+            constants = single_constants(consts, what="show-strategy")
+            built = api.build(api.load(model_file, constants=constants))
             for w in bind(built.model, fss).warnings:
                 click.echo(f"warning: {w}", err=True)
         click.echo(strategy_table(fss), nl=False)
@@ -270,4 +263,4 @@ def show_strategy(
             atomic_write_text(dot_file, strategy_dot(fss))
         return EXIT_OK
 
-    _guard(debug, run, consts=consts)
+    guard(debug, run, consts=consts)

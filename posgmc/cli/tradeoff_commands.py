@@ -1,6 +1,5 @@
 """The ``pareto`` command: a property against a swept constant, each point verified, or the front
-of a ``multi(...)`` query on an mdp, as a table, CSV and a plot (:mod:`posgmc.tradeoffs`). Thin,
-like :mod:`posgmc.cli`."""
+of a ``multi(...)`` query on an mdp, as a table, CSV and a plot (:mod:`posgmc.tradeoffs`)."""
 
 from __future__ import annotations
 
@@ -8,16 +7,21 @@ from typing import Any
 
 import click
 
-from posgmc.cli import (
+from posgmc.cli.constants import const_text, single_constants
+from posgmc.cli.group import main
+from posgmc.cli.options import (
     EXIT_ERROR,
     EXIT_OK,
-    _common,
-    _const_text,
-    _fmt,
-    _guard,
-    _synthesis_options,
-    main,
+    common,
+    full_observation_option,
+    memory_option,
+    seed_option,
+    synthesis_options,
+    timeout_option,
+    zero_based_players_option,
 )
+from posgmc.cli.printing import fmt
+from posgmc.cli.running import guard
 from posgmc.errors import InputError, SourceSpan, SourceText, UnsupportedError
 
 __all__ = ["pareto"]
@@ -58,21 +62,12 @@ __all__ = ["pareto"]
 @click.option("--budget", "budgets", multiple=True, type=float, metavar="C",
               help="With --cost: answer 'max guaranteed mission s.t. guaranteed cost <= C' from "
               "the verified defences; repeatable.")
-@click.option("--full-observation", is_flag=True, help="pomdp/posg: the full-observation values.")
-@click.option(
-    "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
-)
-@click.option("--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
-              help="Synthesis: memory sizes, as for check.")
-@click.option(
-    "--timeout",
-    type=click.FloatRange(min=0, min_open=True),
-    default=30.0,
-    show_default=True,
-    help="Synthesis: seconds per point.",
-)
-@click.option("--seed", type=int, default=0, show_default=True, help="Synthesis: random seed.")
-@_common
+@full_observation_option
+@zero_based_players_option
+@memory_option
+@timeout_option
+@seed_option
+@common
 def pareto(
     model: str,
     prop_text: str,
@@ -139,9 +134,9 @@ def pareto(
                 if n == name:
                     raise InputError(f"constant '{n}' is both swept and given", setting.span)
                 others[n] = setting
-        values = [_const_text(v) for v in rng.values()]
+        values = [const_text(v) for v in rng.values()]
         result = sweep(model, prop_text, constant=name, settings=values, constants=others,
-                       synthesis=_synthesis_options(memory or ("auto",), timeout, seed),
+                       synthesis=synthesis_options(memory or ("auto",), timeout, seed),
                        full_observation=full_observation, zero_based_players=zero_based_players,
                        strategy_dir=strategy_dir, also=also)
         _print(result)
@@ -155,7 +150,7 @@ def pareto(
                      for p in result.points)
         return EXIT_ERROR if failed else EXIT_OK
 
-    _guard(debug, run, consts=consts)
+    guard(debug, run, consts=consts)
 
 
 def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | None,
@@ -164,7 +159,7 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
     from posgmc.io.atomic import atomic_write_text
     from posgmc.tradeoffs.front import front_to_csv, multi_objective
 
-    constants = _single(consts, what="a multi(...) query")
+    constants = single_constants(consts, what="a multi(...) query")
     answer = multi_objective(model, prop_text, constants=constants)
     front = answer.front
     if front is None:
@@ -180,17 +175,17 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
         elif answer.certified == answer.certified:  # not NaN
             what = (
                 f"LP value; proven: the optimum is {'at most' if answer.minimised else 'at least'}"
-                f" {_fmt(answer.certified)}"
+                f" {fmt(answer.certified)}"
             )
         else:
             what = "LP value: floating point, not a proven bound"
-        click.echo(f"{prop_text}: {_fmt(value)}  (lp (HiGHS), {answer.seconds:.3f} s; {what})")
+        click.echo(f"{prop_text}: {fmt(value)}  (lp (HiGHS), {answer.seconds:.3f} s; {what})")
         return EXIT_OK
     click.echo(f"{prop_text}: Pareto front, {len(front.points)} vertices "
                f"({front.solves} LPs over {answer.states} states, {answer.seconds:.3f} s)")
     rows = [("", *(o + f" ({d.value})" for o, d in zip(front.objectives, front.directions)))]
-    rows += [("achievable", *(_fmt(float(v)) for v in p)) for p in front.points]
-    rows += [("over-approximation", *(_fmt(float(v)) for v in p)) for p in front.corners]
+    rows += [("achievable", *(fmt(float(v)) for v in p)) for p in front.points]
+    rows += [("over-approximation", *(fmt(float(v)) for v in p)) for p in front.corners]
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     for row in rows:
         click.echo("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
@@ -240,10 +235,11 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
                 hint="e.g. --weights 0,5,10,20",
             ) from None
         column += len(item) + 1
-    options = _synthesis_options(memory or ("1",), timeout, seed)
+    options = synthesis_options(memory or ("1",), timeout, seed)
     sizes: Any = dict(options.player_memory) if options.player_memory else options.memory
-    front = defence_front(model, mission, cost, weights=weights, constants=_single(consts),
-                          memory=sizes, timeout=timeout, seed=seed, budgets=budgets,
+    front = defence_front(model, mission, cost, weights=weights,
+                          constants=single_constants(consts, what="a front"), memory=sizes,
+                          timeout=timeout, seed=seed, budgets=budgets,
                           strategy_dir=strategy_dir)
     click.echo(f"defender front: {front.mission} against {front.cost} "
                f"({len(front.points)} defences, {front.seconds:.1f} s)")
@@ -259,9 +255,9 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
         rows.append(
             (
                 w,
-                f"{_fmt(p.mission.value)} [{_fmt(p.mission.lower)}, {_fmt(p.mission.upper)}]"
+                f"{fmt(p.mission.value)} [{fmt(p.mission.lower)}, {fmt(p.mission.upper)}]"
                 + (" (partial)" if p.partial else ""),
-                f"{_fmt(p.cost.value)} [{_fmt(p.cost.lower)}, {_fmt(p.cost.upper)}]",
+                f"{fmt(p.cost.value)} [{fmt(p.cost.lower)}, {fmt(p.cost.upper)}]",
                 "*" if i in front.front else "",
                 str(p.memory),
                 p.strategy_file or "-",
@@ -273,7 +269,7 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
     fm, fc = front.full_observation
     if fm is not None and fc is not None:
         click.echo(f"full observation (no partially observing defence does better): mission "
-                   f"{_fmt(fm.value)}, cost {_fmt(fc.value)}")
+                   f"{fmt(fm.value)}, cost {fmt(fc.value)}")
     def weight(i: int) -> str:
         w = front.points[i].weight
         return "inf" if math.isinf(w) else f"{w:g}"
@@ -281,7 +277,7 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
     for answer in front.budgets:
         q = answer.point
         if q is None or q.mission is None or q.cost is None:
-            click.echo(f"cost <= {_fmt(answer.budget)}: no verified defence meets it")
+            click.echo(f"cost <= {fmt(answer.budget)}: no verified defence meets it")
             continue
         if answer.mixed is not None:
             i, j, alpha = answer.mixed
@@ -289,8 +285,8 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
                    "verified itself")
         else:
             how = f"the defence of w={weight(answer.pure)}"  # type: ignore[arg-type]
-        click.echo(f"cost <= {_fmt(answer.budget)}: mission >= {_fmt(q.mission.lower)} (proven), "
-                   f"by {how} (cost <= {_fmt(q.cost.upper)})"
+        click.echo(f"cost <= {fmt(answer.budget)}: mission >= {fmt(q.mission.lower)} (proven), "
+                   f"by {how} (cost <= {fmt(q.cost.upper)})"
                    + (f" -> {q.strategy_file}" if q.strategy_file and answer.mixed else ""))
     click.echo("each row: one synthesised defence, both numbers proven for it against every "
                "adversary; * = on the front (no other defence found is better on both proven "
@@ -305,26 +301,11 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
     return EXIT_ERROR if failed else EXIT_OK
 
 
-def _single(consts: tuple[str, ...], *, what: str = "a front") -> dict[str, Any]:
-    """``--const`` settings without ranges (``what`` names the command's object in the error)."""
-    from posgmc.semantics.constants import ConstRange, parse_const_assignments
-
-    constants: dict[str, Any] = {}
-    for i, text in enumerate(consts):
-        for n, setting in parse_const_assignments(
-            text, source="--const" if len(consts) == 1 else f"--const #{i + 1}"
-        ).items():
-            if isinstance(setting, ConstRange):
-                raise InputError(f"--const {n}: {what} takes single values", setting.span)
-            constants[n] = setting
-    return constants
-
-
 def _also_cell(a: Any) -> str:
     g = getattr(a, "guaranteed", None)
     if g is None:
         return "Error" if a is not None else "-"
-    return f"{_fmt(g.value)} [{_fmt(g.lower)}, {_fmt(g.upper)}]"
+    return f"{fmt(g.value)} [{fmt(g.lower)}, {fmt(g.upper)}]"
 
 
 def _print(result: Any) -> None:
@@ -338,15 +319,15 @@ def _print(result: Any) -> None:
             rows.append((p.setting, "Error", "", "", "", "", *("" for _ in result.also)))
             click.echo(p.error.render(), err=True)
             continue
-        cell = "-" if b is None else f"{_fmt(b.value)} [{_fmt(b.lower)}, {_fmt(b.upper)}]"
+        cell = "-" if b is None else f"{fmt(b.value)} [{fmt(b.lower)}, {fmt(b.upper)}]"
         if r is not None and r.synthesis and r.synthesis.get("partial"):
             cell += " (partial)"
         rows.append(
             (
                 p.setting,
                 cell,
-                _fmt(r.full_observation.value) if r is not None and r.full_observation else "-",
-                _fmt(r.upper_bound.value) if r is not None and r.upper_bound else "-",
+                fmt(r.full_observation.value) if r is not None and r.full_observation else "-",
+                fmt(r.upper_bound.value) if r is not None and r.upper_bound else "-",
                 ", ".join(f"{n or 'agent'}={k}" for n, k in r.memory)
                 if r is not None and r.memory
                 else "-",

@@ -1,0 +1,284 @@
+"""The ``check`` command: properties on a model, swept over constants, with synthesis, given
+strategies, exports, JUnit and plots; the work happens in :mod:`posgmc.api`."""
+
+from __future__ import annotations
+
+import json
+import time
+from typing import Any
+
+import click
+
+from posgmc.cli.constants import const_text, expand_constants
+from posgmc.cli.group import main
+from posgmc.cli.model_commands import build_options
+from posgmc.cli.options import (
+    EXIT_ERROR,
+    EXIT_OK,
+    EXIT_PROPERTY_FALSE,
+    common,
+    full_observation_option,
+    memory_option,
+    positive_finite,
+    seed_option,
+    strategy_options,
+    synthesis_options,
+    timeout_option,
+    zero_based_players_option,
+)
+from posgmc.cli.printing import (
+    fmt,
+    json_report,
+    outcome_json,
+    print_header,
+    print_outcome,
+    print_report,
+)
+from posgmc.cli.running import guard
+from posgmc.errors import InputError, PosgmcError
+
+__all__ = ["check", "not_passed"]
+
+
+@main.command()
+@click.argument("model", type=click.Path(dir_okay=False))
+@click.argument("props", nargs=-1, type=click.Path(dir_okay=False))
+@click.option(
+    "--prop", "prop_texts", multiple=True, metavar="TEXT", help="A property, as text (repeatable)."
+)
+@click.option(
+    "--precision",
+    type=float,
+    callback=lambda _c, _p, v: positive_finite(v, "--precision"),
+    default=1e-6,
+    show_default=True,
+)
+@click.option("--relative", is_flag=True, help="Precision is relative, not absolute.")
+@click.option(
+    "--method",
+    type=click.Choice(["interval", "value", "policy", "exact"]),
+    default="interval",
+    show_default=True,
+    help="interval: sound bounds; value: plain value iteration; policy/exact: exact solves.",
+)
+@click.option("--exact", is_flag=True,
+              help="PRISM's -exact: build and solve in rational arithmetic; values as fractions "
+              "(unbounded P[F]/P[U] and state formulas, small models).")
+@full_observation_option
+@click.option(
+    "--strategy",
+    "strategy_files",
+    multiple=True,
+    metavar="PLAYER=FILE",
+    help="A player's finite-state strategy (posgmc-fss/1 JSON); repeatable, one per player.",
+)
+@zero_based_players_option
+@memory_option
+@click.option("--adversaries", type=click.IntRange(min=0), default=10, show_default=True,
+              help="Synthesis: how many of the strongest enumerated adversary strategies the "
+              "defence is composed against (0: no adversary phases).")
+@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Synthesis: worker processes for independent evaluations (results do not "
+              "depend on it).")
+@timeout_option
+@seed_option
+@click.option("--export-strategy", type=click.Path(), default=None,
+              help="Write the optimal memoryless strategy of the (single) property as JSON; for a "
+              "synthesised strategy, a directory receiving <player>.json.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object (see docs/cli.md).")
+@click.option("--json-lines", "json_lines", is_flag=True,
+              help="Print one JSON object per line as soon as it is known: the model, then each "
+              "result (see docs/cli.md).")
+@click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
+              help="Also write a JUnit XML report: one test case per property.")
+@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
+              help="With one swept constant (--const B=0:4): draw each property against it "
+              "(.png, .svg, .pdf; needs matplotlib).")
+@click.option("--state-limit", type=click.IntRange(min=1), default=None)
+@common
+def check(
+    model: str,
+    props: tuple[str, ...],
+    prop_texts: tuple[str, ...],
+    precision: float,
+    relative: bool,
+    method: str,
+    exact: bool,
+    full_observation: bool,
+    strategy_files: tuple[str, ...],
+    zero_based_players: bool,
+    memory: tuple[str, ...],
+    adversaries: int,
+    jobs: int,
+    timeout: float,
+    seed: int,
+    export_strategy: str | None,
+    as_json: bool,
+    json_lines: bool,
+    junit: str | None,
+    plot_file: str | None,
+    state_limit: int | None,
+    consts: tuple[str, ...],
+    debug: bool,
+) -> None:
+    """Check PROPS (files) and --prop properties on MODEL."""
+    from posgmc import api
+    from posgmc.checking.dispatch import CheckOptions
+    from posgmc.engines.options import Method, SolverOptions
+
+    def run() -> int:
+        if not props and not prop_texts:
+            raise click.UsageError("give a properties file or --prop TEXT")
+        swept, combos = expand_constants(consts)
+        if plot_file is not None:
+            if not plot_file.lower().endswith((".png", ".svg", ".pdf")):
+                raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
+            if len(swept) != 1:
+                raise InputError("--plot draws properties against one swept constant; "
+                                 f"{len(swept)} are swept",
+                                 hint="give one constant a range, e.g. --const B=0:4")
+        strategies = strategy_options(strategy_files)
+        options = CheckOptions(
+            solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
+            keep_strategy=export_strategy is not None,
+            exact=exact,
+        )
+        if as_json and json_lines:
+            raise click.UsageError("give --json or --json-lines, not both")
+        rows = []
+        code = EXIT_OK
+        # results are shown as they are computed (a killed run keeps what it printed), except
+        # in the one-object --json and in sweep tables
+        streaming = not as_json and len(combos or [{}]) == 1
+        for constants in combos or [{}]:
+            # the first synthesised property's --timeout counts from here: loading and
+            # building the model are inside it
+            loading = time.perf_counter()
+            session = api.load(model, constants=constants)
+            on_start, on_outcome = (
+                _streamers(model, constants, json_lines) if streaming else (None, None)
+            )
+            report = api.check(
+                session,
+                property_files=props,
+                properties=prop_texts,
+                options=options,
+                build_options=build_options(state_limit, False, None),
+                full_observation=full_observation,
+                zero_based_players=zero_based_players,
+                strategies=strategies or None,
+                synthesis=synthesis_options(memory, timeout, seed, adversaries, jobs,
+                                             started=loading),
+                on_start=on_start,
+                on_outcome=on_outcome,
+            )
+            if report.errors:
+                code = EXIT_ERROR
+            elif code == EXIT_OK and any(not_passed(r) for r in report.results):
+                code = EXIT_PROPERTY_FALSE
+            rows.append((constants, report))
+            if export_strategy is not None and not report.errors:
+                # a property that failed has said why; "needs exactly one query" would hide it
+                if any(getattr(r, "strategies", ()) for r in report.results):
+                    _write_synthesised(export_strategy, report)
+                else:
+                    _write_strategy(export_strategy, report)
+        if junit is not None:
+            _write_check_junit(junit, model, swept, rows)
+        if plot_file is not None:
+            from posgmc.tradeoffs.plot import plot_sweeps
+            from posgmc.tradeoffs.sweep import sweeps_of_check
+
+            texts = [({n: const_text(v) for n, v in c.items()}, r) for c, r in rows]
+            plot_sweeps(sweeps_of_check(swept[0], texts), plot_file)
+        if as_json or (json_lines and not streaming):
+            click.echo(json.dumps(json_report(model, swept, rows)))
+        elif not streaming:
+            print_report(model, swept, rows)
+        return code
+
+    guard(debug, run, as_json=as_json or json_lines, consts=consts)
+
+
+def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type: ignore[no-untyped-def]
+    """(on_start, on_outcome) callbacks printing the header and each result as it comes."""
+
+    def start(built: Any, seconds: float, warnings: tuple[str, ...]) -> None:
+        stats = built.statistics()
+        if json_lines:
+            click.echo(json.dumps({
+                "model_file": model,
+                "constants": {n: const_text(v) for n, v in constants.items()},
+                "model": {k: stats[k] for k in ("type", "states", "choices", "transitions")},
+                "build_seconds": round(seconds, 6),
+                "warnings": list(warnings),
+            }))
+            return
+        print_header(model, stats, seconds, warnings)
+
+    def outcome(r: Any) -> None:
+        if json_lines:
+            click.echo(json.dumps(outcome_json(r)))
+        else:
+            print_outcome(r)
+
+    return start, outcome
+
+
+def _write_check_junit(
+    path: str, model: str, swept: list[str], rows: list[tuple[dict[str, Any], Any]]
+) -> None:
+    """One test case per property (and constant setting): an error fails as an error, a false or
+    undecided threshold or an unconverged result as a failure."""
+    from posgmc.io.junit import Case, write_junit
+
+    cases = []
+    for constants, report in rows:
+        label = ",".join(f"{n}={const_text(constants[n])}" for n in swept)
+        for r in report.outcomes:
+            if isinstance(r, tuple):
+                cases.append(
+                    Case(r[0] + (f" ({label})" if label else ""), model, error=r[1].message)
+                )
+                continue
+            name = r.property + (f" ({label})" if label else "")
+            failure = None
+            if not_passed(r):
+                failure = f"{r.property}: {fmt(r.value)}" + (
+                    "" if r.converged else " (not converged)"
+                )
+            cases.append(Case(name, model, r.seconds, failure=failure))
+    write_junit(path, model, cases)
+
+
+def _write_synthesised(directory: str, report: Any) -> None:
+    """One posgmc-fss/1 file per synthesised player, <player>.json, in ``directory``; a second
+    strategy of the same player (the composed defence that ``vs_fss_adversary`` is about, when it
+    is not the reported defence) goes to <player>.vs_fss.json."""
+    import os
+
+    from posgmc.strategies.files import write_strategy
+
+    os.makedirs(directory, exist_ok=True)
+    for r in report.results:
+        written: set[str] = set()
+        for fss in getattr(r, "strategies", ()):
+            name = fss.player or "agent"
+            write_strategy(fss, os.path.join(directory, f"{name}.vs_fss.json" if name in written
+                                             else f"{name}.json"))
+            written.add(name)
+
+
+def not_passed(r: Any) -> bool:
+    """A threshold that is false or undecided, or a result whose iteration did not converge."""
+    return r.value is False or (r.value is None and r.kind.value == "boolean") or not r.converged
+
+
+def _write_strategy(path: str, report: Any) -> None:
+    """The memoryless strategy of the check's one unbounded query, as JSON."""
+    from posgmc.strategies.files import write_memoryless_strategy
+
+    if len(report.results) != 1 or report.results[0].strategy is None:
+        raise PosgmcError("--export-strategy needs exactly one unbounded P or R query")
+    write_memoryless_strategy(path, report.results[0].property, report.model,
+                              report.results[0].strategy)

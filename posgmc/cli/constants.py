@@ -1,0 +1,64 @@
+"""``--const`` as the commands read it: PRISM's ``N=4,p=0.9`` with sweeps ``N=1:1:5``, expanded into
+one setting per combination, or refused where a command takes single values."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+from posgmc.errors import InputError
+
+if TYPE_CHECKING:
+    from posgmc.semantics.constants import ConstSetting, UserConstant
+
+__all__ = ["expand_constants", "const_text", "single_constants"]
+
+
+def expand_constants(
+    values: Sequence[str],
+) -> tuple[list[str], list[dict[str, ConstSetting | UserConstant]]]:
+    """``("N=4,p=0.9", "k=0:5")`` -> (swept names, one name->setting dict per combination).
+
+    Raises:
+        ConstantError: malformed text, a name given twice (with the position in the option's text).
+    """
+    from posgmc.errors import ConstantError
+    from posgmc.semantics.constants import ConstRange, expand_sweep, parse_const_assignments
+
+    merged: dict[str, ConstSetting | ConstRange] = {}
+    for i, text in enumerate(values):
+        source = "--const" if len(values) == 1 else f"--const #{i + 1}"
+        for name, setting in parse_const_assignments(text, source=source).items():
+            if name in merged:
+                raise ConstantError(f"constant '{name}' is given twice", setting.span)
+            merged[name] = setting
+    swept = [n for n, v in merged.items() if isinstance(v, ConstRange)]
+    return swept, expand_sweep(merged) if merged else []
+
+
+def const_text(setting: Any) -> str:
+    from posgmc.semantics.evaluate import format_value
+
+    value = getattr(setting, "value", setting)
+    return value if isinstance(value, str) else format_value(value)
+
+
+def single_constants(consts: Sequence[str], *, what: str) -> dict[str, Any]:
+    """``--const`` settings of a command that takes single values (``what`` names the command or
+    its object in the error).
+
+    Raises:
+        InputError: a range, at its position in the option's text; ConstantError as
+            :func:`expand_constants`.
+    """
+    from posgmc.semantics.constants import ConstRange, parse_const_assignments
+
+    for i, text in enumerate(consts):
+        for n, setting in parse_const_assignments(
+            text, source="--const" if len(consts) == 1 else f"--const #{i + 1}"
+        ).items():
+            if isinstance(setting, ConstRange):
+                raise InputError(f"--const {n}: {what} takes single values, not ranges",
+                                 setting.span)
+    _, combos = expand_constants(consts)
+    return dict(combos[0]) if combos else {}

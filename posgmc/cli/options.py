@@ -1,0 +1,165 @@
+"""The options several commands share, each declared once, the parsing of their values into typed
+configuration, and the exit codes.
+
+Exit status (fixed, documented in docs/cli.md):
+
+* 0 — success; for ``check``, every threshold property holds at the initial state(s);
+* 1 — ``check`` only: some threshold property does not hold or is undecided (``unknown``), or a
+  result did not converge;
+* 2 — bad input (model, properties, constants, options) or any other error;
+* 130 — interrupted (Ctrl-C), as shells report it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
+
+import click
+
+__all__ = [
+    "EXIT_OK", "EXIT_PROPERTY_FALSE", "EXIT_ERROR", "EXIT_INTERRUPTED",
+    "common", "zero_based_players_option", "full_observation_option", "memory_option",
+    "timeout_option", "seed_option", "positive_finite", "memory_sizes", "synthesis_options",
+    "strategy_options",
+]
+
+EXIT_OK = 0
+EXIT_PROPERTY_FALSE = 1
+EXIT_ERROR = 2
+EXIT_INTERRUPTED = 130
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def positive_finite(value: float, option: str) -> float:
+    """A precision must be a positive finite number (nan and inf would never stop iterating)."""
+    import math
+
+    if not (math.isfinite(value) and value > 0):
+        raise click.BadParameter(f"{value!r} is not a positive finite number", param_hint=option)
+    return value
+
+
+# -- shared options --------------------------------------------------------------------------------
+
+
+def common(f: F) -> F:
+    f = click.option("--debug", is_flag=True, help="Show Python tracebacks for errors.")(f)
+    f = click.option(
+        "--const",
+        "consts",
+        multiple=True,
+        metavar="N=4,p=0.9",
+        help="Values for undefined constants (PRISM syntax); ranges N=1:5 or N=1:1:5 sweep.",
+    )(f)
+    return f
+
+
+def zero_based_players_option(f: F) -> F:
+    return click.option(
+        "--zero-based-players", is_flag=True, help="Numeric coalitions count from 0 (Storm/PAYNT)."
+    )(f)
+
+
+def full_observation_option(f: F) -> F:
+    return click.option(
+        "--full-observation",
+        is_flag=True,
+        help="pomdp/posg: answer the value when every player sees the whole state (a bound on the "
+        "partially observable value).",
+    )(f)
+
+
+def memory_option(f: F) -> F:
+    return click.option(
+        "--memory", "memory", multiple=True, metavar="[PLAYER=]K|K1..K2|auto",
+        help="Synthesis: memory sizes of the decision maker's strategy (default auto: 1..3, "
+        "and for a pomdp a belief-based controller with as many nodes as it needs; "
+        "sizes above 1 alone, e.g. 2, are warm-started from a memoryless defence); "
+        "PLAYER=... for a named player, e.g. --memory rover=2 --memory attacker=1 (the "
+        "adversary's strategies enumerated with that memory). Repeatable.",
+    )(f)
+
+
+def timeout_option(f: F) -> F:
+    return click.option(
+        "--timeout",
+        type=click.FloatRange(min=0, min_open=True),
+        default=30.0,
+        show_default=True,
+        help="Synthesis: seconds per property (per point of a sweep or front), the first counted "
+        "from the start (loading included); anytime: the best defence so far is verified.",
+    )(f)
+
+
+def seed_option(f: F) -> F:
+    return click.option(
+        "--seed", type=int, default=0, show_default=True, help="Synthesis: random seed."
+    )(f)
+
+
+def memory_sizes(text: str, given: str) -> tuple[int, ...]:
+    try:
+        if text == "auto":
+            sizes: tuple[int, ...] = (1, 2, 3)
+        elif ".." in text:
+            lo, hi = (int(t) for t in text.split("..", 1))
+            sizes = tuple(range(lo, hi + 1))
+        else:
+            sizes = (int(text),)
+    except ValueError:
+        raise click.BadParameter(f"{given!r}: give K, K1..K2 or auto, optionally after PLAYER=",
+                                 param_hint="'--memory'") from None
+    if not sizes or min(sizes) < 1:
+        raise click.BadParameter(f"{given!r}: memory sizes start at 1", param_hint="'--memory'")
+    return sizes
+
+
+def synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
+                       adversaries: int = 10, jobs: int = 1, started: float | None = None) -> Any:
+    """``--memory`` settings as memory sizes: ``2``, ``1..3``, ``auto`` (1..3) for the property's
+    coalition, or ``PLAYER=...`` for a named player (the decision maker or the adversary);
+    ``started``: where the first property's budget starts (``SynthesisOptions.started``)."""
+    from posgmc.synthesis.search import SynthesisOptions
+
+    settings = [memory] if isinstance(memory, str) else list(memory)
+    unnamed: tuple[int, ...] = (1, 2, 3)
+    named: dict[str, tuple[int, ...]] = {}
+    for given in settings:
+        if "=" in given:
+            player, text = given.split("=", 1)
+            if player.strip() in named:
+                raise click.BadParameter(f"{given!r}: player {player.strip()!r} given twice",
+                                         param_hint="'--memory'")
+            named[player.strip()] = memory_sizes(text.strip(), given)
+        else:
+            unnamed = memory_sizes(given.strip(), given)
+    # memory auto (the default) lets a pomdp's synthesis add a belief-based controller with more
+    # nodes; sizes given explicitly bound the strategy's memory
+    explicit = any(given.split("=", 1)[-1].strip() != "auto" for given in settings)
+    return SynthesisOptions(memory=unnamed, timeout=timeout, seed=seed, adversaries=adversaries,
+                            jobs=jobs, player_memory=tuple(sorted(named.items())),
+                            belief=False if explicit else None, started=started)
+
+
+def strategy_options(values: Sequence[str]) -> dict[str | None, str]:
+    """``("rover=r.json", "a.json")`` -> {"rover": "r.json", None: "a.json"} (None: the file's
+    own player).
+
+    Raises:
+        click.UsageError: a player given twice, or an empty file name.
+    """
+    out: dict[str | None, str] = {}
+    for text in values:
+        player, sep, path = text.partition("=")
+        key: str | None = player if sep else None
+        path = path if sep else player
+        if not path:
+            raise click.UsageError(f"--strategy {text!r}: give PLAYER=FILE")
+        if key in out:
+            raise click.UsageError(
+                f"--strategy: two strategies for player {key or '(from file)'!r}"
+            )
+        out[key] = path
+    return out
