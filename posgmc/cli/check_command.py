@@ -18,6 +18,7 @@ from posgmc.cli.options import (
     EXIT_PROPERTY_FALSE,
     common,
     full_observation_option,
+    gap_option,
     memory_option,
     positive_finite,
     seed_option,
@@ -82,6 +83,7 @@ __all__ = ["check", "not_passed"]
               "depend on it).")
 @timeout_option
 @seed_option
+@gap_option
 @click.option("--export-strategy", type=click.Path(), default=None,
               help="Write the optimal memoryless strategy of the (single) property as JSON; for a "
               "synthesised strategy, a directory receiving <player>.json.")
@@ -112,6 +114,7 @@ def check(
     jobs: int,
     timeout: float,
     seed: int,
+    gap: Any,
     export_strategy: str | None,
     as_json: bool,
     json_lines: bool,
@@ -168,7 +171,7 @@ def check(
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
                 synthesis=synthesis_options(memory, timeout, seed, adversaries, jobs,
-                                             started=loading),
+                                            started=loading, gap=gap),
                 on_start=on_start,
                 on_outcome=on_outcome,
             )

@@ -20,7 +20,7 @@ import click
 __all__ = [
     "EXIT_OK", "EXIT_PROPERTY_FALSE", "EXIT_ERROR", "EXIT_INTERRUPTED",
     "common", "zero_based_players_option", "full_observation_option", "memory_option",
-    "timeout_option", "seed_option", "positive_finite", "memory_sizes", "synthesis_options",
+    "timeout_option", "seed_option", "gap_option", "positive_finite", "memory_sizes", "synthesis_options",
     "strategy_options",
 ]
 
@@ -99,6 +99,28 @@ def seed_option(f: F) -> F:
     )(f)
 
 
+def _gap(_ctx: Any, _param: Any, value: str | None) -> Any:
+    if value is None:
+        return None
+    from posgmc.errors import InputError
+    from posgmc.synthesis.bracket import Gap
+
+    try:
+        return Gap.parse(value)
+    except InputError as e:
+        raise click.BadParameter(str(e), param_hint="'--gap'") from None
+
+
+def gap_option(f: F) -> F:
+    return click.option(
+        "--gap", "gap", metavar="EPS|EPS%", default=None, callback=_gap,
+        help="Synthesis: refine the optimum bracket (the proven bounds on what any defence "
+        "achieves) until upper - lower <= EPS (absolute, or EPS% of the larger side) or the "
+        "budget ends; the bound side then gets a share of --timeout. Without it the bound side "
+        "gets a little time on top of the search.",
+    )(f)
+
+
 def memory_sizes(text: str, given: str) -> tuple[int, ...]:
     try:
         if text == "auto":
@@ -117,10 +139,12 @@ def memory_sizes(text: str, given: str) -> tuple[int, ...]:
 
 
 def synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
-                       adversaries: int = 10, jobs: int = 1, started: float | None = None) -> Any:
+                       adversaries: int = 10, jobs: int = 1, started: float | None = None,
+                       gap: Any = None) -> Any:
     """``--memory`` settings as memory sizes: ``2``, ``1..3``, ``auto`` (1..3) for the property's
     coalition, or ``PLAYER=...`` for a named player (the decision maker or the adversary);
-    ``started``: where the first property's budget starts (``SynthesisOptions.started``)."""
+    ``started``: where the first property's budget starts (``SynthesisOptions.started``);
+    ``gap``: the ``--gap`` (a :class:`~posgmc.synthesis.bracket.Gap`) or None."""
     from posgmc.synthesis.search import SynthesisOptions
 
     settings = [memory] if isinstance(memory, str) else list(memory)
@@ -140,7 +164,7 @@ def synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
     explicit = any(given.split("=", 1)[-1].strip() != "auto" for given in settings)
     return SynthesisOptions(memory=unnamed, timeout=timeout, seed=seed, adversaries=adversaries,
                             jobs=jobs, player_memory=tuple(sorted(named.items())),
-                            belief=False if explicit else None, started=started)
+                            belief=False if explicit else None, started=started, gap=gap)
 
 
 def strategy_options(values: Sequence[str]) -> dict[str | None, str]:

@@ -59,6 +59,11 @@ def print_strategy_numbers(r: Any) -> None:
             click.echo(
                 f"  {key}: {fmt(number.value)}  [{fmt(number.lower)}, {fmt(number.upper)}]"
             )
+    optimum = getattr(r, "optimum", None)
+    if optimum is not None:
+        click.echo(f"  optimum: [{fmt(optimum.lower)}, {fmt(optimum.upper)}]  gap "
+                   f"{fmt(optimum.gap)} (any defence; bound by {optimum.method})"
+                   + ("" if optimum.sound else "  NOT PROVEN"))
     stats = getattr(r, "synthesis", None)
     if stats:
         rounds = ", ".join(

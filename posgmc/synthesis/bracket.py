@@ -59,7 +59,7 @@ class Gap:
         try:
             v = float(t[:-1] if relative else t)
         except ValueError:
-            raise InputError(f"--gap takes a number or a percentage (0.05, 5%), got {text!r}",
+            raise InputError(f"the gap is a number or a percentage (0.05, 5%), not {text!r}",
                              hint="write --gap 0.01 or --gap 1%") from None
         return Gap(v / 100.0 if relative else v, relative)
 

@@ -310,6 +310,7 @@ class SynthesisChecker:
             vs, ub, worst = adversaries.vs, adversaries.ub, adversaries.worst
             result.phases.update(adversaries.phases)
         optimum: Optimum | None = None
+        by_optimum = False
         bracket_stats: dict[str, object] = {}
         if bracketing:
             now = time.perf_counter()
@@ -336,8 +337,9 @@ class SynthesisChecker:
             # enumerated adversaries, nor where the optimum's bound side misses it
             bound = ub if ub is not None else full
             refuted = not holds(bound.upper if maximize else bound.lower) and bound.sound
-            if optimum is not None and optimum.sound:
-                refuted = refuted or not holds(optimum.upper if maximize else optimum.lower)
+            by_optimum = (optimum is not None and optimum.sound and not refuted
+                          and not holds(optimum.upper if maximize else optimum.lower))
+            refuted = refuted or by_optimum
             value = True if proven else False if refuted else None
             kind, lower, upper = ResultKind.BOOLEAN, None, None
         player_name = self.model.player_names[player] if self.model.player_names else ""
@@ -350,6 +352,9 @@ class SynthesisChecker:
                      f"{player_name or 'the agent'} (any memory) achieves against every "
                      f"adversary, the {'upper' if problem.maximize else 'lower'}"
                      f" one by {optimum.method}")
+            if expr.threshold is not None and value is False and by_optimum:
+                note += ("; false: the optimum's bound side misses the threshold, so no defence "
+                         "of any memory meets it")
         stats: dict[str, object] = {
             "partial": result.partial or bool(adversaries and adversaries.partial) or late,
             "phases": {k: round(v, 3) for k, v in result.phases.items()},
