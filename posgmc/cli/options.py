@@ -20,7 +20,8 @@ import click
 __all__ = [
     "EXIT_OK", "EXIT_PROPERTY_FALSE", "EXIT_ERROR", "EXIT_INTERRUPTED",
     "common", "zero_based_players_option", "full_observation_option", "memory_option",
-    "timeout_option", "seed_option", "gap_option", "positive_finite", "memory_sizes", "synthesis_options",
+    "timeout_option", "seed_option", "gap_option", "positive_finite", "memory_sizes",
+    "synthesis_options",
     "strategy_options",
 ]
 
