@@ -732,6 +732,7 @@ def synthesize(
     zero_based_players: bool = False,
     build_options: BuildOptions = BuildOptions(),
     built: BuiltModel | None = None,
+    gap: float | str | None = None,
 ) -> PropertyResult:
     """Synthesise a finite-state strategy for the coalition of ``prop`` on a partially observable
     model, and verify it (docs/synthesis.md).
@@ -749,10 +750,15 @@ def synthesize(
         adversaries: how many of the strongest enumerated adversary strategies the defence is
             composed against (0: no adversary phases).
         jobs: worker processes for independent evaluations (the results do not depend on it).
+        gap: refine the optimum bracket until ``upper - lower`` is at most this (a number, or a
+            percentage such as ``"5%"`` of the larger side) or the budget ends; the bound side
+            then gets a share of ``timeout``. None: a little time on top of it.
 
     Returns:
         The result: ``guaranteed`` (against every adversary), ``vs_fss_adversary``,
-        ``upper_bound``, ``full_observation``, each with proven bounds; ``strategies`` (the
+        ``upper_bound``, ``full_observation``, each with proven bounds; ``optimum`` (proven
+        bounds on the best value any strategy achieves, :class:`~posgmc.checking.results.
+        Optimum`); ``strategies`` (the
         decision maker's, then the worst adversary strategy found, then — when
         ``vs_fss_adversary`` is about it — the composed defence); ``synthesis`` (statistics).
 
@@ -767,8 +773,16 @@ def synthesize(
             raise InputError(f"memory sizes must be positive ints, got {v!r}")
         return out
 
+    from posgmc.synthesis.bracket import Gap
+
+    if gap is None or isinstance(gap, str):
+        requested = None if gap is None else Gap.parse(gap)
+    elif isinstance(gap, (int, float)) and not isinstance(gap, bool):
+        requested = Gap(float(gap))
+    else:
+        raise InputError(f"gap must be a number or a percentage string such as '5%', got {gap!r}")
     options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs,
-                               belief=None if memory is None else False)
+                               belief=None if memory is None else False, gap=requested)
     if isinstance(memory, Mapping):
         options = dataclasses.replace(
             options, player_memory=tuple(sorted((str(p), sizes(v)) for p, v in memory.items()))
