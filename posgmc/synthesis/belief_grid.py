@@ -32,6 +32,7 @@ they are exact up to rounding at the 1e-15 level, which the reported bound does 
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass
 
@@ -47,21 +48,30 @@ from posgmc.engines.rewards import expected_reach_reward
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
 from posgmc.strategies.binding import player_view
-from posgmc.synthesis.belief import _can_reach, applies
+from posgmc.synthesis import belief
+from posgmc.synthesis.belief import _can_reach
 from posgmc.synthesis.jobs import Problem
 from posgmc.synthesis.parametric import Layout
 
-__all__ = ["GridAbstraction", "GridBound", "freudenthal", "grid_abstraction", "grid_bound",
-           "full_observation_bounds", "RESOLUTIONS", "MAX_VERTICES", "PRECISION"]
+__all__ = ["GridAbstraction", "GridBound", "applies", "freudenthal", "grid_abstraction",
+           "grid_bound", "full_observation_bounds", "RESOLUTIONS", "MAX_VERTICES", "PRECISION",
+           "RULE_CAP"]
 
 RESOLUTIONS = tuple(2 ** i for i in range(1, 11))
 """The grid resolutions tried in turn while the budget lasts (each grid refines the previous)."""
+
+RULE_CAP = 64
+"""The adversary's decision rules tried at one vertex at most (all of them when there are no
+more; else the full-observation optimum's rule and its one-state deviations)."""
 
 MAX_VERTICES = 400_000
 """Grid vertices explored at most in one abstraction (the time budget usually ends it first)."""
 
 PRECISION = 1e-8
 """The relative precision the abstraction is solved to (its bound side is what is reported)."""
+
+_BATCH = 2048
+"""Vertices expanded between two looks at the clock."""
 
 _SNAP = 1e-9
 """Cumulative coordinates within this (relative to N) of an integer are that integer: float
@@ -119,8 +129,10 @@ class GridAbstraction:
     maximize: bool
     resolution: int
     exact: bool
-    """Complete and every successor belief is a grid vertex: the abstraction *is* the reachable
-    belief MDP, so its optimum is the POMDP's (no finer grid can tighten it)."""
+    """Complete and every successor belief is a grid vertex: on a POMDP the abstraction *is* the
+    reachable belief MDP, so its optimum is the POMDP's (no finer grid can tighten it)."""
+    adversary: np.ndarray
+    """bool[states]: the adversary's vertices (a game's; none on a POMDP)."""
 
     @property
     def vertices(self) -> int:
@@ -133,7 +145,7 @@ class GridAbstraction:
 
     def solve(self, options: SolverOptions = SolverOptions()) -> EngineResult:
         """The abstraction's optimum per state by the sound engine of its objective."""
-        mx = np.full(self.model.num_states, self.maximize)
+        mx = np.where(self.adversary, not self.maximize, self.maximize)
         if self.rewards is None:
             return reach_probability(self.model, self.target, maximize=mx, options=options)
         if self.discount < 1.0:
@@ -144,31 +156,38 @@ class GridAbstraction:
 
 
 class _Dynamics:
-    """The POMDP per action of its agent: continuing transitions, stopping gain, rewards."""
+    """The game per action of its decision maker (continuing transitions, stopping gain,
+    rewards), and the other states' choices (the adversary's, or a single one)."""
 
-    def __init__(self, problem: Problem) -> None:
+    def __init__(self, problem: Problem, adversary_rules: np.ndarray | None) -> None:
         model = problem.model
+        self.model = model
         self.S = S = model.num_states
         layout = Layout.of(model, problem.player)
         view = player_view(model, problem.player)
         self.mask = layout.mask
         self.actions = layout.used_actions
+        self.owned = (model.state_players == problem.player) if model.player_names else \
+            np.ones(S, dtype=bool)
         obs_index = np.full(view.num_observations, -1, dtype=np.int64)
         obs_index[layout.used_obs] = np.arange(layout.used_obs.size)
-        self.obs = obs_index[view.state_obs]
-        self.Z = layout.used_obs.size
+        self.Z = Z = layout.used_obs.size
+        # the group of each state: its observation index for the decision maker's states, Z for
+        # the others (a vertex's support lies in one group)
+        self.group = np.where(self.owned, obs_index[view.state_obs], Z)
+        self.preferred = adversary_rules  # int64[S]: a choice per state (the first rule tried)
         if problem.rewards is None:
             # mass that cannot reach the target any more (within ``remain``) is worth 0
             self.cont = problem.remain & ~problem.target & _can_reach(model, problem.target,
                                                                       problem.remain)
         else:
             self.cont = ~problem.target
+        self.target = problem.target.astype(np.float64)
         act_index = np.full(len(model.action_names), -1, dtype=np.int64)
         act_index[layout.used_actions] = np.arange(layout.used_actions.size)
-        c_act = act_index[model.choice_actions]
         cs = model.choice_states
+        c_act = np.where(self.owned[cs], act_index[model.choice_actions], -1)
         keep = sp.diags(self.cont.astype(np.float64))
-        tgt = problem.target.astype(np.float64)
         self.P: list[sp.csr_matrix] = []
         self.stop: list[np.ndarray] = []
         self.reward: list[np.ndarray] = []
@@ -176,12 +195,53 @@ class _Dynamics:
             c = np.flatnonzero(c_act == a)
             T = model.transitions[c].tocoo()
             Pa = sp.csr_matrix((T.data, (cs[c][T.row], T.col)), shape=(S, S))
-            self.stop.append(np.asarray(Pa @ tgt).ravel())
+            self.stop.append(np.asarray(Pa @ self.target).ravel())
             self.P.append(sp.csr_matrix(Pa @ keep))
             r = np.zeros(S)
             if problem.rewards is not None:
                 r[cs[c]] = problem.rewards[c]
             self.reward.append(r)
+        self.T_cont = sp.csr_matrix(model.transitions @ keep)
+        self.T_stop = np.asarray(model.transitions @ self.target).ravel()
+
+    def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The adversary's decision rules tried at a vertex on ``states``: (int64[m], the global
+        ids of the support's choices; float64[k, m], each rule's probability of each of them,
+        summing to 1 over each state's choices). Deterministic rules — all of them when there
+        are at most :data:`RULE_CAP`, else the preferred rule and its one-state deviations —
+        and the uniform mixture over each state's choices. Any rule, randomised or not, bounds
+        the optimum (the adversary restricted can only do worse, and a randomised rule hides its
+        choice from the decision maker)."""
+        rg = self.model.row_groups
+        lo, hi = rg[states], rg[states + 1]
+        n = hi - lo
+        cols = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())])
+        offset = np.r_[0, np.cumsum(n)[:-1]]
+        varying = np.flatnonzero(n > 1)
+        if float(np.prod(n[varying].astype(np.float64))) <= RULE_CAP:
+            picks = list(itertools.product(*[range(int(n[i])) for i in varying.tolist()]))
+            det = np.tile(lo, (len(picks), 1))
+            if varying.size:
+                det[:, varying] += np.asarray(picks, dtype=np.int64)
+        else:
+            base = lo.copy() if self.preferred is None else np.where(
+                (self.preferred[states] >= lo) & (self.preferred[states] < hi),
+                self.preferred[states], lo)
+            out = [base]
+            for i in varying.tolist():
+                for c in range(int(lo[i]), int(hi[i])):
+                    if c != base[i] and len(out) < RULE_CAP:
+                        rule = base.copy()
+                        rule[i] = c
+                        out.append(rule)
+            det = np.stack(out)
+        k = det.shape[0]
+        local = det - lo + offset  # column of each state's chosen choice
+        probs = np.zeros((k + (1 if varying.size else 0), cols.size))
+        probs[np.repeat(np.arange(k), states.size), local.ravel()] = 1.0
+        if varying.size:
+            probs[k] = np.repeat(1.0 / n, n)
+        return cols, probs
 
 
 class _Grid:
@@ -215,117 +275,169 @@ class _Grid:
         return sp.csr_matrix((data, ind, indptr), shape=(n, self.S))
 
 
-def full_observation_bounds(problem: Problem, deadline: float | None = None) -> np.ndarray:
-    """float64[S]: a proven bound per state on what any strategy achieves — the upper end of the
-    full-observation optimum when the agent maximises, the lower end when it minimises (interval
-    iteration; an agent that sees the state does at least as well as one that does not)."""
+def full_observation_bounds(problem: Problem,
+                            deadline: float | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """A proven bound per state on what any strategy achieves — float64[S], the upper end of the
+    full-observation optimum when the decision maker maximises, the lower end when it minimises
+    (interval iteration; a decision maker that sees the state does at least as well as one that
+    does not) — and the full-observation optimum's choice per state (int64[S], -1 where none;
+    None when the solve gives none): the adversary's is the first rule the game abstraction
+    tries."""
     checker = PropertyChecker(problem.model, coalition_of=problem.coalition_of,
                               scalar=problem.scalar,
-                              options=CheckOptions(solver=SolverOptions(deadline=deadline)))
+                              options=CheckOptions(keep_strategy=True,
+                                                   solver=SolverOptions(deadline=deadline)))
     r = checker.query(problem.query, everywhere=True)
+    strategy = None if r.engine is None or r.engine.strategy is None else \
+        np.asarray(r.engine.strategy, dtype=np.int64)
     if not r.sound:
-        return np.full(problem.model.num_states, np.inf if problem.maximize else -np.inf)
-    return np.asarray(r.upper if problem.maximize else r.lower, dtype=np.float64)
+        return np.full(problem.model.num_states,
+                       np.inf if problem.maximize else -np.inf), strategy
+    return np.asarray(r.upper if problem.maximize else r.lower, dtype=np.float64), strategy
+
+
+def applies(problem: Problem) -> bool:
+    """Whether the grid abstraction covers ``problem``: a POMDP (any objective here), or a game
+    of the decision maker against one omniscient adversary with a probability objective."""
+    if problem.model.initial_states.size != 1:
+        return False
+    if belief.applies(problem):
+        return True
+    return (problem.adversary is not None and len(problem.model.player_names) == 2
+            and problem.rewards is None)
+
+
+class _Choices:
+    """The abstraction's choices while exploring: a key (vertex · span + local index) each, its
+    target mass and reward, and its successor entries (by key)."""
+
+    def __init__(self, span: int) -> None:
+        self.span = span
+        self.key: list[np.ndarray] = []
+        self.action: list[np.ndarray] = []
+        self.stop: list[np.ndarray] = []
+        self.reward: list[np.ndarray] = []
+        self.e_key: list[np.ndarray] = []
+        self.e_vertex: list[np.ndarray] = []
+        self.e_prob: list[np.ndarray] = []
+        self.on_grid = True  # every successor part so far is a vertex itself
+
+    def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, reward: np.ndarray,
+            D: sp.csr_matrix, dyn: _Dynamics, grid: _Grid) -> None:
+        """Choices ``keys`` whose continuing successor distributions are the rows of ``D``:
+        each row split into its groups (one per observation of the decision maker's states, one
+        for the others; a convex decomposition, so the bound stays sound), each part normalised
+        and triangulated."""
+        self.key.append(keys)
+        self.action.append(action)
+        self.stop.append(stop)
+        self.reward.append(reward)
+        coo = sp.csr_matrix(D).tocoo()
+        if not coo.nnz:
+            return
+        grp = dyn.group[coo.col]
+        pair = coo.row.astype(np.int64) * (dyn.Z + 1) + grp
+        o = np.lexsort((coo.col, pair))
+        pair, col, data = pair[o], coo.col[o].astype(np.int64), coo.data[o]
+        starts = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
+        ends = np.r_[starts[1:], pair.size]
+        N = grid.N
+        for lo, hi in zip(starts.tolist(), ends.tolist()):
+            w = float(data[lo:hi].sum())
+            counts, lam = freudenthal(data[lo:hi] / w, N)
+            self.on_grid = self.on_grid and lam.size == 1
+            row = int(pair[lo] // (dyn.Z + 1))
+            vs = [grid.vertex(col[lo:hi], c) for c in counts]
+            self.e_key.append(np.full(lam.size, keys[row], dtype=np.int64))
+            self.e_vertex.append(np.asarray(vs, dtype=np.int64))
+            self.e_prob.append(w * lam)
 
 
 def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
-                     deadline: float | None = None,
-                     max_vertices: int = MAX_VERTICES) -> GridAbstraction | None:
-    """The abstraction of ``problem`` (a POMDP with one initial state) at ``resolution``,
-    explored breadth first from the initial belief until ``max_vertices`` or ``deadline``.
+                     deadline: float | None = None, max_vertices: int = MAX_VERTICES,
+                     adversary_rules: np.ndarray | None = None) -> GridAbstraction | None:
+    """The abstraction of ``problem`` at ``resolution``, explored breadth first from the initial
+    belief until ``max_vertices`` or ``deadline``.
+
+    On a POMDP the vertices are the agent's beliefs and the abstraction is an MDP. On a game
+    (:func:`applies`) there are two kinds of vertices: the decision maker's beliefs over its
+    states of one observation, where it chooses an action, and distributions over the other
+    states, where the adversary chooses a decision rule (a choice per state of the support; at
+    most :data:`RULE_CAP` rules, tried from ``adversary_rules``); the abstraction is a game.
+    The value of a one-sided game (a partially observing maximiser against an omniscient
+    adversary) is convex in the decision maker's belief (Horák, Bošanský, Pěchouček, AAAI
+    2017: for a fixed strategy of the decision maker the adversary best-responds state by
+    state, so the value is linear in the belief), and fixing the adversary's rule for one step
+    can only help the decision maker, so the abstraction's value bounds the game's optimum.
 
     Args:
-        problem: the POMDP and its objective.
+        problem: the POMDP or game and its objective.
         resolution: N >= 1 (grid beliefs are multiples of 1/N).
         cutoff: float64[S], the bound per state used at cut-off vertices
             (:func:`full_observation_bounds`).
+        adversary_rules: int64[S], the adversary's preferred choice per state (the
+            full-observation optimum's), or None.
 
     Returns:
-        The abstraction, or None when the initial state does not continue (nothing to bound) or
-        the problem is not a POMDP.
+        The abstraction, or None when it does not apply (:func:`applies`) or the initial state
+        does not continue (nothing to bound).
     """
-    if not applies(problem) or problem.model.initial_states.size != 1:
+    if not applies(problem):
         return None
-    dyn = _Dynamics(problem)
+    dyn = _Dynamics(problem, adversary_rules)
     s0 = int(problem.model.initial_states[0])
-    if not dyn.cont[s0] or dyn.obs[s0] < 0:
+    if not dyn.cont[s0] or (dyn.owned[s0] and dyn.group[s0] < 0):
         return None
     grid = _Grid(dyn.S, resolution)
     grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
-    # choices, in vertex order: (vertex, action, target mass, reward, successor entries)
-    c_vertex: list[np.ndarray] = []
-    c_action: list[np.ndarray] = []
-    c_stop: list[np.ndarray] = []
-    c_reward: list[np.ndarray] = []
-    e_choice: list[np.ndarray] = []  # entries: global choice id, vertex, probability
-    e_vertex: list[np.ndarray] = []
-    e_prob: list[np.ndarray] = []
-    num_choices = 0
-    on_grid = True  # every posterior so far is a vertex itself
-    done = 0  # vertices [0, done) expanded
+    Au = dyn.actions.size
+    choices = _Choices(Au + RULE_CAP + 1)
+    done = 0  # vertices [0, done) expanded, except those in ``skipped``
+    skipped: list[int] = []
     while done < len(grid.rows) and done < max_vertices:
         if deadline is not None and time.perf_counter() > deadline:
             break
-        last = min(len(grid.rows), max_vertices, done + max(64, done))
-        B = grid.matrix(done, last)
+        last = min(len(grid.rows), max_vertices, done + min(_BATCH, max(64, done)))
         ids = np.arange(done, last)
-        z = dyn.obs[np.asarray([grid.rows[i][0] for i in range(done, last)])]
-        per_action = []
-        for a in range(dyn.actions.size):
-            sel = np.flatnonzero(dyn.mask[z, a]) if dyn.Z else np.zeros(0, dtype=np.int64)
-            if sel.size:
-                per_action.append((a, sel))
-        # choices of the batch, ordered by vertex then action
-        chosen_v = np.concatenate([ids[sel] for _, sel in per_action]) if per_action else \
-            np.zeros(0, dtype=np.int64)
-        chosen_a = np.concatenate([np.full(sel.size, a) for a, sel in per_action]) if \
-            per_action else np.zeros(0, dtype=np.int64)
-        order = np.lexsort((chosen_a, chosen_v))
-        rank = np.empty(order.size, dtype=np.int64)
-        rank[order] = num_choices + np.arange(order.size)
-        pos = 0
-        for a, sel in per_action:
-            Ba = B[sel]
-            D = sp.csr_matrix(Ba @ dyn.P[a])
-            D.eliminate_zeros()
-            cid = rank[pos:pos + sel.size]
-            pos += sel.size
-            c_stop.append(np.asarray(Ba @ dyn.stop[a]).ravel())
-            c_reward.append(np.asarray(Ba @ dyn.reward[a]).ravel())
-            c_vertex.append(ids[sel])
-            c_action.append(np.full(sel.size, a, dtype=np.int64))
-            # split each successor distribution by observation, triangulate each posterior
-            coo = D.tocoo()
-            if not coo.nnz:
+        first = np.asarray([grid.rows[i][0] for i in range(done, last)])
+        mine = dyn.owned[first]
+        B = grid.matrix(done, last)
+        z = dyn.group[first]
+        for a in range(Au):
+            sel = np.flatnonzero(mine & (z >= 0))
+            sel = sel[dyn.mask[z[sel], a]]
+            if not sel.size:
                 continue
-            zz = dyn.obs[coo.col]
-            pair = coo.row.astype(np.int64) * (dyn.Z + 1) + (zz + 1)
-            o = np.lexsort((coo.col, pair))
-            pair, col, data = pair[o], coo.col[o].astype(np.int64), coo.data[o]
-            starts = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
-            ends = np.r_[starts[1:], pair.size]
-            for lo, hi in zip(starts.tolist(), ends.tolist()):
-                w = float(data[lo:hi].sum())
-                counts, lam = freudenthal(data[lo:hi] / w, resolution)
-                on_grid = on_grid and lam.size == 1
-                row = int(pair[lo] // (dyn.Z + 1))
-                vs = [grid.vertex(col[lo:hi], c) for c in counts]
-                e_choice.append(np.full(lam.size, cid[row], dtype=np.int64))
-                e_vertex.append(np.asarray(vs, dtype=np.int64))
-                e_prob.append(w * lam)
-        num_choices += order.size
+            Ba = B[sel]
+            choices.add(ids[sel] * choices.span + a, np.full(sel.size, a, dtype=np.int64),
+                        np.asarray(Ba @ dyn.stop[a]).ravel(),
+                        np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a], dyn, grid)
+        for j in np.flatnonzero(~mine).tolist():
+            v = done + j
+            if deadline is not None and time.perf_counter() > deadline:
+                skipped.append(v)  # the adversary's vertices one by one: the rest are cut off
+                continue
+            states, p = grid.rows[v], grid.vals[v]
+            cols, probs = dyn.rules(states)
+            k = probs.shape[0]
+            mass = np.repeat(p, np.diff(dyn.model.row_groups)[states])
+            W = sp.csr_matrix(probs * mass)
+            W = sp.csr_matrix((W.data, cols[W.indices], W.indptr),
+                              shape=(k, dyn.model.num_choices))
+            choices.add(v * choices.span + Au + np.arange(k), np.full(k, -1, dtype=np.int64),
+                        np.asarray(W @ dyn.T_stop).ravel(), np.zeros(k), W @ dyn.T_cont, dyn,
+                        grid)
         done = last
-    return _assemble(problem, dyn, grid, done, resolution, cutoff, c_vertex, c_action, c_stop,
-                     c_reward, e_choice, e_vertex, e_prob, on_grid)
+    expanded = np.zeros(len(grid.rows), dtype=bool)
+    expanded[:done] = True
+    expanded[skipped] = False
+    return _assemble(problem, dyn, grid, expanded, resolution, cutoff, choices)
 
 
-def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, done: int, resolution: int,
-              cutoff: np.ndarray, c_vertex: list[np.ndarray], c_action: list[np.ndarray],
-              c_stop: list[np.ndarray], c_reward: list[np.ndarray], e_choice: list[np.ndarray],
-              e_vertex: list[np.ndarray], e_prob: list[np.ndarray],
-              on_grid: bool) -> GridAbstraction:
-    """The abstraction MDP: expanded vertices with their choices, cut-off vertices with one
-    choice worth their full-observation bound, then the target and the sink."""
+def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarray,
+              resolution: int, cutoff: np.ndarray, ch: _Choices) -> GridAbstraction:
+    """The abstraction: expanded vertices with their choices, cut-off vertices with one choice
+    worth their full-observation bound, then the target and the sink."""
     V = len(grid.rows)
     TARGET, SINK = V, V + 1
     S_abs = V + 2
@@ -334,13 +446,15 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, done: int, resoluti
     def cat(parts: list[np.ndarray], dtype: type = np.float64) -> np.ndarray:
         return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype=dtype)
 
-    cv, ca = cat(c_vertex, np.int64), cat(c_action, np.int64)
-    order = np.lexsort((ca, cv))
-    cv, ca = cv[order], ca[order]
-    stop, rew = cat(c_stop)[order], cat(c_reward)[order]
-    n_exp = cv.size  # the expanded choices are numbered 0..n_exp-1 in (vertex, action) order
-    # the successor entries, with the target and the sink
-    ech, ev, ep = cat(e_choice, np.int64), cat(e_vertex, np.int64), cat(e_prob)
+    keys = cat(ch.key, np.int64)
+    order = np.argsort(keys, kind="stable")
+    keys = keys[order]
+    cv = keys // ch.span
+    ca = cat(ch.action, np.int64)[order]
+    stop, rew = cat(ch.stop)[order], cat(ch.reward)[order]
+    n_exp = keys.size  # the expanded choices, numbered 0..n_exp-1 in key (= vertex) order
+    ech = np.searchsorted(keys, cat(ch.e_key, np.int64))
+    ev, ep = cat(ch.e_vertex, np.int64), cat(ch.e_prob)
     cont_mass = np.bincount(ech, weights=ep, minlength=n_exp)
     rows = [ech, np.arange(n_exp)]
     cols = [ev, np.full(n_exp, TARGET)]
@@ -357,9 +471,9 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, done: int, resoluti
         # which for an expected reward would mean "never reaches the target")
         sums = np.asarray(T_exp.sum(axis=1)).ravel()
         T_exp = sp.csr_matrix(sp.diags(1.0 / np.where(sums > 0, sums, 1.0)) @ T_exp)
-    # cut-off vertices [done, V): one choice worth Σ_s v(s) cutoff(s)
-    cut_ids = np.arange(done, V)
-    Bc = grid.matrix(done, V)
+    # cut-off vertices: one choice worth Σ_s v(s) cutoff(s)
+    cut_ids = np.flatnonzero(~expanded)
+    Bc = grid.matrix()[cut_ids]
     finite = np.isfinite(cutoff)
     u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
     unbounded = np.asarray(Bc @ (~finite).astype(np.float64)).ravel() > 0
@@ -379,30 +493,32 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, done: int, resoluti
         T_cut = sp.csr_matrix((np.ones(n_cut), (np.arange(n_cut), dest)), shape=(n_cut, S_abs))
         r_cut = np.where(unbounded, 0.0, u)
     T_sinks = sp.csr_matrix((np.ones(2), ([0, 1], [TARGET, SINK])), shape=(2, S_abs))
-    transitions = sp.vstack([T_exp, T_cut, T_sinks], format="csr")
-    per_state = np.zeros(S_abs, dtype=np.int64)
-    np.add.at(per_state, cv, 1)
-    per_state[cut_ids] = 1
-    per_state[[TARGET, SINK]] = 1
-    # expanded choices are in vertex order, and expanded vertices precede the cut-off ones
-    choice_order = np.r_[np.arange(n_exp), n_exp + np.arange(n_cut), n_exp + n_cut + np.arange(2)]
+    # the rows in state order: each state's choices together (expanded choices in key order)
     owner = np.r_[cv, cut_ids, [TARGET, SINK]]
-    perm = np.lexsort((choice_order, owner))
-    transitions = transitions[perm]
+    perm = np.argsort(owner, kind="stable")
+    transitions = sp.vstack([T_exp, T_cut, T_sinks], format="csr")[perm]
+    per_state = np.bincount(owner, minlength=S_abs)
     row_groups = np.zeros(S_abs + 1, dtype=np.int64)
     row_groups[1:] = np.cumsum(per_state)
     action = np.r_[ca, np.full(n_cut + 2, -1, dtype=np.int64)][perm]
-    model = make_model(ModelType.MDP, row_groups, transitions, initial_states=(0,))
+    # the adversary's vertices (expanded ones whose support is not the decision maker's)
+    theirs = np.zeros(S_abs, dtype=bool)
+    starts = np.asarray([r[0] for r in grid.rows], dtype=np.int64)
+    theirs[:V] = expanded & ~dyn.owned[starts]
+    if theirs.any():
+        model = make_model(ModelType.SMG, row_groups, transitions, initial_states=(0,),
+                           state_players=theirs.astype(np.int32),
+                           player_names=("decision maker", "adversary"))
+    else:
+        model = make_model(ModelType.MDP, row_groups, transitions, initial_states=(0,))
     rewards = None
     if not prob:
         rewards = np.r_[rew, r_cut, np.zeros(2)][perm]
     target = np.zeros(S_abs, dtype=bool)
     target[TARGET] = True
-    expanded = np.zeros(V, dtype=bool)
-    expanded[:done] = True
     return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,
                            problem.discount, problem.maximize, resolution,
-                           on_grid and done == V)
+                           ch.on_grid and bool(expanded.all()), theirs)
 
 
 @dataclass(frozen=True)
@@ -428,7 +544,7 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
     """Abstractions of growing resolution while time remains; the tightest proven bound.
 
     Args:
-        problem: a POMDP with one initial state.
+        problem: a POMDP, or a one-sided game with a probability objective (:func:`applies`).
         deadline: ``time.perf_counter()`` value by which to stop (an abstraction whose
             exploration is cut short still proves a bound: its frontier is cut off).
         target: stop as soon as the bound reaches this value (the other side of the bracket).
@@ -438,11 +554,12 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
         The bound, or None when no abstraction applies or none was solved soundly in time.
     """
     t0 = time.perf_counter()
-    if not applies(problem) or problem.model.initial_states.size != 1:
+    if not applies(problem):
         return None
     sign = 1.0 if problem.maximize else -1.0
+    rules = None
     if cutoff is None:
-        cutoff = full_observation_bounds(problem, deadline)
+        cutoff, rules = full_observation_bounds(problem, deadline)
     best: GridBound | None = None
     tried: list[tuple[int, float]] = []
     for N in resolutions:
@@ -451,7 +568,8 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
             break
         # exploration may use most of what is left; the sound solve gets the rest
         explore_until = now + 0.6 * (deadline - now)
-        abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until)
+        abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
+                                       adversary_rules=rules)
         if abstraction is None:
             return None
         result = abstraction.solve(SolverOptions(precision=PRECISION, relative=True,
@@ -460,10 +578,10 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
             continue
         value = float(result.upper[0] if problem.maximize else result.lower[0])
         tried.append((N, value))
+        exact = abstraction.exact and not abstraction.adversary.any()
         if best is None or sign * value < sign * best.value:
-            best = GridBound(value, N, abstraction.vertices, abstraction.complete,
-                             abstraction.exact, (), 0.0)
-        if abstraction.exact or (target is not None and sign * best.value <= sign * target):
+            best = GridBound(value, N, abstraction.vertices, abstraction.complete, exact, (), 0.0)
+        if exact or (target is not None and sign * best.value <= sign * target):
             break
     if best is None:
         return None

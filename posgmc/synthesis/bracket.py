@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from posgmc.checking.results import Bound, Optimum
 from posgmc.errors import InputError
-from posgmc.synthesis import belief, belief_grid
+from posgmc.synthesis import belief_grid
 from posgmc.synthesis.jobs import Problem
 
 __all__ = ["Gap", "DEFAULT_SHARE", "GAP_SHARE", "optimum_of"]
@@ -94,7 +94,7 @@ def optimum_of(problem: Problem, guaranteed: Bound, full_observation: Bound,
         candidates.append((upper_bound.upper if maximize else upper_bound.lower,
                            "omniscient decision maker against the strongest adversary found"))
     stats: dict[str, object] = {}
-    if belief.applies(problem) and guaranteed.sound:
+    if belief_grid.applies(problem) and guaranteed.sound:
         want = gap if gap is not None else Gap(1e-6)
         # stop refining once the bound side is within the gap of the achieved side
         stop_at = achieved + sign * want.width(achieved, achieved)

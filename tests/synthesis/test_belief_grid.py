@@ -102,7 +102,7 @@ def test_the_bound_holds_against_known_optima(path: Path, prop: str, optimum: fl
     found = _bound(problem, seconds=3.0)
     if problem.maximize:
         assert found.value >= optimum - 1e-9
-        assert found.value <= belief_grid.full_observation_bounds(problem)[
+        assert found.value <= belief_grid.full_observation_bounds(problem)[0][
             model.initial_states[0]] + 1e-9
     else:
         assert found.value <= optimum + 1e-9
@@ -166,7 +166,7 @@ def _bracket_contains_the_brute_force(seed: int, maximize: bool) -> None:
         assert r is not None and r.sound
         achieved = r.lower if maximize else r.upper
         assert sign * found.value >= sign * achieved - 1e-9
-    full = belief_grid.full_observation_bounds(problem)[s0]
+    full = belief_grid.full_observation_bounds(problem)[0][s0]
     assert sign * found.value <= sign * full + 1e-9
 
 
@@ -192,4 +192,4 @@ def test_a_fully_observed_pomdp_is_bounded_exactly() -> None:
     found = _bound(problem)
     assert found.exact
     assert found.value == pytest.approx(
-        belief_grid.full_observation_bounds(problem)[model.initial_states[0]], abs=1e-7)
+        belief_grid.full_observation_bounds(problem)[0][model.initial_states[0]], abs=1e-7)

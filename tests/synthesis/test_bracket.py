@@ -111,6 +111,10 @@ def test_game_bracket_uses_full_observation_and_the_adversary_bound() -> None:
         candidates.append(r.upper_bound.upper)
     assert o.upper <= min(candidates)
     assert o.lower <= 0.9 <= o.upper
+    # the belief game's grid bound: 0.9, the two-node rover's value, so 0.9 is the optimum (the
+    # full-observation value is 1: the rover that sees the jammer always gets through)
+    assert r.full_observation.lower >= 1.0 - 1e-6
+    assert 0.9 <= o.upper <= 0.9 + 1e-6 and "belief grid" in o.method
 
 
 def _random_game_bracket(seed: int, maximize: bool) -> None:
