@@ -583,6 +583,8 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
             best = GridBound(value, N, abstraction.vertices, abstraction.complete, exact, (), 0.0)
         if exact or (target is not None and sign * best.value <= sign * target):
             break
+        if not abstraction.complete:
+            break  # a finer grid has more vertices still: it would be cut off sooner
     if best is None:
         return None
     return GridBound(best.value, best.resolution, best.vertices, best.complete, best.exact,
