@@ -52,7 +52,7 @@ def _peak_mb() -> float:
 def worker_posgmc(path: str, n: int) -> dict[str, object]:
     sys.path.insert(0, str(ROOT))
     from posgmc.compiler import BuildOptions, ProgressMode, build_model
-    from posgmc.semantics.checker import instantiate
+    from posgmc.semantics.stages import instantiate
     from posgmc.syntax.parser import parse_model
 
     t0 = time.perf_counter()

@@ -87,7 +87,7 @@ def worker(
 ) -> dict[str, Any]:
     sys.path.insert(0, str(ROOT))
     from posgmc import api
-    from posgmc.checking.dispatch import CheckOptions
+    from posgmc.checking.property_checker import CheckOptions
     from posgmc.compiler import BuildOptions, ProgressMode
     from posgmc.engines.options import SolverOptions
 

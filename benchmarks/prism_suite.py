@@ -327,8 +327,8 @@ def _emit(record: dict[str, Any]) -> None:
 def worker(spec: dict[str, Any]) -> None:
     """Check one run and print one JSON line per graded RESULT line (after a ``plan`` line)."""
     from posgmc import api
-    from posgmc.checking.dispatch import CheckOptions
     from posgmc.checking.expected import Verdict, expected_for, grade
+    from posgmc.checking.property_checker import CheckOptions
     from posgmc.cli.constants import const_text, expand_constants
     from posgmc.compiler.options import BuildOptions
     from posgmc.errors import PosgmcError

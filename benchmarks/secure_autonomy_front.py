@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     from posgmc.io.atomic import atomic_write_text
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
     from posgmc.tradeoffs.plot import plot_sweeps
     from posgmc.tradeoffs.sweep import Sweep, sweep
 

@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 
 import posgmc
-from posgmc.engines import common
 from posgmc.engines import objectives as obj
+from posgmc.engines import solving as common
 from posgmc.model.explicit import make_model
 from posgmc.syntax.ast import ModelType
 

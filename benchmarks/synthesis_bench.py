@@ -51,8 +51,7 @@ def first_property(directory: Path) -> str:
 def ours(directory: Path, timeout: float, bracket: bool = False) -> dict[str, object]:
     sys.path.insert(0, str(ROOT))
     from posgmc import api
-    from posgmc.synthesis.bracket import Gap
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import Gap, SynthesisOptions
 
     prop = first_property(directory)
     started = time.perf_counter()

@@ -50,7 +50,7 @@ _WHERE = {
     "ExplicitModel": "posgmc.model.explicit",
     "FiniteStateStrategy": "posgmc.strategies.fss",
     "BuildOptions": "posgmc.compiler",
-    "CheckOptions": "posgmc.checking.dispatch",
+    "CheckOptions": "posgmc.checking.property_checker",
     "SolverOptions": "posgmc.engines.options",
     "Method": "posgmc.engines.options",
     "SynthesisOptions": "posgmc.synthesis.search",

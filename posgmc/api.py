@@ -24,10 +24,10 @@ from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-from posgmc.checking.dispatch import CheckOptions, PropertyChecker
+from posgmc.checking.property_checker import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.compiler import BuildOptions, build_model
-from posgmc.deep import deep_generator, deep_stack
+from posgmc.deep_stack import deep_generator, deep_stack
 from posgmc.engines import kernels, scc
 from posgmc.errors import (
     InputError,
@@ -38,8 +38,8 @@ from posgmc.errors import (
     UnsupportedError,
 )
 from posgmc.model.explicit import ExplicitModel
-from posgmc.semantics import checker as sem
 from posgmc.semantics import operators as ops
+from posgmc.semantics import stages as sem
 from posgmc.semantics.evaluate import Value, evaluate_constant
 from posgmc.semantics.flat import FlatModel
 from posgmc.semantics.properties import QueryResolver, resolve_queries
@@ -53,7 +53,7 @@ if TYPE_CHECKING:
     from posgmc.strategies.fss import FiniteStateStrategy
     from posgmc.strategies.simulate import Simulation
     from posgmc.synthesis.checker import SynthesisChecker
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
 StrategySources = (
     Mapping[str, "FiniteStateStrategy | str | Path"]
@@ -469,7 +469,7 @@ def iter_check(
     :mod:`posgmc.strategies.verify`): ``guaranteed``, ``vs_fss_adversary``, ``upper_bound``.
     A partially observable model without strategies and without ``full_observation`` is answered
     by synthesis (:mod:`posgmc.synthesis`), configured by ``synthesis``."""
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
     synthesis = synthesis or SynthesisOptions()
     parsed, cli_props = parse_properties(session, files=property_files, texts=properties)
@@ -527,9 +527,12 @@ def _checker(
     strategies: Mapping[str, FiniteStateStrategy] | None,
     synthesis: SynthesisOptions | None = None,
 ) -> PropertyChecker | StrategyChecker | SynthesisChecker:
+    """The checker that answers (each answers :class:`~posgmc.checking.protocols.Checker`'s
+    ``check``), in :func:`check`'s order of precedence: exact mode, synthesis, given strategies,
+    the plain checker."""
     coalition_of = _resolver(model, zero_based_players).coalition_of
     if options.exact:
-        from posgmc.checking.exact import ExactChecker
+        from posgmc.checking.exact_checker import ExactChecker
 
         return ExactChecker(model, coalition_of=coalition_of, scalar=_scalar, options=options)
     if synthesis is not None:
@@ -625,6 +628,12 @@ def check(
         on_outcome: called with each outcome (as in ``outcomes``) as soon as it is computed, so
             a caller can print results while the next property is being checked.
 
+    Which checker answers, in this order of precedence: exact mode (``options.exact``: rational
+    arithmetic; given strategies and ``full_observation`` are refused with it), then synthesis (a
+    partially observable model checked without ``strategies`` and without ``full_observation``),
+    then the given ``strategies``, else the plain checker (a partially observable model read with
+    ``full_observation``).
+
     Returns:
         The report; ``errors`` holds (property text, error) for properties that could not be
         checked, ``results`` the others, in order.
@@ -634,12 +643,57 @@ def check(
         UnsupportedError: a partially observable model without ``full_observation``.
     """
     session = _session(session)
+    property_files, properties, build_options, synthesis = _check_arguments(
+        options, property_files, properties, strategies, full_observation, build_options,
+        synthesis,
+    )
+    built = built or _build_for_check(session, property_files, properties, build_options)
+    loaded = load_strategies(strategies) if strategies else None
+    warnings = built.warnings + _strategy_warnings(built.model, loaded)
+    if on_start is not None:
+        on_start(built.model, built.seconds, warnings)
+    outcomes = _outcomes(
+        iter_check(
+            session,
+            property_files=property_files,
+            properties=properties,
+            options=options,
+            full_observation=full_observation,
+            zero_based_players=zero_based_players,
+            built=built,
+            strategies=loaded,
+            synthesis=synthesis,
+        ),
+        on_outcome,
+    )
+    return CheckReport(
+        built.model,
+        built.seconds,
+        tuple(o for o in outcomes if not isinstance(o, PropertyError)),
+        warnings,
+        tuple(o for o in outcomes if isinstance(o, PropertyError)),
+        tuple(outcomes),
+    )
+
+
+def _check_arguments(
+    options: CheckOptions,
+    property_files: Sequence[str | Path],
+    properties: Sequence[str | Property],
+    strategies: StrategySources | None,
+    full_observation: bool,
+    build_options: BuildOptions,
+    synthesis: SynthesisOptions | None,
+) -> tuple[tuple[str | Path, ...], tuple[str | Property, ...], BuildOptions,
+           SynthesisOptions | None]:
+    """:func:`check`'s arguments validated (InputError naming the argument), with exact mode's
+    build options and the synthesis budget's start (here, unless the caller set it: building the
+    model is inside the first synthesised property's budget)."""
     if synthesis is not None and synthesis.started is None:
-        # the first synthesised property's budget counts from here: building the model counts
         synthesis = dataclasses.replace(synthesis, started=time.perf_counter())
     _typed(options, CheckOptions, "options")
-    property_files = _paths(property_files, "property_files")
-    properties = _property_items(properties)
+    files = _paths(property_files, "property_files")
+    items = _property_items(properties)
     if strategies is not None and not isinstance(strategies, Mapping):
         raise InputError(
             f"strategies must map player names to strategies, got {type(strategies).__name__}"
@@ -652,49 +706,49 @@ def check(
                 hint="drop --exact, or drop --strategy / --full-observation",
             )
         build_options = dataclasses.replace(build_options, exact=True)
-    if built is None:
-        _check_constant_names(session, property_files)
-        # unreadable or unparsable property files are reported before anything is built
-        parse_properties(session, files=property_files, texts=properties)
-    built = built or build(session, options=build_options, allow_extra_constants=True)
-    loaded = load_strategies(strategies) if strategies else None
-    warnings: tuple[str, ...] = ()
-    if loaded:  # bound once here for the warnings; cheap whole-array work
-        from posgmc.strategies.binding import bind
+    return files, items, build_options, synthesis
 
-        warnings = tuple(w for fss in loaded.values() for w in bind(built.model, fss).warnings)
-    if on_start is not None:
-        on_start(built.model, built.seconds, built.warnings + warnings)
-    results: list[PropertyResult] = []
-    errors: list[PropertyError] = []
+
+def _build_for_check(
+    session: Session,
+    property_files: Sequence[str | Path],
+    properties: Sequence[str | Property],
+    build_options: BuildOptions,
+) -> BuiltModel:
+    """The model built for :func:`check`, after what can be reported without building it:
+    constants no file declares, unreadable or unparsable property files."""
+    _check_constant_names(session, property_files)
+    parse_properties(session, files=property_files, texts=properties)
+    return build(session, options=build_options, allow_extra_constants=True)
+
+
+def _strategy_warnings(
+    model: ExplicitModel, strategies: Mapping[str, FiniteStateStrategy] | None
+) -> tuple[str, ...]:
+    """What binding the given strategies to the model warns about (bound once here for the
+    warnings; cheap whole-array work)."""
+    if not strategies:
+        return ()
+    from posgmc.strategies.binding import bind
+
+    return tuple(w for fss in strategies.values() for w in bind(model, fss).warnings)
+
+
+def _outcomes(
+    checked: Iterator[tuple[Property, PropertyResult | PosgmcError]],
+    on_outcome: Callable[[PropertyResult | PropertyError], None] | None,
+) -> list[PropertyResult | PropertyError]:
+    """Each property's result, or its error with the property's text, in order; each handed to
+    ``on_outcome`` as soon as it is known."""
     outcomes: list[PropertyResult | PropertyError] = []
-    for prop, outcome in iter_check(
-        session,
-        property_files=property_files,
-        properties=properties,
-        options=options,
-        full_observation=full_observation,
-        zero_based_players=zero_based_players,
-        built=built,
-        strategies=loaded,
-        synthesis=synthesis,
-    ):
-        if isinstance(outcome, PosgmcError):
-            errors.append(PropertyError(prop.text or format_expr(prop.expr), outcome))
-            outcomes.append(errors[-1])
-        else:
-            results.append(outcome)
-            outcomes.append(outcome)
+    for prop, outcome in checked:
+        outcomes.append(
+            PropertyError(prop.text or format_expr(prop.expr), outcome)
+            if isinstance(outcome, PosgmcError) else outcome
+        )
         if on_outcome is not None:
             on_outcome(outcomes[-1])
-    return CheckReport(
-        built.model,
-        built.seconds,
-        tuple(results),
-        built.warnings + warnings,
-        tuple(errors),
-        tuple(outcomes),
-    )
+    return outcomes
 
 
 def _check_constant_names(session: Session, property_files: Sequence[str | Path]) -> None:
@@ -765,7 +819,7 @@ def synthesize(
     Raises:
         PosgmcError: the model, the property, or an objective synthesis does not cover.
     """
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
     def sizes(v: int | Sequence[int]) -> tuple[int, ...]:
         out = (v,) if isinstance(v, int) else tuple(v)
@@ -773,7 +827,7 @@ def synthesize(
             raise InputError(f"memory sizes must be positive ints, got {v!r}")
         return out
 
-    from posgmc.synthesis.bracket import Gap
+    from posgmc.synthesis.options import Gap
 
     if gap is None or isinstance(gap, str):
         requested = None if gap is None else Gap.parse(gap)

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.checking.results import Bound
 from posgmc.engines.options import Method, SolverOptions
 
@@ -64,7 +64,7 @@ def test_rover_values(name: str, method: Method) -> None:
 def test_posg_without_options_is_answered_by_synthesis() -> None:
     """Without strategies and without full_observation every posg property is synthesised for
     (the step-bounded one on the product with its step-counting automaton, issue #9)."""
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
     report = api.check(
         api.load(MODELS / "rover.posg"),
@@ -189,7 +189,7 @@ def test_secure_autonomy_synthesis_gates() -> None:
 def _beacon_guaranteed(memory: tuple[int, ...]) -> list[Bound]:
     """The sound guaranteed bounds synthesised on models/beacon for each memory size, after
     pinning the model's size."""
-    from posgmc.synthesis.search import SynthesisOptions
+    from posgmc.synthesis.options import SynthesisOptions
 
     session = api.load(MODELS / "beacon" / "beacon.posg")
     built = api.build(session)

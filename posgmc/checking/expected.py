@@ -28,7 +28,7 @@ from posgmc.errors import PosgmcError
 from posgmc.syntax.ast import ExpectedResult, Property
 
 if TYPE_CHECKING:
-    from posgmc.checking.multi import Front
+    from posgmc.checking.multi_objectives import Front
 
 __all__ = ["Verdict", "check_form", "expected_for", "grade", "DEFAULT_TOLERANCE"]
 

@@ -32,255 +32,50 @@ nominal LP answer is reported with a note that it is within the LP's tolerance.
 
 from __future__ import annotations
 
-import enum
 import math
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, TypedDict
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 import scipy.sparse as sp
 
+from posgmc.checking.multi_objectives import (
+    Front,
+    MultiAnswer,
+    MultiKind,
+    Objective,
+    ProductBuilder,
+    objectives_of,
+)
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.engines.multi.lp import LP_TOLERANCE, LPStatus, OccupationLP
 from posgmc.engines.multi.pareto import ParetoFront, pareto_front
 from posgmc.engines.multi.pareto_nd import pareto_front_nd
-from posgmc.engines.multi.settle import Condition, ConditionKind, Settling, settling
+from posgmc.engines.multi.settle import Condition, Settling, settling
 from posgmc.engines.multi.unfold import layer_rewards, unfold_steps
-from posgmc.errors import SemanticError, UnsupportedError
-from posgmc.model.explicit import ExplicitModel
+from posgmc.errors import UnsupportedError
 from posgmc.semantics.queries import reward_structure
 from posgmc.syntax.ast import (
-    NO_SPAN,
     ComparisonOp,
     Direction,
-    Expr,
     MultiQuery,
-    ProbQuery,
     RewardKind,
     RewardQuery,
-    Temporal,
-    TemporalOp,
-    Unary,
-    UnaryOp,
 )
 from posgmc.syntax.printer import format_expr
 
 if TYPE_CHECKING:
-    from posgmc.checking.dispatch import PropertyChecker
+    from posgmc.checking.protocols import StateFormulaChecker
 
-__all__ = ["MultiKind", "MultiAnswer", "Front", "answer_multi", "check_multi", "MARGIN"]
+__all__ = ["answer_multi", "check_multi", "MARGIN"]
 
 MARGIN = 1e-6
 """An achievability verdict is decided when the constraints hold, or fail, by at least this
 much (relative to ``max(1, |bound|)`` for rewards)."""
 
 
-class MultiKind(enum.Enum):
-    ACHIEVABILITY = "achievability"
-    NUMERICAL = "numerical"
-    PARETO = "pareto"
-
-
-@dataclass(frozen=True, eq=False)
-class Front:
-    """A Pareto front of n >= 2 objectives in the objectives' own units (a minimised one as
-    itself).
-
-    ``points``: float64[m, n], achievable vertices (the under-approximation is their convex
-    hull, closed towards the worse values); ``corners``: float64[k, n], the vertices of the
-    over-approximation (no strategy achieves a point beyond it); ``precision``: the largest
-    distance between the two (Euclidean for n = 2; for n >= 3 the largest uniform shift of a
-    corner, in every objective at once, into the under-approximation); ``converged``: every
-    segment (facet) was closed within the tolerance.
-    """
-
-    objectives: tuple[str, ...]
-    directions: tuple[Direction, ...]
-    points: np.ndarray
-    corners: np.ndarray
-    precision: float
-    solves: int
-    converged: bool
-
-    def text(self) -> str:
-        """PRISM's form: ``[(x1,y1),(x2,y2)]`` (n numbers per point for n objectives)."""
-        return "[" + ",".join("(" + ",".join(f"{v:.10g}" for v in p) + ")"
-                              for p in self.points) + "]"
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "objectives": list(self.objectives),
-            "directions": [d.value for d in self.directions],
-            "points": self.points.tolist(),
-            "over_approximation": self.corners.tolist(),
-            "precision": self.precision if math.isfinite(self.precision) else None,
-            "solves": self.solves,
-            "converged": self.converged,
-        }
-
-
-@dataclass(frozen=True, eq=False)
-class MultiAnswer:
-    """The typed answer to a ``multi(...)`` query.
-
-    ``achievable`` (achievability): the LP's verdict; ``decided``: it holds with the margin
-    ``margin`` (> 0: every constraint met with that much room; < 0: some constraint missed by
-    that much). ``value`` (numerical): the optimum in the objective's units (NaN: the constraints
-    cannot be met). ``front`` (Pareto). ``residual``: the largest violation of the LP's equations
-    by the solution reported. ``states``: the size of the LP's MDP (product and unfolding).
-    ``proven`` (achievability): ``true`` is proven: the strategy of the LP's solution, re-checked
-    by the sound engines on the chain it induces, meets every threshold. ``certified``
-    (numerical): a proven bound on the optimum from such a re-checked strategy, a lower bound for
-    a maximised objective, an upper bound for a minimised one (``minimised``; NaN: nothing
-    proven).
-    """
-
-    kind: MultiKind
-    objectives: tuple[str, ...]
-    achievable: bool | None = None
-    decided: bool = True
-    margin: float = float("nan")
-    value: float = float("nan")
-    front: Front | None = None
-    residual: float = 0.0
-    states: int = 0
-    seconds: float = 0.0
-    proven: bool = False
-    certified: float = float("nan")
-    minimised: bool = False
-
-
-@dataclass(frozen=True)
-class _Objective:
-    query: ProbQuery | RewardQuery
-    minimise: bool  # Pmin/Rmin, or an upper bound P<=p / R<=r: enters the LP complemented/negated
-    bound: float | None  # the threshold as written (None for =?)
-
-    @property
-    def is_probability(self) -> bool:
-        return isinstance(self.query, ProbQuery)
-
-    def lp_bound(self) -> float:
-        """The threshold in the LP's maximising sense."""
-        assert self.bound is not None  # noqa: S101
-        if not self.minimise:
-            return self.bound
-        return 1.0 - self.bound if self.is_probability else -self.bound
-
-    def reported(self, v: float) -> float:
-        """An LP value (maximising sense) in the objective's own units."""
-        if not self.minimise:
-            return v + 0.0
-        return 1.0 - v if self.is_probability else 0.0 - v
-
-    @property
-    def scale_of_bound(self) -> float:
-        return 1.0 if self.is_probability or self.bound is None else max(1.0, abs(self.bound))
-
-
-def _objectives(expr: MultiQuery, checker: PropertyChecker) -> list[_Objective]:
-    out = []
-    for q in expr.objectives:
-        if not isinstance(q, (ProbQuery, RewardQuery)):  # pragma: no cover - semantics reject it
-            raise SemanticError("each argument of multi(...) must be a P or R query", q.span)
-        if q.threshold is not None:
-            minimise = q.threshold.op in (ComparisonOp.LE, ComparisonOp.LT)
-            bound = float(checker.scalar(q.threshold.value))
-        else:
-            if q.direction is None:
-                raise SemanticError("=? in multi(...) needs a direction", q.span,
-                                    hint="write Pmax=?/Pmin=? or Rmax=?/Rmin=?")
-            minimise, bound = q.direction is Direction.MIN, None
-        out.append(_Objective(q, minimise, bound))
-    return out
-
-
 # -- translation to the LP ---------------------------------------------------------------------
-
-
-def _is_temporal(e: Expr) -> bool:
-    from posgmc.checking.dispatch import _is_temporal as temporal
-
-    return temporal(e)
-
-
-def _unary_chain(path: Expr, outer: TemporalOp, inner: TemporalOp) -> Expr | None:
-    """``a`` if ``path`` is ``outer inner a`` (``G F a``, ``F G a``) without bounds."""
-    if (
-        isinstance(path, Temporal) and path.op is outer and path.bound is None
-        and isinstance(path.operands[0], Temporal) and path.operands[0].op is inner
-        and path.operands[0].bound is None and not _is_temporal(path.operands[0].operands[0])
-    ):
-        return path.operands[0].operands[0]
-    return None
-
-
-class _Builder:
-    """The product MDP grown objective by objective, with each condition's mask kept current."""
-
-    def __init__(self, checker: PropertyChecker) -> None:
-        self.base = checker
-        self.model: ExplicitModel = checker.model
-        self.initial = int(checker.model.initial_states[0])
-        self.masks: list[tuple[ConditionKind, np.ndarray]] = []
-
-    def _checker(self) -> PropertyChecker:
-        from posgmc.checking.dispatch import PropertyChecker
-
-        b = self.base
-        return PropertyChecker(
-            self.model, coalition_of=b.coalition_of, scalar=b.scalar, options=b.options
-        )
-
-    def _states(self, e: Expr) -> np.ndarray:
-        values = self._checker().state_value(e).values
-        if values.dtype != np.bool_:
-            raise SemanticError("expected a boolean state formula", e.span)
-        return values
-
-    def _product(self, path: Expr) -> np.ndarray:
-        """Grow the product by the DFA of the co-safe ``path``; its accepting set."""
-        from posgmc.engines import ltl
-
-        atoms = ltl.extract_atoms(path)
-        dfa = ltl.to_dfa(path, atoms)
-        S = self.model.num_states
-        values = np.stack([self._states(a) for a in atoms]) if atoms else np.zeros((0, S), bool)
-        prod = ltl.product(self.model, dfa, values)
-        self.masks = [(k, m[prod.state_of]) for k, m in self.masks]
-        self.model = prod.model
-        self.initial = int(prod.initial_map[0])
-        return prod.accepting
-
-    def add_probability(self, obj: _Objective) -> int:
-        """Add the condition of a probability objective (in the LP's maximising sense)."""
-        from posgmc.engines import ltl
-
-        path = obj.query.path  # type: ignore[union-attr]
-        S = self.model.num_states
-        if not _is_temporal(path):
-            holds = bool(self._states(path)[self.initial])
-            cond = Condition(ConditionKind.INSIDE, np.full(S, holds))
-        elif (a := _unary_chain(path, TemporalOp.GLOBALLY, TemporalOp.EVENTUALLY)) is not None:
-            cond = Condition(ConditionKind.MEETS, self._states(a))
-        elif (a := _unary_chain(path, TemporalOp.EVENTUALLY, TemporalOp.GLOBALLY)) is not None:
-            cond = Condition(ConditionKind.INSIDE, self._states(a))
-        elif ltl.is_cosafe(path):
-            cond = Condition(ConditionKind.INSIDE, self._product(path))
-        else:
-            negated = Unary(UnaryOp.NOT, path, span=path.span)
-            if not ltl.is_cosafe(negated):
-                raise UnsupportedError(
-                    "multi(...) supports co-safe LTL, its negation (safety), G F a and F G a; "
-                    "this path formula is none of them",
-                    path.span if path.span != NO_SPAN else obj.query.span,
-                )
-            cond = Condition(ConditionKind.INSIDE, ~self._product(negated))
-        if obj.minimise:
-            cond = cond.negated()
-        self.masks.append((cond.kind, cond.states))
-        return len(self.masks) - 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -296,7 +91,7 @@ class _Parts:
 
 
 def _lp(
-    expr: MultiQuery, objectives: list[_Objective], checker: PropertyChecker
+    expr: MultiQuery, objectives: list[Objective], checker: StateFormulaChecker
 ) -> tuple[OccupationLP, int, _Parts]:
     """The occupation LP of the query (objective ``i`` is row ``i``), its number of states and
     the parts its strategy is re-checked on."""
@@ -307,7 +102,7 @@ def _lp(
             expr.span,
             hint="add an init ... endinit block, or initial values, that pick one state",
         )
-    builder = _Builder(checker)
+    builder = ProductBuilder(checker)
     condition_of = {
         i: builder.add_probability(o) for i, o in enumerate(objectives) if o.is_probability
     }
@@ -317,7 +112,7 @@ def _lp(
     for i, o in enumerate(objectives):
         if isinstance(o.query, RewardQuery):
             if o.query.objective.kind is RewardKind.CUMULATIVE:
-                bounds[i] = checker._int(o.query.objective.bound)
+                bounds[i] = checker.step_bound(o.query.objective.bound)
                 last = max(last, bounds[i] or 0)
             else:
                 bounds[i] = None
@@ -390,15 +185,15 @@ def _settles_almost_surely(
     return bool(region[initial])
 
 
-def _certify(parts: _Parts, objectives: list[_Objective], x: np.ndarray) -> np.ndarray:
+def _certify(parts: _Parts, objectives: list[Objective], x: np.ndarray) -> np.ndarray:
     """Proven lower bounds, in the LP's maximising sense, on every objective's value under the
     strategy of the LP solution ``x`` (:mod:`posgmc.engines.multi.scheduler`): sound interval
     iteration on the chain it induces. A bound is ``-inf`` where nothing is proven."""
-    from posgmc.engines.multi.scheduler import induced_chain
+    from posgmc.engines.multi.scheduler import occupation_chain
     from posgmc.engines.reach import reach_probability
     from posgmc.engines.total import total_reward
 
-    chain = induced_chain(parts.transitions, parts.groups, parts.initial, parts.settling, x,
+    chain = occupation_chain(parts.transitions, parts.groups, parts.initial, parts.settling, x,
                           parts.rewards)
     m = chain.model
     s0 = int(m.initial_states[0])
@@ -420,7 +215,11 @@ def _certify(parts: _Parts, objectives: list[_Objective], x: np.ndarray) -> np.n
 
 
 def answer_multi(
-    checker: PropertyChecker, expr: MultiQuery, *, tolerance: float = 1e-6, max_solves: int = 200
+    checker: StateFormulaChecker,
+    expr: MultiQuery,
+    *,
+    tolerance: float = 1e-6,
+    max_solves: int = 200,
 ) -> MultiAnswer:
     """Answer a ``multi(...)`` query on the checker's model (see the module docstring).
 
@@ -439,7 +238,7 @@ def answer_multi(
 
         return answer_game(checker, expr)
     start = time.perf_counter()
-    objectives = _objectives(expr, checker)
+    objectives = objectives_of(expr, checker)
     texts = tuple(format_expr(o.query) for o in objectives)
     lp, num_states, parts = _lp(expr, objectives, checker)
     at_least = {i: o.lp_bound() for i, o in enumerate(objectives) if o.bound is not None}
@@ -503,7 +302,7 @@ def answer_multi(
                        seconds=time.perf_counter() - start)
 
 
-def _meets(objectives: list[_Objective], lower: np.ndarray, at_least: dict[int, float]) -> bool:
+def _meets(objectives: list[Objective], lower: np.ndarray, at_least: dict[int, float]) -> bool:
     """Every threshold holds for the proven lower bounds (strictly for ``>``/``<``)."""
     for k, v in at_least.items():
         t = objectives[k].query.threshold
@@ -516,7 +315,7 @@ def _meets(objectives: list[_Objective], lower: np.ndarray, at_least: dict[int, 
 def _certified_optimum(
     lp: OccupationLP,
     parts: _Parts,
-    objectives: list[_Objective],
+    objectives: list[Objective],
     i: int,
     weights: np.ndarray,
     at_least: dict[int, float],
@@ -545,7 +344,7 @@ def _certified_optimum(
 
 
 def check_multi(
-    checker: PropertyChecker, expr: MultiQuery, *, text: str, name: str | None
+    checker: StateFormulaChecker, expr: MultiQuery, *, text: str, name: str | None
 ) -> PropertyResult:
     """A ``multi(...)`` property as a :class:`PropertyResult` (``multi`` holds the typed answer)."""
     a = answer_multi(checker, expr)

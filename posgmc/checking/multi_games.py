@@ -24,6 +24,13 @@ from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 
+from posgmc.checking.multi_objectives import (
+    Front,
+    MultiAnswer,
+    MultiKind,
+    ProductBuilder,
+    objectives_of,
+)
 from posgmc.engines.graph import end_components
 from posgmc.engines.multi import polygon
 from posgmc.engines.multi.games import coalition_sets
@@ -33,10 +40,10 @@ from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics.queries import reward_structure
 from posgmc.syntax.ast import Direction, MultiQuery, ProbQuery, RewardQuery
 from posgmc.syntax.printer import format_expr
+from posgmc.syntax.traversal import is_temporal
 
 if TYPE_CHECKING:
-    from posgmc.checking.dispatch import PropertyChecker
-    from posgmc.checking.multi import MultiAnswer
+    from posgmc.checking.protocols import StateFormulaChecker
 
 __all__ = ["answer_game"]
 
@@ -62,21 +69,13 @@ def _terminal(model: ExplicitModel) -> np.ndarray:
     return out
 
 
-def answer_game(checker: PropertyChecker, expr: MultiQuery) -> MultiAnswer:
+def answer_game(checker: StateFormulaChecker, expr: MultiQuery) -> MultiAnswer:
     """Answer ``<<C>> (q1 & q2)`` on an smg (see the module docstring).
 
     Raises:
         UnsupportedError: the game is not stopping, an objective is outside the fragment, or the
             model has several initial states.
     """
-    from posgmc.checking.multi import (
-        Front,
-        MultiAnswer,
-        MultiKind,
-        _Builder,
-        _is_temporal,
-        _objectives,
-    )
     from posgmc.engines import ltl
 
     start = time.perf_counter()
@@ -85,14 +84,14 @@ def answer_game(checker: PropertyChecker, expr: MultiQuery) -> MultiAnswer:
         raise UnsupportedError(
             "a multi-objective game query needs a single initial state", expr.span
         )
-    objectives = _objectives(expr, checker)
+    objectives = objectives_of(expr, checker)
     texts = tuple(format_expr(o.query) for o in objectives)
-    builder = _Builder(checker)
+    builder = ProductBuilder(checker)
     accepting: dict[int, int] = {}
     for i, o in enumerate(objectives):
         if isinstance(o.query, ProbQuery):
             path = o.query.path
-            if not _is_temporal(path) or not ltl.is_cosafe(path):
+            if not is_temporal(path) or not ltl.is_cosafe(path):
                 raise UnsupportedError(
                     "in games multi-objective probabilities are of co-safe LTL formulas "
                     '(F "goal", a U b, ...)',

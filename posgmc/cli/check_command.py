@@ -126,7 +126,7 @@ def check(
 ) -> None:
     """Check PROPS (files) and --prop properties on MODEL."""
     from posgmc import api
-    from posgmc.checking.dispatch import CheckOptions
+    from posgmc.checking.property_checker import CheckOptions
     from posgmc.engines.options import Method, SolverOptions
 
     def run() -> int:

@@ -104,7 +104,7 @@ def _gap(_ctx: Any, _param: Any, value: str | None) -> Any:
     if value is None:
         return None
     from posgmc.errors import InputError
-    from posgmc.synthesis.bracket import Gap
+    from posgmc.synthesis.options import Gap
 
     try:
         return Gap.parse(value)
@@ -145,8 +145,8 @@ def synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
     """``--memory`` settings as memory sizes: ``2``, ``1..3``, ``auto`` (1..3) for the property's
     coalition, or ``PLAYER=...`` for a named player (the decision maker or the adversary);
     ``started``: where the first property's budget starts (``SynthesisOptions.started``);
-    ``gap``: the ``--gap`` (a :class:`~posgmc.synthesis.bracket.Gap`) or None."""
-    from posgmc.synthesis.search import SynthesisOptions
+    ``gap``: the ``--gap`` (a :class:`~posgmc.synthesis.options.Gap`) or None."""
+    from posgmc.synthesis.options import SynthesisOptions
 
     settings = [memory] if isinstance(memory, str) else list(memory)
     unnamed: tuple[int, ...] = (1, 2, 3)

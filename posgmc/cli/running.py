@@ -60,7 +60,7 @@ def error_json(error: PosgmcError) -> list[dict[str, Any]]:
 def guard(
     debug: bool, fn: Callable[[], int], *, as_json: bool = False, consts: Sequence[str] = ()
 ) -> NoReturn:
-    from posgmc.deep import deep_call
+    from posgmc.deep_stack import deep_call
 
     try:
         code = deep_call(fn)

@@ -68,8 +68,8 @@ def test(
     import time
 
     from posgmc import api
-    from posgmc.checking.dispatch import CheckOptions
     from posgmc.checking.expected import expected_for, grade
+    from posgmc.checking.property_checker import CheckOptions
     from posgmc.compiler.options import BuildOptions
     from posgmc.io.junit import Case, write_junit
 

@@ -32,7 +32,7 @@ from collections.abc import Callable
 import numpy as np
 
 from posgmc.compiler.assemble import assemble
-from posgmc.compiler.exact import exact_model, explore_exact
+from posgmc.compiler.exact_explore import exact_model, explore_exact
 from posgmc.compiler.explore import explore
 from posgmc.compiler.options import BuildOptions, BuildResult, ProgressMode, ValidationMode
 from posgmc.compiler.program import compile_program
@@ -50,7 +50,7 @@ def build_model(
     """Build the explicit model of an instantiated model.
 
     Args:
-        flat: the checked, instantiated model (``posgmc.semantics.checker.instantiate``).
+        flat: the checked, instantiated model (``posgmc.semantics.stages.instantiate``).
         options: state limit, deadlock handling, progress, observations, validation.
         on_states: called with the number of states found so far after every batch of the
             exploration (``api.build`` starts loading the engines' compiled kernels once a model

@@ -37,7 +37,8 @@ class BuildOptions:
     the update probabilities of a command may sum from 1. ``initial_state_limit``: the largest
     number of candidate valuations enumerated for an ``init ... endinit`` predicate (after fixing
     the variables it pins to one value). ``exact``: explore in rational arithmetic (PRISM's
-    ``-exact``, :mod:`posgmc.compiler.exact`): the model carries its exact transition probabilities.
+    ``-exact``, :mod:`posgmc.compiler.exact_explore`): the model carries its exact transition
+    probabilities.
     """
 
     state_limit: int = 50_000_000

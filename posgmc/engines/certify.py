@@ -1,9 +1,9 @@
 """Proven bounds around a policy-iteration solution: a-posteriori certificates for least fixpoints.
 
-Policy iteration (:mod:`posgmc.engines.exact`) ends with a float vector ``x`` and a profile
-``sigma`` (one row per unknown state) from sparse LU solves. ``x`` is accurate, but a float solve
-proves nothing, and value iteration from below (the lower half of interval iteration) crawls on
-*stiff* systems: a randomised strategy that leaves a loop with probability 1e-4 needs about 10^4
+Policy iteration (:mod:`posgmc.engines.policy_iteration`) ends with a float vector ``x`` and a
+profile ``sigma`` (one row per unknown state) from sparse LU solves. ``x`` is accurate, but a float
+solve proves nothing, and value iteration from below (the lower half of interval iteration) crawls
+on *stiff* systems: a randomised strategy that leaves a loop with probability 1e-4 needs about 10^4
 steps per digit. This module turns ``x`` into proven bounds with one or two more solves, for the
 least fixpoint ``lfp B`` of the Bellman operator of a :class:`~posgmc.engines.system.System`
 (``B(x)(s) = opt_r (b[r] + A[r] x)``, maximising states first)::
@@ -62,7 +62,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from posgmc.engines import exact as ex
+from posgmc.engines import policy_iteration as ex
 from posgmc.engines.rational import solve_dense
 from posgmc.engines.system import System, choice_values, reduce_rows
 

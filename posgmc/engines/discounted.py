@@ -13,18 +13,18 @@ from dataclasses import replace
 
 import numpy as np
 
-from posgmc.engines.common import (
-    _bool,
-    _check_rewards,
-    _directions,
-    _exact_result,
-    _local_rows,
-    _solve_system,
-)
 from posgmc.engines.graph import structure_of
 from posgmc.engines.iteration import EndComponents, solve_discounted
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.solving import (
+    bool_mask,
+    check_rewards,
+    directions_of,
+    exact_result,
+    local_rows,
+    solve_system,
+)
 from posgmc.engines.system import build_system
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
@@ -47,10 +47,10 @@ def discounted_total_reward(
     Returns:
         The :class:`EngineResult` with an optimal memoryless strategy.
     """
-    r = _check_rewards(model, rewards, nonnegative=False)
+    r = check_rewards(model, rewards, nonnegative=False)
     S = model.num_states
     return _discounted(
-        model, r, np.ones(S, dtype=bool), float(discount), _directions(model, maximize), options
+        model, r, np.ones(S, dtype=bool), float(discount), directions_of(model, maximize), options
     )
 
 
@@ -68,9 +68,9 @@ def discounted_reach_reward(
     Returns:
         The :class:`EngineResult` with an optimal memoryless strategy.
     """
-    r = _check_rewards(model, rewards, nonnegative=False)
-    tgt = _bool(target, model.num_states, False)
-    return _discounted(model, r, ~tgt, float(discount), _directions(model, maximize), options)
+    r = check_rewards(model, rewards, nonnegative=False)
+    tgt = bool_mask(target, model.num_states, False)
+    return _discounted(model, r, ~tgt, float(discount), directions_of(model, maximize), options)
 
 
 def _discounted(
@@ -92,7 +92,7 @@ def _discounted(
     upper = np.zeros(S)
     strategy = np.full(S, -1, dtype=np.int64) if options.want_strategy else None
     if not unknown.any():
-        return _exact_result(x, 0, options.method, started, strategy=strategy)
+        return exact_result(x, 0, options.method, started, strategy=strategy)
     base = build_system(g, unknown, maximize=mx, choice_offset=r)
     scaled = base.matrix.copy()
     scaled.data *= discount
@@ -102,7 +102,7 @@ def _discounted(
     converged = True
     solved = None
     if options.method in (Method.EXACT, Method.POLICY) and sys.n:
-        solved = _solve_system(
+        solved = solve_system(
             sys,
             options,
             cap=np.inf,
@@ -112,7 +112,7 @@ def _discounted(
             idle_min=False,
             is_chain=model.model_type is ModelType.DTMC,
             initial_rows=(None if options.initial_strategy is None
-                          else _local_rows(sys, options.initial_strategy)),
+                          else local_rows(sys, options.initial_strategy)),
             interval=lambda: solve_discounted(sys, replace(options, method=Method.INTERVAL))[0],
         )
         lo, hi = solved.lower, solved.upper

@@ -19,7 +19,7 @@ Bellman steps. Discounted objectives get sound bounds from the contraction facto
 
 Where each part lives:
 
-* :mod:`posgmc.engines.common` -- :func:`maximize_mask`, argument checks, the solve dispatch
+* :mod:`posgmc.engines.solving` -- :func:`maximize_mask`, argument checks, the solve dispatch
   (step 2), result assembly and the attractor fix (step 3), shared by all below;
 * :mod:`posgmc.engines.reach` -- :func:`reach_probability`, :func:`bounded_reach_probability`,
   :func:`next_probability`;
@@ -36,11 +36,11 @@ Where each part lives:
 
 from __future__ import annotations
 
-from posgmc.engines.common import maximize_mask
 from posgmc.engines.discounted import discounted_reach_reward, discounted_total_reward
 from posgmc.engines.rational import exact_rational_reach
 from posgmc.engines.reach import bounded_reach_probability, next_probability, reach_probability
 from posgmc.engines.rewards import ReachRewardMode, expected_reach_reward
+from posgmc.engines.solving import maximize_mask
 from posgmc.engines.stepped import cumulative_reward, instantaneous_reward
 from posgmc.engines.strategy import induced_chain
 from posgmc.engines.total import total_reward

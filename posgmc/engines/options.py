@@ -25,7 +25,7 @@ class Method(enum.Enum):
     direct sparse LU solve for a dtmc and policy iteration to optimality for an mdp/smg. Both
     report bounds proven by :func:`~posgmc.engines.certify.certify`, or by interval iteration
     where no certificate is found; ``INTERVAL`` tries that certificate too once its iteration
-    turns out stiff (:mod:`posgmc.engines.common`).
+    turns out stiff (:mod:`posgmc.engines.solving`).
     """
 
     INTERVAL = "interval"

@@ -2,7 +2,7 @@
 
 Unbounded until: graph precomputation settles the states with probability 0 or 1 exactly (for
 games the attractor-based versions, see :mod:`posgmc.engines.graph`); the rest is solved as a
-:class:`~posgmc.engines.system.System` (see :mod:`posgmc.engines.common`), and the strategy
+:class:`~posgmc.engines.system.System` (see :mod:`posgmc.engines.solving`), and the strategy
 comes from the almost-sure attractor, the minimiser's avoiding choices and the attractor fix.
 Step-bounded ``U<=k`` and ``X`` are exact up to floating point: k Bellman steps (lower step bounds
 are in :mod:`posgmc.engines.step_bounds`).
@@ -14,20 +14,20 @@ import time
 
 import numpy as np
 
-from posgmc.engines.common import (
-    _bool,
-    _directions,
-    _exact_result,
-    _first_choices,
-    _local_rows,
-    _reacher_fix,
-    _result,
-    _solve_system,
-)
 from posgmc.engines.graph import Structure, almost_sure_reach, positive_reach, structure_of
 from posgmc.engines.iteration import EndComponents
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.solving import (
+    bool_mask,
+    directions_of,
+    engine_result,
+    exact_result,
+    first_choices,
+    local_rows,
+    reacher_fix,
+    solve_system,
+)
 from posgmc.engines.stepped import bellman_steps
 from posgmc.engines.system import argopt_rows, build_system, reduce_rows
 from posgmc.errors import PosgmcError
@@ -63,9 +63,9 @@ def reach_probability(
     """
     started = time.perf_counter()
     S = model.num_states
-    tgt = _bool(target, S, False)
-    rem = _bool(remain, S, True)
-    mx = _directions(model, maximize)
+    tgt = bool_mask(target, S, False)
+    rem = bool_mask(remain, S, True)
+    mx = directions_of(model, maximize)
     g = structure_of(model)
     layer = np.full(S, -1, dtype=np.int64)
     pos = positive_reach(g, tgt, rem, existential=mx, layer=layer)
@@ -80,7 +80,7 @@ def reach_probability(
             g, unknown, maximize=mx, fixed=known_values, layer=layer, topological=True
         )
         nondet = model.model_type is not ModelType.DTMC
-        solved = _solve_system(
+        solved = solve_system(
             sys,
             options,
             cap=1.0,
@@ -90,11 +90,11 @@ def reach_probability(
             idle_min=True,
             is_chain=not nondet,
             initial_rows=(None if options.initial_strategy is None
-                          else _local_rows(sys, options.initial_strategy)),
+                          else local_rows(sys, options.initial_strategy)),
         )
     strategy = None
     if options.want_strategy:
-        strategy = _first_choices(model)
+        strategy = first_choices(model)
         if model.model_type is not ModelType.DTMC:
             # value 1: the maximiser follows the almost-sure attractor
             w = one & mx & (one_witness >= 0)
@@ -105,12 +105,12 @@ def reach_probability(
             strategy[a] = avoid[a]
             if sys is not None and solved is not None and solved.best_rows is not None:
                 strategy[sys.states] = solved.best_rows
-                _reacher_fix(
+                reacher_fix(
                     g, strategy, solved, sys, goal=tgt | one, goal_choices=None, reacher=mx
                 )
             # target states and states outside ``remain`` decide nothing
             strategy[tgt | ~rem] = -1
-    return _result(
+    return engine_result(
         model,
         ~unknown,
         known_values,
@@ -145,9 +145,9 @@ def bounded_reach_probability(
     if steps < 0:
         raise PosgmcError(f"a step bound must be non-negative, got {steps}")
     S = model.num_states
-    tgt = _bool(target, S, False)
-    rem = _bool(remain, S, True)
-    mx = _directions(model, maximize)
+    tgt = bool_mask(target, S, False)
+    rem = bool_mask(remain, S, True)
+    mx = directions_of(model, maximize)
     g = structure_of(model)
     pos = positive_reach(g, tgt, rem, existential=mx)
     unknown = pos & ~tgt
@@ -157,7 +157,7 @@ def bounded_reach_probability(
         sys = build_system(g, unknown, maximize=mx, fixed=x)
         local, iterations = bellman_steps(sys, np.zeros(sys.n), steps)
         x[sys.states] = local
-    return _exact_result(x, iterations, options.method, started)
+    return exact_result(x, iterations, options.method, started)
 
 
 def next_probability(
@@ -174,8 +174,8 @@ def next_probability(
     """
     started = time.perf_counter()
     S = model.num_states
-    tgt = _bool(target, S, False)
-    mx = _directions(model, maximize)
+    tgt = bool_mask(target, S, False)
+    mx = directions_of(model, maximize)
     g = structure_of(model)
     sys = build_system(g, np.ones(S, dtype=bool), maximize=mx, fixed=tgt.astype(np.float64))
     # all states are unknown, so the target mass must enter through the offset
@@ -187,7 +187,7 @@ def next_probability(
     if options.want_strategy:
         strategy = np.full(S, -1, dtype=np.int64)
         strategy[sys.states] = sys.rows[argopt_rows(sys, y)]
-    return _exact_result(x, 1, options.method, started, strategy=strategy)
+    return exact_result(x, 1, options.method, started, strategy=strategy)
 
 
 def _any_choice_avoiding(g: Structure, avoid: np.ndarray, states: np.ndarray) -> np.ndarray:

@@ -19,19 +19,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from posgmc.engines.common import (
-    _bool,
-    _check_rewards,
-    _directions,
-    _first_choices,
-    _local_rows,
-    _reacher_fix,
-    _result,
-    _solve_system,
-    _Solved,
-    _state_text,
-    _unsafe,
-)
 from posgmc.engines.graph import (
     Structure,
     almost_sure_reach,
@@ -43,6 +30,19 @@ from posgmc.engines.iteration import Bounds, EndComponents
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.result import EngineResult
 from posgmc.engines.signed import proper_region, solve_proper, start_bounds, value_iteration
+from posgmc.engines.solving import (
+    Solved,
+    bool_mask,
+    check_rewards,
+    directions_of,
+    engine_result,
+    first_choices,
+    local_rows,
+    reacher_fix,
+    solve_system,
+    state_text,
+    unsafe_states,
+)
 from posgmc.engines.system import System, build_system, choose
 from posgmc.engines.total import _total
 from posgmc.engines.zero_reward import _reach_reward_zero
@@ -113,9 +113,9 @@ def expected_reach_reward(
             ``ReachRewardMode.ZERO`` on an mdp or smg with non-integer rewards (as in PRISM-games)
             or with unbounded rewards before the target.
     """
-    tgt = _bool(target, model.num_states, False)
+    tgt = bool_mask(target, model.num_states, False)
     if mode is ReachRewardMode.ZERO:
-        r = _check_rewards(
+        r = check_rewards(
             model,
             rewards,
             nonnegative=True,
@@ -123,9 +123,9 @@ def expected_reach_reward(
             hint="use R[F ...]: it accepts negative rewards when every strategy reaches the target "
             "with probability 1",
         )
-        return _reach_reward_zero(model, r, tgt, _directions(model, maximize), options)
-    r = _check_rewards(model, rewards, nonnegative=False)
-    mx = _directions(model, maximize)
+        return _reach_reward_zero(model, r, tgt, directions_of(model, maximize), options)
+    r = check_rewards(model, rewards, nonnegative=False)
+    mx = directions_of(model, maximize)
     if mode is ReachRewardMode.CUMULATIVE:
         if np.any((r < 0) & ~tgt[structure_of(model).choice_state]):
             return _reach_reward_cumulative_signed(model, r, tgt, mx, options)
@@ -147,7 +147,7 @@ def _reach_reward_infinity(
     infinite = ~finite
     unknown = finite & ~tgt
     known_values = np.where(infinite, np.inf, 0.0)
-    allowed = ~_unsafe(g, finite)
+    allowed = ~unsafe_states(g, finite)
     sys = None
     solved = None
     if unknown.any():
@@ -166,10 +166,10 @@ def _reach_reward_infinity(
                 finite=finite,
                 allowed=allowed,
                 options=options,
-                initial_rows=_local_rows(sys, finite_witness),
+                initial_rows=local_rows(sys, finite_witness),
             )
         else:
-            solved = _solve_system(
+            solved = solve_system(
                 sys,
                 options,
                 cap=np.inf,
@@ -177,18 +177,18 @@ def _reach_reward_infinity(
                 num_choices=model.num_choices,
                 outer_max=False,
                 idle_min=False,
-                initial_rows=_local_rows(sys, finite_witness),
+                initial_rows=local_rows(sys, finite_witness),
                 is_chain=dtmc,
             )
     strategy = None
     if options.want_strategy:
-        strategy = _first_choices(model)
+        strategy = first_choices(model)
         if not dtmc:
             w = finite & reacher & (finite_witness >= 0)
             strategy[w] = finite_witness[w]
             if sys is not None and solved is not None and solved.best_rows is not None:
                 strategy[sys.states] = solved.best_rows
-                _reacher_fix(g, strategy, solved, sys, goal=tgt, goal_choices=None, reacher=reacher)
+                reacher_fix(g, strategy, solved, sys, goal=tgt, goal_choices=None, reacher=reacher)
             if (infinite & mx).any():
                 # the maximiser keeps away from the target with positive probability: a positive
                 # Büchi strategy for "any choice outside the target" (target absorbing)
@@ -196,7 +196,7 @@ def _reach_reward_infinity(
                 w = infinite & mx & (keep_away >= 0)
                 strategy[w] = keep_away[w]
         strategy[tgt] = -1
-    return _result(
+    return engine_result(
         model,
         ~unknown,
         known_values,
@@ -219,7 +219,7 @@ def _solve_signed(
     allowed: np.ndarray,
     options: SolverOptions,
     initial_rows: np.ndarray,
-) -> _Solved:
+) -> Solved:
     """``R[F tgt]`` on ``sys`` (the finite, non-target states) when a usable choice has a negative
     reward: supported when every strategy profile over the usable choices reaches the target almost
     surely (a stochastic shortest path problem whose policies are all proper, see
@@ -242,7 +242,7 @@ def _solve_signed(
     if options.method in (Method.EXACT, Method.POLICY):
         # every policy is proper: policy evaluation is a non-singular linear solve and strict
         # improvements terminate at the optimum, whatever the reward signs
-        return _solve_system(
+        return solve_system(
             sys,
             options,
             cap=np.inf,
@@ -266,7 +266,7 @@ def _solve_signed(
         best_rows = sys.rows[best]
         candidates = np.zeros(model.num_choices, dtype=bool)
         candidates[sys.rows[cand]] = True
-    return _Solved(
+    return Solved(
         bounds.lower,
         bounds.upper,
         bounds.iterations,
@@ -335,8 +335,8 @@ def _improper_error(
     )
     return UnsupportedError(
         f"{objective} with negative rewards (e.g. {r[c]:g} in "
-        f"{_state_text(model, int(g.choice_state[c]))}) is only supported when every strategy "
-        f"profile reaches the target with probability 1 {scope}; from {_state_text(model, s)} "
+        f"{state_text(model, int(g.choice_state[c]))}) is only supported when every strategy "
+        f"profile reaches the target with probability 1 {scope}; from {state_text(model, s)} "
         "some profile avoids the target with positive probability (it can stay in an end "
         f"component forever){why}",
         hint="make the target reachable with probability 1 under every strategy (no end "

@@ -67,7 +67,7 @@ def interval_reach_probability(
         lower_steps: k1 >= 0, the first step at which ``target`` counts.
         upper_steps: k2 >= k1, the last such step; None for no upper bound.
         maximize: bool[S], True where the state's owner maximises the probability (the convention
-            of :func:`~posgmc.engines.common.maximize_mask`).
+            of :func:`~posgmc.engines.solving.maximize_mask`).
         options: solver options, used for the unbounded part (``upper_steps`` None).
 
     Returns:

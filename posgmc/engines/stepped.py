@@ -12,10 +12,10 @@ import time
 
 import numpy as np
 
-from posgmc.engines.common import _check_rewards, _directions, _exact_result
 from posgmc.engines.graph import structure_of
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.solving import check_rewards, directions_of, exact_result
 from posgmc.engines.system import System, bellman, build_system
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import ExplicitModel
@@ -59,8 +59,8 @@ def cumulative_reward(
     started = time.perf_counter()
     if steps < 0:
         raise PosgmcError(f"a step bound must be non-negative, got {steps}")
-    r = _check_rewards(model, rewards, nonnegative=False)
-    mx = _directions(model, maximize)
+    r = check_rewards(model, rewards, nonnegative=False)
+    mx = directions_of(model, maximize)
     S = model.num_states
     x = np.zeros(S)
     if steps > 0:
@@ -69,8 +69,8 @@ def cumulative_reward(
         )
         local, done = bellman_steps(sys, np.zeros(S), steps)
         x[sys.states] = local
-        return _exact_result(x, done, options.method, started)
-    return _exact_result(x, 0, options.method, started)
+        return exact_result(x, done, options.method, started)
+    return exact_result(x, 0, options.method, started)
 
 
 def instantaneous_reward(
@@ -93,12 +93,12 @@ def instantaneous_reward(
     sr = np.asarray(state_rewards, dtype=np.float64)
     if sr.shape != (S,):
         raise PosgmcError(f"state rewards need one entry per state ({S}), got {sr.shape}")
-    mx = _directions(model, maximize)
+    mx = directions_of(model, maximize)
     x = sr.copy()
     if steps > 0:
         sys = build_system(structure_of(model), np.ones(S, dtype=bool), maximize=mx)
         local, done = bellman_steps(sys, sr[sys.states], steps)
         x = np.empty(S)
         x[sys.states] = local
-        return _exact_result(x, done, options.method, started)
-    return _exact_result(x, 0, options.method, started)
+        return exact_result(x, done, options.method, started)
+    return exact_result(x, 0, options.method, started)

@@ -13,20 +13,20 @@ import time
 
 import numpy as np
 
-from posgmc.engines.common import (
-    _check_rewards,
-    _directions,
-    _first_choices,
-    _local_rows,
-    _reacher_fix,
-    _result,
-    _solve_system,
-    _unsafe,
-)
 from posgmc.engines.graph import almost_sure_reach, positive_buchi, safe_region, structure_of
 from posgmc.engines.iteration import EndComponents
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.result import EngineResult
+from posgmc.engines.solving import (
+    check_rewards,
+    directions_of,
+    engine_result,
+    first_choices,
+    local_rows,
+    reacher_fix,
+    solve_system,
+    unsafe_states,
+)
 from posgmc.engines.system import build_system
 from posgmc.model.explicit import ExplicitModel
 from posgmc.model.types import ModelType
@@ -54,7 +54,7 @@ def total_reward(
         infinitely often with positive probability (graph analysis), 0 exactly where the minimiser
         avoids every reward forever, bounds elsewhere.
     """
-    r = _check_rewards(
+    r = check_rewards(
         model,
         rewards,
         nonnegative=True,
@@ -64,7 +64,7 @@ def total_reward(
         "reaches with probability 1",
     )
     return _total(
-        model, r, np.zeros(model.num_states, dtype=bool), _directions(model, maximize), options
+        model, r, np.zeros(model.num_states, dtype=bool), directions_of(model, maximize), options
     )
 
 
@@ -86,13 +86,13 @@ def _total(
     zero, zero_choice = safe_region(g, finite & ~tgt, existential=~spoiler, good=~good, frozen=tgt)
     unknown = finite & ~zero & ~tgt
     known_values = np.where(infinite, np.inf, 0.0)
-    allowed = ~_unsafe(g, finite)
+    allowed = ~unsafe_states(g, finite)
     sys = None
     solved = None
     if unknown.any():
         sys = build_system(g, unknown, maximize=mx, allowed=allowed, choice_offset=r)
         reach_zero, zero_witness = almost_sure_reach(g, zero | tgt, finite, existential=~spoiler)
-        solved = _solve_system(
+        solved = solve_system(
             sys,
             options,
             cap=np.inf,
@@ -101,25 +101,25 @@ def _total(
             outer_max=True,
             idle_min=True,
             unbounded=True,
-            initial_rows=_local_rows(sys, np.where(reach_zero, zero_witness, -1)),
+            initial_rows=local_rows(sys, np.where(reach_zero, zero_witness, -1)),
             is_chain=dtmc,
         )
     strategy = None
     if options.want_strategy:
-        strategy = _first_choices(model)
+        strategy = first_choices(model)
         if not dtmc:
             z = zero & ~spoiler & (zero_choice >= 0)
             strategy[z] = zero_choice[z]
             if sys is not None and solved is not None and solved.best_rows is not None:
                 strategy[sys.states] = solved.best_rows
                 # the maximiser must not idle in a zero-reward end component it could leave
-                _reacher_fix(
+                reacher_fix(
                     g, strategy, solved, sys, goal=zero | tgt, goal_choices=good, reacher=spoiler
                 )
             w = infinite & spoiler & (infinite_witness >= 0)
             strategy[w] = infinite_witness[w]
         strategy[tgt] = -1
-    return _result(
+    return engine_result(
         model,
         ~unknown,
         known_values,

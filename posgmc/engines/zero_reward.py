@@ -15,12 +15,12 @@ from dataclasses import replace
 import numpy as np
 import scipy.sparse as sp
 
-from posgmc.engines.common import _exact_result, _first_choices, _solve_system
 from posgmc.engines.graph import structure_of
 from posgmc.engines.iteration import EndComponents, solve
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.reach import reach_probability
 from posgmc.engines.result import EngineResult
+from posgmc.engines.solving import exact_result, first_choices, solve_system
 from posgmc.engines.system import build_system
 from posgmc.engines.total import _total
 from posgmc.errors import UnsupportedError
@@ -44,11 +44,11 @@ def _reach_reward_zero(
     g = structure_of(model)
     unknown = (p_hi > 0) & ~tgt
     if not unknown.any():
-        return _exact_result(np.zeros(S), prob.iterations, options.method, started)
+        return exact_result(np.zeros(S), prob.iterations, options.method, started)
     # bounds on r * p give bounds on the (linear, monotone) solution
     sys_lo = build_system(g, unknown, maximize=mx, choice_offset=r * p_lo[g.choice_state])
     sys_hi = build_system(g, unknown, maximize=mx, choice_offset=r * p_hi[g.choice_state])
-    a = _solve_system(
+    a = solve_system(
         sys_lo,
         options,
         cap=np.inf,
@@ -58,7 +58,7 @@ def _reach_reward_zero(
         idle_min=True,
         is_chain=True,
     )
-    b = _solve_system(
+    b = solve_system(
         sys_hi,
         options,
         cap=np.inf,
@@ -82,7 +82,7 @@ def _reach_reward_zero(
         method=options.method,
         seconds=time.perf_counter() - started,
         sound=options.method is not Method.VALUE,
-        strategy=_first_choices(model) if options.want_strategy else None,
+        strategy=first_choices(model) if options.want_strategy else None,
     )
 
 

@@ -6,13 +6,6 @@ Entry points (``checker.py``): :func:`check_model` / :func:`check_properties` li
 consume. ``constants.py`` reads the command line's ``--const`` settings.
 """
 
-from posgmc.semantics.checker import (
-    CheckedProperty,
-    check_model,
-    check_properties,
-    instantiate,
-    instantiate_properties,
-)
 from posgmc.semantics.constants import (
     ConstRange,
     ConstSetting,
@@ -20,6 +13,13 @@ from posgmc.semantics.constants import (
     parse_const_assignments,
 )
 from posgmc.semantics.queries import QueryResolver, ResolvedQuery
+from posgmc.semantics.stages import (
+    CheckedProperty,
+    check_model,
+    check_properties,
+    instantiate,
+    instantiate_properties,
+)
 
 __all__ = [
     "CheckedProperty",

@@ -516,7 +516,7 @@ def instantiate_properties(
 
     Args:
         props: a parsed properties file, or properties.
-        flat_model: the instantiated model (from :func:`posgmc.semantics.checker.instantiate`,
+        flat_model: the instantiated model (from :func:`posgmc.semantics.stages.instantiate`,
             with the same ``constants``).
         model: the model file ``flat_model`` was made from (for its formulas and constants).
         constants: values of undefined constants of the model and of the properties file.

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from posgmc.checking.dispatch import (
+from posgmc.checking.property_checker import (
     CheckOptions,
     CoalitionResolver,
     PropertyChecker,
@@ -161,7 +161,7 @@ def simulate(
         expr: ``P=? [F φ]``, ``P=? [a U b]`` (optionally ``F<=k``/``U<=k``) or ``R=? [F φ]``.
         strategies: finite-state strategies by player name.
         text: the property as written (for the report).
-        coalition_of, scalar: as for :class:`~posgmc.checking.dispatch.PropertyChecker`.
+        coalition_of, scalar: as for :class:`~posgmc.checking.property_checker.PropertyChecker`.
         runs, seed, max_steps: how many runs, the random seed, the longest run.
         opponent: "uniform" or "best" for players without a strategy.
         trace: also sample one path and return it step by step.

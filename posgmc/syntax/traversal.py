@@ -24,7 +24,8 @@ from posgmc.syntax.ast import (
     Unary,
 )
 
-__all__ = ["any_node", "children", "iter_nodes", "map_children"]
+__all__ = ["any_node", "children", "iter_nodes", "map_children", "is_temporal",
+           "contains_query"]
 
 
 
@@ -135,3 +136,21 @@ def any_node(
         if into(node):
             stack.extend(children(node))
     return False
+
+
+def is_temporal(e: Expr) -> bool:
+    """Whether a path formula contains a temporal operator outside nested queries."""
+    return any_node(
+        e,
+        lambda n: isinstance(n, Temporal),
+        into=lambda n: isinstance(n, (Unary, Binary)),
+    )
+
+
+def contains_query(e: Expr) -> bool:
+    """Whether a state expression contains a ``P``/``R`` query."""
+    return any_node(
+        e,
+        lambda n: isinstance(n, (ProbQuery, RewardQuery, Filter, PathQuantifier, SteadyQuery)),
+        into=lambda n: not isinstance(n, (ProbQuery, RewardQuery, Temporal)),
+    )

@@ -29,7 +29,7 @@ import numpy as np
 from pysat.card import CardEnc, EncType
 from pysat.solvers import Solver
 
-from posgmc.checking.dispatch import CoalitionResolver, ScalarEvaluator
+from posgmc.checking.property_checker import CoalitionResolver, ScalarEvaluator
 from posgmc.checking.results import Bound
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view

@@ -46,7 +46,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from posgmc.checking.dispatch import (
+from posgmc.checking.property_checker import (
     CheckOptions,
     CoalitionResolver,
     PropertyChecker,
@@ -58,8 +58,8 @@ from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.syntax.ast import ProbQuery, RewardQuery
-from posgmc.synthesis.jobs import Problem
 from posgmc.synthesis.parametric import Layout
+from posgmc.synthesis.problem import Problem
 
 __all__ = ["BeliefController", "belief_controller", "belief_phase", "applies", "cutoff_values",
            "node_cap", "PRECISION"]

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from posgmc.checking.dispatch import CheckOptions, PropertyChecker
+from posgmc.checking.property_checker import CheckOptions, PropertyChecker
 from posgmc.engines.discounted import discounted_reach_reward
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.reach import reach_probability
@@ -50,8 +50,8 @@ from posgmc.model.types import ModelType
 from posgmc.strategies.binding import player_view
 from posgmc.synthesis import belief
 from posgmc.synthesis.belief import _can_reach
-from posgmc.synthesis.jobs import Problem
 from posgmc.synthesis.parametric import Layout
+from posgmc.synthesis.problem import Problem
 
 __all__ = ["GridAbstraction", "GridBound", "applies", "freudenthal", "grid_abstraction",
            "grid_bound", "full_observation_bounds", "RESOLUTIONS", "MAX_VERTICES", "PRECISION",

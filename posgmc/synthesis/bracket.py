@@ -17,14 +17,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
 
 from posgmc.checking.results import Bound, Optimum
-from posgmc.errors import InputError
 from posgmc.synthesis import belief_grid
-from posgmc.synthesis.jobs import Problem
+from posgmc.synthesis.options import Gap
+from posgmc.synthesis.problem import Problem
 
-__all__ = ["Gap", "DEFAULT_SHARE", "GAP_SHARE", "optimum_of"]
+__all__ = ["DEFAULT_SHARE", "GAP_SHARE", "optimum_of"]
 
 DEFAULT_SHARE = 0.08
 """Without ``--gap``: the bound side gets this part of the time budget on top of it (so a run
@@ -33,46 +32,6 @@ takes at most this much longer than the search alone)."""
 GAP_SHARE = 0.3
 """With ``--gap``: the part of the time budget kept for the bound side (the search gets the
 rest); it stops as soon as the gap is closed."""
-
-
-@dataclass(frozen=True)
-class Gap:
-    """A requested bracket width: ``value`` absolute, or relative (a fraction of the larger
-    magnitude of the two sides) when ``relative``."""
-
-    value: float
-    relative: bool = False
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.value) and self.value >= 0):
-            raise InputError(f"the gap must be a finite number >= 0, got {self.value!r}")
-
-    @staticmethod
-    def parse(text: str) -> Gap:
-        """``"0.05"`` (absolute) or ``"5%"`` (relative).
-
-        Raises:
-            InputError: anything else.
-        """
-        t = text.strip()
-        relative = t.endswith("%")
-        try:
-            v = float(t[:-1] if relative else t)
-        except ValueError:
-            raise InputError(f"the gap is a number or a percentage (0.05, 5%), not {text!r}",
-                             hint="write --gap 0.01 or --gap 1%") from None
-        return Gap(v / 100.0 if relative else v, relative)
-
-    def width(self, a: float, b: float) -> float:
-        """The allowed width for a bracket with sides ``a`` and ``b``."""
-        if not self.relative:
-            return self.value
-        scale = max(abs(a), abs(b))
-        return self.value * scale if math.isfinite(scale) else 0.0
-
-    def met(self, lower: float, upper: float) -> bool:
-        return upper - lower <= self.width(lower, upper) if math.isfinite(upper - lower) \
-            else lower == upper
 
 
 def optimum_of(problem: Problem, guaranteed: Bound, full_observation: Bound,

@@ -11,7 +11,7 @@ from collections.abc import Callable
 from contextlib import closing
 from dataclasses import dataclass
 
-from posgmc.checking.dispatch import (
+from posgmc.checking.property_checker import (
     CheckOptions,
     CoalitionResolver,
     PropertyChecker,
@@ -24,22 +24,19 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
 from posgmc.synthesis.bracket import DEFAULT_SHARE, GAP_SHARE, optimum_of
-from posgmc.synthesis.compose import (
+from posgmc.synthesis.double_oracle import (
     RESPONSE_EXHAUSTIVE,
     VersusJob,
     _batched,
     one_sided,
     verified_numbers,
 )
-from posgmc.synthesis.jobs import POLICY, Executor, Problem, executor_for
+from posgmc.synthesis.executors import Executor, executor_for
 from posgmc.synthesis.objectives import lift, needs_product
-from posgmc.synthesis.search import (
-    SynthesisOptions,
-    SynthesisResult,
-    _better,
-    problem_of,
-    synthesize,
-)
+from posgmc.synthesis.options import SynthesisOptions
+from posgmc.synthesis.problem import POLICY, Problem
+from posgmc.synthesis.result import SynthesisResult
+from posgmc.synthesis.search import _better, problem_of, synthesize
 
 __all__ = ["SynthesisChecker"]
 
@@ -72,7 +69,7 @@ def _until(options: CheckOptions, deadline: float) -> CheckOptions:
 
 class SynthesisChecker:
     """Checks each property by synthesising the decision maker's strategy (same interface as
-    :class:`~posgmc.checking.dispatch.PropertyChecker`)."""
+    :class:`~posgmc.checking.property_checker.PropertyChecker`)."""
 
     def __init__(self, model: ExplicitModel, *, coalition_of: CoalitionResolver,
                  scalar: ScalarEvaluator, options: CheckOptions = CheckOptions(),
@@ -105,7 +102,7 @@ class SynthesisChecker:
                           settings: SynthesisOptions, deadline: float,
                           verify: CheckOptions) -> _AdversaryOutcome:
         """Enumerate, rank and keep the adversary's strategies, compose the defence against them
-        and run the double oracle (:mod:`posgmc.synthesis.compose`); then choose the reported
+        and run the double oracle (:mod:`posgmc.synthesis.double_oracle`); then choose the reported
         defence — the search's or the composed one, whichever proves the better ``guaranteed``
         (the headline; so it is never worse than the search's) — and verify the numbers (with
         ``verify``, whose solver deadline ends the budget)."""

@@ -51,8 +51,9 @@ from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.strategies.binding import player_view
 from posgmc.syntax.ast import ModelType
-from posgmc.synthesis.jobs import Executor, Problem, expired
+from posgmc.synthesis.executors import Executor
 from posgmc.synthesis.parametric import Layout
+from posgmc.synthesis.problem import Problem, expired
 
 __all__ = ["Quotient", "quotient_of", "DeterministicResult", "DeterministicJob", "search",
            "deterministic_phase"]
@@ -573,7 +574,7 @@ def _arrays(q: Quotient, member: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 @dataclass(frozen=True, eq=False)
 class DeterministicJob:
     """The abstraction-refinement search for each memory size in turn (a job of
-    :mod:`posgmc.synthesis.jobs`), each seeded with the best smaller defence and stopped at its
+    :mod:`posgmc.synthesis.executors`), each seeded with the best smaller defence and stopped at its
     own deadline (``time.perf_counter()`` values, non-decreasing). ``seeds``: defences found
     before (by :mod:`posgmc.synthesis.improvement`), each the first incumbent of its size and
     the larger ones when better than the smaller size's result. ``run`` returns the best

@@ -48,7 +48,8 @@ from posgmc.synthesis.deterministic import (
     _solve,
     quotient_of,
 )
-from posgmc.synthesis.jobs import Executor, Problem, expired
+from posgmc.synthesis.executors import Executor
+from posgmc.synthesis.problem import Problem, expired
 
 __all__ = ["improve", "ImprovementJob", "improvement_phase", "hole_scores"]
 
@@ -162,7 +163,7 @@ def improve(problem: Problem, memory: int, *, deadline: float | None,
 @dataclass(frozen=True, eq=False)
 class ImprovementJob:
     """Observation-level policy iteration for each memory size in turn (a job of
-    :mod:`posgmc.synthesis.jobs`), each size started from the best smaller defence as well as
+    :mod:`posgmc.synthesis.executors`), each size started from the best smaller defence as well as
     from the quotient's optimum, the better kept; ``deadline``: a ``time.perf_counter()`` value.
     ``run`` returns the best defence with at most k nodes for each size reached."""
 

@@ -98,8 +98,8 @@ from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
-from posgmc.synthesis.jobs import Problem
 from posgmc.synthesis.parametric import Layout, Parametrisation
+from posgmc.synthesis.problem import Problem
 
 __all__ = ["MilpComposition", "Encoding", "encoding_of", "supported", "compose_milp"]
 

@@ -44,7 +44,7 @@ from posgmc.syntax.ast import (
 from posgmc.synthesis.parametric import game_views
 
 if TYPE_CHECKING:
-    from posgmc.checking.dispatch import PropertyChecker
+    from posgmc.checking.property_checker import PropertyChecker
 
 __all__ = ["needs_product", "lift"]
 
@@ -79,8 +79,8 @@ def lift(
     query that answers ``expr`` on it (see the module docstring for what each player observes).
 
     Args:
-        checker: a :class:`~posgmc.checking.dispatch.PropertyChecker` of ``model`` (it evaluates
-            the formula's atoms and builds the automaton product).
+        checker: a :class:`~posgmc.checking.property_checker.PropertyChecker` of ``model`` (it
+            evaluates the formula's atoms and builds the automaton product).
 
     Raises:
         UnsupportedError: the formula is not co-safe LTL.

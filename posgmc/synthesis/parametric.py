@@ -36,7 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from posgmc.checking.dispatch import (
+from posgmc.checking.property_checker import (
     CheckOptions,
     CoalitionResolver,
     PropertyChecker,

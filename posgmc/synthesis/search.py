@@ -17,11 +17,11 @@ from __future__ import annotations
 
 import time
 from contextlib import closing
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from posgmc.checking.dispatch import (
+from posgmc.checking.property_checker import (
     CheckOptions,
     CoalitionResolver,
     PropertyChecker,
@@ -30,7 +30,7 @@ from posgmc.checking.dispatch import (
 from posgmc.checking.results import Bound
 from posgmc.engines.graph import concat_ranges
 from posgmc.engines.options import Method, SolverOptions
-from posgmc.errors import InputError, UnsupportedError
+from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
@@ -45,116 +45,18 @@ from posgmc.syntax.ast import (
 )
 from posgmc.synthesis import belief
 from posgmc.synthesis.ascent import LOGIT, ascend
-from posgmc.synthesis.bracket import Gap
 from posgmc.synthesis.deterministic import DeterministicResult, deterministic_phase
+from posgmc.synthesis.executors import Executor, executor_for
 from posgmc.synthesis.improvement import improvement_phase
-from posgmc.synthesis.jobs import Executor, Problem, executor_for
+from posgmc.synthesis.options import AUTO_MEMORY, SynthesisOptions
 from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
+from posgmc.synthesis.problem import Problem
+from posgmc.synthesis.result import MemoryRound, SynthesisResult
 
-__all__ = ["SynthesisOptions", "MemoryRound", "SynthesisResult", "synthesize"]
-
-AUTO_MEMORY = (1, 2, 3)
-"""The memory sizes of memory ``auto`` (the default)."""
+__all__ = ["synthesize", "problem_of", "parametrisation"]
 
 _POLICY = CheckOptions(solver=SolverOptions(method=Method.POLICY, prove=False))  # ranking only
 _LOGIT = LOGIT
-
-
-@dataclass(frozen=True)
-class SynthesisOptions:
-    """``memory``: the memory sizes to try in order; ``timeout``: seconds for the whole search;
-    ``restarts``: random starts per memory size; ``iterations``: gradient steps per start;
-    ``verify``: how many of the best candidates (by float value) the sound engines verify;
-    ``adversaries``: M, how many of the strongest enumerated adversary strategies (deterministic,
-    ``adversary_memory`` nodes; :mod:`posgmc.synthesis.adversaries`) the defence is composed
-    against (0: no adversary phases); ``enumeration_limit``: how many are enumerated and ranked
-    at most; ``compose_restarts``: random starts of the composition besides the search's defence;
-    ``oracle_rounds``: double-oracle rounds at most (:mod:`posgmc.synthesis.compose`).
-    ``belief``: on a pomdp, also build a belief-based controller over the search's best
-    defence (:mod:`posgmc.synthesis.belief`), which has more memory nodes than ``memory``; None
-    (memory auto): when ``memory`` is the default and ``player_memory`` does not name the
-    decision maker.
-    ``player_memory``: memory sizes by player name (``--memory rover=1..3 --memory
-    attacker=2``); the decision maker's entry replaces ``memory``, the adversary's (its largest
-    size) ``adversary_memory``. ``jobs``: worker processes for independent evaluations
-    (:mod:`posgmc.synthesis.jobs`; results do not depend on it). ``started``: the
-    ``time.perf_counter()`` value from which the first synthesised property's ``timeout`` counts
-    (the CLI and :func:`posgmc.api.check` set it where the run starts, so that loading and
-    building the model are inside the budget); None: from the start of its synthesis.
-    ``bracket``: also prove the other side of the optimum (:mod:`posgmc.synthesis.bracket`);
-    ``gap``: refine the bracket until it is this narrow (the budget is then shared between the
-    two sides; None: the bound side gets a small extra share, ``bracket.DEFAULT_SHARE``)."""
-
-    memory: tuple[int, ...] = AUTO_MEMORY
-    timeout: float = 30.0
-    seed: int = 0
-    restarts: int = 3
-    iterations: int = 60
-    learning_rate: float = 0.3
-    verify: int = 3
-    adversaries: int = 10
-    adversary_memory: int = 1
-    player_memory: tuple[tuple[str, tuple[int, ...]], ...] = ()
-    jobs: int = 1
-    enumeration_limit: int = 1000
-    compose_restarts: int = 1
-    oracle_rounds: int = 8
-    started: float | None = None
-    belief: bool | None = None
-    bracket: bool = True
-    gap: Gap | None = None
-
-    def for_players(self, decision_maker: str, adversary: str | None,
-                    players: tuple[str, ...]) -> SynthesisOptions:
-        """These options with ``player_memory`` resolved for a property's players.
-
-        Raises:
-            InputError: a name that is not a player of the model.
-        """
-        named = dict(self.player_memory)
-        unknown = sorted(set(named) - set(players))
-        if unknown:
-            raise InputError(
-                f"--memory names {', '.join(repr(u) for u in unknown)}, which is not a player of "
-                f"the model", hint=f"the players are {', '.join(players) or '(none)'}")
-        memory = named.get(decision_maker, self.memory)
-        adversary_memory = max(named[adversary]) if adversary in named else self.adversary_memory
-        with_belief = self.belief if self.belief is not None else (
-            decision_maker not in named and self.memory == AUTO_MEMORY)
-        return replace(self, memory=memory, adversary_memory=adversary_memory, player_memory=(),
-                       belief=with_belief)
-
-
-@dataclass(frozen=True)
-class MemoryRound:
-    """The best defence with at most ``memory`` nodes after that round, and its value by policy
-    iteration on its product (exact linear solves: a ranking, not a proof)."""
-
-    memory: int
-    guaranteed: Bound
-    deterministic: bool
-    evaluations: int
-    seconds: float
-
-
-@dataclass(frozen=True)
-class SynthesisResult:
-    """The best defence found and its verified numbers. ``guaranteed``: proven bounds on what the
-    strategy ensures against every adversary; ``full_observation``: the value when the decision
-    maker sees everything, which no partially observing defence exceeds (for Pmax; for Pmin no
-    defence gets below it); ``partial``: the time budget ended the search; ``method``: how
-    ``guaranteed`` was checked."""
-
-    strategy: FiniteStateStrategy
-    guaranteed: Bound
-    full_observation: Bound
-    rounds: tuple[MemoryRound, ...]
-    partial: bool
-    phases: dict[str, float] = field(default_factory=dict)
-    method: str = "interval"
-    deterministic: tuple[DeterministicResult, ...] = ()
-    """The deterministic search's best defence per memory size
-    (:mod:`posgmc.synthesis.deterministic`)."""
 
 
 def _objective(model: ExplicitModel, expr: ProbQuery | RewardQuery, checker: PropertyChecker):  # type: ignore[no-untyped-def]

@@ -17,7 +17,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from posgmc.checking.multi import Front, MultiAnswer
+from posgmc.checking.multi_objectives import Front, MultiAnswer
 from posgmc.errors import InputError
 
 __all__ = ["multi_objective", "front_to_csv"]

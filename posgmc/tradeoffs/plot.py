@@ -13,7 +13,7 @@ from posgmc.io.atomic import atomic_open
 from posgmc.tradeoffs.sweep import Sweep, SweepPoint
 
 if TYPE_CHECKING:
-    from posgmc.checking.multi import Front
+    from posgmc.checking.multi_objectives import Front
     from posgmc.tradeoffs.defence import DefenceFront
 
 __all__ = ["plot_sweep", "plot_sweeps", "plot_front", "plot_defence_fronts"]

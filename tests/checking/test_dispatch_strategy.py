@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.engines import rewards
 
 # A turn-based game: the walker (player 1) at s=0 steps to the goal with probability 1/2, else to

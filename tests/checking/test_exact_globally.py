@@ -8,7 +8,7 @@ from fractions import Fraction
 import pytest
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.compiler.options import BuildOptions
 
 # dtmc: s=0 stays with 1/2, else moves to the absorbing s=1. By hand: P(G s=0) = 0,

@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.cli import main
 from posgmc.compiler import BuildOptions
 from posgmc.errors import BuildError, PosgmcError

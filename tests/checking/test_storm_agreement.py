@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.errors import BuildError
 from tests.conftest import BENCHMARKS

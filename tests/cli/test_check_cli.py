@@ -124,7 +124,7 @@ def test_partially_observable_needs_full_observation(run) -> None:  # type: igno
 
 def test_export_strategy_writes_one_entry_per_deciding_state(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     from posgmc import api
-    from posgmc.checking.dispatch import CheckOptions
+    from posgmc.checking.property_checker import CheckOptions
 
     out = tmp_path / "strategy.json"
     prop = '<<rover>> Pmax=? [ F "goal" ]'

@@ -26,7 +26,7 @@ import pytest
 
 from posgmc.compiler import build_model
 from posgmc.errors import BuildError
-from posgmc.semantics.checker import instantiate
+from posgmc.semantics.stages import instantiate
 from posgmc.syntax.parser import parse_model
 
 # (path, constants, states, choices, transitions, observations or None, source)

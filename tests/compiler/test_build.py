@@ -15,7 +15,7 @@ import pytest
 from posgmc.compiler import BuildOptions, BuildResult, ProgressMode, build_model
 from posgmc.compiler.explore import _Progress
 from posgmc.errors import BuildError, LimitError, PosgmcError
-from posgmc.semantics.checker import instantiate
+from posgmc.semantics.stages import instantiate
 from posgmc.syntax.parser import parse_model
 
 

@@ -19,7 +19,7 @@ import pytest
 
 from posgmc.compiler import build_model
 from posgmc.model.explicit import ExplicitModel
-from posgmc.semantics.checker import instantiate
+from posgmc.semantics.stages import instantiate
 from posgmc.syntax.parser import parse_model
 
 STORM_PYTHON = Path("/root/refenv/bin/python")

@@ -8,7 +8,7 @@ from fractions import Fraction
 import pytest
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.compiler.options import BuildOptions
 
 # dtmc: s=0 reaches s=1 with 1/2 per step, reward 1 per step: 2 steps expected (geometric).

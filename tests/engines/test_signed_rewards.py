@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.engines import objectives as obj
 from posgmc.engines.graph import structure_of
 from posgmc.engines.options import Method, SolverOptions

@@ -11,7 +11,7 @@ from __future__ import annotations
 import pytest
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.engines.options import SolverOptions
 
 MODEL = """

@@ -14,7 +14,7 @@ from fractions import Fraction
 import pytest
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.compiler.options import BuildOptions
 from posgmc.engines import steady
 from posgmc.errors import UnsupportedError

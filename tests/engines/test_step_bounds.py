@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.checking.dispatch import PropertyChecker, QueryValue
+from posgmc.checking.property_checker import PropertyChecker, QueryValue
 from posgmc.cli import main
 from posgmc.engines import ltl
 from posgmc.engines import objectives as obj

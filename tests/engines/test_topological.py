@@ -68,7 +68,7 @@ def forced(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> F
             calls.compiled.append(int(args[0].bands.size - 1))
         return out
 
-    import posgmc.engines.common as common
+    import posgmc.engines.solving as common
 
     monkeypatch.setattr(common, "solve_topological", counting)
     monkeypatch.setattr(topo, "_solve_components", counting_compiled)

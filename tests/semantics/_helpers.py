@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from posgmc.errors import PosgmcError
-from posgmc.semantics.checker import check_model, check_properties
+from posgmc.semantics.stages import check_model, check_properties
 from posgmc.syntax.ast import ModelFile
 from posgmc.syntax.parser import parse_model, parse_properties
 

@@ -12,7 +12,6 @@ from fractions import Fraction
 import pytest
 
 from posgmc.errors import ConstantError, SourceSpan
-from posgmc.semantics.checker import check_model, instantiate
 from posgmc.semantics.constants import (
     ConstRange,
     ConstSetting,
@@ -20,6 +19,7 @@ from posgmc.semantics.constants import (
     expand_sweep,
     parse_const_assignments,
 )
+from posgmc.semantics.stages import check_model, instantiate
 from posgmc.syntax.ast import VarType
 
 from ._helpers import lint, model
@@ -218,7 +218,7 @@ def test_constant_definition_type_errors() -> None:
 def test_properties_constants_in_the_same_mapping() -> None:
     # one mapping for model and properties (the CLI's --const): the model's passes accept the
     # properties' names when told so; check_properties reports names unknown to both files
-    from posgmc.semantics.checker import check_properties, instantiate_properties
+    from posgmc.semantics.stages import check_properties, instantiate_properties
     from posgmc.syntax.parser import parse_properties
 
     m = model(MODEL)

@@ -7,7 +7,7 @@ pomdps must specify observables; an observables list names variables only; obser
 
 from __future__ import annotations
 
-from posgmc.semantics.checker import instantiate
+from posgmc.semantics.stages import instantiate
 from posgmc.syntax.ast import Binary, BinaryOp, Ident, IntLit
 
 from ._helpers import lint, model

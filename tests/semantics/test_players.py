@@ -4,7 +4,7 @@ types must not; unknown module/action names and doubly owned ones are errors."""
 
 from __future__ import annotations
 
-from posgmc.semantics.checker import instantiate
+from posgmc.semantics.stages import instantiate
 
 from ._helpers import lint, model
 
@@ -57,7 +57,7 @@ def test_unknown_module_and_action_in_player() -> None:
 
 
 def test_hints_for_module_action_mixups() -> None:
-    from posgmc.semantics.checker import check_model
+    from posgmc.semantics.stages import check_model
 
     errs = check_model(model(GAME.replace("player p2 m2, [b]", "player p2 m2, [b], [m1], a")))
     hints = [e.hint for e in errs]

@@ -9,8 +9,8 @@ from fractions import Fraction
 import pytest
 
 from posgmc.errors import ConstantError, MultipleErrors, SemanticError
-from posgmc.semantics.checker import instantiate, instantiate_properties
 from posgmc.semantics.properties import CheckedProperty
+from posgmc.semantics.stages import instantiate, instantiate_properties
 from posgmc.semantics.symbols import Type
 from posgmc.syntax.ast import (
     Binary,
@@ -64,7 +64,7 @@ def test_coalition_naming_no_player() -> None:
 
 def test_player_zero_without_the_zero_based_option() -> None:
     props = parse_properties('<<0>> Pmax=? [F "goal"]\n', file="p.props")
-    from posgmc.semantics.checker import check_properties
+    from posgmc.semantics.stages import check_properties
 
     (err,) = check_properties(props, model(GAME))
     assert (err.message, err.span.line, err.span.column) == (  # type: ignore[union-attr]
@@ -284,7 +284,7 @@ def test_scaled_query_keeps_its_resolution() -> None:
 def test_cyclic_properties_file_labels() -> None:
     # the parser reads no quoted names inside label definitions; hand-built trees may hold them
     from posgmc.errors import SourceSpan
-    from posgmc.semantics.checker import check_properties
+    from posgmc.semantics.stages import check_properties
     from posgmc.syntax.ast import LabelDecl, PropertiesFile
 
     a = LabelDecl("a", LabelRef("b"), span=SourceSpan(1, 1))
@@ -299,7 +299,7 @@ def test_cyclic_properties_file_labels() -> None:
 def test_temporal_operator_outside_p_or_r() -> None:
     # the parser reads none; a hand-built property may hold one
     from posgmc.errors import SourceSpan
-    from posgmc.semantics.checker import check_properties
+    from posgmc.semantics.stages import check_properties
     from posgmc.syntax.ast import PropertiesFile, Property, TemporalOp
 
     f = Temporal(TemporalOp.EVENTUALLY, (LabelRef("goal"),), span=SourceSpan(1, 1))

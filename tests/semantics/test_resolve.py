@@ -5,8 +5,8 @@ sortRenamings, checkVarNames), ``visitor/ModulesFileSemanticCheck.java`` (update
 
 from __future__ import annotations
 
-from posgmc.semantics.checker import instantiate
 from posgmc.semantics.flat import FlatModel
+from posgmc.semantics.stages import instantiate
 from posgmc.syntax.ast import Binary, BinaryOp, Ident, IntLit
 
 from ._helpers import lint, model

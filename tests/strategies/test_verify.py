@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.model.explicit import ExplicitModel, Observation, make_model
 from posgmc.strategies.binding import bind, memoryless_strategy

@@ -14,7 +14,8 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import enumerate_adversaries, versus_adversaries
-from posgmc.synthesis.search import SynthesisOptions, synthesize
+from posgmc.synthesis.options import SynthesisOptions
+from posgmc.synthesis.search import synthesize
 from tests.strategies.test_simulate import _game
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "posmg"

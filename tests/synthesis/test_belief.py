@@ -20,7 +20,8 @@ from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.syntax.ast import ModelType
 from posgmc.synthesis import belief
-from posgmc.synthesis.search import SynthesisOptions, problem_of
+from posgmc.synthesis.options import SynthesisOptions
+from posgmc.synthesis.search import problem_of
 from tests.synthesis.test_synthesis import BLIND
 
 # by hand: a coin in s=0 puts the agent in s=1 or s=2, which it cannot tell apart (o=0 in s=0..4).
@@ -134,7 +135,7 @@ def test_synthesis_uses_the_belief_phase_only_with_memory_auto() -> None:
 
 
 def test_the_belief_phase_is_for_pomdps_only() -> None:
-    from tests.synthesis.test_compose import random_posg
+    from tests.synthesis.test_double_oracle import random_posg
 
     model = random_posg(0)
     coalition = api._resolver(model, False).coalition_of

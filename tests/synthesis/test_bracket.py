@@ -17,14 +17,15 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.checking.dispatch import PropertyChecker
+from posgmc.checking.property_checker import PropertyChecker
 from posgmc.checking.results import Bound
 from posgmc.cli import main
 from posgmc.errors import InputError
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
-from posgmc.synthesis.bracket import Gap, optimum_of
-from posgmc.synthesis.search import SynthesisOptions, parametrisation, problem_of
+from posgmc.synthesis.bracket import optimum_of
+from posgmc.synthesis.options import Gap, SynthesisOptions
+from posgmc.synthesis.search import parametrisation, problem_of
 from tests.synthesis.test_compose import random_posg
 from tests.synthesis.test_synthesis import BLIND
 

@@ -12,7 +12,7 @@ import pytest
 from posgmc import api
 from posgmc.syntax import parser
 from posgmc.synthesis.checker import SynthesisChecker
-from tests.synthesis.test_compose import PROP, SMALL, random_posg
+from tests.synthesis.test_double_oracle import PROP, SMALL, random_posg
 from tests.synthesis.test_milp import SHARED
 
 

@@ -15,9 +15,9 @@ from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import _forward
 from posgmc.synthesis.deterministic import DeterministicJob, quotient_of, search
-from posgmc.synthesis.jobs import POLICY
+from posgmc.synthesis.problem import POLICY
 from posgmc.synthesis.search import parametrisation, problem_of
-from tests.synthesis.test_compose import random_posg
+from tests.synthesis.test_double_oracle import random_posg
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "posmg"
 

@@ -14,19 +14,14 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions, PropertyChecker
+from posgmc.checking.property_checker import CheckOptions, PropertyChecker
 from posgmc.syntax import parser
 from posgmc.synthesis.deterministic import _solve, quotient_of
 from posgmc.synthesis.improvement import ImprovementJob, hole_scores, improve
-from posgmc.synthesis.search import (
-    SynthesisOptions,
-    _projected,
-    _qmdp,
-    parametrisation,
-    problem_of,
-)
-from tests.synthesis.test_compose import random_posg
+from posgmc.synthesis.options import SynthesisOptions
+from posgmc.synthesis.search import _projected, _qmdp, parametrisation, problem_of
 from tests.synthesis.test_deterministic import _every_deterministic, _guaranteed
+from tests.synthesis.test_double_oracle import random_posg
 
 ROOT = Path(__file__).resolve().parents[2]
 SECURE = ROOT / "models" / "secure_autonomy" / "secure_autonomy.posg"

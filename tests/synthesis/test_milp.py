@@ -21,10 +21,10 @@ from posgmc.model.explicit import Observation, RewardModel, make_model
 from posgmc.syntax import parser
 from posgmc.syntax.ast import ModelType
 from posgmc.synthesis.adversaries import enumerate_adversaries
-from posgmc.synthesis.compose import VersusJob
+from posgmc.synthesis.double_oracle import VersusJob
 from posgmc.synthesis.milp import Encoding, compose_milp, encoding_of, supported
 from posgmc.synthesis.search import parametrisation, problem_of
-from tests.synthesis.test_compose import random_posg
+from tests.synthesis.test_double_oracle import random_posg
 
 
 def _problem(model, prop: str):  # type: ignore[no-untyped-def]

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 from posgmc import api
 from posgmc.cli import main
-from posgmc.synthesis.search import SynthesisOptions
+from posgmc.synthesis.options import SynthesisOptions
 
 ROOT = Path(__file__).resolve().parents[2]
 BEACON = ROOT / "models" / "beacon" / "beacon.posg"

@@ -12,14 +12,8 @@ import pytest
 from posgmc import api
 from posgmc.syntax import parser
 from posgmc.synthesis import parametric
-from posgmc.synthesis.search import (
-    SynthesisOptions,
-    _qmdp,
-    _with_warm_up,
-    parametrisation,
-    problem_of,
-    synthesize,
-)
+from posgmc.synthesis.options import SynthesisOptions
+from posgmc.synthesis.search import _qmdp, _with_warm_up, parametrisation, problem_of, synthesize
 
 ROOT = Path(__file__).resolve().parents[2]
 SECURE = ROOT / "models" / "secure_autonomy" / "secure_autonomy.posg"
@@ -152,7 +146,7 @@ def test_qmdp_start_favours_the_best_worst_case_q_value_per_observation() -> Non
         pytest.skip("shared benchmarks not present")
     model, expr, player, coalition_of, problem = _problem(TEST_GAME, '<<0>> Pmax=? [F "goal"]',
                                                           zero_based=True)
-    from posgmc.checking.dispatch import CheckOptions, PropertyChecker
+    from posgmc.checking.property_checker import CheckOptions, PropertyChecker
 
     full = PropertyChecker(model, coalition_of=coalition_of, scalar=api._scalar,
                            options=CheckOptions(keep_strategy=True)).query(problem.query)

@@ -15,8 +15,9 @@ from posgmc.cli import main
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.syntax.ast import Direction
+from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.parametric import Parametrisation
-from posgmc.synthesis.search import SynthesisOptions, _embed_strategy, synthesize
+from posgmc.synthesis.search import _embed_strategy, synthesize
 
 ROOT = Path(__file__).resolve().parents[2]
 SHARED = ROOT.parent / "shared" / "benchmarks" / "posmg"

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 from posgmc import api
 from posgmc.cli import main
-from posgmc.synthesis.search import SynthesisOptions
+from posgmc.synthesis.options import SynthesisOptions
 from posgmc.tradeoffs.sweep import sweep, to_csv
 
 ROOT = Path(__file__).resolve().parents[2]

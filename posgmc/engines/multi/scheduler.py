@@ -11,7 +11,7 @@ is randomised with one bit of memory per component (settled or not), on the LP's
 model's product with the objectives' automata, unfolded by steps for cumulative rewards).
 
 **Any** non-negative ``x`` gives a strategy this way, whether or not it solves the LP exactly; so
-the values the sound engines compute on the induced chain (:func:`induced_chain`) are proven
+the values the sound engines compute on the induced chain (:func:`occupation_chain`) are proven
 values **of that strategy**: a proven lower bound on what the best strategy achieves for a
 maximised objective (upper, for a minimised one), whatever HiGHS's floating-point errors were.
 A probability objective is counted only for paths that settle in a component satisfying it (a
@@ -30,7 +30,7 @@ from posgmc.engines.multi.settle import Settling
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
 
-__all__ = ["InducedChain", "induced_chain"]
+__all__ = ["InducedChain", "occupation_chain"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,7 +46,7 @@ class InducedChain:
     rewards: dict[int, np.ndarray]
 
 
-def induced_chain(
+def occupation_chain(
     transitions: sp.csr_matrix,
     row_groups: np.ndarray,
     initial: int,

@@ -1,4 +1,4 @@
-"""The one-sided method and the double oracle (posgmc.synthesis.compose), the whole synthesis
+"""The one-sided method and the double oracle (posgmc.synthesis.double_oracle), the whole synthesis
 pipeline's invariants on small random POSGs where brute force over every deterministic
 memoryless strategy of both players is feasible, and --jobs (issue #9)."""
 
@@ -13,16 +13,18 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.model.explicit import Observation, make_model
 from posgmc.strategies.files import read_strategy, write_strategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.syntax.ast import ModelType
 from posgmc.synthesis.checker import SynthesisChecker
-from posgmc.synthesis.compose import VersusJob, _best_response, one_sided
-from posgmc.synthesis.jobs import POLICY, InProcess
-from posgmc.synthesis.search import SynthesisOptions, problem_of
+from posgmc.synthesis.double_oracle import VersusJob, _best_response, one_sided
+from posgmc.synthesis.executors import InProcess
+from posgmc.synthesis.options import SynthesisOptions
+from posgmc.synthesis.problem import POLICY
+from posgmc.synthesis.search import problem_of
 from tests.synthesis.test_adversaries import _deterministic, _labels_by_observation
 
 PROP = '<<p0>> Pmax=? [ F "goal" ]'

@@ -1,5 +1,6 @@
-"""Policy iteration (:mod:`posgmc.engines.exact`) under rounding noise: a switch that only the
-linear solves' rounding makes look better must not cycle for ever nor be kept when it loses.
+"""Policy iteration (:mod:`posgmc.engines.policy_iteration`) under rounding noise: a switch that
+only the linear solves' rounding makes look better must not cycle for ever nor be kept when it
+loses.
 
 Found on PAYNT's attacker-one-defender (issue #9): during the gradient search the nested policy
 iteration of a product switched between rows whose values differed by rounding, closing end
@@ -12,7 +13,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-import posgmc.engines.exact as ex
+import posgmc.engines.policy_iteration as ex
 
 
 def _one_state(maximize: bool) -> ex.Grouped:

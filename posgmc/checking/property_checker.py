@@ -63,7 +63,7 @@ from posgmc.syntax.ast import (
     UnaryOp,
 )
 from posgmc.syntax.printer import format_expr
-from posgmc.syntax.traversal import any_node
+from posgmc.syntax.traversal import contains_query, is_temporal
 
 __all__ = ["CheckOptions", "PropertyChecker", "QueryValue"]
 
@@ -81,7 +81,8 @@ class CheckOptions:
     solver: SolverOptions = SolverOptions()
     keep_values: bool = False
     keep_strategy: bool = False
-    exact: bool = False  # PRISM's -exact: rational arithmetic throughout (posgmc.checking.exact)
+    # PRISM's -exact: rational arithmetic throughout (posgmc.checking.exact_checker)
+    exact: bool = False
 
 
 _COMPARISON = {
@@ -158,7 +159,7 @@ class PropertyChecker:
             q = self.state_value(expr)
             kind = ResultKind.BOOLEAN if q.values.dtype == np.bool_ else ResultKind.NUMBER
             init = self.model.initial_states
-            if kind is ResultKind.BOOLEAN and not np.all(q.decided[init]) and _contains_query(expr):
+            if kind is ResultKind.BOOLEAN and not np.all(q.decided[init]) and contains_query(expr):
                 q = self._finer(
                     lambda checker: checker.state_value(expr),
                     lambda r: bool(np.all(r.decided[init])),
@@ -224,7 +225,7 @@ class PropertyChecker:
             text = format_expr(expr.states) if expr.states is not None else "true"
             return apply_filter(self.model, expr.op, self.state_value(expr.operand), states,
                                 span=expr.span, states_text=text)
-        if not _contains_query(expr):
+        if not contains_query(expr):
             return iv.exact(evaluate_states(self.model, expr))
         if isinstance(expr, Unary):
             q = self.state_value(expr.operand)
@@ -296,7 +297,7 @@ class PropertyChecker:
         if (
             path is not None
             and self.model.num_states <= _RATIONAL_LIMIT
-            and _is_temporal(path)
+            and is_temporal(path)
             and not _is_simple_path(path)
         ):
             if self.model.model_type.is_game:
@@ -313,7 +314,7 @@ class PropertyChecker:
             or not isinstance(path, Temporal)
             or path.bound is not None
             or path.op not in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL)
-            or any(_is_temporal(o) for o in path.operands)
+            or any(is_temporal(o) for o in path.operands)
         ):
             return None
         if path.op is TemporalOp.UNTIL:
@@ -402,9 +403,9 @@ class PropertyChecker:
 
     def _probability(self, path: Expr, maximize: np.ndarray) -> QueryValue:
         m, opts = self.model, self.options.solver
-        if isinstance(path, Unary) and path.op is UnaryOp.NOT and _is_temporal(path.operand):
+        if isinstance(path, Unary) and path.op is UnaryOp.NOT and is_temporal(path.operand):
             return _flip(self._probability(path.operand, ~maximize))
-        if isinstance(path, Temporal) and all(not _is_temporal(o) for o in path.operands):
+        if isinstance(path, Temporal) and all(not is_temporal(o) for o in path.operands):
             op = path.op
             if op is TemporalOp.NEXT:
                 if path.bound is not None:
@@ -627,7 +628,7 @@ class PropertyChecker:
             RewardKind.LTL: obj.ReachRewardMode.INFINITY,
         }[kind]
         target_expr = objective.target
-        if kind is RewardKind.LTL or _is_temporal(target_expr):
+        if kind is RewardKind.LTL or is_temporal(target_expr):
             return self._ltl_reward(expr, target_expr, maximize, mode)
         t = self._states(target_expr)
         return _from_engine(
@@ -668,6 +669,16 @@ class PropertyChecker:
                           converged=r.converged, sound=r.sound,
                           method="steady state (exact BSCCs)" if r.sound else "steady state")
 
+    def for_model(self, model: ExplicitModel) -> PropertyChecker:
+        """A checker of the same queries, constants and options on another model (a product)."""
+        return PropertyChecker(
+            model, coalition_of=self.coalition_of, scalar=self.scalar, options=self.options
+        )
+
+    def step_bound(self, e: Expr | None) -> int:
+        """A step bound's value: a non-negative integer (SemanticError with its position)."""
+        return self._int(e)
+
     def _int(self, e: Expr | None) -> int:
         if e is None:
             raise SemanticError("a step bound is missing")
@@ -702,28 +713,10 @@ def _outward_values(values: list[Fraction] | list[Fraction | None]) -> QueryValu
 
 def _is_simple_path(path: Expr) -> bool:
     """One temporal operator over state formulas (what the reachability engines answer)."""
-    return isinstance(path, Temporal) and not any(_is_temporal(o) for o in path.operands)
+    return isinstance(path, Temporal) and not any(is_temporal(o) for o in path.operands)
 
 
 def _article(model_type: str) -> str:
     """``mdp`` -> "an MDP" (the article as the abbreviation is spoken)."""
     name = model_type.upper()
     return f"an {name}" if name[0] in "AEFHILMNORSX" else f"a {name}"
-
-
-def _is_temporal(e: Expr) -> bool:
-    """Whether a path formula contains a temporal operator outside nested queries."""
-    return any_node(
-        e,
-        lambda n: isinstance(n, Temporal),
-        into=lambda n: isinstance(n, (Unary, Binary)),
-    )
-
-
-def _contains_query(e: Expr) -> bool:
-    """Whether a state expression contains a ``P``/``R`` query."""
-    return any_node(
-        e,
-        lambda n: isinstance(n, (ProbQuery, RewardQuery, Filter, PathQuantifier, SteadyQuery)),
-        into=lambda n: not isinstance(n, (ProbQuery, RewardQuery, Temporal)),
-    )

@@ -1,7 +1,7 @@
 """Exact checking (PRISM's ``-exact``): values as fractions, thresholds decided on them.
 
-The model must be built in exact mode (:mod:`posgmc.compiler.exact`: its transition probabilities
-are Fractions). What is answered exactly:
+The model must be built in exact mode (:mod:`posgmc.compiler.exact_explore`: its transition
+probabilities are Fractions). What is answered exactly:
 
 * next, step-bounded and unbounded reachability and until probabilities, ``P=? [ X b ]``,
   ``P=? [ F<=k b ]``, ``P=? [ a U<=k b ]``, ``P=? [ F b ]``, ``P=? [ a U b ]``, with
@@ -31,7 +31,7 @@ from typing import TypedDict
 
 import numpy as np
 
-from posgmc.checking.dispatch import PropertyChecker, _contains_query, _is_temporal
+from posgmc.checking.property_checker import PropertyChecker
 from posgmc.checking.results import PropertyResult, ResultKind
 from posgmc.checking.states import evaluate_states
 from posgmc.engines.rational import (
@@ -53,6 +53,7 @@ from posgmc.syntax.ast import (
     Temporal,
     TemporalOp,
 )
+from posgmc.syntax.traversal import contains_query, is_temporal
 
 __all__ = ["EXACT_STATE_LIMIT", "ExactChecker"]
 
@@ -146,8 +147,8 @@ class ExactChecker(PropertyChecker):
                 **common,
             )
         if (isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.REACH
-                and expr.objective.target is not None and not _is_temporal(expr.objective.target)
-                and not _contains_query(expr.objective.target)):
+                and expr.objective.target is not None and not is_temporal(expr.objective.target)
+                and not contains_query(expr.objective.target)):
             return self._reach_reward(expr, common, start)
         if isinstance(expr, RewardQuery) and expr.objective.kind is RewardKind.CUMULATIVE:
             return self._cumulative_reward(expr, common, start)
@@ -173,7 +174,7 @@ class ExactChecker(PropertyChecker):
                 seconds=time.perf_counter() - start, per_initial=tuple(holds),
                 **common,
             )
-        if _contains_query(expr):
+        if contains_query(expr):
             raise UnsupportedError(f"{_SUPPORTED}; this property is not one of them", expr.span)
         values_np = evaluate_states(model, expr)
         if values_np.dtype != np.bool_:
@@ -292,7 +293,7 @@ class ExactChecker(PropertyChecker):
         path = expr.path
         bound = getattr(path, "bound", None)
         if (isinstance(path, Temporal) and path.op is TemporalOp.GLOBALLY
-                and not any(_is_temporal(o) or _contains_query(o) for o in path.operands)
+                and not any(is_temporal(o) or contains_query(o) for o in path.operands)
                 and (bound is None or (self._step_interval(bound)[0] == 0
                                        and self._step_interval(bound)[1] is not None))):
             # G a = !F !a: the complement, with the opposite optimum (PRISM does the same)
@@ -309,7 +310,7 @@ class ExactChecker(PropertyChecker):
         if (
             not isinstance(path, Temporal)
             or path.op not in (TemporalOp.EVENTUALLY, TemporalOp.UNTIL, TemporalOp.NEXT)
-            or any(_is_temporal(o) or _contains_query(o) for o in path.operands)
+            or any(is_temporal(o) or contains_query(o) for o in path.operands)
             or (
                 bound is not None
                 and (
@@ -319,7 +320,7 @@ class ExactChecker(PropertyChecker):
                 )
             )
         ):
-            if _is_temporal(path) and not _contains_query(path):
+            if is_temporal(path) and not contains_query(path):
                 return self._ltl(expr)
             raise UnsupportedError(f"{_SUPPORTED}; this path formula is not one of them", expr.span)
         self._check_size()

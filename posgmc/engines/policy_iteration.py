@@ -288,7 +288,7 @@ def _compare(old: np.ndarray, new: np.ndarray, sign: np.ndarray) -> tuple[bool, 
     solves' rounding can close an end component (values within 1e-5 of 1 on a nearly singular
     chain, PAYNT's attacker-one-defender during the gradient search): the values then drop, and
     taking such rounds cycled for ever. Whatever strategy policy iteration ends with, the
-    callers certify its values or fall back to interval iteration (:mod:`posgmc.engines.common`),
+    callers certify its values or fall back to interval iteration (:mod:`posgmc.engines.solving`),
     so this only decides how good the strategy is, never what is proven."""
     with np.errstate(invalid="ignore"):
         change = sign * (new - old)

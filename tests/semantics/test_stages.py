@@ -12,13 +12,13 @@ from pathlib import Path
 import pytest
 
 from posgmc.errors import MultipleErrors, SemanticError
-from posgmc.semantics.checker import (
+from posgmc.semantics.constants import ConstRange
+from posgmc.semantics.stages import (
     check_model,
     check_properties,
     instantiate,
     instantiate_properties,
 )
-from posgmc.semantics.constants import ConstRange
 from posgmc.syntax.ast import (
     Binary,
     BinaryOp,

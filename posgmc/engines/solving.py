@@ -2,14 +2,15 @@
 assembly of an :class:`~posgmc.engines.result.EngineResult`, and the attractor-based strategy fix.
 
 * :func:`maximize_mask` turns a query's direction and coalition into the per-state optimisation
-  direction the objectives take; ``_bool``/``_directions``/``_check_rewards`` check the arguments
+  direction the objectives take; ``bool_mask``/``directions_of``/``check_rewards`` check the
+  arguments
   (rewards are per choice: state reward + action reward, :meth:`RewardModel.choice_rewards`);
-* ``_solve_system`` solves the :class:`~posgmc.engines.system.System` on the unknown states by
+* ``solve_system`` solves the :class:`~posgmc.engines.system.System` on the unknown states by
   the chosen :class:`~posgmc.engines.options.Method` (sound interval iteration, plain value
-  iteration, or policy iteration / direct solves, see :mod:`posgmc.engines.exact`) and returns a
-  ``_Solved``;
-* ``_result``/``_exact_result`` put the known and the solved values into one result;
-* ``_reacher_fix``: where the player who wants the target reached has end components, its choices
+  iteration, or policy iteration / direct solves, see :mod:`posgmc.engines.policy_iteration`) and
+  returns a ``Solved``;
+* ``engine_result``/``exact_result`` put the known and the solved values into one result;
+* ``reacher_fix``: where the player who wants the target reached has end components, its choices
   are fixed by an attractor towards the target among its (near-)optimal choices, so that the
   strategy really reaches the target.
 
@@ -25,7 +26,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from posgmc.engines import exact as ex
+from posgmc.engines import policy_iteration as ex
 from posgmc.engines.certify import certify
 from posgmc.engines.graph import Structure, attractor, leaving_choices
 from posgmc.engines.iteration import Bounds, EndComponents, gap_ok, solve, widen
@@ -37,7 +38,11 @@ from posgmc.errors import PosgmcError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.model.types import Direction, ModelType
 
-__all__ = ["maximize_mask"]
+__all__ = [
+    "maximize_mask", "bool_mask", "directions_of", "check_rewards", "state_text", "first_choices",
+    "local_rows", "unsafe_states", "Solved", "solve_system", "engine_result", "exact_result",
+    "reacher_fix",
+]
 
 
 def maximize_mask(
@@ -68,7 +73,7 @@ def maximize_mask(
     return np.where(in_coalition, want_max, not want_max)
 
 
-def _bool(a: np.ndarray | None, S: int, default: bool) -> np.ndarray:
+def bool_mask(a: np.ndarray | None, S: int, default: bool) -> np.ndarray:
     if a is None:
         return np.full(S, default, dtype=bool)
     out = np.asarray(a, dtype=bool)
@@ -77,7 +82,7 @@ def _bool(a: np.ndarray | None, S: int, default: bool) -> np.ndarray:
     return out
 
 
-def _directions(model: ExplicitModel, maximize: np.ndarray) -> np.ndarray:
+def directions_of(model: ExplicitModel, maximize: np.ndarray) -> np.ndarray:
     mx = np.asarray(maximize, dtype=bool)
     if mx.shape != (model.num_states,):
         raise PosgmcError(
@@ -88,7 +93,7 @@ def _directions(model: ExplicitModel, maximize: np.ndarray) -> np.ndarray:
     return mx
 
 
-def _check_rewards(
+def check_rewards(
     model: ExplicitModel,
     rewards: np.ndarray,
     *,
@@ -105,7 +110,7 @@ def _check_rewards(
         raise PosgmcError("rewards must be finite")
     if nonnegative and r.size and r.min() < 0:
         c = int(np.flatnonzero(r < 0)[0])
-        where = _state_text(model, int(np.searchsorted(model.row_groups, c, side="right") - 1))
+        where = state_text(model, int(np.searchsorted(model.row_groups, c, side="right") - 1))
         raise UnsupportedError(
             f"negative rewards are not supported for {objective} (e.g. {r[c]:g} in {where})",
             hint=hint,
@@ -113,7 +118,7 @@ def _check_rewards(
     return r
 
 
-def _state_text(model: ExplicitModel, s: int) -> str:
+def state_text(model: ExplicitModel, s: int) -> str:
     """``state 3 (x=1, y=0)`` (the valuation when the model has variables)."""
     names = model.variable_names
     values = model.state_values
@@ -122,11 +127,11 @@ def _state_text(model: ExplicitModel, s: int) -> str:
     return f"state {s}"
 
 
-def _first_choices(model: ExplicitModel) -> np.ndarray:
+def first_choices(model: ExplicitModel) -> np.ndarray:
     return model.row_groups[:-1].astype(np.int64).copy()
 
 
-def _local_rows(sys: System, initial: np.ndarray) -> np.ndarray:
+def local_rows(sys: System, initial: np.ndarray) -> np.ndarray:
     """int64[n]: local System rows from global choices (first row where not usable)."""
     inv = np.full(int(sys.rows.max(initial=-1)) + 1, -1, dtype=np.int64)
     inv[sys.rows] = np.arange(sys.m, dtype=np.int64)
@@ -137,12 +142,12 @@ def _local_rows(sys: System, initial: np.ndarray) -> np.ndarray:
     return np.where(cand >= 0, cand, rows)
 
 
-def _unsafe(g: Structure, region: np.ndarray) -> np.ndarray:
+def unsafe_states(g: Structure, region: np.ndarray) -> np.ndarray:
     return leaving_choices(g, region)
 
 
 @dataclass(frozen=True)
-class _Solved:
+class Solved:
     """The outcome on the unknown states (global vectors filled by the caller)."""
 
     lower: np.ndarray
@@ -209,7 +214,7 @@ def _interval(sys: System, options: SolverOptions, *, cap: float, ec: EndCompone
     return solve(sys, options, cap=cap, ec=ec)
 
 
-def _solve_system(
+def solve_system(
     sys: System,
     options: SolverOptions,
     *,
@@ -222,8 +227,9 @@ def _solve_system(
     initial_rows: np.ndarray | None = None,
     is_chain: bool = False,
     interval: Callable[[], Bounds] | None = None,
-) -> _Solved:
-    """Dispatch on the method (see :mod:`posgmc.engines.iteration`, :mod:`posgmc.engines.exact`).
+) -> Solved:
+    """Dispatch on the method (see :mod:`posgmc.engines.iteration`,
+    :mod:`posgmc.engines.policy_iteration`).
 
     Policy iteration's values get proven bounds from :func:`~posgmc.engines.certify.certify`, or,
     where no certificate is found, from ``interval()`` (default: :func:`solve` by interval
@@ -233,7 +239,7 @@ def _solve_system(
     n = sys.n
     if n == 0:
         z = np.zeros(0)
-        return _Solved(
+        return Solved(
             z, z.copy(), 0, True, options.method is not Method.VALUE, np.zeros(0, np.int64), None
         )
     # An objective whose minimiser's end components count as infinite (INFLATE) is still a least
@@ -243,7 +249,7 @@ def _solve_system(
 
     def policy(
         start: np.ndarray | None, prove: bool = True
-    ) -> tuple[np.ndarray, np.ndarray, int, _Solved | None]:
+    ) -> tuple[np.ndarray, np.ndarray, int, Solved | None]:
         """Policy iteration; with ``prove`` a certified result or None, else an unproven one."""
         x, rows, rounds = _policy_solution(
             sys, ex.grouped(sys), start, outer_max=outer_max, idle_min=idle_min,
@@ -255,7 +261,7 @@ def _solve_system(
                 x,
                 rows,
                 rounds,
-                _Solved(x, x.copy(), rounds, True, False, best, cand, estimate=x),
+                Solved(x, x.copy(), rounds, True, False, best, cand, estimate=x),
             )
         proven = (
             certify(sys, x, rows, cap=cap, precision=options.precision, relative=options.relative)
@@ -265,7 +271,7 @@ def _solve_system(
             return x, rows, rounds, None
         lower, upper = widen(*proven)
         met = gap_ok(lower, upper, options.precision, options.relative)
-        return x, rows, rounds, _Solved(lower, upper, rounds, met, True, best, cand,
+        return x, rows, rounds, Solved(lower, upper, rounds, met, True, best, cand,
                                         estimate=np.clip(x, lower, upper))
 
     if options.method in (Method.EXACT, Method.POLICY):
@@ -279,7 +285,7 @@ def _solve_system(
         else:
             bounds = interval()
         best, candidates = _candidates(sys, rows, num_choices)
-        return _Solved(bounds.lower, bounds.upper, rounds + bounds.iterations, bounds.converged,
+        return Solved(bounds.lower, bounds.upper, rounds + bounds.iterations, bounds.converged,
                        bounds.sound, best, candidates,
                        estimate=np.clip(x, bounds.lower, bounds.upper))
     if (options.method is Method.INTERVAL and certifiable and n <= _STIFF_LIMIT
@@ -306,7 +312,7 @@ def _solve_system(
         best_rows = sys.rows[b]
         cand = np.zeros(num_choices, dtype=bool)
         cand[sys.rows[c]] = True
-    return _Solved(
+    return Solved(
         bounds.lower,
         bounds.upper,
         bounds.iterations,
@@ -318,12 +324,12 @@ def _solve_system(
     )
 
 
-def _result(
+def engine_result(
     model: ExplicitModel,
     known: np.ndarray,
     known_values: np.ndarray,
     sys: System | None,
-    solved: _Solved | None,
+    solved: Solved | None,
     *,
     method: Method,
     started: float,
@@ -366,7 +372,7 @@ def _result(
     )
 
 
-def _exact_result(
+def exact_result(
     x: np.ndarray,
     iterations: int,
     method: Method,
@@ -387,10 +393,10 @@ def _exact_result(
     )
 
 
-def _reacher_fix(
+def reacher_fix(
     g: Structure,
     strategy: np.ndarray,
-    solved: _Solved,
+    solved: Solved,
     sys: System,
     *,
     goal: np.ndarray,

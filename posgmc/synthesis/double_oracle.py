@@ -21,7 +21,7 @@ adversary's best response to the composed defence added while it beats them.
    the kept set, it joins it and the defence is composed again, until nothing improves, the
    rounds (``oracle_rounds``) or the time run out.
 
-Every evaluation is a job (:mod:`posgmc.synthesis.jobs`), run in parallel with ``--jobs``. The
+Every evaluation is a job (:mod:`posgmc.synthesis.executors`), run in parallel with ``--jobs``. The
 floats computed here rank and steer; the reported numbers are verified afterwards
 (:func:`verified_numbers`) by the sound engines.
 """
@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from posgmc.checking.dispatch import CheckOptions
+from posgmc.checking.property_checker import CheckOptions
 from posgmc.checking.results import Bound
 from posgmc.strategies.binding import bind
 from posgmc.strategies.fss import FiniteStateStrategy
@@ -42,8 +42,9 @@ from posgmc.strategies.verify import StrategyChecker
 from posgmc.synthesis import milp
 from posgmc.synthesis.adversaries import Enumeration, enumerate_adversaries
 from posgmc.synthesis.ascent import LOGIT, ascend
-from posgmc.synthesis.jobs import POLICY, Executor, Problem, expired
+from posgmc.synthesis.executors import Executor
 from posgmc.synthesis.parametric import Layout, Parametrisation, game_views
+from posgmc.synthesis.problem import POLICY, Problem, expired
 
 __all__ = ["OneSided", "one_sided", "verified_numbers", "RankJob", "VersusJob", "ComposeJob",
            "ResponseJob", "RESPONSE_EXHAUSTIVE"]

@@ -1,4 +1,5 @@
-"""posgmc.deep: work on a deep-stack thread, exceptions and the recursion limit handed back."""
+"""posgmc.deep_stack: work on a deep-stack thread, exceptions and the recursion limit handed
+back."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import threading
 
 import pytest
 
-from posgmc.deep import deep_call, deep_generator
+from posgmc.deep_stack import deep_call, deep_generator
 from posgmc.errors import LimitError
 
 
