@@ -26,7 +26,7 @@ from posgmc.syntax import parser
 from posgmc.synthesis.bracket import optimum_of
 from posgmc.synthesis.options import Gap, SynthesisOptions
 from posgmc.synthesis.search import parametrisation, problem_of
-from tests.synthesis.test_compose import random_posg
+from tests.synthesis.test_double_oracle import random_posg
 from tests.synthesis.test_synthesis import BLIND
 
 ROOT = Path(__file__).resolve().parents[2]
