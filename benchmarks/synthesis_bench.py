@@ -153,7 +153,13 @@ def bracket_row(d: Path, timeout: float) -> str:
                 storm_gap = f"{abs(best['value'] - u['value']):.6f}"
         if "error" in st:
             d2 = f"error: {st['error']}"
-    sound = o.sound and all(o.lower - 1e-6 <= v <= o.upper + 1e-6 for v in reached)
+    # sound: no value a strategy reaches (posgmc's, Storm's unfolding) beyond the bound side,
+    # and no bound Storm proves on the far side of the achieved one
+    sign = 1.0 if maximize else -1.0
+    side = o.upper if maximize else o.lower
+    achieved = o.lower if maximize else o.upper
+    sound = o.sound and all(sign * v <= sign * side + 1e-6 for v in reached) and all(
+        sign * v >= sign * achieved - 1e-6 for v in storm_bounds)
     return (f"| {d.name} | `{prop.replace('|', '/')}` | [{o.lower:.6f}, {o.upper:.6f}] "
             f"| {o.gap:.6f} | {method} | {a['full'].value:.6f} | {d2} | {dfine} | {unf} "
             f"| {storm_gap} | {'yes' if sound else 'NO'} | {a['seconds']:.1f} "

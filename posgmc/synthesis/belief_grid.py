@@ -33,6 +33,7 @@ they are exact up to rounding at the 1e-15 level, which the reported bound does 
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from dataclasses import dataclass
 
@@ -53,9 +54,9 @@ from posgmc.synthesis.belief import _can_reach
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
 
-__all__ = ["GridAbstraction", "GridBound", "applies", "freudenthal", "grid_abstraction",
-           "grid_bound", "full_observation_bounds", "RESOLUTIONS", "MAX_VERTICES", "PRECISION",
-           "RULE_CAP"]
+__all__ = ["GridAbstraction", "GridBound", "CoarseBounds", "applies", "freudenthal",
+           "grid_abstraction", "grid_bound", "full_observation_bounds", "RESOLUTIONS",
+           "MAX_VERTICES", "PRECISION", "RULE_CAP"]
 
 RESOLUTIONS = tuple(2 ** i for i in range(1, 11))
 """The grid resolutions tried in turn while the budget lasts (each grid refines the previous)."""
@@ -353,9 +354,47 @@ class _Choices:
             self.e_prob.append(w * lam)
 
 
+@dataclass(frozen=True, eq=False)
+class CoarseBounds:
+    """A solved coarser abstraction, as bounds for a finer one's cut-offs: ``resolution`` N,
+    ``values`` float64[vertices] (the bound side of each vertex's value, proven: each vertex is
+    the initial belief of the same abstraction started there), and ``key`` the vertex of each
+    (support, counts) pair."""
+
+    resolution: int
+    values: np.ndarray
+    key: dict[bytes, int]
+
+    @staticmethod
+    def of(abstraction: GridAbstraction, values: np.ndarray) -> CoarseBounds:
+        B = abstraction.beliefs
+        N = abstraction.resolution
+        key = {}
+        for i in range(B.shape[0]):
+            lo, hi = B.indptr[i], B.indptr[i + 1]
+            counts = np.rint(B.data[lo:hi] * N).astype(np.int64)
+            key[B.indices[lo:hi].astype(np.int64).tobytes() + counts.tobytes()] = i
+        return CoarseBounds(N, values[:B.shape[0]], key)
+
+    def bound(self, idx: np.ndarray, p: np.ndarray) -> float:
+        """Σ λ_i W(u_i) over the coarse grid's simplex around belief ``p`` on states ``idx``
+        (a bound by convexity), or NaN when one of its vertices is not in the coarse
+        abstraction."""
+        counts, lam = freudenthal(p, self.resolution)
+        total = 0.0
+        for c, w in zip(counts, lam):
+            nz = c > 0
+            v = self.key.get(idx[nz].tobytes() + c[nz].tobytes())
+            if v is None:
+                return math.nan
+            total += w * float(self.values[v])
+        return total
+
+
 def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                      deadline: float | None = None, max_vertices: int = MAX_VERTICES,
-                     adversary_rules: np.ndarray | None = None) -> GridAbstraction | None:
+                     adversary_rules: np.ndarray | None = None,
+                     coarse: CoarseBounds | None = None) -> GridAbstraction | None:
     """The abstraction of ``problem`` at ``resolution``, explored breadth first from the initial
     belief until ``max_vertices`` or ``deadline``.
 
@@ -377,6 +416,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             (:func:`full_observation_bounds`).
         adversary_rules: int64[S], the adversary's preferred choice per state (the
             full-observation optimum's), or None.
+        coarse: a solved coarser abstraction; a cut-off vertex then gets the tighter of its
+            full-observation bound and its coarse simplex's interpolated bound.
 
     Returns:
         The abstraction, or None when it does not apply (:func:`applies`) or the initial state
@@ -431,11 +472,12 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     expanded = np.zeros(len(grid.rows), dtype=bool)
     expanded[:done] = True
     expanded[skipped] = False
-    return _assemble(problem, dyn, grid, expanded, resolution, cutoff, choices)
+    return _assemble(problem, dyn, grid, expanded, resolution, cutoff, choices, coarse)
 
 
 def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarray,
-              resolution: int, cutoff: np.ndarray, ch: _Choices) -> GridAbstraction:
+              resolution: int, cutoff: np.ndarray, ch: _Choices,
+              coarse: CoarseBounds | None) -> GridAbstraction:
     """The abstraction: expanded vertices with their choices, cut-off vertices with one choice
     worth their full-observation bound, then the target and the sink."""
     V = len(grid.rows)
@@ -477,6 +519,12 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     finite = np.isfinite(cutoff)
     u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
     unbounded = np.asarray(Bc @ (~finite).astype(np.float64)).ravel() > 0
+    if coarse is not None:
+        sign = 1.0 if problem.maximize else -1.0
+        for j, v in enumerate(cut_ids.tolist()):
+            w = coarse.bound(grid.rows[v], grid.vals[v])
+            if np.isfinite(w) and (unbounded[j] or sign * w < sign * u[j]):
+                u[j], unbounded[j] = w, False
     n_cut = cut_ids.size
     if prob:
         u = np.clip(u, 0.0, 1.0)
@@ -562,6 +610,7 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
         cutoff, rules = full_observation_bounds(problem, deadline)
     best: GridBound | None = None
     tried: list[tuple[int, float]] = []
+    coarse: CoarseBounds | None = None
     for N in resolutions:
         now = time.perf_counter()
         if now > deadline:
@@ -569,7 +618,7 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
         # exploration may use most of what is left; the sound solve gets the rest
         explore_until = now + 0.6 * (deadline - now)
         abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
-                                       adversary_rules=rules)
+                                       adversary_rules=rules, coarse=coarse)
         if abstraction is None:
             return None
         result = abstraction.solve(SolverOptions(precision=PRECISION, relative=True,
@@ -583,8 +632,11 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
             best = GridBound(value, N, abstraction.vertices, abstraction.complete, exact, (), 0.0)
         if exact or (target is not None and sign * best.value <= sign * target):
             break
-        if not abstraction.complete:
-            break  # a finer grid has more vertices still: it would be cut off sooner
+        # the next resolution doubles this one: its cut-offs interpolate these values (the
+        # grids nest, so a fine vertex's coarse simplex has vertices this abstraction holds
+        # wherever it explored that far)
+        side = result.upper if problem.maximize else result.lower
+        coarse = CoarseBounds.of(abstraction, np.asarray(side, dtype=np.float64))
     if best is None:
         return None
     return GridBound(best.value, best.resolution, best.vertices, best.complete, best.exact,
