@@ -29,13 +29,21 @@ def main() -> None:
     import stormpy.pomdp
 
     path, text, seconds = sys.argv[1], sys.argv[2], float(sys.argv[3])
-    program = stormpy.parse_prism_program(path)
-    props = stormpy.parse_properties(text, program)
-    options = stormpy.BuilderOptions([p.get_raw_formula() for p in props] * 2)
-    options.set_build_all_labels()
-    options.set_build_all_reward_models()
-    options.set_build_choice_labels()
-    model = stormpy.build_model(program, options=options)
+    with open(path) as f:
+        drn = any(line.startswith("@type:") for line in f)
+    if drn:  # Storm's explicit format (PAYNT's exported sketches)
+        props = stormpy.parse_properties(text)
+        drn_options = stormpy.io.DirectEncodingParserOptions()
+        drn_options.build_choice_labeling = True
+        model = stormpy.build_model_from_drn(path, options=drn_options)
+    else:
+        program = stormpy.parse_prism_program(path)
+        props = stormpy.parse_properties(text, program)
+        options = stormpy.BuilderOptions([p.get_raw_formula() for p in props] * 2)
+        options.set_build_all_labels()
+        options.set_build_all_reward_models()
+        options.set_build_choice_labels()
+        model = stormpy.build_model(program, options=options)
     out: dict[str, object] = {"states": model.nr_states, "discretisation": []}
     used = 0.0
     resolution = 2
