@@ -71,7 +71,7 @@ MAX_VERTICES = 400_000
 PRECISION = 1e-8
 """The relative precision the abstraction is solved to (its bound side is what is reported)."""
 
-_BATCH = 2048
+_BATCH = 512
 """Vertices expanded between two looks at the clock."""
 
 _SNAP = 1e-9
