@@ -55,6 +55,7 @@ from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
 
 __all__ = ["GridAbstraction", "GridBound", "CoarseBounds", "applies", "freudenthal",
+           "freudenthal_batch",
            "grid_abstraction", "grid_bound", "full_observation_bounds", "RESOLUTIONS",
            "MAX_VERTICES", "PRECISION", "RULE_CAP"]
 
@@ -107,6 +108,36 @@ def freudenthal(p: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]
     counts[:, -1] = Y[:, -1].astype(np.int64)
     keep = lam > 0
     return counts[keep], lam[keep]
+
+
+def freudenthal_batch(P: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`freudenthal` of every row of ``P`` (float64[n, m], distributions with all entries
+    > 0) at once: (int64[n, m, m] counts, float64[n, m] weights; a vertex of weight 0 is not
+    part of the decomposition)."""
+    n, m = P.shape
+    N = int(resolution)
+    if m == 1:
+        return np.full((n, 1, 1), N, dtype=np.int64), np.ones((n, 1))
+    x = N * np.cumsum(P[:, ::-1], axis=1)[:, ::-1]
+    x[:, 0] = N
+    near = np.rint(x)
+    x = np.where(np.abs(x - near) <= _SNAP * N, near, x)
+    v = np.floor(x)
+    d = x - v
+    order = 1 + np.argsort(-d[:, 1:], axis=1, kind="stable")
+    dd = np.take_along_axis(d, order, axis=1)
+    lam = np.empty((n, m))
+    lam[:, 0] = 1.0 - dd[:, 0]
+    lam[:, 1:m - 1] = dd[:, :-1] - dd[:, 1:]
+    lam[:, m - 1] = dd[:, -1]
+    Y = np.repeat(v[:, None, :], m, axis=1)  # [n, vertex, coordinate]
+    steps = np.tri(m, m - 1, k=-1)  # vertex k adds the first k unit vectors of the order
+    rows = np.arange(n)[:, None, None]
+    Y[rows, np.arange(m)[None, :, None], order[:, None, :]] += steps[None]
+    counts = np.empty((n, m, m), dtype=np.int64)
+    counts[:, :, :-1] = (Y[:, :, :-1] - Y[:, :, 1:]).astype(np.int64)
+    counts[:, :, -1] = Y[:, :, -1].astype(np.int64)
+    return counts, lam
 
 
 @dataclass(frozen=True, eq=False)
@@ -308,6 +339,21 @@ def applies(problem: Problem) -> bool:
             and problem.rewards is None)
 
 
+_BATCH_ELEMENTS = 2_000_000
+"""A vectorised triangulation lays out parts × m × m counts; kept below this many."""
+
+
+def _chunks(sizes: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    """(support size m, indices of the parts of that size) in chunks of at most
+    :data:`_BATCH_ELEMENTS` counts."""
+    out: list[tuple[int, np.ndarray]] = []
+    for m in np.unique(sizes).tolist():
+        sel = np.flatnonzero(sizes == m)
+        step = max(1, _BATCH_ELEMENTS // (m * m))
+        out.extend((m, sel[i:i + step]) for i in range(0, sel.size, step))
+    return out
+
+
 class _Choices:
     """The abstraction's choices while exploring: a key (vertex · span + local index) each, its
     target mass and reward, and its successor entries (by key)."""
@@ -341,17 +387,23 @@ class _Choices:
         o = np.lexsort((coo.col, pair))
         pair, col, data = pair[o], coo.col[o].astype(np.int64), coo.data[o]
         starts = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
-        ends = np.r_[starts[1:], pair.size]
+        sizes = np.diff(np.r_[starts, pair.size])
+        rows = pair[starts] // (dyn.Z + 1)
+        mass = np.add.reduceat(data, starts)
         N = grid.N
-        for lo, hi in zip(starts.tolist(), ends.tolist()):
-            w = float(data[lo:hi].sum())
-            counts, lam = freudenthal(data[lo:hi] / w, N)
-            self.on_grid = self.on_grid and lam.size == 1
-            row = int(pair[lo] // (dyn.Z + 1))
-            vs = [grid.vertex(col[lo:hi], c) for c in counts]
-            self.e_key.append(np.full(lam.size, keys[row], dtype=np.int64))
+        # the parts of one support size together: one vectorised triangulation each
+        for m, sel in _chunks(sizes):
+            at = starts[sel][:, None] + np.arange(m)[None, :]
+            w = mass[sel]
+            counts, lam = freudenthal_batch(data[at] / w[:, None], N)
+            cols = col[at]
+            keep = lam > 0
+            self.on_grid = self.on_grid and bool((keep.sum(axis=1) == 1).all())
+            i, k = np.nonzero(keep)
+            vs = [grid.vertex(cols[a], counts[a, b]) for a, b in zip(i.tolist(), k.tolist())]
+            self.e_key.append(keys[rows[sel][i]].astype(np.int64))
             self.e_vertex.append(np.asarray(vs, dtype=np.int64))
-            self.e_prob.append(w * lam)
+            self.e_prob.append(w[i] * lam[i, k])
 
 
 @dataclass(frozen=True, eq=False)

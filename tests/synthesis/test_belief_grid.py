@@ -52,6 +52,21 @@ def test_freudenthal_is_a_convex_combination_of_grid_beliefs(weights: list[float
     assert lam.size <= p.size  # the vertices of one simplex of the triangulation
 
 
+@settings(max_examples=50, deadline=None)
+@given(rows=st.integers(1, 6), m=st.integers(1, 8), seed=st.integers(0, 1000),
+       resolution=st.sampled_from([1, 2, 5, 16]))
+def test_the_batch_triangulation_is_the_single_one(rows: int, m: int, seed: int,
+                                                   resolution: int) -> None:
+    P = np.random.default_rng(seed).random((rows, m)) + 0.01
+    P /= P.sum(axis=1, keepdims=True)
+    counts, lam = belief_grid.freudenthal_batch(P, resolution)
+    for i in range(rows):
+        one_counts, one_lam = belief_grid.freudenthal(P[i], resolution)
+        keep = lam[i] > 0
+        assert np.array_equal(counts[i][keep], one_counts)
+        assert np.array_equal(lam[i][keep], one_lam)
+
+
 def test_a_grid_belief_is_its_own_vertex() -> None:
     counts, lam = belief_grid.freudenthal(np.array([0.25, 0.5, 0.25]), 4)
     assert counts.tolist() == [[1, 2, 1]] and lam.tolist() == [1.0]
