@@ -25,7 +25,7 @@ from posgmc.synthesis.problem import Problem
 
 __all__ = ["DEFAULT_SHARE", "GAP_SHARE", "optimum_of"]
 
-DEFAULT_SHARE = 0.08
+DEFAULT_SHARE = 0.06
 """Without ``--gap``: the bound side gets this part of the time budget on top of it (so a run
 takes at most this much longer than the search alone)."""
 
