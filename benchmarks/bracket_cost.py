@@ -18,7 +18,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 CASES = (
     ("models/tiger/tiger.pomdp", 'R{"cost"}min=? [ F "opened" ]', 5.0),
-    ("tests/data/pomdp/nrp-8.pomdp", 'Pmax=? [ F "unfair" ]', 10.0),
+    ("tests/data/benchmarks/pomdp/nrp-8/sketch.templ", 'Pmax=? [ F "unfair" ]', 10.0),
     ("models/beacon/beacon.posg", '<<rover>> Pmax=? [ F "safe" ]', 10.0),
     ("models/trap_grid/trap_grid.pomdp", 'Pmax=? [ F "goal" ]', 10.0),
 )

@@ -2,12 +2,13 @@
 
 Each build runs in a fresh subprocess so that its peak resident memory (``ru_maxrss``) is its own:
 posgmc's (parse + instantiate + build) in this interpreter, Storm's (parse + instantiate +
-``stormpy.build_model``) in the reference environment's interpreter when it exists
-(``/root/refenv/bin/python`` with stormpy 2.0). Storm is asked for what posgmc always builds:
-all labels, all reward models, choice labels and state valuations (``--storm-minimal`` leaves out
-choice labels and state valuations). Times are wall-clock seconds of the build step alone; the
-"total" columns include parsing and constant instantiation. Both tools are run in the same
-invocation, one after the other, so that their ratio is measured under the same machine load.
+``stormpy.build_model``) in the reference environment's interpreter when it is set
+(``POSGMC_REFERENCE_PYTHON``, with stormpy 2.0; see benchmarks/README.md). Storm is asked for what
+posgmc always builds: all labels, all reward models, choice labels and state valuations
+(``--storm-minimal`` leaves out choice labels and state valuations). Times are wall-clock seconds
+of the build step alone; the "total" columns include parsing and constant instantiation. Both
+tools are run in the same invocation, one after the other, so that their ratio is measured under
+the same machine load.
 
 Usage::
 
@@ -30,14 +31,15 @@ import sys
 import time
 from pathlib import Path
 
+from _locations import reference_python, shared_benchmarks  # this folder is on sys.path
 from _worker import run_worker  # benchmarks/_worker.py (this folder is on sys.path)
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-SCALE = (ROOT.parent / "shared" / "benchmarks" / "scale").resolve()
+SCALE = shared_benchmarks() / "scale"
 MODELS = {"two_robots": SCALE / "two_robots.nm", "pursuit": SCALE / "pursuit.smg"}
 DEFAULT = ["two_robots=32", "pursuit=30"]
-STORM_PYTHON = Path("/root/refenv/bin/python")
+STORM_PYTHON = reference_python()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -127,7 +129,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--no-storm", action="store_true", help="skip Storm")
     parser.add_argument(
-        "--storm-python", default=str(STORM_PYTHON), help="interpreter with stormpy"
+        "--storm-python",
+        default=None if STORM_PYTHON is None else str(STORM_PYTHON),
+        help="interpreter with stormpy (default: $POSGMC_REFERENCE_PYTHON)",
     )
     parser.add_argument(
         "--storm-minimal", action="store_true", help="Storm without choice labels/state valuations"
@@ -154,7 +158,11 @@ def main(argv: list[str] | None = None) -> int:
             )
         jobs.extend((name, int(x)) for x in ns.split(","))
 
-    storm = not args.no_storm and _storm_available(Path(args.storm_python))
+    storm = (
+        not args.no_storm
+        and args.storm_python is not None
+        and _storm_available(Path(args.storm_python))
+    )
     if not args.no_storm and not storm:
         print(f"(Storm skipped: no stormpy at {args.storm_python})", file=sys.stderr)
 

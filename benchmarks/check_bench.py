@@ -15,7 +15,7 @@ Usage::
 
 Storm's sound environment uses relative precision 1e-6; posgmc's default is absolute 1e-6 (the
 CLI's default), ``--relative`` makes posgmc's precision relative as well (the CLI's
-``--relative``), which is the like-for-like comparison and the issue's "relative-precision mode".
+``--relative``), which is the like-for-like comparison.
 
 Besides the check times, every row gives the whole-process ratio (a fresh interpreter that imports,
 parses, builds and checks, against ``storm_check.py``'s whole run, both timed from outside), the
@@ -40,22 +40,13 @@ import time
 from pathlib import Path
 from typing import Any
 
+from _locations import reference_python, shared_benchmarks  # this folder is on sys.path
 from _worker import run_worker  # benchmarks/_worker.py (this folder is on sys.path)
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-# the shared scale models sit next to the checkout (/work/main -> /work/shared), or one level up
-# from a git worktree (/work/wt/NAME -> /work/shared)
-SCALE = next(
-    (
-        p.resolve()
-        for p in (ROOT.parent / "shared" / "benchmarks" / "scale",
-                  ROOT.parent.parent / "shared" / "benchmarks" / "scale")
-        if p.is_dir()
-    ),
-    (ROOT.parent / "shared" / "benchmarks" / "scale").resolve(),
-)
-STORM_PYTHON = Path("/root/refenv/bin/python")
+SCALE = shared_benchmarks() / "scale"
+STORM_PYTHON = reference_python()
 
 OWN = HERE / "models"
 MODELS = {
@@ -144,7 +135,8 @@ def _storm(module: Any, path: Path, n: int, prop: str, constant: str, timeout: f
     t0 = time.perf_counter()
     cpu0 = _children_cpu()
     out = module.run_storm_check(
-        path, constants=f"{constant}={n}", prop=prop, sound=True, timeout=timeout
+        path, constants=f"{constant}={n}", prop=prop, sound=True, python=STORM_PYTHON,
+        timeout=timeout,
     )
     out["process_seconds"] = time.perf_counter() - t0
     out["process_cpu_seconds"] = _children_cpu() - cpu0
@@ -185,14 +177,18 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--worker", nargs=5, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
-    for name in ("two_robots", "pursuit"):  # a git worktree is not next to shared/
+    for name in ("two_robots", "pursuit"):
         MODELS[name] = args.scale / MODELS[name].name
     if args.worker:
         path, n, prop, constant, precision = args.worker
         print(json.dumps(worker(path, int(n), prop, constant, precision == "relative")))
         return 0
 
-    storm = None if args.no_storm or not STORM_PYTHON.exists() else _storm_module()
+    storm = (
+        None
+        if args.no_storm or STORM_PYTHON is None or not STORM_PYTHON.exists()
+        else _storm_module()
+    )
     started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     mode = "relative" if args.relative else "absolute"
     loads = [os.getloadavg()[0]]

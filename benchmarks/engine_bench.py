@@ -2,7 +2,7 @@
 
 Two families, both generated with numpy only (no parser, no builder):
 
-* ``robots N``: the mdp of ``/work/shared/benchmarks/scale/two_robots.nm`` (two robots on an N x N
+* ``robots N``: the mdp of ``scale/two_robots.nm`` of the benchmarks folder (two robots on an N x N
   grid, slip 0.1, fault 0.002; one robot moves per step), every position pair with and without the
   fault flag (2 N^4 states; N=32 gives 2.1M states, 8.4M choices, 23M transitions, close to Storm's
   2,096,127 / 9,167,100 / 25,404,148 which only counts reachable states). Property: ``Pmax F goal``.
@@ -131,7 +131,7 @@ def robots(N: int, s: float = 0.1, f: float = 0.002) -> tuple[ExplicitModel, np.
 
 
 def pursuit(N: int, s: float = 0.1, q: float = 0.7) -> tuple[ExplicitModel, np.ndarray]:
-    """The smg of ``/work/shared/benchmarks/scale/pursuit.smg`` (evader vs pursuer on an N x N
+    """The smg of ``scale/pursuit.smg`` of the benchmarks folder (evader vs pursuer on an N x N
     grid, turn-based); returns the model (player 0 = evader) and the "escaped" label."""
     S = 2 * N**4
     idx = np.arange(S, dtype=np.int64)

@@ -4,8 +4,8 @@ Each measurement runs in a fresh subprocess so that its peak resident memory (``
 its own: posgmc building two_robots (``build``), posgmc building and writing it as DRN
 (``export``, :func:`posgmc.io.drn.write_drn`), and Storm building and writing it
 (``stormpy.build_model`` + ``stormpy.export_to_drn``) in the reference environment, in the same
-invocation. The export's cost is its peak over the build's: issue #13 asked for "a small multiple
-of the model's own memory" (the writer used to hold the whole text: 6.9 GB for a 616 MB file).
+invocation. The export's cost is its peak over the build's, which should stay a small multiple of
+the model's own memory (the writer streams; it never holds the whole text).
 
 Usage::
 
@@ -26,15 +26,13 @@ import tempfile
 import time
 from pathlib import Path
 
+from _locations import reference_python, shared_benchmarks  # this folder is on sys.path
 from _worker import run_worker  # benchmarks/_worker.py (this folder is on sys.path)
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-_SCALE = "shared/benchmarks/scale/two_robots.nm"
-MODEL = next(
-    (p for p in (ROOT.parent / _SCALE, Path("/work") / _SCALE) if p.exists()), ROOT.parent / _SCALE
-).resolve()
-STORM_PYTHON = Path("/root/refenv/bin/python")
+MODEL = shared_benchmarks() / "scale" / "two_robots.nm"
+STORM_PYTHON = reference_python()
 
 
 def _peak_mb() -> float:
@@ -105,7 +103,7 @@ def main() -> None:
             export = run_worker(script, sys.executable, ["posgmc", str(n), f"{tmp}/m.drn"], 3600)
             os.unlink(f"{tmp}/m.drn") if os.path.exists(f"{tmp}/m.drn") else None
             storm: dict[str, object] = {}
-            if not args.no_storm and STORM_PYTHON.exists():
+            if not args.no_storm and STORM_PYTHON is not None and STORM_PYTHON.exists():
                 storm = run_worker(
                     script, str(STORM_PYTHON), ["storm", str(n), f"{tmp}/s.drn"], 3600
                 )

@@ -1,4 +1,4 @@
-"""The long fuzz run of issue #13: mutate the corpus many times and apply the oracle.
+"""The long fuzz run: mutate the corpus many times and apply the oracle.
 
 Uses the corpus, mutations and oracle of ``tests/fuzz/mutate.py`` (the default test run does a
 bounded number of the same). Each input is one random file of the corpus (models, or properties

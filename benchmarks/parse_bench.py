@@ -15,7 +15,8 @@ to a temporary directory and times:
   is what Python's cycle collector then spends on the new tree (a generation-0, -1 and -2
   collection right after each parse: the passes the collector would make on its own as the
   program goes on, since the parser pauses it while parsing);
-* Storm (when ``/root/refenv/bin/python`` has stormpy): ``stormpy.parse_prism_program(path)`` and
+* Storm (when ``POSGMC_REFERENCE_PYTHON`` names an interpreter with stormpy):
+  ``stormpy.parse_prism_program(path)`` and
   ``stormpy.parse_properties(text, program)`` (against a small model declaring the property
   file's names), median of ``--repeat`` runs in one fresh process, the first run included (Storm
   has no lazily built parser tables to warm up).
@@ -44,11 +45,12 @@ import tempfile
 import time
 from pathlib import Path
 
+from _locations import reference_python  # benchmarks/_locations.py (this folder is on sys.path)
 from _worker import run_worker  # benchmarks/_worker.py (this folder is on sys.path)
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-STORM_PYTHON = Path("/root/refenv/bin/python")
+STORM_PYTHON = reference_python()
 DEFAULT_COMMANDS = (1000, 5000, 20000)
 DEFAULT_PROPERTIES = (5000,)
 
@@ -203,7 +205,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=3, help="timed parses per input (median)")
     parser.add_argument("--no-storm", action="store_true", help="skip Storm")
     parser.add_argument(
-        "--storm-python", default=str(STORM_PYTHON), help="interpreter with stormpy"
+        "--storm-python",
+        default=None if STORM_PYTHON is None else str(STORM_PYTHON),
+        help="interpreter with stormpy (default: $POSGMC_REFERENCE_PYTHON)",
     )
     parser.add_argument("--timeout", type=float, default=900.0, help="seconds per worker")
     parser.add_argument("--worker", nargs="+", help=argparse.SUPPRESS)
@@ -218,7 +222,11 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(out))
         return 0
 
-    storm = not args.no_storm and _storm_available(Path(args.storm_python))
+    storm = (
+        not args.no_storm
+        and args.storm_python is not None
+        and _storm_available(Path(args.storm_python))
+    )
     if not args.no_storm and not storm:
         print(f"(Storm skipped: no stormpy at {args.storm_python})", file=sys.stderr)
 

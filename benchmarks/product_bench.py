@@ -1,5 +1,5 @@
 """Strategy products at scale: build time of the product with a k-node strategy and the time of
-the `guaranteed` check on it, for k = 1, 2, 4 (issue: finite-state strategies).
+the `guaranteed` check on it, for k = 1, 2, 4.
 
 Usage: python benchmarks/product_bench.py [--n 80] [--budget 4] [--repeat 3] [--seed 0]
 

@@ -2,7 +2,7 @@
 
 As a script it runs in the reference environment (stormpy 2.0.0 + paynt 0.5.0), never in posgmc's:
 
-    /root/refenv/bin/python benchmarks/storm_check.py --model MODEL --const N=32 \
+    $POSGMC_REFERENCE_PYTHON benchmarks/storm_check.py --model MODEL --const N=32 \
         --prop 'Pmax=? [ F "goal" ]' [--sound] [--full-model]
 
 and prints exactly one JSON line on standard output:
@@ -39,8 +39,6 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
-
-REFERENCE_PYTHON = Path("/root/refenv/bin/python")
 
 
 def plain(value: Any) -> Any:
@@ -138,7 +136,7 @@ def run_storm_check(
     prop: str,
     sound: bool,
     full_model: bool = False,
-    python: Path = REFERENCE_PYTHON,
+    python: Path,
     timeout: float | None = None,
 ) -> dict[str, Any]:
     """Run this script in the reference environment and return its JSON line (needs no stormpy).
@@ -149,7 +147,7 @@ def run_storm_check(
         prop: The property, as Storm reads it.
         sound: Use Storm's sound environment.
         full_model: Build without Storm's property-based absorbing states.
-        python: Interpreter of the reference environment.
+        python: Interpreter of the reference environment (``$POSGMC_REFERENCE_PYTHON``).
         timeout: Seconds before the run is stopped (None: no limit).
 
     Returns:

@@ -2,7 +2,7 @@
 
 Run it with the reference environment (stormpy 2.0.0 + paynt 0.5.0), never with posgmc's:
 
-    cd /work/main && /root/refenv/bin/python benchmarks/storm_reference.py
+    $POSGMC_REFERENCE_PYTHON benchmarks/storm_reference.py        # from the checkout's root
 
 It finds every model under the benchmarks folder (PRISM-language files and explicit DRN files),
 builds each one (once per set of constants) with Storm, records the sizes, and checks every property
@@ -23,7 +23,6 @@ import importlib.metadata
 import itertools
 import json
 import math
-import os
 import platform
 import re
 import shlex
@@ -35,8 +34,10 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from _locations import ROOT, shared_benchmarks  # this folder is on sys.path
+
 HERE = Path(__file__).resolve().parent
-DEFAULT_BENCHMARKS = Path("/work/shared/benchmarks")
+DEFAULT_BENCHMARKS = shared_benchmarks()
 DEFAULT_OUTPUT = HERE.parent / "tests" / "data" / "storm_reference.json"
 
 MODEL_SUFFIXES = (".prism", ".templ", ".nm", ".smg")
@@ -774,6 +775,11 @@ NOTES = [
 ]
 
 
+def _portable(path: Path) -> str:
+    """``path`` relative to the checkout when it lies inside it (the JSON names no machine)."""
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else path.name
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point.
 
@@ -808,9 +814,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     import stormpy.info
 
     header = {
-        "command": f"cd {shlex.quote(os.getcwd())} && {shlex.join([sys.executable, *sys.argv])}",
+        "command": shlex.join(["$POSGMC_REFERENCE_PYTHON", *sys.argv]),
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "benchmarks": str(benchmarks),
+        "benchmarks": _portable(benchmarks),
         "storm_version": stormpy.info.storm_version(),
         "storm_long_version": stormpy.info.storm_long_version(),
         "stormpy_version": importlib.metadata.version("stormpy"),

@@ -1,15 +1,16 @@
-"""Synthesis quality and time against PAYNT, both in the same invocation (issue: synthesis).
+"""Synthesis quality and time against PAYNT, both in the same invocation.
 
 Usage:
     python benchmarks/synthesis_bench.py [--set posmg|pomdp] [--timeout 30] [--paynt-timeout 30]
         [--only NAME ...] [--shared DIR] [--bracket] [--no-paynt]
 
-For every POSMG under ../shared/benchmarks/posmg/ with a DRN sketch (or, with --set pomdp, every
-POMDP under ../shared/benchmarks/pomdp/; --only NAME... for a subset): posgmc synthesises the
+For every POSMG under posmg/ of the benchmarks folder (--shared, default $POSGMC_SHARED_BENCHMARKS
+or tests/data/benchmarks) with a DRN sketch (or, with --set pomdp, every POMDP under pomdp/;
+--only NAME... for a subset): posgmc synthesises the
 coalition's strategy (`check` without --strategy: gradient search over randomised FSSs with
 memory 1..3 against the omniscient opponent, verified by sound interval iteration) within
 --timeout, and PAYNT 0.5.0 (`python -m paynt DIR --sketch sketch.templ --props sketch.props
---fsc-synthesis --timeout T`, run by /root/refenv/bin/python) within --paynt-timeout. PAYNT's
+--fsc-synthesis --timeout T`, run by $POSGMC_REFERENCE_PYTHON) within --paynt-timeout. PAYNT's
 value is the last "optimum" it prints. Prints a markdown table: our guaranteed with its proven
 bounds, the full-observation value, vs_fss_adversary and upper_bound, the adversary phases
 (enumerated [all] / ranked / kept / added by the double oracle; which defence is reported), our
@@ -35,9 +36,11 @@ import sys
 import time
 from pathlib import Path
 
+from _locations import reference_python, shared_benchmarks  # this folder is on sys.path
+
 ROOT = Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared" / "benchmarks"
-REFPY = Path("/root/refenv/bin/python")
+SHARED = shared_benchmarks()
+REFPY = reference_python()
 
 
 def first_property(directory: Path) -> str:
@@ -81,8 +84,8 @@ def ours(directory: Path, timeout: float, bracket: bool = False) -> dict[str, ob
 
 
 def paynt(directory: Path, timeout: float) -> dict[str, object]:
-    if not REFPY.exists():
-        return {"error": "no /root/refenv (see benchmarks/README.md)"}
+    if REFPY is None or not REFPY.exists():
+        return {"error": "set POSGMC_REFERENCE_PYTHON (benchmarks/README.md)"}
     cmd = [str(REFPY), "-m", "paynt", str(directory), "--sketch", "sketch.templ", "--props",
            "sketch.props", "--fsc-synthesis", "--timeout", str(int(timeout))]
     started = time.perf_counter()
@@ -172,8 +175,10 @@ def main() -> None:
     ap.add_argument("--paynt-timeout", type=float, default=30.0)
     ap.add_argument("--only", nargs="*", default=None)
     ap.add_argument("--set", choices=["posmg", "pomdp"], default="posmg")
-    ap.add_argument("--shared", type=Path, default=SHARED,
-                    help="the shared benchmarks directory (default ../shared/benchmarks)")
+    ap.add_argument(
+        "--shared", type=Path, default=SHARED,
+        help="benchmarks folder (default: $POSGMC_SHARED_BENCHMARKS or tests/data/benchmarks)",
+    )
     ap.add_argument("--bracket", action="store_true",
                     help="the optimum bracket's table, with Storm's belief-space bounds")
     ap.add_argument("--no-paynt", action="store_true", help="do not run PAYNT")

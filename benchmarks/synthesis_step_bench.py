@@ -1,4 +1,4 @@
-"""The cost of one gradient step of the synthesis search on a large product (issue #9, scale).
+"""The cost of one gradient step of the synthesis search on a large product.
 
 Usage: python benchmarks/synthesis_step_bench.py [--n 5] [--memory 2] [--steps 3] [--no-exact]
 

@@ -380,8 +380,8 @@ def build(
 def _warm_up_when_large(size: int) -> None:
     """Start loading the engines' compiled kernels on a thread (once per process) as soon as the
     model being built reaches ``scc.COMPILED_MIN_SIZE`` states (or choices), so that they are
-    ready when its analysis starts; a smaller model never loads numba, whose start-up (about
-    0.5 s of CPU and 100 MB) would cost more than the kernels save."""
+    ready when its analysis starts; a smaller model never loads numba, whose start-up
+    (:mod:`posgmc.engines.kernels`) would cost more than the kernels save."""
     if size >= scc.COMPILED_MIN_SIZE:
         kernels.warm_up_in_background()
 
@@ -689,15 +689,17 @@ def _check_arguments(
     """:func:`check`'s arguments validated (InputError naming the argument), with exact mode's
     build options and the synthesis budget's start (here, unless the caller set it: building the
     model is inside the first synthesised property's budget)."""
+    if synthesis is not None:
+        from posgmc.synthesis.options import SynthesisOptions
+
+        _typed(synthesis, SynthesisOptions, "synthesis")
     if synthesis is not None and synthesis.started is None:
         synthesis = dataclasses.replace(synthesis, started=time.perf_counter())
     _typed(options, CheckOptions, "options")
     files = _paths(property_files, "property_files")
     items = _property_items(properties)
-    if strategies is not None and not isinstance(strategies, Mapping):
-        raise InputError(
-            f"strategies must map player names to strategies, got {type(strategies).__name__}"
-        )
+    if strategies is not None:
+        _strategy_sources(strategies)
     if options.exact:
         if strategies or full_observation:
             raise InputError(
@@ -819,16 +821,13 @@ def synthesize(
     Raises:
         PosgmcError: the model, the property, or an objective synthesis does not cover.
     """
-    from posgmc.synthesis.options import SynthesisOptions
+    from posgmc.synthesis.options import Gap, SynthesisOptions, memory_sizes
 
-    def sizes(v: int | Sequence[int]) -> tuple[int, ...]:
-        out = (v,) if isinstance(v, int) else tuple(v)
-        if not out or any(not isinstance(k, int) or isinstance(k, bool) or k < 1 for k in out):
-            raise InputError(f"memory sizes must be positive ints, got {v!r}")
-        return out
-
-    from posgmc.synthesis.options import Gap
-
+    session = _session(session)
+    if not isinstance(prop, str):
+        raise InputError(f"prop must be a property text, got {type(prop).__name__}")
+    # every argument checked (SynthesisOptions names the field: timeout, seed, jobs, ...) before
+    # anything is built
     if gap is None or isinstance(gap, str):
         requested = None if gap is None else Gap.parse(gap)
     elif isinstance(gap, (int, float)) and not isinstance(gap, bool):
@@ -838,11 +837,14 @@ def synthesize(
     options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs,
                                belief=None if memory is None else False, gap=requested)
     if isinstance(memory, Mapping):
-        options = dataclasses.replace(
-            options, player_memory=tuple(sorted((str(p), sizes(v)) for p, v in memory.items()))
-        )
+        for p in memory:
+            if not isinstance(p, str):
+                raise InputError(f"memory must map player names (strings) to sizes, got the key "
+                                 f"{p!r}")
+        options = dataclasses.replace(options, player_memory=tuple(sorted(
+            (p, memory_sizes(v, f"memory[{p!r}]")) for p, v in memory.items())))
     elif memory is not None:
-        options = dataclasses.replace(options, memory=sizes(memory))
+        options = dataclasses.replace(options, memory=memory_sizes(memory, "memory"))
     report = check(session, properties=[prop], build_options=build_options,
                    zero_based_players=zero_based_players, built=built, synthesis=options)
     outcome = report.outcomes[0]
@@ -868,10 +870,14 @@ def load_strategies(
     from posgmc.strategies.files import read_strategy
     from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 
+    _strategy_sources(strategies)
     out: dict[str, FiniteStateStrategy] = {}
     for player, given in strategies.items():
         fss = given if isinstance(given, FiniteStateStrategy) else read_strategy(given)
-        if player is not None and fss.player != player:
+        # a pomdp's one player has no name; its strategy file is written as agent.json and
+        # given back as --strategy agent=...
+        if player is not None and fss.player != player and not (
+                player == "agent" and fss.player == ""):
             raise StrategyError(
                 f"the strategy is player {fss.player!r}'s, given for player {player!r}",
                 path="player",
@@ -882,21 +888,65 @@ def load_strategies(
 
 
 
+def _strategy_sources(strategies: object) -> None:
+    """``strategies`` maps player names (or None: the file's own player) to strategies or
+    strategy files.
+
+    Raises:
+        InputError: anything else, naming the argument and the entry.
+    """
+    from posgmc.strategies.fss import FiniteStateStrategy
+
+    if not isinstance(strategies, Mapping):
+        raise InputError(
+            f"strategies must map player names to strategies, got {type(strategies).__name__}",
+            hint='e.g. strategies={"rover": "rover.json"}',
+        )
+    for player, given in strategies.items():
+        if player is not None and not isinstance(player, str):
+            raise InputError(f"strategies: a player is named by a string, got {player!r}")
+        if not isinstance(given, (FiniteStateStrategy, str, Path)):
+            raise InputError(
+                f"strategies[{player!r}] must be a FiniteStateStrategy or a strategy file's path, "
+                f"got {type(given).__name__}",
+                hint="decode a bytes path first" if isinstance(given, bytes) else None,
+            )
+
+
+def _strategy_path(path: object, what: str) -> str | Path:
+    if not isinstance(path, (str, Path)):
+        raise InputError(f"{what} must be a file path (str or Path), got {type(path).__name__}",
+                         hint="decode a bytes path first" if isinstance(path, bytes) else None)
+    return path
+
+
 # -- strategies: files, simulation ------------------------------------------------------------
 
 
 def load_strategy(path: str | Path) -> FiniteStateStrategy:
-    """Read a ``posgmc-fss/1`` strategy file (errors carry the file and JSON path)."""
+    """Read a ``posgmc-fss/1`` strategy file (errors carry the file and JSON path).
+
+    Raises:
+        InputError: ``path`` is not a path, or the file cannot be read or is not JSON.
+        StrategyError: not a valid strategy (with its JSON path).
+    """
     from posgmc.strategies.files import read_strategy
 
-    return read_strategy(path)
+    return read_strategy(_strategy_path(path, "path"))
 
 
 def save_strategy(strategy: FiniteStateStrategy, path: str | Path) -> None:
-    """Write a strategy as a ``posgmc-fss/1`` file (atomically)."""
-    from posgmc.strategies.files import write_strategy
+    """Write a strategy as a ``posgmc-fss/1`` file (atomically).
 
-    write_strategy(strategy, path)
+    Raises:
+        InputError: ``strategy`` is not a strategy or ``path`` not a path (a file named ``None``
+            was written before), or the file cannot be written.
+    """
+    from posgmc.strategies.files import write_strategy
+    from posgmc.strategies.fss import FiniteStateStrategy
+
+    _typed(strategy, FiniteStateStrategy, "strategy")
+    write_strategy(strategy, _strategy_path(path, "path"))
 
 
 @deep_stack
@@ -925,10 +975,15 @@ def simulate(
     from posgmc.strategies.simulate import simulate as run
 
     session = _session(session)
-    if not isinstance(runs, int) or runs < 1:
-        raise InputError(f"runs must be a positive integer, got {runs!r}")
-    if not isinstance(max_steps, int) or max_steps < 0:
-        raise InputError(f"max_steps must be a non-negative integer, got {max_steps!r}")
+    if not isinstance(prop, str):
+        raise InputError(f"prop must be a property text, got {type(prop).__name__}")
+    for name, value, least in (("runs", runs, 1), ("max_steps", max_steps, 0), ("seed", seed, 0)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < least:
+            raise InputError(f"{name} must be an int of at least {least}, got {value!r}")
+    if opponent not in ("uniform", "best"):
+        raise InputError(f"opponent must be 'uniform' or 'best', got {opponent!r}")
+    if strategies is not None:
+        _strategy_sources(strategies)
     built = build(session, options=build_options, allow_extra_constants=True)
     loaded = load_strategies(strategies) if strategies else {}
     _, (parsed,) = parse_properties(session, texts=[prop])

@@ -92,3 +92,81 @@ def test_outcomes_are_typed() -> None:
     assert isinstance(outcome, api.PropertyError)
     text, error = outcome  # still a pair
     assert text == outcome.property and error is outcome.error
+
+
+POSG = str(Path(__file__).resolve().parents[1] / "models" / "rover.posg")
+FORWARD = str(Path(__file__).resolve().parents[1] / "models" / "rover" / "forward.fss.json")
+REACH = '<<rover>> Pmax=? [ F "goal" ]'
+
+
+def _posg():  # type: ignore[no-untyped-def]
+    return api.load(POSG)
+
+
+@pytest.mark.parametrize(
+    ("call", "words"),
+    [
+        # each raised a raw TypeError, AttributeError or ValueError before
+        (lambda: api.check(_posg(), properties=[REACH], strategies={"rover": None}),
+         r"strategies\['rover'\] must be a FiniteStateStrategy or a strategy file's path, got "
+         "NoneType"),
+        (lambda: api.check(_posg(), properties=[REACH], strategies={"rover": 5}),
+         r"strategies\['rover'\] must be .* got int"),
+        (lambda: api.simulate(_posg(), REACH, strategies={"rover": FORWARD.encode()}),
+         r"strategies\['rover'\] must be .* got bytes"),
+        (lambda: api.simulate(_posg(), REACH, strategies=[api.load_strategy(FORWARD)]),
+         "strategies must map player names to strategies, got list"),
+        (lambda: api.check(_posg(), properties=[REACH], synthesis=5),
+         "synthesis must be a SynthesisOptions, got int"),
+        (lambda: api.load_strategy(None), "path must be a file path .* got NoneType"),
+        (lambda: api.load_strategy(5), "path must be a file path .* got int"),
+        (lambda: api.load_strategy(FORWARD.encode()), "path must be a file path .* got bytes"),
+        (lambda: api.load_strategy({}), "path must be a file path .* got dict"),
+        (lambda: api.save_strategy(None, "s.json"), "strategy must be a FiniteStateStrategy"),
+        (lambda: api.synthesize(_posg(), REACH, memory=(2, 1)),
+         r"memory must ascend without repeats .* got \(2, 1\)"),
+        (lambda: api.synthesize(_posg(), REACH, memory=1.5),
+         "memory must be a memory size .* got 1.5"),
+        (lambda: api.synthesize(_posg(), REACH, memory={"rover": None}),
+         r"memory\['rover'\] must be a memory size .* got None"),
+        (lambda: api.synthesize(_posg(), REACH, memory=10**20),
+         "memory must be ints from 1 to 10000"),
+        (lambda: api.synthesize(_posg(), REACH, timeout=None),
+         "timeout must be a positive finite number of seconds, got None"),
+        (lambda: api.synthesize(_posg(), REACH, timeout="5"),
+         "timeout must be a positive finite number of seconds, got '5'"),
+        (lambda: api.synthesize(_posg(), REACH, timeout=float("nan")),
+         "timeout must be a positive finite number of seconds, got nan"),
+        (lambda: api.synthesize(_posg(), REACH, seed=-1), "seed must be an int of at least 0"),
+        (lambda: api.synthesize(_posg(), REACH, seed="a"), "seed must be an int of at least 0"),
+        (lambda: api.synthesize(_posg(), REACH, jobs="2"), "jobs must be an int of at least 1"),
+        (lambda: api.synthesize(_posg(), REACH, adversaries="a"),
+         "adversaries must be an int of at least 0"),
+        (lambda: api.simulate(_posg(), REACH, strategies={"rover": FORWARD}, seed=-1),
+         "seed must be an int of at least 0"),
+        (lambda: api.simulate(_posg(), REACH, strategies={"rover": FORWARD}, opponent="worst"),
+         "opponent must be 'uniform' or 'best'"),
+    ],
+)
+def test_strategy_and_synthesis_arguments_raise_input_errors(call, words: str) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(InputError, match=words):
+        call()
+
+
+@pytest.mark.parametrize("path", [None, 5])
+def test_save_strategy_writes_no_file_named_after_a_bad_path(
+        path: object, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``save_strategy(fss, None)`` wrote a file named ``None``."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(InputError, match="path must be a file path"):
+        api.save_strategy(api.load_strategy(FORWARD), path)  # type: ignore[arg-type]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_simulate_refuses_runs_that_cannot_fit_before_allocating() -> None:
+    """10^11 runs: numpy's MemoryError (745 GiB) before; 10^9 were killed by the OOM killer."""
+    from posgmc.errors import LimitError
+
+    with pytest.raises(LimitError, match=r"100000000000 runs: simulating them together needs "
+                                         r"about 16000.0 GB, but .* GB of memory is available"):
+        api.simulate(_posg(), REACH, strategies={"rover": FORWARD}, runs=10**11)

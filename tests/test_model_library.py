@@ -181,16 +181,13 @@ STORM_CASES = [
 ]
 
 
-def test_storm_builds_the_same_models_and_finds_the_pomdp_optima() -> None:
-    """Storm 2.0 (in /root/refenv, benchmarks/README.md) builds each model (a posg as its smg twin)
-    to our sizes, and its belief unfolding completes at the POMDP optima the READMEs derive, which
-    bound the synthesis RESULT ranges. Skipped without the reference environment."""
+def test_storm_builds_the_same_models_and_finds_the_pomdp_optima(storm_python: Path) -> None:
+    """Storm 2.0 (the reference environment, benchmarks/README.md) builds each model (a posg as its
+    smg twin) to our sizes, and its belief unfolding completes at the POMDP optima the READMEs
+    derive, which bound the synthesis RESULT ranges. Skipped without the reference environment."""
     import json
     import subprocess
 
-    storm_python = Path("/root/refenv/bin/python")
-    if not storm_python.exists():
-        pytest.skip("no reference environment with stormpy at /root/refenv")
     assert {key for key, *_ in STORM_CASES} == set(SIZES)
     cases = [[str(MODELS / f / m), c, p, m.rsplit(".", 1)[1]] for (f, m, _), c, p, _ in STORM_CASES]
     out = subprocess.run([str(storm_python), "-c", _STORM, json.dumps(cases)], capture_output=True,

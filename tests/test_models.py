@@ -19,6 +19,7 @@ from posgmc import api
 from posgmc.checking.property_checker import CheckOptions
 from posgmc.checking.results import Bound
 from posgmc.engines.options import Method, SolverOptions
+from tests.conftest import NO_REFERENCE_PYTHON, reference_python
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 EXPECTED = {
@@ -135,14 +136,15 @@ print(json.dumps(out))
 
 def _storm_counts(tmp_path: Path, sizes: list[int]) -> list[tuple[int, int, int]]:
     """Storm 2.0's counts of the smg twin (the posg with its observables removed) per N. Runs
-    Storm in the reference environment (/root/refenv, benchmarks/README.md); skips without it."""
+    Storm in the reference environment (POSGMC_REFERENCE_PYTHON, benchmarks/README.md); skips
+    without it."""
     import json
     import re
     import subprocess
 
-    storm_python = Path("/root/refenv/bin/python")
-    if not storm_python.exists():
-        pytest.skip("no reference environment with stormpy at /root/refenv")
+    storm_python = reference_python()
+    if storm_python is None:
+        pytest.skip(NO_REFERENCE_PYTHON)
     text = SECURE_MODEL.read_text()
     text = re.sub(r"^posg$", "smg", text, flags=re.M)
     text = re.sub(r"^\s*observables? .*$", "", text, flags=re.M)

@@ -64,6 +64,10 @@ def _same_constant(given: str | None, written: str) -> bool:
         return False
 
 
+class _OutOfRange(ValueError):
+    """A RESULT number beyond the range of a double (``1e999``)."""
+
+
 def _number(text: str) -> float:
     t = text.strip()
     low = t.lower()
@@ -73,7 +77,11 @@ def _number(text: str) -> float:
         return -math.inf
     if low == "nan":
         return math.nan
-    return float(Fraction(t))
+    try:
+        return float(Fraction(t))
+    except OverflowError:
+        raise _OutOfRange(f"RESULT value {t!r} is beyond the range of a double (about "
+                          "1.8e308); write Infinity for an infinite value") from None
 
 
 _FLOATING_POINT_ERROR = 1e-12  # PRISM's Accuracy.FLOATING_POINT_ERROR
@@ -96,6 +104,8 @@ def _expected_number(text: str, constants: Mapping[str, str] | None) -> float:
     """A number, a fraction, Infinity/NaN, or (as PRISM) an expression over the constants."""
     try:
         return _number(text)
+    except _OutOfRange:
+        raise
     except (ValueError, ZeroDivisionError):
         pass
     from posgmc.semantics.evaluate import evaluate
@@ -105,7 +115,7 @@ def _expected_number(text: str, constants: Mapping[str, str] | None) -> float:
         expr = parse_expression(text)
         env = {k: _constant_value(v) for k, v in (constants or {}).items()}
         return float(evaluate(expr, env))
-    except (PosgmcError, ValueError, TypeError, KeyError, ZeroDivisionError):
+    except (PosgmcError, ValueError, TypeError, KeyError, ZeroDivisionError, OverflowError):
         raise ValueError(f"RESULT value {text!r} is not a number, interval, true/false, "
                          "Infinity, NaN, Error, ? or an expression over the constants") from None
 
@@ -169,6 +179,8 @@ def check_form(text: str, names: Collection[str] | None = None) -> None:
         return
     try:
         _number(body)
+    except _OutOfRange:
+        raise
     except (ValueError, ZeroDivisionError):
         from posgmc.semantics.evaluate import free_names
         from posgmc.syntax.parser import parse_expression

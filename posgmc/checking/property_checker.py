@@ -466,7 +466,7 @@ class PropertyChecker:
         ltl.check_atoms(path, atoms)  # before evaluating them
         atom_values = self._atom_values(atoms)
         starts = np.arange(self.model.num_states) if everywhere else None
-        # the automaton over the letters of this model, in its orders, not all 2**n (issue #13)
+        # the automaton over the letters of this model, in its orders, not all 2**n
         graph = ltl.letter_graph(self.model, atom_values, starts)
         dfa = ltl.to_dfa(path, atoms, alphabet=graph)
         return ltl.product(self.model, dfa, atom_values, starts=starts), starts

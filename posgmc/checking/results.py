@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import builtins
+import dataclasses
 import enum
 import math
 from collections.abc import Mapping
@@ -28,12 +29,15 @@ def _num(x: float | bool | None) -> Any:
 class Bound:
     """One named number about finite-state strategies, with bounds that hold when ``sound``:
     ``lower <= exact <= upper``; ``value`` is the reported point (the bounds' midpoint for interval
-    methods)."""
+    methods). ``sound`` means proven: the bounds hold and are as close as asked. ``converged`` is
+    False when the check stopped before that (out of time or iterations): the interval engines'
+    bounds then still hold, but ``value`` is only a point between them."""
 
     value: float
     lower: float
     upper: float
     sound: bool = True
+    converged: bool = True
 
     def to_json(self) -> dict[str, Any]:
         return {"value": _num(self.value), "lower": _num(self.lower), "upper": _num(self.upper)}
@@ -67,6 +71,56 @@ class Optimum:
 STRATEGY_NUMBERS = ("guaranteed", "vs_fss_adversary", "upper_bound")
 """The numbers about given or synthesised finite-state strategies, in the order they are reported;
 the JSON keys and :class:`PropertyResult`'s field names."""
+
+
+def ordered_numbers(
+    numbers: Mapping[str, Bound | None], *, maximizing: bool
+) -> dict[str, Bound | None]:
+    """``numbers`` (by the keys of :data:`STRATEGY_NUMBERS`, and ``full_observation``) with their
+    points in the order that their exact values are in: guaranteed <= vs_fss_adversary <=
+    upper_bound for a maximising decision maker (what a strategy ensures against every adversary
+    is at most its value against one adversary, which no decision maker exceeds against that
+    adversary) and guaranteed <= full_observation (no partially observing defence does better
+    than one that sees everything); reversed when it minimises.
+
+    Separate checks round separately, so two points a few ulps apart can come out the wrong way
+    round; each point is moved, within its own proven bounds, to the nearest value that respects
+    the order. Where the bounds themselves contradict the order (an unproven number) the point
+    stays in its own bounds. The bounds are never changed."""
+    out = dict(numbers)
+    _order_chain(out, STRATEGY_NUMBERS, 1.0 if maximizing else -1.0)
+    # then full_observation against guaranteed: this only lowers guaranteed's point (which
+    # keeps the first chain in order) or raises full_observation's
+    _order_chain(out, ("guaranteed", "full_observation"), 1.0 if maximizing else -1.0)
+    return out
+
+
+def _order_chain(numbers: dict[str, Bound | None], chain: tuple[str, ...], sign: float) -> None:
+    """Move the points of the present numbers of ``chain`` (in place), within their bounds, so
+    that ``sign * point`` ascends along it."""
+    present = [k for k in chain if numbers.get(k) is not None]
+    lo: list[float] = []
+    hi: list[float] = []
+    points: list[float] = []
+    for k in present:
+        b = numbers[k]
+        assert b is not None  # noqa: S101 - present
+        a, z = sorted((sign * b.lower, sign * b.upper))
+        lo.append(a)
+        hi.append(z)
+        points.append(min(max(sign * b.value, a), z))
+    # upwards: each point at least its predecessor (as far as its upper bound allows); then
+    # downwards: each point at most its successor (as far as its lower bound allows)
+    for i in range(1, len(points)):
+        points[i] = min(max(points[i], points[i - 1]), hi[i])
+    for i in range(len(points) - 2, -1, -1):
+        points[i] = max(min(points[i], points[i + 1]), lo[i])
+    for k, v in zip(present, points):
+        b = numbers[k]
+        assert b is not None  # noqa: S101 - present
+        value = sign * v
+        if value != b.value and not (math.isnan(b.value) and math.isnan(value)):
+            numbers[k] = dataclasses.replace(b, value=value)
 
 
 def strategy_meaning(key: str, *, maximizing: bool) -> str:

@@ -36,7 +36,8 @@ from posgmc.cli.printing import (
     print_report,
 )
 from posgmc.cli.running import guard
-from posgmc.errors import InputError, PosgmcError
+from posgmc.cli.strategy_export import check_destination, point_of, synthesises, write_exports
+from posgmc.errors import InputError
 
 __all__ = ["check", "not_passed"]
 
@@ -85,8 +86,9 @@ __all__ = ["check", "not_passed"]
 @seed_option
 @gap_option
 @click.option("--export-strategy", type=click.Path(), default=None,
-              help="Write the optimal memoryless strategy of the (single) property as JSON; for a "
-              "synthesised strategy, a directory receiving <player>.json.")
+              help="Write the optimal memoryless strategy of the property as JSON; for a "
+              "synthesised strategy, a directory receiving <player>.json. Several properties or "
+              "sweep points get one each (FILE.prop2.N=5.json, DIR/prop2/N=5/), each printed.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (see docs/cli.md).")
 @click.option("--json-lines", "json_lines", is_flag=True,
               help="Print one JSON object per line as soon as it is known: the model, then each "
@@ -136,6 +138,9 @@ def check(
         if plot_file is not None:
             if not plot_file.lower().endswith((".png", ".svg", ".pdf")):
                 raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
+            from posgmc.tradeoffs.plot import require_matplotlib
+
+            require_matplotlib()  # before the sweep, not after it
             if len(swept) != 1:
                 raise InputError("--plot draws properties against one swept constant; "
                                  f"{len(swept)} are swept",
@@ -148,7 +153,10 @@ def check(
         )
         if as_json and json_lines:
             raise click.UsageError("give --json or --json-lines, not both")
-        rows = []
+        if export_strategy is not None and strategies:
+            raise click.UsageError("--export-strategy writes the strategy that check computes; "
+                                   "with --strategy the strategies are given, none is computed")
+        rows: list[tuple[dict[str, Any], Any]] = []
         code = EXIT_OK
         # results are shown as they are computed (a killed run keeps what it printed), except
         # in the one-object --json and in sweep tables
@@ -158,6 +166,12 @@ def check(
             # building the model are inside it
             loading = time.perf_counter()
             session = api.load(model, constants=constants)
+            if export_strategy is not None and not rows:
+                # before any work: a destination that cannot be written is refused now, not
+                # after the whole budget
+                check_destination(export_strategy, directory=synthesises(
+                    session, given_strategies=bool(strategies),
+                    full_observation=full_observation))
             on_start, on_outcome = (
                 _streamers(model, constants, json_lines) if streaming else (None, None)
             )
@@ -181,11 +195,12 @@ def check(
                 code = EXIT_PROPERTY_FALSE
             rows.append((constants, report))
             if export_strategy is not None and not report.errors:
-                # a property that failed has said why; "needs exactly one query" would hide it
-                if any(getattr(r, "strategies", ()) for r in report.results):
-                    _write_synthesised(export_strategy, report)
-                else:
-                    _write_strategy(export_strategy, report)
+                # a property that failed has said why; "no strategy to export" would hide it.
+                # Each property and constant point gets its own destination
+                for path in write_exports(export_strategy, report,
+                                          point=point_of(constants, swept),
+                                          several_points=len(combos) > 1):
+                    click.echo(f"wrote {path}", err=as_json or json_lines)
         if junit is not None:
             _write_check_junit(junit, model, swept, rows)
         if plot_file is not None:
@@ -254,34 +269,9 @@ def _write_check_junit(
     write_junit(path, model, cases)
 
 
-def _write_synthesised(directory: str, report: Any) -> None:
-    """One posgmc-fss/1 file per synthesised player, <player>.json, in ``directory``; a second
-    strategy of the same player (the composed defence that ``vs_fss_adversary`` is about, when it
-    is not the reported defence) goes to <player>.vs_fss.json."""
-    import os
-
-    from posgmc.strategies.files import write_strategy
-
-    os.makedirs(directory, exist_ok=True)
-    for r in report.results:
-        written: set[str] = set()
-        for fss in getattr(r, "strategies", ()):
-            name = fss.player or "agent"
-            write_strategy(fss, os.path.join(directory, f"{name}.vs_fss.json" if name in written
-                                             else f"{name}.json"))
-            written.add(name)
-
-
 def not_passed(r: Any) -> bool:
-    """A threshold that is false or undecided, or a result whose iteration did not converge."""
-    return r.value is False or (r.value is None and r.kind.value == "boolean") or not r.converged
-
-
-def _write_strategy(path: str, report: Any) -> None:
-    """The memoryless strategy of the check's one unbounded query, as JSON."""
-    from posgmc.strategies.files import write_memoryless_strategy
-
-    if len(report.results) != 1 or report.results[0].strategy is None:
-        raise PosgmcError("--export-strategy needs exactly one unbounded P or R query")
-    write_memoryless_strategy(path, report.results[0].property, report.model,
-                              report.results[0].strategy)
+    """A threshold that is false or undecided, a result whose iteration did not converge, or a
+    number about finite-state strategies (given or synthesised) that is not proven: exit 0 only
+    when every such printed number is."""
+    return (r.value is False or (r.value is None and r.kind.value == "boolean")
+            or not r.converged or (r.guaranteed is not None and not r.sound))

@@ -4,8 +4,9 @@ configuration, and the exit codes.
 Exit status (fixed, documented in docs/cli.md):
 
 * 0 — success; for ``check``, every threshold property holds at the initial state(s);
-* 1 — ``check`` only: some threshold property does not hold or is undecided (``unknown``), or a
-  result did not converge;
+* 1 — ``check``: some threshold property does not hold or is undecided (``unknown``), a result
+  did not converge, or a number about finite-state strategies is not proven (``pareto``: a point's
+  number is not proven);
 * 2 — bad input (model, properties, constants, options) or any other error;
 * 130 — interrupted (Ctrl-C), as shells report it.
 """
@@ -20,9 +21,8 @@ import click
 __all__ = [
     "EXIT_OK", "EXIT_PROPERTY_FALSE", "EXIT_ERROR", "EXIT_INTERRUPTED",
     "common", "zero_based_players_option", "full_observation_option", "memory_option",
-    "timeout_option", "seed_option", "gap_option", "positive_finite", "memory_sizes",
-    "synthesis_options",
-    "strategy_options",
+    "timeout_option", "seed_option", "gap_option", "positive_finite", "finite",
+    "nonnegative_finite", "memory_sizes", "synthesis_options", "strategy_options",
 ]
 
 EXIT_OK = 0
@@ -39,6 +39,22 @@ def positive_finite(value: float, option: str) -> float:
 
     if not (math.isfinite(value) and value > 0):
         raise click.BadParameter(f"{value!r} is not a positive finite number", param_hint=option)
+    return value
+
+
+def finite(value: float, option: str) -> float:
+    """A finite number (nan compares false with everything, so it would pass every range)."""
+    import math
+
+    if not math.isfinite(value):
+        raise click.BadParameter(f"{value!r} is not a finite number", param_hint=option)
+    return value
+
+
+def nonnegative_finite(value: float, option: str) -> float:
+    """A finite number >= 0 (a tolerance)."""
+    if not finite(value, option) >= 0:
+        raise click.BadParameter(f"{value!r} is negative", param_hint=option)
     return value
 
 
@@ -86,7 +102,8 @@ def memory_option(f: F) -> F:
 def timeout_option(f: F) -> F:
     return click.option(
         "--timeout",
-        type=click.FloatRange(min=0, min_open=True),
+        type=float,
+        callback=lambda _c, _p, v: positive_finite(v, "--timeout"),
         default=30.0,
         show_default=True,
         help="Synthesis: seconds per property (per point of a sweep or front), the first counted "
@@ -96,7 +113,8 @@ def timeout_option(f: F) -> F:
 
 def seed_option(f: F) -> F:
     return click.option(
-        "--seed", type=int, default=0, show_default=True, help="Synthesis: random seed."
+        "--seed", type=click.IntRange(min=0), default=0, show_default=True,
+        help="Synthesis: random seed (a non-negative integer)."
     )(f)
 
 
@@ -123,20 +141,22 @@ def gap_option(f: F) -> F:
 
 
 def memory_sizes(text: str, given: str) -> tuple[int, ...]:
+    from posgmc.synthesis.options import MAX_MEMORY
+
     try:
         if text == "auto":
-            sizes: tuple[int, ...] = (1, 2, 3)
-        elif ".." in text:
-            lo, hi = (int(t) for t in text.split("..", 1))
-            sizes = tuple(range(lo, hi + 1))
-        else:
-            sizes = (int(text),)
+            return (1, 2, 3)
+        lo, hi = (int(t) for t in text.split("..", 1)) if ".." in text else (int(text),) * 2
     except ValueError:
         raise click.BadParameter(f"{given!r}: give K, K1..K2 or auto, optionally after PLAYER=",
                                  param_hint="'--memory'") from None
-    if not sizes or min(sizes) < 1:
+    if lo > hi or lo < 1:
         raise click.BadParameter(f"{given!r}: memory sizes start at 1", param_hint="'--memory'")
-    return sizes
+    if hi > MAX_MEMORY:
+        raise click.BadParameter(f"{given!r}: memory sizes go up to {MAX_MEMORY} (a strategy with "
+                                 "k nodes has k^2 memory updates per observation and action)",
+                                 param_hint="'--memory'")
+    return tuple(range(lo, hi + 1))
 
 
 def synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,

@@ -14,7 +14,7 @@ import click
 from posgmc.cli.options import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_OK
 from posgmc.errors import MultipleErrors, PosgmcError
 
-__all__ = ["fail", "error_json", "guard"]
+__all__ = ["fail", "error_json", "internal_error_json", "guard"]
 
 
 def fail(error: PosgmcError | Exception, *, debug: bool) -> NoReturn:
@@ -42,19 +42,30 @@ def show_const_text(error: PosgmcError, consts: Sequence[str]) -> None:
 
 
 def error_json(error: PosgmcError) -> list[dict[str, Any]]:
-    """The machine-readable form of an input error: one object per error, with its position."""
+    """The machine-readable form of an input error: one object per error, with its position: the
+    file, line and column of a source text, or the file and JSON path (``json_path``, e.g.
+    ``rules[3].action``) of a strategy file."""
     errors = error.errors if isinstance(error, MultipleErrors) else [error]
     out = []
     for e in errors:
         span = e.span
         out.append({
-            "file": span.file if span else None,
+            "file": span.file if span else getattr(e, "file", None),
             "line": span.line if span else None,
             "column": span.column if span else None,
+            "json_path": getattr(e, "path", None),
             "message": e.message,
             "hint": e.hint,
         })
     return out
+
+
+def internal_error_json(error: BaseException) -> dict[str, Any]:
+    """An internal error in the shape of :func:`error_json`, so that a machine reading ``--json``
+    gets a JSON answer on stdout for every failure."""
+    return {"errors": [{"file": None, "line": None, "column": None, "json_path": None,
+                        "message": f"internal error: {type(error).__name__}: {error}",
+                        "hint": "this is a bug in posgmc; rerun with --debug for the traceback"}]}
 
 
 def guard(
@@ -78,6 +89,8 @@ def guard(
         sys.stderr.close()
         sys.exit(EXIT_OK)
     except Exception as e:  # noqa: BLE001 - the CLI never shows a bare traceback
+        if as_json:
+            click.echo(json.dumps(internal_error_json(e)))
         fail(e, debug=debug)
     sys.exit(code)
 

@@ -17,6 +17,7 @@ from posgmc.cli.options import (
     common,
     full_observation_option,
     memory_option,
+    nonnegative_finite,
     seed_option,
     strategy_options,
     synthesis_options,
@@ -36,6 +37,7 @@ __all__ = ["test", "simulate", "show_strategy"]
 @click.argument("model", type=click.Path(dir_okay=False))
 @click.argument("props", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--tolerance", type=float, default=1e-5, show_default=True,
+              callback=lambda _c, _p, v: nonnegative_finite(v, "--tolerance"),
               help="Relative tolerance for numbers (PRISM's test mode: 1e-5).")
 @click.option("--junit", "junit", type=click.Path(dir_okay=False), default=None,
               help="Also write a JUnit XML report (one test case per checked property).")
@@ -157,8 +159,8 @@ def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
 @click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE",
               help="A player's finite-state strategy; repeatable, one per player.")
 @click.option("--runs", type=click.IntRange(min=1), default=10_000, show_default=True)
-@click.option("--seed", type=int, default=0, show_default=True,
-              help="Random seed of the sampled runs.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Random seed of the sampled runs (a non-negative integer).")
 @click.option("--max-steps", type=click.IntRange(min=0), default=10_000, show_default=True)
 @click.option(
     "--opponent",
@@ -210,8 +212,11 @@ def simulate(
             f"  ({interval}; {result.runs} runs, seed {result.seed})"
         )
         if result.undecided:
-            click.echo(f"  {result.undecided} runs reached --max-steps undecided; the interval "
-                       "counts them both ways")
+            click.echo(f"  {result.undecided} of {result.runs} runs reached --max-steps "
+                       "undecided" + ("" if result.estimate is not None else
+                                      ": no point estimate; the interval "
+                                      + ("counts them both ways" if result.kind == "probability"
+                                         else "has no upper end (their rewards are unknown)")))
         if trace:
             _print_trace(result.trace)
         return EXIT_OK

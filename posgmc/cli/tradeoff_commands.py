@@ -12,7 +12,9 @@ from posgmc.cli.group import main
 from posgmc.cli.options import (
     EXIT_ERROR,
     EXIT_OK,
+    EXIT_PROPERTY_FALSE,
     common,
+    finite,
     full_observation_option,
     memory_option,
     seed_option,
@@ -60,6 +62,7 @@ __all__ = ["pareto"]
               help="With --cost: the scalarisation weights (cost - w * mission), each >= 0 "
               "[default: 0,1,2,5,10,20]; the mission alone is always added (w=inf).")
 @click.option("--budget", "budgets", multiple=True, type=float, metavar="C",
+              callback=lambda _c, _p, v: tuple(finite(b, "--budget") for b in v),
               help="With --cost: answer 'max guaranteed mission s.t. guaranteed cost <= C' from "
               "the verified defences; repeatable.")
 @full_observation_option
@@ -94,8 +97,16 @@ def pareto(
     from posgmc.tradeoffs.sweep import sweep, to_csv
 
     def run() -> int:
-        if plot_file is not None and not plot_file.lower().endswith((".png", ".svg", ".pdf")):
-            raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
+        if plot_file is not None:
+            if not plot_file.lower().endswith((".png", ".svg", ".pdf")):
+                raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
+            from posgmc.tradeoffs.plot import require_matplotlib
+
+            require_matplotlib()  # before the sweep or front, not after it
+        if strategy_dir is not None:  # before any work, not after the whole sweep
+            from posgmc.cli.strategy_export import check_destination
+
+            check_destination(strategy_dir, directory=True, option="--strategies")
         if cost_text is None and (weights_text is not None or budgets):
             raise InputError("--weights and --budget go with --cost (a defender front)",
                              hint="add --cost '<<C>> R{\"cost\"}min=? [ ... ]'")
@@ -148,7 +159,8 @@ def pareto(
             plot_sweep(result, plot_file)
         failed = any(p.error is not None or any(not hasattr(a, "guaranteed") for a in p.also)
                      for p in result.points)
-        return EXIT_ERROR if failed else EXIT_OK
+        unproven = any(p.result is not None and not _proven(p.result) for p in result.points)
+        return EXIT_ERROR if failed else EXIT_PROPERTY_FALSE if unproven else EXIT_OK
 
     guard(debug, run, consts=consts)
 
@@ -220,12 +232,15 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
     from posgmc.io.atomic import atomic_write_text
     from posgmc.tradeoffs.defence import defence_front, defence_front_to_csv
 
-    text = weights_text or "0,1,2,5,10,20"
+    # an empty --weights is an error (no weight at all), not the defaults
+    text = "0,1,2,5,10,20" if weights_text is None else weights_text
     weights: list[float] = []
     column = 1
     for item in text.split(","):
         try:
             weights.append(float(item))
+            if not (math.isfinite(weights[-1]) and weights[-1] >= 0):
+                raise ValueError
         except ValueError:
             raise InputError(
                 f"--weights: {item.strip()!r} is not a number (a comma-separated list of "
@@ -308,6 +323,16 @@ def _also_cell(a: Any) -> str:
     return f"{fmt(g.value)} [{fmt(g.lower)}, {fmt(g.upper)}]"
 
 
+def _proven(r: Any) -> bool:
+    """Every number of a point's result is proven (its checks converged, by sound methods)."""
+    return bool(r.sound and r.converged)
+
+
+def _bound_cell(b: Any) -> str:
+    """A number with its proven bounds; ``-`` where it was not computed."""
+    return "-" if b is None else f"{fmt(b.value)} [{fmt(b.lower)}, {fmt(b.upper)}]"
+
+
 def _print(result: Any) -> None:
     click.echo(f"{result.property} against {result.constant}:")
     rows = [(result.constant, "value [lower, upper]", "full_observation", "upper_bound", "memory",
@@ -322,6 +347,8 @@ def _print(result: Any) -> None:
         cell = "-" if b is None else f"{fmt(b.value)} [{fmt(b.lower)}, {fmt(b.upper)}]"
         if r is not None and r.synthesis and r.synthesis.get("partial"):
             cell += " (partial)"
+        if r is not None and not _proven(r):
+            cell += " NOT PROVEN"
         rows.append(
             (
                 p.setting,

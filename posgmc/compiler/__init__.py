@@ -19,9 +19,8 @@ deliberately differs from Storm:
 * a merged DTMC choice is labelled with its action only when all merged choices share it.
 
 Cost: array operations per batch of states, so the time is dominated by the number of
-transitions; but each batch has a fixed overhead of about 0.1 ms per command, which dominates for
-models whose breadth-first frontier stays tiny for very many levels (a single counter to 10^5
-takes seconds).
+transitions; but each batch has a fixed overhead per command, which dominates for models whose
+breadth-first frontier stays tiny for very many levels (e.g. a single counter to 10^5).
 """
 
 from __future__ import annotations

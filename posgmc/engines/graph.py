@@ -112,8 +112,8 @@ _WARMING = threading.local()
 
 def _compiled(size: int) -> bool:
     """Whether to take the compiled path on a model of ``size`` choices: the kernels are on and
-    the model is large enough that numba's start-up (about 0.5 s of CPU and 100 MB per process)
-    pays (:data:`posgmc.engines.scc.COMPILED_MIN_SIZE`, read at call time: tests lower it), or
+    the model is large enough that numba's start-up (:mod:`posgmc.engines.kernels`) pays
+    (:data:`posgmc.engines.scc.COMPILED_MIN_SIZE`, read at call time: tests lower it), or
     this is the warm-up thread loading the kernels on a two-state structure."""
     if getattr(_WARMING, "on", False):
         return kernels.enabled()
@@ -158,8 +158,9 @@ def _transposed_pattern(
     )
 
 
-# The transpose of a large model costs about a second; models are frozen, so one structure per
-# model object is kept for as long as the model lives (a cache, not configuration).
+# The transpose of a large model is costly (a pass over every transition and a copy of them);
+# models are frozen, so one structure per model object is kept for as long as the model lives
+# (a cache, not configuration).
 _STRUCTURES: weakref.WeakKeyDictionary[ExplicitModel, Structure] = weakref.WeakKeyDictionary()
 
 

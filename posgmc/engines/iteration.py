@@ -253,6 +253,25 @@ def max_change(new: np.ndarray, old: np.ndarray, relative: bool) -> float:
     return float(np.max(d, initial=0.0))
 
 
+@dataclass(eq=False)
+class _LooksConverged:
+    """The stopping test of the lower phases (:func:`_lower_phase`, :func:`_lower_phase_blocks`):
+    after each step of change ``d``, whether ``d <= tau`` and the geometric-tail estimate
+    ``d * q / (1 - q)`` is at most ``tau`` too, q the larger of the last two contraction ratios
+    (each capped at 0.999). Mutable on purpose: it follows one phase's steps."""
+
+    tau: float
+    ratios: tuple[float, float] = (0.0, 0.0)
+    previous: float = np.inf
+
+    def after(self, d: float) -> bool:
+        """Record a step that changed the vector by ``d``; True if the phase may stop."""
+        self.ratios = (self.ratios[1], min(d / self.previous, 0.999) if self.previous > 0 else 0.0)
+        self.previous = d
+        q = max(self.ratios)
+        return d <= self.tau and d * q / (1.0 - q) <= self.tau
+
+
 def _late(deadline: float | None, iters: int) -> bool:
     """Whether the caller's deadline has passed (looked at every 64 iterations; 0: now)."""
     return deadline is not None and iters % 64 == 0 and time.perf_counter() > deadline
@@ -287,8 +306,7 @@ def _lower_phase(
     delta = np.empty(n)
     multiply_into(sys, x, y)
     fresh = 0
-    ratios = [0.0, 0.0]
-    previous = np.inf
+    stopping = _LooksConverged(tau)
     while iters < max_it:
         reduce_into(sys, y, nxt)
         if inflation is not None:
@@ -300,10 +318,7 @@ def _lower_phase(
         else:
             d = float(max(delta.max(initial=0.0), -delta.min(initial=0.0)))
         x, nxt = nxt, x
-        ratios = [ratios[1], min(d / previous, 0.999) if previous > 0 else 0.0]
-        previous = d
-        q = max(ratios)
-        if d <= tau and d * q / (1.0 - q) <= tau:
+        if stopping.after(d):
             break
         if _late(deadline, iters):
             break
@@ -344,8 +359,7 @@ def _lower_phase_blocks(
     tmp = np.empty(n)
     step = np.empty(n)  # scratch for the absolute change (new >= old, so no abs is needed)
     plan = sys.plan
-    ratios = [0.0, 0.0]
-    previous = np.inf
+    stopping = _LooksConverged(tau)
     # the same sweep, compiled (posgmc.engines.kernels.blocks), on a system large enough to pay
     fast = scc.compiled_at(n)
     if fast:
@@ -384,10 +398,7 @@ def _lower_phase_blocks(
                 if dk <= 0.25 * tau:
                     break
         iters += 1
-        ratios = [ratios[1], min(d / previous, 0.999) if previous > 0 else 0.0]
-        previous = d
-        q = max(ratios)
-        if d <= tau and d * q / (1.0 - q) <= tau:
+        if stopping.after(d):
             break
         if _late(deadline, iters):
             break

@@ -63,8 +63,9 @@ MAX_GIANT_SHARE = 0.5
 
 COMPILED_MIN_SIZE = 100_000
 """States (or rows) below which the engines keep their numpy paths although the compiled kernels
-are enabled: the first kernel call of a process costs about 0.45 s (numba's import and code
-generator set-up), more than a kernel saves on a smaller system (the tests lower it)."""
+are enabled: the first kernel call of a process pays numba's start-up
+(:mod:`posgmc.engines.kernels`), more than a kernel saves on a smaller system (the tests lower
+it)."""
 
 def compiled_at(size: int) -> bool:
     """Whether the engines take their compiled path on a system (or model) of ``size`` states or
@@ -124,10 +125,10 @@ def _seed_is_giant(
 ) -> bool:
     """Whether the component of the first unknown state (the one explored first, nearest the
     initial states) holds more than ``MAX_GIANT_SHARE`` of the unknown states: then the
-    decomposition would only confirm that the order does not pay (two_robots N=32: Tarjan's pass
-    costs about 1 s, the two searches of :func:`~posgmc.engines.kernels.components.seed_component`
-    about 0.15 s). Only on the compiled path, where that decomposition is a kernel too; a False
-    answer says nothing (the decomposition decides)."""
+    decomposition would only confirm that the order does not pay (Tarjan's pass over the unknown
+    states costs several times the two searches of
+    :func:`~posgmc.engines.kernels.components.seed_component`). Only on the compiled path, where
+    that decomposition is a kernel too; a False answer says nothing (the decomposition decides)."""
     n = int(unk.size)
     if transpose is None or not compiled_at(n):
         return False

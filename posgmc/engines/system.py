@@ -254,6 +254,79 @@ def build_system(
     """
     S = g.num_states
     unk = np.flatnonzero(unknown)
+    rows_global, counts_all = _usable_rows(g, unknown, allowed)
+    counts = counts_all[unk]
+    if counts.size and counts.min() < 1:
+        raise ValueError("every unknown state needs at least one allowed choice")
+    is_max = maximize[unk]
+    kmax = int(counts.max()) if counts.size else 0
+    block, band_of_block, labels = _blocks(g, unk, layer, topological, band_states)
+    nb = int(block.max()) + 1 if block.size else 1
+    order = _state_order(is_max, block, counts, nb, kmax)
+    states = unk[order]
+    counts = counts[order]
+    if labels is not None:
+        labels = labels[order]
+    block = block[order]
+    del order
+    n = int(states.size)
+    num_max = int(is_max.sum())
+    local_of = np.full(S, -1, dtype=np.int64)
+    local_of[states] = np.arange(n, dtype=np.int64)
+    slots, blocks, table, state_base = _slot_layout(block, counts, num_max, nb, kmax)
+    # int32 where every model choice fits (the two largest arrays of the system after its matrix)
+    rows = np.empty(rows_global.size, dtype=np.int32 if g.num_choices_total < 2**31 else np.int64)
+    row_state = np.empty(rows.size, dtype=np.int32 if n < 2**31 else np.int64)
+    if scc.compiled_at(int(rows.size)):
+        indptr, local = _place_compiled(
+            g, rows_global, local_of, table, state_base, rows, row_state
+        )
+        del rows_global, state_base, local_of  # not needed by the fill
+        matrix, offset, stays = _fill_compiled(g, rows, local, indptr, choice_offset, fixed, n)
+    else:
+        row_st = g.choice_state[rows_global]
+        start_of = np.zeros(S + 1, dtype=np.int64)
+        np.cumsum(counts_all, out=start_of[1:])
+        rank = np.arange(rows_global.size, dtype=np.int64) - start_of[row_st]
+        loc = local_of[row_st]
+        pos = table[state_base[loc] + rank] + loc
+        del rank, row_st, start_of, state_base
+        rows[pos] = rows_global
+        del rows_global
+        row_state[pos] = loc
+        del pos, loc  # the row gather below is the peak: no layout temporary outlives its use
+        # matrix restricted to the unknown columns; the rest goes into the offset
+        offset = (
+            np.zeros(rows.size)
+            if choice_offset is None
+            else choice_offset[rows].astype(np.float64)
+        )
+        data, indices, indptr, stays = _gather(g.transitions, rows, local_of, fixed, offset, n)
+        matrix = sp.csr_matrix((data, indices, indptr), shape=(rows.size, n), copy=False)
+    bands = None
+    if band_of_block is not None:
+        bands = np.zeros(int(band_of_block[-1]) + 2, dtype=np.int64)
+        np.cumsum(np.bincount(band_of_block), out=bands[1:])
+    return System(
+        states=states,
+        rows=rows,
+        row_state=row_state,
+        matrix=matrix,
+        offset=offset,
+        stays=stays,
+        num_max=num_max,
+        slots=slots,
+        blocks=blocks,
+        bands=bands,
+        labels=labels,
+    )
+
+
+def _usable_rows(
+    g: Structure, unknown: np.ndarray, allowed: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(rows_global, counts_all)``: the model choices the system ranges over (allowed choices
+    of unknown states, grouped by state), and int64[S] how many each state has."""
     usable = unknown[g.choice_state]
     if allowed is not None:
         usable &= allowed
@@ -261,13 +334,21 @@ def build_system(
     if allowed is None:
         counts_all = np.where(unknown, g.num_choices, 0)
     else:
-        counts_all = np.bincount(g.choice_state[rows_global], minlength=S)
-    counts = counts_all[unk]
-    if counts.size and counts.min() < 1:
-        raise ValueError("every unknown state needs at least one allowed choice")
-    is_max = maximize[unk]
-    kmax = int(counts.max()) if counts.size else 0
-    found = None
+        counts_all = np.bincount(g.choice_state[rows_global], minlength=g.num_states)
+    return rows_global, counts_all
+
+
+def _blocks(
+    g: Structure,
+    unk: np.ndarray,
+    layer: np.ndarray | None,
+    topological: bool,
+    band_states: int | None,
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """``(block, band_of_block, labels)`` of the unknown states ``unk``: the bands of strongly
+    connected components when ``topological`` and the layout pays (with each band's block range
+    and the component labels), else blocks by ``layer`` on a large enough system, else one
+    block."""
     if topological and unk.size:
         found = topological_blocks(
             g.transitions,
@@ -277,33 +358,35 @@ def build_system(
             band_states=band_states,
             transpose=(g.back_ptr, g.back_choices, g.choice_state),
         )
-    band_of_block = None
-    labels = None
-    if found is not None:
-        block, band_of_block, labels = found
-    elif layer is not None and unk.size >= _MIN_BLOCKED_STATES:
+        if found is not None:
+            return found
+    if layer is not None and unk.size >= _MIN_BLOCKED_STATES:
         # as many blocks as the sweeps that will run can use (iteration._lower_phase_blocks)
         fast = scc.compiled_at(int(unk.size))
-        block = _block_of(layer[unk], _MAX_COMPILED_BLOCKS if fast else _MAX_BLOCKS)
-    else:
-        block = np.zeros(unk.size, dtype=np.int64)
-    nb = int(block.max()) + 1 if block.size else 1
-    # maximisers first, then by block, then by decreasing number of rows; a stable sort on a small
-    # integer key (numpy uses radix sort for 16-bit keys)
+        return _block_of(layer[unk], _MAX_COMPILED_BLOCKS if fast else _MAX_BLOCKS), None, None
+    return np.zeros(unk.size, dtype=np.int64), None, None
+
+
+def _state_order(
+    is_max: np.ndarray, block: np.ndarray, counts: np.ndarray, nb: int, kmax: int
+) -> np.ndarray:
+    """The permutation of the unknown states into the system's order: maximisers first, then by
+    block, then by decreasing number of rows (a stable sort on a small integer key; numpy uses
+    radix sort for 16-bit keys)."""
     key = ((~is_max).astype(np.int64) * nb + block) * (kmax + 1) + (kmax - counts)
     if key.size and int(key.max()) < 2**16:
-        order = np.argsort(key.astype(np.uint16), kind="stable")
-    else:
-        order = np.argsort(key, kind="stable")
-    states = unk[order]
-    counts = counts[order]
-    if labels is not None:
-        labels = labels[order]
-    block = block[order]
-    n = int(states.size)
-    num_max = int(is_max.sum())
-    local_of = np.full(S, -1, dtype=np.int64)
-    local_of[states] = np.arange(n, dtype=np.int64)
+        return np.argsort(key.astype(np.uint16), kind="stable")
+    return np.argsort(key, kind="stable")
+
+
+def _slot_layout(
+    block: np.ndarray, counts: np.ndarray, num_max: int, nb: int, kmax: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(slots, blocks, table, state_base)`` for the ordered states (their ``block`` and row
+    ``counts``; the first ``num_max`` maximise): ``slots``/``blocks`` as in :class:`System`;
+    a usable row of local state ``s`` with rank ``j`` among its state's rows goes to position
+    ``table[state_base[s] + j] + s`` (one gather per row)."""
+    n = int(counts.size)
     # entry (block i, slot j): the states of block i with more than j rows, per player; counts are
     # sorted decreasingly inside each (player, block), so these are prefixes of its state ranges
     player = (np.arange(n) >= num_max).astype(np.int64)
@@ -336,52 +419,7 @@ def build_system(
         [row_start - max_lo[:, None], row_start + more[:, 0, :] - min_lo[:, None]], axis=1
     ).ravel()  # [nb, 2, kmax]
     state_base = (block * 2 + player) * kmax
-    # int32 where every model choice fits (the two largest arrays of the system after its matrix)
-    rows = np.empty(rows_global.size, dtype=np.int32 if g.num_choices_total < 2**31 else np.int64)
-    row_state = np.empty(rows.size, dtype=np.int32 if n < 2**31 else np.int64)
-    if scc.compiled_at(int(rows.size)):
-        indptr, local = _place_compiled(
-            g, rows_global, local_of, table, state_base, rows, row_state
-        )
-        del rows_global, state_base, key, order, player, local_of  # not needed by the fill
-        matrix, offset, stays = _fill_compiled(g, rows, local, indptr, choice_offset, fixed, n)
-    else:
-        row_st = g.choice_state[rows_global]
-        start_of = np.zeros(S + 1, dtype=np.int64)
-        np.cumsum(counts_all, out=start_of[1:])
-        rank = np.arange(rows_global.size, dtype=np.int64) - start_of[row_st]
-        loc = local_of[row_st]
-        pos = table[state_base[loc] + rank] + loc
-        del rank, row_st, start_of, state_base, key, order, player
-        rows[pos] = rows_global
-        del rows_global
-        row_state[pos] = loc
-        del pos, loc  # the row gather below is the peak: no layout temporary outlives its use
-        # matrix restricted to the unknown columns; the rest goes into the offset
-        offset = (
-            np.zeros(rows.size)
-            if choice_offset is None
-            else choice_offset[rows].astype(np.float64)
-        )
-        data, indices, indptr, stays = _gather(g.transitions, rows, local_of, fixed, offset, n)
-        matrix = sp.csr_matrix((data, indices, indptr), shape=(rows.size, n), copy=False)
-    bands = None
-    if band_of_block is not None:
-        bands = np.zeros(int(band_of_block[-1]) + 2, dtype=np.int64)
-        np.cumsum(np.bincount(band_of_block), out=bands[1:])
-    return System(
-        states=states,
-        rows=rows,
-        row_state=row_state,
-        matrix=matrix,
-        offset=offset,
-        stays=stays,
-        num_max=num_max,
-        slots=slots,
-        blocks=blocks,
-        bands=bands,
-        labels=labels,
-    )
+    return slots, blocks, table, state_base
 
 
 def _gather(

@@ -39,6 +39,13 @@ def atomic_open(
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=directory)
     except OSError as e:
+        if directory.is_dir():
+            # the directory exists but takes no new file (/proc says "No such file or
+            # directory" for /proc/version, which exists): say so, not only the errno's words
+            raise InputError(f"cannot write {path}: no new file can be created in {directory} "
+                             f"({e.strerror or e})",
+                             hint="the file is replaced by a new one written beside it; give a "
+                             "path in a writable directory") from None
         raise InputError(f"cannot write {path}: {e.strerror or e}") from None
     try:
         with os.fdopen(fd, mode, encoding=None if "b" in mode else encoding) as handle:

@@ -1,4 +1,4 @@
-"""The checked, instantiated model: what the semantic passes hand to the compiler (``build/``).
+"""The checked, instantiated model: what the semantic passes hand to the compiler (``compiler/``).
 
 Everything is resolved: constants have values and are replaced by literals in every expression,
 formulas are inlined, renamed modules are expanded, each identifier left in an expression is a

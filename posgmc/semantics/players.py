@@ -3,7 +3,7 @@
 PRISM-games' rules (``ModulesFile.checkPlayerDefns``): games (``smg``, and posgmc's ``posg``) must
 declare players and other model types must not; player names are distinct; every module and action
 named in a player block exists; no module and no action is owned by two players. Whether every
-choice of the built game has an owner is a question for exploration (``build/``), not here: an
+choice of the built game has an owner is a question for exploration (``compiler/``), not here: an
 unowned action that is never enabled is harmless.
 """
 

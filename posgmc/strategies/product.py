@@ -81,53 +81,119 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
     players = [b.player for b in strategies]
     if len(set(players)) != len(players):
         raise StrategyError("two strategies for one player")
-    S, rg, T = model.num_states, model.row_groups, model.transitions
+    layout = _layout(model, strategies)
+    rows = _Rows.empty(layout.num_rows)
+    _free_choices(model, layout, rows)
+    _strategy_choices(model, strategies, layout, rows)
+    full = rows.matrix(layout)
+    reach = _reachable_part(model, strategies, layout, rows, full)
+    return _assemble(model, strategies, layout, rows, full, reach)
+
+
+@dataclass(frozen=True, eq=False)
+class _Layout:
+    """The model laid out K times, K = the product of the strategies' memory sizes: product state
+    ``s * K + m``. ``ks``/``strides``: each strategy's memory size and its place in m;
+    ``fixed_by``: int64[S], the strategy owning each state (-1: none); ``counts``: int64[S * K],
+    each product state's rows (one for a fixed state, the model's choices otherwise);
+    ``row_start``: int64[S * K], its first row; ``memories``: int64[K] = 0..K-1."""
+
+    num_states: int
+    ks: list[int]
+    strides: list[int]
+    fixed_by: np.ndarray
+    counts: np.ndarray
+    row_start: np.ndarray
+    num_rows: int
+    memories: np.ndarray
+
+    @property
+    def K(self) -> int:  # noqa: N802 - the joint memory size, as in the module docstring
+        return int(self.memories.size)
+
+
+def _layout(model: ExplicitModel, strategies: tuple[BoundStrategy, ...]) -> _Layout:
+    """The product's layout: which states the strategies fix and the rows of every product state."""
+    S, rg = model.num_states, model.row_groups
     ks = [b.memory_size for b in strategies]
     K = math.prod(ks)
     strides = [math.prod(ks[i + 1:]) for i in range(len(ks))]
-    choice_states = model.choice_states
     num_choices = np.diff(rg)
-
     fixed_by = np.full(S, -1, dtype=np.int64)
     for i, b in enumerate(strategies):
         fixed_by[b.owned] = i
     rows_per_state = np.where(fixed_by >= 0, 1, num_choices)
     counts = np.repeat(rows_per_state, K)  # product state s*K + m
     prod_rg = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    row_start = prod_rg[:-1]
-    num_rows = int(prod_rg[-1])
-    memories = np.arange(K, dtype=np.int64)
+    return _Layout(S, ks, strides, fixed_by, counts, prod_rg[:-1], int(prod_rg[-1]),
+                   np.arange(K, dtype=np.int64))
 
-    rows_parts: list[np.ndarray] = []
-    cols_parts: list[np.ndarray] = []
-    vals_parts: list[np.ndarray] = []
-    row_action = np.zeros(num_rows, dtype=np.int32)
-    row_weight_parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (row, choice, w)
 
-    # -- choices of players without a strategy: copied for every memory -------------------------
-    free = np.flatnonzero(fixed_by[choice_states] < 0)
-    if free.size:
-        Tf = T[free].tocoo()
-        c = free[Tf.row]
-        s = choice_states[c]
-        rows = row_start[(s * K)[:, None] + memories] + (c - rg[s])[:, None]
-        rows_parts.append(rows.ravel())
-        cols_parts.append((Tf.col.astype(np.int64)[:, None] * K + memories).ravel())
-        vals_parts.append(np.repeat(Tf.data, K))
-        free_rows = row_start[(choice_states[free] * K)[:, None] + memories] + (
-            free - rg[choice_states[free]]
-        )[:, None]
-        row_action[free_rows.ravel()] = np.repeat(model.choice_actions[free], K)
-        row_weight_parts.append(
-            (free_rows.ravel(), np.repeat(free, K), np.ones(free.size * K))
-        )
+@dataclass(eq=False)
+class _Rows:
+    """The product's rows as they are collected (mutable while the phases fill it): matrix
+    entries in parts (row, column, value), each row's action (0 where a strategy mixes several),
+    the (row, model choice, weight) triples that mix action rewards, and per strategy the product
+    states for which it has no rule (a placeholder self-loop keeps their rows stochastic)."""
 
-    # -- states of players with a strategy: one mixed row per (state, memory) ------------------
-    missing_parts: list[np.ndarray] = []
+    rows: list[np.ndarray]
+    cols: list[np.ndarray]
+    vals: list[np.ndarray]
+    action: np.ndarray
+    weights: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+    missing: list[np.ndarray]
+
+    @classmethod
+    def empty(cls, num_rows: int) -> _Rows:
+        return cls([], [], [], np.zeros(num_rows, dtype=np.int32), [], [])
+
+    def add(self, rows: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> None:
+        self.rows.append(rows)
+        self.cols.append(cols)
+        self.vals.append(vals)
+
+    def matrix(self, layout: _Layout) -> sp.csr_matrix:
+        """All rows over all S * K product states (duplicates summed)."""
+        rows = np.concatenate(self.rows) if self.rows else np.zeros(0, np.int64)
+        cols = np.concatenate(self.cols) if self.cols else np.zeros(0, np.int64)
+        vals = np.concatenate(self.vals) if self.vals else np.zeros(0)
+        N = layout.num_states * layout.K
+        full = sp.csr_matrix((vals, (rows, cols)), shape=(layout.num_rows, N))
+        full.sum_duplicates()
+        return full
+
+
+def _free_choices(model: ExplicitModel, layout: _Layout, out: _Rows) -> None:
+    """Choices of players without a strategy: copied for every memory, the memory unchanged."""
+    rg, T, choice_states = model.row_groups, model.transitions, model.choice_states
+    K, memories, row_start = layout.K, layout.memories, layout.row_start
+    free = np.flatnonzero(layout.fixed_by[choice_states] < 0)
+    if not free.size:
+        return
+    Tf = T[free].tocoo()
+    c = free[Tf.row]
+    s = choice_states[c]
+    rows = row_start[(s * K)[:, None] + memories] + (c - rg[s])[:, None]
+    out.add(rows.ravel(), (Tf.col.astype(np.int64)[:, None] * K + memories).ravel(),
+            np.repeat(Tf.data, K))
+    free_rows = row_start[(choice_states[free] * K)[:, None] + memories] + (
+        free - rg[choice_states[free]]
+    )[:, None]
+    out.action[free_rows.ravel()] = np.repeat(model.choice_actions[free], K)
+    out.weights.append((free_rows.ravel(), np.repeat(free, K), np.ones(free.size * K)))
+
+
+def _strategy_choices(
+    model: ExplicitModel, strategies: tuple[BoundStrategy, ...], layout: _Layout, out: _Rows
+) -> None:
+    """States of players with a strategy: one mixed row per (state, memory), the strategy's
+    mixture of the state's choices and memory updates (the module docstring's formula)."""
+    T, choice_states = model.transitions, model.choice_states
+    K, memories, row_start = layout.K, layout.memories, layout.row_start
     for i, b in enumerate(strategies):
-        k, stride = ks[i], strides[i]
-        ci = np.flatnonzero(fixed_by[choice_states] == i)
-        owned_states = np.flatnonzero(fixed_by == i)
+        k, stride = layout.ks[i], layout.strides[i]
+        ci = np.flatnonzero(layout.fixed_by[choice_states] == i)
+        owned_states = np.flatnonzero(layout.fixed_by == i)
         node = (memories // stride) % k  # [K]
         if owned_states.size:
             miss = b.missing_rule(
@@ -135,11 +201,9 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
                 np.broadcast_to(owned_states[:, None], (owned_states.size, K)).copy(),
             )
             ps = (owned_states[:, None] * K + memories)[miss]
-            missing_parts.append(ps)
+            out.missing.append(ps)
             # a placeholder self-loop keeps the rows stochastic until reachability decides
-            rows_parts.append(row_start[ps])
-            cols_parts.append(ps)
-            vals_parts.append(np.ones(ps.size))
+            out.add(row_start[ps], ps, np.ones(ps.size))
         if not ci.size:
             continue
         n = np.broadcast_to(node, (ci.size, K)).copy()
@@ -148,9 +212,9 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
         d = b.update_rows(model, n, cc)  # [Ci, K, k]
         s_ci = choice_states[ci]
         prow = row_start[(s_ci * K)[:, None] + memories]  # [Ci, K]
-        row_weight_parts.append((prow.ravel(), cc.ravel(), w.ravel()))
+        out.weights.append((prow.ravel(), cc.ravel(), w.ravel()))
         sure = w == 1.0
-        row_action[prow[sure]] = model.choice_actions[cc[sure]]
+        out.action[prow[sure]] = model.choice_actions[cc[sure]]
         Ti = T[ci].tocoo()
         loc = Ti.row  # index into ci
         # value [E, K, k]: w * δ * q; target (s'*K + m + (n' - n) * stride)
@@ -160,21 +224,35 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
                + (nprime[None, None, :] - node[None, :, None]) * stride)
         row = np.broadcast_to(prow[loc][:, :, None], val.shape)
         keep = val > 0
-        rows_parts.append(row[keep])
-        cols_parts.append(col[keep])
-        vals_parts.append(val[keep])
+        out.add(row[keep], col[keep], val[keep])
 
-    rows = np.concatenate(rows_parts) if rows_parts else np.zeros(0, np.int64)
-    cols = np.concatenate(cols_parts) if cols_parts else np.zeros(0, np.int64)
-    vals = np.concatenate(vals_parts) if vals_parts else np.zeros(0)
-    N = S * K
-    full = sp.csr_matrix((vals, (rows, cols)), shape=(num_rows, N))
-    full.sum_duplicates()
 
-    # -- the reachable part -------------------------------------------------------------------
-    m0 = sum(b.fss.initial_memory * strides[i] for i, b in enumerate(strategies))
+@dataclass(frozen=True, eq=False)
+class _Reach:
+    """The reachable part: ``keep_states``: int64[P] its product states in order; ``new_index``:
+    int64[S * K] their numbers (-1 elsewhere); ``keep_rows``: bool[rows], the rows of kept states;
+    ``init``: int64[I], the product state (before renumbering) of each of the model's initial
+    states."""
+
+    keep_states: np.ndarray
+    new_index: np.ndarray
+    keep_rows: np.ndarray
+    init: np.ndarray
+
+
+def _reachable_part(
+    model: ExplicitModel,
+    strategies: tuple[BoundStrategy, ...],
+    layout: _Layout,
+    rows: _Rows,
+    full: sp.csr_matrix,
+) -> _Reach:
+    """The product states reachable from the initial ones (one breadth-first search from a
+    virtual root); a reached state for which a strategy has no rule is an error."""
+    K, N = layout.K, layout.num_states * layout.K
+    m0 = sum(b.fss.initial_memory * layout.strides[i] for i, b in enumerate(strategies))
     init = model.initial_states * K + m0
-    row_state = np.repeat(np.arange(N, dtype=np.int64), counts)
+    row_state = np.repeat(np.arange(N, dtype=np.int64), layout.counts)
     coo = full.tocoo()
     src = np.concatenate([row_state[coo.row], np.full(init.size, N)])
     dst = np.concatenate([coo.col.astype(np.int64), init])
@@ -183,59 +261,73 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
     reached = np.zeros(N + 1, dtype=bool)
     reached[order] = True
     reached = reached[:N]
-    for i, ps in enumerate(missing_parts):
+    for i, ps in enumerate(rows.missing):
         hit = ps[reached[ps]]
         if hit.size:
-            _missing_rule_error(model, strategies[i], int(hit[0]), K, strides[i])
-
+            _missing_rule_error(model, strategies[i], int(hit[0]), K, layout.strides[i])
     keep_states = np.flatnonzero(reached)
     new_index = np.full(N, -1, dtype=np.int64)
     new_index[keep_states] = np.arange(keep_states.size)
-    keep_rows = reached[row_state]
+    return _Reach(keep_states, new_index, reached[row_state], init)
+
+
+def _mixed_rewards(
+    model: ExplicitModel, layout: _Layout, rows: _Rows, reach: _Reach, state_of: np.ndarray
+) -> tuple[RewardModel, ...]:
+    """The model's reward structures on the product: state rewards copied, action rewards mixed
+    by the strategies' weights."""
+    parts = rows.weights
+    rw_rows = np.concatenate([r for r, _, _ in parts]) if parts else np.zeros(0, np.int64)
+    rw_choice = np.concatenate([c for _, c, _ in parts]) if parts else np.zeros(0, np.int64)
+    rw_w = np.concatenate([w for _, _, w in parts]) if parts else np.zeros(0)
+    rewards = []
+    for rm in model.reward_models:
+        choice = None
+        if rm.choice is not None:
+            mixed = np.bincount(
+                rw_rows, weights=rw_w * rm.choice[rw_choice], minlength=layout.num_rows
+            )
+            choice = mixed[reach.keep_rows]
+        state = rm.state[state_of] if rm.state is not None else None
+        rewards.append(RewardModel(rm.name, state=state, choice=choice))
+    return tuple(rewards)
+
+
+def _assemble(
+    model: ExplicitModel,
+    strategies: tuple[BoundStrategy, ...],
+    layout: _Layout,
+    rows: _Rows,
+    full: sp.csr_matrix,
+    reach: _Reach,
+) -> StrategyProduct:
+    """The reachable product as a validated model, renumbered in product-state order."""
+    K, ks, strides = layout.K, layout.ks, layout.strides
+    keep_states, new_index, keep_rows = reach.keep_states, reach.new_index, reach.keep_rows
     sub = full[keep_rows]
     sub = sp.csr_matrix((sub.data, new_index[sub.indices], sub.indptr),
                         shape=(sub.shape[0], keep_states.size))
     sub.sort_indices()
-    new_rg = np.concatenate([[0], np.cumsum(counts[keep_states])]).astype(np.int64)
+    new_rg = np.concatenate([[0], np.cumsum(layout.counts[keep_states])]).astype(np.int64)
 
     state_of = keep_states // K
     mem = keep_states % K
     memory_of = np.stack([(mem // strides[i]) % ks[i] for i in range(len(ks))], axis=1) \
         if ks else np.zeros((keep_states.size, 0), dtype=np.int64)
+    rewards = _mixed_rewards(model, layout, rows, reach, state_of)
 
-    # -- rewards: action rewards mixed by the strategies' weights ------------------------------
-    rw_rows = (
-        np.concatenate([r for r, _, _ in row_weight_parts])
-        if row_weight_parts
-        else np.zeros(0, np.int64)
-    )
-    rw_choice = (
-        np.concatenate([c for _, c, _ in row_weight_parts])
-        if row_weight_parts
-        else np.zeros(0, np.int64)
-    )
-    rw_w = np.concatenate([w for _, _, w in row_weight_parts]) if row_weight_parts else np.zeros(0)
-    rewards = []
-    for rm in model.reward_models:
-        choice = None
-        if rm.choice is not None:
-            mixed = np.bincount(rw_rows, weights=rw_w * rm.choice[rw_choice], minlength=num_rows)
-            choice = mixed[keep_rows]
-        state = rm.state[state_of] if rm.state is not None else None
-        rewards.append(RewardModel(rm.name, state=state, choice=choice))
-
-    new_init = new_index[init]
+    new_init = new_index[reach.init]
     labels = {name: lab[state_of] for name, lab in model.labels.items() if name != "init"}
     init_label = np.zeros(keep_states.size, dtype=bool)
     init_label[new_init] = True
     labels["init"] = init_label
-    all_fixed = bool(np.all(fixed_by >= 0))
+    all_fixed = bool(np.all(layout.fixed_by >= 0))
     product = make_model(
         _product_type(model, all_fixed),
         new_rg,
         sub,
         initial_states=np.unique(new_init),
-        choice_actions=row_action[keep_rows],
+        choice_actions=rows.action[keep_rows],
         action_names=model.action_names,
         state_players=model.state_players[state_of],
         player_names=model.player_names,
@@ -244,10 +336,13 @@ def strategy_product(model: ExplicitModel, strategies: Sequence[BoundStrategy]) 
             for o in model.observations
         ),
         labels=labels,
-        reward_models=tuple(rewards),
+        reward_models=rewards,
         variable_names=model.variable_names,
         boolean_variables=model.boolean_variables,
-        state_values=model.state_values[state_of] if model.state_values.shape[0] == S else None,
+        state_values=(
+            model.state_values[state_of] if model.state_values.shape[0] == layout.num_states
+            else None
+        ),
         deadlocks=np.flatnonzero(np.isin(state_of, model.deadlocks)),
     )
     return StrategyProduct(product, state_of, memory_of, strategies, new_init)

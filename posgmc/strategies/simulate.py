@@ -9,10 +9,16 @@ the optimal memoryless strategy of the product, which for it is the full-observa
 Successors are drawn with one uniform number per run and a search in the CSR rows' cumulative
 sums; everything is reproducible from the seed (``numpy.random.default_rng``).
 
-Estimates: for a probability, the Wilson score interval at 95 %; runs that reach ``max_steps``
-undecided count as failures for the lower end and as successes for the upper end, so the interval
-covers them (and the report says how many there were). For an expected reward, the mean with a
-normal 95 % interval (an estimate from the central limit theorem, said so).
+Estimates: for a probability, the Wilson score interval at 95 %. A run is decided when it
+reaches the target (true), can no longer reach it or leaves the ``U``'s left side (false), or
+reaches the formula's step bound (``F<=k``: false after k steps). Runs that reach ``max_steps``
+before any of these are undecided: they count as failures for the lower end and as successes for
+the upper end, so the interval covers them (and the report says how many there were), and there
+is then no point estimate (``estimate`` is None). For an expected reward, the mean with a normal
+95 % interval (an estimate from the central limit theorem, said so); an undecided run's reward is
+unknown (it may never reach the target), so with undecided runs the interval's upper end is
+infinite, its lower end is that of the rewards collected so far (a lower estimate when no reward is
+negative, else -inf too) and there is no point estimate.
 """
 
 from __future__ import annotations
@@ -31,7 +37,7 @@ from posgmc.checking.property_checker import (
 )
 from posgmc.checking.states import evaluate_states
 from posgmc.engines.graph import positive_reach, structure_of
-from posgmc.errors import UnsupportedError
+from posgmc.errors import LimitError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics.queries import reward_structure
 from posgmc.strategies.binding import BoundStrategy, bind
@@ -67,11 +73,12 @@ class TraceStep:
 @dataclass(frozen=True)
 class Simulation:
     """An estimate with its 95 % interval. ``kind`` is "probability" (Wilson interval) or
-    "reward" (normal interval, an estimate); ``undecided`` runs reached ``max_steps`` first."""
+    "reward" (normal interval, an estimate); ``undecided`` runs reached ``max_steps`` first, and
+    then ``estimate`` is None (the interval covers whatever they would have done)."""
 
     property: str
     kind: str
-    estimate: float
+    estimate: float | None
     lower: float
     upper: float
     runs: int
@@ -93,7 +100,10 @@ def wilson(successes: int, runs: int, z: float = Z95) -> tuple[float, float]:
     denom = 1 + z * z / runs
     centre = (p + z * z / (2 * runs)) / denom
     half = z * math.sqrt(p * (1 - p) / runs + z * z / (4 * runs * runs)) / denom
-    return max(0.0, centre - half), min(1.0, centre + half)
+    # exactly 0 (1) when no run succeeded (failed): centre - half is then 0 only up to rounding
+    lower = 0.0 if successes == 0 else max(0.0, centre - half)
+    upper = 1.0 if successes == runs else min(1.0, centre + half)
+    return lower, upper
 
 
 def _objective(expr: Expr) -> tuple[str, Expr | None, Expr, int | None, RewardQuery | None]:
@@ -126,6 +136,44 @@ def _step_bound(expr: Expr, scalar: ScalarEvaluator) -> int | None:
         if upper is not None:
             k = int(scalar(upper))
             return k - 1 if expr.path.bound.upper_strict else k
+    return None
+
+
+_BYTES_PER_RUN = 160
+"""What one run holds at the peak of a step: its state, flags and reward (18 bytes) and the
+step's temporaries over the active runs (indices, uniform numbers, rows, successors and the
+row search's arrays: about 17 arrays of 8 bytes)."""
+
+
+def _check_room(runs: int) -> None:
+    """Refuse ``runs`` whose arrays would not fit in the memory available now (``MemAvailable``
+    in /proc/meminfo; nothing is refused where it cannot be read), before anything is
+    allocated: numpy's MemoryError, or the kernel's OOM killer, otherwise.
+
+    Raises:
+        LimitError: with the memory needed and available, and the most runs that fit.
+    """
+    available = _available_memory()
+    need = runs * _BYTES_PER_RUN
+    if available is None or need <= 0.9 * available:
+        return
+    fit = int(0.9 * available // _BYTES_PER_RUN)
+    raise LimitError(
+        f"{runs} runs: simulating them together needs about {need / 1e9:.1f} GB, but "
+        f"{available / 1e9:.1f} GB of memory is available",
+        hint=f"simulate at most {fit} runs (--runs; the interval narrows with the square root of "
+        "the runs)",
+    )
+
+
+def _available_memory() -> int | None:
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
     return None
 
 
@@ -172,6 +220,7 @@ def simulate(
     """
     if runs < 1 or max_steps < 0:
         raise UnsupportedError("runs must be at least 1 and max-steps non-negative")
+    _check_room(runs)
     kind, remain_e, target_e, _, reward_q = _objective(expr)
     bound = _step_bound(expr, scalar)
     horizon = max_steps if bound is None else min(bound, max_steps)
@@ -218,20 +267,33 @@ def simulate(
         cur[active] = nxt
         done[active] = target[nxt]
         failed[active] = (~remain[nxt] | ~alive[nxt]) & ~target[nxt]
+    if bound is not None and bound <= max_steps:
+        # the formula's step bound is reached: a run that has not reached the target by then
+        # has failed
+        failed |= ~done
     undecided = int(np.count_nonzero(~done & ~failed))
+    estimate: float | None
     if kind == "probability":
         successes = int(np.count_nonzero(done))
         lower, _ = wilson(successes, runs)
         _, upper = wilson(successes + undecided, runs)
-        estimate = successes / runs
+        estimate = successes / runs if undecided == 0 else None
     else:
         # PRISM: the reward is infinite unless the target is reached surely
         if np.any(failed):
             estimate = lower = upper = math.inf
         else:
-            estimate = float(total.mean())
+            mean = float(total.mean())
             half = Z95 * float(total.std(ddof=1)) / math.sqrt(runs) if runs > 1 else math.inf
-            lower, upper = estimate - half, estimate + half
+            lower, upper = mean - half, mean + half
+            estimate = mean
+            if undecided:
+                # an undecided run's reward is unknown: the collected part bounds it from below
+                # when no reward is negative; nothing bounds it from above
+                assert rewards is not None  # noqa: S101 - a reward query
+                estimate, upper = None, math.inf
+                if np.any(rewards < 0):
+                    lower = -math.inf
     path = (
         _trace(model, prod, choice, target, remain, alive, horizon, rng, bound_strategies)
         if trace

@@ -29,7 +29,7 @@ from posgmc.checking.property_checker import (
     PropertyChecker,
     ScalarEvaluator,
 )
-from posgmc.checking.results import Bound, PropertyResult, strategy_meaning
+from posgmc.checking.results import Bound, PropertyResult, ordered_numbers, strategy_meaning
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import BoundStrategy, bind
@@ -155,21 +155,30 @@ class StrategyChecker:
             )
         maximizing = numeric.direction is Direction.MAX
         note = "; ".join(f"{k}: {strategy_meaning(k, maximizing=maximizing)}" for k in numbers)
+        ordered = ordered_numbers(numbers, maximizing=maximizing)
         memory = tuple(
             (b.view.name, b.memory_size) for _, b in sorted(self.bound.items())
         )
         sound = headline.sound and all(b.sound for b in numbers.values())
-        return dataclasses.replace(
+        out = dataclasses.replace(
             headline,
             note=note,
             memory=memory,
             sound=sound,
+            converged=headline.converged and all(b.converged for b in numbers.values()),
             values=None,
             strategy=None,
-            guaranteed=numbers.get("guaranteed", headline.guaranteed),
-            vs_fss_adversary=numbers.get("vs_fss_adversary", headline.vs_fss_adversary),
-            upper_bound=numbers.get("upper_bound", headline.upper_bound),
+            guaranteed=ordered.get("guaranteed", headline.guaranteed),
+            vs_fss_adversary=ordered.get("vs_fss_adversary", headline.vs_fss_adversary),
+            upper_bound=ordered.get("upper_bound", headline.upper_bound),
         )
+        if not isinstance(out.value, bool) and out.value is not None:
+            # the headline repeats the first number present: its point as ordered
+            first = next(b for b in (out.guaranteed, out.vs_fss_adversary, out.upper_bound)
+                         if b is not None)
+            out = dataclasses.replace(out, value=first.value, per_initial=(first.value,)
+                                      if len(out.per_initial) <= 1 else out.per_initial)
+        return out
 
 
 def bound_of(r: PropertyResult) -> Bound:
@@ -177,4 +186,4 @@ def bound_of(r: PropertyResult) -> Bound:
     and converged."""
     # a numeric query's result
     assert r.value is not None and r.lower is not None and r.upper is not None  # noqa: S101
-    return Bound(float(r.value), r.lower, r.upper, r.sound and r.converged)
+    return Bound(float(r.value), r.lower, r.upper, r.sound and r.converged, r.converged)

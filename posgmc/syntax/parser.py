@@ -58,9 +58,9 @@ def _run(text: str, start: str, file: str | None) -> Any:
     builder = AstBuilder(file=file)
     # The parse allocates only acyclic objects (tokens, frozen nodes, lists), so the cycle
     # collector has nothing to free, yet it traverses the growing tree again and again: with it,
-    # 20,000 commands take 4.1 s instead of 2.1 s. It is paused for the parse and restored after;
-    # its first passes over the finished tree then come later (about 1.7 s for that file, so the
-    # total is still lower; see docs/performance.md, "Parsing").
+    # a large model's parse takes about twice as long. It is paused for the parse and restored
+    # after; its first passes over the finished tree then come later, and the total is still lower
+    # (docs/performance.md, "Parsing").
     collecting = gc.isenabled()
     try:
         gc.disable()

@@ -17,10 +17,11 @@ from posgmc.checking.property_checker import (
     PropertyChecker,
     ScalarEvaluator,
 )
-from posgmc.checking.results import Bound, Optimum, PropertyResult, ResultKind
+from posgmc.checking.results import Bound, Optimum, PropertyResult, ResultKind, ordered_numbers
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
+from posgmc.strategies.observables import with_boolean_observables
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
 from posgmc.synthesis.bracket import DEFAULT_SHARE, GAP_SHARE, optimum_of
@@ -219,6 +220,16 @@ class SynthesisChecker:
         assert g is not None  # noqa: S101 - the decision maker's strategy is given
         note = (result.note or "") + ("; synthesised on the product with the formula's automaton, "
                                       "whose state the strategies do not observe")
+        ordered = ordered_numbers(
+            {"guaranteed": g, "vs_fss_adversary": result.vs_fss_adversary,
+             "upper_bound": result.upper_bound, "full_observation": result.full_observation},
+            maximizing=bare.direction is Direction.MAX)
+        g = ordered["guaranteed"]
+        assert g is not None  # noqa: S101 - given
+        vs, ub = ordered["vs_fss_adversary"], ordered["upper_bound"]
+        full = ordered["full_observation"]
+        sound = all(b.sound for b in (g, vs, ub, full) if b is not None)
+        strategies = tuple(with_boolean_observables(f, self.model) for f in result.strategies)
         optimum = result.optimum
         if optimum is not None:
             # the product's bracket bounds the same optimum (the automaton is deterministic);
@@ -229,17 +240,24 @@ class SynthesisChecker:
                 optimum, lower=g.lower if maximize else optimum.lower,
                 upper=optimum.upper if maximize else g.upper, sound=optimum.sound and g.sound)
         if expr.threshold is not None:
-            return dataclasses.replace(result, guaranteed=g, note=note, optimum=optimum)
+            return dataclasses.replace(result, note=note, guaranteed=g, vs_fss_adversary=vs,
+                                       upper_bound=ub, full_observation=full, sound=sound,
+                                       strategies=strategies, optimum=optimum)
         return dataclasses.replace(
             result,
             optimum=optimum,
-            guaranteed=g,
             value=g.value,
             lower=g.lower,
             upper=g.upper,
             per_initial=(g.value,),
-            sound=result.sound and g.sound,
+            converged=g.converged,
             note=note,
+            guaranteed=g,
+            vs_fss_adversary=vs,
+            upper_bound=ub,
+            full_observation=full,
+            sound=sound,
+            strategies=strategies,
         )
 
     def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
@@ -316,6 +334,18 @@ class SynthesisChecker:
             optimum, bracket_stats = optimum_of(problem, g, full, ub, deadline=end,
                                                 gap=settings.gap)
             result.phases["optimum bound"] = time.perf_counter() - now
+        # a number whose check the budget cut short before it converged was not computed: its
+        # point would be a midpoint of wide bounds (0.5 in [0, 1] when it had no time at all), so
+        # it is left out; guaranteed, the headline, stays with its proven bounds and says so
+        vs, ub = (b if b is not None and b.converged else None for b in (vs, ub))
+        full_shown = full if full.converged else None
+        ordered = ordered_numbers(
+            {"guaranteed": g, "vs_fss_adversary": vs, "upper_bound": ub,
+             "full_observation": full_shown},
+            maximizing=bare.direction is Direction.MAX)
+        g = ordered["guaranteed"] or g
+        vs, ub = ordered["vs_fss_adversary"], ordered["upper_bound"]
+        full_shown = ordered["full_observation"]
         value: float | bool | None = g.value
         kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
         lower: float | None = g.lower
@@ -332,8 +362,8 @@ class SynthesisChecker:
             proven = holds(g.lower if maximize else g.upper) and g.sound
             # no defence reaches the threshold: not with full observation, nor against the
             # enumerated adversaries, nor where the optimum's bound side misses it
-            bound = ub if ub is not None else full
-            refuted = not holds(bound.upper if maximize else bound.lower) and bound.sound
+            refuted = any(not holds(b.upper if maximize else b.lower) and b.sound
+                          for b in (ub, full_shown) if b is not None)
             by_optimum = (optimum is not None and optimum.sound and not refuted
                           and not holds(optimum.upper if maximize else optimum.lower))
             refuted = refuted or by_optimum
@@ -379,22 +409,39 @@ class SynthesisChecker:
             adversary_kind = ("memoryless" if settings.adversary_memory == 1
                               else f"{settings.adversary_memory}-node finite-state")
             counted = adversaries.stats["vs_adversaries"]
-            note += ("; vs_fss_adversary: the " + ("composed" if adversaries.vs_from_composed else
-                     "synthesised") + " strategy's worst value against the adversary's "
-                     f"deterministic {adversary_kind} strategies"
-                     + (" (all of them)" if adversaries.stats["exhaustive"] else
-                        f" (the {counted} strongest found)")
-                     + "; upper_bound: no defence does better against the strongest of them")
+            if vs is not None:
+                note += ("; vs_fss_adversary: the " + ("composed" if adversaries.vs_from_composed
+                         else "synthesised") + " strategy's worst value against the adversary's "
+                         f"deterministic {adversary_kind} strategies"
+                         + (" (all of them)" if adversaries.stats["exhaustive"] else
+                            f" (the {counted} strongest found)"))
+            if ub is not None:
+                note += "; upper_bound: no defence does better against the strongest of them"
+        left_out = [k for k, b in (("full_observation", result.full_observation),
+                                   ("vs_fss_adversary", adversaries.vs if adversaries else None),
+                                   ("upper_bound", adversaries.ub if adversaries else None))
+                    if b is not None and not b.converged]
+        if left_out:
+            note += (f"; {' and '.join(left_out)} left out: the budget ended "
+                     f"{'its check' if len(left_out) == 1 else 'their checks'} before the bounds "
+                     "converged")
+        if adversaries is not None:
             if adversaries.vs_from_composed and adversaries.composed is not None:
                 extra = (adversaries.composed,)
         return PropertyResult(
             property=text, name=name, kind=kind, value=value, lower=lower, upper=upper,
             seconds=sum(result.phases.values()), method=f"synthesis ({result.method})",
-            converged=True, sound=g.sound, note=note, per_initial=(value,),
+            # exit 0 only when every printed number is proven: an unproven guaranteed (the budget
+            # cut its check short) leaves the answer unconverged unless a threshold is decided
+            converged=g.converged or isinstance(value, bool),
+            sound=all(b.sound for b in (g, vs, ub, full_shown) if b is not None),
+            note=note, per_initial=(value,),
             guaranteed=g, vs_fss_adversary=vs, upper_bound=ub,
             memory=((player_name, defence.memory_size),),
-            full_observation=full, optimum=optimum, synthesis=stats,
-            strategies=(defence,) + ((worst,) if worst is not None else ()) + extra,
+            full_observation=full_shown, optimum=optimum, synthesis=stats,
+            # Boolean observables written true/false in strategy files, as in the model
+            strategies=tuple(with_boolean_observables(f, self.model) for f in
+                             (defence,) + ((worst,) if worst is not None else ()) + extra),
         )
 
 

@@ -485,13 +485,15 @@ def verified_numbers(problem: Problem, executor: Executor, defence: FiniteStateS
             far = min([vs.lower, *(b.lower for b in others)]) if sign > 0 else \
                 max([vs.upper, *(b.upper for b in others)])
             sound = vs.sound and all(b.sound for b in others)
+            converged = vs.converged and all(b.converged for b in others)
         else:
             far = min(vs.lower, guaranteed.lower) if sign > 0 else max(vs.upper, guaranteed.upper)
             sound = vs.sound and guaranteed.sound
+            converged = vs.converged and guaranteed.converged
         vs = (
-            Bound(vs.value, far, vs.upper, sound)
+            Bound(vs.value, far, vs.upper, sound, converged)
             if sign > 0
-            else Bound(vs.value, vs.lower, far, sound)
+            else Bound(vs.value, vs.lower, far, sound, converged)
         )
     ub: Bound | None = None
     if strengths:

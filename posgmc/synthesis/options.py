@@ -7,10 +7,47 @@ from dataclasses import dataclass, replace
 
 from posgmc.errors import InputError
 
-__all__ = ["AUTO_MEMORY", "Gap", "SynthesisOptions"]
+__all__ = ["AUTO_MEMORY", "MAX_MEMORY", "Gap", "SynthesisOptions", "memory_sizes"]
 
 AUTO_MEMORY = (1, 2, 3)
 """The memory sizes of memory ``auto`` (the default)."""
+
+MAX_MEMORY = 10_000
+"""The largest memory size accepted: a strategy with k nodes has k^2 x observations x actions
+memory updates, so far larger sizes are typing mistakes (and ``--memory 1..10**20`` would list
+10**20 sizes)."""
+
+
+def _positive_finite(value: object, name: str, what: str) -> None:
+    """Refuse a value that is not a positive finite real (nan would mean no deadline at all)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not (math.isfinite(value) and value > 0):
+        raise InputError(f"{name} must be {what}, got {value!r}")
+
+
+def memory_sizes(value: object, what: str) -> tuple[int, ...]:
+    """Memory sizes as a tuple: one size or a sequence of them, each an int in 1..MAX_MEMORY,
+    ascending (the search tries them in order and escalates).
+
+    Raises:
+        InputError: anything else, naming ``what``.
+    """
+    sizes: tuple[object, ...]
+    if isinstance(value, int) and not isinstance(value, bool):
+        sizes = (value,)
+    elif isinstance(value, (tuple, list, range)):
+        sizes = tuple(value)
+    else:
+        raise InputError(f"{what} must be a memory size (an int) or a sequence of them, got "
+                         f"{value!r}")
+    if not sizes or any(isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= MAX_MEMORY
+                        for k in sizes):
+        raise InputError(f"{what} must be ints from 1 to {MAX_MEMORY}, got {value!r}")
+    ints = tuple(int(k) for k in sizes)  # type: ignore[call-overload]
+    if list(ints) != sorted(set(ints)):
+        raise InputError(f"{what} must ascend without repeats (the search escalates through "
+                         f"them), got {value!r}", hint=f"e.g. {tuple(sorted(set(ints)))}")
+    return ints
 
 
 @dataclass(frozen=True)
@@ -96,6 +133,42 @@ class SynthesisOptions:
     belief: bool | None = None
     bracket: bool = True
     gap: Gap | None = None
+
+    def __post_init__(self) -> None:
+        """Each field checked, so that a bad value is an :class:`InputError` naming it (and the
+        API argument of the same name) rather than a raw error deep in the search.
+
+        Raises:
+            InputError: a field of the wrong type or out of range.
+        """
+        object.__setattr__(self, "memory", memory_sizes(self.memory, "memory"))
+        named = self.player_memory
+        if not isinstance(named, tuple) or not all(
+                isinstance(e, tuple) and len(e) == 2 and isinstance(e[0], str) for e in named):
+            raise InputError(f"player_memory must be (player name, sizes) pairs, got {named!r}")
+        object.__setattr__(self, "player_memory", tuple(
+            (p, memory_sizes(k, f"memory of {p!r}")) for p, k in named))
+        _positive_finite(self.timeout, "timeout", "a positive finite number of seconds")
+        _positive_finite(self.learning_rate, "learning_rate", "a positive finite number")
+        for name, least in (("seed", 0), ("restarts", 0), ("iterations", 0), ("verify", 1),
+                            ("adversaries", 0), ("adversary_memory", 1), ("jobs", 1),
+                            ("enumeration_limit", 1), ("compose_restarts", 0),
+                            ("oracle_rounds", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                raise InputError(f"{name} must be an int of at least {least}, got {value!r}")
+        if self.adversary_memory > MAX_MEMORY:
+            raise InputError(f"adversary_memory must be at most {MAX_MEMORY}, got "
+                             f"{self.adversary_memory}")
+        if self.started is not None and (isinstance(self.started, bool) or not isinstance(
+                self.started, (int, float)) or not math.isfinite(self.started)):
+            raise InputError(f"started must be a time.perf_counter() value, got {self.started!r}")
+        if self.belief is not None and not isinstance(self.belief, bool):
+            raise InputError(f"belief must be True, False or None, got {self.belief!r}")
+        if not isinstance(self.bracket, bool):
+            raise InputError(f"bracket must be True or False, got {self.bracket!r}")
+        if self.gap is not None and not isinstance(self.gap, Gap):
+            raise InputError(f"gap must be a Gap (or None), got {self.gap!r}")
 
     def for_players(self, decision_maker: str, adversary: str | None,
                     players: tuple[str, ...]) -> SynthesisOptions:

@@ -167,7 +167,8 @@ def synthesize(
     full = base.query(query, everywhere=False)
     init = model.initial_states[0]
     full_bound = Bound(
-        float(full.values[init]), float(full.lower[init]), float(full.upper[init]), full.sound
+        float(full.values[init]), float(full.lower[init]), float(full.upper[init]),
+        full.sound and full.converged, full.converged,
     )
     phases["full observation"] = time.perf_counter() - t0
     # observation-level policy iteration over deterministic FSSs first (cheap: a few value
@@ -360,7 +361,7 @@ def _belief_candidate(problem: Problem, cutoff: FiniteStateStrategy, end: float,
 IMPROVEMENT_SHARE = 0.1
 """The part of the search budget observation-level policy iteration
 (:mod:`posgmc.synthesis.improvement`) may use at most, before the deterministic search; it
-usually needs far less (secure_autonomy N=5, 141,921 states: 2 s for k = 1)."""
+usually needs far less."""
 
 DETERMINISTIC_SHARE = 0.5
 """The part of the search budget the deterministic search gets (before the gradient search) in a

@@ -1,1 +1,1 @@
-"""Trade-offs (issue #15): a property against a swept constant, with verified points."""
+"""Trade-offs: a property against a swept constant, with verified points."""

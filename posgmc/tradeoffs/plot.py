@@ -16,7 +16,16 @@ if TYPE_CHECKING:
     from posgmc.checking.multi_objectives import Front
     from posgmc.tradeoffs.defence import DefenceFront
 
-__all__ = ["plot_sweep", "plot_sweeps", "plot_front", "plot_defence_fronts"]
+__all__ = ["plot_sweep", "plot_sweeps", "plot_front", "plot_defence_fronts", "require_matplotlib"]
+
+
+def require_matplotlib() -> None:
+    """Check that plots can be drawn, before the work whose results they draw.
+
+    Raises:
+        UnsupportedError: matplotlib is not installed.
+    """
+    _pyplot()
 
 
 def _pyplot() -> ModuleType:

@@ -183,13 +183,21 @@ def _number(text: str) -> float:
         return math.nan
 
 
-_COLUMNS = ("constant", "setting", "value", "lower", "upper", "full_observation", "upper_bound",
+_COLUMNS = ("constant", "setting", "value", "lower", "upper",
+            "full_observation", "full_observation lower", "full_observation upper",
+            "upper_bound", "upper_bound lower", "upper_bound upper",
             "memory", "partial", "strategies", "error")
+
+
+def _bound_cells(b: Bound | None) -> list[str]:
+    """A number's value, lower and upper bound as CSV cells; empty when it was not computed."""
+    return ["", "", ""] if b is None else [repr(b.value), repr(b.lower), repr(b.upper)]
 
 
 def to_csv(s: Sweep) -> str:
     """The sweep as CSV: one row per point; ``value``/``lower``/``upper`` are ``guaranteed`` for
-    synthesised points, the optimum otherwise."""
+    synthesised points, the optimum otherwise; ``full_observation`` and ``upper_bound`` each with
+    their proven bounds, all three cells empty where the number was not computed."""
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
     w.writerow(
@@ -199,13 +207,13 @@ def to_csv(s: Sweep) -> str:
     for p in s.points:
         b = p.main_number()
         r = p.result
-        full = r.full_observation.value if r is not None and r.full_observation else ""
-        ub = r.upper_bound.value if r is not None and r.upper_bound else ""
+        full = _bound_cells(r.full_observation if r is not None else None)
+        ub = _bound_cells(r.upper_bound if r is not None else None)
         memory = ";".join(f"{n}={k}" for n, k in r.memory) if r is not None else ""
         partial = bool(r.synthesis and r.synthesis.get("partial")) if r is not None else ""
         w.writerow([s.constant, p.setting,
                     "" if b is None else repr(b.value), "" if b is None else repr(b.lower),
-                    "" if b is None else repr(b.upper), full, ub, memory, partial,
+                    "" if b is None else repr(b.upper), *full, *ub, memory, partial,
                     p.strategy_dir or "", "" if p.error is None else p.error.message]
                    + [x for a in (p.also or (None,) * len(s.also)) for x in _also_cells(a)])
     return out.getvalue()

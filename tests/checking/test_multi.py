@@ -11,18 +11,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-
-# s0 chooses a (cost 1): s1 or s2 with 1/2 each, or b (free): s2. A strategy taking a with
-# probability q has P(F s=1) = q/2 and expected cost q.
-GAMBLE = """mdp
-module m
-  s : [0..2] init 0;
-  [a] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
-  [b] s=0 -> (s'=2);
-  [] s>0 -> true;
-endmodule
-rewards "cost" [a] true : 1; endrewards
-"""
+from tests.checking.helpers import GAMBLE
 
 # s0: a -> s1 (r1 = 1), b -> s2 (r2 = 2); s1 -> s3 (r1 = 1); s2 -> s3 (r2 = 1); s3 absorbing.
 STEPS = """mdp

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from tests.checking.test_multi import GAMBLE  # P(F s=1) = q/2, expected cost q (by hand, there)
+from tests.checking.helpers import GAMBLE  # P(F s=1) = q/2, expected cost q (by hand, there)
 
 # s0: a -> the end component {s1, s2} (s1 may stay or go to s2, s2 returns), b -> s3 absorbing
 LOOPS = """mdp

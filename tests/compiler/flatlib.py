@@ -252,7 +252,7 @@ def rewards(name: str | None, *items: tuple[Any, ...]) -> FlatRewardStruct:
 
 
 # ---------------------------------------------------------------------------------------------
-# the scale models of /work/shared/benchmarks/scale, hand-translated
+# the scale models of tests/data/benchmarks/scale, hand-translated
 # ---------------------------------------------------------------------------------------------
 
 

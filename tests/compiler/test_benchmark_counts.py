@@ -2,9 +2,10 @@
 
 Sources of the expected numbers:
 
-* ``RESULTS``: /work/shared/benchmarks/RESULTS.md (Storm 2.0.0 via stormpy, appendix table and
+* ``RESULTS``: tests/data/benchmarks/RESULTS.md (Storm 2.0.0 via stormpy, appendix table and
   sections 1-3).
-* ``STORM-FULL``: the same stormpy 2.0.0 (``/root/refenv``), measured while writing this test with
+* ``STORM-FULL``: the same stormpy 2.0.0 (the reference environment), measured while writing this
+  test with
   ``stormpy.build_model(prog, options=BuilderOptions())`` plus ``set_build_all_labels``,
   ``set_build_all_reward_models``, ``set_build_choice_labels``, ``set_build_state_valuations``:
   the full model, without property-derived terminal states. For five POMDPs RESULTS.md has fewer
@@ -15,7 +16,7 @@ Sources of the expected numbers:
   game (``posmg/<name>/sketch.templ``, RESULTS.md section 1), for games Storm cannot build from
   the PRISM source (Storm rejects unowned enabled actions and observables named like variables;
   PRISM-games' rules accept them).
-* ``README``: /work/shared/benchmarks/scale/README.md (Storm 2.0, default settings).
+* ``README``: tests/data/benchmarks/scale/README.md (Storm 2.0, default settings).
 """
 
 from __future__ import annotations

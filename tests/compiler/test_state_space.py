@@ -10,7 +10,7 @@ from posgmc.compiler import build_model
 from posgmc.compiler.state_space import DirectIndex, HashIndex, StateEncoding, make_index
 from posgmc.syntax import ast as A
 from tests.compiler.flatlib import cmd, flat_model, module, upd, var
-from tests.compiler.test_reference import _compare
+from tests.compiler.helpers import compare_with_reference
 
 
 @st.composite
@@ -102,7 +102,7 @@ def _walker(high: int, dims: int) -> object:
 def test_hash_index_model_equals_reference() -> None:
     # one variable over [0..10^9]: key space above the direct table's limit
     flat = _walker(10**9, 1)
-    _compare(flat)  # type: ignore[arg-type]
+    compare_with_reference(flat)  # type: ignore[arg-type]
     # 0 -> 333333333 -> 666666666 -> 999999999 -> 10^9 (min with high), back to 0: 5 states
     assert build_model(flat).model.num_states == 5  # type: ignore[arg-type]
 
@@ -110,7 +110,7 @@ def test_hash_index_model_equals_reference() -> None:
 def test_multi_word_model_equals_reference() -> None:
     # three variables over [0..2^40]: 123 bits, two key words
     flat = _walker(2**40, 3)
-    _compare(flat)  # type: ignore[arg-type]
+    compare_with_reference(flat)  # type: ignore[arg-type]
 
 
 def test_hash_index_builds_the_same_model_as_the_direct_table(monkeypatch) -> None:  # type: ignore[no-untyped-def]

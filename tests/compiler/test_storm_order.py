@@ -1,8 +1,9 @@
 """State numbering, choice order and rows are exactly Storm's.
 
 ``test_same_as_storm_live`` asks Storm itself (stormpy 2.0 in the reference environment
-``/root/refenv``, run in a subprocess; skipped where it is missing) for the state valuations in
-state order, the rows of every choice and the choice labels, and compares them one by one.
+``POSGMC_REFERENCE_PYTHON``, run in a subprocess; skipped where it is missing) for the state
+valuations in state order, the rows of every choice and the choice labels, and compares them one
+by one.
 ``test_pinned_order_fingerprint`` pins a digest of the same data for one model, taken when the live
 comparison passed, so that the order stays checked where Storm is not installed.
 """
@@ -21,8 +22,6 @@ from posgmc.compiler import build_model
 from posgmc.model.explicit import ExplicitModel
 from posgmc.semantics.stages import instantiate
 from posgmc.syntax.parser import parse_model
-
-STORM_PYTHON = Path("/root/refenv/bin/python")
 
 _STORM_SCRIPT = r"""
 import json, sys, stormpy
@@ -79,13 +78,12 @@ def _as_storm(model: ExplicitModel) -> dict[str, object]:
     return {"vals": vals, "rows": rows, "labels": labels}
 
 
-@pytest.mark.skipif(not STORM_PYTHON.exists(), reason="no reference environment with stormpy")
-def test_same_as_storm_live(benchmarks: Path) -> None:
+def test_same_as_storm_live(benchmarks: Path, storm_python: Path) -> None:
     arg = json.dumps(
         [[str(benchmarks / rel), ",".join(f"{k}={v}" for k, v in c.items())] for rel, c in MODELS]
     )
     proc = subprocess.run(
-        [str(STORM_PYTHON), "-c", _STORM_SCRIPT, arg],
+        [str(storm_python), "-c", _STORM_SCRIPT, arg],
         capture_output=True,
         text=True,
         timeout=300,

@@ -14,7 +14,7 @@ from posgmc.syntax.ast import ModelType
 
 
 def smg_example() -> ExplicitModel:
-    """/work/shared/benchmarks/smg/smg_example/smg_example.prism, built by hand.
+    """tests/data/benchmarks/smg/smg_example/smg_example.prism, built by hand.
 
     Variables h, c in [0..2], initially 0. p1 owns module ``host`` and actions send1/send2; p2 owns
     module ``client``. With c=0 only host commands are enabled (p1's states), with c!=0 only the
@@ -49,7 +49,7 @@ def smg_example() -> ExplicitModel:
 
 
 def game_prism() -> ExplicitModel:
-    """/work/shared/benchmarks/smg/game/game.prism, built by hand (reward: 1 in every state).
+    """tests/data/benchmarks/smg/game/game.prism, built by hand (reward: 1 in every state).
 
     States (s, t): 0:(0,0) p1, 1:(1,0) p2, 2:(2,0) p1, 3:(3,0) p2, 4:(4,0) p1, 5:(5,0) p2,
     6:(0,1) p1 (self-loop), 7:(0,2) p1 (self-loop). In (k,0), k<5, the owner either advances to

@@ -10,7 +10,6 @@ import os
 from fractions import Fraction
 
 import numpy as np
-from engine_models import as_floats, small_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -18,6 +17,7 @@ from posgmc.engines import objectives as obj
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.syntax.ast import ModelType
+from tests.engines.engine_models import as_floats, small_models
 
 SETTINGS = settings(
     max_examples=int(os.environ.get("POSGMC_EXAMPLES", "60")),

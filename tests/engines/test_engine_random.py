@@ -11,7 +11,6 @@ import os
 
 import numpy as np
 import pytest
-from engine_models import as_floats, chain_reach, chain_reward, game_value, small_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -19,6 +18,13 @@ from posgmc.engines import objectives as obj
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.model.explicit import ExplicitModel
 from posgmc.syntax.ast import ModelType
+from tests.engines.engine_models import (
+    as_floats,
+    chain_reach,
+    chain_reward,
+    game_value,
+    small_models,
+)
 
 SETTINGS = settings(
     max_examples=int(os.environ.get("POSGMC_EXAMPLES", "60")),

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from engine_models import small_models, smg_example
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -21,6 +20,7 @@ from posgmc.engines.graph import (
 from posgmc.engines.system import bellman, build_system, choice_values, choose
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.syntax.ast import ModelType
+from tests.engines.engine_models import small_models, smg_example
 
 
 def _mdp(rows: list[list[float]], groups: list[int]) -> ExplicitModel:

@@ -17,7 +17,6 @@ from typing import Any
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from engine_models import chain_reach, small_models
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -31,6 +30,7 @@ from posgmc.engines.graph import (
 )
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
+from tests.engines.engine_models import chain_reach, small_models
 
 needs_numba = pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from engine_models import as_floats, small_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -20,6 +19,7 @@ from posgmc.engines import system as it
 from posgmc.engines.graph import positive_reach, structure_of
 from posgmc.model.explicit import ExplicitModel
 from posgmc.syntax.ast import ModelType
+from tests.engines.engine_models import as_floats, small_models
 
 SETTINGS = settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

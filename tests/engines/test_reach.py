@@ -7,7 +7,6 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from engine_models import game_prism, smg_example
 
 from posgmc.engines import objectives as obj
 from posgmc.engines.graph import structure_of
@@ -16,6 +15,7 @@ from posgmc.engines.system import bellman, build_system
 from posgmc.errors import PosgmcError
 from posgmc.model.explicit import make_model
 from posgmc.syntax.ast import Direction, ModelType
+from tests.engines.engine_models import game_prism, smg_example
 
 ALL_METHODS = list(Method)
 P1, P2 = frozenset({0}), frozenset({1})

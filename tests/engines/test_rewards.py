@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from engine_models import game_prism, smg_example
 
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.errors import PosgmcError, UnsupportedError
 from posgmc.model.explicit import make_model
 from posgmc.syntax.ast import Direction, ModelType
+from tests.engines.engine_models import game_prism, smg_example
 
 ALL_METHODS = list(Method)
 INF = obj.ReachRewardMode.INFINITY

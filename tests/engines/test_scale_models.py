@@ -1,6 +1,6 @@
 """The array-built scale models of benchmarks/engine_bench.py against Storm's values.
 
-Storm 2.0's values are quoted in /work/shared/benchmarks/scale/README.md: ``two_robots`` Pmax at
+Storm 2.0's values are quoted in tests/data/benchmarks/scale/README.md: ``two_robots`` Pmax at
 N=10: 0.9230346812, N=20: 0.8444445269; ``pursuit`` at N=6: 0.0559493256, N=16: 0.0025775352.
 Storm's default value iteration stops early (it is not sound), so its value lies within about 1e-6
 of ours; we check that our proven interval is within that distance of it.

@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from engine_models import chain_reward, game_value, small_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -22,6 +21,7 @@ from posgmc.engines.system import build_system
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.syntax.ast import ModelType
+from tests.engines.engine_models import chain_reward, game_value, small_models
 
 ALL_METHODS = list(Method)
 CUM = obj.ReachRewardMode.CUMULATIVE

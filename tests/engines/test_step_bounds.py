@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from engine_models import small_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -34,6 +33,7 @@ from posgmc.syntax.ast import (
     Unary,
     UnaryOp,
 )
+from tests.engines.engine_models import small_models
 
 ROOT = Path(__file__).resolve().parents[2]
 ROVER = ROOT / "models" / "rover.smg"

@@ -12,7 +12,6 @@ from functools import cache
 
 import numpy as np
 import pytest
-from engine_models import game_prism
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -20,6 +19,7 @@ from posgmc.engines import objectives as obj
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.syntax.ast import Direction, ModelType
+from tests.engines.engine_models import game_prism
 
 ZERO = obj.ReachRewardMode.ZERO
 

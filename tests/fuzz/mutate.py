@@ -32,22 +32,15 @@ from posgmc.errors import (
 )
 
 ROOT = Path(__file__).resolve().parents[2]
-SHARED = next(
-    (
-        p
-        for p in (ROOT.parent / "shared" / "benchmarks", Path("/work/shared/benchmarks"))
-        if p.exists()
-    ),
-    None,
-)
 MODEL_SUFFIXES = {".prism", ".nm", ".pm", ".smg", ".posg", ".templ"}
 PROPERTY_SUFFIXES = {".props", ".pctl"}
 STATE_LIMIT = 3000
 
 
 def corpus() -> tuple[list[Path], list[tuple[Path, Path]]]:
-    """(model files, (model, properties) pairs) under models/, tests/ and the shared benchmarks."""
-    roots = [ROOT / "models", ROOT / "tests"] + ([SHARED] if SHARED else [])
+    """(model files, (model, properties) pairs) under models/ and tests/ (which holds the vendored
+    benchmark models, tests/data/benchmarks)."""
+    roots = [ROOT / "models", ROOT / "tests"]
     models: list[Path] = []
     pairs: list[tuple[Path, Path]] = []
     for root in roots:

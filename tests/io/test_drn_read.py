@@ -12,30 +12,12 @@ from hypothesis import strategies as st
 from posgmc.errors import ModelFormatError, PosgmcError, UnsupportedError
 from posgmc.io.drn import parse_drn, read_drn
 from posgmc.syntax.ast import ModelType
+from tests.io.helpers import BENCHMARK_SIZES
 
 # ---------------------------------------------------------------------------------------------
 # The benchmark DRN files
 # ---------------------------------------------------------------------------------------------
 
-# (file under benchmarks/, type, states, choices, transitions, observations): the sizes are
-# Storm's, from /work/shared/benchmarks/RESULTS.md (section 1 "POSMG", column "states / choices /
-# transitions (Storm, DRN)"; section 2 "POMDP", columns "states / choices / trans. / obs").
-# The POSMG observation counts are not in RESULTS.md; they are the largest "{z}" + 1 of each file.
-BENCHMARK_SIZES = [
-    ("posmg/dice-and-coin/sketch.templ", ModelType.POSG, 298, 334, 580),
-    ("posmg/dice-and-coin2/sketch.templ", ModelType.POSG, 334, 406, 832),
-    ("posmg/grid-walls/sketch.templ", ModelType.POSG, 245, 1050, 1495),
-    ("posmg/dodge-6-lines/sketch.templ", ModelType.POSG, 639, 2487, 3033),
-    ("posmg/dodge-6-lines-position/sketch.templ", ModelType.POSG, 639, 2487, 3033),
-    ("posmg/attacker-one-defender/sketch.templ", ModelType.POSG, 172, 552, 894),
-    ("posmg/attacker-defender/sketch.templ", ModelType.POSG, 1179, 4587, 7119),
-    ("posmg/test-game/sketch.templ", ModelType.POSG, 8, 14, 21),
-    ("posmg/test-game2/sketch.templ", ModelType.POSG, 7, 9, 12),
-    ("posmg/mec-test/sketch.templ", ModelType.POSG, 4, 6, 7),
-    ("posmg/testing-rewards/sketch.templ", ModelType.POSG, 16, 16, 22),
-    ("pomdp/4x3-95/sketch.templ", ModelType.POMDP, 22, 82, 354),
-    ("pomdp/query-s2/sketch.templ", ModelType.POMDP, 36, 70, 1506),
-]
 
 
 def test_every_drn_benchmark_is_listed(benchmarks: Path) -> None:

@@ -17,6 +17,7 @@ from posgmc.io.drn import drn_text, parse_drn, read_drn, write_drn
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
 from posgmc.syntax.ast import ModelType
 from tests.io.helpers import (
+    BENCHMARK_SIZES,
     assert_same_model,
     tiny_dtmc,
     tiny_mdp,
@@ -24,7 +25,6 @@ from tests.io.helpers import (
     tiny_posg,
     tiny_smg,
 )
-from tests.io.test_drn_read import BENCHMARK_SIZES
 
 ROOT = Path(__file__).resolve().parents[2]
 

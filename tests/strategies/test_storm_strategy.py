@@ -1,6 +1,6 @@
 """A memoryless strategy on PAYNT's POSMG files: posgmc's `guaranteed` against Storm on the model
-restricted by hand (issue #8). Skipped without stormpy; run it in the reference environment:
-``/root/refenv/bin/python -m pytest tests/strategies/test_storm_strategy.py``
+restricted by hand. Skipped without stormpy; run it in the reference environment:
+``$POSGMC_REFERENCE_PYTHON -m pytest tests/strategies/test_storm_strategy.py``
 (benchmarks/README.md).
 
 The independent path: the DRN text itself is rewritten here, keeping for each of player 0's states
@@ -19,11 +19,12 @@ import pytest
 
 from posgmc import api
 from posgmc.strategies.fss import FiniteStateStrategy
+from tests.conftest import BENCHMARKS
 
 stormpy = pytest.importorskip("stormpy")
 storm_environments = pytest.importorskip("stormpy.environments")
 
-POSMG = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "posmg"
+POSMG = BENCHMARKS / "posmg"
 CASES = ["dice-and-coin", "dice-and-coin2", "grid-walls", "test-game", "attacker-one-defender"]
 
 _STATE = re.compile(r"^state (\d+) \{(\d+)\} <(\d+)>(.*)$")
@@ -82,8 +83,6 @@ def _restricted_mdp(text: str, chosen: dict[int, str]) -> str:
 @pytest.mark.parametrize("name", CASES)
 def test_memoryless_strategy_agrees_with_storm(name: str, tmp_path: Path) -> None:
     drn = POSMG / name / "sketch.templ"
-    if not drn.exists():
-        pytest.skip("shared benchmarks not present")
     text = drn.read_text()
     prop = (POSMG / name / "sketch.props").read_text().strip().splitlines()[-1].rstrip(";")
     chosen = _first_actions(text)

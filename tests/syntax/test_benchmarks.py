@@ -32,8 +32,6 @@ def _is_drn(path: Path) -> bool:
 
 
 def _model_files() -> list[Path]:
-    if not BENCHMARKS.is_dir():
-        return []
     files = [
         p
         for p in sorted(BENCHMARKS.rglob("*"))
@@ -43,8 +41,6 @@ def _model_files() -> list[Path]:
 
 
 def _props_files() -> list[Path]:
-    if not BENCHMARKS.is_dir():
-        return []
     return sorted(p for p in BENCHMARKS.rglob("*.props") if p.is_file())
 
 

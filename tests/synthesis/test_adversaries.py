@@ -3,58 +3,29 @@ random POSGs, against brute force over every deterministic memoryless strategy o
 
 from __future__ import annotations
 
-import itertools
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from posgmc import api
-from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import enumerate_adversaries, versus_adversaries
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.search import synthesize
-from tests.strategies.test_simulate import _game
+from tests.strategies.helpers import drawn_game
+from tests.synthesis.helpers import POSMG, deterministic_strategies, labels_by_observation
 
-SHARED = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "posmg"
 PROP = '<<p0>> Pmax=? [ F "goal" ]'
-
-
-def _deterministic(model, player: int, observables, values, offered):  # type: ignore[no-untyped-def]
-    """Every deterministic memoryless FSS over the given observations and offered labels."""
-    labels = sorted({a for row in offered for a in row})
-    for pick in itertools.product(*offered):
-        gamma = np.zeros((1, len(values), len(labels)))
-        for i, a in enumerate(pick):
-            gamma[0, i, labels.index(a)] = 1.0
-        yield FiniteStateStrategy.from_arrays(player=player, observables=observables,
-                                              observation_values=values, actions=tuple(labels),
-                                              action=gamma)
-
-
-def _labels_by_observation(model, player: int, ids: np.ndarray) -> list[list[str]]:  # type: ignore[no-untyped-def]
-    out = []
-    for z in range(int(ids.max()) + 1):
-        states = np.flatnonzero((model.state_players == player) & (ids == z))
-        if states.size == 0:
-            out.append([])
-            continue
-        s = int(states[0])
-        out.append([model.action_names[model.choice_actions[c]]
-                    for c in range(model.row_groups[s], model.row_groups[s + 1])])
-    return out
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3, 4, 5, 6, 7])
 def test_brute_force_max_min_is_below_upper_bound(seed: int) -> None:
-    model, _, _ = _game(seed)
+    model, _, _ = drawn_game(seed)
     coalition = api._resolver(model, False).coalition_of
     q = parser.parse_property(PROP).expr
     # player 0 sees one bit (ids 0/1), player 1 everything (the state number s)
     obs0 = model.observation_of(0)
-    offered0 = _labels_by_observation(model, 0, obs0.state_ids)[:2]
+    offered0 = labels_by_observation(model, 0, obs0.state_ids)[:2]
     keep0 = [i for i, row in enumerate(offered0) if row]
     own1 = np.flatnonzero(model.state_players == 1)
     offered1 = [
@@ -65,11 +36,11 @@ def test_brute_force_max_min_is_below_upper_bound(seed: int) -> None:
         for s in own1.tolist()
     ]
     d0 = list(
-        _deterministic(
+        deterministic_strategies(
             model, "p0", ("o",), np.array([[i] for i in keep0]), [offered0[i] for i in keep0]
         )
     )
-    d1 = list(_deterministic(model, "p1", ("s",), own1[:, None], offered1))
+    d1 = list(deterministic_strategies(model, "p1", ("s",), own1[:, None], offered1))
     maxmin = -1.0
     for f0 in d0:
         worst = min(StrategyChecker(model, {"p0": f0, "p1": f1}, coalition_of=coalition,
@@ -103,10 +74,8 @@ def test_brute_force_max_min_is_below_upper_bound(seed: int) -> None:
 def test_enumeration_counts_the_classes_that_matter() -> None:
     """test-game: the opponent moves once, odd or even (2 classes, by hand from the DRN);
     dice-and-coin2: 4 classes (pinned from this enumeration, exhaustive by the solver)."""
-    if not (SHARED / "test-game" / "sketch.templ").exists():
-        pytest.skip("shared benchmarks not present")
     for name, count in (("test-game", 2), ("dice-and-coin2", 4)):
-        model = api.build(api.load(SHARED / name / "sketch.templ")).model
+        model = api.build(api.load(POSMG / name / "sketch.templ")).model
         enum = enumerate_adversaries(model, 1)
         assert enum.exhaustive and len(enum.strategies) == count
 
@@ -117,7 +86,7 @@ def test_adversaries_with_memory_include_the_memoryless_ones(seed: int) -> None:
     changes), so against a fixed defence the worst of them is at least as bad as the worst
     memoryless one; every enumerated strategy is distinct on the reachable part (no two give the
     same product); and enumeration is exhaustive on these small games."""
-    model, _, _ = _game(seed)
+    model, _, _ = drawn_game(seed)
     coalition = api._resolver(model, False).coalition_of
     q = parser.parse_property(PROP).expr
     one = enumerate_adversaries(model, 1, limit=10_000)

@@ -22,7 +22,7 @@ from posgmc.syntax.ast import ModelType
 from posgmc.synthesis import belief
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.search import problem_of
-from tests.synthesis.test_synthesis import BLIND
+from tests.synthesis.helpers import BLIND, random_posg
 
 # by hand: a coin in s=0 puts the agent in s=1 or s=2, which it cannot tell apart (o=0 in s=0..4).
 # In s=1 "a" wins and "b" moves to s=3; in s=2 "b" wins and "a" moves to s=4; in s=3 "a" wins, in
@@ -105,7 +105,7 @@ def test_guessing_game_reaches_the_optimum_with_memory(tmp_path: Path) -> None:
 
 
 def test_blind_cost_reaches_the_optimum_with_memory() -> None:
-    """BLIND (tests/synthesis/test_synthesis.py): memoryless costs 2 at best; with memory the
+    """BLIND (tests/synthesis/helpers.py): memoryless costs 2 at best; with memory the
     agent plays "a" once and, if still unseen, "b" (it is in s=2): 1 + 1/2 = 3/2, the optimum
     (the first guess is wrong with probability 1/2 whatever the agent does)."""
     model, problem = _setup(BLIND, 'R{"cost"}min=? [ F s=3 ]')
@@ -135,8 +135,6 @@ def test_synthesis_uses_the_belief_phase_only_with_memory_auto() -> None:
 
 
 def test_the_belief_phase_is_for_pomdps_only() -> None:
-    from tests.synthesis.test_double_oracle import random_posg
-
     model = random_posg(0)
     coalition = api._resolver(model, False).coalition_of
     problem = problem_of(model, parser.parse_property('<<p0>> Pmax=? [ F "goal" ]').expr,

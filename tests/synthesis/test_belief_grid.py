@@ -20,11 +20,11 @@ from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.synthesis import belief, belief_grid
 from posgmc.synthesis.search import parametrisation, problem_of
+from tests.synthesis.helpers import BLIND
 from tests.synthesis.test_belief import GUESS, random_pomdp
-from tests.synthesis.test_synthesis import BLIND
 
 ROOT = Path(__file__).resolve().parents[2]
-DATA = ROOT / "tests" / "data" / "pomdp"
+DATA = ROOT / "tests" / "data" / "benchmarks" / "pomdp"
 
 
 def _problem(model, prop: str):  # type: ignore[no-untyped-def]
@@ -106,8 +106,8 @@ def test_blind_cost_is_bounded_below_by_its_optimum() -> None:
     # models/maze/maze.props: 4.3 (PRISM's RESULT; Storm's unfolding, completed)
     (ROOT / "models/maze/maze.pomdp", 'R{"steps"}min=? [ F "target" ]', 4.3, 12),
     # tests/data/README.md: Storm's completed unfolding
-    (DATA / "nrp-8.pomdp", 'Pmax=? [ F "unfair" ]', 0.125, 125),
-    (DATA / "crypt-4.pomdp", 'Pmax=? [ F correct=1 ]', 1 / 3, 1972),
+    (DATA / "nrp-8" / "sketch.templ", 'Pmax=? [ F "unfair" ]', 0.125, 125),
+    (DATA / "crypt-4" / "sketch.templ", 'Pmax=? [ F correct=1 ]', 1 / 3, 1972),
 ])
 def test_the_bound_holds_against_known_optima(path: Path, prop: str, optimum: float,
                                               states: int) -> None:
@@ -135,7 +135,7 @@ def test_the_bound_tightens_with_the_resolution_on_tiger() -> None:
 
 @pytest.mark.slow
 def test_network_bound_holds() -> None:
-    model = _built(DATA / "network-2-8-20.pomdp")
+    model = _built(DATA / "network-2-8-20" / "sketch.templ")
     assert model.num_states == 4589
     coalition = api._resolver(model, False).coalition_of
     text = 'R{"dropped_packets"}min=?[F sched=0 & t=8-1 & k=20-1 ]'

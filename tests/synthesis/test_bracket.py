@@ -26,8 +26,7 @@ from posgmc.syntax import parser
 from posgmc.synthesis.bracket import optimum_of
 from posgmc.synthesis.options import Gap, SynthesisOptions
 from posgmc.synthesis.search import parametrisation, problem_of
-from tests.synthesis.test_double_oracle import random_posg
-from tests.synthesis.test_synthesis import BLIND
+from tests.synthesis.helpers import BLIND, random_posg
 
 ROOT = Path(__file__).resolve().parents[2]
 TRAP = ROOT / "models" / "trap_grid" / "trap_grid.pomdp"

@@ -12,8 +12,7 @@ import pytest
 from posgmc import api
 from posgmc.syntax import parser
 from posgmc.synthesis.checker import SynthesisChecker
-from tests.synthesis.test_double_oracle import PROP, SMALL, random_posg
-from tests.synthesis.test_milp import SHARED
+from tests.synthesis.helpers import POSMG, PROP, SMALL, random_posg
 
 
 def _checker(model, options):  # type: ignore[no-untyped-def]
@@ -51,14 +50,12 @@ def test_api_check_starts_the_clock_on_entry() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(SHARED is None, reason="the shared benchmarks are not there")
 def test_dodge_ends_within_the_budget() -> None:
-    """dodge-6-lines (shared POSMG, 639 states; 57 s for --timeout 30 before every phase looked
-    at its deadline, docs/performance.md): loading, building, synthesis and verification end
-    within the budget plus a few seconds (the step running at a deadline; a loaded machine)."""
-    assert SHARED is not None
+    """dodge-6-lines (PAYNT's POSMG, 639 states, vendored): loading, building, synthesis and
+    verification end within the budget plus a few seconds (the step running at a deadline; a
+    loaded machine)."""
     started = time.perf_counter()
-    session = api.load(SHARED / "dodge-6-lines" / "sketch.templ")
+    session = api.load(POSMG / "dodge-6-lines" / "sketch.templ")
     report = api.check(session, properties=['<<0>> Pmax=? [F "goal"]'], zero_based_players=True,
                        synthesis=dataclasses.replace(SMALL, timeout=15.0, restarts=3,
                                                      iterations=60, adversaries=10,

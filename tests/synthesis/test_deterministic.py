@@ -4,53 +4,26 @@ evaluated independently by the strategy checker against the omniscient adversary
 
 from __future__ import annotations
 
-import itertools
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from posgmc import api
-from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import _forward
 from posgmc.synthesis.deterministic import DeterministicJob, quotient_of, search
-from posgmc.synthesis.problem import POLICY
-from posgmc.synthesis.search import parametrisation, problem_of
-from tests.synthesis.test_double_oracle import random_posg
-
-SHARED = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "posmg"
+from posgmc.synthesis.search import problem_of
+from tests.synthesis.helpers import (
+    POSMG,
+    every_deterministic,
+    fss_guaranteed,
+    random_posg,
+)
 
 
 def _problem(model, prop: str):  # type: ignore[no-untyped-def]
     coalition = api._resolver(model, False).coalition_of
     return problem_of(model, parser.parse_property(prop).expr, player=0, adversary=1,
                       coalition_of=coalition, scalar=api._scalar)
-
-
-def _guaranteed(problem, memory: int, gamma: np.ndarray, delta: np.ndarray) -> float:  # type: ignore[no-untyped-def]
-    """What the FSS (γ, δ) ensures against the omniscient adversary: the strategy checker's
-    policy iteration on its product (independent of the quotient game)."""
-    fss = parametrisation(problem, memory).strategy(gamma, delta)
-    r = StrategyChecker(problem.model, {fss.player: fss}, coalition_of=problem.coalition_of,
-                        scalar=problem.scalar, options=POLICY).check(problem.query, text="brute")
-    assert r.guaranteed is not None
-    return float(r.guaranteed.value)
-
-
-def _every_deterministic(problem, memory: int):  # type: ignore[no-untyped-def]
-    """(γ, δ) of every deterministic ``memory``-node FSS of the decision maker (node 0 initial)."""
-    mask = parametrisation(problem, memory).mask
-    Zu, Au = mask.shape
-    options = [[(a, n) for a in np.flatnonzero(mask[z]).tolist() for n in range(memory)]
-               for _ in range(memory) for z in range(Zu)]
-    for pick in itertools.product(*options):
-        gamma = np.zeros((memory, Zu, Au))
-        delta = np.zeros((memory, Zu, Au, memory))
-        for i, (a, n) in enumerate(pick):
-            gamma[i // Zu, i % Zu, a] = 1.0
-            delta[i // Zu, i % Zu, :, n] = 1.0
-        yield gamma, delta
 
 
 @pytest.mark.parametrize("prop", ['<<p0>> Pmax=? [ F "goal" ]', '<<p0>> Pmin=? [ F "goal" ]'])
@@ -60,16 +33,16 @@ def test_exhaustive_search_finds_the_brute_force_optimum(seed: int, prop: str) -
     problem = _problem(model, prop)
     sign = problem.sign
     for memory in (1, 2):
-        members = list(_every_deterministic(problem, memory))
+        members = list(every_deterministic(problem, memory))
         if len(members) > 400:
             continue  # brute force too slow for the default suite
-        values = [_guaranteed(problem, memory, g, d) for g, d in members]
+        values = [fss_guaranteed(problem, memory, g, d) for g, d in members]
         optimum = max(values, key=lambda v: sign * v)
         found = search(problem, memory, deadline=None)
         assert found is not None and found.exhaustive
         # the search's number is its own float ranking; the checker's value of its FSS is the
         # brute-force optimum (every member is a deterministic FSS, and none is better)
-        assert _guaranteed(problem, memory, found.gamma, found.delta) == pytest.approx(
+        assert fss_guaranteed(problem, memory, found.gamma, found.delta) == pytest.approx(
             optimum, abs=1e-8
         )
         assert found.value == pytest.approx(optimum, abs=1e-7)
@@ -110,13 +83,10 @@ def test_runs_are_deterministic_and_seeded_sizes_never_lose(seed: int) -> None:
     assert a[0].value <= a[1].value + 1e-12 <= a[2].value + 2e-12
 
 
-@pytest.mark.skipif(
-    not (SHARED / "test-game" / "sketch.templ").exists(), reason="shared benchmarks absent"
-)
 def test_test_game_deterministic_optima_match_paynt() -> None:
     """PAYNT 0.5.0 --fsc-synthesis on test-game: the best deterministic 1-node FSC is worth 0.375
     and the best 2-node one 0.439453 (RESULTS.md; both exhaustive there as here)."""
-    session = api.load(SHARED / "test-game" / "sketch.templ")
+    session = api.load(POSMG / "test-game" / "sketch.templ")
     model = api.build(session).model
     coalition = api._resolver(model, True).coalition_of
     problem = problem_of(model, parser.parse_property('<<0>> Pmax=? [F "goal"]').expr, player=0,

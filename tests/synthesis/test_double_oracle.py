@@ -14,69 +14,22 @@ from hypothesis import strategies as st
 
 from posgmc import api
 from posgmc.checking.property_checker import CheckOptions
-from posgmc.model.explicit import Observation, make_model
 from posgmc.strategies.files import read_strategy, write_strategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
-from posgmc.syntax.ast import ModelType
 from posgmc.synthesis.checker import SynthesisChecker
 from posgmc.synthesis.double_oracle import VersusJob, _best_response, one_sided
 from posgmc.synthesis.executors import InProcess
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.problem import POLICY
 from posgmc.synthesis.search import problem_of
-from tests.synthesis.test_adversaries import _deterministic, _labels_by_observation
-
-PROP = '<<p0>> Pmax=? [ F "goal" ]'
-SMALL = SynthesisOptions(memory=(1,), restarts=1, iterations=10, timeout=120, adversaries=2,
-                         compose_restarts=1)
-"""Small enough to finish far within the budget (so runs are deterministic), on 3-7 states."""
-
-
-def random_posg(seed: int):  # type: ignore[no-untyped-def]
-    """A random POSG with 4-8 states besides an absorbing goal and an absorbing sink: player 0
-    sees one bit and has 2-3 labels per observation, player 1 (the adversary) sees the state and
-    has 1-2 labels; every choice moves to 1-3 random states (the sink among them), so values
-    are neither all 0 nor all 1 and both players matter."""
-    rng = np.random.default_rng(seed)
-    S = int(rng.integers(4, 9)) + 2
-    goal, sink = S - 2, S - 1
-    owner = rng.integers(0, 2, size=S)
-    owner[0] = 0
-    owner[[goal, sink]] = 1
-    obs0 = rng.integers(0, 2, size=S)
-    labels0 = {
-        z: sorted(rng.choice(["a", "b", "c"], size=int(rng.integers(2, 4)), replace=False).tolist())
-        for z in (0, 1)
-    }
-    names = ("", "a", "b", "c", "x", "y")
-    rows, actions, row_groups = [], [], [0]
-    for s in range(S):
-        if s in (goal, sink):
-            acts = ["x"]
-        elif owner[s] == 0:
-            acts = labels0[int(obs0[s])]
-        else:
-            acts = ["x", "y"][: int(rng.integers(1, 3))]
-        for a in acts:
-            row = np.zeros(S)
-            if s in (goal, sink):
-                row[s] = 1.0
-            else:
-                succ = rng.choice(S, size=int(rng.integers(1, 4)), replace=False)
-                row[succ] = rng.random(succ.size) + 0.1
-                row /= row.sum()
-            rows.append(row)
-            actions.append(names.index(a))
-        row_groups.append(len(rows))
-    ids = np.where(owner == 0, obs0, 2).astype(np.int32)
-    return make_model(
-        ModelType.POSG, row_groups, np.array(rows), choice_actions=actions, action_names=names,
-        state_players=owner, player_names=("p0", "p1"),
-        observations=(Observation(0, ids, ("o",), np.array([[0], [1], [2]])),),
-        labels={"goal": np.arange(S) == goal}, variable_names=("s",),
-        state_values=np.arange(S)[:, None],
-    )
+from tests.synthesis.helpers import (
+    PROP,
+    SMALL,
+    deterministic_strategies,
+    labels_by_observation,
+    random_posg,
+)
 
 
 def _problem(model):  # type: ignore[no-untyped-def]
@@ -162,7 +115,7 @@ def test_pipeline_invariants_on_random_posgs(seed: int, tmp_path_factory) -> Non
     assert r.synthesis["exhaustive"] is True
     # brute force, both players deterministic and memoryless
     obs0 = model.observation_of(0)
-    offered0 = _labels_by_observation(model, 0, obs0.state_ids)[:2]
+    offered0 = labels_by_observation(model, 0, obs0.state_ids)[:2]
     keep0 = [i for i, row in enumerate(offered0) if row]
     own1 = np.flatnonzero(model.state_players == 1)
     offered1 = [
@@ -172,9 +125,9 @@ def test_pipeline_invariants_on_random_posgs(seed: int, tmp_path_factory) -> Non
         ]
         for s in own1.tolist()
     ]
-    d0 = list(_deterministic(model, "p0", ("o",), np.array([[i] for i in keep0]),
+    d0 = list(deterministic_strategies(model, "p0", ("o",), np.array([[i] for i in keep0]),
                              [offered0[i] for i in keep0]))
-    d1 = list(_deterministic(model, "p1", ("s",), own1[:, None], offered1))
+    d1 = list(deterministic_strategies(model, "p1", ("s",), own1[:, None], offered1))
     maxmin = max(
         min(
             StrategyChecker(

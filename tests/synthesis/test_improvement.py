@@ -20,8 +20,7 @@ from posgmc.synthesis.deterministic import _solve, quotient_of
 from posgmc.synthesis.improvement import ImprovementJob, hole_scores, improve
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.search import _projected, _qmdp, parametrisation, problem_of
-from tests.synthesis.test_deterministic import _every_deterministic, _guaranteed
-from tests.synthesis.test_double_oracle import random_posg
+from tests.synthesis.helpers import every_deterministic, fss_guaranteed, random_posg
 
 ROOT = Path(__file__).resolve().parents[2]
 SECURE = ROOT / "models" / "secure_autonomy" / "secure_autonomy.posg"
@@ -73,7 +72,7 @@ def _start_value(problem, start) -> float:  # type: ignore[no-untyped-def]
     """The strategy checker's value of a start's hardened (deterministic) strategy."""
     par = parametrisation(problem, 1)
     g, d = par.hardened(*par.probabilities(*start))
-    return _guaranteed(problem, 1, g, d)
+    return fss_guaranteed(problem, 1, g, d)
 
 
 def test_survey_pomdp_walks_to_the_sign() -> None:
@@ -95,7 +94,7 @@ def test_survey_pomdp_walks_to_the_sign() -> None:
     assert found is not None
     assert found.value == pytest.approx(0.81, abs=1e-9)  # by hand, above
     # the strategy checker agrees on the defence found
-    assert _guaranteed(problem, 1, found.gamma, found.delta) == pytest.approx(0.81, abs=1e-9)
+    assert fss_guaranteed(problem, 1, found.gamma, found.delta) == pytest.approx(0.81, abs=1e-9)
     # it took the rounds of the hand derivation: commit everywhere (1/2), walk from the half-way
     # cell, walk from the start (0.81), then no change
     assert found.families == 3
@@ -121,7 +120,7 @@ def test_secure_autonomy_n3_surveys_before_sending() -> None:
     found = improve(problem, 1, deadline=None)
     assert found is not None
     assert found.value == pytest.approx(0.8400598555, abs=1e-8)
-    assert _guaranteed(problem, 1, found.gamma, found.delta) == pytest.approx(0.8400598555,
+    assert fss_guaranteed(problem, 1, found.gamma, found.delta) == pytest.approx(0.8400598555,
                                                                               abs=1e-8)
 
 
@@ -134,7 +133,7 @@ def test_larger_memory_is_never_worse() -> None:
         assert [r.memory for r in results] == [1, 2]
         assert results[1].value >= results[0].value - 1e-9
         # the 2-node defence's number is its own value (checker), not the smaller one's alone
-        assert _guaranteed(problem, 2, results[1].gamma, results[1].delta) == pytest.approx(
+        assert fss_guaranteed(problem, 2, results[1].gamma, results[1].delta) == pytest.approx(
             results[1].value, abs=1e-7)
 
 
@@ -156,9 +155,9 @@ def test_value_is_the_checkers_and_within_brute_force(seed: int, maximize: bool)
     problem = _problem_random(seed, prop)
     found = improve(problem, 1, deadline=None)
     assert found is not None  # random_posg offers the same labels in every state of a view
-    checked = _guaranteed(problem, 1, found.gamma, found.delta)
+    checked = fss_guaranteed(problem, 1, found.gamma, found.delta)
     assert found.value == pytest.approx(checked, abs=1e-7)
-    values = [_guaranteed(problem, 1, g, d) for g, d in _every_deterministic(problem, 1)]
+    values = [fss_guaranteed(problem, 1, g, d) for g, d in every_deterministic(problem, 1)]
     assert min(values) - 1e-7 <= checked <= max(values) + 1e-7
 
 

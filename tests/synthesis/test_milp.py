@@ -2,14 +2,13 @@
 memoryless defence (each evaluated against each adversary by policy iteration on the product):
 on small random POSGs, with the decision maker partially and fully observing (ACJJKT19's
 orientation), including games with end components for Pmax (ranking), Pmin, Rmin (flows) and
-Rmax; and on the shared POSMGs small enough to enumerate (issue #9)."""
+Rmax; and on PAYNT's POSMGs small enough to enumerate."""
 
 from __future__ import annotations
 
 import dataclasses
 import itertools
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,7 +23,7 @@ from posgmc.synthesis.adversaries import enumerate_adversaries
 from posgmc.synthesis.double_oracle import VersusJob
 from posgmc.synthesis.milp import Encoding, compose_milp, encoding_of, supported
 from posgmc.synthesis.search import parametrisation, problem_of
-from tests.synthesis.test_double_oracle import random_posg
+from tests.synthesis.helpers import POSMG, random_posg
 
 
 def _problem(model, prop: str):  # type: ignore[no-untyped-def]
@@ -253,11 +252,6 @@ def test_unsupported_objectives() -> None:
     assert supported(_problem(model, '<<p0>> Pmax=? [ F "goal" ]'))
 
 
-SHARED = next((p for p in (Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "posmg",
-                           Path("/work/shared/benchmarks/posmg")) if p.exists()), None)
-
-
-@pytest.mark.skipif(SHARED is None, reason="the shared benchmarks are not there")
 @pytest.mark.parametrize(("name", "num_states", "encoding"), [
     ("dice-and-coin", 298, Encoding.RANKING),
     ("dice-and-coin2", 334, Encoding.RANKING),
@@ -271,8 +265,7 @@ def test_shared_posmgs_against_brute_force(name: str, num_states: int,
     """The shared POSMGs whose deterministic memoryless strategies can be enumerated for both
     players (PAYNT's sketches, the first property of sketch.props): the MILP against every
     adversary strategy is the brute-force max-min over deterministic memoryless defences."""
-    assert SHARED is not None
-    directory = SHARED / name
+    directory = POSMG / name
     prop = next(line.strip().rstrip(";") for line in (directory / "sketch.props").read_text()
                 .splitlines() if line.strip() and not line.strip().startswith("//"))
     model = api.build(api.load(directory / "sketch.templ")).model

@@ -14,13 +14,11 @@ from posgmc.syntax import parser
 from posgmc.synthesis import parametric
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.search import _qmdp, _with_warm_up, parametrisation, problem_of, synthesize
+from tests.synthesis.helpers import POSMG
 
 ROOT = Path(__file__).resolve().parents[2]
 SECURE = ROOT / "models" / "secure_autonomy" / "secure_autonomy.posg"
-# shared/ sits beside the checkout (in a git worktree, beside the worktrees' folder)
-TEST_GAME = next((base / "shared" / "benchmarks" / "posmg" / "test-game" / "sketch.templ"
-                  for base in (ROOT.parent, ROOT.parent.parent)
-                  if (base / "shared" / "benchmarks").is_dir()), ROOT / "missing")
+TEST_GAME = POSMG / "test-game" / "sketch.templ"
 
 
 def _problem(path: Path, prop: str, constants: dict[str, str] | None = None,
@@ -103,8 +101,6 @@ def test_a_memory_range_above_one_is_warm_started_from_a_memoryless_defence() ->
     """``--memory 2`` searches k = 1 first and reports a 2-node defence guaranteeing at least what
     ``--memory 1`` does (test-game: the best randomised 1-FSS ~0.393, the 2-FSS 0.439453, PAYNT's
     value in RESULTS.md). Slow: 11 s; see the test above for the default run's coverage."""
-    if not TEST_GAME.exists():
-        pytest.skip("shared benchmarks not present")
     model, expr, player, coalition_of, _ = _problem(
         TEST_GAME, '<<0>> Pmax=? [F "goal"]', zero_based=True
     )
@@ -142,8 +138,6 @@ def test_qmdp_start_favours_the_best_worst_case_q_value_per_observation() -> Non
     """Cross-check of the vectorised pessimistic QMDP start against a loop over the states
     (test-game): per observation, the actions of the best Q-value in the observation's worst
     state are favoured, the others not."""
-    if not TEST_GAME.exists():
-        pytest.skip("shared benchmarks not present")
     model, expr, player, coalition_of, problem = _problem(TEST_GAME, '<<0>> Pmax=? [F "goal"]',
                                                           zero_based=True)
     from posgmc.checking.property_checker import CheckOptions, PropertyChecker
@@ -175,8 +169,6 @@ def test_seeded_runs_are_bit_identical_on_the_iterative_path(
 ) -> None:
     """The warm starts of the iterative evaluation live inside one search job, so a seed still
     fixes the result."""
-    if not TEST_GAME.exists():
-        pytest.skip("shared benchmarks not present")
     monkeypatch.setattr(parametric, "ITERATIVE_STATES", 0)
     model, expr, player, coalition_of, _ = _problem(
         TEST_GAME, '<<0>> Pmax=? [F "goal"]', zero_based=True

@@ -18,16 +18,14 @@ from posgmc.syntax.ast import Direction
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.parametric import Parametrisation
 from posgmc.synthesis.search import _embed_strategy, synthesize
+from tests.synthesis.helpers import BLIND, POSMG
 
 ROOT = Path(__file__).resolve().parents[2]
-SHARED = ROOT.parent / "shared" / "benchmarks" / "posmg"
-TEST_GAME = SHARED / "test-game" / "sketch.templ"
+TEST_GAME = POSMG / "test-game" / "sketch.templ"
 
 
 def _game(name: str):  # type: ignore[no-untyped-def]
-    path = SHARED / name / "sketch.templ"
-    if not path.exists():
-        pytest.skip("shared benchmarks not present")
+    path = POSMG / name / "sketch.templ"
     model = api.build(api.load(path)).model
     return model, api._resolver(model, True).coalition_of
 
@@ -128,8 +126,6 @@ def test_embedding_keeps_the_guarantee() -> None:
 # tutorial's posgmc test --memory 1..3 (the same option parser)
 @pytest.mark.parametrize("memory", ["1", pytest.param("1..2", marks=pytest.mark.slow)])
 def test_cli_synthesises_exports_and_the_file_rechecks(tmp_path: Path, memory: str) -> None:
-    if not TEST_GAME.exists():
-        pytest.skip("shared benchmarks not present")
     out = tmp_path / "fss"
     r = CliRunner().invoke(main, ["check", str(TEST_GAME), "--prop", '<<0>> Pmax=? [F "goal"]',
                                   "--zero-based-players", "--memory", memory, "--timeout", "30",
@@ -209,30 +205,6 @@ def test_expected_reward_until_a_target_where_paynt_fails() -> None:
     assert result.guaranteed.lower <= 4.0 <= result.guaranteed.upper
     assert result.full_observation.lower <= 4.0 <= result.full_observation.upper
     assert result.strategy.memory_size == 1
-
-
-# by hand: the agent cannot see whether it is in s=0, s=1 or s=2 (from s=0 either action moves
-# to s=1 or s=2, 1/2 each, for free); "a" reaches the goal from s=1 (cost
-# 1) and loops in s=2, "b" the other way round. Every memoryless strategy that reaches the goal
-# almost surely randomises: with P(a) = q the expected cost is 1/2 (1/q) + 1/2 (1/(1-q)), least at
-# q = 1/2: Rmin = 2 (full observation: 1). A deterministic strategy's cost is infinite.
-BLIND = """
-pomdp
-observables o endobservables
-module m
-  s : [0..3] init 0;
-  o : [0..1] init 0;
-  [a] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
-  [b] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
-  [a] s=1 -> (s'=3)&(o'=1);
-  [b] s=1 -> (s'=1);
-  [a] s=2 -> (s'=2);
-  [b] s=2 -> (s'=3)&(o'=1);
-  [a] s=3 -> true;
-  [b] s=3 -> true;
-endmodule
-rewards "cost" [a] s=1|s=2 : 1; [b] s=1|s=2 : 1; endrewards
-"""
 
 
 def test_expected_cost_needs_randomisation() -> None:

@@ -7,12 +7,14 @@ it); without numba, or with the environment variable ``POSGMC_KERNELS=numpy``, :
 is False and the caller takes its vectorised numpy/scipy path instead. A kernel's Python body is
 never run uncompiled on a hot path: a loop per state in the interpreter is what kernels replace.
 
-numba itself is imported on the first kernel call, not when posgmc is imported (the import costs
-about 0.4 s, which a check that needs no kernel should not pay). A process that is about to need
-the kernels (``api.build``: a check follows) calls :func:`warm_up_in_background`: numba's import,
-its first-call initialisation (about as long again) and the loading of the cached machine code of
-the registered kernels (:func:`on_warm_up`) then run on a daemon thread while the model is built,
-instead of inside the first check.
+numba itself is imported on the first kernel call, not when posgmc is imported: its start-up (the
+import, then its first-call initialisation, about as long again) costs a fraction of a second of
+CPU and on the order of 100 MB per process, which a check that needs no kernel should not pay, and
+which is why small systems keep the numpy paths (:data:`posgmc.engines.scc.COMPILED_MIN_SIZE`).
+A process that is about to need the kernels (``api.build``: a check follows) calls
+:func:`warm_up_in_background`: numba's import, its first-call initialisation and the loading of
+the cached machine code of the registered kernels (:func:`on_warm_up`) then run on a daemon
+thread while the model is built, instead of inside the first check.
 
 Call sites ask :func:`enabled` at call time (not at import), so the tests can run both paths in
 one process by flipping :data:`STATE`. Why numba and not a C extension: ``docs/architecture.md``

@@ -7,9 +7,8 @@ entry order (scipy's ``csr_matvec`` order), a state's optimum is taken over its 
 slot order, so both paths compute the same floating-point values step for step. Unlike the
 numpy path, no row values are stored: the rows are read in their order (a block's rows are its
 slot entries' rows, one entry after the other) and each value goes straight into its state's
-optimum, which spares a write and a read of an [m] (or [m, 2]) buffer per sweep. On two_robots
-N=32 (8.1M rows of two entries on average) the verification sweep went from 76 ms to 34 ms; the
-lower sweep stayed at 28 ms, bound by its scattered reads of ``x``.
+optimum, which spares a write and a read of an [m] (or [m, 2]) buffer per sweep (the lower sweep
+gains less: its scattered reads of ``x`` bound it).
 
 ``plan``: uint64[B, 6], per block ``(row_lo, row_hi, max_lo, a, min_lo, b)``; ``slots``:
 uint64[E, 6] and ``blocks``: uint64[B + 1] as in :class:`~posgmc.engines.system.System`

@@ -38,7 +38,7 @@ _WRITE_TYPES: Mapping[ModelType, str] = {
 
 _CHUNK_ENTRIES = 1 << 18
 """Transitions formatted per chunk: the text in memory at once is a few tens of MB, whatever
-the model's size (the whole file used to be built first: 6.9 GB for a 616 MB file)."""
+the model's size (the file's text is never held whole)."""
 
 
 def write_drn(

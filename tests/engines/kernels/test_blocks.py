@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from engine_models import as_floats, small_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -19,6 +18,7 @@ from posgmc.engines.graph import positive_reach, structure_of
 from posgmc.engines.options import SolverOptions
 from posgmc.model.explicit import ExplicitModel
 from posgmc.syntax.ast import ModelType
+from tests.engines.engine_models import as_floats, small_models
 
 pytestmark = pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
 

@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from engine_models import small_models
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from posgmc.engines import kernels, scc
 from posgmc.engines.graph import structure_of
 from posgmc.model.explicit import ExplicitModel
+from tests.engines.engine_models import small_models
 
 pytestmark = pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
 

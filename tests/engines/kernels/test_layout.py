@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from engine_models import small_models
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -13,6 +12,7 @@ from posgmc.engines import kernels
 from posgmc.engines.graph import structure_of
 from posgmc.engines.system import System, build_system
 from posgmc.model.explicit import ExplicitModel
+from tests.engines.engine_models import small_models
 
 pytestmark = pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
 

@@ -11,7 +11,6 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from engine_models import as_floats, layered_models
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -24,6 +23,7 @@ from posgmc.engines.options import SolverOptions
 from posgmc.engines.system import build_system
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.syntax.ast import ModelType
+from tests.engines.engine_models import as_floats, layered_models
 
 pytestmark = pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
 

@@ -9,25 +9,6 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from ltl_reference import (
-    FORMULAS,
-    And,
-    F,
-    G,
-    Implies,
-    Not,
-    Or,
-    R,
-    U,
-    W,
-    X,
-    a,
-    b,
-    dfa_accepts_lasso,
-    same_language,
-    satisfies,
-    violating_extension,
-)
 
 from posgmc.engines.ltl import Dfa, extract_atoms, is_cosafe, to_dfa
 from posgmc.engines.ltl.dfa import _good_prefix_closure
@@ -45,6 +26,25 @@ from posgmc.syntax.ast import (
     Temporal,
     TemporalOp,
     TimeBound,
+)
+from tests.engines.ltl.ltl_reference import (
+    FORMULAS,
+    And,
+    F,
+    G,
+    Implies,
+    Not,
+    Or,
+    R,
+    U,
+    W,
+    X,
+    a,
+    b,
+    dfa_accepts_lasso,
+    same_language,
+    satisfies,
+    violating_extension,
 )
 
 hazard, goal1 = LabelRef("hazard"), LabelRef("goal1")

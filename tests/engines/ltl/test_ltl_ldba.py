@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from ltl_reference import FORMULAS, And, F, G, Implies, Not, Or, R, U, W, X, a, b, c, satisfies
 
 from posgmc.engines import objectives as obj
 from posgmc.engines.ltl import (
@@ -26,6 +25,23 @@ from posgmc.errors import LimitError
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
 from posgmc.syntax.ast import Expr
+from tests.engines.ltl.ltl_reference import (
+    FORMULAS,
+    And,
+    F,
+    G,
+    Implies,
+    Not,
+    Or,
+    R,
+    U,
+    W,
+    X,
+    a,
+    b,
+    c,
+    satisfies,
+)
 
 
 def lasso(prefix: list[int], loop: list[int], num_atoms: int) -> tuple[ExplicitModel, np.ndarray]:

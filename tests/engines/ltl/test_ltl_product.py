@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from ltl_reference import And, F, Not, Or, U, X, a, b
 
 from posgmc.engines.ltl import Dfa, extract_atoms, letter_graph, pack_letters, product, to_dfa
 from posgmc.errors import UnsupportedError
@@ -28,6 +27,7 @@ from posgmc.syntax.ast import (
     RewardKind,
     RewardQuery,
 )
+from tests.engines.ltl.ltl_reference import And, F, Not, Or, U, X, a, b
 
 # -- a tiny mdp ------------------------------------------------------------------------------
 #   s0: c0 -> s1 (1/2), s2 (1/2)    c1 -> s0

@@ -1,0 +1,146 @@
+"""Random small POSGs, brute-force enumerations of deterministic strategies and small models
+shared by the synthesis tests."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from posgmc.model.explicit import Observation, make_model
+from posgmc.strategies.fss import FiniteStateStrategy
+from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax.ast import ModelType
+from posgmc.synthesis.options import SynthesisOptions
+from posgmc.synthesis.problem import POLICY
+from posgmc.synthesis.search import parametrisation
+from tests.conftest import BENCHMARKS
+
+POSMG = BENCHMARKS / "posmg"
+"""PAYNT's POSMGs (vendored; tests/data/README.md)."""
+
+PROP = '<<p0>> Pmax=? [ F "goal" ]'
+SMALL = SynthesisOptions(memory=(1,), restarts=1, iterations=10, timeout=120, adversaries=2,
+                         compose_restarts=1)
+"""Small enough to finish far within the budget (so runs are deterministic), on 3-7 states."""
+
+
+def random_posg(seed: int):  # type: ignore[no-untyped-def]
+    """A random POSG with 4-8 states besides an absorbing goal and an absorbing sink: player 0
+    sees one bit and has 2-3 labels per observation, player 1 (the adversary) sees the state and
+    has 1-2 labels; every choice moves to 1-3 random states (the sink among them), so values
+    are neither all 0 nor all 1 and both players matter."""
+    rng = np.random.default_rng(seed)
+    S = int(rng.integers(4, 9)) + 2
+    goal, sink = S - 2, S - 1
+    owner = rng.integers(0, 2, size=S)
+    owner[0] = 0
+    owner[[goal, sink]] = 1
+    obs0 = rng.integers(0, 2, size=S)
+    labels0 = {
+        z: sorted(rng.choice(["a", "b", "c"], size=int(rng.integers(2, 4)), replace=False).tolist())
+        for z in (0, 1)
+    }
+    names = ("", "a", "b", "c", "x", "y")
+    rows, actions, row_groups = [], [], [0]
+    for s in range(S):
+        if s in (goal, sink):
+            acts = ["x"]
+        elif owner[s] == 0:
+            acts = labels0[int(obs0[s])]
+        else:
+            acts = ["x", "y"][: int(rng.integers(1, 3))]
+        for a in acts:
+            row = np.zeros(S)
+            if s in (goal, sink):
+                row[s] = 1.0
+            else:
+                succ = rng.choice(S, size=int(rng.integers(1, 4)), replace=False)
+                row[succ] = rng.random(succ.size) + 0.1
+                row /= row.sum()
+            rows.append(row)
+            actions.append(names.index(a))
+        row_groups.append(len(rows))
+    ids = np.where(owner == 0, obs0, 2).astype(np.int32)
+    return make_model(
+        ModelType.POSG, row_groups, np.array(rows), choice_actions=actions, action_names=names,
+        state_players=owner, player_names=("p0", "p1"),
+        observations=(Observation(0, ids, ("o",), np.array([[0], [1], [2]])),),
+        labels={"goal": np.arange(S) == goal}, variable_names=("s",),
+        state_values=np.arange(S)[:, None],
+    )
+
+
+def deterministic_strategies(model, player: int, observables, values, offered):  # type: ignore[no-untyped-def]
+    """Every deterministic memoryless FSS over the given observations and offered labels."""
+    labels = sorted({a for row in offered for a in row})
+    for pick in itertools.product(*offered):
+        gamma = np.zeros((1, len(values), len(labels)))
+        for i, a in enumerate(pick):
+            gamma[0, i, labels.index(a)] = 1.0
+        yield FiniteStateStrategy.from_arrays(player=player, observables=observables,
+                                              observation_values=values, actions=tuple(labels),
+                                              action=gamma)
+
+
+def labels_by_observation(model, player: int, ids: np.ndarray) -> list[list[str]]:  # type: ignore[no-untyped-def]
+    """For each observation id of ``player``, the action labels offered there (first state)."""
+    out = []
+    for z in range(int(ids.max()) + 1):
+        states = np.flatnonzero((model.state_players == player) & (ids == z))
+        if states.size == 0:
+            out.append([])
+            continue
+        s = int(states[0])
+        out.append([model.action_names[model.choice_actions[c]]
+                    for c in range(model.row_groups[s], model.row_groups[s + 1])])
+    return out
+
+
+def fss_guaranteed(problem, memory: int, gamma: np.ndarray, delta: np.ndarray) -> float:  # type: ignore[no-untyped-def]
+    """What the FSS (γ, δ) ensures against the omniscient adversary: the strategy checker's
+    policy iteration on its product (independent of the quotient game)."""
+    fss = parametrisation(problem, memory).strategy(gamma, delta)
+    r = StrategyChecker(problem.model, {fss.player: fss}, coalition_of=problem.coalition_of,
+                        scalar=problem.scalar, options=POLICY).check(problem.query, text="brute")
+    assert r.guaranteed is not None
+    return float(r.guaranteed.value)
+
+
+def every_deterministic(problem, memory: int):  # type: ignore[no-untyped-def]
+    """(γ, δ) of every deterministic ``memory``-node FSS of the decision maker (node 0 initial)."""
+    mask = parametrisation(problem, memory).mask
+    Zu, Au = mask.shape
+    options = [[(a, n) for a in np.flatnonzero(mask[z]).tolist() for n in range(memory)]
+               for _ in range(memory) for z in range(Zu)]
+    for pick in itertools.product(*options):
+        gamma = np.zeros((memory, Zu, Au))
+        delta = np.zeros((memory, Zu, Au, memory))
+        for i, (a, n) in enumerate(pick):
+            gamma[i // Zu, i % Zu, a] = 1.0
+            delta[i // Zu, i % Zu, :, n] = 1.0
+        yield gamma, delta
+
+
+# by hand: the agent cannot see whether it is in s=0, s=1 or s=2 (from s=0 either action moves
+# to s=1 or s=2, 1/2 each, for free); "a" reaches the goal from s=1 (cost
+# 1) and loops in s=2, "b" the other way round. Every memoryless strategy that reaches the goal
+# almost surely randomises: with P(a) = q the expected cost is 1/2 (1/q) + 1/2 (1/(1-q)), least at
+# q = 1/2: Rmin = 2 (full observation: 1). A deterministic strategy's cost is infinite.
+BLIND = """
+pomdp
+observables o endobservables
+module m
+  s : [0..3] init 0;
+  o : [0..1] init 0;
+  [a] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
+  [b] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
+  [a] s=1 -> (s'=3)&(o'=1);
+  [b] s=1 -> (s'=1);
+  [a] s=2 -> (s'=2);
+  [b] s=2 -> (s'=3)&(o'=1);
+  [a] s=3 -> true;
+  [b] s=3 -> true;
+endmodule
+rewards "cost" [a] s=1|s=2 : 1; [b] s=1|s=2 : 1; endrewards
+"""
