@@ -158,6 +158,13 @@ def test_random_game_brackets_hold(seed: int, maximize: bool) -> None:
     _random_game_bracket(seed, maximize)
 
 
+@pytest.mark.slow
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), maximize=st.booleans())
+def test_many_random_game_brackets_hold(seed: int, maximize: bool) -> None:
+    _random_game_bracket(seed, maximize)
+
+
 def test_no_bracket_when_not_asked() -> None:
     r = api.check(api.load(TRAP), properties=['Pmax=? [ F "goal" ]'],
                   synthesis=SynthesisOptions(timeout=3, bracket=False)).results[0]
