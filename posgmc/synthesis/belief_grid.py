@@ -317,8 +317,8 @@ def full_observation_bounds(problem: Problem,
     tries."""
     checker = PropertyChecker(problem.model, coalition_of=problem.coalition_of,
                               scalar=problem.scalar,
-                              options=CheckOptions(keep_strategy=True,
-                                                   solver=SolverOptions(deadline=deadline)))
+                              options=CheckOptions(keep_strategy=True, solver=SolverOptions(
+                                  deadline=deadline, stiff_certificate=False)))
     r = checker.query(problem.query, everywhere=True)
     strategy = None if r.engine is None or r.engine.strategy is None else \
         np.asarray(r.engine.strategy, dtype=np.int64)
@@ -428,19 +428,28 @@ class CoarseBounds:
             key[B.indices[lo:hi].astype(np.int64).tobytes() + counts.tobytes()] = i
         return CoarseBounds(N, values[:B.shape[0]], key)
 
-    def bound(self, idx: np.ndarray, p: np.ndarray) -> float:
-        """Σ λ_i W(u_i) over the coarse grid's simplex around belief ``p`` on states ``idx``
-        (a bound by convexity), or NaN when one of its vertices is not in the coarse
-        abstraction."""
-        counts, lam = freudenthal(p, self.resolution)
-        total = 0.0
-        for c, w in zip(counts, lam):
-            nz = c > 0
-            v = self.key.get(idx[nz].tobytes() + c[nz].tobytes())
-            if v is None:
-                return math.nan
-            total += w * float(self.values[v])
-        return total
+    def bounds(self, idx: list[np.ndarray], p: list[np.ndarray]) -> np.ndarray:
+        """float64[len(idx)]: for each belief (``p[j]`` on states ``idx[j]``) Σ λ_i W(u_i) over
+        the coarse grid's simplex around it (a bound by convexity), NaN where one of the
+        simplex's vertices is not in the coarse abstraction."""
+        out = np.full(len(idx), np.nan)
+        sizes = np.asarray([i.size for i in idx], dtype=np.int64)
+        for _, sel in _chunks(sizes):
+            P = np.stack([p[j] for j in sel.tolist()])
+            counts, lam = freudenthal_batch(P, self.resolution)
+            for r, j in enumerate(sel.tolist()):
+                total = 0.0
+                for c, w in zip(counts[r], lam[r]):
+                    if w <= 0:
+                        continue
+                    nz = c > 0
+                    v = self.key.get(idx[j][nz].tobytes() + c[nz].tobytes())
+                    if v is None:
+                        total = math.nan
+                        break
+                    total += w * float(self.values[v])
+                out[j] = total
+        return out
 
 
 def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
@@ -571,13 +580,14 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     finite = np.isfinite(cutoff)
     u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
     unbounded = np.asarray(Bc @ (~finite).astype(np.float64)).ravel() > 0
-    if coarse is not None:
-        sign = 1.0 if problem.maximize else -1.0
-        for j, v in enumerate(cut_ids.tolist()):
-            w = coarse.bound(grid.rows[v], grid.vals[v])
-            if np.isfinite(w) and (unbounded[j] or sign * w < sign * u[j]):
-                u[j], unbounded[j] = w, False
     n_cut = cut_ids.size
+    if coarse is not None and n_cut:
+        sign = 1.0 if problem.maximize else -1.0
+        w = coarse.bounds([grid.rows[v] for v in cut_ids.tolist()],
+                          [grid.vals[v] for v in cut_ids.tolist()])
+        better = np.isfinite(w) & (unbounded | (sign * w < sign * u))
+        u = np.where(better, w, u)
+        unbounded &= ~better
     if prob:
         u = np.clip(u, 0.0, 1.0)
         u = np.where(unbounded, 1.0 if problem.maximize else 0.0, u)
@@ -674,7 +684,8 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
         if abstraction is None:
             return None
         result = abstraction.solve(SolverOptions(precision=PRECISION, relative=True,
-                                                 deadline=deadline, want_strategy=False))
+                                                 deadline=deadline, want_strategy=False,
+                                                 stiff_certificate=False))
         if not result.sound:
             continue
         value = float(result.upper[0] if problem.maximize else result.lower[0])
