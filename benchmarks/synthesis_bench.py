@@ -106,8 +106,8 @@ def paynt(directory: Path, timeout: float) -> dict[str, object]:
 def storm_belief(directory: Path, prop: str, seconds: float) -> dict[str, object]:
     """Storm's discretisation and unfolding bounds (benchmarks/_storm_belief.py), or an error;
     what it printed last when it overran."""
-    if not REFPY.exists():
-        return {"error": "no /root/refenv"}
+    if REFPY is None or not REFPY.exists():
+        return {"error": "no reference interpreter (POSGMC_REFERENCE_PYTHON)"}
     cmd = [str(REFPY), str(ROOT / "benchmarks" / "_storm_belief.py"),
            str(directory / "sketch.templ"), prop, f"{seconds:g}"]
     try:
