@@ -164,7 +164,8 @@ def main(argv: list[str] | None = None) -> int:
         and _storm_available(Path(args.storm_python))
     )
     if not args.no_storm and not storm:
-        print(f"(Storm skipped: no stormpy at {args.storm_python})", file=sys.stderr)
+        where = args.storm_python or "$POSGMC_REFERENCE_PYTHON (unset)"
+        print(f"(Storm skipped: no stormpy at {where})", file=sys.stderr)
 
     header = (
         "| model | N | states | choices | transitions | posgmc build (s) | posgmc total (s) "

@@ -469,6 +469,7 @@ def iter_check(
     :mod:`posgmc.strategies.verify`): ``guaranteed``, ``vs_fss_adversary``, ``upper_bound``.
     A partially observable model without strategies and without ``full_observation`` is answered
     by synthesis (:mod:`posgmc.synthesis`), configured by ``synthesis``."""
+    from posgmc.synthesis.budget import interrupted
     from posgmc.synthesis.options import SynthesisOptions
 
     synthesis = synthesis or SynthesisOptions()
@@ -511,6 +512,8 @@ def iter_check(
             elif note:
                 outcome = dataclasses.replace(outcome, note=note)
             yield prop, outcome
+            if synthesising and interrupted():
+                return  # Ctrl-C: the property it cut short reported its best; no further ones
 
 
 def _label_names(built: BuiltModel) -> set[str]:
@@ -648,7 +651,7 @@ def check(
         synthesis,
     )
     built = built or _build_for_check(session, property_files, properties, build_options)
-    loaded = load_strategies(strategies) if strategies else None
+    loaded = load_strategies(strategies, model=built.model) if strategies else None
     warnings = built.warnings + _strategy_warnings(built.model, loaded)
     if on_start is not None:
         on_start(built.model, built.seconds, warnings)
@@ -781,10 +784,11 @@ def synthesize(
     prop: str,
     *,
     memory: int | Sequence[int] | Mapping[str, int | Sequence[int]] | None = None,
-    timeout: float = 30.0,
+    timeout: float | None = None,
     seed: int = 0,
     adversaries: int = 10,
     jobs: int = 1,
+    effort: float = 1.0,
     zero_based_players: bool = False,
     build_options: BuildOptions = BuildOptions(),
     built: BuiltModel | None = None,
@@ -801,11 +805,15 @@ def synthesize(
             with its largest size). Default: 1..3 for the decision maker, 1 for the adversary,
             and on a pomdp a belief-based controller with as many nodes as it needs (sizes
             given bound the memory).
-        timeout: seconds for the whole synthesis of the property.
-        seed: random seed (the search is deterministic given the seed and a budget it keeps to).
+        timeout: a wall-clock cap in seconds on the whole synthesis of the property (None: none);
+            when it binds, ``synthesis["cut"]`` is "timeout" and the numbers, still proven, may
+            depend on the machine.
+        seed: random seed (the search is deterministic given the model, the property, the
+            options and the seed: its extent is a work budget, docs/synthesis.md).
         adversaries: how many of the strongest enumerated adversary strategies the defence is
             composed against (0: no adversary phases).
         jobs: worker processes for independent evaluations (the results do not depend on it).
+        effort: the multiplier of every synthesis phase's work budget (1: the defaults).
         gap: refine the optimum bracket until ``upper - lower`` is at most this (a number, or a
             percentage such as ``"5%"`` of the larger side) or the budget ends; the bound side
             then gets a share of ``timeout``. None: a little time on top of it.
@@ -826,8 +834,8 @@ def synthesize(
     session = _session(session)
     if not isinstance(prop, str):
         raise InputError(f"prop must be a property text, got {type(prop).__name__}")
-    # every argument checked (SynthesisOptions names the field: timeout, seed, jobs, ...) before
-    # anything is built
+    # every argument checked (SynthesisOptions names the field: timeout, effort, seed, jobs, ...)
+    # before anything is built
     if gap is None or isinstance(gap, str):
         requested = None if gap is None else Gap.parse(gap)
     elif isinstance(gap, (int, float)) and not isinstance(gap, bool):
@@ -835,7 +843,8 @@ def synthesize(
     else:
         raise InputError(f"gap must be a number or a percentage string such as '5%', got {gap!r}")
     options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs,
-                               belief=None if memory is None else False, gap=requested)
+                               effort=effort, belief=None if memory is None else False,
+                               gap=requested)
     if isinstance(memory, Mapping):
         for p in memory:
             if not isinstance(p, str):
@@ -860,20 +869,27 @@ def synthesize(
 
 @deep_stack
 def load_strategies(
-    strategies: StrategySources,
+    strategies: StrategySources, *, model: ExplicitModel | None = None
 ) -> dict[str, FiniteStateStrategy]:
     """Strategies by player name, files read (a file's own player must be the one it is given for).
+    A file is ``posgmc-fss/1`` or the memoryless strategy of ``check --export-strategy``, read
+    against ``model`` when given (:func:`~posgmc.strategies.files.read_strategy_for`).
 
     Raises:
         InputError, StrategyError: unreadable or invalid files, or a file for another player.
     """
-    from posgmc.strategies.files import read_strategy
+    from posgmc.strategies.files import read_strategy, read_strategy_for
     from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 
     _strategy_sources(strategies)
     out: dict[str, FiniteStateStrategy] = {}
     for player, given in strategies.items():
-        fss = given if isinstance(given, FiniteStateStrategy) else read_strategy(given)
+        if isinstance(given, FiniteStateStrategy):
+            fss = given
+        elif model is not None:
+            fss = read_strategy_for(given, model, player=player)
+        else:
+            fss = read_strategy(given, player=player)
         # a pomdp's one player has no name; its strategy file is written as agent.json and
         # given back as --strategy agent=...
         if player is not None and fss.player != player and not (
@@ -923,8 +939,10 @@ def _strategy_path(path: object, what: str) -> str | Path:
 # -- strategies: files, simulation ------------------------------------------------------------
 
 
-def load_strategy(path: str | Path) -> FiniteStateStrategy:
-    """Read a ``posgmc-fss/1`` strategy file (errors carry the file and JSON path).
+def load_strategy(path: str | Path, *, player: str | None = None) -> FiniteStateStrategy:
+    """Read a ``posgmc-fss/1`` strategy file, or the memoryless strategy file of ``check
+    --export-strategy`` (``player``: whose, when it holds several players'); errors carry the
+    file and JSON path.
 
     Raises:
         InputError: ``path`` is not a path, or the file cannot be read or is not JSON.
@@ -932,7 +950,7 @@ def load_strategy(path: str | Path) -> FiniteStateStrategy:
     """
     from posgmc.strategies.files import read_strategy
 
-    return read_strategy(_strategy_path(path, "path"))
+    return read_strategy(_strategy_path(path, "path"), player=player)
 
 
 def save_strategy(strategy: FiniteStateStrategy, path: str | Path) -> None:
@@ -967,9 +985,13 @@ def simulate(
     :mod:`posgmc.strategies.simulate`); players without one play uniformly, or their
     full-observation optimum with ``opponent="best"``.
 
+    ``estimate`` is None when runs reached ``max_steps`` undecided (the interval covers them).
+
     Raises:
-        InputError, StrategyError: bad model, property or strategy files.
+        InputError, StrategyError: bad arguments (naming them), model, property or strategy
+            files.
         UnsupportedError: a property simulation does not estimate.
+        LimitError: ``runs`` whose arrays would not fit in the memory available.
     """
     from posgmc.strategies.simulate import Simulation  # noqa: F401
     from posgmc.strategies.simulate import simulate as run
@@ -985,7 +1007,7 @@ def simulate(
     if strategies is not None:
         _strategy_sources(strategies)
     built = build(session, options=build_options, allow_extra_constants=True)
-    loaded = load_strategies(strategies) if strategies else {}
+    loaded = load_strategies(strategies, model=built.model) if strategies else {}
     _, (parsed,) = parse_properties(session, texts=[prop])
     src = SourceText(prop, "<--prop 1>")
     try:

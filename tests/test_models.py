@@ -70,7 +70,7 @@ def test_posg_without_options_is_answered_by_synthesis() -> None:
     report = api.check(
         api.load(MODELS / "rover.posg"),
         property_files=[MODELS / "rover.props"],
-        synthesis=SynthesisOptions(memory=(1,), timeout=5, restarts=0, iterations=10),
+        synthesis=SynthesisOptions(memory=(1,), restarts=0, iterations=10),
     )
     by_name = {r.name: r for r in report.results}
     assert by_name["reach"].guaranteed is not None
@@ -180,7 +180,7 @@ def test_secure_autonomy_full_observation_results(n: int) -> None:
 def test_secure_autonomy_synthesis_gates() -> None:
     """The CI gates of secure_autonomy.props, on a synthesised memoryless defence."""
     code, output = _run_cli("test", str(SECURE_MODEL), str(SECURE / "secure_autonomy.props"),
-                            "--const", "N=3,flash=false,B=1", "--memory", "1", "--timeout", "60")
+                            "--const", "N=3,flash=false,B=1", "--memory", "1")
     assert code == 0, output
     assert "3 passed, 0 failed" in output
 
@@ -203,7 +203,7 @@ def _beacon_guaranteed(memory: tuple[int, ...]) -> list[Bound]:
     got = []
     for k in memory:
         report = api.check(session, properties=['<<rover>> Pmax=? [ F "safe" ]'], built=built,
-                           synthesis=SynthesisOptions(memory=(k,), timeout=20, seed=0))
+                           synthesis=SynthesisOptions(memory=(k,), seed=0))
         g = report.results[0].guaranteed
         assert g is not None and g.sound
         got.append(g)
@@ -246,6 +246,5 @@ def test_beacon_more_memory_never_hurts() -> None:
 @pytest.mark.slow
 def test_beacon_results_pass_with_memory() -> None:
     code, output = _run_cli("test", str(MODELS / "beacon" / "beacon.posg"),
-                            str(MODELS / "beacon" / "beacon.props"), "--memory", "1..3",
-                            "--timeout", "20")
+                            str(MODELS / "beacon" / "beacon.props"), "--memory", "1..3")
     assert code == 0 and "2 passed, 0 failed" in output, output

@@ -1,7 +1,7 @@
 """docs/tutorial.md stays true: every ``$ posgmc ...`` command in a ``console`` block is run (from
 a scratch directory that sees the repository's ``models/``), and its output must equal the one
-shown, line by line, once times (``0.013 s``) are masked, and the mark a synthesis run gets when
-its time budget ran out on a loaded machine (its numbers must still be the ones shown)."""
+shown, line by line, once times (``0.013 s``) are masked (synthesis is counted in its own units,
+not timed, so its numbers are the same on any machine)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,6 @@ ROOT = Path(__file__).resolve().parents[1]
 TUTORIAL = ROOT / "docs" / "tutorial.md"
 _BLOCK = re.compile(r"```console\n(.*?)```", re.S)
 _TIME = re.compile(r"\d+\.\d+ s\b")
-_PARTIAL = re.compile(r"; PARTIAL: the budget ran out|\s*\(partial\)")
 
 
 def _commands() -> list[tuple[str, list[str]]]:
@@ -32,7 +31,7 @@ def _commands() -> list[tuple[str, list[str]]]:
 
 
 def _mask(lines: list[str]) -> list[str]:
-    return [_PARTIAL.sub("", _TIME.sub("<t> s", line.rstrip())) for line in lines]
+    return [_TIME.sub("<t> s", line.rstrip()) for line in lines]
 
 
 def test_the_tutorial_has_its_commands() -> None:

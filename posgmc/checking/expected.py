@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import TYPE_CHECKING
 
-from posgmc.checking.results import PropertyResult
+from posgmc.checking.results import Bound, PropertyResult
 from posgmc.errors import PosgmcError
 from posgmc.syntax.ast import ExpectedResult, Property
 
@@ -128,7 +128,13 @@ def _constant_value(text: str) -> int | Fraction | bool:
     return int(value) if value.denominator == 1 and "." not in text else value
 
 
-def _show(value: object) -> str:
+def _show(value: object, bounds: tuple[float, float] | None = None) -> str:
+    """A result as ``test`` prints it: a number with proven ``bounds`` as the shortest decimal
+    inside them (:mod:`posgmc.checking.decimals`)."""
+    if isinstance(value, float) and bounds is not None and math.isfinite(value):
+        from posgmc.checking.decimals import shortest_in
+
+        return shortest_in(value, *bounds)
     if isinstance(value, bool):
         return "true" if value else "false"
     if value is None:
@@ -248,6 +254,7 @@ def grade(
             return Verdict(exact == wanted, text, str(exact))
     v = float(value)
     proven = _proven_bounds(outcome) if expected.number is None else None
+    shown = proven if expected.number is None else _number_bounds(number)
     if body.startswith("[") and body.endswith("]"):
         lo, hi = _interval(body)
         if math.isnan(v):
@@ -258,14 +265,22 @@ def grade(
             meets |= (
                 proven[0] - _FLOATING_POINT_ERROR <= hi and lo <= proven[1] + _FLOATING_POINT_ERROR
             )
-        return Verdict(meets, text, _show(v))
+        return Verdict(meets, text, _show(v, shown))
     e = _expected_number(body, constants)
     close = _close(v, e, tolerance)
     if proven is not None and math.isfinite(e):
         # PRISM grades with the result's own accuracy when it has one (ResultTesting's
         # getTestingAccuracy): posgmc's proven bounds are that accuracy
         close |= proven[0] - _FLOATING_POINT_ERROR <= e <= proven[1] + _FLOATING_POINT_ERROR
-    return Verdict(close, text, _show(v))
+    return Verdict(close, text, _show(v, shown))
+
+
+def _number_bounds(number: Bound | None) -> tuple[float, float] | None:
+    """A strategy number's proven bounds, when they hold and are finite."""
+    if number is None or not number.sound:
+        return None
+    lower, upper = float(number.lower), float(number.upper)
+    return (lower, upper) if math.isfinite(lower) and math.isfinite(upper) else None
 
 
 def _proven_bounds(outcome: PropertyResult) -> tuple[float, float] | None:

@@ -193,6 +193,9 @@ class PropertyResult:
     strategies: tuple[Any, ...] = field(default=(), repr=False)
     exact: Fraction | None = None
     multi: Any = field(default=None, repr=False)
+    maximizing: bool | None = None
+    """For a result about a decision maker's strategies: whether it maximises (Pmax, Rmax, a
+    ``>=`` threshold), which says which side each bound is on; None otherwise."""
 
     @builtins.property  # the field ``property`` shadows the builtin in the class body
     def front(self) -> Any:
@@ -233,6 +236,8 @@ class PropertyResult:
             out["full_observation"] = self.full_observation.to_json()
         if self.optimum is not None:
             out["optimum"] = self.optimum.to_json()
+        if self.maximizing is not None:
+            out["direction"] = "max" if self.maximizing else "min"
         if self.synthesis is not None:
             out.update(self.synthesis)
         if self.multi is not None:

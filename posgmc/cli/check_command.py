@@ -9,18 +9,21 @@ from typing import Any
 
 import click
 
-from posgmc.cli.constants import const_text, expand_constants
+from posgmc.cli.constants import const_json, const_text, expand_constants
 from posgmc.cli.group import main
 from posgmc.cli.model_commands import build_options
 from posgmc.cli.options import (
     EXIT_ERROR,
+    EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
     common,
+    effort_option,
     full_observation_option,
     gap_option,
     memory_option,
     positive_finite,
+    progress_options,
     seed_option,
     strategy_options,
     synthesis_options,
@@ -35,9 +38,11 @@ from posgmc.cli.printing import (
     print_outcome,
     print_report,
 )
+from posgmc.cli.progress_view import before_output, progress_mode, progress_view
 from posgmc.cli.running import guard
 from posgmc.cli.strategy_export import check_destination, point_of, synthesises, write_exports
 from posgmc.errors import InputError
+from posgmc.synthesis.budget import interrupted, interruptible
 
 __all__ = ["check", "not_passed"]
 
@@ -54,6 +59,7 @@ __all__ = ["check", "not_passed"]
     callback=lambda _c, _p, v: positive_finite(v, "--precision"),
     default=1e-6,
     show_default=True,
+    help="Stop iterating when the proven bounds are this close (absolute; see --relative).",
 )
 @click.option("--relative", is_flag=True, help="Precision is relative, not absolute.")
 @click.option(
@@ -83,7 +89,9 @@ __all__ = ["check", "not_passed"]
               help="Synthesis: worker processes for independent evaluations (results do not "
               "depend on it).")
 @timeout_option
+@effort_option
 @seed_option
+@progress_options
 @gap_option
 @click.option("--export-strategy", type=click.Path(), default=None,
               help="Write the optimal memoryless strategy of the property as JSON; for a "
@@ -98,7 +106,11 @@ __all__ = ["check", "not_passed"]
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
               help="With one swept constant (--const B=0:4): draw each property against it "
               "(.png, .svg, .pdf; needs matplotlib).")
-@click.option("--state-limit", type=click.IntRange(min=1), default=None)
+@click.option("--state-limit", type=click.IntRange(min=1), default=None,
+              help="Stop building beyond this many states (an error naming the limit).")
+@click.option("-v", "--verbose", is_flag=True,
+              help="Synthesis: every number with its meaning, the search rounds, the phases' "
+              "times and the adversary phases (the JSON always has them).")
 @common
 def check(
     model: str,
@@ -114,8 +126,11 @@ def check(
     memory: tuple[str, ...],
     adversaries: int,
     jobs: int,
-    timeout: float,
+    timeout: float | None,
+    effort: float,
     seed: int,
+    progress_lines: bool,
+    quiet: bool,
     gap: Any,
     export_strategy: str | None,
     as_json: bool,
@@ -123,6 +138,7 @@ def check(
     junit: str | None,
     plot_file: str | None,
     state_limit: int | None,
+    verbose: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -145,6 +161,8 @@ def check(
                 raise InputError("--plot draws properties against one swept constant; "
                                  f"{len(swept)} are swept",
                                  hint="give one constant a range, e.g. --const B=0:4")
+        if export_strategy is not None:
+            _check_export_extension(export_strategy, directory=None)
         strategies = strategy_options(strategy_files)
         options = CheckOptions(
             solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
@@ -169,11 +187,12 @@ def check(
             if export_strategy is not None and not rows:
                 # before any work: a destination that cannot be written is refused now, not
                 # after the whole budget
-                check_destination(export_strategy, directory=synthesises(
-                    session, given_strategies=bool(strategies),
-                    full_observation=full_observation))
+                directory = synthesises(session, given_strategies=bool(strategies),
+                                        full_observation=full_observation)
+                _check_export_extension(export_strategy, directory=directory)
+                check_destination(export_strategy, directory=directory)
             on_start, on_outcome = (
-                _streamers(model, constants, json_lines) if streaming else (None, None)
+                _streamers(model, constants, json_lines, verbose) if streaming else (None, None)
             )
             report = api.check(
                 session,
@@ -185,7 +204,7 @@ def check(
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
                 synthesis=synthesis_options(memory, timeout, seed, adversaries, jobs,
-                                            started=loading, gap=gap),
+                                            started=loading, effort=effort, gap=gap),
                 on_start=on_start,
                 on_outcome=on_outcome,
             )
@@ -201,6 +220,11 @@ def check(
                                           point=point_of(constants, swept),
                                           several_points=len(combos) > 1):
                     click.echo(f"wrote {path}", err=as_json or json_lines)
+            if interrupted():
+                # Ctrl-C: the property it cut short reported (and exported) its best verified
+                # defence; no further property or constant setting is checked
+                code = EXIT_INTERRUPTED
+                break
         if junit is not None:
             _write_check_junit(junit, model, swept, rows)
         if plot_file is not None:
@@ -212,21 +236,31 @@ def check(
         if as_json or (json_lines and not streaming):
             click.echo(json.dumps(json_report(model, swept, rows)))
         elif not streaming:
-            print_report(model, swept, rows)
+            print_report(model, swept, rows, verbose=verbose)
         return code
 
-    guard(debug, run, as_json=as_json or json_lines, consts=consts)
+    def shown() -> int:
+        mode = progress_mode(quiet=quiet, lines=progress_lines, json_lines=json_lines)
+        with progress_view(mode):
+            return run()
+
+    with interruptible():
+        guard(debug, shown, as_json=as_json or json_lines, consts=consts)
 
 
-def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type: ignore[no-untyped-def]
-    """(on_start, on_outcome) callbacks printing the header and each result as it comes."""
+def _streamers(model: str, constants: dict[str, Any], json_lines: bool,  # type: ignore[no-untyped-def]
+               verbose: bool = False):
+    """(on_start, on_outcome) callbacks printing the header and each result as it comes (a
+    note once per run)."""
+    seen: set[str] = set()
 
     def start(built: Any, seconds: float, warnings: tuple[str, ...]) -> None:
+        before_output()
         stats = built.statistics()
         if json_lines:
             click.echo(json.dumps({
                 "model_file": model,
-                "constants": {n: const_text(v) for n, v in constants.items()},
+                "constants": {n: const_json(v) for n, v in constants.items()},
                 "model": {k: stats[k] for k in ("type", "states", "choices", "transitions")},
                 "build_seconds": round(seconds, 6),
                 "warnings": list(warnings),
@@ -235,10 +269,11 @@ def _streamers(model: str, constants: dict[str, Any], json_lines: bool):  # type
         print_header(model, stats, seconds, warnings)
 
     def outcome(r: Any) -> None:
+        before_output()
         if json_lines:
             click.echo(json.dumps(outcome_json(r)))
         else:
-            print_outcome(r)
+            print_outcome(r, verbose=verbose, seen=seen)
 
     return start, outcome
 
@@ -263,10 +298,36 @@ def _write_check_junit(
             failure = None
             if not_passed(r):
                 failure = f"{r.property}: {fmt(r.value)}" + (
-                    "" if r.converged else " (not converged)"
+                    " (not converged)" if not r.converged
+                    else " (not proven)" if r.guaranteed is not None and not r.sound else ""
                 )
             cases.append(Case(name, model, r.seconds, failure=failure))
     write_junit(path, model, cases)
+
+
+def _check_export_extension(path: str, *, directory: bool | None) -> None:
+    """Strategies are written as JSON: a file named ``.json``, or a directory (no extension, or
+    one that exists) for synthesised strategies; any other extension (``s.tra``) is refused before
+    any work rather than given JSON, and so is a ``.json`` name where a synthesis writes a
+    directory (``directory``: whether it does; None: not known yet).
+
+    Raises:
+        InputError: naming --export-strategy.
+    """
+    import os
+
+    suffix = os.path.splitext(os.path.basename(path.rstrip("/" + os.sep)))[1].lower()
+    if os.path.isdir(path) or not suffix:
+        return
+    if suffix != ".json":
+        raise InputError(f"--export-strategy {path}: strategies are written as JSON, not "
+                         f"{suffix}", hint="give a .json file (a model checker's memoryless "
+                         "strategy) or a directory (synthesised strategies, <player>.json each)")
+    if directory:
+        raise InputError(f"--export-strategy {path}: a synthesis writes a directory (the "
+                         "defence and the adversary strategy found, <player>.json each), not "
+                         "one .json file", hint="give a directory name, e.g. --export-strategy "
+                         f"{path[: -len(suffix)] or 'strategies'}/")
 
 
 def not_passed(r: Any) -> bool:

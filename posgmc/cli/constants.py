@@ -11,7 +11,7 @@ from posgmc.errors import InputError
 if TYPE_CHECKING:
     from posgmc.semantics.constants import ConstSetting, UserConstant
 
-__all__ = ["expand_constants", "const_text", "single_constants"]
+__all__ = ["expand_constants", "const_json", "const_text", "single_constants"]
 
 
 def expand_constants(
@@ -41,6 +41,27 @@ def const_text(setting: Any) -> str:
 
     value = getattr(setting, "value", setting)
     return value if isinstance(value, str) else format_value(value)
+
+
+def const_json(setting: Any) -> Any:
+    """A constant's value in JSON: a number or a Boolean as JSON has them (``"start": 3``, not
+    ``"3"``), text only for what is neither (e.g. a fraction ``1/3``)."""
+    import math
+
+    value = getattr(setting, "value", setting)
+    if not isinstance(value, str):
+        return value if isinstance(value, (bool, int, float)) else const_text(value)
+    text = value.strip()
+    if text in ("true", "false"):
+        return text == "true"
+    for parse in (int, float):
+        try:
+            number = parse(text)
+        except ValueError:
+            continue
+        if isinstance(number, int) or math.isfinite(number):
+            return number
+    return text
 
 
 def single_constants(consts: Sequence[str], *, what: str) -> dict[str, Any]:

@@ -21,8 +21,9 @@ import click
 __all__ = [
     "EXIT_OK", "EXIT_PROPERTY_FALSE", "EXIT_ERROR", "EXIT_INTERRUPTED",
     "common", "zero_based_players_option", "full_observation_option", "memory_option",
-    "timeout_option", "seed_option", "gap_option", "positive_finite", "finite",
-    "nonnegative_finite", "memory_sizes", "synthesis_options", "strategy_options",
+    "timeout_option", "effort_option", "progress_options", "seed_option", "gap_option",
+    "positive_finite", "finite", "nonnegative_finite",
+    "memory_sizes", "synthesis_options", "strategy_options",
 ]
 
 EXIT_OK = 0
@@ -103,12 +104,38 @@ def timeout_option(f: F) -> F:
     return click.option(
         "--timeout",
         type=float,
-        callback=lambda _c, _p, v: positive_finite(v, "--timeout"),
-        default=30.0,
-        show_default=True,
-        help="Synthesis: seconds per property (per point of a sweep or front), the first counted "
-        "from the start (loading included); anytime: the best defence so far is verified.",
+        callback=lambda _c, _p, v: None if v is None else positive_finite(v, "--timeout"),
+        default=None,
+        help="Synthesis: a wall-clock cap in seconds per property (per point of a sweep or "
+        "front), the first counted from the start (loading included); default none. When it "
+        "binds, the best defence so far is verified and the result says the timeout cut the "
+        "work budget (the numbers may then depend on the machine).",
     )(f)
+
+
+def effort_option(f: F) -> F:
+    return click.option(
+        "--effort",
+        type=float,
+        default=1.0,
+        show_default=True,
+        callback=lambda ctx, param, value: positive_finite(value, "'--effort'"),
+        help="Synthesis: multiply every phase's work budget (gradient steps, random starts, "
+        "families, adversaries enumerated, ...: docs/synthesis.md) by this. The numbers depend "
+        "only on the model, the properties, the options and --seed.",
+    )(f)
+
+
+def progress_options(f: F) -> F:
+    f = click.option(
+        "--quiet", "-q", is_flag=True,
+        help="Synthesis: no progress on stderr.")(f)
+    f = click.option(
+        "--progress", "progress_lines", is_flag=True,
+        help="Synthesis: progress as lines on stderr (at least one every 2 s, naming the phase "
+        "and the best value so far) also when stderr is not a terminal; on a terminal a live "
+        "status line is shown anyway.")(f)
+    return f
 
 
 def seed_option(f: F) -> F:
@@ -159,9 +186,9 @@ def memory_sizes(text: str, given: str) -> tuple[int, ...]:
     return tuple(range(lo, hi + 1))
 
 
-def synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
-                       adversaries: int = 10, jobs: int = 1, started: float | None = None,
-                       gap: Any = None) -> Any:
+def synthesis_options(memory: Sequence[str] | str, timeout: float | None, seed: int,
+                      adversaries: int = 10, jobs: int = 1, started: float | None = None,
+                      effort: float = 1.0, gap: Any = None) -> Any:
     """``--memory`` settings as memory sizes: ``2``, ``1..3``, ``auto`` (1..3) for the property's
     coalition, or ``PLAYER=...`` for a named player (the decision maker or the adversary);
     ``started``: where the first property's budget starts (``SynthesisOptions.started``);
@@ -185,7 +212,8 @@ def synthesis_options(memory: Sequence[str] | str, timeout: float, seed: int,
     explicit = any(given.split("=", 1)[-1].strip() != "auto" for given in settings)
     return SynthesisOptions(memory=unnamed, timeout=timeout, seed=seed, adversaries=adversaries,
                             jobs=jobs, player_memory=tuple(sorted(named.items())),
-                            belief=False if explicit else None, started=started, gap=gap)
+                            belief=False if explicit else None, started=started, effort=effort,
+                            gap=gap)
 
 
 def strategy_options(values: Sequence[str]) -> dict[str | None, str]:

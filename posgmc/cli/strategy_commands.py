@@ -15,6 +15,7 @@ from posgmc.cli.options import (
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
     common,
+    effort_option,
     full_observation_option,
     memory_option,
     nonnegative_finite,
@@ -26,6 +27,7 @@ from posgmc.cli.options import (
 )
 from posgmc.cli.printing import fmt
 from posgmc.cli.running import guard
+from posgmc.errors import InputError
 
 if TYPE_CHECKING:
     from posgmc.api import Session
@@ -45,10 +47,12 @@ __all__ = ["test", "simulate", "show_strategy"]
     "--exact", is_flag=True, help="PRISM's -exact: rational arithmetic, results compared exactly."
 )
 @full_observation_option
-@click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE")
+@click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE",
+              help="A player's finite-state strategy (posgmc-fss/1 JSON); repeatable.")
 @zero_based_players_option
 @memory_option
 @timeout_option
+@effort_option
 @seed_option
 @common
 def test(
@@ -61,7 +65,8 @@ def test(
     strategy_files: tuple[str, ...],
     zero_based_players: bool,
     memory: tuple[str, ...],
-    timeout: float,
+    timeout: float | None,
+    effort: float,
     seed: int,
     consts: tuple[str, ...],
     debug: bool,
@@ -89,12 +94,12 @@ def test(
             built = api.build(
                 session, allow_extra_constants=True, options=BuildOptions(exact=exact)
             )
-            loaded = api.load_strategies(strategies) if strategies else None
+            loaded = api.load_strategies(strategies, model=built.model) if strategies else None
             started = time.perf_counter()
             for prop, outcome in api.iter_check(
                 session, property_files=props, built=built, full_observation=full_observation,
                 zero_based_players=zero_based_players, strategies=loaded,
-                synthesis=synthesis_options(memory, timeout, seed),
+                synthesis=synthesis_options(memory, timeout, seed, effort=effort),
                 options=CheckOptions(exact=exact),
             ):
                 seconds, started = time.perf_counter() - started, time.perf_counter()
@@ -108,7 +113,6 @@ def test(
                 try:
                     verdict = grade(exp, outcome, tolerance=tolerance, constants=texts)
                 except ValueError as e:
-                    from posgmc.errors import InputError
 
                     raise InputError(str(e), exp.span) from None
                 if verdict.passed is None:
@@ -138,7 +142,6 @@ def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
     """Every RESULT line of the property files is well formed (InputError with its position)."""
     from posgmc import api
     from posgmc.checking.expected import check_form
-    from posgmc.errors import InputError
 
     parsed, _ = api.parse_properties(session, files=props)
     model_constants = [c.name for c in session.syntax.constants] if session.syntax else []
@@ -158,10 +161,12 @@ def _check_result_lines(session: Session, props: tuple[str, ...]) -> None:
               help="P=? [F φ], P=? [a U b], their F<=k forms, or R=? [F φ].")
 @click.option("--strategy", "strategy_files", multiple=True, metavar="PLAYER=FILE",
               help="A player's finite-state strategy; repeatable, one per player.")
-@click.option("--runs", type=click.IntRange(min=1), default=10_000, show_default=True)
+@click.option("--runs", type=click.IntRange(min=1), default=10_000, show_default=True,
+              help="How many runs to sample.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Random seed of the sampled runs (a non-negative integer).")
-@click.option("--max-steps", type=click.IntRange(min=0), default=10_000, show_default=True)
+@click.option("--max-steps", type=click.IntRange(min=0), default=10_000, show_default=True,
+              help="A run still undecided after this many steps counts as undecided.")
 @click.option(
     "--opponent",
     type=click.Choice(["uniform", "best"]),
@@ -244,28 +249,80 @@ def _print_trace(steps: Any) -> None:
               help="Check the strategy against this model (observables, labels).")
 @click.option("--dot", "dot_file", type=click.Path(dir_okay=False), default=None,
               help="Also write the strategy as a DOT graph.")
+@click.option("--observation", "observation", default=None, metavar="NAME=V,...",
+              help="Only the rules of the observations with these observable values, e.g. "
+              "x=0,beacon=2 (a DRN model's observation by its id: --observation 3).")
+@click.option("--node", "nodes", multiple=True, type=click.IntRange(min=0), metavar="N",
+              help="Only the rules of memory node N (repeatable).")
+@click.option("--compact", is_flag=True,
+              help="In each memory node, one line for the observations with the same action "
+              "and next memory, as ranges of their values.")
 @common
 def show_strategy(
-    file: str, model_file: str | None, dot_file: str | None, consts: tuple[str, ...], debug: bool
+    file: str, model_file: str | None, dot_file: str | None, observation: str | None,
+    nodes: tuple[int, ...], compact: bool, consts: tuple[str, ...], debug: bool
 ) -> None:
-    """Print a finite-state strategy as a table (memory x observation -> action -> memory)."""
+    """Print a finite-state strategy as a table (memory x observation -> action -> memory); a
+    memoryless strategy file of check --export-strategy shows each player's."""
     from posgmc import api
-    from posgmc.strategies.render import strategy_dot, strategy_table
+    from posgmc.strategies.files import read_strategies
+    from posgmc.strategies.render import matching_observations, strategy_dot, strategy_table
 
     def run() -> int:
-        fss = api.load_strategy(file)
+        wanted = _observation_filter(observation)
+        strategies = read_strategies(file)
         if model_file is not None:
             from posgmc.strategies.binding import bind
+            from posgmc.strategies.files import read_strategy_for
 
             constants = single_constants(consts, what="show-strategy")
             built = api.build(api.load(model_file, constants=constants))
-            for w in bind(built.model, fss).warnings:
-                click.echo(f"warning: {w}", err=True)
-        click.echo(strategy_table(fss), nl=False)
+            strategies = tuple(read_strategy_for(file, built.model, player=fss.player)
+                               for fss in strategies)
+            for fss in strategies:
+                for w in bind(built.model, fss).warnings:
+                    click.echo(f"warning: {w}", err=True)
+        for fss in strategies:
+            for n in nodes:
+                if n >= fss.memory_size:
+                    raise InputError(f"--node {n}: the strategy of player {fss.player!r} has "
+                                     f"memory nodes 0..{fss.memory_size - 1}")
+        for fss in strategies:
+            try:
+                chosen = matching_observations(fss, wanted) if wanted else None
+            except InputError as e:
+                raise InputError(f"--observation {observation}: {e.message}") from None
+            click.echo(strategy_table(fss, nodes=sorted(set(nodes)) or None,
+                                      observations=chosen, compact=compact), nl=False)
         if dot_file is not None:
             from posgmc.io.atomic import atomic_write_text
 
-            atomic_write_text(dot_file, strategy_dot(fss))
+            if len(strategies) > 1:
+                raise InputError("--dot draws one strategy; the file holds "
+                                 f"{len(strategies)} players' (give check --strategy one)")
+            atomic_write_text(dot_file, strategy_dot(strategies[0]))
         return EXIT_OK
 
     guard(debug, run, consts=consts)
+
+
+def _observation_filter(text: str | None) -> dict[str, int]:
+    """``x=0,beacon=2`` -> {"x": 0, "beacon": 2} (true/false as 1/0); ``3`` -> {"": 3}, an
+    observation id.
+
+    Raises:
+        InputError: naming --observation, for a part that is not NAME=INTEGER or NAME=true/false.
+    """
+    if text is None:
+        return {}
+    if text.strip().isdigit():
+        return {"": int(text)}
+    out: dict[str, int] = {}
+    for part in text.split(","):
+        name, eq, value = (x.strip() for x in part.partition("="))
+        value = {"true": "1", "false": "0"}.get(value, value)
+        if not eq or not name or not value.lstrip("-").isdigit():
+            raise InputError(f"--observation {text}: {part.strip()!r} is not NAME=VALUE "
+                             "(an integer, true or false)", hint="e.g. --observation x=0,beacon=2")
+        out[name] = int(value)
+    return out

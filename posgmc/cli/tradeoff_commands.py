@@ -7,6 +7,7 @@ from typing import Any
 
 import click
 
+from posgmc.checking.result_text import number_text
 from posgmc.cli.constants import const_text, single_constants
 from posgmc.cli.group import main
 from posgmc.cli.options import (
@@ -14,15 +15,18 @@ from posgmc.cli.options import (
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
     common,
+    effort_option,
     finite,
     full_observation_option,
     memory_option,
+    progress_options,
     seed_option,
     synthesis_options,
     timeout_option,
     zero_based_players_option,
 )
 from posgmc.cli.printing import fmt
+from posgmc.cli.progress_view import progress_mode, progress_view
 from posgmc.cli.running import guard
 from posgmc.errors import InputError, SourceSpan, SourceText, UnsupportedError
 
@@ -69,7 +73,9 @@ __all__ = ["pareto"]
 @zero_based_players_option
 @memory_option
 @timeout_option
+@effort_option
 @seed_option
+@progress_options
 @common
 def pareto(
     model: str,
@@ -85,8 +91,11 @@ def pareto(
     full_observation: bool,
     zero_based_players: bool,
     memory: tuple[str, ...],
-    timeout: float,
+    timeout: float | None,
+    effort: float,
     seed: int,
+    progress_lines: bool,
+    quiet: bool,
     consts: tuple[str, ...],
     debug: bool,
 ) -> None:
@@ -115,7 +124,7 @@ def pareto(
                 raise UnsupportedError("--cost draws a defender front of its own: --sweep, "
                                        "--also and --full-observation do not apply to it")
             return _defence(model, prop_text, cost_text, weights_text, budgets, consts,
-                            memory, timeout, seed, csv_file, plot_file, strategy_dir)
+                            memory, timeout, effort, seed, csv_file, plot_file, strategy_dir)
         if prop_text.lstrip().startswith("multi"):
             if sweep_text is not None:
                 raise UnsupportedError(
@@ -147,7 +156,8 @@ def pareto(
                 others[n] = setting
         values = [const_text(v) for v in rng.values()]
         result = sweep(model, prop_text, constant=name, settings=values, constants=others,
-                       synthesis=synthesis_options(memory or ("auto",), timeout, seed),
+                       synthesis=synthesis_options(memory or ("auto",), timeout, seed,
+                                                   effort=effort),
                        full_observation=full_observation, zero_based_players=zero_based_players,
                        strategy_dir=strategy_dir, also=also)
         _print(result)
@@ -162,7 +172,12 @@ def pareto(
         unproven = any(p.result is not None and not _proven(p.result) for p in result.points)
         return EXIT_ERROR if failed else EXIT_PROPERTY_FALSE if unproven else EXIT_OK
 
-    guard(debug, run, consts=consts)
+    def shown() -> int:
+        # each point of a sweep or front is reported as it completes (the tables come at the end)
+        with progress_view(progress_mode(quiet=quiet, lines=progress_lines, json_lines=False)):
+            return run()
+
+    guard(debug, shown, consts=consts)
 
 
 def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | None,
@@ -223,7 +238,8 @@ def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | 
 
 def _defence(model: str, mission: str, cost: str, weights_text: str | None,
              budgets: tuple[float, ...], consts: tuple[str, ...], memory: tuple[str, ...],
-             timeout: float, seed: int, csv_file: str | None, plot_file: str | None,
+             timeout: float | None, effort: float, seed: int, csv_file: str | None,
+             plot_file: str | None,
              strategy_dir: str | None) -> int:
     """``pareto --prop MISSION --cost COST``: the defender front
     (:mod:`posgmc.tradeoffs.defence`)."""
@@ -250,11 +266,11 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
                 hint="e.g. --weights 0,5,10,20",
             ) from None
         column += len(item) + 1
-    options = synthesis_options(memory or ("1",), timeout, seed)
+    options = synthesis_options(memory or ("1",), timeout, seed, effort=effort)
     sizes: Any = dict(options.player_memory) if options.player_memory else options.memory
     front = defence_front(model, mission, cost, weights=weights,
                           constants=single_constants(consts, what="a front"), memory=sizes,
-                          timeout=timeout, seed=seed, budgets=budgets,
+                          timeout=timeout, effort=effort, seed=seed, budgets=budgets,
                           strategy_dir=strategy_dir)
     click.echo(f"defender front: {front.mission} against {front.cost} "
                f"({len(front.points)} defences, {front.seconds:.1f} s)")
@@ -320,7 +336,7 @@ def _also_cell(a: Any) -> str:
     g = getattr(a, "guaranteed", None)
     if g is None:
         return "Error" if a is not None else "-"
-    return f"{fmt(g.value)} [{fmt(g.lower)}, {fmt(g.upper)}]"
+    return _bound_cell(g)
 
 
 def _proven(r: Any) -> bool:
@@ -329,8 +345,11 @@ def _proven(r: Any) -> bool:
 
 
 def _bound_cell(b: Any) -> str:
-    """A number with its proven bounds; ``-`` where it was not computed."""
-    return "-" if b is None else f"{fmt(b.value)} [{fmt(b.lower)}, {fmt(b.upper)}]"
+    """A number with its proven bounds (the number as the shortest decimal inside them); ``-``
+    where it was not computed."""
+    if b is None:
+        return "-"
+    return f"{number_text(b.value, b.lower, b.upper)} [{fmt(b.lower)}, {fmt(b.upper)}]"
 
 
 def _print(result: Any) -> None:
@@ -344,7 +363,7 @@ def _print(result: Any) -> None:
             rows.append((p.setting, "Error", "", "", "", "", *("" for _ in result.also)))
             click.echo(p.error.render(), err=True)
             continue
-        cell = "-" if b is None else f"{fmt(b.value)} [{fmt(b.lower)}, {fmt(b.upper)}]"
+        cell = _bound_cell(b)
         if r is not None and r.synthesis and r.synthesis.get("partial"):
             cell += " (partial)"
         if r is not None and not _proven(r):
@@ -353,8 +372,8 @@ def _print(result: Any) -> None:
             (
                 p.setting,
                 cell,
-                fmt(r.full_observation.value) if r is not None and r.full_observation else "-",
-                fmt(r.upper_bound.value) if r is not None and r.upper_bound else "-",
+                _bound_cell(r.full_observation if r is not None else None),
+                _bound_cell(r.upper_bound if r is not None else None),
                 ", ".join(f"{n or 'agent'}={k}" for n, k in r.memory)
                 if r is not None and r.memory
                 else "-",

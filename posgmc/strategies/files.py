@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -38,16 +39,19 @@ import numpy as np
 from posgmc.errors import InputError, SourceSpan, SourceText
 from posgmc.strategies.fss import PROBABILITY_TOLERANCE, FiniteStateStrategy, StrategyError
 
-__all__ = ["FORMAT", "read_strategy", "parse_strategy", "strategy_from_json", "strategy_to_json",
-           "write_strategy", "dump_strategy", "write_memoryless_strategy"]
+__all__ = ["FORMAT", "read_strategy", "read_strategies", "parse_strategy", "strategy_from_json",
+           "strategy_to_json", "write_strategy", "dump_strategy", "is_memoryless_document",
+           "memoryless_players", "read_strategy_for", "write_memoryless_strategy"]
 
 FORMAT = "posgmc-fss/1"
 _TOP_KEYS = {"format", "player", "memory_size", "initial_memory", "observables", "rules"}
 _RULE_KEYS = {"memory", "observation", "action", "update"}
 
 
-def read_strategy(path: str | Path) -> FiniteStateStrategy:
-    """Read a strategy file.
+def read_strategy(path: str | Path, *, player: str | None = None) -> FiniteStateStrategy:
+    """Read a strategy file: ``posgmc-fss/1``, or the memoryless strategy that ``check
+    --export-strategy`` writes for a fully observable model (``player``: whose, when it holds
+    several players' choices).
 
     Raises:
         InputError: the file cannot be read, or is not JSON (with line and column).
@@ -57,17 +61,94 @@ def read_strategy(path: str | Path) -> FiniteStateStrategy:
 
     name = str(path)
     text = read_text(path)
-    return parse_strategy(text, file=name)
+    return parse_strategy(text, file=name, player=player)
 
 
-def parse_strategy(text: str, *, file: str | None = None) -> FiniteStateStrategy:
-    """A strategy from the text of a ``posgmc-fss/1`` file (see :func:`read_strategy`)."""
+def read_strategy_for(path: str | Path, model: Any, *,
+                      player: str | None = None) -> FiniteStateStrategy:
+    """:func:`read_strategy` with the model the strategy is for at hand: a memoryless strategy
+    file then becomes exactly the strategy it was exported as — each listed state plays its
+    ``choice`` — and a state where it did not choose (no decision mattered there) its first
+    choice, as :func:`~posgmc.strategies.binding.memoryless_strategy` does.
+
+    Raises:
+        StrategyError: as :func:`read_strategy`, or the file's states are not the model's (another
+            model, or other constants), or its choices are not the player's.
+    """
+    from posgmc.io.reading import read_text
+    from posgmc.strategies.binding import memoryless_strategy
+
+    name = str(path)
+    doc = _json(read_text(path), name)
+    if not is_memoryless_document(doc):
+        return strategy_from_json(doc, file=name, player=player)
+    whose = _whose(doc, player, name)
+    names = list(model.player_names)
+    if whose and whose not in names:
+        raise _fail(f"{whose!r} is not a player of the model ({', '.join(names)})",
+                    "states", name)
+    index = names.index(whose) if whose else 0
+    choices = np.full(model.num_states, -1, dtype=np.int64)
+    variables = list(model.variable_names)
+    for i, entry in enumerate(doc["states"]):
+        if entry.get("player", "") != whose:
+            continue
+        where = f"states[{i}]"
+        for key in ("state", "action"):
+            if key not in entry:
+                raise _fail(f"the field {key!r} is missing", f"{where}.{key}", name)
+        s = _int(entry["state"], f"{where}.state", name, "state")
+        c = _int(entry.get("choice", -1), f"{where}.choice", name, "choice")
+        if not 0 <= s < model.num_states:
+            raise _fail(f"state {s} is not a state of the model (0..{model.num_states - 1})",
+                        f"{where}.state", name, hint="export and use it with the same model "
+                        "and constants")
+        valuation = entry.get("valuation")
+        if valuation is not None and (list(valuation) != variables or list(valuation.values())
+                                      != [int(v) for v in model.state_values[s]]):
+            raise _fail(f"state {s} is {model.describe_state(s)} in the model, not {valuation}",
+                        f"{where}.valuation", name, hint="export and use it with the same model "
+                        "and constants")
+        first, end = int(model.row_groups[s]), int(model.row_groups[s + 1])
+        if not 0 <= c < end - first:
+            raise _fail(f"state {s} has no choice {c} (it has {end - first})", f"{where}.choice",
+                        name)
+        if model.action_names[int(model.choice_actions[first + c])] != entry["action"]:
+            raise _fail(f"choice {c} of state {s} is not labelled {entry['action']!r}",
+                        f"{where}.action", name)
+        choices[s] = first + c
+    out = memoryless_strategy(model, index, choices)
+    return FiniteStateStrategy(
+        player=out.player, memory_size=1, initial_memory=0, observables=out.observables,
+        observation_values=out.observation_values, actions=out.actions, action=out.action,
+        update=out.update, boolean=out.boolean, source=name)
+
+
+def read_strategies(path: str | Path) -> tuple[FiniteStateStrategy, ...]:
+    """Every strategy a file holds: the one of a ``posgmc-fss/1`` file, or each deciding
+    player's of a memoryless strategy file (see :func:`read_strategy`)."""
+    from posgmc.io.reading import read_text
+
+    name = str(path)
+    doc = _json(read_text(path), name)
+    if is_memoryless_document(doc):
+        return tuple(strategy_from_json(doc, file=name, player=p)
+                     for p in memoryless_players(doc, file=name))
+    return (strategy_from_json(doc, file=name),)
+
+
+def _json(text: str, file: str | None) -> Any:
     try:
-        doc = json.loads(text)
+        return json.loads(text)
     except json.JSONDecodeError as e:
         error = InputError(f"not valid JSON: {e.msg}", SourceSpan(e.lineno, e.colno, file=file))
         raise error.with_source(SourceText(text, file)) from None
-    return strategy_from_json(doc, file=file)
+
+
+def parse_strategy(text: str, *, file: str | None = None,
+                   player: str | None = None) -> FiniteStateStrategy:
+    """A strategy from the text of a strategy file (see :func:`read_strategy`)."""
+    return strategy_from_json(_json(text, file), file=file, player=player)
 
 
 def _fail(message: str, path: str, file: str | None, hint: str | None = None) -> StrategyError:
@@ -99,12 +180,99 @@ def _distribution(value: Any, path: str, file: str | None, what: str) -> dict[st
     return out
 
 
-def strategy_from_json(doc: Any, *, file: str | None = None) -> FiniteStateStrategy:
-    """A strategy from a parsed ``posgmc-fss/1`` document.
+def is_memoryless_document(doc: Any) -> bool:
+    """Whether ``doc`` is a model checker's memoryless strategy (``check --export-strategy`` on a
+    fully observable model: ``{"property", "memoryless": true, "states": [...]}``, see
+    :func:`write_memoryless_strategy`) rather than a ``posgmc-fss/1`` document."""
+    return isinstance(doc, dict) and doc.get("memoryless") is True and "states" in doc \
+        and "format" not in doc
+
+
+def memoryless_players(doc: Any, *, file: str | None = None) -> list[str]:
+    """The players who choose in a memoryless strategy document, in order of appearance (``[""]``
+    for a model without players)."""
+    states = doc.get("states")
+    if not isinstance(states, list):
+        raise _fail("states must be a list", "states", file)
+    players: dict[str, None] = {}
+    for i, entry in enumerate(states):
+        if not isinstance(entry, dict):
+            raise _fail("a state's entry must be an object", f"states[{i}]", file)
+        player = entry.get("player", "")
+        if not isinstance(player, str):
+            raise _fail("player must be a string (a player's name)", f"states[{i}].player", file)
+        players.setdefault(player, None)
+    return list(players) or [""]
+
+
+def _whose(doc: Any, player: str | None, file: str | None) -> str:
+    """The player whose strategy is read from a memoryless strategy document: ``player``, or the
+    only one who chooses in it."""
+    players = memoryless_players(doc, file=file)
+    if player is None:
+        if len(players) > 1:
+            raise _fail(f"the file holds the strategies of players {', '.join(map(repr, players))}"
+                        ": say whose", "states", file, hint="--strategy PLAYER=FILE")
+        return players[0]
+    if player not in players:
+        raise _fail(f"the file holds no strategy of player {player!r} (it has "
+                    f"{', '.join(map(repr, players))})", "states", file)
+    return player
+
+
+def _memoryless_as_fss(doc: dict[str, Any], player: str | None,
+                       file: str | None) -> tuple[dict[str, Any], list[int]]:
+    """A memoryless strategy document as the ``posgmc-fss/1`` document of one player's strategy
+    with one memory node: the player sees the whole state (its observables are the state
+    variables, in the file's order; without variables, the state's index), and plays the entry's
+    action there."""
+    player = _whose(doc, player, file)
+    rules: list[dict[str, Any]] = []
+    index: list[int] = []
+    observables: list[str] | None = None
+    for i, entry in enumerate(doc["states"]):
+        if entry.get("player", "") != player:
+            continue
+        for key in ("state", "action"):
+            if key not in entry:
+                raise _fail(f"the field {key!r} is missing", f"states[{i}].{key}", file)
+        valuation = entry.get("valuation")
+        if valuation is not None and not isinstance(valuation, dict):
+            raise _fail("valuation must be an object: variable -> value",
+                        f"states[{i}].valuation", file)
+        names = list(valuation) if valuation is not None else []
+        if observables is None:
+            observables = names
+        elif names != observables:
+            raise _fail("every state's valuation must name the same variables",
+                        f"states[{i}].valuation", file)
+        rules.append({"memory": 0, "observation": valuation if valuation is not None
+                      else entry["state"], "action": {entry["action"]: 1.0}})
+        index.append(i)
+    return {"format": FORMAT, "player": player, "memory_size": 1, "initial_memory": 0,
+            "observables": observables or [], "rules": rules}, index
+
+
+def strategy_from_json(doc: Any, *, file: str | None = None,
+                       player: str | None = None) -> FiniteStateStrategy:
+    """A strategy from a parsed ``posgmc-fss/1`` document, or from a model checker's memoryless
+    strategy (:func:`is_memoryless_document`): then ``player``'s strategy, with one memory node
+    (``player`` None: the only player who chooses in it).
 
     Raises:
         StrategyError: with the JSON path of the first problem.
     """
+    if is_memoryless_document(doc):
+        converted, index = _memoryless_as_fss(doc, player, file)
+        try:
+            return strategy_from_json(converted, file=file)
+        except StrategyError as e:  # its rules are the file's states: say which
+            found = re.match(r"rules\[(\d+)\](.*)", e.path or "")
+            if found is None:
+                raise
+            where = f"states[{index[int(found.group(1))]}]"
+            prefix = ": ".join(x for x in (file, e.path) if x) + ": "
+            raise _fail(e.message.removeprefix(prefix), where, file, hint=e.hint) from None
     if not isinstance(doc, dict):
         raise _fail("a strategy file holds one JSON object", "$", file)
     for key in doc:

@@ -1,58 +1,142 @@
 """Finite-state strategies for people: a table and a DOT graph.
 
-The table has one line per rule: memory node, observation, the action distribution and, per
-action, the next memory node(s). The graph has one node per memory node and one edge per
-(rule, action, next node), labelled ``observation / action : probability``.
+The table opens with a summary line (player, memory nodes, observations, rules, initial node,
+deterministic or randomised), then has one line per rule: memory node, observation, the action
+distribution and, per action, the next memory node(s); it can be restricted to memory nodes and
+observations, and made compact (observations with the same choice share a line). The graph has
+one node per memory node and one edge per (rule, action, next node), labelled
+``observation / action : probability``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Mapping
 
 import numpy as np
 
+from posgmc.errors import InputError
 from posgmc.strategies.fss import FiniteStateStrategy
 
-__all__ = ["strategy_table", "strategy_dot"]
+__all__ = ["matching_observations", "strategy_dot", "strategy_summary", "strategy_table"]
 
 
 def _p(x: float) -> str:
     return f"{x:.6g}"
 
 
-def _rules(fss: FiniteStateStrategy) -> Iterator[tuple[int, int, list[int]]]:
-    """(memory node, observation, the actions played) of every rule, in observation order."""
+def _rules(fss: FiniteStateStrategy, nodes: Iterable[int] | None = None,
+           observations: np.ndarray | None = None) -> Iterator[tuple[int, int, list[int]]]:
+    """(memory node, observation, the actions played) of every rule, in observation order; only
+    memory ``nodes`` and the observations where ``observations`` (bool[Z]) holds, when given."""
     order = np.lexsort(fss.observation_values.T[::-1]) if fss.num_observations else np.zeros(0, int)
-    for n in range(fss.memory_size):
+    has_rule = fss.has_rule
+    for n in range(fss.memory_size) if nodes is None else nodes:
         for z in order.tolist():
-            if fss.has_rule[n, z]:
+            if has_rule[n, z] and (observations is None or observations[z]):
                 played = sorted(
                     np.flatnonzero(fss.action[n, z] > 0).tolist(), key=lambda a: fss.actions[a]
                 )
                 yield n, z, played
 
 
-def strategy_table(fss: FiniteStateStrategy) -> str:
-    """The strategy as aligned text columns: memory, observation, action, next memory."""
-    head = (f"strategy of player {fss.player!r}: {fss.memory_size} memory node"
-            f"{'s' if fss.memory_size != 1 else ''}, initial node {fss.initial_memory}, "
+def strategy_summary(fss: FiniteStateStrategy) -> str:
+    """One line: whose, how many memory nodes, observations and rules, the initial node, and
+    whether every rule is deterministic."""
+    k, rules = fss.memory_size, int(fss.has_rule.sum())
+    return (f"strategy of player {fss.player!r}: {k} memory node{'s' if k != 1 else ''}, "
+            f"{fss.num_observations} observation{'s' if fss.num_observations != 1 else ''}, "
+            f"{rules} rule{'s' if rules != 1 else ''}, initial node {fss.initial_memory}, "
             f"{'deterministic' if fss.is_deterministic else 'randomised'}")
-    rows = [("memory", "observation", "action", "next memory")]
-    for n, z, played in _rules(fss):
-        action = ", ".join(
-            f"{fss.actions[a] or '(unlabelled)'}: {_p(fss.action[n, z, a])}" for a in played
+
+
+def matching_observations(fss: FiniteStateStrategy, wanted: Mapping[str, int]) -> np.ndarray:
+    """bool[Z]: the observations whose observables have the ``wanted`` values (observable name
+    -> value; for a strategy without observables, ``{"": id}``).
+
+    Raises:
+        InputError: a name that is not one of the strategy's observables.
+    """
+    columns = list(fss.observables) or [""]
+    out = np.ones(fss.num_observations, dtype=bool)
+    for name, value in wanted.items():
+        if name not in columns:
+            raise InputError(f"{name!r} is not an observable of the strategy (its observables: "
+                             f"{', '.join(fss.observables) or 'none, observations are ids'})")
+        out &= fss.observation_values[:, columns.index(name)] == value
+    return out
+
+
+def _choice_text(fss: FiniteStateStrategy, n: int, z: int, played: list[int]) -> tuple[str, str]:
+    """The action column and the next-memory column of one rule."""
+    action = ", ".join(
+        f"{fss.actions[a] or '(unlabelled)'}: {_p(fss.action[n, z, a])}" for a in played
+    )
+    nxt = []
+    for a in played:
+        dist = fss.update[n, z, a]
+        targets = np.flatnonzero(dist > 0)
+        text = ", ".join(
+            f"{m}: {_p(dist[m])}" if dist[m] < 1 else str(m) for m in targets.tolist()
         )
-        nxt = []
-        for a in played:
-            dist = fss.update[n, z, a]
-            targets = np.flatnonzero(dist > 0)
-            text = ", ".join(
-                f"{m}: {_p(dist[m])}" if dist[m] < 1 else str(m) for m in targets.tolist()
-            )
-            nxt.append(f"{fss.actions[a] or '(unlabelled)'} -> {text}")
-        rows.append((str(n), fss.describe_observation(z), action, "; ".join(nxt)))
+        nxt.append(f"{fss.actions[a] or '(unlabelled)'} -> {text}")
+    return action, "; ".join(nxt)
+
+
+def _values_text(values: frozenset[int]) -> str:
+    """``{1, 2, 3}`` -> ``1..3``; ``{0, 2}`` -> ``0|2``."""
+    ordered = sorted(values)
+    if len(ordered) > 2 and ordered[-1] - ordered[0] == len(ordered) - 1:
+        return f"{ordered[0]}..{ordered[-1]}"
+    return "|".join(map(str, ordered))
+
+
+def _boxes(points: list[tuple[int, ...]]) -> list[tuple[frozenset[int], ...]]:
+    """Disjoint boxes (one value set per coordinate) whose union is exactly ``points``: points
+    that differ in one coordinate only are merged, coordinate after coordinate, until nothing
+    merges."""
+    boxes = [tuple(frozenset((v,)) for v in p) for p in points]
+    changed = True
+    while changed and len(boxes) > 1:
+        changed = False
+        for j in range(len(boxes[0])):
+            merged: dict[tuple[frozenset[int], ...], set[int]] = {}
+            for box in boxes:
+                rest = box[:j] + box[j + 1:]
+                merged.setdefault(rest, set()).update(box[j])
+            if len(merged) < len(boxes):
+                changed = True
+            # a box may only merge with boxes equal in every other coordinate: still disjoint
+            boxes = [rest[:j] + (frozenset(values),) + rest[j:] for rest, values in merged.items()]
+    return boxes
+
+
+def strategy_table(fss: FiniteStateStrategy, *, nodes: Iterable[int] | None = None,
+                   observations: np.ndarray | None = None, compact: bool = False) -> str:
+    """The strategy as aligned text columns after its summary line: memory, observation, action,
+    next memory; only memory ``nodes`` and the observations where ``observations`` (bool[Z])
+    holds, when given. ``compact``: in each memory node, observations with the same action and
+    next memory share a row, written as the ranges of their observables' values
+    (``{x=1..3, phase=2}``) that cover exactly them."""
+    rows = [("memory", "observation", "action", "next memory")]
+    if compact:
+        groups: dict[tuple[int, str, str], list[tuple[int, ...]]] = {}
+        for n, z, played in _rules(fss, nodes, observations):
+            groups.setdefault((n, *_choice_text(fss, n, z, played)), []).append(
+                tuple(fss.observation_values[z].tolist()))
+        names = list(fss.observables)
+        for (n, action, nxt), points in groups.items():
+            for box in _boxes(points):
+                if names:
+                    what = "{" + ", ".join(f"{name}={_values_text(v)}"
+                                           for name, v in zip(names, box)) + "}"
+                else:
+                    what = f"observation {_values_text(box[0])}"
+                rows.append((str(n), what, action, nxt))
+    else:
+        for n, z, played in _rules(fss, nodes, observations):
+            rows.append((str(n), fss.describe_observation(z), *_choice_text(fss, n, z, played)))
     widths = [max(len(r[i]) for r in rows) for i in range(3)]
-    lines = [head]
+    lines = [strategy_summary(fss)]
     for r in rows:
         lines.append("  ".join(r[i].ljust(widths[i]) for i in range(3)) + "  " + r[3])
     return "\n".join(lines) + "\n"

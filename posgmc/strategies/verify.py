@@ -171,6 +171,7 @@ class StrategyChecker:
             guaranteed=ordered.get("guaranteed", headline.guaranteed),
             vs_fss_adversary=ordered.get("vs_fss_adversary", headline.vs_fss_adversary),
             upper_bound=ordered.get("upper_bound", headline.upper_bound),
+            maximizing=maximizing,
         )
         if not isinstance(out.value, bool) and out.value is not None:
             # the headline repeats the first number present: its point as ordered

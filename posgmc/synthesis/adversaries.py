@@ -37,6 +37,7 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.strategies.verify import StrategyChecker, bound_of
 from posgmc.syntax.ast import Expr
+from posgmc.synthesis.budget import expired
 
 __all__ = ["Enumeration", "enumerate_adversaries", "versus_adversaries"]
 
@@ -121,7 +122,7 @@ def enumerate_adversaries(model: ExplicitModel, player: int, *, memory: int = 1,
     used_actions = np.flatnonzero(offered.any(axis=0))
     act_index = {a: i for i, a in enumerate(used_actions.tolist())}
     zi = {z: i for i, z in enumerate(obs.tolist())}
-    while len(found) < limit and (deadline is None or time.perf_counter() < deadline):
+    while len(found) < limit and not expired(deadline):
         if not solver.solve():
             exhaustive = True
             break
@@ -190,7 +191,7 @@ def versus_adversaries(model: ExplicitModel, expr: Expr, defence: FiniteStateStr
 
     done = 0
     for adv in adversaries:
-        if deadline is not None and done and time.perf_counter() > deadline:
+        if done and expired(deadline):
             break
         checker = StrategyChecker(model, {defence.player: defence, adv.player: adv},
                                   coalition_of=coalition_of, scalar=scalar)

@@ -4,10 +4,11 @@ best response against a fixed defence)."""
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 
 import numpy as np
+
+from posgmc.synthesis.budget import expired
 
 __all__ = ["LOGIT", "ascend"]
 
@@ -21,16 +22,16 @@ Step = Callable[[np.ndarray, np.ndarray], tuple[float, np.ndarray, np.ndarray]]
 
 def ascend(step: Step, la: np.ndarray, ld: np.ndarray, *, iterations: int, learning_rate: float,
            deadline: float | None) -> tuple[tuple[np.ndarray, np.ndarray], float, int]:
-    """Adam steps that maximise ``step``'s objective from (la, ld), within ``deadline`` (a
-    ``time.perf_counter()`` value). Returns the best iterate seen, its objective and the number
-    of evaluations."""
+    """``iterations`` Adam steps that maximise ``step``'s objective from (la, ld), fewer when
+    ``deadline`` (a ``time.perf_counter()`` value: the wall-clock cap) passes first. Returns the
+    best iterate seen, its objective and the number of evaluations."""
     best_val, best = -np.inf, (la.copy(), ld.copy())
     ma, va = np.zeros_like(la), np.zeros_like(la)
     md, vd = np.zeros_like(ld), np.zeros_like(ld)
     b1, b2, eps = 0.9, 0.999, 1e-8
     n = 0
     for t in range(1, iterations + 1):
-        if deadline is not None and time.perf_counter() > deadline:
+        if expired(deadline):
             break
         value, ga, gd = step(la, ld)
         n += 1

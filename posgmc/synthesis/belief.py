@@ -59,7 +59,7 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.syntax.ast import ProbQuery, RewardQuery
 from posgmc.synthesis.parametric import Layout
-from posgmc.synthesis.problem import Problem
+from posgmc.synthesis.problem import Problem, expired
 
 __all__ = ["BeliefController", "belief_controller", "belief_phase", "applies", "cutoff_values",
            "node_cap", "PRECISION"]
@@ -68,7 +68,7 @@ PRECISION = 1e-9
 """Beliefs whose probabilities agree after rounding to this grid are one memory node."""
 
 SHARE = 0.3
-"""The part of a pomdp's synthesis budget kept for the belief phase (after the search)."""
+"""The part of a pomdp's wall-clock cap kept for the belief phase (after the search)."""
 
 FSS_ELEMENTS = 12_000_000
 """The dense FSS's update array (k² · Z · A entries) is kept below this many entries."""
@@ -77,10 +77,10 @@ PRODUCT_ELEMENTS = 12_000_000
 """The product construction lays out choices × k × k entries; kept below this."""
 
 EXPLORE_SHARE = 0.6
-"""The part of the belief phase's time spent exploring."""
+"""The part of the belief phase's time spent exploring, under a wall-clock cap."""
 
 MAX_EXPLORED = 300_000
-"""Belief nodes explored at most (the time budget usually ends exploration first)."""
+"""Belief nodes explored at most, whatever the work budget asks."""
 
 _VI_SWEEPS = 5_000
 _GUIDE_SWEEPS = 300  # the optimistic value iteration only guides exploration
@@ -313,7 +313,8 @@ class _Explorer:
         return vals[np.arange(vals.shape[0]), m], m
 
     def solve(self, start: np.ndarray, choices: tuple[np.ndarray, ...], *, optimistic: bool,
-              deadline: float, sweeps: int = _VI_SWEEPS) -> tuple[np.ndarray, np.ndarray]:
+              deadline: float | None, sweeps: int = _VI_SWEEPS
+              ) -> tuple[np.ndarray, np.ndarray]:
         """Value iteration on the explored belief MDP from ``start`` (signed values per belief).
 
         Pessimistic (``optimistic`` False): a belief takes an action only when it strictly beats
@@ -345,7 +346,7 @@ class _Explorer:
                 change = np.abs(np.where(np.isfinite(best) & np.isfinite(old), best - old, 0.0))
                 V[owners] = best
                 choice[owners] = arg
-                if change.max(initial=0.0) <= _VI_TOLERANCE or time.perf_counter() > deadline:
+                if change.max(initial=0.0) <= _VI_TOLERANCE or expired(deadline):
                     break
                 continue
             margin = np.where(np.isfinite(old), _VI_TOLERANCE * np.maximum(1.0, np.abs(old)), 0.0)
@@ -354,7 +355,7 @@ class _Explorer:
                 break
             V[owners[better]] = best[better]
             choice[owners[better]] = arg[better]
-            if time.perf_counter() > deadline:
+            if expired(deadline):
                 break
         return V, choice
 
@@ -396,8 +397,9 @@ def belief_controller(
     rewards: np.ndarray | None,
     discount: float,
     maximize: bool,
-    deadline: float,
+    deadline: float | None,
     max_nodes: int | None = None,
+    explore: int = MAX_EXPLORED,
 ) -> BeliefController | None:
     """A belief-based FSS for ``player`` (the only player of a POMDP) that hands over to
     ``cutoff`` at its frontier.
@@ -411,10 +413,13 @@ def belief_controller(
         target, remain, rewards, discount: the objective (as :func:`posgmc.synthesis.search.
             problem_of` gives it); ``rewards`` None for a probability.
         maximize: the objective's direction.
-        deadline: ``time.perf_counter()`` value by which the controller is built: exploration
-            stops after :data:`EXPLORE_SHARE` of the time left, the final value iteration and
-            the FSS take the rest (value iteration stopped early keeps achievable values).
+        deadline: the wall-clock cap, a ``time.perf_counter()`` value by which the controller
+            is built (None: none): exploration stops after :data:`EXPLORE_SHARE` of the time
+            left, the final value iteration and the FSS take the rest (value iteration stopped
+            early keeps achievable values).
         max_nodes: belief memory nodes at most (default :func:`node_cap`).
+        explore: belief nodes explored at most (the work budget; at most
+            :data:`MAX_EXPLORED`).
 
     Returns:
         The controller, or None when there is nothing to explore (the initial state does not
@@ -448,12 +453,12 @@ def belief_controller(
     ex = _Explorer(model, layout, obs, cont, gain, rewards, discount, sign, cut, up)
     ex.add_nodes(sp.csr_matrix(([1.0], ([0], [s0])), shape=(1, model.num_states)))
     # explore more nodes than an FSS holds: the policy reaches a part of them
-    limit = MAX_EXPLORED
+    limit = min(explore, MAX_EXPLORED)
     now = time.perf_counter()
-    explore_until = now + EXPLORE_SHARE * max(0.0, deadline - now)
+    explore_until = None if deadline is None else now + EXPLORE_SHARE * max(0.0, deadline - now)
     while True:
         frontier = np.flatnonzero(~np.asarray(ex.expanded))
-        if not frontier.size or ex.num_nodes >= limit or time.perf_counter() > explore_until:
+        if not frontier.size or ex.num_nodes >= limit or expired(explore_until):
             break
         if ex.num_nodes == 1:
             ex.expand(frontier)
@@ -486,7 +491,7 @@ def belief_controller(
     return _freeze(ex, cutoff, cap, deadline, sign)
 
 
-def _freeze(ex: _Explorer, cutoff: FiniteStateStrategy, cap: int, deadline: float,
+def _freeze(ex: _Explorer, cutoff: FiniteStateStrategy, cap: int, deadline: float | None,
             sign: float) -> BeliefController | None:
     """The FSS of the pessimistic policy. Its belief nodes share memory nodes where their
     observations differ (:func:`_slots`); when they still need more than ``cap``, the
@@ -614,7 +619,8 @@ def applies(problem: Problem) -> bool:
 
 
 def belief_phase(problem: Problem, cutoff: FiniteStateStrategy,
-                 deadline: float) -> BeliefController | None:
+                 deadline: float | None, *, explore: int = MAX_EXPLORED
+                 ) -> BeliefController | None:
     """:func:`belief_controller` for ``problem`` (a POMDP) handing over to ``cutoff``: its cut-off
     values and the full-observation values computed here (policy iteration, floats)."""
     model = problem.model
@@ -627,4 +633,5 @@ def belief_phase(problem: Problem, cutoff: FiniteStateStrategy,
         model, player=problem.player, cutoff=cutoff, cut_values=cut, upper=upper,
         target=problem.target, remain=problem.remain, rewards=problem.rewards,
         discount=problem.discount, maximize=problem.maximize, deadline=deadline,
+        explore=explore,
     )

@@ -318,7 +318,7 @@ def full_observation_bounds(problem: Problem,
     checker = PropertyChecker(problem.model, coalition_of=problem.coalition_of,
                               scalar=problem.scalar,
                               options=CheckOptions(keep_strategy=True, solver=SolverOptions(
-                                  deadline=deadline, stiff_certificate=False)))
+                                  deadline=deadline, stiff_certificate=deadline is None)))
     r = checker.query(problem.query, everywhere=True)
     strategy = None if r.engine is None or r.engine.strategy is None else \
         np.asarray(r.engine.strategy, dtype=np.int64)
@@ -648,17 +648,20 @@ class GridBound:
     seconds: float
 
 
-def grid_bound(problem: Problem, *, deadline: float, target: float | None = None,
+def grid_bound(problem: Problem, *, deadline: float | None, target: float | None = None,
                resolutions: tuple[int, ...] = RESOLUTIONS,
-               cutoff: np.ndarray | None = None) -> GridBound | None:
+               cutoff: np.ndarray | None = None,
+               vertices: int = MAX_VERTICES) -> GridBound | None:
     """Abstractions of growing resolution while time remains; the tightest proven bound.
 
     Args:
         problem: a POMDP, or a one-sided game with a probability objective (:func:`applies`).
         deadline: ``time.perf_counter()`` value by which to stop (an abstraction whose
-            exploration is cut short still proves a bound: its frontier is cut off).
+            exploration is cut short still proves a bound: its frontier is cut off); None: no
+            wall-clock cap.
         target: stop as soon as the bound reaches this value (the other side of the bracket).
         cutoff: the per-state bounds for cut-offs (default :func:`full_observation_bounds`).
+        vertices: the work budget: grid vertices explored at most, over all resolutions.
 
     Returns:
         The bound, or None when no abstraction applies or none was solved soundly in time.
@@ -673,19 +676,23 @@ def grid_bound(problem: Problem, *, deadline: float, target: float | None = None
     best: GridBound | None = None
     tried: list[tuple[int, float]] = []
     coarse: CoarseBounds | None = None
+    left = vertices
     for N in resolutions:
         now = time.perf_counter()
-        if now > deadline:
+        if (deadline is not None and now > deadline) or left <= 0:
             break
         # exploration may use most of what is left; the sound solve gets the rest
-        explore_until = now + 0.6 * (deadline - now)
+        explore_until = None if deadline is None else now + 0.6 * (deadline - now)
         abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
-                                       adversary_rules=rules, coarse=coarse)
+                                       adversary_rules=rules, coarse=coarse,
+                                       max_vertices=left)
         if abstraction is None:
             return None
+        left -= int(abstraction.expanded.sum())
+        # policy iteration (the stiff iteration's certificate) has no deadline: only without one
         result = abstraction.solve(SolverOptions(precision=PRECISION, relative=True,
                                                  deadline=deadline, want_strategy=False,
-                                                 stiff_certificate=False))
+                                                 stiff_certificate=deadline is None))
         if not result.sound:
             continue
         value = float(result.upper[0] if problem.maximize else result.lower[0])

@@ -23,11 +23,18 @@ from posgmc.synthesis import belief_grid
 from posgmc.synthesis.options import Gap
 from posgmc.synthesis.problem import Problem
 
-__all__ = ["DEFAULT_SHARE", "GAP_SHARE", "optimum_of"]
+__all__ = ["DEFAULT_SHARE", "GAP_SHARE", "DEFAULT_VERTICES", "GAP_VERTICES", "optimum_of"]
 
 DEFAULT_SHARE = 0.06
 """Without ``--gap``: the bound side gets this part of the time budget on top of it (so a run
 takes at most this much longer than the search alone)."""
+
+DEFAULT_VERTICES = 20_000
+"""Without ``--gap``: the belief grid's work budget, grid vertices explored over all resolutions
+(times ``--effort``), so that the bracket depends only on model, options and seed."""
+
+GAP_VERTICES = 400_000
+"""With ``--gap``: the same budget (the grid stops earlier when the gap is closed)."""
 
 GAP_SHARE = 0.3
 """With ``--gap``: the part of the time budget kept for the bound side (the search gets the
@@ -35,11 +42,13 @@ rest); it stops as soon as the gap is closed."""
 
 
 def optimum_of(problem: Problem, guaranteed: Bound, full_observation: Bound,
-               upper_bound: Bound | None, *, deadline: float,
-               gap: Gap | None = None) -> tuple[Optimum, dict[str, object]]:
+               upper_bound: Bound | None, *, deadline: float | None,
+               gap: Gap | None = None,
+               vertices: int = DEFAULT_VERTICES) -> tuple[Optimum, dict[str, object]]:
     """The bracket and its statistics (JSON-ready) for the problem whose synthesised strategy
-    proves ``guaranteed``; the belief grid (a POMDP) runs until ``deadline`` or until the gap
-    (``gap``, else closed to 1e-6) is reached."""
+    proves ``guaranteed``; the belief grid explores at most ``vertices`` vertices over all its
+    resolutions, stops at ``deadline`` (None: no wall-clock cap) and as soon as the gap (``gap``,
+    else closed to 1e-6) is reached."""
     t0 = time.perf_counter()
     maximize = problem.maximize
     sign = 1.0 if maximize else -1.0
@@ -57,7 +66,8 @@ def optimum_of(problem: Problem, guaranteed: Bound, full_observation: Bound,
         want = gap if gap is not None else Gap(1e-6)
         # stop refining once the bound side is within the gap of the achieved side
         stop_at = achieved + sign * want.width(achieved, achieved)
-        found = belief_grid.grid_bound(problem, deadline=deadline, target=stop_at)
+        found = belief_grid.grid_bound(problem, deadline=deadline, target=stop_at,
+                                       vertices=vertices)
         if found is not None:
             kind = "exact belief MDP" if found.exact else "complete" if found.complete else \
                 "frontier cut off at full observation"

@@ -24,7 +24,15 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.observables import with_boolean_observables
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
-from posgmc.synthesis.bracket import DEFAULT_SHARE, GAP_SHARE, optimum_of
+from posgmc.synthesis import progress
+from posgmc.synthesis.bracket import (
+    DEFAULT_SHARE,
+    DEFAULT_VERTICES,
+    GAP_SHARE,
+    GAP_VERTICES,
+    optimum_of,
+)
+from posgmc.synthesis.budget import Clock
 from posgmc.synthesis.double_oracle import (
     RESPONSE_EXHAUSTIVE,
     VersusJob,
@@ -38,6 +46,7 @@ from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.problem import POLICY, Problem
 from posgmc.synthesis.result import SynthesisResult
 from posgmc.synthesis.search import _better, problem_of, synthesize
+from posgmc.synthesis.sharpen import Sharpening, keeps_original, sharpen
 
 __all__ = ["SynthesisChecker"]
 
@@ -48,10 +57,11 @@ check can be slow."""
 
 
 _SEARCH_SHARE = 0.7
-"""The part of the budget for the search (deterministic and gradient)."""
+"""Under a wall-clock cap: the part of it for the search (deterministic and gradient)."""
 
 _ADVERSARY_END = 0.85
-"""Where in the budget the adversary phases end; the rest is for the sound checks."""
+"""Under a wall-clock cap: where in it the adversary phases end; the rest is for the sound
+checks."""
 
 
 _POOL_BATCH = 4
@@ -59,10 +69,12 @@ _POOL_BATCH = 4
 until the adversary phases' deadline (the kept ones, strongest first, come first)."""
 
 
-def _until(options: CheckOptions, deadline: float) -> CheckOptions:
-    """``options`` whose iterative solves stop at ``deadline`` (their bounds stay proven), with
-    at least a little time when it has passed already: a check that cannot iterate at all proves
-    only the trivial bounds."""
+def _until(options: CheckOptions, deadline: float | None) -> CheckOptions:
+    """``options`` whose iterative solves stop at ``deadline`` (the wall-clock cap; their bounds
+    stay proven), with at least a little time when it has passed already: a check that cannot
+    iterate at all proves only the trivial bounds. None: ``options``."""
+    if deadline is None:
+        return options
     floor = time.perf_counter() + 0.2
     return dataclasses.replace(options, solver=dataclasses.replace(
         options.solver, deadline=max(deadline, floor)))
@@ -100,20 +112,25 @@ class SynthesisChecker:
         return next(iter(players))
 
     def _adversary_phases(self, problem: Problem, executor: Executor, result: SynthesisResult,
-                          settings: SynthesisOptions, deadline: float,
+                          settings: SynthesisOptions, deadline: float | None,
                           verify: CheckOptions) -> _AdversaryOutcome:
         """Enumerate, rank and keep the adversary's strategies, compose the defence against them
         and run the double oracle (:mod:`posgmc.synthesis.double_oracle`); then choose the reported
         defence — the search's or the composed one, whichever proves the better ``guaranteed``
         (the headline; so it is never worse than the search's) — and verify the numbers (with
         ``verify``, whose solver deadline ends the budget)."""
+        effort = settings.budget
         found = one_sided(problem, executor, defence=result.strategy, keep=settings.adversaries,
                           adversary_memory=settings.adversary_memory,
-                          enumeration_limit=settings.enumeration_limit,
-                          restarts=settings.compose_restarts, oracle_rounds=settings.oracle_rounds,
-                          iterations=settings.iterations, learning_rate=settings.learning_rate,
-                          seed=settings.seed, deadline=deadline)
+                          enumeration_limit=effort.units(settings.enumeration_limit),
+                          restarts=effort.units(settings.compose_restarts),
+                          oracle_rounds=effort.units(settings.oracle_rounds),
+                          iterations=effort.units(settings.iterations),
+                          learning_rate=settings.learning_rate,
+                          seed=settings.seed, deadline=deadline,
+                          milp_nodes=effort.default("milp_nodes"))
         t0 = time.perf_counter()
+        progress.report("adversaries: verification")
         maximize = problem.maximize
         defence, g = result.strategy, result.guaranteed
         composed = found.composed.strategy if found.composed is not None else None
@@ -132,6 +149,7 @@ class SynthesisChecker:
                 .guaranteed
             )
 
+        sharpened: dict[str, object] | None = None
         if composed is not None:
             # policy iteration first (cheap); the sound engines only for a real gain, since a
             # randomised strategy's near-deterministic loops make interval iteration slow
@@ -140,6 +158,8 @@ class SynthesisChecker:
             if sign * rough.value > sign * g.value + _GAIN * max(1.0, abs(g.value)):
                 g_composed = guaranteed_of(composed, verify)
                 assert g_composed is not None  # noqa: S101 - as above
+                composed, g_composed, sharpened = self._sharpened(
+                    composed, g_composed, lambda f: guaranteed_of(f, verify), maximize)
                 if _better(g_composed, g, maximize):
                     defence, g = composed, g_composed
         enumerated = found.enumeration.strategies
@@ -189,11 +209,35 @@ class SynthesisChecker:
             if vs_from_composed or (composed is not None and defence is composed)
             else "search",
             "composed_value": None if found.composed is None else found.composed.value,
+            "composed_sharpening": sharpened if defence is composed else None,
             "oracle": [{"response_value": v, "exhaustive": e} for v, e in found.responses],
         }
         return _AdversaryOutcome(defence, g, vs, ub, worst,
                                  composed if vs_from_composed else None, vs_from_composed,
                                  found.partial, phases, stats)
+
+    @staticmethod
+    def _sharpened(strategy: FiniteStateStrategy, g: Bound,
+                   verified: Callable[[FiniteStateStrategy], Bound | None], maximize: bool,
+                   ) -> tuple[FiniteStateStrategy, Bound, dict[str, object] | None]:
+        """The strategy sharpened (:mod:`posgmc.synthesis.sharpen`) and its proven
+        ``guaranteed`` (``verified``, the caller's sound check), unless the original proves
+        strictly more; and what was done, for the statistics (None: nothing to sharpen)."""
+        t0 = time.perf_counter()
+        s: Sharpening = sharpen(strategy)
+        if not s.changed:
+            return strategy, g, None
+        g_sharp = verified(s.strategy)
+        assert g_sharp is not None  # noqa: S101 - the decision maker's strategy is given
+        kept = keeps_original(g, g_sharp, maximize=maximize)
+        record: dict[str, object] = {
+            "probabilities": s.probabilities, "nodes_dropped": s.nodes_dropped,
+            "reported": "original" if kept else "sharpened",
+            "guaranteed_original": g.to_json(), "guaranteed_sharpened": g_sharp.to_json(),
+            "seconds": round(time.perf_counter() - t0, 3),
+            "text": ("not sharpened: the sharpened strategy proves less" if kept else s.text()),
+        }
+        return (strategy, g, record) if kept else (s.strategy, g_sharp, record)
 
     def _on_product(self, expr: ProbQuery | RewardQuery, *, text: str,
                     name: str | None) -> PropertyResult:
@@ -202,20 +246,22 @@ class SynthesisChecker:
         automaton, so they are strategies of the game); the defence's ``guaranteed`` is then
         recomputed on the game itself, as ``--strategy`` would."""
         started = self._budget_start()
+        clock = Clock(started, self.synthesis.timeout)
         lifted, query = lift(self.model, expr, PropertyChecker(
             self.model, coalition_of=self.coalition_of, scalar=self.scalar))
-        # the budget: the synthesis on the product, then the last tenth for the recomputation
+        # under a cap: the synthesis on the product, then the last tenth for the recomputation
         budget = self.synthesis.timeout
         inner = SynthesisChecker(lifted, coalition_of=self.coalition_of, scalar=self.scalar,
                                  options=self.options, synthesis=dataclasses.replace(
-                                     self.synthesis, timeout=0.9 * budget, started=started))
+                                     self.synthesis, timeout=None if budget is None
+                                     else 0.9 * budget, started=started))
         result = inner.check(query, text=text, name=name)
         defence = result.strategies[0]
         bare = expr if expr.threshold is None else dataclasses.replace(
             expr, threshold=None, direction=Direction.MAX if expr.threshold.op in (
                 ComparisonOp.GE, ComparisonOp.GT) else Direction.MIN)
         g = StrategyChecker(self.model, {defence.player: defence}, coalition_of=self.coalition_of,
-                            scalar=self.scalar, options=_until(self.options, started + budget)
+                            scalar=self.scalar, options=_until(self.options, clock.end)
                             ).check(bare, text=text).guaranteed
         assert g is not None  # noqa: S101 - the decision maker's strategy is given
         note = (result.note or "") + ("; synthesised on the product with the formula's automaton, "
@@ -277,11 +323,14 @@ class SynthesisChecker:
             maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
             bare = dataclasses.replace(expr, threshold=None,
                                        direction=Direction.MAX if maximize else Direction.MIN)
-        # the time budget T: 7/10 for the search (the deterministic search, then the gradient
+        # the work budget is counted per phase (budget.py); a wall-clock cap T (--timeout) is
+        # shared: up to 7/10 of it for the search (the deterministic search, then the gradient
         # search), up to 17/20 for the adversary phases, the rest for the sound checks of the
-        # reported numbers, which stop at the end of the budget (interval iteration stopped
-        # early: bounds still proven, only wider; the result then says partial)
+        # reported numbers, which stop at the end of the cap (interval iteration stopped early:
+        # bounds still proven, only wider; the result then says partial, cut by the timeout)
         started = self._budget_start()
+        clock = Clock(started, self.synthesis.timeout)
+        progress.begin(text)
         others = [p for p in range(len(self.model.player_names)) if p != player]
         names = self.model.player_names
         settings = self.synthesis.for_players(
@@ -294,13 +343,14 @@ class SynthesisChecker:
         bracketing = settings.bracket
         with closing(executor_for(problem, settings.jobs)) as executor:
             # with --gap the bound side has its share of the budget; without, a little on top
-            budget = self.synthesis.timeout * (
+            cap = self.synthesis.timeout
+            budget = None if cap is None else cap * (
                 1.0 - GAP_SHARE if bracketing and settings.gap is not None else 1.0)
             phases_follow = adversary is not None and settings.adversaries > 0
             # without adversary phases the search has their time too
             search = dataclasses.replace(
-                settings, timeout=budget * (_SEARCH_SHARE if phases_follow else _ADVERSARY_END),
-                started=started)
+                settings, timeout=None if budget is None else
+                budget * (_SEARCH_SHARE if phases_follow else _ADVERSARY_END), started=started)
             result = synthesize(
                 self.model,
                 bare,
@@ -308,16 +358,29 @@ class SynthesisChecker:
                 coalition_of=self.coalition_of,
                 scalar=self.scalar,
                 options=search,
-                check_options=_until(self.options, started + budget * _ADVERSARY_END),
+                check_options=_until(self.options, clock.at(_ADVERSARY_END)),
                 executor=executor,
             )
+            # the search's defence made readable (near-0/1 probabilities exact, unreachable
+            # nodes dropped) before the adversary phases, so that every number is about it
+            strategy, g_search, search_sharpening = self._sharpened(
+                result.strategy, result.guaranteed,
+                lambda f: StrategyChecker(
+                    self.model, {f.player: f}, coalition_of=self.coalition_of,
+                    scalar=self.scalar,
+                    options=_until(self.options, clock.at(_ADVERSARY_END)),
+                ).check(bare, text="synthesis").guaranteed,
+                problem.maximize)
+            if strategy is not result.strategy:
+                result = dataclasses.replace(result, strategy=strategy, guaranteed=g_search)
             adversaries = None
             if adversary is not None and settings.adversaries > 0:
-                deadline = started + budget * _ADVERSARY_END
-                adversaries = self._adversary_phases(problem, executor, result, settings, deadline,
-                                                     _until(self.options, started + budget))
-        # the sound checks stopped at the end of the budget: wider (still proven) bounds
-        late = time.perf_counter() > started + budget
+                adversaries = self._adversary_phases(problem, executor, result, settings,
+                                                     clock.at(_ADVERSARY_END),
+                                                     _until(self.options, clock.end))
+        # what cut the work budget short, if anything: the cap (the sound checks then stopped at
+        # its end: wider, still proven bounds) or an interrupt
+        cut = result.cut or clock.cut()
         defence, g, full = adversaries.defence if adversaries else result.strategy, \
             adversaries.guaranteed if adversaries else result.guaranteed, result.full_observation
         vs = ub = worst = None
@@ -328,11 +391,16 @@ class SynthesisChecker:
         by_optimum = False
         bracket_stats: dict[str, object] = {}
         if bracketing:
+            # the grid's work budget is counted in vertices (effort scales it); under a
+            # wall-clock cap it also stops at a deadline: the cap's end with --gap, else a
+            # small share of the time the search took, on top of it
             now = time.perf_counter()
-            end = started + self.synthesis.timeout if settings.gap is not None else \
+            end = None if clock.end is None else clock.end if settings.gap is not None else \
                 now + DEFAULT_SHARE * max(now - started, 1.0)
+            vertices = GAP_VERTICES if settings.gap is not None else DEFAULT_VERTICES
             optimum, bracket_stats = optimum_of(problem, g, full, ub, deadline=end,
-                                                gap=settings.gap)
+                                                gap=settings.gap,
+                                                vertices=int(vertices * settings.effort))
             result.phases["optimum bound"] = time.perf_counter() - now
         # a number whose check the budget cut short before it converged was not computed: its
         # point would be a midpoint of wide bounds (0.5 in [0, 1] when it had no time at all), so
@@ -346,6 +414,8 @@ class SynthesisChecker:
         g = ordered["guaranteed"] or g
         vs, ub = ordered["vs_fss_adversary"], ordered["upper_bound"]
         full_shown = ordered["full_observation"]
+        progress.report("done", best=g.lower if bare.direction is Direction.MAX else g.upper,
+                        proven=g.sound)
         value: float | bool | None = g.value
         kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
         lower: float | None = g.lower
@@ -362,8 +432,9 @@ class SynthesisChecker:
             proven = holds(g.lower if maximize else g.upper) and g.sound
             # no defence reaches the threshold: not with full observation, nor against the
             # enumerated adversaries, nor where the optimum's bound side misses it
-            refuted = any(not holds(b.upper if maximize else b.lower) and b.sound
-                          for b in (ub, full_shown) if b is not None)
+            bound = ub if ub is not None else full_shown
+            refuted = bound is not None and bound.sound and not holds(
+                bound.upper if maximize else bound.lower)
             by_optimum = (optimum is not None and optimum.sound and not refuted
                           and not holds(optimum.upper if maximize else optimum.lower))
             refuted = refuted or by_optimum
@@ -383,7 +454,9 @@ class SynthesisChecker:
                 note += ("; false: the optimum's bound side misses the threshold, so no defence "
                          "of any memory meets it")
         stats: dict[str, object] = {
-            "partial": result.partial or bool(adversaries and adversaries.partial) or late,
+            "partial": result.partial or bool(adversaries and adversaries.partial)
+            or cut is not None,
+            "cut": cut,
             "phases": {k: round(v, 3) for k, v in result.phases.items()},
             "rounds": [
                 {"memory": r.memory, "value_policy_iteration": r.guaranteed.value,
@@ -391,6 +464,7 @@ class SynthesisChecker:
                 for r in result.rounds
             ],
             "timeout": self.synthesis.timeout,
+            "effort": self.synthesis.effort,
             "seed": self.synthesis.seed,
             "deterministic": [
                 {"memory": d.memory, "value": d.value, "exhaustive": d.exhaustive,
@@ -405,6 +479,14 @@ class SynthesisChecker:
         extra: tuple = ()  # type: ignore[type-arg]
         if adversaries is not None:
             stats.update(adversaries.stats)
+        # what was sharpened of the reported defence (the composed one's, when it is reported)
+        composed_sharpening = stats.pop("composed_sharpening", None)
+        sharpening = composed_sharpening if stats.get("defence") == "composed" else \
+            search_sharpening
+        if sharpening is not None:
+            stats["sharpening"] = sharpening
+            stats["sharpened"] = sharpening["text"]  # type: ignore[index]
+        if adversaries is not None:
             stats["adversary_memory"] = settings.adversary_memory
             adversary_kind = ("memoryless" if settings.adversary_memory == 1
                               else f"{settings.adversary_memory}-node finite-state")
@@ -439,6 +521,7 @@ class SynthesisChecker:
             guaranteed=g, vs_fss_adversary=vs, upper_bound=ub,
             memory=((player_name, defence.memory_size),),
             full_observation=full_shown, optimum=optimum, synthesis=stats,
+            maximizing=bare.direction is Direction.MAX,
             # Boolean observables written true/false in strategy files, as in the model
             strategies=tuple(with_boolean_observables(f, self.model) for f in
                              (defence,) + ((worst,) if worst is not None else ()) + extra),

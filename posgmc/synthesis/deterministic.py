@@ -31,7 +31,8 @@ can stop as soon as the family provably cannot beat the incumbent); σ breaks ti
 equally good options towards the option its hole uses in the most states, so that choices that
 do not matter cause no split. This ranks and prunes; the defence it returns is verified
 afterwards like every other candidate (:mod:`posgmc.synthesis.search`). The search is deterministic:
-no randomness, the order fixed by the bounds and a counter; only the deadline can cut it short.
+no randomness, the order fixed by the bounds and a counter, its extent a number of families
+solved (the work budget); only the wall-clock cap can cut it short.
 """
 
 from __future__ import annotations
@@ -574,28 +575,30 @@ def _arrays(q: Quotient, member: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 @dataclass(frozen=True, eq=False)
 class DeterministicJob:
     """The abstraction-refinement search for each memory size in turn (a job of
-    :mod:`posgmc.synthesis.executors`), each seeded with the best smaller defence and stopped at its
-    own deadline (``time.perf_counter()`` values, non-decreasing). ``seeds``: defences found
+    :mod:`posgmc.synthesis.executors`), each seeded with the best smaller defence and stopped
+    after its own number of ``families`` (quotient solves), or at ``deadline`` (the wall-clock
+    cap, a ``time.perf_counter()`` value). ``seeds``: defences found
     before (by :mod:`posgmc.synthesis.improvement`), each the first incumbent of its size and
     the larger ones when better than the smaller size's result. ``run`` returns the best
     defence with at most k nodes for each size reached."""
 
     memory: tuple[int, ...]
-    deadlines: tuple[float | None, ...]
-    max_families: int | None = None
+    deadline: float | None
+    families: tuple[int, ...]
     seeds: tuple[DeterministicResult, ...] = ()
 
     def run(self, problem: Problem) -> tuple[DeterministicResult, ...]:
         found: list[DeterministicResult] = []
         best: DeterministicResult | None = None
-        for k, deadline in zip(self.memory, self.deadlines):
+        deadline = self.deadline
+        for k, max_families in zip(self.memory, self.families):
             if found and expired(deadline):
                 break
             for seed in self.seeds:
                 if seed.memory <= k and (
                         best is None or problem.sign * seed.value > problem.sign * best.value):
                     best = seed
-            r = search(problem, k, deadline=deadline, max_families=self.max_families,
+            r = search(problem, k, deadline=deadline, max_families=max_families,
                        incumbent=best if best is not None and best.memory <= k else None)
             if r is None:
                 continue
@@ -604,17 +607,16 @@ class DeterministicJob:
         return tuple(found)
 
 
-def deterministic_phase(executor: Executor, memory: tuple[int, ...], deadline: float,
-                        seeds: tuple[DeterministicResult, ...] = ()
+def deterministic_phase(executor: Executor, memory: tuple[int, ...], deadline: float | None, *,
+                        families: int, seeds: tuple[DeterministicResult, ...] = ()
                         ) -> dict[int, DeterministicResult]:
-    """Run the deterministic search over ``memory`` until ``deadline``: the time is cut in parts,
-    one for the first size, three for the second, two for each further one (the first is small
-    and often exhaustive at once, handing its time on; the second is where memory first helps).
+    """Run the deterministic search over ``memory`` with ``families`` quotient solves in all (the
+    work budget), cut in parts: one for the first size, three for the second, two for each
+    further one (the first is small and often exhaustive at once; the second is where memory
+    first helps), each size's search stopping at its part; ``deadline``: the wall-clock cap.
     ``seeds``: first incumbents (:class:`DeterministicJob`). Returns the best defence with at
     most k nodes, by k."""
-    now = time.perf_counter()
-    span = max(deadline - now, 0.0)
     weights = np.array([1.0] + [3.0] + [2.0] * (len(memory) - 2))[: len(memory)]
-    ends = tuple(now + span * float(c) for c in np.cumsum(weights) / weights.sum())
-    results = executor.map([DeterministicJob(tuple(memory), ends, seeds=seeds)])[0]
+    parts = tuple(max(1, int(families * float(w) / weights.sum())) for w in weights)
+    results = executor.map([DeterministicJob(tuple(memory), deadline, parts, seeds=seeds)])[0]
     return {r.memory: r for r in results}

@@ -18,8 +18,12 @@ adversary's best response to the composed defence added while it beats them.
    enumerated deterministic strategy when the enumeration was exhaustive and small
    (``RESPONSE_EXHAUSTIVE``), otherwise gradient synthesis of the adversary's k□-node FSS against
    the fixed defence (the product with the defence is a POMDP for the adversary). If it beats
-   the kept set, it joins it and the defence is composed again, until nothing improves, the
-   rounds (``oracle_rounds``) or the time run out.
+   the kept set, it joins it and the defence is composed again, until nothing improves or the
+   rounds (``oracle_rounds``) run out.
+
+Each phase's extent is counted (strategies enumerated and ranked, gradient steps, MILP nodes,
+rounds: :mod:`posgmc.synthesis.budget`); the ``deadline`` every phase looks at is the wall-clock
+cap, which only a binding ``--timeout`` (or an interrupt) reaches.
 
 Every evaluation is a job (:mod:`posgmc.synthesis.executors`), run in parallel with ``--jobs``. The
 floats computed here rank and steer; the reported numbers are verified afterwards
@@ -39,7 +43,7 @@ from posgmc.strategies.binding import bind
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.strategies.verify import StrategyChecker
-from posgmc.synthesis import milp
+from posgmc.synthesis import milp, progress
 from posgmc.synthesis.adversaries import Enumeration, enumerate_adversaries
 from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.executors import Executor
@@ -259,20 +263,26 @@ class OneSided:
 def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrategy,
               keep: int, adversary_memory: int, enumeration_limit: int, restarts: int,
               oracle_rounds: int, iterations: int, learning_rate: float, seed: int,
-              deadline: float) -> OneSided:
+              deadline: float | None, milp_nodes: int = 200) -> OneSided:
     """Enumerate, rank and keep the adversary's strategies, compose the defence against them
     (starting from ``defence``, the search's) and run the double oracle (see the module
-    docstring), within ``deadline`` (a ``time.perf_counter()`` value)."""
+    docstring); ``deadline``: the wall-clock cap (a ``time.perf_counter()`` value, or None)."""
     assert problem.adversary is not None  # noqa: S101 - only asked in a game
     phases: dict[str, float] = {}
     sign = problem.sign
     t0 = time.perf_counter()
-    # the enumeration gets a quarter of the time: strategies found but never ranked help nobody
+    progress.report("adversaries: enumeration", done=0, total=enumeration_limit,
+                    unit="strategies")
+    # under a cap the enumeration gets a quarter of the time left: strategies found but never
+    # ranked help nobody
     enumeration = enumerate_adversaries(problem.model, problem.adversary, memory=adversary_memory,
                                         limit=enumeration_limit,
-                                        deadline=t0 + 0.25 * max(deadline - t0, 0.0))
+                                        deadline=None if deadline is None
+                                        else t0 + 0.25 * max(deadline - t0, 0.0))
     phases["adversaries: enumeration"] = time.perf_counter() - t0
     t0 = time.perf_counter()
+    progress.report("adversaries: ranking", done=0, total=len(enumeration.strategies),
+                    unit="strategies")
     strengths = _batched(executor, [RankJob(a) for a in enumeration.strategies], deadline)
     # strongest first: the lowest full-information optimum for a maximising decision maker;
     # a stable sort keeps the enumeration's order among equals
@@ -296,17 +306,20 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
         return OneSided(enumeration, all_ranked, tuple(ranked), tuple(kept), 0, None, (), True,
                         phases)
     t0 = time.perf_counter()
+    progress.report("adversaries: composition")
     composed = _compose(executor, kept, k, defence, starts, iterations, learning_rate, deadline)
-    composed = _with_milp(problem, executor, kept, composed, k, deadline)
+    composed = _with_milp(problem, executor, kept, composed, k, deadline, milp_nodes)
     t_compose += time.perf_counter() - t0
     responses: list[tuple[float, bool]] = []
     added = 0
     exhaustive = enumeration.exhaustive and len(enumeration.strategies) <= RESPONSE_EXHAUSTIVE \
         and not partial
-    for _ in range(oracle_rounds):
+    for round_no in range(oracle_rounds):
         if expired(deadline):
             partial = True
             break
+        progress.report("adversaries: double oracle", done=round_no, total=oracle_rounds,
+                        unit="round")
         t0 = time.perf_counter()
         response, value, complete = _best_response(problem, executor, composed.strategy,
                                                    enumeration, exhaustive, kept,
@@ -324,11 +337,13 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
             ranked.append((response, strength))
             ranked.sort(key=lambda r: sign * r[1])
         t0 = time.perf_counter()
-        # recompose from the current defence (never worse against the old set) and one new start
-        again = [composed.logits, (rng.normal(size=shapes[0]), rng.normal(size=shapes[1]))]
+        # recompose from the current defence (never worse against the old set) and ``restarts``
+        # new starts
+        again = [composed.logits] + [(rng.normal(size=shapes[0]), rng.normal(size=shapes[1]))
+                                     for _ in range(restarts)]
         composed = _compose(executor, kept, k, composed.strategy, again, iterations, learning_rate,
                             deadline)
-        composed = _with_milp(problem, executor, kept, composed, k, deadline)
+        composed = _with_milp(problem, executor, kept, composed, k, deadline, milp_nodes)
         t_compose += time.perf_counter() - t0
     phases["adversaries: composition"] = t_compose
     phases["adversaries: double oracle"] = t_oracle
@@ -345,10 +360,10 @@ def one_sided(problem: Problem, executor: Executor, *, defence: FiniteStateStrat
     )
 
 
-def _batched(executor: Executor, jobs: list, deadline: float,  # type: ignore[type-arg]
+def _batched(executor: Executor, jobs: list, deadline: float | None,  # type: ignore[type-arg]
              size: int = 16) -> list:  # type: ignore[type-arg]
-    """The jobs' results, batch by batch (``size`` jobs) until ``deadline``: a prefix of the
-    results, at least the first batch."""
+    """The jobs' results, batch by batch (``size`` jobs) until ``deadline`` (the wall-clock cap):
+    a prefix of the results, at least the first batch."""
     out: list = []  # type: ignore[type-arg]
     for i in range(0, len(jobs), size):
         if i and expired(deadline):
@@ -359,7 +374,7 @@ def _batched(executor: Executor, jobs: list, deadline: float,  # type: ignore[ty
 
 def _compose(executor: Executor, adversaries: list[FiniteStateStrategy], memory: int,
              incumbent: FiniteStateStrategy, starts: list[tuple[np.ndarray, np.ndarray]],
-             iterations: int, learning_rate: float, deadline: float) -> Composed:
+             iterations: int, learning_rate: float, deadline: float | None) -> Composed:
     """The best composed defence over the starts, or ``incumbent`` (the defence the first start
     approximates: its logits are clipped) when none does better against ``adversaries`` — so
     composing never loses against the set (the first on a tie)."""
@@ -382,10 +397,12 @@ states in all (a variable per product state)."""
 
 
 def _with_milp(problem: Problem, executor: Executor, kept: list[FiniteStateStrategy],
-               composed: Composed, memory: int, deadline: float) -> Composed:
+               composed: Composed, memory: int, deadline: float | None,
+               nodes: int) -> Composed:
     """``composed``, or the MILP's deterministic memoryless defence (:mod:`posgmc.synthesis.milp`,
-    exact over those defences) when the objective allows it and it is better against ``kept``
-    (by more than 1e-7), within half of the time left. The MILP's float optimum only proposes:
+    exact over those defences, within ``nodes`` branch-and-bound nodes) when the objective allows
+    it and it is better against ``kept`` (by more than 1e-7); under a cap within half of the time
+    left. The MILP's float optimum only proposes:
     the candidate is evaluated against every kept adversary by an exact linear solve
     (:class:`VersusJob`), and that value decides; the reported numbers are proven later by the
     sound engines."""
@@ -397,8 +414,9 @@ def _with_milp(problem: Problem, executor: Executor, kept: list[FiniteStateStrat
     # at most half of what is left: the double oracle still needs time, and HiGHS on a large
     # product with end components (ranking binaries per edge) can take all of it
     now = time.perf_counter()
-    found = milp.compose_milp(problem, kept, memory=memory, deadline=now + 0.5 * (deadline - now),
-                              bound=composed.value)
+    found = milp.compose_milp(problem, kept, memory=memory,
+                              deadline=None if deadline is None else now + 0.5 * (deadline - now),
+                              bound=composed.value, nodes=nodes)
     if found is None:
         return composed
     sign = problem.sign
@@ -416,7 +434,7 @@ def _with_milp(problem: Problem, executor: Executor, kept: list[FiniteStateStrat
 def _best_response(problem: Problem, executor: Executor, defence: FiniteStateStrategy,
                    enumeration: Enumeration, exhaustive: bool, kept: list[FiniteStateStrategy],
                    memory: int, iterations: int, learning_rate: float, rng: np.random.Generator,
-                   deadline: float) -> tuple[FiniteStateStrategy, float, bool]:
+                   deadline: float | None) -> tuple[FiniteStateStrategy, float, bool]:
     """The adversary strategy that hurts ``defence`` most: over every enumerated one when
     ``exhaustive`` (batch by batch until ``deadline``), otherwise by gradient synthesis from the
     kept ones' logits (the worst first) and a random start. Returns it with the decision maker's

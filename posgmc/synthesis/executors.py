@@ -5,11 +5,12 @@ A :class:`~posgmc.synthesis.problem.Problem` holds everything an evaluation need
 property, the objective's arrays, who decides); a job is a frozen dataclass whose ``run(problem)``
 returns numbers and strategies and depends on nothing else (no warm start carried between jobs, no
 clock except the job's own ``deadline``). So a batch gives the same results in any order and in any
-process: ``--jobs N`` is bit-identical to ``--jobs 1`` for a given ``--seed`` (as long as no
-deadline is hit). :class:`ProcessPool` ships the problem to each worker once (the pool's
-initializer) and then only the small job descriptions; a distributed executor (Ray, Dask) would put
-the problem in its object store once and map :func:`run_job` over the jobs, without touching the
-algorithm.
+process: ``--jobs N`` is bit-identical to ``--jobs 1`` for a given ``--seed``: every job's extent
+is counted in its own units (:mod:`posgmc.synthesis.budget`); only a binding ``--timeout`` (a
+deadline) or Ctrl-C cuts one short. :class:`ProcessPool` ships the problem to each worker once
+(the pool's initializer) and then only the small job descriptions; a distributed executor (Ray,
+Dask) would put the problem in its object store once and map :func:`run_job` over the jobs,
+without touching the algorithm.
 """
 
 from __future__ import annotations

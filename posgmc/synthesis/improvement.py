@@ -29,7 +29,7 @@ decision maker's row per option (a, n') of its hole h = (n, z)):
 Unlike policy iteration on an MDP this is not monotone (a hole's states do not share one
 optimum), so the best member met is returned, its value by value iteration: a ranking, never
 what is reported — the search verifies it like every other candidate. Deterministic: no
-randomness, only the deadline can cut it short.
+randomness; its rounds are counted (the work budget), only the wall-clock cap can cut it short.
 """
 
 from __future__ import annotations
@@ -109,13 +109,14 @@ def _member(choice: np.ndarray, num_options: int) -> np.ndarray:
 
 
 def improve(problem: Problem, memory: int, *, deadline: float | None,
-            start: DeterministicResult | None = None) -> DeterministicResult | None:
+            start: DeterministicResult | None = None,
+            max_rounds: int = MAX_ROUNDS) -> DeterministicResult | None:
     """The best deterministic ``memory``-node FSS met by observation-level policy iteration
     (module docstring), from the quotient's optimum or, with ``start`` (at most ``memory``
     nodes, embedded), from that defence's values. None when the model's observations do not suit
     deterministic rules (:func:`~posgmc.synthesis.deterministic.quotient_of`), for undiscounted
     expected rewards (whose values may be infinite), or when ``deadline`` passes before a first
-    member is valued."""
+    member is valued. ``max_rounds``: improvement rounds at most (the work budget)."""
     started = time.perf_counter()
     q = quotient_of(problem, memory)
     if q is None or (q.rewards is not None and problem.discount >= 1.0):
@@ -137,7 +138,7 @@ def improve(problem: Problem, memory: int, *, deadline: float | None,
             return None
         values = solved.values
     rounds = since = 0
-    while rounds < MAX_ROUNDS and since < PATIENCE and not expired(deadline):
+    while rounds < max_rounds and since < PATIENCE and not expired(deadline):
         choice = _greedy(hole_scores(q, values, problem), current, q.offered)
         if current is not None and np.array_equal(choice, current):
             break  # no hole changes: a fixed point of the improvement
@@ -169,6 +170,7 @@ class ImprovementJob:
 
     memory: tuple[int, ...]
     deadline: float | None
+    rounds: int = MAX_ROUNDS
 
     def run(self, problem: Problem) -> tuple[DeterministicResult, ...]:
         found: list[DeterministicResult] = []
@@ -177,9 +179,10 @@ class ImprovementJob:
         for k in self.memory:
             if found and expired(self.deadline):
                 break
-            r = improve(problem, k, deadline=self.deadline)
+            r = improve(problem, k, deadline=self.deadline, max_rounds=self.rounds)
             if best is not None and k > best.memory and not expired(self.deadline):
-                warm = improve(problem, k, deadline=self.deadline, start=best)
+                warm = improve(problem, k, deadline=self.deadline, start=best,
+                               max_rounds=self.rounds)
                 if warm is not None and (r is None or sign * warm.value > sign * r.value):
                     r = warm
             if r is None:
@@ -197,9 +200,10 @@ class ImprovementJob:
         return tuple(found)
 
 
-def improvement_phase(executor: Executor, memory: tuple[int, ...], deadline: float
-                      ) -> dict[int, DeterministicResult]:
-    """Run :class:`ImprovementJob` over ``memory`` until ``deadline``; the best defence with at
-    most k nodes, by k."""
-    results = executor.map([ImprovementJob(tuple(memory), deadline)])[0]
+def improvement_phase(executor: Executor, memory: tuple[int, ...], deadline: float | None, *,
+                      rounds: int = MAX_ROUNDS) -> dict[int, DeterministicResult]:
+    """Run :class:`ImprovementJob` over ``memory`` (at most ``rounds`` rounds per size, fewer
+    when ``deadline``, the wall-clock cap, passes); the best defence with at most k nodes, by
+    k."""
+    results = executor.map([ImprovementJob(tuple(memory), deadline, rounds)])[0]
     return {r.memory: r for r in results}

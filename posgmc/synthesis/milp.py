@@ -220,8 +220,10 @@ class _Program:
         self.row_hi.append(np.broadcast_to(np.asarray(hi, dtype=np.float64), (count,)).copy())
         self.num_rows += count
 
-    def solve(self, objective: int, sense: float, time_limit: float | None):  # type: ignore[no-untyped-def]
-        """Optimise column ``objective`` (maximise for ``sense`` +1, minimise for -1)."""
+    def solve(self, objective: int, sense: float, time_limit: float | None,  # type: ignore[no-untyped-def]
+              node_limit: int | None = None):
+        """Optimise column ``objective`` (maximise for ``sense`` +1, minimise for -1), within
+        ``time_limit`` seconds and ``node_limit`` branch-and-bound nodes."""
         cost = np.zeros(self.num_vars)
         cost[objective] = -sense
         matrix = sp.csr_matrix(
@@ -232,6 +234,8 @@ class _Program:
         options: dict[str, object] = {"disp": False, "mip_rel_gap": 1e-9}
         if time_limit is not None:
             options["time_limit"] = time_limit
+        if node_limit is not None:
+            options["node_limit"] = node_limit
         return milp(cost, integrality=np.concatenate(self.integer),
                     bounds=LinearBounds(np.concatenate(self.lower), np.concatenate(self.upper)),
                     constraints=LinearConstraint(matrix, np.concatenate(self.row_lo),
@@ -269,6 +273,7 @@ def _product(problem: Problem, adversary: FiniteStateStrategy, par: Parametrisat
 
 def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *, memory: int = 1,
                  deadline: float | None = None, bound: float | None = None,
+                 nodes: int | None = None,
                  ) -> MilpComposition | None:
     """The best deterministic memoryless defence against ``adversaries`` (module docstring).
 
@@ -276,7 +281,9 @@ def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *
         problem: the synthesis problem; its objective must be :func:`supported`.
         adversaries: the kept adversary strategies (at least one).
         memory: the node count of the returned strategy (all nodes play the same).
-        deadline: a ``time.perf_counter()`` value; HiGHS stops there.
+        deadline: a ``time.perf_counter()`` value; HiGHS stops there (the wall-clock cap).
+        nodes: branch-and-bound nodes at most (the work budget: where HiGHS stops does not
+            depend on the machine); None: no limit.
         bound: for ``Rmin [F ψ]``: an upper bound on the optimum (an incumbent's value), needed
             for the flows' big-M; ignored otherwise.
 
@@ -338,7 +345,7 @@ def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *
         left = deadline - time.perf_counter()
         if left <= 0:
             return None
-    res = prog.solve(t, sign, left)
+    res = prog.solve(t, sign, left, nodes)
     if res.x is None:
         return None
     chosen = np.round(res.x[d]) > 0.5

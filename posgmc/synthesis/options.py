@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass, replace
 
 from posgmc.errors import InputError
+from posgmc.synthesis.budget import Effort
 
 __all__ = ["AUTO_MEMORY", "MAX_MEMORY", "Gap", "SynthesisOptions", "memory_sizes"]
 
@@ -92,7 +93,9 @@ class Gap:
 
 @dataclass(frozen=True)
 class SynthesisOptions:
-    """``memory``: the memory sizes to try in order; ``timeout``: seconds for the whole search;
+    """``memory``: the memory sizes to try in order; ``timeout``: a wall-clock cap in seconds on
+    the whole synthesis of a property (None: none); ``effort``: the multiplier of every phase's
+    work budget (:class:`~posgmc.synthesis.budget.Effort`; the counts below are at effort 1);
     ``restarts``: random starts per memory size; ``iterations``: gradient steps per start;
     ``verify``: how many of the best candidates (by float value) the sound engines verify;
     ``adversaries``: M, how many of the strongest enumerated adversary strategies (deterministic,
@@ -116,19 +119,20 @@ class SynthesisOptions:
     two sides; None: the bound side gets a small extra share, ``bracket.DEFAULT_SHARE``)."""
 
     memory: tuple[int, ...] = AUTO_MEMORY
-    timeout: float = 30.0
+    timeout: float | None = None
+    effort: float = 1.0
     seed: int = 0
-    restarts: int = 3
-    iterations: int = 60
+    restarts: int = 0
+    iterations: int = 30
     learning_rate: float = 0.3
     verify: int = 3
     adversaries: int = 10
     adversary_memory: int = 1
     player_memory: tuple[tuple[str, tuple[int, ...]], ...] = ()
     jobs: int = 1
-    enumeration_limit: int = 1000
-    compose_restarts: int = 1
-    oracle_rounds: int = 8
+    enumeration_limit: int = 100
+    compose_restarts: int = 0
+    oracle_rounds: int = 1
     started: float | None = None
     belief: bool | None = None
     bracket: bool = True
@@ -148,7 +152,9 @@ class SynthesisOptions:
             raise InputError(f"player_memory must be (player name, sizes) pairs, got {named!r}")
         object.__setattr__(self, "player_memory", tuple(
             (p, memory_sizes(k, f"memory of {p!r}")) for p, k in named))
-        _positive_finite(self.timeout, "timeout", "a positive finite number of seconds")
+        if self.timeout is not None:
+            _positive_finite(self.timeout, "timeout", "a positive finite number of seconds or None")
+        _positive_finite(self.effort, "effort", "a positive finite number")
         _positive_finite(self.learning_rate, "learning_rate", "a positive finite number")
         for name, least in (("seed", 0), ("restarts", 0), ("iterations", 0), ("verify", 1),
                             ("adversaries", 0), ("adversary_memory", 1), ("jobs", 1),
@@ -189,3 +195,8 @@ class SynthesisOptions:
             decision_maker not in named and self.memory == AUTO_MEMORY)
         return replace(self, memory=memory, adversary_memory=adversary_memory, player_memory=(),
                        belief=with_belief)
+
+    @property
+    def budget(self) -> Effort:
+        """The work budget's multiplier."""
+        return Effort(self.effort)

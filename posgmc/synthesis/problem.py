@@ -7,7 +7,6 @@ A :class:`Problem` is picklable and depends on nothing but its fields, so the jo
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -18,6 +17,7 @@ from posgmc.checking.property_checker import CheckOptions
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.model.explicit import ExplicitModel
 from posgmc.syntax.ast import Coalition, Direction, ProbQuery, RewardQuery
+from posgmc.synthesis import budget
 
 __all__ = ["Problem", "POLICY", "expired"]
 
@@ -60,5 +60,6 @@ class Problem:
 
 def expired(deadline: float | None) -> bool:
     """Whether ``deadline`` (a ``time.perf_counter()`` value: CLOCK_MONOTONIC on Linux, the same
-    clock in every process of the machine) has passed."""
-    return deadline is not None and time.perf_counter() > deadline
+    clock in every process of the machine; the wall-clock cap) has passed, or a stop was
+    requested (Ctrl-C: :func:`posgmc.synthesis.budget.expired`)."""
+    return budget.expired(deadline)

@@ -28,8 +28,9 @@ class SynthesisResult:
     """The best defence found and its verified numbers. ``guaranteed``: proven bounds on what the
     strategy ensures against every adversary; ``full_observation``: the value when the decision
     maker sees everything, which no partially observing defence exceeds (for Pmax; for Pmin no
-    defence gets below it); ``partial``: the time budget ended the search; ``method``: how
-    ``guaranteed`` was checked."""
+    defence gets below it); ``partial``: something cut the work budget short, ``cut`` says what
+    ("timeout": the wall-clock cap, "interrupt"; None when the budget ran to its end);
+    ``method``: how ``guaranteed`` was checked."""
 
     strategy: FiniteStateStrategy
     guaranteed: Bound
@@ -41,3 +42,4 @@ class SynthesisResult:
     deterministic: tuple[DeterministicResult, ...] = ()
     """The deterministic search's best defence per memory size
     (:mod:`posgmc.synthesis.deterministic`)."""
+    cut: str | None = None

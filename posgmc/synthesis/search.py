@@ -9,8 +9,10 @@ the adversary's best response (:mod:`posgmc.synthesis.parametric`) with Adam; ke
 and its hardened (deterministic) version. Every candidate is then verified by the sound product
 check (:class:`~posgmc.strategies.verify.StrategyChecker`), and the reported number is that check's
 proven bound. A larger memory never reports a worse `guaranteed`: the best smaller defence,
-embedded exactly (the extra nodes unreachable), is always among the candidates. Runs are
-deterministic given the seed; the time budget makes the search anytime (``partial``).
+embedded exactly (the extra nodes unreachable), is always among the candidates. Every phase's
+extent is a count of its own units (:mod:`posgmc.synthesis.budget`), so a run is determined by
+the model, the property, the options and the seed; a wall-clock cap (``timeout``) or an interrupt
+may cut it short, and the result then says so (``cut``).
 """
 
 from __future__ import annotations
@@ -43,14 +45,15 @@ from posgmc.syntax.ast import (
     Temporal,
     TemporalOp,
 )
-from posgmc.synthesis import belief
+from posgmc.synthesis import belief, progress
 from posgmc.synthesis.ascent import LOGIT, ascend
+from posgmc.synthesis.budget import DEFAULT_UNITS, Clock
 from posgmc.synthesis.deterministic import DeterministicResult, deterministic_phase
 from posgmc.synthesis.executors import Executor, executor_for
 from posgmc.synthesis.improvement import improvement_phase
 from posgmc.synthesis.options import AUTO_MEMORY, SynthesisOptions
 from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
-from posgmc.synthesis.problem import Problem
+from posgmc.synthesis.problem import Problem, expired
 from posgmc.synthesis.result import MemoryRound, SynthesisResult
 
 __all__ = ["synthesize", "problem_of", "parametrisation"]
@@ -126,8 +129,10 @@ def synthesize(
     """
     now = time.perf_counter()
     started = now if options.started is None else min(options.started, now)
-    end = started + options.timeout
-    deadline = end  # the search's; a pomdp keeps a share of the budget for the belief phase
+    clock = Clock(started, options.timeout)
+    effort = options.budget
+    end = clock.end
+    deadline = end  # the search's; a pomdp keeps a share of the cap for the belief phase
     if executor is None:
         others = [p for p in range(len(model.player_names)) if p != player]
         problem = problem_of(
@@ -146,7 +151,7 @@ def synthesize(
     with_belief = bool(options.belief if options.belief is not None
                        else options.memory == AUTO_MEMORY) and belief.applies(problem)
     if with_belief:
-        deadline = end - belief.SHARE * options.timeout
+        deadline = clock.at(1.0 - belief.SHARE)
     # the full-observation solve stops at the search's deadline too (its bounds stay proven)
     base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar,
                            options=CheckOptions(keep_strategy=True,
@@ -164,6 +169,7 @@ def synthesize(
     phases: dict[str, float] = {}
 
     t0 = time.perf_counter()
+    progress.report("full observation")
     full = base.query(query, everywhere=False)
     init = model.initial_states[0]
     full_bound = Bound(
@@ -177,16 +183,22 @@ def synthesize(
     # deterministic FSSs (abstraction refinement, its share of the budget): their best defences
     # per memory size join that size's candidates and starts
     t0 = time.perf_counter()
+    progress.report("policy iteration (observations)")
     improved_det = improvement_phase(
-        executor, _with_warm_up(options.memory), started + IMPROVEMENT_SHARE * options.timeout
+        executor, _with_warm_up(options.memory), deadline,
+        rounds=effort.default("improvement_rounds"),
     )
     phases["policy iteration (observations)"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     share = (
-        DETERMINISTIC_SHARE if executor.problem.adversary is not None else DETERMINISTIC_SHARE_POMDP
+        DEFAULT_UNITS["families"] if executor.problem.adversary is not None
+        else DETERMINISTIC_FAMILIES_POMDP
     )
+    if share > 0:
+        progress.report("deterministic search", done=0, total=effort.units(share),
+                        unit="families")
     deterministic = deterministic_phase(
-        executor, options.memory, started + share * options.timeout,
+        executor, options.memory, deadline, families=effort.units(share),
         seeds=tuple(improved_det.values()),
     ) if share > 0 else {}
     phases["deterministic search"] = time.perf_counter() - t0
@@ -195,12 +207,11 @@ def synthesize(
     rng = np.random.default_rng(options.seed)
     best: tuple[FiniteStateStrategy, Bound] | None = None
     best_logits: tuple[np.ndarray, np.ndarray] | None = None
-    partial = False
     evaluations = 0
     t_search = t_verify = 0.0
     # pass 0 tries every memory size from the projected full-observation strategy (and the best
     # smaller one, embedded); later passes restart each size from new random points (and the best
-    # so far) for as long as a pass improves the best, at most _MAX_PASSES, within the budget
+    # so far) for as long as a pass improves the best, at most ``passes`` (the work budget)
     params: dict[int, Parametrisation] = {}
     best_of: dict[int, tuple[FiniteStateStrategy, Bound]] = {}
     seconds_of: dict[int, float] = {}
@@ -208,17 +219,15 @@ def synthesize(
     # a memory range that does not start at 1 is warm-started from a memoryless defence (a k-FSS
     # embeds into k+1 nodes): --memory 2 searches k = 1 first and never reports less than it
     sizes = _with_warm_up(options.memory)
-    for pass_no in range(_MAX_PASSES):
+    passes = effort.default("passes")
+    for pass_no in range(passes):
         improved = False
         for i, k in enumerate(sizes):
-            if time.perf_counter() > deadline and best is not None:
-                partial = True
+            if expired(deadline) and best is not None:
                 break
+            progress.report("gradient search", memory=k, done=pass_no * len(sizes) + i,
+                            total=passes * len(sizes), unit="round")
             round_start = time.perf_counter()
-            # the first pass shares the budget equally among the sizes still to come, so that on
-            # a large model the first size does not use it all; later passes use what is left
-            round_deadline = deadline if pass_no else \
-                round_start + (deadline - round_start) / (len(sizes) - i)
             if k not in params:
                 params[k] = Parametrisation(model, player, k, query, target, remain,
                                             coalition_of=coalition_of, scalar=scalar,
@@ -247,14 +256,14 @@ def synthesize(
             if pass_no == 0:
                 starts.append(_qmdp(par, full, model, rewards, discount, sign))
                 starts.append(_projected(par, full, model))
-            for _ in range(options.restarts):
+            for _ in range(effort.units(options.restarts)):
                 starts.append((rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])))
             found, n_eval, seconds = _round(
                 par,
                 starts,
                 sign,
                 options,
-                round_deadline,
+                deadline,
                 executor,
                 model,
                 query,
@@ -266,12 +275,11 @@ def synthesize(
             evaluations += n_eval
             t_search += seconds[0]
             t_verify += seconds[1]
-            if time.perf_counter() > round_deadline:
-                partial = True  # the budget (or this round's share of it) cut the round short
             if found is not None and (best is None or _better(found[1], best[1], maximize)):
                 best = (found[0], found[1])
                 best_logits = found[2]
                 improved = True
+                progress.report("gradient search", memory=k, best=found[1].value)
             # else the smaller defence stays: embedded into k nodes (_embed_strategy) it
             # guarantees exactly as much, so k never does worse; the smaller one is reported
             if found is not None and (
@@ -280,7 +288,7 @@ def synthesize(
                 best_of[k] = (found[0], found[1])
             seconds_of[k] = seconds_of.get(k, 0.0) + time.perf_counter() - round_start
             evaluations_of[k] = evaluations
-        if partial or not improved:
+        if expired(deadline) or not improved:
             break
     # the deterministic defences of the memory sizes the gradient rounds never reached
     for k, found_det in sorted([*improved_det.items(), *deterministic.items()],
@@ -303,8 +311,9 @@ def synthesize(
     belief_result = None
     if with_belief and best is not None:
         t0 = time.perf_counter()
+        progress.report("belief exploration")
         belief_result = _belief_candidate(problem, best[0], end, model, query, coalition_of,
-                                          scalar, maximize)
+                                          scalar, maximize, effort.default("belief_nodes"))
         if belief_result is not None and _better(belief_result[1], best[1], maximize):
             best = belief_result
         phases["belief exploration"] = time.perf_counter() - t0
@@ -330,26 +339,33 @@ def synthesize(
     # solves of nearly singular systems are no proof (it can exceed the full-observation value
     # by ~1e-9), so it is never what is reported
     t0 = time.perf_counter()
+    progress.report("verification")
     final = verifier(model, {best[0].player: best[0]}, coalition_of=coalition_of, scalar=scalar,
                      options=check_options).check(query, text="synthesis")
     phases["verification"] = time.perf_counter() - t0
     assert final.guaranteed is not None  # noqa: S101 - the decision maker's strategy is given
     guaranteed, method = final.guaranteed, final.method
-    # a check stopped by the caller's deadline (check_options) proves wider bounds: partial
-    partial = partial or not final.converged
+    # what cut the budget short, if anything: the cap or an interrupt (seen by every phase as an
+    # expired deadline); a check stopped by the caller's deadline (check_options) proves wider
+    # bounds
+    cut = clock.cut()
+    partial = cut is not None or not final.converged
     return SynthesisResult(best[0], guaranteed, full_bound, tuple(rounds), partial, phases, method,
-                           tuple(deterministic[k] for k in sorted(deterministic)))
+                           tuple(deterministic[k] for k in sorted(deterministic)), cut)
 
 
-def _belief_candidate(problem: Problem, cutoff: FiniteStateStrategy, end: float,
+def _belief_candidate(problem: Problem, cutoff: FiniteStateStrategy, end: float | None,
                       model: ExplicitModel, query: Expr, coalition_of: CoalitionResolver,
-                      scalar: ScalarEvaluator, maximize: bool,
+                      scalar: ScalarEvaluator, maximize: bool, nodes: int,
                       ) -> tuple[FiniteStateStrategy, Bound] | None:
-    """The belief-based controller over ``cutoff`` and its bound by policy iteration on its
-    product (a ranking, like every candidate's), or None."""
-    # the controller is built with a fifth of what is left to spare: its product is checked after
+    """The belief-based controller over ``cutoff`` (at most ``nodes`` belief nodes explored) and
+    its bound by policy iteration on its product (a ranking, like every candidate's), or None."""
+    # under a cap the controller is built with a fifth of what is left to spare: its product is
+    # checked after
     now = time.perf_counter()
-    found = belief.belief_phase(problem, cutoff, now + 0.8 * max(0.0, end - now))
+    found = belief.belief_phase(problem, cutoff,
+                                None if end is None else now + 0.8 * max(0.0, end - now),
+                                explore=nodes)
     if found is None:
         return None
     r = StrategyChecker(model, {found.strategy.player: found.strategy}, coalition_of=coalition_of,
@@ -358,20 +374,11 @@ def _belief_candidate(problem: Problem, cutoff: FiniteStateStrategy, end: float,
     return found.strategy, r.guaranteed
 
 
-IMPROVEMENT_SHARE = 0.1
-"""The part of the search budget observation-level policy iteration
-(:mod:`posgmc.synthesis.improvement`) may use at most, before the deterministic search; it
-usually needs far less."""
-
-DETERMINISTIC_SHARE = 0.5
-"""The part of the search budget the deterministic search gets (before the gradient search) in a
-game (PAYNT's POSMG setting, where deterministic FSSs did best: attacker-one-defender)."""
-
-DETERMINISTIC_SHARE_POMDP = 0.0
-"""The same for a pomdp: none. There the gradient search alone reached at least PAYNT's value on
-every shared POMDP (docs/performance.md), and giving the deterministic search part of the budget
-cost refuel-06 its best defence (0.4264 with the whole budget for the gradient search, 0.3985
-with a fifth, 0.3985 with half; the deterministic search's best there, 0.3500, is PAYNT's)."""
+DETERMINISTIC_FAMILIES_POMDP = 0
+"""The deterministic search's families on a pomdp: none (in a game, PAYNT's POSMG setting where
+deterministic FSSs did best, ``DEFAULT_UNITS["families"]``). On a pomdp the gradient search
+alone reached at least PAYNT's value on every shared POMDP (docs/performance.md), and the
+deterministic search's best on refuel-06, 0.3500 (PAYNT's), is below the gradient search's."""
 
 
 def _distinct(found: list[DeterministicResult]) -> list[DeterministicResult]:
@@ -391,8 +398,6 @@ def _with_warm_up(memory: tuple[int, ...]) -> tuple[int, ...]:
     return memory if min(memory) <= 1 else (1,) + tuple(memory)
 
 
-_MAX_PASSES = 4
-"""Passes over the memory sizes: further ones restart from new random points while they improve."""
 
 
 def _round(
@@ -400,7 +405,7 @@ def _round(
     starts: list[tuple[np.ndarray, np.ndarray]],
     sign: float,
     options: SynthesisOptions,
-    deadline: float,
+    deadline: float | None,
     executor: Executor,
     model: ExplicitModel,
     query: Expr,
@@ -423,8 +428,9 @@ def _round(
     candidates: list[tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]] = []
     # the starts are independent jobs (run in parallel with --jobs); each begins without a warm
     # start, so the results do not depend on where or in which order they run
-    jobs = [AscendJob(par.k, la, ld, options.iterations, options.learning_rate, deadline)
-            for la, ld in starts]
+    budget = options.budget
+    jobs = [AscendJob(par.k, la, ld, budget.units(options.iterations), options.learning_rate,
+                      deadline) for la, ld in starts]
     for i, ((la, ld), n_eval) in enumerate(executor.map(jobs)):
         if i and not n_eval:
             continue  # the budget ran out before this start moved
@@ -446,9 +452,10 @@ def _round(
     # deterministic neighbours of the best hardened candidate: one rule changed at a time (not on
     # a large model, where each neighbour costs a full evaluation and thousands of rules exist)
     hard = candidates[1::3]
-    if hard and not large and time.perf_counter() < deadline:
+    if hard and not large and not expired(deadline):
         g, d, logits = max(hard, key=value_of)
-        (g, d), n_eval = _local_search(par, g, d, sign, deadline)
+        (g, d), n_eval = _local_search(par, g, d, sign, deadline,
+                                       budget.default("local_steps"))
         evaluations += n_eval
         candidates.append((g, d, logits))
     for g, d in extra:
@@ -463,8 +470,8 @@ def _round(
     # on a large model one candidate only: a policy-iteration check of its product costs LU
     # factorisations of 10^5 unknowns (seconds each), and the float ranking rarely errs
     for g, d, logits in scored[: 1 if large else options.verify]:
-        if best is not None and time.perf_counter() > deadline:
-            break  # the most promising candidate is checked; the rest only past the deadline
+        if best is not None and expired(deadline):
+            break  # the most promising candidate is checked; the rest only within the cap
         fss = par.strategy(g, d)
         r = StrategyChecker(model, {fss.player: fss}, coalition_of=coalition_of, scalar=scalar,
                             options=_POLICY).check(query, text="synthesis")
@@ -541,13 +548,15 @@ def problem_of(model: ExplicitModel, expr: Expr, *, player: int, adversary: int 
 
 
 def _local_search(par: Parametrisation, gamma: np.ndarray, delta: np.ndarray, sign: float,
-                  deadline: float) -> tuple[tuple[np.ndarray, np.ndarray], int]:
+                  deadline: float | None, steps: int,
+                  ) -> tuple[tuple[np.ndarray, np.ndarray], int]:
     """First-improvement search over deterministic FSSs: change one rule's action (or next node)
-    at a time, keep a change that improves the value, until no change improves or time is up."""
+    at a time, keep a change that improves the value, until no change improves, ``steps``
+    evaluations were made or the deadline passes."""
     value = sign * par.evaluate(gamma, delta, gradient=False).value
     n, improved = 1, True
     k, Zu, Au = gamma.shape
-    while improved and time.perf_counter() < deadline:
+    while improved and n < steps and not expired(deadline):
         improved = False
         for node in range(k):
             for z in range(Zu):
@@ -555,7 +564,7 @@ def _local_search(par: Parametrisation, gamma: np.ndarray, delta: np.ndarray, si
                 m_now = int(delta[node, z, a_now].argmax())
                 for a in np.flatnonzero(par.mask[z]).tolist():
                     for m in range(k):
-                        if (a, m) == (a_now, m_now) or time.perf_counter() > deadline:
+                        if (a, m) == (a_now, m_now) or n >= steps or expired(deadline):
                             continue
                         g2, d2 = gamma.copy(), delta.copy()
                         g2[node, z] = 0.0

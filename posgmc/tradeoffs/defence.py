@@ -44,6 +44,7 @@ import numpy as np
 
 from posgmc.checking.results import Bound
 from posgmc.errors import InputError, PosgmcError, UnsupportedError
+from posgmc.synthesis import progress
 
 __all__ = ["DefencePoint", "DefenceFront", "BudgetAnswer", "defence_front",
            "defence_front_to_csv", "SCALARISED_REWARD"]
@@ -199,7 +200,8 @@ def defence_front(
     weights: Sequence[float],
     constants: Mapping[str, Any] | None = None,
     memory: int | Sequence[int] = 1,
-    timeout: float = 30.0,
+    timeout: float | None = None,
+    effort: float = 1.0,
     seed: int = 0,
     budgets: Sequence[float] = (),
     strategy_dir: str | Path | None = None,
@@ -216,7 +218,8 @@ def defence_front(
             cost's units).
         constants: the model's undefined constants.
         memory: the defence's memory size(s), as for :func:`posgmc.api.synthesize`.
-        timeout: seconds of synthesis per point.
+        timeout: a wall-clock cap in seconds on each point's synthesis (None: none).
+        effort: the multiplier of each synthesis's work budget (docs/synthesis.md).
         budgets: cost constraints ``c`` to answer from the verified points.
         strategy_dir: write each defence to ``<dir>/w=<w>/<player>.json`` and verify the file.
         include_mission: also synthesise for the mission query itself (``w = inf``).
@@ -243,9 +246,13 @@ def defence_front(
     m, c = _queries(session, mission, cost)
     full = _full_observation(session, built, m.text, c.text)
     points = []
-    for w in ws + ([math.inf] if include_mission else []):
-        points.append(_point(session, built, m, c, w, memory=memory, timeout=timeout, seed=seed,
-                             strategy_dir=strategy_dir, write=write_strategy))
+    every = ws + ([math.inf] if include_mission else [])
+    for w in every:
+        points.append(_point(session, built, m, c, w, memory=memory, timeout=timeout, effort=effort,
+                             seed=seed, strategy_dir=strategy_dir, write=write_strategy))
+        done = points[-1]
+        progress.point_done(f"w={_fmt_weight(w)}", None if done.mission is None
+                            else float(done.mission.value), len(points), len(every))
     front = pareto_indices(points)
     answers = tuple(_answer(session, built, m, c, points, float(b), strategy_dir, write_strategy)
                     for b in budgets)
@@ -313,18 +320,19 @@ def _full_observation(
 
 
 def _point(session: Any, built: Any, mission: Any, cost: Any, weight: float, *, memory: Any,
-           timeout: float, seed: int, strategy_dir: str | Path | None, write: Any) -> DefencePoint:
+           timeout: float | None, effort: float, seed: int, strategy_dir: str | Path | None,
+           write: Any) -> DefencePoint:
     from posgmc import api
 
     t0 = time.perf_counter()
     try:
         if math.isinf(weight):
             result = api.synthesize(session, mission.text, memory=memory, timeout=timeout,
-                                    seed=seed, built=built)
+                                    effort=effort, seed=seed, built=built)
         else:
             model, text = _scalarised(built.model, mission, cost, weight)
             result = api.synthesize(api.Session.of_model(model, name=session.path), text,
-                                    memory=memory, timeout=timeout, seed=seed)
+                                    memory=memory, timeout=timeout, effort=effort, seed=seed)
     except PosgmcError as e:
         return DefencePoint(weight, None, None, seconds=time.perf_counter() - t0, error=e)
     return _verify(session, built, mission, cost, result.strategies[0], weight, strategy_dir,

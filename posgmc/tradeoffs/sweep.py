@@ -21,6 +21,7 @@ from typing import Any
 
 from posgmc.checking.results import Bound, PropertyResult
 from posgmc.errors import PosgmcError
+from posgmc.synthesis import progress
 
 __all__ = ["Sweep", "SweepPoint", "sweep", "sweeps_of_check", "to_csv"]
 
@@ -98,8 +99,12 @@ def sweep(
     from posgmc import api
     from posgmc.strategies.files import write_strategy
 
-    points = []
+    points: list[SweepPoint] = []
     for setting in settings:
+        if points:
+            last = points[-1]
+            progress.point_done(f"{constant}={last.setting}", _headline(last.result),
+                                len(points), len(settings))
         text = str(setting)
         values = {**dict(constants or {}), constant: setting}
         try:
@@ -122,7 +127,34 @@ def sweep(
                 write_strategy(fss, os.path.join(where, f"{fss.player or 'agent'}.json"))
         points.append(SweepPoint(text, _number(text), outcome, None, where,
                                  _also(session, also, outcome)))
+    _raise_common_error(points)
+    if points:
+        progress.point_done(f"{constant}={points[-1].setting}", _headline(points[-1].result),
+                            len(points), len(settings))
     return Sweep(constant, prop, tuple(points), tuple(also))
+
+
+def _headline(result: PropertyResult | None) -> float | None:
+    """A point's headline number: the proven ``guaranteed`` under synthesis, else the value."""
+    if result is None:
+        return None
+    if result.guaranteed is not None:
+        return float(result.guaranteed.value)
+    return float(result.value) if isinstance(result.value, (int, float)) and not isinstance(
+        result.value, bool) else None
+
+
+def _raise_common_error(points: Sequence[SweepPoint]) -> None:
+    """An error that every point has alike (a constant not declared or left without a value, an
+    unreadable file, a malformed property) is about the sweep, not its points: raised once, not
+    reported per point.
+
+    Raises:
+        PosgmcError: the error every point has.
+    """
+    errors = [p.error for p in points if p.error is not None]
+    if points and len(errors) == len(points) and len({e.render() for e in errors}) == 1:
+        raise errors[0]
 
 
 def _also(session: Any, props: Sequence[str], outcome: PropertyResult) -> tuple[Any, ...]:

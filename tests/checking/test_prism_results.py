@@ -1,7 +1,7 @@
-"""Every ``// RESULT:`` line of PRISM-games' test files under the shared benchmarks.
+"""Every ``// RESULT:`` line of PRISM-games' test files under the vendored benchmarks.
 
 The expected values are PRISM-games' own (its regression tests, copied with the models; see
-../shared/benchmarks/README.md), written above each property: a number, ``19/15``, ``true``,
+tests/data/benchmarks/README.md), written above each property: a number, ``19/15``, ``true``,
 ``Infinity`` or ``Error:co-safe``; ``RESULT (k=3): v`` applies to one constant value only.
 This covers what Storm cannot answer (co-safe LTL, ``F0``/``Fc``, ``I=k``, ``C<=k``, ``G<=k``,
 ``<<*>>``) as well as what it can.

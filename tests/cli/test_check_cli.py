@@ -114,9 +114,9 @@ def test_negative_reach_rewards_with_a_sure_target(run, coin: str) -> None:  # t
 def test_partially_observable_needs_full_observation(run) -> None:  # type: ignore[no-untyped-def]
     # without --strategy and --full-observation, a posg property is answered by synthesis
     r = run("check", ROVER_POSG, "--prop", '<<rover>> Pmax=? [ F "goal" ]', "--memory", "1",
-            "--timeout", "5")
+            "--timeout", "5", "-v")
     assert r.exit_code == EXIT_OK, r.output
-    assert "guaranteed:" in r.output and "full_observation:" in r.output
+    assert "guaranteed:" in r.output and "(full_observation)" in r.output
     r = run("check", ROVER_POSG, "--prop", '<<rover>> Pmax=? [ F "goal" ]', "--full-observation")
     assert r.exit_code == EXIT_OK, r.output
     assert "full-observation value" in r.output
@@ -162,3 +162,75 @@ def test_export_strategy_needs_an_unbounded_query(run, tmp_path: Path) -> None: 
     assert r.exit_code == EXIT_ERROR
     assert "--export-strategy: no property checked here has a strategy to export" in r.output
     assert not out.exists()
+
+
+def test_json_gives_constants_as_numbers_and_booleans(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    path = tmp_path / "flag.nm"
+    path.write_text(COIN.replace("const double p;", "const double p;\nconst bool flag;\n"
+                                 "const int n;\nconst double q;")
+                    .replace("label \"a\" = s=1;", "label \"a\" = s=1 & (flag | n>0 | q>0);"))
+    r = run("check", str(path), "--const", "p=0.5,flag=true,n=3,q=1/4", "--prop",
+            'Pmax=? [ F "a" ]', "--json")
+    assert r.exit_code == EXIT_OK, r.output
+    assert json.loads(r.output)["constants"] == {"p": 0.5, "flag": True, "n": 3, "q": "1/4"}
+    r = run("check", str(path), "--const", "p=0.5,flag=false,n=0:1,q=0", "--prop",
+            'Pmax=? [ F "a" ]', "--json")
+    assert [run_["constants"] for run_ in json.loads(r.output)["runs"]] == [
+        {"p": 0.5, "flag": False, "n": 0, "q": 0}, {"p": 0.5, "flag": False, "n": 1, "q": 0}]
+
+
+def test_export_strategy_refuses_an_extension_other_than_json(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    out = tmp_path / "s.tra"
+    r = run("check", ROVER, "--prop", '<<rover>> Pmax=? [ F "goal" ]', "--export-strategy",
+            str(out))
+    assert r.exit_code == EXIT_ERROR
+    assert f"--export-strategy {out}: strategies are written as JSON, not .tra" in r.output
+    assert "Model " not in r.output and not out.exists()  # refused before any work
+
+
+def test_values_print_as_the_shortest_decimal_inside_their_bounds(run) -> None:  # type: ignore[no-untyped-def]
+    # red_and_black's bold play from start=1 wins with exactly 0.064 (models/red_and_black
+    # README.md); interval iteration proves [0.06399999999, 0.06400100001] around 0.0640005
+    model = str(ROOT / "models" / "red_and_black" / "red_and_black.smg")
+    prop = '<<gambler,casino>> Pmax=? [ F "rich" ]'
+    r = run("check", model, "--prop", prop, "--const", "start=1")
+    assert r.exit_code == EXIT_OK, r.output
+    assert f"{prop}: 0.064  [0.06399999999, 0.06400100001]" in r.output
+    r = run("check", model, "--prop", prop, "--const", "start=1", "--json")
+    res = json.loads(r.output)["results"][0]
+    assert res["value"] != 0.064 and res["lower"] <= 0.064 <= res["upper"]  # full precision
+    r = run("check", model, "--prop", prop, "--const", "start=1:2")
+    assert r.output.splitlines()[-2:] == ["1\t0.064", "2\t0.16"]
+
+
+@pytest.mark.parametrize("timeout", ["0.01", "0.3", "2"])
+def test_exit_0_only_when_every_printed_number_is_proven(run, timeout: str) -> None:  # type: ignore[no-untyped-def]
+    """Synthesis cut short at random points of its budget (rover.posg): whatever the machine's
+    speed, exit 0 comes with every printed number proven, an unproven one with exit 1 and
+    ``converged`` false; no number is a placeholder and the printed points keep the order
+    guaranteed <= vs_fss_adversary <= upper_bound (before: upper_bound 0.5 [0, 1] below
+    guaranteed 0.98763, ``sound: true``, exit 0)."""
+    r = run("check", ROVER_POSG, "--prop", '<<rover>> Pmax=? [ !"crash" U "goal" ]',
+            "--memory", "1", "--timeout", timeout, "--json")
+    assert r.exit_code in (0, 1), r.output
+    (res,) = json.loads(r.stdout)["results"]
+    numbers = [res[k] for k in ("guaranteed", "vs_fss_adversary", "upper_bound") if k in res]
+    assert numbers[0] is res["guaranteed"]
+    values = [n["value"] for n in numbers]
+    assert values == sorted(values)
+    assert all(n["lower"] <= n["value"] <= n["upper"] for n in numbers)
+    if "upper_bound" in res:
+        assert res["upper_bound"]["upper"] - res["upper_bound"]["lower"] < 1e-3  # computed
+    if r.exit_code == 0:
+        assert res["converged"] is True and res["sound"] is True
+    if res["converged"] is False or res["sound"] is False:
+        assert r.exit_code == 1
+
+
+def test_a_synthesis_refuses_a_json_file_name_for_its_directory(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    out = tmp_path / "s.json"
+    r = run("check", ROVER_POSG, "--prop", '<<rover>> Pmax=? [ F "goal" ]', "--memory", "1",
+            "--export-strategy", str(out))
+    assert r.exit_code == EXIT_ERROR
+    assert f"--export-strategy {out}: a synthesis writes a directory" in r.output
+    assert "Model " not in r.output and not out.exists()  # refused before any work

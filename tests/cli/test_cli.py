@@ -35,6 +35,18 @@ def test_version_and_help(run) -> None:  # type: ignore[no-untyped-def]
         assert verb in r.output
 
 
+def test_every_option_of_every_command_has_help_text() -> None:
+    import click
+
+    def options(command: click.Command, name: str) -> list[tuple[str, click.Option]]:
+        if isinstance(command, click.Group):
+            return [o for n, c in command.commands.items() for o in options(c, f"{name} {n}")]
+        return [(name, p) for p in command.params if isinstance(p, click.Option)]
+
+    missing = [(name, o.opts) for name, o in options(main, "posgmc") if not o.help]
+    assert missing == []
+
+
 def test_lint_clean(run) -> None:  # type: ignore[no-untyped-def]
     r = run("lint", ROVER_POSG, str(ROOT / "models" / "rover.props"))
     assert r.exit_code == EXIT_OK, r.output

@@ -178,3 +178,20 @@ def test_a_pomdp_strategy_goes_back_as_agent_with_boolean_observables(tmp_path: 
     reported = json.loads(r.stdout)["results"][0]["guaranteed"]
     g = json.loads(again.stdout)["results"][0]["guaranteed"]
     assert g["lower"] <= reported["upper"] and reported["lower"] <= g["upper"]
+
+
+def test_a_synthesis_sweep_gets_a_directory_per_point(tmp_path: Path) -> None:
+    """The directory form under a --const sweep: DIR/<point>/agent.json for each point (a sweep
+    kept only its last point's strategy)."""
+    text = (ROOT / "models" / "tiger" / "tiger.pomdp").read_text()
+    assert "const double accuracy = 0.85;" in text
+    model = tmp_path / "tiger.pomdp"
+    model.write_text(text.replace("const double accuracy = 0.85;", "const double accuracy;"))
+    out = tmp_path / "d"
+    r = run("check", str(model), "--prop", 'Pmax=? [ F "treasure" ]', "--const",
+            "accuracy=0.75:0.1:0.85", "--memory", "1", "--adversaries", "0", "--timeout", "1",
+            "--export-strategy", str(out))
+    assert r.exit_code in (0, 1), r.output  # 1: a number the short budget left unproven
+    assert _wrote(r.stdout) == [str(out / "accuracy=0.75" / "agent.json"),
+                                str(out / "accuracy=0.85" / "agent.json")]
+    assert all(Path(p).exists() for p in _wrote(r.stdout))

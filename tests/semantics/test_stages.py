@@ -1,5 +1,5 @@
 """The stage's entry points: lint reports every error in source order, instantiate builds the
-FlatModel, and every PRISM-language model and properties file of the shared benchmarks passes
+FlatModel, and every PRISM-language model and properties file of the vendored benchmarks passes
 (constants from benchmarks/README.md; the files in benchmarks/LINT_EXCEPTIONS get the outcome
 decided by PRISM-games' rules, pinned below)."""
 

@@ -1,4 +1,4 @@
-"""Every PRISM-language model and property file among the shared benchmarks parses.
+"""Every PRISM-language model and property file among the vendored benchmarks parses.
 
 DRN files (PAYNT's ``sketch.templ`` exported by Storm/PRISM) are skipped: they are explicit models
 read by ``posgmc.io``, not PRISM text. Counts and ``// RESULT`` values below are read off the

@@ -4,7 +4,7 @@ replaced.
 
 Evidence, strongest first:
 
-* ``GOLDEN``: for every PRISM-language model and property file among the shared benchmarks and in
+* ``GOLDEN``: for every PRISM-language model and property file among the vendored benchmarks and in
   ``models/``, a digest of the whole syntax tree *with every span* (spans take no part in ``==``).
   The digests were recorded with the previous parser (lark parse tree with
   ``propagate_positions=True``, then a ``Transformer``; commit e541142). They were re-recorded

@@ -1,7 +1,7 @@
 """The numbers a synthesised result reports (posgmc/synthesis/checker.py), whatever cuts the
 budget short: never a placeholder, guaranteed <= vs_fss_adversary <= upper_bound and guaranteed <=
 full_observation (reversed for min) in every output, and exit 0 only when every printed number is
-proven. Random small POSGs (the generator of tests/synthesis/test_double_oracle.py) under random
+proven. Random small POSGs (the generator in tests/synthesis/helpers.py) under random
 budgets: wall-clock time and iteration caps of the sound checks."""
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from posgmc.checking.results import Bound, PropertyResult, ordered_numbers
 from posgmc.cli.check_command import not_passed
 from posgmc.engines.options import SolverOptions
 from posgmc.synthesis.options import SynthesisOptions
-from tests.synthesis.test_double_oracle import random_posg
+from tests.synthesis.helpers import random_posg
 
 PROPS = (
     '<<p0>> Pmax=? [ F "goal" ]',

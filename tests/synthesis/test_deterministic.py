@@ -73,8 +73,8 @@ def test_quotient_sizes_and_bound() -> None:
 def test_runs_are_deterministic_and_seeded_sizes_never_lose(seed: int) -> None:
     model = random_posg(seed)
     problem = _problem(model, '<<p0>> Pmax=? [ F "goal" ]')
-    a = DeterministicJob((1, 2, 3), (None, None, None), max_families=200).run(problem)
-    b = DeterministicJob((1, 2, 3), (None, None, None), max_families=200).run(problem)
+    a = DeterministicJob((1, 2, 3), None, (200, 200, 200)).run(problem)
+    b = DeterministicJob((1, 2, 3), None, (200, 200, 200)).run(problem)
     assert [r.memory for r in a] == [1, 2, 3]
     for x, y in zip(a, b):
         assert x.value == y.value and x.families == y.families

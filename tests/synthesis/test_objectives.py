@@ -37,7 +37,7 @@ def _run(path: Path, prop: str, tmp_path: Path, *memory: str) -> tuple[dict, dic
         args += ["--memory", m]
     r = CliRunner().invoke(main, args)
     assert r.exit_code == 0, r.output
-    res = json.loads(r.output)["results"][0]
+    res = json.loads(r.stdout)["results"][0]  # stdout: the "wrote ..." lines go to stderr
     player = res["memory"] and next(iter(res["memory"]))
     again = CliRunner().invoke(main, ["check", str(path), "--prop", prop, "--strategy",
                                       f"{player}={out / (player + '.json')}", "--json"])

@@ -173,7 +173,8 @@ def test_seeded_runs_are_bit_identical_on_the_iterative_path(
     model, expr, player, coalition_of, _ = _problem(
         TEST_GAME, '<<0>> Pmax=? [F "goal"]', zero_based=True
     )
-    opts = SynthesisOptions(memory=(1, 2), seed=7, timeout=60, adversaries=0)
+    # three restarts of 10 steps per memory size: the warm starts run in every job
+    opts = SynthesisOptions(memory=(1, 2), seed=7, timeout=60, adversaries=0, iterations=10)
     a, b = (synthesize(model, expr, player=player, coalition_of=coalition_of, scalar=api._scalar,
                        options=opts) for _ in range(2))
     assert a.guaranteed == b.guaranteed

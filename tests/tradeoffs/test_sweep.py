@@ -47,6 +47,20 @@ def test_a_fully_observable_sweep_is_the_value_per_point(tmp_path: Path) -> None
         assert p.result is not None and p.result.guaranteed is None
 
 
+
+def test_pareto_reports_each_point_as_it_completes(tmp_path: Path) -> None:
+    """--progress: one "point p=... done" line on stderr per point, in order, with its number
+    (the chain's values by hand: 0.1, 0.5, 0.9), before the table on stdout."""
+    path = tmp_path / "chain.prism"
+    path.write_text(CHAIN)
+    r = CliRunner().invoke(main, ["pareto", str(path), "--prop", "P=? [ F x=1 ]", "--sweep",
+                                  "p=0.1:0.4:0.9", "--progress"])
+    assert r.exit_code == 0, r.output
+    done = [x for x in r.stderr.splitlines() if " done" in x]
+    assert [x.split("point ")[1].split(" done")[0] for x in done] == ["p=0.1", "p=0.5", "p=0.9"]
+    for line, want in zip(done, ("0.1", "0.5", "0.9")):
+        assert f"guaranteed {want}" in line and "point " in line
+
 # the guaranteed front over B = 0, 1 per memory size (models/beacon/README.md): a memoryless rover
 # reaches the exits not knowing which is safe, a coin flip whatever the budget; with two nodes
 # 0.9^B. The synthesis tests below run with one node by default (half the time: 8 s against 17 s
@@ -75,6 +89,13 @@ def test_every_point_of_a_posg_front_reverifies_from_its_strategy(
     assert [r["setting"] for r in rows] == ["0", "1"]
     assert float(rows[1]["lower"]) <= FRONT[memory][1] <= float(rows[1]["upper"])
     assert rows[1]["memory"] == f"rover={memory}" and rows[1]["full_observation"] == "1.0"
+    # each number with its proven bounds (upper_bound had its value only, even a placeholder)
+    for key in ("full_observation", "upper_bound"):
+        b = getattr(s.points[1].result, key)
+        assert b is not None and b.converged  # computed, not cut short
+        assert [rows[1][key], rows[1][f"{key} lower"], rows[1][f"{key} upper"]] == [
+            repr(b.value), repr(b.lower), repr(b.upper)]
+        assert float(rows[1]["lower"]) <= float(rows[1][f"{key} upper"]) + 1e-9
 
 
 @pytest.mark.parametrize(("memory", "table"), [
@@ -93,6 +114,9 @@ def test_pareto_command_table_csv_and_plot(
     lines = r.output.splitlines()
     assert lines[0] == f"{PROP} against B:"
     assert lines[2].startswith(table[0]) and lines[3].startswith(table[1])
+    # full_observation and upper_bound with their proven bounds: the full-observation value is 1
+    assert lines[1].split()[:5] == ["B", "value", "[lower,", "upper]", "full_observation"]
+    assert "1 [1, 1]" in lines[2].split("]", 1)[1]
     assert csv_file.read_text().startswith("constant,setting,value,lower,upper")
     assert plot.read_text().lstrip().startswith("<?xml") and "</svg>" in plot.read_text()
 
@@ -189,3 +213,28 @@ def test_also_needs_a_synthesised_defence(tmp_path: Path) -> None:
     s = sweep(path, "P=? [ F x=1 ]", constant="p", settings=["0.5"], also=["P=? [ F x=2 ]"])
     (error,) = s.points[0].also
     assert "no synthesised strategy" in error.message
+
+
+def test_an_error_of_every_point_is_the_sweep_s_said_once(tmp_path: Path) -> None:
+    path = tmp_path / "chain.prism"
+    path.write_text(CHAIN.replace("const double p;", "const double p;\nconst int k;"))
+    r = CliRunner().invoke(main, ["pareto", str(path), "--prop", "P=? [ F x=1 ]", "--sweep",
+                                  "p=0.1:0.4:0.9"])
+    assert r.exit_code == 2
+    assert r.output.count('undefined constant "k" must be given a value') == 1, r.output
+    assert "Error" not in r.output  # no table of failed points
+    # a point of its own error keeps it, the others go on: p = 2 is no probability
+    s = sweep(path, "P=? [ F x=1 ]", constant="p", settings=["0.5", "2"], constants={"k": 1})
+    assert s.points[0].error is None and s.points[1].error is not None
+
+
+def test_the_table_prints_values_as_the_shortest_decimal_inside_their_bounds() -> None:
+    # red_and_black's bold play: exactly 0.064 from start=1 and 0.16 from start=2
+    # (models/red_and_black/README.md); interval iteration stops around them
+    model = str(ROOT / "models" / "red_and_black" / "red_and_black.smg")
+    r = CliRunner().invoke(main, ["pareto", model, "--prop",
+                                  '<<gambler,casino>> Pmax=? [ F "rich" ]', "--sweep",
+                                  "start=1:2"])
+    assert r.exit_code == 0, r.output
+    rows = [line.split()[:2] for line in r.output.splitlines()[2:4]]
+    assert rows == [["1", "0.064"], ["2", "0.16"]]

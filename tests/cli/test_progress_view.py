@@ -1,0 +1,112 @@
+"""Synthesis progress on the command line (posgmc/cli/progress_view.py) and Ctrl-C during
+synthesis (posgmc/synthesis/budget.py, docs/synthesis.md "The work budget").
+
+The model is models/convoy/convoy.posg (19 states; its README derives 0.4 as the convoy's value
+against an omniscient attacker), small enough for a run of a second or two; the interrupt test
+runs models/rover.posg at a large --effort so that there is time to interrupt it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from posgmc.cli import main
+from posgmc.cli.progress_view import ProgressMode, progress_mode
+
+ROOT = Path(__file__).resolve().parents[2]
+CONVOY = str(ROOT / "models" / "convoy" / "convoy.posg")
+PROP = '<<convoy>> Pmax=? [ F "arrived" ]'
+ROVER = str(ROOT / "models" / "rover.posg")
+ROVER_PROP = '<<rover>> Pmax=? [ !"crash" U "goal" ]'
+
+
+def _check(*args: str):  # type: ignore[no-untyped-def]
+    return CliRunner().invoke(main, ["check", CONVOY, "--prop", PROP, "--memory", "1", *args])
+
+
+def test_progress_lines_name_the_phase_and_the_best_value() -> None:
+    r = _check("--progress")
+    assert r.exit_code == 0, r.output
+    lines = [x for x in r.stderr.splitlines() if x.startswith("synthesis: ")]
+    phases = [x.split(": ", 1)[1].split(" |")[0] for x in lines]
+    assert "full observation" in phases and "verification" in phases
+    assert any(p.startswith("gradient search k=1") for p in phases)
+    assert "guaranteed 0.4" in lines[-1]  # the proven number last (convoy's README: 0.4)
+    assert "best so far" in "\n".join(lines)
+    # progress goes to stderr (the result's own "  synthesis: ..." line is indented)
+    assert not any(x.startswith("synthesis: ") for x in r.stdout.splitlines())
+
+
+def test_without_progress_a_non_terminal_gets_none_and_quiet_silences() -> None:
+    assert progress_mode(quiet=False, lines=False, json_lines=False) is ProgressMode.NONE
+    assert progress_mode(quiet=True, lines=True, json_lines=True) is ProgressMode.NONE
+    assert progress_mode(quiet=False, lines=True, json_lines=False) is ProgressMode.LINES
+    for args in ((), ("--progress", "--quiet")):
+        r = _check(*args)
+        assert r.exit_code == 0, r.output
+        assert "synthesis: " not in r.stderr
+
+
+def test_json_lines_carry_progress_events_between_model_and_result() -> None:
+    r = _check("--json-lines")
+    assert r.exit_code == 0, r.output
+    objects = [json.loads(x) for x in r.stdout.splitlines()]
+    assert "model" in objects[0] and "property" in objects[-1]
+    events = [o["progress"] for o in objects[1:-1]]
+    assert events and all(set(e) >= {"phase", "best", "proven", "elapsed"} for e in events)
+    assert events[-1]["proven"] is True and events[-1]["best"] == objects[-1]["guaranteed"]["lower"]
+
+
+def test_effort_is_validated_by_name() -> None:
+    for bad in ("0", "-1", "nan", "inf"):
+        r = _check("--effort", bad)
+        assert r.exit_code == 2
+        assert "--effort" in r.output
+
+
+def _wait_for(path: Path, text: str, seconds: float) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        if path.exists() and text in path.read_text():
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"{text!r} not seen in {path}: {path.read_text()!r}")
+
+
+def test_ctrl_c_prints_exports_and_keeps_the_best_verified_defence(tmp_path: Path) -> None:
+    """SIGINT during the gradient search: exit 130, the result printed with its proven
+    guaranteed and marked INTERRUPTED, the defence exported; checking the exported file gives
+    the printed number."""
+    out, err = tmp_path / "out.txt", tmp_path / "err.txt"
+    export = tmp_path / "defence"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    with out.open("w") as o, err.open("w") as e:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "posgmc", "check", ROVER, "--prop", ROVER_PROP, "--effort",
+             "50", "--progress", "--json-lines", "--export-strategy", str(export)],
+            stdout=o, stderr=e, env=env)
+        try:
+            _wait_for(out, '"phase": "gradient search"', 60)
+            proc.send_signal(signal.SIGINT)
+            code = proc.wait(timeout=120)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+    assert code == 130, err.read_text()
+    result = json.loads(out.read_text().splitlines()[-1])
+    assert result["cut"] == "interrupt" and result["partial"] is True
+    g = result["guaranteed"]
+    assert result["sound"] is True and g["lower"] <= g["upper"]
+    again = CliRunner().invoke(main, ["check", ROVER, "--prop", ROVER_PROP, "--json",
+                                      "--strategy", f"rover={export / 'rover.json'}"])
+    assert again.exit_code == 0, again.output
+    checked = json.loads(again.stdout)["results"][0]["guaranteed"]
+    assert (checked["lower"], checked["upper"]) == (g["lower"], g["upper"])
