@@ -47,7 +47,7 @@ def test_gap_parses_absolute_and_relative() -> None:
 def test_trap_grid_bracket_is_the_optimum() -> None:
     """trap_grid's beliefs are grid beliefs at N = 2: the bound side is exact, and the synthesised
     two-node strategy reaches the optimum, so the bracket is closed to the solver's precision."""
-    r = api.synthesize(api.load(TRAP), 'Pmax=? [ F "goal" ]', timeout=5)
+    r = api.synthesize(api.load(TRAP), 'Pmax=? [ F "goal" ]', effort=0.2)
     o = r.optimum
     assert o is not None and o.sound
     assert o.lower <= TRAP_OPTIMUM <= o.upper
@@ -61,12 +61,11 @@ def test_trap_grid_bracket_is_the_optimum() -> None:
 def test_blind_cost_bracket_for_a_minimiser() -> None:
     """For Rmin the bound side is the lower one: BLIND's optimum 3/2 (derived by hand in
     tests/synthesis/test_belief.py) lies in it."""
-    r = api.synthesize(api.load(text=BLIND), 'R{"cost"}min=? [ F s=3 ]', timeout=5, gap=1e-4)
+    r = api.synthesize(api.load(text=BLIND), 'R{"cost"}min=? [ F s=3 ]', effort=0.2, gap=1e-4)
     o = r.optimum
     assert o is not None and o.sound
     assert o.lower <= 1.5 <= o.upper
     assert o.upper == r.guaranteed.upper
-    # whether the budget sufficed depends on the machine's load; the flag must say it truly
     assert r.synthesis["gap_met"] is (o.gap <= 1e-4)
 
 
@@ -81,7 +80,7 @@ def test_cli_threshold_refuted_by_the_bracket() -> None:
     """P>=0.6: the full-observation value (0.6561) would allow it, but the optimum is 0.5938,
     so no defence meets it: false, and the note says why (exit 1)."""
     r = CliRunner().invoke(main, ["check", str(TRAP), "--prop", 'P>=0.6 [ F "goal" ]',
-                                  "--timeout", "5", "--json"])
+                                  "--effort", "0.2", "--json"])
     assert r.exit_code == 1, r.output
     res = json.loads(r.output)["results"][0]
     assert res["value"] is False
@@ -91,7 +90,7 @@ def test_cli_threshold_refuted_by_the_bracket() -> None:
 
 def test_cli_prints_the_bracket_and_checks_gap() -> None:
     r = CliRunner().invoke(main, ["check", str(TRAP), "--prop", 'Pmax=? [ F "goal" ]',
-                                  "--timeout", "5", "--gap", "1%"])
+                                  "--effort", "0.2", "--gap", "1%"])
     assert r.exit_code == 0, r.output
     assert "  optimum: [0.59377" in r.output
     bad = CliRunner().invoke(main, ["check", str(TRAP), "--prop", 'Pmax=? [ F "goal" ]',
@@ -103,7 +102,7 @@ def test_game_bracket_uses_full_observation_and_the_adversary_bound() -> None:
     """beacon (models/beacon/README.md): a memoryless rover guarantees 0.5 and a two-node one 0.9,
     so the optimum is at least 0.9; the bound side is the tightest proven bound."""
     r = api.synthesize(api.load(BEACON), '<<rover>> Pmax=? [ F "safe" ]',
-                       memory={"rover": 1, "jammer": 1}, timeout=4)
+                       memory={"rover": 1, "jammer": 1}, effort=0.2)
     o = r.optimum
     assert o is not None and o.sound
     assert o.lower == r.guaranteed.lower
@@ -168,5 +167,5 @@ def test_many_random_game_brackets_hold(seed: int, maximize: bool) -> None:
 
 def test_no_bracket_when_not_asked() -> None:
     r = api.check(api.load(TRAP), properties=['Pmax=? [ F "goal" ]'],
-                  synthesis=SynthesisOptions(timeout=3, bracket=False)).results[0]
+                  synthesis=SynthesisOptions(effort=0.2, bracket=False)).results[0]
     assert r.optimum is None and "optimum" not in r.to_json()
