@@ -80,6 +80,7 @@ def ours(directory: Path, timeout: float, bracket: bool = False) -> dict[str, ob
             "vs": outcome.vs_fss_adversary, "ub": outcome.upper_bound, "adversaries": adversaries,
             "memory": dict(outcome.memory), "partial": outcome.synthesis["partial"],
             "optimum": outcome.optimum, "optimum_bound": stats.get("optimum_bound", {}),
+            "phases": stats.get("phases", {}),
             "deterministic": rounds[-1]["deterministic"] if rounds else None, "seconds": seconds}
 
 
@@ -134,7 +135,7 @@ def bracket_row(d: Path, timeout: float) -> str:
     maximize = "max" in prop
     stats = a["optimum_bound"]
     assert isinstance(stats, dict)  # noqa: S101
-    grid_seconds = float(stats.get("seconds", 0.0))
+    grid_seconds = float(a["phases"].get("optimum bound", 0.0))
     method = o.method.replace("|", "/")
     d2 = dfine = unf = storm_gap = "-"
     reached = [g.lower if maximize else g.upper]

@@ -26,7 +26,6 @@ from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
 from posgmc.synthesis import progress
 from posgmc.synthesis.bracket import (
-    DEFAULT_SHARE,
     DEFAULT_VERTICES,
     GAP_SHARE,
     GAP_VERTICES,
@@ -391,12 +390,10 @@ class SynthesisChecker:
         by_optimum = False
         bracket_stats: dict[str, object] = {}
         if bracketing:
-            # the grid's work budget is counted in vertices (effort scales it); under a
-            # wall-clock cap it also stops at a deadline: the cap's end with --gap, else a
-            # small share of the time the search took, on top of it
+            # the grid's work budget is counted in vertices (effort scales it), so its bound
+            # depends only on model, options and seed; a wall-clock cap stops it at its end
             now = time.perf_counter()
-            end = None if clock.end is None else clock.end if settings.gap is not None else \
-                now + DEFAULT_SHARE * max(now - started, 1.0)
+            end = clock.end
             vertices = GAP_VERTICES if settings.gap is not None else DEFAULT_VERTICES
             optimum, bracket_stats = optimum_of(problem, g, full, ub, deadline=end,
                                                 gap=settings.gap,
