@@ -51,6 +51,7 @@ from posgmc.model.types import ModelType
 from posgmc.strategies.binding import player_view
 from posgmc.synthesis import belief
 from posgmc.synthesis.belief import _can_reach
+from posgmc.synthesis.budget import interrupted
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
 
@@ -497,7 +498,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
     skipped: list[int] = []
     while done < len(grid.rows) and done < max_vertices:
-        if deadline is not None and time.perf_counter() > deadline:
+        if (deadline is not None and time.perf_counter() > deadline) or interrupted():
             break
         last = min(len(grid.rows), max_vertices, done + min(_BATCH, max(64, done)))
         ids = np.arange(done, last)
@@ -679,7 +680,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     left = vertices
     for N in resolutions:
         now = time.perf_counter()
-        if (deadline is not None and now > deadline) or left <= 0:
+        if (deadline is not None and now > deadline) or left <= 0 or interrupted():
             break
         # exploration may use most of what is left; the sound solve gets the rest
         explore_until = None if deadline is None else now + 0.6 * (deadline - now)
