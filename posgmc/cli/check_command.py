@@ -22,6 +22,7 @@ from posgmc.cli.options import (
     effort_option,
     executor_options,
     full_observation_option,
+    gap_option,
     memory_option,
     positive_finite,
     progress_options,
@@ -98,6 +99,7 @@ BUILD_GRACE = 1.0
 @effort_option
 @seed_option
 @progress_options
+@gap_option
 @click.option("--export-strategy", type=click.Path(), default=None,
               help="Write the optimal memoryless strategy of the property as JSON; for a "
               "synthesised strategy, a directory receiving <player>.json. Several properties or "
@@ -140,6 +142,7 @@ def check(
     seed: int,
     progress_lines: bool,
     quiet: bool,
+    gap: Any,
     export_strategy: str | None,
     as_json: bool,
     json_lines: bool,
@@ -221,7 +224,8 @@ def check(
                 strategies=strategies or None,
                 synthesis=synthesis_options(memory, timeout, seed, adversaries, workers,
                                              started=loading, effort=effort,
-                                             executor=executor, ray_address=ray_address),
+                                             executor=executor, ray_address=ray_address,
+                                             gap=gap),
                 on_start=on_start,
                 on_outcome=on_outcome,
                 select=selected(select),
