@@ -1,13 +1,17 @@
 """The long fuzz run: mutate the corpus many times and apply the oracle.
 
-Uses the corpus, mutations and oracle of ``tests/fuzz/mutate.py`` (the default test run does a
-bounded number of the same). Each input is one random file of the corpus (models, or properties
-with their model) after 1-3 mutations, from ``random.Random(seed + i)`` so that any failure can
-be replayed with ``--replay I``.
+``--surface models`` (the default) uses the corpus, mutations and oracle of
+``tests/fuzz/mutate.py``: each input is one random file of the corpus (models, or properties
+with their model) after 1-3 mutations. ``--surface strategies``, ``options`` and ``api`` use
+``tests/fuzz/surface.py``: mutated strategy files checked against their model, command lines with
+hostile option values, and library calls with a hostile argument. The default test run does a
+bounded number of each. Input ``i`` is drawn from ``random.Random(seed * 1000003 + i)``, so that
+any failure can be replayed with ``--replay I`` (with a traceback).
 
 Usage::
 
-    python benchmarks/fuzz.py --count 100000 --seed 1 [--seconds 3600] [--workers 1]
+    python benchmarks/fuzz.py [--surface models|strategies|options|api] --count 100000 --seed 1
+        [--seconds 3600]
 
 Prints progress lines and a summary: inputs tried, lint-clean, built, and every distinct failure
 (with the index that reproduces it). Exit 1 when something failed.
@@ -25,6 +29,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from tests.fuzz import surface  # noqa: E402 - after the path is set
 from tests.fuzz.mutate import (  # noqa: E402 - after the path is set
     OracleFailure,
     check_model_text,
@@ -33,6 +38,18 @@ from tests.fuzz.mutate import (  # noqa: E402 - after the path is set
     mutate,
     scratch,
 )
+
+
+def one_surface(kind: str, i: int, seed: int, tmp: Path) -> str:
+    """Run input ``i`` of the strategy, option or API fuzzing; its outcome class."""
+    rng = random.Random(seed * 1_000_003 + i)
+    if kind == "strategies":
+        model, text = surface.strategy_text(rng)
+        return surface.check_strategy_text(model, text, tmp)
+    if kind == "options":
+        return surface.check_option_arguments(surface.option_arguments(rng), tmp)
+    name, arg, value = surface.api_call(rng, tmp)
+    return f"{name}: " + surface.check_api_call(name, arg, value, tmp)
 
 
 def one(i: int, seed: int, models: list[Path], pairs: list[tuple[Path, Path]], tmp: Path) -> str:
@@ -53,6 +70,8 @@ def one(i: int, seed: int, models: list[Path], pairs: list[tuple[Path, Path]], t
 
 def main() -> int:
     parser = argparse.ArgumentParser()
+    parser.add_argument("--surface", choices=["models", "strategies", "options", "api"],
+                        default="models")
     parser.add_argument("--count", type=int, default=100_000)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--seconds", type=float, default=float("inf"))
@@ -61,11 +80,18 @@ def main() -> int:
     )
     args = parser.parse_args()
     models, pairs = corpus()
-    print(f"corpus: {len(models)} models, {len(pairs)} properties files", flush=True)
+    if args.surface == "models":
+        print(f"corpus: {len(models)} models, {len(pairs)} properties files", flush=True)
+
+    def run(i: int, tmp: Path) -> str:
+        if args.surface == "models":
+            return one(i, args.seed, models, pairs, tmp)
+        return one_surface(args.surface, i, args.seed, tmp)
+
     with scratch() as tmp_name:
         tmp = Path(tmp_name)
         if args.replay is not None:
-            print(one(args.replay, args.seed, models, pairs, tmp))
+            print(run(args.replay, tmp))
             return 0
         start = time.monotonic()
         counts: Counter[str] = Counter()
@@ -75,7 +101,7 @@ def main() -> int:
             if time.monotonic() - start > args.seconds:
                 break
             try:
-                counts[one(i, args.seed, models, pairs, tmp)] += 1
+                counts[run(i, tmp)] += 1
             except OracleFailure as failure:
                 key = str(failure).splitlines()[0][:160]
                 if key not in failures:
@@ -83,11 +109,12 @@ def main() -> int:
                     print(f"FAIL at input {i}: {key}", flush=True)
                 counts["failed"] += 1
             done += 1
-            if done % 5000 == 0:
+            if done % (5000 if args.surface == "models" else 500) == 0:
                 rate = done / (time.monotonic() - start)
                 print(f"{done} inputs, {rate:.0f}/s, {dict(counts)}", flush=True)
     elapsed = time.monotonic() - start
-    print(f"\nseed {args.seed}: {done} inputs in {elapsed:.0f} s; outcomes {dict(counts)}")
+    print(f"\n{args.surface}, seed {args.seed}: {done} inputs in {elapsed:.0f} s; outcomes "
+          f"{dict(counts)}")
     print(f"{len(failures)} distinct failures")
     for key, i in failures.items():
         print(f"  input {i}: {key}")

@@ -2,7 +2,7 @@
 
 Usage:
     python benchmarks/synthesis_bench.py [--set posmg|pomdp] [--timeout 30] [--paynt-timeout 30]
-        [--only NAME ...] [--shared DIR]
+        [--only NAME ...] [--shared DIR] [--bracket] [--no-paynt]
 
 For every POSMG under posmg/ of the benchmarks folder (--shared, default $POSGMC_SHARED_BENCHMARKS
 or tests/data/benchmarks) with a DRN sketch (or, with --set pomdp, every POMDP under pomdp/;
@@ -15,11 +15,21 @@ value is the last "optimum" it prints. Prints a markdown table: our guaranteed w
 bounds, the full-observation value, vs_fss_adversary and upper_bound, the adversary phases
 (enumerated [all] / ranked / kept / added by the double oracle; which defence is reported), our
 time; PAYNT's value and time; who is better.
+
+With --bracket the table is the optimum bracket's instead (docs/synthesis.md): posgmc runs with
+`--gap 0` (the search gets 70 % of --timeout, the belief grid the rest), and on POMDPs Storm's
+belief-space bounds run in the same invocation with as much time as posgmc's bound side took
+(benchmarks/_storm_belief.py: the discretisation at resolution 2 and the finest that fits,
+and the belief unfolding). Columns: the bracket [lower, upper] and its gap, what proved the bound
+side, the full-observation value, Storm's discretisation at resolution 2 and the finest, Storm's
+unfolding, Storm's gap (discretisation's best - unfolding), whether the bracket contains every
+value a tool reaches (sound), and the time.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import subprocess
 import sys
@@ -41,10 +51,10 @@ def first_property(directory: Path) -> str:
     raise SystemExit(f"{directory}: no property")
 
 
-def ours(directory: Path, timeout: float) -> dict[str, object]:
+def ours(directory: Path, timeout: float, bracket: bool = False) -> dict[str, object]:
     sys.path.insert(0, str(ROOT))
     from posgmc import api
-    from posgmc.synthesis.options import SynthesisOptions
+    from posgmc.synthesis.options import Gap, SynthesisOptions
 
     prop = first_property(directory)
     started = time.perf_counter()
@@ -52,7 +62,8 @@ def ours(directory: Path, timeout: float) -> dict[str, object]:
         api.load(directory / "sketch.templ"),
         properties=[prop],
         zero_based_players=True,
-        synthesis=SynthesisOptions(timeout=timeout, started=started),  # loading counts
+        synthesis=SynthesisOptions(timeout=timeout, started=started,  # loading counts
+                                   gap=Gap(0.0) if bracket else None),
     )
     seconds = time.perf_counter() - started
     outcome = report.outcomes[0]
@@ -68,6 +79,8 @@ def ours(directory: Path, timeout: float) -> dict[str, object]:
     return {"property": prop, "guaranteed": outcome.guaranteed, "full": outcome.full_observation,
             "vs": outcome.vs_fss_adversary, "ub": outcome.upper_bound, "adversaries": adversaries,
             "memory": dict(outcome.memory), "partial": outcome.synthesis["partial"],
+            "optimum": outcome.optimum, "optimum_bound": stats.get("optimum_bound", {}),
+            "phases": stats.get("phases", {}),
             "deterministic": rounds[-1]["deterministic"] if rounds else None, "seconds": seconds}
 
 
@@ -91,6 +104,72 @@ def paynt(directory: Path, timeout: float) -> dict[str, object]:
     return {"value": float(values[-1]), "seconds": seconds}
 
 
+def storm_belief(directory: Path, prop: str, seconds: float) -> dict[str, object]:
+    """Storm's discretisation and unfolding bounds (benchmarks/_storm_belief.py), or an error;
+    what it printed last when it overran."""
+    if REFPY is None or not REFPY.exists():
+        return {"error": "no reference interpreter (POSGMC_REFERENCE_PYTHON)"}
+    cmd = [str(REFPY), str(ROOT / "benchmarks" / "_storm_belief.py"),
+           str(directory / "sketch.templ"), prop, f"{seconds:g}"]
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=3 * seconds + 60)
+        text = out.stdout
+    except subprocess.TimeoutExpired as e:
+        text = (e.stdout or b"").decode() if isinstance(e.stdout, bytes) else (e.stdout or "")
+    lines = [line for line in text.splitlines() if line.startswith("{")]
+    if not lines:
+        return {"error": "no result"}
+    found: dict[str, object] = json.loads(lines[-1])
+    return found
+
+
+def bracket_row(d: Path, timeout: float) -> str:
+    """One row of the --bracket table."""
+    a = ours(d, timeout, bracket=True)
+    prop = str(a["property"])
+    if "error" in a:
+        return f"| {d.name} | `{prop}` | error: {a['error']} |" + " - |" * 9
+    o = a["optimum"]
+    g = a["guaranteed"]
+    assert o is not None and g is not None  # noqa: S101 - synthesised results carry both
+    maximize = "max" in prop
+    stats = a["optimum_bound"]
+    assert isinstance(stats, dict)  # noqa: S101
+    grid_seconds = float(a["phases"].get("optimum bound", 0.0))
+    method = o.method.replace("|", "/")
+    d2 = dfine = unf = storm_gap = "-"
+    reached = [g.lower if maximize else g.upper]
+    storm_bounds: list[float] = []
+    if (d / "sketch.templ").exists() and "<<" not in prop:
+        st = storm_belief(d, prop, max(1.0, grid_seconds))
+        disc = st.get("discretisation") or []
+        assert isinstance(disc, list)  # noqa: S101
+        if disc:
+            d2 = f"{disc[0]['value']:.6f}"
+            best = min(disc, key=lambda r: (1 if maximize else -1) * r["value"])
+            dfine = f"{best['value']:.6f} (res {best['resolution']})"
+            storm_bounds.append(best["value"])
+        u = st.get("unfolding")
+        if isinstance(u, dict):
+            unf = f"{u['value']:.6f}" + (" (completed)" if u["completed"] else "")
+            reached.append(u["value"])
+            if disc:
+                storm_gap = f"{abs(best['value'] - u['value']):.6f}"
+        if "error" in st:
+            d2 = f"error: {st['error']}"
+    # sound: no value a strategy reaches (posgmc's, Storm's unfolding) beyond the bound side,
+    # and no bound Storm proves on the far side of the achieved one
+    sign = 1.0 if maximize else -1.0
+    side = o.upper if maximize else o.lower
+    achieved = o.lower if maximize else o.upper
+    sound = o.sound and all(sign * v <= sign * side + 1e-6 for v in reached) and all(
+        sign * v >= sign * achieved - 1e-6 for v in storm_bounds)
+    return (f"| {d.name} | `{prop.replace('|', '/')}` | [{o.lower:.6f}, {o.upper:.6f}] "
+            f"| {o.gap:.6f} | {method} | {a['full'].value:.6f} | {d2} | {dfine} | {unf} "
+            f"| {storm_gap} | {'yes' if sound else 'NO'} | {a['seconds']:.1f} "
+            f"({grid_seconds:.1f}) |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--timeout", type=float, default=30.0)
@@ -101,6 +180,9 @@ def main() -> None:
         "--shared", type=Path, default=SHARED,
         help="benchmarks folder (default: $POSGMC_SHARED_BENCHMARKS or tests/data/benchmarks)",
     )
+    ap.add_argument("--bracket", action="store_true",
+                    help="the optimum bracket's table, with Storm's belief-space bounds")
+    ap.add_argument("--no-paynt", action="store_true", help="do not run PAYNT")
     args = ap.parse_args()
     base = args.shared / args.set
     dirs = sorted(
@@ -108,6 +190,14 @@ def main() -> None:
     )
     if args.only:
         dirs = [d for d in dirs if d.name in args.only]
+    if args.bracket:
+        print("| model | property | optimum [lower, upper] | gap | bound side by "
+              "| full observation | Storm discr. res 2 | Storm discr. finest | Storm unfolding "
+              "| Storm gap | sound | posgmc s (bound side s) |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+        for d in dirs:
+            print(bracket_row(d, args.timeout), flush=True)
+        return
     print(
         "| model | property | posgmc guaranteed [lower, upper] | full observation "
         "| vs_fss_adversary | upper_bound | adversaries | memory | posgmc (s) "
@@ -116,7 +206,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for d in dirs:
         a = ours(d, args.timeout)
-        b = paynt(d, args.paynt_timeout)
+        b = paynt(d, args.paynt_timeout) if not args.no_paynt else {"error": "not run"}
         prop = str(a["property"]).replace("|", "\\|")
         if "error" in a:
             mine = f"error: {a['error']}"

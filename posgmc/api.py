@@ -881,6 +881,7 @@ def synthesize(
     zero_based_players: bool = False,
     build_options: BuildOptions = BuildOptions(),
     built: BuiltModel | None = None,
+    gap: float | str | None = None,
 ) -> PropertyResult:
     """Synthesise a finite-state strategy for the coalition of ``prop`` on a partially observable
     model, and verify it (docs/synthesis.md).
@@ -905,26 +906,37 @@ def synthesize(
         executor: where they run: ``"local"`` processes or ``"ray"`` actors on the Ray cluster
             at ``ray_address`` (``HOST:PORT``; None: Ray's ``RAY_ADDRESS``, else a Ray started
             for this process; ``pip install 'posgmc[ray]'``; docs/scale.md).
+        gap: refine the optimum bracket until ``upper - lower`` is at most this (a number, or a
+            percentage such as ``"5%"`` of the larger side) or the budget ends; the bound side
+            then gets a share of ``timeout``. None: a little time on top of it.
 
     Returns:
         The result: ``guaranteed`` (against every adversary), ``vs_fss_adversary``,
-        ``upper_bound``, ``full_observation``, each with proven bounds; ``strategies`` (the
+        ``upper_bound``, ``full_observation``, each with proven bounds; ``optimum`` (proven
+        bounds on the best value any strategy achieves, :class:`~posgmc.checking.results.
+        Optimum`); ``strategies`` (the
         decision maker's, then the worst adversary strategy found, then — when
         ``vs_fss_adversary`` is about it — the composed defence); ``synthesis`` (statistics).
 
     Raises:
         PosgmcError: the model, the property, or an objective synthesis does not cover.
     """
-    from posgmc.synthesis.options import SynthesisOptions, memory_sizes
+    from posgmc.synthesis.options import Gap, SynthesisOptions, memory_sizes
 
     session = _session(session)
     if not isinstance(prop, str):
         raise InputError(f"prop must be a property text, got {type(prop).__name__}")
     # every argument checked (SynthesisOptions names the field: timeout, effort, seed, jobs, ...)
     # before anything is built
+    if gap is None or isinstance(gap, str):
+        requested = None if gap is None else Gap.parse(gap)
+    elif isinstance(gap, (int, float)) and not isinstance(gap, bool):
+        requested = Gap(float(gap))
+    else:
+        raise InputError(f"gap must be a number or a percentage string such as '5%', got {gap!r}")
     options = SynthesisOptions(timeout=timeout, seed=seed, adversaries=adversaries, jobs=jobs,
                                effort=effort, executor=executor, ray_address=ray_address,
-                               belief=None if memory is None else False)
+                               belief=None if memory is None else False, gap=requested)
     if isinstance(memory, Mapping):
         for p in memory:
             if not isinstance(p, str):

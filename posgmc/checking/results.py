@@ -43,6 +43,31 @@ class Bound:
         return {"value": _num(self.value), "lower": _num(self.lower), "upper": _num(self.upper)}
 
 
+@dataclass(frozen=True)
+class Optimum:
+    """A proven bracket on the optimum: the best value *any* strategy of the decision maker (any
+    memory, randomised) achieves against every adversary (an omniscient one), with
+    ``lower <= optimum <= upper`` when ``sound``. One side is what the synthesised strategy
+    guarantees; the other (the bound side: ``upper`` for a maximising decision maker, ``lower``
+    for a minimising one) comes from ``method`` (docs/synthesis.md)."""
+
+    lower: float
+    upper: float
+    method: str
+    sound: bool = True
+
+    @property
+    def gap(self) -> float:
+        """``upper - lower`` (0 when both are the same infinity)."""
+        if self.lower == self.upper:
+            return 0.0
+        return self.upper - self.lower
+
+    def to_json(self) -> dict[str, Any]:
+        return {"lower": _num(self.lower), "upper": _num(self.upper), "gap": _num(self.gap),
+                "method": self.method}
+
+
 STRATEGY_NUMBERS = ("guaranteed", "vs_fss_adversary", "upper_bound")
 """The numbers about given or synthesised finite-state strategies, in the order they are reported;
 the JSON keys and :class:`PropertyResult`'s field names."""
@@ -137,7 +162,8 @@ class PropertyResult:
     In exact mode (PRISM's ``-exact``) ``exact`` is the value as a fraction, and ``lower``/
     ``upper`` are the doubles just around it.
     A synthesised result also has ``full_observation`` (the value when the decision maker sees
-    everything: no partially observing defence does better), ``synthesis`` (JSON-ready statistics:
+    everything: no partially observing defence does better), ``optimum`` (a proven bracket on
+    the best value any defence achieves, :class:`Optimum`), ``synthesis`` (JSON-ready statistics:
     ``partial``, ``phases``, ``rounds``) and ``strategies`` (the synthesised
     :class:`~posgmc.strategies.fss.FiniteStateStrategy` objects).
     """
@@ -162,6 +188,7 @@ class PropertyResult:
     upper_bound: Bound | None = None
     memory: tuple[tuple[str, int], ...] = ()
     full_observation: Bound | None = None
+    optimum: Optimum | None = None
     synthesis: Mapping[str, Any] | None = None
     strategies: tuple[Any, ...] = field(default=(), repr=False)
     exact: Fraction | None = None
@@ -207,6 +234,8 @@ class PropertyResult:
             out["memory"] = dict(self.memory)
         if self.full_observation is not None:
             out["full_observation"] = self.full_observation.to_json()
+        if self.optimum is not None:
+            out["optimum"] = self.optimum.to_json()
         if self.maximizing is not None:
             out["direction"] = "max" if self.maximizing else "min"
         if self.synthesis is not None:

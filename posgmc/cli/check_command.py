@@ -17,10 +17,12 @@ from posgmc.cli.options import (
     EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
+    capped_jobs,
     common,
     effort_option,
     executor_options,
     full_observation_option,
+    gap_option,
     memory_option,
     positive_finite,
     progress_options,
@@ -48,6 +50,10 @@ from posgmc.errors import InputError
 from posgmc.synthesis.budget import interrupted, interruptible
 
 __all__ = ["check", "not_passed"]
+
+
+BUILD_GRACE = 1.0
+"""Seconds a model build may always take under a given --timeout."""
 
 
 @main.command()
@@ -93,6 +99,7 @@ __all__ = ["check", "not_passed"]
 @effort_option
 @seed_option
 @progress_options
+@gap_option
 @click.option("--export-strategy", type=click.Path(), default=None,
               help="Write the optimal memoryless strategy of the property as JSON; for a "
               "synthesised strategy, a directory receiving <player>.json. Several properties or "
@@ -135,6 +142,7 @@ def check(
     seed: int,
     progress_lines: bool,
     quiet: bool,
+    gap: Any,
     export_strategy: str | None,
     as_json: bool,
     json_lines: bool,
@@ -169,6 +177,7 @@ def check(
         if export_strategy is not None:
             _check_export_extension(export_strategy, directory=None)
         strategies = strategy_options(strategy_files)
+        workers = capped_jobs(jobs) if executor == "local" else jobs  # a Ray cluster: its own
         options = CheckOptions(
             solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
             keep_strategy=export_strategy is not None,
@@ -204,13 +213,19 @@ def check(
                 property_files=props,
                 properties=prop_texts,
                 options=options,
-                build_options=build_options(state_limit, False, None),
+                build_options=build_options(
+                    state_limit, False, None,
+                    # a --timeout bounds the whole run, the build included, which is given
+                    # at least BUILD_GRACE: a tiny budget still reports what synthesis found
+                    # on a small model rather than no model at all
+                    deadline=None if timeout is None else loading + max(timeout, BUILD_GRACE)),
                 full_observation=full_observation,
                 zero_based_players=zero_based_players,
                 strategies=strategies or None,
-                synthesis=synthesis_options(memory, timeout, seed, adversaries, jobs,
+                synthesis=synthesis_options(memory, timeout, seed, adversaries, workers,
                                              started=loading, effort=effort,
-                                             executor=executor, ray_address=ray_address),
+                                             executor=executor, ray_address=ray_address,
+                                             gap=gap),
                 on_start=on_start,
                 on_outcome=on_outcome,
                 select=selected(select),

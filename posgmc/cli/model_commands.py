@@ -154,12 +154,15 @@ def build(
     guard(debug, run, as_json=as_json, consts=consts)
 
 
-def build_options(state_limit: int | None, no_fix_deadlocks: bool, progress: bool | None):  # type: ignore[no-untyped-def]
+def build_options(state_limit: int | None, no_fix_deadlocks: bool, progress: bool | None, *,  # type: ignore[no-untyped-def]
+                  deadline: float | None = None):
     from posgmc.compiler import BuildOptions, ProgressMode
 
-    kwargs: dict[str, Any] = {"fix_deadlocks": not no_fix_deadlocks}
+    kwargs: dict[str, Any] = {"fix_deadlocks": not no_fix_deadlocks, "deadline": deadline}
     if state_limit is not None:
+        # the user's limit replaces the guard on the memory available
         kwargs["state_limit"] = state_limit
+        kwargs["memory_guard"] = False
     if progress is not None:
         kwargs["progress"] = ProgressMode.ALWAYS if progress else ProgressMode.NEVER
     return BuildOptions(**kwargs)

@@ -22,8 +22,8 @@ __all__ = [
     "EXIT_OK", "EXIT_PROPERTY_FALSE", "EXIT_ERROR", "EXIT_INTERRUPTED",
     "common", "strict_option", "select_option", "selected", "zero_based_players_option",
     "full_observation_option", "memory_option", "timeout_option", "effort_option",
-    "progress_options", "seed_option", "executor_options", "positive_finite", "finite",
-    "nonnegative_finite",
+    "progress_options", "seed_option", "executor_options", "gap_option", "positive_finite",
+    "finite", "nonnegative_finite",
     "memory_sizes", "synthesis_options", "strategy_options",
 ]
 
@@ -140,7 +140,8 @@ def timeout_option(f: F) -> F:
         help="Synthesis: a wall-clock cap in seconds per property (per point of a sweep or "
         "front), the first counted from the start (loading included); default none. When it "
         "binds, the best defence so far is verified and the result says the timeout cut the "
-        "work budget (the numbers may then depend on the machine).",
+        "work budget (the numbers may then depend on the machine). For check, it also stops a "
+        "model build that outlasts it (after at least one second).",
     )(f)
 
 
@@ -193,6 +194,26 @@ def executor_options(f: F) -> F:
         help="Synthesis: workers for independent evaluations (results do not depend on it).",
     )(f)
     return f
+def _gap(_ctx: Any, _param: Any, value: str | None) -> Any:
+    if value is None:
+        return None
+    from posgmc.errors import InputError
+    from posgmc.synthesis.options import Gap
+
+    try:
+        return Gap.parse(value)
+    except InputError as e:
+        raise click.BadParameter(str(e), param_hint="'--gap'") from None
+
+
+def gap_option(f: F) -> F:
+    return click.option(
+        "--gap", "gap", metavar="EPS|EPS%", default=None, callback=_gap,
+        help="Synthesis: refine the optimum bracket (the proven bounds on what any defence "
+        "achieves) until upper - lower <= EPS (absolute, or EPS% of the larger side) or the "
+        "budget ends; the bound side then gets a share of --timeout. Without it the bound side "
+        "gets a little time on top of the search.",
+    )(f)
 
 
 def memory_sizes(text: str, given: str) -> tuple[int, ...]:
@@ -217,11 +238,12 @@ def memory_sizes(text: str, given: str) -> tuple[int, ...]:
 def synthesis_options(memory: Sequence[str] | str, timeout: float | None, seed: int,
                        adversaries: int = 10, jobs: int = 1, started: float | None = None,
                        effort: float = 1.0, executor: Literal["local", "ray"] = "local",
-                       ray_address: str | None = None) -> Any:
+                       ray_address: str | None = None, gap: Any = None) -> Any:
     """``--memory`` settings as memory sizes: ``2``, ``1..3``, ``auto`` (1..3) for the property's
     coalition, or ``PLAYER=...`` for a named player (the decision maker or the adversary);
     ``started``: where the first property's budget starts (``SynthesisOptions.started``);
-    ``executor``/``ray_address``: :func:`executor_options`."""
+    ``executor``/``ray_address``: :func:`executor_options`; ``gap``: the ``--gap`` (a
+    :class:`~posgmc.synthesis.options.Gap`) or None."""
     from posgmc.synthesis.options import SynthesisOptions
 
     if ray_address is not None and executor != "ray":
@@ -245,7 +267,20 @@ def synthesis_options(memory: Sequence[str] | str, timeout: float | None, seed: 
     return SynthesisOptions(memory=unnamed, timeout=timeout, seed=seed, adversaries=adversaries,
                             jobs=jobs, executor=executor, ray_address=ray_address,
                             player_memory=tuple(sorted(named.items())),
-                            belief=False if explicit else None, started=started, effort=effort)
+                            belief=False if explicit else None, started=started, effort=effort,
+                            gap=gap)
+
+
+def capped_jobs(jobs: int) -> int:
+    """``--jobs`` capped at the processors posgmc may use, saying so on stderr when it is."""
+    from posgmc.resources import usable_cpus
+
+    usable = usable_cpus()
+    if jobs > usable:
+        click.echo(f"warning: --jobs {jobs} capped at {usable}: the processors available to "
+                   "posgmc (more workers only compete for them)", err=True)
+        return usable
+    return jobs
 
 
 def strategy_options(values: Sequence[str]) -> dict[str | None, str]:

@@ -34,6 +34,7 @@ from posgmc.compiler.options import BuildOptions, ProgressMode
 from posgmc.compiler.program import Assignment, Command, Generator, GeneratorKind, Program
 from posgmc.compiler.state_space import StateIndex, make_index
 from posgmc.errors import BuildError, LimitError, SourceSpan
+from posgmc.resources import available_bytes, format_bytes, resident_bytes
 from posgmc.semantics import operators as ops
 from posgmc.syntax.ast import (
     NO_SPAN,
@@ -671,6 +672,47 @@ def _canonical(
     return src, gen, counts, keys, probs
 
 
+class _MemoryGuard:
+    """Stops exploring before memory runs out (``options.memory_guard``) or at
+    ``options.deadline``: after each batch, the memory the build took so far (growth of the
+    resident size) must still be available once more, for assembling the model."""
+
+    _MARGIN = 64 << 20
+    """Headroom kept beyond that, for the interpreter and the next batch's temporaries."""
+
+    def __init__(self, options: BuildOptions) -> None:
+        self.options = options
+        self.start = resident_bytes() or 0
+
+    def check(self, explored: int, num_found: int, progress: _Progress) -> None:
+        deadline = self.options.deadline
+        if deadline is not None and time.perf_counter() > deadline:
+            progress.update(explored, num_found, final=True)
+            raise LimitError(
+                f"the time budget ran out while building the model: {num_found:,} states found, "
+                f"{explored:,} explored",
+                hint="give a larger --timeout, or choose smaller constants",
+            )
+        if not self.options.memory_guard:
+            return
+        available = available_bytes()
+        resident = resident_bytes()
+        if available is None or resident is None:
+            return
+        taken = max(0, resident - self.start)
+        if available >= taken + self._MARGIN:
+            return
+        progress.update(explored, num_found, final=True)
+        raise LimitError(
+            f"the state space does not fit in memory: exploring stopped at {num_found:,} states "
+            f"found ({explored:,} explored), having taken {format_bytes(taken)}, with "
+            f"{format_bytes(available)} left (the kernel's available memory and the address-space "
+            "limit, ulimit -v)",
+            hint=f"choose smaller constants, or give --state-limit (e.g. --state-limit "
+            f"{2 * num_found}) to explore up to that many states regardless of memory",
+        )
+
+
 def explore(
     program: Program,
     options: BuildOptions,
@@ -722,6 +764,7 @@ def explore(
     explored = 0
     batch = 4096
     num_batches = 0
+    guard = _MemoryGuard(options)
     while explored < num_found:
         hi = min(num_found, explored + batch)
         n_batch = hi - explored
@@ -758,6 +801,7 @@ def explore(
                 f"{explored:,} explored",
                 hint="raise the state limit or choose smaller constants",
             )
+        guard.check(explored, num_found, progress)
         progress.update(explored, num_found)
         if on_states is not None:
             on_states(num_found)

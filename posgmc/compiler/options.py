@@ -39,6 +39,11 @@ class BuildOptions:
     the variables it pins to one value). ``exact``: explore in rational arithmetic (PRISM's
     ``-exact``, :mod:`posgmc.compiler.exact_explore`): the model carries its exact transition
     probabilities.
+    ``memory_guard``: stop with a :class:`~posgmc.errors.LimitError` once the memory still
+    available (:mod:`posgmc.resources`: the kernel's available memory and ``RLIMIT_AS``) is less
+    than what exploring has taken so far, so that assembling the model still fits (the CLI turns
+    it off when the user gives ``--state-limit``). ``deadline``: a ``time.perf_counter()`` value
+    at which exploring stops with a :class:`~posgmc.errors.LimitError` (None: no deadline).
     """
 
     state_limit: int = 50_000_000
@@ -50,6 +55,8 @@ class BuildOptions:
     probability_tolerance: float = 1e-9
     initial_state_limit: int = 1 << 28
     exact: bool = False
+    memory_guard: bool = True
+    deadline: float | None = None
 
 
 @dataclass(frozen=True, eq=False)

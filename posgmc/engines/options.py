@@ -57,6 +57,11 @@ class SolverOptions:
     """A ``time.perf_counter()`` value after which interval and value iteration stop as if
     ``max_iterations`` were reached (``converged=False``; interval bounds stay proven): for
     callers with a time budget (synthesis)."""
+    stiff_certificate: bool = True
+    """``INTERVAL``: when the iteration turns out stiff, try policy iteration with a certificate
+    (:mod:`posgmc.engines.solving`). Policy iteration has no deadline (its sparse LU solves run to
+    the end), so callers that must keep to ``deadline`` on large systems turn this off and get
+    interval iteration's bounds as far as it got."""
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.precision) and self.precision > 0):

@@ -289,7 +289,7 @@ def solve_system(
                        bounds.sound, best, candidates,
                        estimate=np.clip(x, bounds.lower, bounds.upper))
     if (options.method is Method.INTERVAL and certifiable and n <= _STIFF_LIMIT
-            and options.max_iterations > _STIFF_STEPS):
+            and options.max_iterations > _STIFF_STEPS and options.stiff_certificate):
         bounds = _interval(sys, replace(options, max_iterations=_STIFF_STEPS), cap=cap, ec=ec)
         if not bounds.converged:
             start, _ = choose(sys, bounds.lower, bounds.upper)

@@ -141,41 +141,84 @@ class BoundStrategy:
         """int64[...]: the strategy's observation index of each state (-1: no rule there)."""
         return np.asarray(self.obs_map[self.view.state_obs[states]])
 
-    def action_probability(self, model: ExplicitModel, memory: np.ndarray,
-                           choices: np.ndarray) -> np.ndarray:
-        """γ(n, z(s), a(c)) for pairs of memory nodes and (global) choice indices of its states."""
+    def entries(self, model: ExplicitModel, memory: np.ndarray, choices: np.ndarray) -> np.ndarray:
+        """int64[...]: the strategy's played-action entry for pairs of memory nodes and (global)
+        choice indices of its states; -1 where it has no rule or does not play the choice."""
         states = model.choice_states[choices]
         z = self.strategy_observation(states)
         a = self.action_map[model.choice_actions[choices]]
-        ok = (z >= 0) & (a >= 0)
-        out = np.zeros(np.shape(choices))
-        out[ok] = self.fss.action[memory[ok], z[ok], a[ok]]
-        return out
+        return self.fss.entry_at(memory, z, a)
+
+    def action_probability(self, model: ExplicitModel, memory: np.ndarray,
+                           choices: np.ndarray) -> np.ndarray:
+        """γ(n, z(s), a(c)) for pairs of memory nodes and (global) choice indices of its states."""
+        e = self.entries(model, memory, choices)
+        return np.where(e >= 0, self.fss.choice_probability[np.maximum(e, 0)], 0.0) \
+            if self.fss.choice_probability.size else np.zeros(np.shape(e))
 
     def update_rows(self, model: ExplicitModel, memory: np.ndarray,
                     choices: np.ndarray) -> np.ndarray:
         """float64[..., k]: δ(n, z(s), a(c)) for pairs of memory nodes and choices (rows of zeros
-        where the strategy has no rule or never plays the choice's action)."""
-        states = model.choice_states[choices]
-        z = self.strategy_observation(states)
-        a = self.action_map[model.choice_actions[choices]]
-        ok = (z >= 0) & (a >= 0)
-        out = np.zeros(np.shape(choices) + (self.memory_size,))
-        out[ok] = self.fss.update[memory[ok], z[ok], a[ok]]
+        where the strategy has no rule or never plays the choice's action). Dense in k: for a few
+        pairs (simulation); products use :meth:`entries` and the strategy's update lists."""
+        e = self.entries(model, memory, choices)
+        out = np.zeros(np.shape(e) + (self.memory_size,))
+        flat = out.reshape(-1, self.memory_size)
+        pair = np.flatnonzero(e.reshape(-1) >= 0)
+        ee = e.reshape(-1)[pair]
+        start, stop = self.fss.update_start[ee], self.fss.update_start[ee + 1]
+        counts = stop - start
+        u = np.repeat(start - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
+        flat[np.repeat(pair, counts), self.fss.update_node[u]] = self.fss.update_probability[u]
         return out
+
+    def update_distribution(self, model: ExplicitModel, memory: int, choice: int
+                            ) -> tuple[np.ndarray, np.ndarray]:
+        """The next memory nodes and their probabilities δ(n, z(s), a(c)) for one memory node and
+        choice (both empty where the strategy has no rule or never plays the choice)."""
+        e = int(self.entries(model, np.array([memory]), np.array([choice]))[0])
+        if e < 0:
+            return np.zeros(0, dtype=np.int64), np.zeros(0)
+        lo, hi = int(self.fss.update_start[e]), int(self.fss.update_start[e + 1])
+        return self.fss.update_node[lo:hi], self.fss.update_probability[lo:hi]
 
     def missing_rule(self, memory: np.ndarray, states: np.ndarray) -> np.ndarray:
         """bool[...]: the strategy has no rule for (n, z(s))."""
-        z = self.strategy_observation(states)
-        out = z < 0
-        ok = ~out
-        out[ok] = ~self.fss.has_rule[memory[ok], z[ok]]
-        return out
+        return np.asarray(self.fss.rule_of(memory, self.strategy_observation(states)) < 0)
 
 
-def _where(fss: FiniteStateStrategy, n: int, z: int, tail: str = "") -> str | None:
-    path = fss.rule_path(n, z)
-    return path + tail if path is not None else None
+_SHOWN_WARNINGS = 3
+"""How many rules for unseen observations are named one by one before the rest are counted."""
+
+
+def _rule_where(fss: FiniteStateStrategy, r: int, tail: str = "") -> str | None:
+    """The JSON path of rule r (plus ``tail``), if the strategy was read from a file."""
+    if fss.rule_source is None or fss.rule_source[r] < 0:
+        return None
+    return f"rules[{int(fss.rule_source[r])}]{tail}"
+
+
+def _unseen_warnings(fss: FiniteStateStrategy, who: str, produced: np.ndarray
+                     ) -> tuple[str, ...]:
+    """Warnings for the rules about observations the model never shows the player: the first
+    few by name, then how many more (linear in the rules)."""
+    unseen = np.flatnonzero(~produced[fss.rule_observation])
+    if not unseen.size:
+        return ()
+    if fss.rule_source is not None:  # in the order of the file
+        unseen = unseen[np.argsort(fss.rule_source[unseen], kind="stable")]
+    file = fss.source or "strategy"
+    out = [
+        f"{file}: {_rule_where(fss, r) or ''}: the model never shows {who} the "
+        f"observation {fss.describe_observation(int(fss.rule_observation[r]))}"
+        for r in unseen[:_SHOWN_WARNINGS].tolist()
+    ]
+    if unseen.size > _SHOWN_WARNINGS:
+        out.append(
+            f"{file}: {unseen.size - _SHOWN_WARNINGS} more rules ({unseen.size} in all) are for "
+            f"observations the model never shows {who}"
+        )
+    return tuple(out)
 
 
 def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
@@ -214,30 +257,30 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
     lookup = np.full(int(inverse.max(initial=-1)) + 1, -1, dtype=np.int64)
     lookup[key_fss] = np.arange(Zs)
     obs_map = lookup[key_model]
+    model_of = np.full(Zs, -1, dtype=np.int64)  # the model's id of each strategy observation
+    model_of[obs_map[obs_map >= 0]] = np.flatnonzero(obs_map >= 0)
     produced = np.zeros(Zs, dtype=bool)
     owned_obs = np.unique(view.state_obs[owned])
     produced[obs_map[owned_obs][obs_map[owned_obs] >= 0]] = True
-    ruled = fss.has_rule.any(axis=0)
-    warnings = tuple(
-        f"{file or 'strategy'}: {_where(fss, int(np.argmax(fss.has_rule[:, z])), z) or ''}: "
-        f"the model never shows {view.who} the observation {fss.describe_observation(z)}"
-        for z in np.flatnonzero(ruled & ~produced).tolist()
-    )
+    warnings = _unseen_warnings(fss, view.who, produced)
 
     # -- actions ---------------------------------------------------------------------------------
     names = {a: i for i, a in enumerate(model.action_names)}
     action_map = np.full(len(model.action_names), -1, dtype=np.int64)
-    for j, label in enumerate(fss.actions):
-        if label in names:
-            action_map[names[label]] = j
-        elif np.any(fss.action[:, :, j] > 0):
-            n, z = map(int, np.argwhere(fss.action[:, :, j] > 0)[0])
-            raise StrategyError(
-                f"the model has no action labelled {label!r}",
-                path=_where(fss, n, z, f".action.{label}"),
-                file=file,
-                hint="actions are named by their label, e.g. [fwd] in the model is \"fwd\"",
-            )
+    label_model = np.array([names.get(label, -1) for label in fss.actions], dtype=np.int64)
+    action_map[label_model[label_model >= 0]] = np.flatnonzero(label_model >= 0)
+    entry_rule = np.repeat(np.arange(fss.num_rules), np.diff(fss.choice_start))
+    unknown = np.flatnonzero(label_model[fss.choice_action] < 0) if fss.num_actions else \
+        np.zeros(0, dtype=np.int64)
+    if unknown.size:
+        first = int(unknown[0])
+        r, label = int(entry_rule[first]), fss.actions[int(fss.choice_action[first])]
+        raise StrategyError(
+            f"the model has no action labelled {label!r}",
+            path=_rule_where(fss, r, f".action.{label}"),
+            file=file,
+            hint="actions are named by their label, e.g. [fwd] in the model is \"fwd\"",
+        )
 
     # -- the labels each observation offers (states of one observation must agree) -------------
     rows = np.flatnonzero(owned[model.choice_states])
@@ -267,20 +310,18 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
             f"different actions: {model.action_names[a]!r} is enabled in some of them only",
             hint="states a player cannot tell apart must offer it the same action labels",
         )
-    # every played label must be offered under the rule's observation (in the strategy's numbers)
-    known = np.flatnonzero(action_map >= 0)
-    seen = np.flatnonzero(obs_map >= 0)
-    offered_fss = np.zeros((Zs, fss.num_actions), dtype=bool)
-    offered_fss[np.ix_(obs_map[seen], action_map[known])] = offered[np.ix_(seen, known)]
-    bad = (fss.action > 0) & ~offered_fss[None, :, :] & produced[None, :, None]
+    # every played label must be offered under the rule's observation (one test per entry)
+    z_entry = fss.rule_observation[entry_rule]
+    bad = produced[z_entry]
+    bad[bad] = ~offered[model_of[z_entry[bad]], label_model[fss.choice_action[bad]]]
     if np.any(bad):
-        n, z, j = map(int, np.argwhere(bad)[0])
-        z_model = int(np.flatnonzero(obs_map == z)[0])
-        enabled = [model.action_names[a] for a in np.flatnonzero(offered[z_model])]
+        first = int(np.argmax(bad))
+        r, j, z = int(entry_rule[first]), int(fss.choice_action[first]), int(z_entry[first])
+        enabled = [model.action_names[a] for a in np.flatnonzero(offered[model_of[z]])]
         raise StrategyError(
             f"action {fss.actions[j]!r} is not enabled under the observation "
             f"{fss.describe_observation(z)} (enabled: {', '.join(map(repr, enabled)) or 'none'})",
-            path=_where(fss, n, z, f".action.{fss.actions[j]}"),
+            path=_rule_where(fss, r, f".action.{fss.actions[j]}"),
             file=file,
         )
     return BoundStrategy(fss, view, obs_map, action_map, owned, warnings)

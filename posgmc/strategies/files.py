@@ -28,6 +28,7 @@ same arrays.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -37,11 +38,17 @@ from typing import Any
 import numpy as np
 
 from posgmc.errors import InputError, SourceSpan, SourceText
-from posgmc.strategies.fss import PROBABILITY_TOLERANCE, FiniteStateStrategy, StrategyError
+from posgmc.strategies.fss import (
+    MAX_MEMORY_SIZE,
+    PROBABILITY_TOLERANCE,
+    FiniteStateStrategy,
+    StrategyError,
+)
 
 __all__ = ["FORMAT", "read_strategy", "read_strategies", "parse_strategy", "strategy_from_json",
            "strategy_to_json", "write_strategy", "dump_strategy", "is_memoryless_document",
-           "memoryless_players", "read_strategy_for", "write_memoryless_strategy"]
+           "memoryless_players", "read_strategy_for", "write_memoryless_strategy",
+           "rules_in_order"]
 
 FORMAT = "posgmc-fss/1"
 _TOP_KEYS = {"format", "player", "memory_size", "initial_memory", "observables", "rules"}
@@ -117,11 +124,7 @@ def read_strategy_for(path: str | Path, model: Any, *,
             raise _fail(f"choice {c} of state {s} is not labelled {entry['action']!r}",
                         f"{where}.action", name)
         choices[s] = first + c
-    out = memoryless_strategy(model, index, choices)
-    return FiniteStateStrategy(
-        player=out.player, memory_size=1, initial_memory=0, observables=out.observables,
-        observation_values=out.observation_values, actions=out.actions, action=out.action,
-        update=out.update, boolean=out.boolean, source=name)
+    return dataclasses.replace(memoryless_strategy(model, index, choices), source=name)
 
 
 def read_strategies(path: str | Path) -> tuple[FiniteStateStrategy, ...]:
@@ -139,10 +142,13 @@ def read_strategies(path: str | Path) -> tuple[FiniteStateStrategy, ...]:
 
 def _json(text: str, file: str | None) -> Any:
     try:
-        return json.loads(text)
+        return json.loads(text, parse_int=_parse_int)
     except json.JSONDecodeError as e:
         error = InputError(f"not valid JSON: {e.msg}", SourceSpan(e.lineno, e.colno, file=file))
         raise error.with_source(SourceText(text, file)) from None
+    except RecursionError:
+        raise InputError(f"{file or 'strategy'}: the JSON nests too deeply to be a strategy file",
+                         hint="a strategy file nests five levels deep") from None
 
 
 def parse_strategy(text: str, *, file: str | None = None,
@@ -151,13 +157,42 @@ def parse_strategy(text: str, *, file: str | None = None,
     return strategy_from_json(_json(text, file), file=file, player=player)
 
 
+class _HugeInt(str):
+    """A JSON integer with more digits than any field of a strategy can hold (kept as its text,
+    so that Python's 4300-digit limit on ``int()`` is never reached and the field's check reports
+    it with its JSON path)."""
+
+
+_DIGITS = 40
+"""Integers with more digits than this are beyond 64 bits, and are never converted."""
+
+
+def _parse_int(text: str) -> int | _HugeInt:
+    return _HugeInt(text) if len(text.lstrip("-")) > _DIGITS else int(text)
+
+
+def _shown(value: Any) -> str:
+    """``value`` as JSON for a message, cut to about 60 characters."""
+    text = str(value) if isinstance(value, _HugeInt) else json.dumps(value)
+    if len(text) > 60:
+        return f"{text[:40]}... ({len(text)} characters)"
+    return text
+
+
 def _fail(message: str, path: str, file: str | None, hint: str | None = None) -> StrategyError:
     return StrategyError(message, path=path, file=file, hint=hint)
 
 
+_INT64 = (-(1 << 63), (1 << 63) - 1)
+
+
 def _int(value: Any, path: str, file: str | None, what: str) -> int:
+    if isinstance(value, _HugeInt) or (
+        isinstance(value, int) and not _INT64[0] <= value <= _INT64[1]
+    ):
+        raise _fail(f"{what} {_shown(value)} is beyond 64-bit integers", path, file)
     if isinstance(value, bool) or not isinstance(value, int):
-        raise _fail(f"{what} must be an integer, got {json.dumps(value)}", path, file)
+        raise _fail(f"{what} must be an integer, got {_shown(value)}", path, file)
     return value
 
 
@@ -165,7 +200,7 @@ def _probability(value: Any, path: str, file: str | None) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
             or not 0.0 <= value <= 1.0:
         raise _fail(
-            f"a probability must be a number in [0, 1], got {json.dumps(value)}", path, file
+            f"a probability must be a number in [0, 1], got {_shown(value)}", path, file
         )
     return float(value)
 
@@ -173,11 +208,25 @@ def _probability(value: Any, path: str, file: str | None) -> float:
 def _distribution(value: Any, path: str, file: str | None, what: str) -> dict[str, float]:
     if not isinstance(value, dict) or not value:
         raise _fail(f"{what} must be a non-empty object of probabilities", path, file)
-    out = {str(k): _probability(v, f"{path}.{k}", file) for k, v in value.items()}
+    out = {str(k): _probability(v, _child(path, str(k)), file) for k, v in value.items()}
     total = math.fsum(out.values())
     if abs(total - 1.0) > PROBABILITY_TOLERANCE:
         raise _fail(f"the probabilities of {what} sum to {total!r}, not 1", path, file)
     return out
+
+
+def _key(name: str) -> str:
+    """A JSON object key for a message, cut when it is very long."""
+    return name if len(name) <= 60 else f"{name[:40]}...({len(name)} characters)"
+
+
+def _child(path: str, key: str) -> str:
+    """The JSON path of member ``key`` of the object at ``path``: ``rules[0].action.fwd``, or
+    ``["a b"]`` for a key that is empty or not a plain name."""
+    shown = _key(key)
+    if key and all(c.isalnum() or c in "_-" for c in key):
+        return f"{path}.{shown}" if path else shown
+    return f"{path}[{json.dumps(shown)}]"
 
 
 def is_memoryless_document(doc: Any) -> bool:
@@ -259,6 +308,9 @@ def strategy_from_json(doc: Any, *, file: str | None = None,
     strategy (:func:`is_memoryless_document`): then ``player``'s strategy, with one memory node
     (``player`` None: the only player who chooses in it).
 
+    Time and memory are linear in the document's size (the memory size only bounds the nodes
+    rules may name).
+
     Raises:
         StrategyError: with the JSON path of the first problem.
     """
@@ -278,11 +330,12 @@ def strategy_from_json(doc: Any, *, file: str | None = None,
     for key in doc:
         if key not in _TOP_KEYS:
             raise _fail(
-                f"unknown field {key!r} (fields: {', '.join(sorted(_TOP_KEYS))})", key, file
+                f"unknown field {_key(key)!r} (fields: {', '.join(sorted(_TOP_KEYS))})",
+                _child("", key), file
             )
     if doc.get("format") != FORMAT:
         raise _fail(
-            f"format must be {FORMAT!r}, got {json.dumps(doc.get('format'))}", "format", file
+            f"format must be {FORMAT!r}, got {_shown(doc.get('format'))}", "format", file
         )
     for key in ("player", "memory_size", "observables", "rules"):
         if key not in doc:
@@ -293,6 +346,9 @@ def strategy_from_json(doc: Any, *, file: str | None = None,
     k = _int(doc["memory_size"], "memory_size", file, "memory_size")
     if k < 1:
         raise _fail(f"memory_size must be at least 1, got {k}", "memory_size", file)
+    if k > MAX_MEMORY_SIZE:
+        raise _fail(f"memory_size {k} is more than the largest supported, {MAX_MEMORY_SIZE}",
+                    "memory_size", file)
     n_init = _int(doc.get("initial_memory", 0), "initial_memory", file, "initial_memory")
     if not 0 <= n_init < k:
         raise _fail(
@@ -310,16 +366,25 @@ def strategy_from_json(doc: Any, *, file: str | None = None,
     obs_index: dict[tuple[int, ...], int] = {}
     boolean = [False] * len(observables)
     act_index: dict[str, int] = {}
-    parsed: list[tuple[int, int, dict[str, float], dict[str, dict[int, float]]]] = []
     seen: dict[tuple[int, int], int] = {}
+    rule_memory: list[int] = []
+    rule_obs: list[int] = []
+    entry_rule: list[int] = []
+    entry_action: list[int] = []
+    entry_prob: list[float] = []
+    update_entry: list[int] = []
+    update_node: list[int] = []
+    update_prob: list[float] = []
     for i, rule in enumerate(rules):
         here = f"rules[{i}]"
         if not isinstance(rule, dict):
             raise _fail("a rule must be an object", here, file)
         for key in rule:
             if key not in _RULE_KEYS:
-                raise _fail(f"unknown field {key!r} (fields: {', '.join(sorted(_RULE_KEYS))})",
-                            f"{here}.{key}", file)
+                raise _fail(
+                    f"unknown field {_key(key)!r} (fields: {', '.join(sorted(_RULE_KEYS))})",
+                    _child(here, key), file
+                )
         for key in ("memory", "observation", "action"):
             if key not in rule:
                 raise _fail(f"the field {key!r} is missing", f"{here}.{key}", file)
@@ -334,76 +399,77 @@ def strategy_from_json(doc: Any, *, file: str | None = None,
             raise _fail(f"a second rule for memory {n} and this observation (the first is "
                         f"rules[{seen[n, z]}])", here, file)
         seen[n, z] = i
+        rule_memory.append(n)
+        rule_obs.append(z)
         action = _distribution(rule["action"], f"{here}.action", file, "the action")
-        for label in action:
-            act_index.setdefault(label, len(act_index))
-        update: dict[str, dict[int, float]] = {}
-        if "update" in rule:
-            raw = rule["update"]
-            if not isinstance(raw, dict):
-                raise _fail("update must be an object: action -> {node: probability}",
-                            f"{here}.update", file)
-            for label, dist in raw.items():
-                upath = f"{here}.update.{label}"
-                if label not in action:
-                    raise _fail(f"an update for action {label!r}, which the rule does not play",
-                                upath, file)
-                nodes = _distribution(dist, upath, file, f"the update of {label!r}")
-                update[label] = {}
-                for node, prob in nodes.items():
-                    try:
-                        m = int(node)
-                    except ValueError:
-                        m = -1
-                    if str(m) != node or not 0 <= m < k:
-                        raise _fail(f"{node!r} is not a memory node (0..{k - 1})",
-                                    f"{upath}.{node}", file)
-                    update[label][m] = prob
-        parsed.append((n, z, action, update))
-
-    Z, A = len(obs_index), len(act_index)
-    gamma = np.zeros((k, Z, A))
-    delta = np.zeros((k, Z, A, k))
-    rule_index = np.full((k, Z), -1, dtype=np.int64)
-    for i, (n, z, action, update) in enumerate(parsed):
-        rule_index[n, z] = i
+        update = rule.get("update", {})
+        if not isinstance(update, dict):
+            raise _fail("update must be an object: action -> {node: probability}",
+                        f"{here}.update", file)
+        for label in update:
+            if label not in action:
+                raise _fail(f"an update for action {_key(label)!r}, which the rule does not play",
+                            _child(f"{here}.update", label), file)
         for label, prob in action.items():
-            a = act_index[label]
-            gamma[n, z, a] = prob
-            if label in update:
-                for m, q in update[label].items():
-                    delta[n, z, a, m] = q
-            else:
-                delta[n, z, a, n] = 1.0
+            entry = len(entry_rule)
+            entry_rule.append(i)
+            entry_action.append(act_index.setdefault(label, len(act_index)))
+            entry_prob.append(prob)
+            if label not in update:
+                update_entry.append(entry)
+                update_node.append(n)
+                update_prob.append(1.0)
+                continue
+            upath = _child(f"{here}.update", label)
+            nodes = _distribution(update[label], upath, file, f"the update of {_key(label)!r}")
+            for node, q in nodes.items():
+                m = int(node) if node.isascii() and node.isdigit() and len(node) <= _DIGITS \
+                    else -1
+                if str(m) != node or not 0 <= m < k:
+                    raise _fail(f"{_key(node)!r} is not a memory node (0..{k - 1})",
+                                _child(upath, node), file)
+                update_entry.append(entry)
+                update_node.append(m)
+                update_prob.append(q)
+
+    Z = len(obs_index)
     values = np.array(list(obs_index), dtype=np.int64).reshape(Z, max(len(observables), 1))
-    return FiniteStateStrategy(
+    return FiniteStateStrategy.from_entries(
         player=player,
         memory_size=k,
         initial_memory=n_init,
         observables=tuple(observables),
         observation_values=values,
         actions=tuple(act_index),
-        action=gamma,
-        update=delta,
+        rule_memory=np.array(rule_memory, dtype=np.int64),
+        rule_observation=np.array(rule_obs, dtype=np.int64),
+        entry_rule=np.array(entry_rule, dtype=np.int64),
+        entry_action=np.array(entry_action, dtype=np.int64),
+        entry_probability=np.array(entry_prob, dtype=np.float64),
+        update_entry=np.array(update_entry, dtype=np.int64),
+        update_node=np.array(update_node, dtype=np.int64),
+        update_probability=np.array(update_prob, dtype=np.float64),
         boolean=tuple(boolean) if any(boolean) else (),
         source=file,
-        rule_index=rule_index,
+        rule_source=np.arange(len(rules), dtype=np.int64),
     )
 
 
 def _observation(value: Any, observables: list[str], boolean: list[bool], path: str,
                  file: str | None) -> tuple[int, ...]:
     if not observables:
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        if isinstance(value, bool) or not isinstance(value, (int, _HugeInt)) or (
+            isinstance(value, int) and value < 0
+        ):
             raise _fail("with no observables (a model read from DRN) an observation is its id, a "
-                        f"non-negative integer; got {json.dumps(value)}", path, file)
-        return (value,)
+                        f"non-negative integer; got {_shown(value)}", path, file)
+        return (_int(value, path, file, "the observation id"),)
     if not isinstance(value, dict):
         raise _fail("an observation must be an object: observable -> value", path, file)
     for key in value:
         if key not in observables:
-            raise _fail(f"{key!r} is not one of the observables ({', '.join(observables)})",
-                        f"{path}.{key}", file)
+            raise _fail(f"{_key(key)!r} is not one of the observables ({', '.join(observables)})",
+                        _child(path, key), file)
     out = []
     for j, name in enumerate(observables):
         if name not in value:
@@ -412,56 +478,63 @@ def _observation(value: Any, observables: list[str], boolean: list[bool], path: 
         if isinstance(v, bool):
             boolean[j] = True
             out.append(int(v))
-        elif isinstance(v, int):
-            out.append(v)
+        elif isinstance(v, (int, _HugeInt)):
+            out.append(_int(v, f"{path}.{name}", file, f"the value of {name!r}"))
         else:
             raise _fail(f"an observable's value must be an integer or true/false, got "
-                        f"{json.dumps(v)}", f"{path}.{name}", file)
+                        f"{_shown(v)}", f"{path}.{name}", file)
     return tuple(out)
+
+
+def rules_in_order(fss: FiniteStateStrategy) -> np.ndarray:
+    """int64[R]: the strategy's rules sorted by memory node, then by observation values."""
+    Z = fss.num_observations
+    rank = np.empty(Z, dtype=np.int64)
+    if Z:
+        rank[np.lexsort(fss.observation_values.T[::-1])] = np.arange(Z)
+    return np.lexsort((rank[fss.rule_observation], fss.rule_memory)).astype(np.int64)
+
+
+def _rule_json(fss: FiniteStateStrategy, r: int, boolean: tuple[bool, ...]) -> dict[str, Any]:
+    n, z = int(fss.rule_memory[r]), int(fss.rule_observation[r])
+    row = fss.observation_values[z].tolist()
+    if fss.observables:
+        observation: Any = {
+            name: (bool(v) if b else int(v)) for name, v, b in zip(fss.observables, row, boolean)
+        }
+    else:
+        observation = int(row[0])
+    entries = sorted(range(int(fss.choice_start[r]), int(fss.choice_start[r + 1])),
+                     key=lambda e: fss.actions[int(fss.choice_action[e])])
+    rule: dict[str, Any] = {
+        "memory": n,
+        "observation": observation,
+        "action": {fss.actions[int(fss.choice_action[e])]: float(fss.choice_probability[e])
+                   for e in entries},
+    }
+    update = {}
+    for e in entries:
+        lo, hi = int(fss.update_start[e]), int(fss.update_start[e + 1])
+        nodes = fss.update_node[lo:hi].tolist()
+        if not (nodes == [n] and fss.update_probability[lo] == 1.0):
+            update[fss.actions[int(fss.choice_action[e])]] = {
+                str(m): float(q) for m, q in zip(nodes, fss.update_probability[lo:hi].tolist())
+            }
+    if update:
+        rule["update"] = update
+    return rule
 
 
 def strategy_to_json(fss: FiniteStateStrategy) -> dict[str, Any]:
     """The ``posgmc-fss/1`` document of a strategy (rules sorted by memory, then observation)."""
-    order = np.lexsort(fss.observation_values.T[::-1]) if fss.num_observations else np.zeros(0, int)
     boolean = fss.boolean or (False,) * len(fss.observables)
-    rules = []
-    for n in range(fss.memory_size):
-        for z in order.tolist():
-            if not fss.has_rule[n, z]:
-                continue
-            row = fss.observation_values[z].tolist()
-            if fss.observables:
-                observation: Any = {
-                    name: (bool(v) if b else int(v))
-                    for name, v, b in zip(fss.observables, row, boolean)
-                }
-            else:
-                observation = int(row[0])
-            played = sorted(
-                np.flatnonzero(fss.action[n, z] > 0).tolist(), key=lambda a: fss.actions[a]
-            )
-            rule: dict[str, Any] = {
-                "memory": n,
-                "observation": observation,
-                "action": {fss.actions[a]: float(fss.action[n, z, a]) for a in played},
-            }
-            update = {}
-            for a in played:
-                dist = fss.update[n, z, a]
-                if not (dist[n] == 1.0 and np.count_nonzero(dist) == 1):
-                    update[fss.actions[a]] = {
-                        str(m): float(dist[m]) for m in np.flatnonzero(dist > 0)
-                    }
-            if update:
-                rule["update"] = update
-            rules.append(rule)
     return {
         "format": FORMAT,
         "player": fss.player,
         "memory_size": fss.memory_size,
         "initial_memory": fss.initial_memory,
         "observables": list(fss.observables),
-        "rules": rules,
+        "rules": [_rule_json(fss, r, boolean) for r in rules_in_order(fss).tolist()],
     }
 
 

@@ -71,8 +71,8 @@ def mix(f1: FiniteStateStrategy, f2: FiniteStateStrategy, alpha: float) -> Finit
     safe = np.where(first > 0, first, 1.0)[:, :, None]
     update[0, :, :, 1:1 + k1] = (w1 * g1)[:, :, None] * u1[f1.initial_memory] / safe
     update[0, :, :, 1 + k1:] = (w2 * g2)[:, :, None] * u2[f2.initial_memory] / safe
-    return FiniteStateStrategy(
-        player=f1.player, memory_size=k, initial_memory=0, observables=f1.observables,
+    return FiniteStateStrategy.from_arrays(
+        player=f1.player, initial_memory=0, observables=f1.observables,
         observation_values=rows.astype(np.int64), actions=actions, action=action, update=update,
         boolean=f1.boolean or f2.boolean,
     )

@@ -34,8 +34,9 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from posgmc.model.explicit import ExplicitModel, Observation, RewardModel, make_model
+from posgmc.resources import check_allocation
 from posgmc.strategies.binding import BoundStrategy, _state_text
-from posgmc.strategies.fss import StrategyError
+from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 from posgmc.syntax.ast import ModelType
 
 __all__ = ["StrategyProduct", "strategy_product"]
@@ -96,7 +97,10 @@ class _Layout:
     ``s * K + m``. ``ks``/``strides``: each strategy's memory size and its place in m;
     ``fixed_by``: int64[S], the strategy owning each state (-1: none); ``counts``: int64[S * K],
     each product state's rows (one for a fixed state, the model's choices otherwise);
-    ``row_start``: int64[S * K], its first row; ``memories``: int64[K] = 0..K-1."""
+    ``row_start``: int64[S * K], its first row; ``memories``: int64[K] = 0..K-1; ``nodes``: per
+    strategy, int64[k_i] the memory nodes it can enter (sorted): only those are laid out, so its
+    i-th is the memory node of compact number i (a ``memory_size`` far above the nodes its rules
+    use costs nothing)."""
 
     num_states: int
     ks: list[int]
@@ -106,6 +110,7 @@ class _Layout:
     row_start: np.ndarray
     num_rows: int
     memories: np.ndarray
+    nodes: list[np.ndarray]
 
     @property
     def K(self) -> int:  # noqa: N802 - the joint memory size, as in the module docstring
@@ -115,9 +120,17 @@ class _Layout:
 def _layout(model: ExplicitModel, strategies: tuple[BoundStrategy, ...]) -> _Layout:
     """The product's layout: which states the strategies fix and the rows of every product state."""
     S, rg = model.num_states, model.row_groups
-    ks = [b.memory_size for b in strategies]
+    nodes = [_entered_nodes(b.fss) for b in strategies]
+    ks = [int(n.size) for n in nodes]
     K = math.prod(ks)
     strides = [math.prod(ks[i + 1:]) for i in range(len(ks))]
+    # the product is laid out over all S·K pairs before the reachable part is cut out
+    check_allocation(
+        (48.0 * S + 24.0 * model.transitions.nnz) * K,
+        f"the product of the model ({S:,} states) with the strategies' memory "
+        f"({' x '.join(map(str, ks))} = {K:,} joint memory nodes)",
+        hint="use strategies with fewer memory nodes, or a smaller model",
+    )
     num_choices = np.diff(rg)
     fixed_by = np.full(S, -1, dtype=np.int64)
     for i, b in enumerate(strategies):
@@ -126,7 +139,24 @@ def _layout(model: ExplicitModel, strategies: tuple[BoundStrategy, ...]) -> _Lay
     counts = np.repeat(rows_per_state, K)  # product state s*K + m
     prod_rg = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     return _Layout(S, ks, strides, fixed_by, counts, prod_rg[:-1], int(prod_rg[-1]),
-                   np.arange(K, dtype=np.int64))
+                   np.arange(K, dtype=np.int64), nodes)
+
+
+def _entered_nodes(fss: FiniteStateStrategy) -> np.ndarray:
+    """int64[k']: the memory nodes the strategy can enter, sorted: its initial node and every
+    node an update of an entered node's rules leads to (a search over the nodes its rules name,
+    never over all ``memory_size`` nodes)."""
+    named = np.unique(np.concatenate([[fss.initial_memory], fss.rule_memory, fss.update_node]))
+    entry_rule = np.repeat(np.arange(fss.num_rules), np.diff(fss.choice_start))
+    source = fss.rule_memory[entry_rule[np.repeat(np.arange(fss.choice_action.size),
+                                                   np.diff(fss.update_start))]]
+    graph = sp.csr_matrix(
+        (np.ones(source.size, dtype=np.int8),
+         (np.searchsorted(named, source), np.searchsorted(named, fss.update_node))),
+        shape=(named.size, named.size))
+    start = int(np.searchsorted(named, fss.initial_memory))
+    order = csgraph.breadth_first_order(graph, start, directed=True, return_predecessors=False)
+    return np.asarray(named[np.sort(order)], dtype=np.int64)
 
 
 @dataclass(eq=False)
@@ -192,12 +222,13 @@ def _strategy_choices(
     K, memories, row_start = layout.K, layout.memories, layout.row_start
     for i, b in enumerate(strategies):
         k, stride = layout.ks[i], layout.strides[i]
+        orig = layout.nodes[i]  # compact node -> the strategy's node
         ci = np.flatnonzero(layout.fixed_by[choice_states] == i)
         owned_states = np.flatnonzero(layout.fixed_by == i)
-        node = (memories // stride) % k  # [K]
+        node = (memories // stride) % k  # [K], compact
         if owned_states.size:
             miss = b.missing_rule(
-                np.broadcast_to(node, (owned_states.size, K)).copy(),
+                np.broadcast_to(orig[node], (owned_states.size, K)).copy(),
                 np.broadcast_to(owned_states[:, None], (owned_states.size, K)).copy(),
             )
             ps = (owned_states[:, None] * K + memories)[miss]
@@ -206,25 +237,40 @@ def _strategy_choices(
             out.add(row_start[ps], ps, np.ones(ps.size))
         if not ci.size:
             continue
-        n = np.broadcast_to(node, (ci.size, K)).copy()
+        n = np.broadcast_to(orig[node], (ci.size, K)).copy()
         cc = np.broadcast_to(ci[:, None], (ci.size, K)).copy()
-        w = b.action_probability(model, n, cc)  # [Ci, K]
-        d = b.update_rows(model, n, cc)  # [Ci, K, k]
+        e = b.entries(model, n, cc)  # [Ci, K], -1 where the choice is not played
+        fss = b.fss
+        w = np.where(e >= 0, fss.choice_probability[np.maximum(e, 0)], 0.0) \
+            if fss.choice_probability.size else np.zeros(e.shape)
         s_ci = choice_states[ci]
         prow = row_start[(s_ci * K)[:, None] + memories]  # [Ci, K]
         out.weights.append((prow.ravel(), cc.ravel(), w.ravel()))
         sure = w == 1.0
         out.action[prow[sure]] = model.choice_actions[cc[sure]]
         Ti = T[ci].tocoo()
-        loc = Ti.row  # index into ci
-        # value [E, K, k]: w * δ * q; target (s'*K + m + (n' - n) * stride)
-        val = (w[loc][:, :, None] * d[loc]) * Ti.data[:, None, None]
-        nprime = np.arange(k, dtype=np.int64)
-        col = (Ti.col.astype(np.int64)[:, None, None] * K + memories[None, :, None]
-               + (nprime[None, None, :] - node[None, :, None]) * stride)
-        row = np.broadcast_to(prow[loc][:, :, None], val.shape)
+        # one product transition per (model transition, memory, memory update) with weight > 0:
+        # value w·δ(n')·q, target s'·K + m + (n' - n)·stride; the memory updates are the
+        # strategy's own lists, so the work is what the strategy writes, not k per pair
+        t, m = np.nonzero(e[Ti.row] >= 0)  # [M] pairs of a transition and a memory
+        rt = Ti.row[t]
+        ee = e[rt, m]
+        lo = fss.update_start[ee]
+        num = fss.update_start[ee + 1] - lo
+        wv, qv, pr = w[rt, m], Ti.data[t], prow[rt, m]
+        base = Ti.col.astype(np.int64)[t] * K + m - node[m] * stride
+        if np.all(num == 1):  # one next node each (deterministic updates): nothing to expand
+            u = lo
+        else:
+            pick = np.repeat(np.arange(t.size), num)
+            u = np.repeat(lo - np.cumsum(num) + num, num) + np.arange(int(num.sum()))
+            wv, qv, pr, base = wv[pick], qv[pick], pr[pick], base[pick]
+        val = wv * fss.update_probability[u] * qv  # (w·δ)·q, as the dense product computed it
+        # every target is an entered node; all k entered: compact and own numbers agree
+        target = fss.update_node[u] if orig.size == fss.memory_size \
+            else np.searchsorted(orig, fss.update_node[u])
         keep = val > 0
-        out.add(row[keep], col[keep], val[keep])
+        out.add(pr[keep], (base + target * stride)[keep], val[keep])
 
 
 @dataclass(frozen=True, eq=False)
@@ -250,7 +296,8 @@ def _reachable_part(
     """The product states reachable from the initial ones (one breadth-first search from a
     virtual root); a reached state for which a strategy has no rule is an error."""
     K, N = layout.K, layout.num_states * layout.K
-    m0 = sum(b.fss.initial_memory * layout.strides[i] for i, b in enumerate(strategies))
+    m0 = sum(int(np.searchsorted(layout.nodes[i], b.fss.initial_memory)) * layout.strides[i]
+             for i, b in enumerate(strategies))
     init = model.initial_states * K + m0
     row_state = np.repeat(np.arange(N, dtype=np.int64), layout.counts)
     coo = full.tocoo()
@@ -264,7 +311,8 @@ def _reachable_part(
     for i, ps in enumerate(rows.missing):
         hit = ps[reached[ps]]
         if hit.size:
-            _missing_rule_error(model, strategies[i], int(hit[0]), K, layout.strides[i])
+            _missing_rule_error(model, strategies[i], int(hit[0]), K, layout.strides[i],
+                                layout.nodes[i])
     keep_states = np.flatnonzero(reached)
     new_index = np.full(N, -1, dtype=np.int64)
     new_index[keep_states] = np.arange(keep_states.size)
@@ -312,7 +360,8 @@ def _assemble(
 
     state_of = keep_states // K
     mem = keep_states % K
-    memory_of = np.stack([(mem // strides[i]) % ks[i] for i in range(len(ks))], axis=1) \
+    memory_of = np.stack([layout.nodes[i][(mem // strides[i]) % ks[i]] for i in range(len(ks))],
+                         axis=1) \
         if ks else np.zeros((keep_states.size, 0), dtype=np.int64)
     rewards = _mixed_rewards(model, layout, rows, reach, state_of)
 
@@ -349,10 +398,10 @@ def _assemble(
 
 
 def _missing_rule_error(
-    model: ExplicitModel, b: BoundStrategy, ps: int, K: int, stride: int
+    model: ExplicitModel, b: BoundStrategy, ps: int, K: int, stride: int, nodes: np.ndarray
 ) -> None:
     s, m = divmod(ps, K)
-    n = (m // stride) % b.memory_size
+    n = int(nodes[(m // stride) % nodes.size])
     fss = b.fss
     raise StrategyError(
         f"no rule for memory {n} under the observation "

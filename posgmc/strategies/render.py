@@ -15,6 +15,7 @@ from collections.abc import Iterable, Iterator, Mapping
 import numpy as np
 
 from posgmc.errors import InputError
+from posgmc.strategies.files import rules_in_order
 from posgmc.strategies.fss import FiniteStateStrategy
 
 __all__ = ["matching_observations", "strategy_dot", "strategy_summary", "strategy_table"]
@@ -26,23 +27,31 @@ def _p(x: float) -> str:
 
 def _rules(fss: FiniteStateStrategy, nodes: Iterable[int] | None = None,
            observations: np.ndarray | None = None) -> Iterator[tuple[int, int, list[int]]]:
-    """(memory node, observation, the actions played) of every rule, in observation order; only
-    memory ``nodes`` and the observations where ``observations`` (bool[Z]) holds, when given."""
-    order = np.lexsort(fss.observation_values.T[::-1]) if fss.num_observations else np.zeros(0, int)
-    has_rule = fss.has_rule
-    for n in range(fss.memory_size) if nodes is None else nodes:
-        for z in order.tolist():
-            if has_rule[n, z] and (observations is None or observations[z]):
-                played = sorted(
-                    np.flatnonzero(fss.action[n, z] > 0).tolist(), key=lambda a: fss.actions[a]
-                )
-                yield n, z, played
+    """(memory node, observation, the played-action entries by label) of every rule, in memory
+    and observation order; only memory ``nodes`` (in their order) and the observations where
+    ``observations`` (bool[Z]) holds, when given. Linear in the rules written."""
+    order = rules_in_order(fss)
+    memory = fss.rule_memory[order]
+    if nodes is None:
+        chosen = order.tolist()
+    else:
+        chosen = []
+        for n in nodes:
+            lo, hi = np.searchsorted(memory, n, "left"), np.searchsorted(memory, n, "right")
+            chosen += order[lo:hi].tolist()
+    c_start, c_act = fss.choice_start.tolist(), fss.choice_action.tolist()
+    for r in chosen:
+        z = int(fss.rule_observation[r])
+        if observations is None or observations[z]:
+            entries = sorted(range(c_start[r], c_start[r + 1]),
+                             key=lambda e: fss.actions[c_act[e]])
+            yield int(fss.rule_memory[r]), z, entries
 
 
 def strategy_summary(fss: FiniteStateStrategy) -> str:
     """One line: whose, how many memory nodes, observations and rules, the initial node, and
     whether every rule is deterministic."""
-    k, rules = fss.memory_size, int(fss.has_rule.sum())
+    k, rules = fss.memory_size, fss.num_rules
     return (f"strategy of player {fss.player!r}: {k} memory node{'s' if k != 1 else ''}, "
             f"{fss.num_observations} observation{'s' if fss.num_observations != 1 else ''}, "
             f"{rules} rule{'s' if rules != 1 else ''}, initial node {fss.initial_memory}, "
@@ -66,19 +75,21 @@ def matching_observations(fss: FiniteStateStrategy, wanted: Mapping[str, int]) -
     return out
 
 
-def _choice_text(fss: FiniteStateStrategy, n: int, z: int, played: list[int]) -> tuple[str, str]:
-    """The action column and the next-memory column of one rule."""
+def _choice_text(fss: FiniteStateStrategy, entries: list[int]) -> tuple[str, str]:
+    """The action column and the next-memory column of one rule (its played-action entries)."""
+    labels = [fss.actions[int(fss.choice_action[e])] or "(unlabelled)" for e in entries]
     action = ", ".join(
-        f"{fss.actions[a] or '(unlabelled)'}: {_p(fss.action[n, z, a])}" for a in played
+        f"{label}: {_p(float(fss.choice_probability[e]))}" for label, e in zip(labels, entries)
     )
     nxt = []
-    for a in played:
-        dist = fss.update[n, z, a]
-        targets = np.flatnonzero(dist > 0)
+    for label, e in zip(labels, entries):
+        lo, hi = int(fss.update_start[e]), int(fss.update_start[e + 1])
         text = ", ".join(
-            f"{m}: {_p(dist[m])}" if dist[m] < 1 else str(m) for m in targets.tolist()
+            f"{m}: {_p(q)}" if q < 1 else str(m)
+            for m, q in zip(fss.update_node[lo:hi].tolist(),
+                            fss.update_probability[lo:hi].tolist())
         )
-        nxt.append(f"{fss.actions[a] or '(unlabelled)'} -> {text}")
+        nxt.append(f"{label} -> {text}")
     return action, "; ".join(nxt)
 
 
@@ -121,7 +132,7 @@ def strategy_table(fss: FiniteStateStrategy, *, nodes: Iterable[int] | None = No
     if compact:
         groups: dict[tuple[int, str, str], list[tuple[int, ...]]] = {}
         for n, z, played in _rules(fss, nodes, observations):
-            groups.setdefault((n, *_choice_text(fss, n, z, played)), []).append(
+            groups.setdefault((n, *_choice_text(fss, played)), []).append(
                 tuple(fss.observation_values[z].tolist()))
         names = list(fss.observables)
         for (n, action, nxt), points in groups.items():
@@ -134,7 +145,7 @@ def strategy_table(fss: FiniteStateStrategy, *, nodes: Iterable[int] | None = No
                 rows.append((str(n), what, action, nxt))
     else:
         for n, z, played in _rules(fss, nodes, observations):
-            rows.append((str(n), fss.describe_observation(z), *_choice_text(fss, n, z, played)))
+            rows.append((str(n), fss.describe_observation(z), *_choice_text(fss, played)))
     widths = [max(len(r[i]) for r in rows) for i in range(3)]
     lines = [strategy_summary(fss)]
     for r in rows:
@@ -155,15 +166,22 @@ def strategy_dot(fss: FiniteStateStrategy) -> str:
         "  start [shape=point];",
         f"  start -> n{fss.initial_memory};",
     ]
-    for n in range(fss.memory_size):
+    # every node; for a strategy with far more nodes than rules, those its rules name
+    if fss.memory_size > 2 * (fss.num_rules + 1):
+        named = [np.array([fss.initial_memory]), fss.rule_memory, fss.update_node]
+        shown: list[int] = np.unique(np.concatenate(named)).tolist()
+    else:
+        shown = list(range(fss.memory_size))
+    for n in shown:
         lines.append(f"  n{n} [label={_quote(str(n))}];")
-    for n, z, played in _rules(fss):
-        for a in played:
-            for m in np.flatnonzero(fss.update[n, z, a] > 0).tolist():
-                p = fss.action[n, z, a] * fss.update[n, z, a, m]
-                label = (
-                    f"{fss.describe_observation(z)} / {fss.actions[a] or '(unlabelled)'} : {_p(p)}"
-                )
-                lines.append(f"  n{n} -> n{m} [label={_quote(label)}];")
+    u_start, u_node = fss.update_start.tolist(), fss.update_node.tolist()
+    u_prob = fss.update_probability.tolist()
+    c_act, c_prob = fss.choice_action.tolist(), fss.choice_probability.tolist()
+    for n, z, entries in _rules(fss):
+        for e in entries:
+            for u in range(u_start[e], u_start[e + 1]):
+                label = (f"{fss.describe_observation(z)} / "
+                         f"{fss.actions[c_act[e]] or '(unlabelled)'} : {_p(c_prob[e] * u_prob[u])}")
+                lines.append(f"  n{n} -> n{u_node[u]} [label={_quote(label)}];")
     lines.append("}")
     return "\n".join(lines) + "\n"

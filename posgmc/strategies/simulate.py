@@ -371,8 +371,8 @@ def _trace(
             mrows = np.arange(int(model.row_groups[s]), int(model.row_groups[s + 1]))
             w = b.action_probability(model, np.full(mrows.size, n), mrows)
             c = int(mrows[rng.choice(mrows.size, p=w / w.sum())])
-            d = b.update_rows(model, np.array([n]), np.array([c]))[0]
-            n2 = int(rng.choice(d.size, p=d / d.sum()))
+            nodes, d = b.update_distribution(model, n, c)
+            n2 = int(nodes[rng.choice(d.size, p=d / d.sum())])
             row = model.transitions.getrow(c)
             s2 = int(row.indices[rng.choice(row.nnz, p=row.data / row.data.sum())])
             action = model.action_names[model.choice_actions[c]] or "(unlabelled)"

@@ -31,7 +31,9 @@ from pysat.solvers import Solver
 
 from posgmc.checking.property_checker import CoalitionResolver, ScalarEvaluator
 from posgmc.checking.results import Bound
+from posgmc.errors import LimitError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.resources import check_allocation
 from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
@@ -40,6 +42,11 @@ from posgmc.syntax.ast import Expr
 from posgmc.synthesis.budget import expired
 
 __all__ = ["Enumeration", "enumerate_adversaries", "versus_adversaries"]
+
+
+_DIRECT_SYMMETRY = 8
+"""Up to this many memory nodes the symmetry breaking is written as direct clauses (their size
+grows with k³·Z²); beyond, through one auxiliary variable per node (linear)."""
 
 
 @dataclass(frozen=True)
@@ -88,9 +95,23 @@ def enumerate_adversaries(model: ExplicitModel, player: int, *, memory: int = 1,
         # enumerate (the phases after it have no adversary to compose against; the omniscient
         # check of the defence is unaffected)
         return Enumeration((), False, time.perf_counter() - started)
+    # the encoding has k·Z·(A + k) variables, and each solution dense k x Z x A x k arrays: a
+    # memory the machine cannot hold, or a deadline passed while encoding, enumerates nothing
+    num_vars = k * (int(offered[obs].sum()) + (k * obs.size if k > 1 else 0))
+    try:
+        check_allocation(300.0 * num_vars + 8.0 * k * k * obs.size * A,
+                         f"enumerating the adversary's {k}-node strategies")
+    except LimitError:
+        return Enumeration((), False, time.perf_counter() - started)
+
+    def late() -> bool:
+        return deadline is not None and time.perf_counter() >= deadline
+
     act: dict[tuple[int, int, int], int] = {}  # (n, z, a) -> variable
     upd: dict[tuple[int, int, int], int] = {}  # (n, z, m) -> variable
     for n in range(k):
+        if late():
+            return Enumeration((), False, time.perf_counter() - started)
         for z in obs.tolist():
             for a in np.flatnonzero(offered[z]).tolist():
                 act[(n, z, a)] = len(act) + len(upd) + 1
@@ -108,15 +129,27 @@ def enumerate_adversaries(model: ExplicitModel, player: int, *, memory: int = 1,
             solver.add_clause(clause)
 
     for n in range(k):
+        if late():
+            return Enumeration((), False, time.perf_counter() - started)
         for z in obs.tolist():
             exactly_one([act[(n, z, a)] for a in np.flatnonzero(offered[z]).tolist()])
             if k > 1:
                 exactly_one([upd[(n, z, m)] for m in range(k)])
+    into: dict[int, list[int]] = {}  # m -> the variables "some rule moves to node m"
+    for (_, _, mm), v in upd.items():
+        into.setdefault(mm, []).append(v)
+    direct = k <= _DIRECT_SYMMETRY
     for m in range(2, k):  # node m is a successor only if node m-1 is one
-        earlier = [v for (_, _, mm), v in upd.items() if mm == m - 1]
-        for (_, _, mm), v in upd.items():
-            if mm == m:
-                solver.add_clause([-v, *earlier])
+        if late():
+            return Enumeration((), False, time.perf_counter() - started)
+        if direct:
+            for v in into[m]:
+                solver.add_clause([-v, *into[m - 1]])
+        else:  # the same through one variable "node m-1 is a successor": linear in size
+            top += 1
+            solver.add_clause([-top, *into[m - 1]])
+            for v in into[m]:
+                solver.add_clause([-v, top])
     found: list[FiniteStateStrategy] = []
     exhaustive = False
     used_actions = np.flatnonzero(offered.any(axis=0))
@@ -129,15 +162,21 @@ def enumerate_adversaries(model: ExplicitModel, player: int, *, memory: int = 1,
         sol = solver.get_model()
         chosen = {(n, z): a for (n, z, a), v in act.items() if sol[v - 1] > 0}
         nxt = {(n, z): m for (n, z, m), v in upd.items() if sol[v - 1] > 0}
-        gamma = np.zeros((k, obs.size, used_actions.size))
-        delta = np.zeros((k, obs.size, used_actions.size, k))
-        for (n, z), a in chosen.items():
-            gamma[n, zi[z], act_index[a]] = 1.0
-            delta[n, zi[z], :, nxt.get((n, z), n)] = 1.0
-        fss = FiniteStateStrategy.from_arrays(
-            player=view.name, observables=view.observables, observation_values=view.obs_values[obs],
-            actions=tuple(model.action_names[a] for a in used_actions.tolist()), action=gamma,
-            update=delta,
+        # one rule per (n, z), playing its action, moving to its next node (its rules as
+        # written: no dense k x Z x A x k arrays)
+        pairs = list(chosen.items())
+        ones = np.ones(len(pairs))
+        fss = FiniteStateStrategy.from_entries(
+            player=view.name, memory_size=k, initial_memory=0, observables=view.observables,
+            observation_values=view.obs_values[obs],
+            actions=tuple(model.action_names[a] for a in used_actions.tolist()),
+            rule_memory=np.array([n for (n, _), _ in pairs], dtype=np.int64),
+            rule_observation=np.array([zi[z] for (_, z), _ in pairs], dtype=np.int64),
+            entry_rule=np.arange(len(pairs)), entry_action=np.array(
+                [act_index[a] for _, a in pairs], dtype=np.int64),
+            entry_probability=ones, update_entry=np.arange(len(pairs)),
+            update_node=np.array([nxt.get(nz, nz[0]) for nz, _ in pairs], dtype=np.int64),
+            update_probability=ones,
         )
         found.append(fss)
         # block the choices only where they matter: the (node, observation) pairs met under them

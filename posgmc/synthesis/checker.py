@@ -17,7 +17,7 @@ from posgmc.checking.property_checker import (
     PropertyChecker,
     ScalarEvaluator,
 )
-from posgmc.checking.results import Bound, PropertyResult, ResultKind, ordered_numbers
+from posgmc.checking.results import Bound, Optimum, PropertyResult, ResultKind, ordered_numbers
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
@@ -25,6 +25,12 @@ from posgmc.strategies.observables import with_boolean_observables
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
 from posgmc.synthesis import progress
+from posgmc.synthesis.bracket import (
+    DEFAULT_VERTICES,
+    GAP_SHARE,
+    GAP_VERTICES,
+    optimum_of,
+)
 from posgmc.synthesis.budget import Clock
 from posgmc.synthesis.double_oracle import (
     RESPONSE_EXHAUSTIVE,
@@ -269,12 +275,22 @@ class SynthesisChecker:
         full = ordered["full_observation"]
         sound = all(b.sound for b in (g, vs, ub, full) if b is not None)
         strategies = tuple(with_boolean_observables(f, self.model) for f in result.strategies)
+        optimum = result.optimum
+        if optimum is not None:
+            # the product's bracket bounds the same optimum (the automaton is deterministic);
+            # its achieved side is the defence's number recomputed on the game
+            maximize = PropertyChecker(self.model, coalition_of=self.coalition_of,
+                                       scalar=self.scalar).direction_of(bare) is Direction.MAX
+            optimum = dataclasses.replace(
+                optimum, lower=g.lower if maximize else optimum.lower,
+                upper=optimum.upper if maximize else g.upper, sound=optimum.sound and g.sound)
         if expr.threshold is not None:
             return dataclasses.replace(result, note=note, guaranteed=g, vs_fss_adversary=vs,
                                        upper_bound=ub, full_observation=full, sound=sound,
-                                       strategies=strategies)
+                                       strategies=strategies, optimum=optimum)
         return dataclasses.replace(
             result,
+            optimum=optimum,
             value=g.value,
             lower=g.lower,
             upper=g.upper,
@@ -323,8 +339,12 @@ class SynthesisChecker:
         adversary = others[0] if len(others) == 1 else None
         problem = problem_of(self.model, bare, player=player, adversary=adversary,
                              coalition_of=self.coalition_of, scalar=self.scalar)
+        bracketing = settings.bracket
         with closing(executor_for(problem, settings.placement)) as executor:
-            budget = self.synthesis.timeout
+            # with --gap the bound side has its share of the budget; without, a little on top
+            cap = self.synthesis.timeout
+            budget = None if cap is None else cap * (
+                1.0 - GAP_SHARE if bracketing and settings.gap is not None else 1.0)
             phases_follow = adversary is not None and settings.adversaries > 0
             # without adversary phases the search has their time too
             search = dataclasses.replace(
@@ -368,6 +388,19 @@ class SynthesisChecker:
         if adversaries is not None:
             vs, ub, worst = adversaries.vs, adversaries.ub, adversaries.worst
             result.phases.update(adversaries.phases)
+        optimum: Optimum | None = None
+        by_optimum = False
+        bracket_stats: dict[str, object] = {}
+        if bracketing:
+            # the grid's work budget is counted in vertices (effort scales it), so its bound
+            # depends only on model, options and seed; a wall-clock cap stops it at its end
+            now = time.perf_counter()
+            end = clock.end
+            vertices = GAP_VERTICES if settings.gap is not None else DEFAULT_VERTICES
+            optimum, bracket_stats = optimum_of(problem, g, full, ub, deadline=end,
+                                                gap=settings.gap,
+                                                vertices=int(vertices * settings.effort))
+            result.phases["optimum bound"] = time.perf_counter() - now
         # a number whose check the budget cut short before it converged was not computed: its
         # point would be a midpoint of wide bounds (0.5 in [0, 1] when it had no time at all), so
         # it is left out; guaranteed, the headline, stays with its proven bounds and says so
@@ -397,10 +430,13 @@ class SynthesisChecker:
             maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
             proven = holds(g.lower if maximize else g.upper) and g.sound
             # no defence reaches the threshold: not with full observation, nor against the
-            # enumerated adversaries
+            # enumerated adversaries, nor where the optimum's bound side misses it
             bound = ub if ub is not None else full_shown
             refuted = bound is not None and bound.sound and not holds(
                 bound.upper if maximize else bound.lower)
+            by_optimum = (optimum is not None and optimum.sound and not refuted
+                          and not holds(optimum.upper if maximize else optimum.lower))
+            refuted = refuted or by_optimum
             value = True if proven else False if refuted else None
             kind, lower, upper = ResultKind.BOOLEAN, None, None
         player_name = self.model.player_names[player] if self.model.player_names else ""
@@ -408,6 +444,14 @@ class SynthesisChecker:
         note = (f"guaranteed: the synthesised strategy of {player_name or 'the agent'!s} ensures "
                 f"{direction} this against every adversary (checked by {result.method}); "
                 f"full_observation: the value if it saw everything")
+        if optimum is not None:
+            note += ("; optimum: proven bounds on the best value any strategy of "
+                     f"{player_name or 'the agent'} (any memory) achieves against every "
+                     f"adversary, the {'upper' if problem.maximize else 'lower'}"
+                     f" one by {optimum.method}")
+            if expr.threshold is not None and value is False and by_optimum:
+                note += ("; false: the optimum's bound side misses the threshold, so no defence "
+                         "of any memory meets it")
         stats: dict[str, object] = {
             "partial": result.partial or bool(adversaries and adversaries.partial)
             or cut is not None,
@@ -428,6 +472,10 @@ class SynthesisChecker:
                 for d in result.deterministic
             ],
         }
+        if optimum is not None:
+            stats["optimum_bound"] = bracket_stats
+            if settings.gap is not None:
+                stats["gap_met"] = settings.gap.met(optimum.lower, optimum.upper)
         extra: tuple = ()  # type: ignore[type-arg]
         if adversaries is not None:
             stats.update(adversaries.stats)
@@ -472,7 +520,7 @@ class SynthesisChecker:
             note=note, per_initial=(value,),
             guaranteed=g, vs_fss_adversary=vs, upper_bound=ub,
             memory=((player_name, defence.memory_size),),
-            full_observation=full_shown, synthesis=stats,
+            full_observation=full_shown, optimum=optimum, synthesis=stats,
             maximizing=bare.direction is Direction.MAX,
             # Boolean observables written true/false in strategy files, as in the model
             strategies=tuple(with_boolean_observables(f, self.model) for f in

@@ -49,8 +49,9 @@ from scipy.sparse import csgraph
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.system import HAVE_KERNELS, accumulate_rows
-from posgmc.errors import UnsupportedError
+from posgmc.errors import LimitError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
+from posgmc.resources import check_allocation
 from posgmc.strategies.binding import player_view
 from posgmc.syntax.ast import ModelType
 from posgmc.synthesis.executors import Executor
@@ -96,11 +97,16 @@ class Quotient:
         return int(self.offered.shape[1])
 
 
-def quotient_of(problem: Problem, memory: int) -> Quotient | None:
+def quotient_of(problem: Problem, memory: int, *, deadline: float | None = None
+                ) -> Quotient | None:
     """The quotient game of ``problem``'s decision maker with ``memory`` nodes, or None when the
     decision maker's states with one observation do not all offer the same labels (a
-    deterministic rule then has no single meaning)."""
+    deterministic rule then has no single meaning), when ``deadline`` (a ``time.perf_counter()``
+    value) passes while it is built, or when it would not fit in the memory available (its
+    size grows with k²: k nodes, each choice with k next nodes)."""
     model, k = problem.model, memory
+    if expired(deadline) or not _fits(problem, k):
+        return None
     layout = Layout.of(model, problem.player)
     view = player_view(model, problem.player)
     S = model.num_states
@@ -136,12 +142,16 @@ def quotient_of(problem: Problem, memory: int) -> Quotient | None:
     T = model.transitions[row_c]
     T = sp.csr_matrix((T.data, T.indices + np.repeat(row_next * S, np.diff(T.indptr)), T.indptr),
                       shape=(row_c.size, k * S))
+    if expired(deadline):
+        return None
     # the part reachable from (s0, 0)
     graph = sp.csr_matrix((np.ones(T.nnz, dtype=np.int8),
                            (np.repeat(row_q, np.diff(T.indptr)), T.indices)), shape=(k * S, k * S))
     init_full = int(model.initial_states[0])
     reach = np.zeros(k * S, dtype=bool)
     reach[csgraph.breadth_first_order(graph, init_full, return_predecessors=False)] = True
+    if expired(deadline):
+        return None
     keep_rows = reach[row_q]
     states = np.flatnonzero(reach)
     renum = np.full(k * S, -1, dtype=np.int64)
@@ -196,6 +206,23 @@ _MAX_SWEEPS = 20_000
 _ENGINE_LIMIT = 2_000
 """Undiscounted expected rewards are solved by the engines' policy iteration, which knows no
 deadline: the search runs on them only for quotients up to this many states."""
+
+
+def _fits(problem: Problem, k: int) -> bool:
+    """Whether the full layout of the k-node quotient (before reachability) fits in the memory
+    available: about 120 bytes per row and transition."""
+    model = problem.model
+    owned = (model.state_players == problem.player) if model.player_names else \
+        np.ones(model.num_states, bool)
+    own_choice = owned[model.choice_states]
+    per_choice = np.diff(model.transitions.indptr)
+    rows = k * (k * float(own_choice.sum()) + float((~own_choice).sum()))
+    entries = k * (k * float(per_choice[own_choice].sum()) + float(per_choice[~own_choice].sum()))
+    try:
+        check_allocation(120.0 * (rows + entries), "the quotient")
+    except LimitError:
+        return False
+    return True
 
 
 def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: Problem, *,
@@ -255,7 +282,7 @@ def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: 
             x = y
             break
         x = y
-        if sweep % 256 == 255 and expired(deadline):
+        if expired(deadline):  # every sweep: one sweep of a quotient with large memory is long
             cut = True
             break
     v = row_values(x).copy()
@@ -454,7 +481,7 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
     (its extra nodes never entered) as the first incumbent, so that families that cannot beat
     it are pruned from the start."""
     started = time.perf_counter()
-    q = quotient_of(problem, memory)
+    q = quotient_of(problem, memory, deadline=deadline)
     if q is None or (q.rewards is not None and problem.discount >= 1.0
                      and q.model.num_states > _ENGINE_LIMIT):
         return None
@@ -595,7 +622,7 @@ class DeterministicJob:
         best: DeterministicResult | None = None
         deadline = self.deadline
         for k, max_families in zip(self.memory, self.families):
-            if found and expired(deadline):
+            if expired(deadline):  # no size starts after the cap (its quotient alone has k² rows)
                 break
             for seed in self.seeds:
                 if seed.memory <= k and (

@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any, Protocol
 
+from posgmc.resources import usable_cpus
 from posgmc.synthesis.problem import Problem
 from posgmc.synthesis.tasks import Job, Placement, TaskLedger, phase_of, record_here, timed
 
@@ -106,7 +107,8 @@ class ProcessPool:
 
 def executor_for(problem: Problem, jobs: int | Placement) -> Executor:
     """Where ``problem``'s jobs run: ``jobs`` = 1 (or a local :class:`Placement` of one worker):
-    in this process; more: a local process pool of that many workers; a Ray placement: actors
+    in this process; more: a local process pool of that many workers (at most one per usable
+    processor, :func:`~posgmc.resources.usable_cpus`); a Ray placement: actors
     on the Ray cluster (:mod:`posgmc.synthesis.ray_pool`).
 
     Raises:
@@ -118,6 +120,9 @@ def executor_for(problem: Problem, jobs: int | Placement) -> Executor:
         from posgmc.synthesis.ray_pool import RayPool  # imports ray: only when asked for
 
         return RayPool(problem, placement)
-    if placement.workers <= 1:
+    # a local pool: at most one worker per usable processor (more only compete for them, and
+    # each costs a process start)
+    workers = min(placement.workers, usable_cpus())
+    if workers <= 1:
         return InProcess(problem)
-    return ProcessPool(problem, placement.workers)
+    return ProcessPool(problem, workers)

@@ -119,7 +119,7 @@ def improve(problem: Problem, memory: int, *, deadline: float | None,
     expected rewards (whose values may be infinite), or when ``deadline`` passes before a first
     member is valued. ``max_rounds``: improvement rounds at most (the work budget)."""
     started = time.perf_counter()
-    q = quotient_of(problem, memory)
+    q = quotient_of(problem, memory, deadline=deadline)
     if q is None or (q.rewards is not None and problem.discount >= 1.0):
         return None
     sign = problem.sign
@@ -180,7 +180,7 @@ class ImprovementJob:
         best: DeterministicResult | None = None
         sign = problem.sign
         for k in self.memory:
-            if found and expired(self.deadline):
+            if expired(self.deadline):
                 break
             r = improve(problem, k, deadline=self.deadline, max_rounds=self.rounds)
             if best is not None and k > best.memory and not expired(self.deadline):
@@ -194,7 +194,8 @@ class ImprovementJob:
                 # the smaller defence is at least as good: keep it, embedded (a k-FSS with the
                 # extra nodes never entered guarantees as much)
                 q = quotient_of(problem, k)
-                assert q is not None  # noqa: S101 - r came from the same quotient
+                if q is None:  # no longer fits in the memory available
+                    continue
                 gamma, delta = _arrays(q, _member_of(q, best.gamma, best.delta) & q.offered)
                 r = DeterministicResult(k, gamma, delta, best.value, False, r.families,
                                         r.seconds)

@@ -10,7 +10,7 @@ from posgmc.errors import InputError
 from posgmc.synthesis.budget import Effort
 from posgmc.synthesis.tasks import Placement
 
-__all__ = ["AUTO_MEMORY", "MAX_MEMORY", "SynthesisOptions", "memory_sizes"]
+__all__ = ["AUTO_MEMORY", "MAX_MEMORY", "Gap", "SynthesisOptions", "memory_sizes"]
 
 AUTO_MEMORY = (1, 2, 3)
 """The memory sizes of memory ``auto`` (the default)."""
@@ -54,6 +54,46 @@ def memory_sizes(value: object, what: str) -> tuple[int, ...]:
 
 
 @dataclass(frozen=True)
+class Gap:
+    """A requested bracket width: ``value`` absolute, or relative (a fraction of the larger
+    magnitude of the two sides) when ``relative``."""
+
+    value: float
+    relative: bool = False
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.value) and self.value >= 0):
+            raise InputError(f"the gap must be a finite number >= 0, got {self.value!r}")
+
+    @staticmethod
+    def parse(text: str) -> Gap:
+        """``"0.05"`` (absolute) or ``"5%"`` (relative).
+
+        Raises:
+            InputError: anything else.
+        """
+        t = text.strip()
+        relative = t.endswith("%")
+        try:
+            v = float(t[:-1] if relative else t)
+        except ValueError:
+            raise InputError(f"the gap is a number or a percentage (0.05, 5%), not {text!r}",
+                             hint="write --gap 0.01 or --gap 1%") from None
+        return Gap(v / 100.0 if relative else v, relative)
+
+    def width(self, a: float, b: float) -> float:
+        """The allowed width for a bracket with sides ``a`` and ``b``."""
+        if not self.relative:
+            return self.value
+        scale = max(abs(a), abs(b))
+        return self.value * scale if math.isfinite(scale) else 0.0
+
+    def met(self, lower: float, upper: float) -> bool:
+        return upper - lower <= self.width(lower, upper) if math.isfinite(upper - lower) \
+            else lower == upper
+
+
+@dataclass(frozen=True)
 class SynthesisOptions:
     """``memory``: the memory sizes to try in order; ``timeout``: a wall-clock cap in seconds on
     the whole synthesis of a property (None: none); ``effort``: the multiplier of every phase's
@@ -78,7 +118,10 @@ class SynthesisOptions:
     :mod:`posgmc.synthesis.ray_pool`). ``started``: the
     ``time.perf_counter()`` value from which the first synthesised property's ``timeout`` counts
     (the CLI and :func:`posgmc.api.check` set it where the run starts, so that loading and
-    building the model are inside the budget); None: from the start of its synthesis."""
+    building the model are inside the budget); None: from the start of its synthesis.
+    ``bracket``: also prove the other side of the optimum (:mod:`posgmc.synthesis.bracket`);
+    ``gap``: refine the bracket until it is this narrow (the budget is then shared between the
+    two sides; None: the bound side gets a small extra share, ``bracket.DEFAULT_SHARE``)."""
 
     memory: tuple[int, ...] = AUTO_MEMORY
     timeout: float | None = None
@@ -99,6 +142,8 @@ class SynthesisOptions:
     oracle_rounds: int = 1
     started: float | None = None
     belief: bool | None = None
+    bracket: bool = True
+    gap: Gap | None = None
 
     def __post_init__(self) -> None:
         """Each field checked, so that a bad value is an :class:`InputError` naming it (and the
@@ -144,6 +189,10 @@ class SynthesisOptions:
     def placement(self) -> Placement:
         """Where the independent evaluations run."""
         return Placement(self.executor, self.jobs, self.ray_address)
+        if not isinstance(self.bracket, bool):
+            raise InputError(f"bracket must be True or False, got {self.bracket!r}")
+        if self.gap is not None and not isinstance(self.gap, Gap):
+            raise InputError(f"gap must be a Gap (or None), got {self.gap!r}")
 
     def for_players(self, decision_maker: str, adversary: str | None,
                     players: tuple[str, ...]) -> SynthesisOptions:

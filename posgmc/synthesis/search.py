@@ -33,7 +33,7 @@ from posgmc.checking.property_checker import (
 from posgmc.checking.results import Bound
 from posgmc.engines.graph import concat_ranges
 from posgmc.engines.options import Method, SolverOptions
-from posgmc.errors import UnsupportedError
+from posgmc.errors import InputError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
@@ -53,7 +53,7 @@ from posgmc.synthesis.deterministic import DeterministicResult, deterministic_ph
 from posgmc.synthesis.executors import Executor, executor_for
 from posgmc.synthesis.improvement import improvement_phase
 from posgmc.synthesis.options import AUTO_MEMORY, SynthesisOptions
-from posgmc.synthesis.parametric import ITERATIVE_STATES, Parametrisation
+from posgmc.synthesis.parametric import ITERATIVE_STATES, Layout, Parametrisation
 from posgmc.synthesis.problem import Problem, expired
 from posgmc.synthesis.result import MemoryRound, SynthesisResult
 
@@ -541,6 +541,15 @@ def problem_of(model: ExplicitModel, expr: Expr, *, player: int, adversary: int 
     if not isinstance(expr, (ProbQuery, RewardQuery)) or expr.threshold is not None:
         raise UnsupportedError("synthesis takes one P or R query with min or max (=?)", expr.span,
                                hint="write <<player>> Pmax=? [ F \"goal\" ]")
+    if not Layout.of(model, player).used_obs.size:
+        name = model.player_names[player] if model.player_names else "the agent"
+        raise InputError(
+            f"player {name!r} never has a move: none of its actions is enabled in any state, so "
+            "there is no strategy to synthesise",
+            expr.span,
+            hint="its value is that of the other players' choices alone: check the property with "
+            "--full-observation, or give the coalition to a player that moves",
+        )
     base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar)
     query = replace(expr, direction=base.direction_of(expr))
     target, remain, rewards, discount = _objective(model, query, base)

@@ -103,10 +103,10 @@ def sharpen(fss: FiniteStateStrategy, *, within: float = SHARPEN_WITHIN) -> Shar
         initial = int(np.searchsorted(nodes, fss.initial_memory))
     else:
         initial = fss.initial_memory
-    sharp = FiniteStateStrategy(
-        player=fss.player, memory_size=int(action.shape[0]), initial_memory=initial,
-        observables=fss.observables, observation_values=fss.observation_values.copy(),
-        actions=fss.actions, action=action, update=update, boolean=fss.boolean)
+    sharp = FiniteStateStrategy.from_arrays(
+        player=fss.player, initial_memory=initial, observables=fss.observables,
+        observation_values=fss.observation_values.copy(), actions=fss.actions, action=action,
+        update=update, boolean=fss.boolean)
     return Sharpening(sharp, moved, dropped)
 
 

@@ -70,8 +70,9 @@ def test_a_note_is_shown_once_per_run() -> None:
 
 
 def test_a_partial_randomised_defence_says_so() -> None:
-    defence = _defence()
-    mixed = dataclasses.replace(defence, action=np.full((2, 2, 2), 0.5))
+    mixed = FiniteStateStrategy.from_arrays(
+        player="planner", observables=("x",), observation_values=np.array([[0], [1]]),
+        actions=("a", "b"), action=np.full((2, 2, 2), 0.5))
     stats = {**(_synthesised().synthesis or {}), "partial": True, "cut": "timeout",
              "defence": "composed"}
     line = result_lines(_synthesised(strategies=(mixed,), synthesis=stats))[1]

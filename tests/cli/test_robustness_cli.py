@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import stat
 from pathlib import Path
@@ -290,3 +291,101 @@ def test_export_strategy_with_an_unknown_label_reports_the_label(tmp_path: Path)
             "--export-strategy", str(tmp_path / "s.json"))
     assert r.exit_code == 2 and 'unknown label "nolabel"' in r.output
     assert "needs exactly one" not in r.output and not (tmp_path / "s.json").exists()
+
+
+# -- strategies, synthesis and resources (absurd numbers, large memories, deadlines) ----------
+
+ROVER_POSG = str(ROOT / "models" / "rover.posg")
+FORWARD = ROOT / "models" / "rover" / "forward.fss.json"
+
+
+@pytest.mark.parametrize(
+    "old, new, where, words",
+    [
+        ('"fwd": 1.0}}', '"fwd": 1' + "0" * 5000 + "}}", "rules[1].action.fwd",
+         "a probability must be a number in [0, 1], got 10000000000"),
+        ('{"x": 1}', '{"x": 1000000000000000000000000000000}', "rules[1].observation.x",
+         "the value of 'x' 1000000000000000000000000000000 is beyond 64-bit integers"),
+        ('"memory_size": 1', '"memory_size": 1000000000000000000000000000000', "memory_size",
+         "memory_size 1000000000000000000000000000000 is beyond 64-bit integers"),
+    ],
+)
+def test_strategy_files_with_absurd_numbers(tmp_path: Path, old: str, new: str, where: str,
+                                            words: str) -> None:
+    f = tmp_path / "s.json"
+    f.write_text(FORWARD.read_text().replace(old, new, 1))
+    r = run("show-strategy", str(f))
+    assert r.exit_code == 2 and "internal error" not in r.output
+    assert f"error: {f}: {where}: {words}" in r.output
+
+
+def test_show_strategy_of_twenty_thousand_nodes(tmp_path: Path) -> None:
+    """A 20,000-node strategy (140,000 rules, 14 MB) is shown from its rules (the dense update
+    array would be 44.8 GB); its memory_size can be 10^6 without cost."""
+    k = 20_000
+    rules = [{"memory": n, "observation": {"x": x},
+              "action": {("done" if x in (0, 6) else "fwd"): 1.0},
+              "update": {("done" if x in (0, 6) else "fwd"): {str((n + 1) % k): 1.0}}}
+             for n in range(k) for x in range(7)]
+    doc = {"format": "posgmc-fss/1", "player": "rover", "memory_size": k, "initial_memory": 0,
+           "observables": ["x"], "rules": rules}
+    f = tmp_path / "big.json"
+    f.write_text(json.dumps(doc))
+    r = run("show-strategy", str(f))
+    assert r.exit_code == 0
+    lines = r.output.splitlines()
+    assert lines[0] == "strategy of player 'rover': 20000 memory nodes, 7 observations, " \
+        "140000 rules, initial node 0, deterministic"
+    assert len(lines) == 2 + 7 * k and lines[-1].split() == ["19999", "{x=6}", "done:", "1",
+                                                              "done", "->", "0"]
+    doc["memory_size"], doc["rules"] = 1_000_000, rules[:7]
+    f.write_text(json.dumps(doc))
+    assert run("show-strategy", str(f), "--model", ROVER_POSG).exit_code == 0
+
+
+def test_a_coalition_player_that_never_moves(tmp_path: Path) -> None:
+    model = tmp_path / "idle.posg"
+    model.write_text("posg\nplayer a\n  [go]\n  observables x endobservables\nendplayer\n"
+                     "player b\n  [hit]\nendplayer\nmodule m\n  x : [0..2] init 0;\n"
+                     "  [go] x<2 -> 0.5:(x'=x+1) + 0.5:(x'=0);\n  [hit] false -> true;\n"
+                     "endmodule\nlabel \"goal\" = x=2;\n")
+    r = run("check", str(model), "--prop", '<<b>> Pmax=? [ F "goal" ]')
+    assert r.exit_code == 2 and "IndexError" not in r.output
+    assert "<--prop 1>:1:1: error: player 'b' never has a move: none of its actions is enabled " \
+        "in any state, so there is no strategy to synthesise" in r.output
+
+
+def test_jobs_beyond_the_processors_are_capped_and_said(monkeypatch: pytest.MonkeyPatch) -> None:
+    from posgmc import resources
+
+    monkeypatch.setattr(resources, "usable_cpus", lambda: 1)
+    r = run("check", ROVER_POSG, "--prop", REACH, "--jobs", "1000", "--memory", "1",
+            "--adversaries", "0", "--timeout", "2")
+    assert "warning: --jobs 1000 capped at 1: the processors available to posgmc" in r.output
+    assert r.exit_code in (0, 1) and "internal error" not in r.output
+
+
+def test_a_state_space_that_cannot_fit_stops_exploring(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The memory still available (measured: MemAvailable and RLIMIT_AS) must cover what the
+    build took once more; here it is made to look exhausted."""
+    import importlib
+
+    explore_module = importlib.import_module("posgmc.compiler.explore")
+    monkeypatch.setattr(explore_module, "available_bytes", lambda: 0)
+    r = run("build", ROVER)
+    assert r.exit_code == 2
+    assert "error: the state space does not fit in memory: exploring stopped at" in r.output
+    assert "hint: choose smaller constants, or give --state-limit (e.g. --state-limit" in r.output
+    # a limit the user gives replaces the guard
+    assert run("build", ROVER, "--state-limit", "100000").exit_code == 0
+
+
+def test_a_given_timeout_bounds_the_model_build(tmp_path: Path) -> None:
+    model = tmp_path / "long.posg"
+    model.write_text("posg\nplayer p\n  [a]\n  observables t endobservables\nendplayer\n"
+                     "player q\n  [b]\nendplayer\nmodule m\n  x : [0..1000000000] init 0;\n"
+                     "  t : [0..1] init 0;\n  [a] t=0 & x<1000000000 -> (x'=x+1)&(t'=1);\n"
+                     "  [b] t=1 -> (t'=0);\nendmodule\nlabel \"goal\" = x=1000000000;\n")
+    r = run("check", str(model), "--prop", '<<p>> Pmax=? [ F "goal" ]', "--timeout", "0.5")
+    assert r.exit_code == 2
+    assert "error: the time budget ran out while building the model:" in r.output

@@ -1,6 +1,7 @@
-"""Strategies of a model whose choices carry no labels (a DRN POMDP as Storm writes it, like
-Cassandra's hallway in PAYNT's SAYNT set): choices are named by their local index, ``#0``, ``#1``,
-in the built model, in strategies and in strategy files."""
+"""Binding strategies to models. A model whose choices carry no labels (a DRN POMDP as Storm
+writes it, like Cassandra's hallway in PAYNT's SAYNT set): choices are named by their local index,
+``#0``, ``#1``, in the built model, in strategies and in strategy files. Many rules for
+observations the model never shows: binding is linear and the warnings are summarised."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from posgmc import api
 from posgmc.errors import InputError
 from posgmc.io.drn import parse_drn
 from posgmc.strategies.binding import bind
-from posgmc.strategies.files import read_strategy
+from posgmc.strategies.files import read_strategy, strategy_from_json
 from posgmc.strategies.fss import StrategyError
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "compat"
@@ -82,3 +83,31 @@ def test_an_exported_strategy_reads_back(tmp_path: Path) -> None:
     again = read_strategy(str(path))
     assert again.actions == fss.actions and "#1" in again.actions
     assert np.array_equal(again.action, fss.action)
+
+
+# -- many rules for observations the model never shows: linear, summarised ---------------------
+
+ROOT = Path(__file__).resolve().parents[2]
+ROVER = ROOT / "models" / "rover.posg"
+FORWARD = ROOT / "models" / "rover" / "forward.fss.json"
+
+
+def test_twenty_thousand_unseen_rules_give_four_warnings() -> None:
+    doc = json.loads(FORWARD.read_text())
+    doc["rules"] += [{"memory": 0, "observation": {"x": 100 + i}, "action": {"fwd": 1.0}}
+                     for i in range(20_000)]
+    model = api.build(api.load(ROVER)).model
+    assert model.num_states == 60  # the rover as shipped
+    b = bind(model, strategy_from_json(doc, file="s.json"))
+    assert b.warnings == (
+        "s.json: rules[7]: the model never shows player 'rover' the observation {x=100}",
+        "s.json: rules[8]: the model never shows player 'rover' the observation {x=101}",
+        "s.json: rules[9]: the model never shows player 'rover' the observation {x=102}",
+        "s.json: 19997 more rules (20000 in all) are for observations the model never shows "
+        "player 'rover'",
+    )
+    # the seven rules the model does show are bound: forward plays fwd in x=1..5
+    owned = np.flatnonzero(b.owned)
+    choices = model.row_groups[owned]
+    p = b.action_probability(model, np.zeros(owned.size, dtype=np.int64), choices)
+    assert set(p.tolist()) <= {0.0, 1.0} and p.sum() > 0

@@ -51,8 +51,8 @@ def strategies(draw: st.DrawFn) -> FiniteStateStrategy:
     action[rng.random((k, num_obs)) < 0.2] = 0.0  # some (memory, observation) without a rule
     update = rng.random((k, num_obs, num_act, k)) ** 3
     update /= update.sum(axis=3, keepdims=True)
-    return FiniteStateStrategy(
-        player="p", memory_size=k, initial_memory=int(rng.integers(k)), observables=("o",),
+    return FiniteStateStrategy.from_arrays(
+        player="p", initial_memory=int(rng.integers(k)), observables=("o",),
         observation_values=values, actions=tuple(f"a{i}" for i in range(num_act)),
         action=action, update=update * (action[..., None] > 0),
         boolean=(True,) if boolean else (),
@@ -158,3 +158,36 @@ def test_malformed_json_has_line_and_column() -> None:
 def test_missing_file_is_an_input_error(tmp_path) -> None:
     with pytest.raises(InputError, match="no such file"):
         read_strategy(tmp_path / "nope.json")
+
+
+BIG = "1" + "0" * 5000  # 5001 digits: beyond Python's 4300-digit limit on int()
+
+
+@pytest.mark.parametrize(
+    "text, path, words",
+    [
+        # a probability written with 5001 digits (an integer: json would call int() on it)
+        (json.dumps(EXAMPLE).replace('"via2": 1.0}', f'"via2": {BIG}}}'), "rules[1].action.via2",
+         "a probability must be a number in [0, 1], got 1000000000000000000000000000000000000000"
+         "... (5001 characters)"),
+        (json.dumps(EXAMPLE).replace('"pos": 0}, "action": {"via2"', '"pos": 10000000000000000'
+                                     '00000000000000}, "action": {"via2"'),
+         "rules[1].observation.pos",
+         "the value of 'pos' 1000000000000000000000000000000 is beyond 64-bit integers"),
+        (json.dumps(EXAMPLE).replace('"memory": 1,', f'"memory": {BIG},'), "rules[1].memory",
+         "memory 1000000000000000000000000000000000000000... (5001 characters) is beyond 64-bit"),
+        (json.dumps(EXAMPLE).replace('"memory_size": 2', f'"memory_size": {BIG}'), "memory_size",
+         "is beyond 64-bit integers"),
+        (json.dumps(EXAMPLE).replace('"memory_size": 2', '"memory_size": 10000000000'),
+         "memory_size", "memory_size 10000000000 is more than the largest supported, 2147483647"),
+        (json.dumps(EXAMPLE).replace('{"0": 1.0}', f'{{"{BIG}": 1.0}}'),
+         "rules[0].update.via1.1000000000000000000000000000000000000000...(5001 characters)",
+         "is not a memory node (0..1)"),
+    ],
+)
+def test_absurd_numbers_are_positioned_errors(text: str, path: str, words: str) -> None:
+    with pytest.raises(StrategyError) as info:
+        parse_strategy(text, file="s.json")
+    assert info.value.path == path and info.value.file == "s.json"
+    assert words in info.value.message
+    assert len(info.value.message) < 300  # the huge number is cut, not echoed

@@ -31,9 +31,9 @@ def _memoryless(action: str) -> FiniteStateStrategy:
     act = np.zeros((1, 3, 3))
     act[0, 0, "abe".index(action)] = 1.0
     act[0, 1:, 2] = 1.0
-    return FiniteStateStrategy(player="", memory_size=1, initial_memory=0, observables=("s",),
-                               observation_values=np.array([[0], [1], [2]], dtype=np.int64),
-                               actions=("a", "b", "e"), action=act, update=np.ones((1, 3, 3, 1)))
+    return FiniteStateStrategy.from_arrays(
+        player="", observables=("s",), observation_values=np.array([[0], [1], [2]]),
+        actions=("a", "b", "e"), action=act, update=np.ones((1, 3, 3, 1)))
 
 
 @pytest.mark.parametrize("alpha", [0.0, 0.25, 4 / 9, 1.0])
@@ -58,9 +58,8 @@ def test_mixtures_of_random_strategies_are_strategies(
     def random(k: int, rows: list[int], actions: tuple[str, ...]) -> FiniteStateStrategy:
         act = rng.random((k, len(rows), len(actions)))
         upd = rng.random((k, len(rows), len(actions), k))
-        return FiniteStateStrategy(
+        return FiniteStateStrategy.from_arrays(
             player="p",
-            memory_size=k,
             initial_memory=int(rng.integers(k)),
             observables=("x",),
             observation_values=np.array([[r] for r in rows], dtype=np.int64),
@@ -83,9 +82,9 @@ def test_mixtures_of_random_strategies_are_strategies(
 
 def test_only_strategies_of_one_player_mix() -> None:
     f = _memoryless("a")
-    other = FiniteStateStrategy(player="q", memory_size=1, initial_memory=0, observables=("s",),
-                                observation_values=f.observation_values, actions=f.actions,
-                                action=f.action, update=f.update)
+    other = FiniteStateStrategy.from_arrays(
+        player="q", observables=("s",), observation_values=f.observation_values, actions=f.actions,
+        action=f.action, update=f.update)
     with pytest.raises(StrategyError, match="same player"):
         mix(f, other, 0.5)
     with pytest.raises(StrategyError, match=r"in \[0, 1\]"):

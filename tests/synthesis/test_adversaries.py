@@ -3,6 +3,8 @@ random POSGs, against brute force over every deterministic memoryless strategy o
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -144,3 +146,32 @@ def test_an_adversary_that_never_decides_has_nothing_to_enumerate() -> None:
     r = api.synthesize(session, '<<d>> Pmax=? [ F "goal" ]', memory=1, timeout=5, seed=0)
     assert r.guaranteed is not None
     assert r.guaranteed.lower <= 0.5 <= r.guaranteed.upper
+
+
+def test_many_memory_nodes_stop_at_the_deadline_and_fit_in_memory(
+    monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """--memory attacker=500: the encoding is linear in k·Z·(A + k) and stops at the deadline
+    (before: cubic symmetry clauses, over 100 s and 5.3 GB); an encoding that cannot fit in the
+    memory available enumerates nothing instead of failing."""
+    import time
+
+    from posgmc.synthesis import adversaries
+
+    model = api.build(api.load(ROOT_MODELS / "rover.posg")).model
+    attacker = model.player_names.index("attacker")
+    gone = enumerate_adversaries(model, attacker, memory=500, deadline=time.perf_counter())
+    assert gone.strategies == () and not gone.exhaustive
+    found = enumerate_adversaries(model, attacker, memory=12, limit=3)
+    assert len(found.strategies) == 3 and all(f.memory_size == 12 for f in found.strategies)
+    monkeypatch.setattr(adversaries, "check_allocation", _refuse)
+    assert enumerate_adversaries(model, attacker, memory=2).strategies == ()
+
+
+def _refuse(num_bytes: float, what: str, **_: object) -> None:
+    from posgmc.errors import LimitError
+
+    raise LimitError(f"{what} would need {num_bytes} bytes")
+
+
+ROOT_MODELS = Path(__file__).resolve().parents[2] / "models"

@@ -176,3 +176,22 @@ def test_hole_scores_mean_over_the_hole() -> None:
     names = [problem.model.action_names[a] for a in par.used_actions]
     got = {names[o]: float(scores[z, o]) for o in range(len(names)) if np.isfinite(scores[z, o])}
     assert got == pytest.approx({"walk": 0.9, "commit": 1.0})
+
+
+def test_a_passed_deadline_builds_no_quotient() -> None:
+    """--memory 1..200 --timeout 3 ran over 110 s building quotients of k² rows after the budget
+    was gone; now no size starts after the deadline, and no quotient is built past it."""
+    import time
+
+    from posgmc.synthesis.improvement import ImprovementJob
+    from posgmc.synthesis.search import problem_of
+
+    model = api.build(api.load(Path(__file__).resolve().parents[2] / "models" / "rover.posg")).model
+    coalition_of = api._resolver(model, False).coalition_of
+    problem = problem_of(model, parser.parse_property('<<rover>> Pmax=? [ F "goal" ]').expr,
+                         player=0, adversary=1, coalition_of=coalition_of, scalar=api._scalar)
+    past = time.perf_counter()
+    assert quotient_of(problem, 200, deadline=past) is None
+    assert ImprovementJob(tuple(range(1, 201)), past).run(problem) == ()
+    q = quotient_of(problem, 2)
+    assert q is not None and q.model.num_states > 0

@@ -25,11 +25,10 @@ REACH = '<<rover>> Pmax=? [ !"crash" U "goal" ]'
 
 def _fss(action: np.ndarray, update: np.ndarray, initial: int = 0) -> FiniteStateStrategy:
     k, z = action.shape[:2]
-    return FiniteStateStrategy(player="p", memory_size=k, initial_memory=initial,
-                               observables=("x",),
-                               observation_values=np.arange(z, dtype=np.int64)[:, None],
-                               actions=tuple(f"a{i}" for i in range(action.shape[2])),
-                               action=action, update=update)
+    return FiniteStateStrategy.from_arrays(
+        player="p", initial_memory=initial, observables=("x",),
+        observation_values=np.arange(z, dtype=np.int64)[:, None],
+        actions=tuple(f"a{i}" for i in range(action.shape[2])), action=action, update=update)
 
 
 def test_near_deterministic_rules_become_deterministic_and_node_2_is_dropped() -> None:
@@ -133,10 +132,10 @@ def test_sharpening_is_taken_when_it_proves_as_much() -> None:
     action[:, moving, actions.index("hold")] = 0.0001
     update = np.zeros(action.shape + (2,))
     update[..., 0] = 1.0  # node 1 is never entered
-    near = FiniteStateStrategy(player="rover", memory_size=2, initial_memory=0,
-                               observables=forward.observables,
-                               observation_values=forward.observation_values, actions=actions,
-                               action=action, update=update)
+    near = FiniteStateStrategy.from_arrays(
+        player="rover", initial_memory=0, observables=forward.observables,
+        observation_values=forward.observation_values, actions=actions, action=action,
+        update=update)
     query = parser.parse_property(REACH).expr
 
     def verified(f: FiniteStateStrategy) -> Bound | None:

@@ -1,0 +1,714 @@
+"""A proven bound on what *any* strategy of a POMDP's agent achieves: the belief MDP
+over-approximated on a Freudenthal grid and solved by the sound engines.
+
+The optimum over all strategies (any memory, randomised) of a POMDP is the value V*(b0) of its
+belief MDP at the initial belief. For the objectives here (reachability ``P[a U b]``, expected
+reward until a target, discounted costs) V* is *convex* in the belief when the agent maximises
+(a maximum of functions linear in b: one per strategy) and concave when it minimises. So if a
+belief b is the convex combination Σ λ_i v_i of grid beliefs v_i, then V*(b) <= Σ λ_i V*(v_i)
+(max; >= for min). Replacing every successor belief of the belief MDP by the grid vertices of
+its simplex, with the λ_i as probabilities, gives a finite MDP whose value at b0 bounds V*(b0)
+from the optimistic side (Lovejoy, "Computationally feasible bounds for partially observed
+Markov decision processes", Oper. Res. 1991; Bork, Junges, Katoen, Quatmann, "Verification of
+indefinite-horizon POMDPs", ATVA 2020, Theorem 2: the n-step values are convex too and the
+step-bounded values converge to V* from below for reachability, so the bound holds for the
+least fixed point). Grid vertices not expanded (the exploration budget ended) are *cut off*:
+they get the full-observation bound Σ_s v(s) U(s), which holds for every belief (an agent that
+sees the state does at least as well).
+
+The grid is Freudenthal's triangulation at resolution N, taken on each belief's support (states
+in their index order): in the coordinates x_i = N Σ_{j>=i} b_j the belief lies in the simplex
+whose vertices are ⌊x⌋ plus the unit vectors added in the order of decreasing fractional part;
+a vertex is an integer vector, so vertices are identified exactly (no float hashing). Any
+decomposition into beliefs would be sound (only convexity is used); this one keeps the number of
+distinct vertices small and nests for N, 2N, 4N, ...
+
+The abstraction is an ordinary :class:`~posgmc.model.explicit.ExplicitModel` (an MDP: one state
+per vertex, then a target and a sink), so it is checked with the same sound engines as any model
+(interval iteration, end components handled) and the bound side of their result is the reported
+bound. Its transition probabilities are computed in float64 (posterior beliefs, the weights λ):
+they are exact up to rounding at the 1e-15 level, which the reported bound does not absorb.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from posgmc.checking.property_checker import CheckOptions, PropertyChecker
+from posgmc.engines.discounted import discounted_reach_reward
+from posgmc.engines.options import SolverOptions
+from posgmc.engines.reach import reach_probability
+from posgmc.engines.result import EngineResult
+from posgmc.engines.rewards import expected_reach_reward
+from posgmc.model.explicit import ExplicitModel, make_model
+from posgmc.model.types import ModelType
+from posgmc.strategies.binding import player_view
+from posgmc.synthesis import belief
+from posgmc.synthesis.belief import _can_reach
+from posgmc.synthesis.budget import interrupted
+from posgmc.synthesis.parametric import Layout
+from posgmc.synthesis.problem import Problem
+
+__all__ = ["GridAbstraction", "GridBound", "CoarseBounds", "applies", "freudenthal",
+           "freudenthal_batch",
+           "grid_abstraction", "grid_bound", "full_observation_bounds", "RESOLUTIONS",
+           "MAX_VERTICES", "PRECISION", "RULE_CAP"]
+
+RESOLUTIONS = tuple(2 ** i for i in range(1, 11))
+"""The grid resolutions tried in turn while the budget lasts (each grid refines the previous)."""
+
+RULE_CAP = 64
+"""The adversary's decision rules tried at one vertex at most (all of them when there are no
+more; else the full-observation optimum's rule and its one-state deviations)."""
+
+MAX_VERTICES = 400_000
+"""Grid vertices explored at most in one abstraction (the time budget usually ends it first)."""
+
+PRECISION = 1e-8
+"""The relative precision the abstraction is solved to (its bound side is what is reported)."""
+
+_BATCH = 512
+"""Vertices expanded between two looks at the clock."""
+
+_SNAP = 1e-9
+"""Cumulative coordinates within this (relative to N) of an integer are that integer: float
+noise in a posterior must not split a grid belief into a tiny simplex around it."""
+
+
+def freudenthal(p: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices and weights of ``p`` (float64[m], a distribution, all entries > 0) in
+    Freudenthal's triangulation of resolution N: (int64[k, m] counts, each row summing to N, so
+    that vertex i is counts[i] / N; float64[k] weights λ > 0 summing to 1) with
+    Σ_i λ_i counts[i] / N = p (up to rounding)."""
+    m = p.size
+    N = int(resolution)
+    if m == 1:
+        return np.full((1, 1), N, dtype=np.int64), np.ones(1)
+    x = N * np.cumsum(p[::-1])[::-1]
+    x[0] = N
+    near = np.rint(x)
+    x = np.where(np.abs(x - near) <= _SNAP * N, near, x)
+    v = np.floor(x)
+    d = x - v
+    order = 1 + np.argsort(-d[1:], kind="stable")
+    dd = d[order]
+    lam = np.empty(m)
+    lam[0] = 1.0 - dd[0]
+    lam[1:m - 1] = dd[:-1] - dd[1:]
+    lam[m - 1] = dd[-1]
+    Y = np.tile(v, (m, 1))
+    Y[:, order] += np.tri(m, m - 1, k=-1)
+    counts = np.empty((m, m), dtype=np.int64)
+    counts[:, :-1] = (Y[:, :-1] - Y[:, 1:]).astype(np.int64)
+    counts[:, -1] = Y[:, -1].astype(np.int64)
+    keep = lam > 0
+    return counts[keep], lam[keep]
+
+
+def freudenthal_batch(P: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`freudenthal` of every row of ``P`` (float64[n, m], distributions with all entries
+    > 0) at once: (int64[n, m, m] counts, float64[n, m] weights; a vertex of weight 0 is not
+    part of the decomposition)."""
+    n, m = P.shape
+    N = int(resolution)
+    if m == 1:
+        return np.full((n, 1, 1), N, dtype=np.int64), np.ones((n, 1))
+    x = N * np.cumsum(P[:, ::-1], axis=1)[:, ::-1]
+    x[:, 0] = N
+    near = np.rint(x)
+    x = np.where(np.abs(x - near) <= _SNAP * N, near, x)
+    v = np.floor(x)
+    d = x - v
+    order = 1 + np.argsort(-d[:, 1:], axis=1, kind="stable")
+    dd = np.take_along_axis(d, order, axis=1)
+    lam = np.empty((n, m))
+    lam[:, 0] = 1.0 - dd[:, 0]
+    lam[:, 1:m - 1] = dd[:, :-1] - dd[:, 1:]
+    lam[:, m - 1] = dd[:, -1]
+    Y = np.repeat(v[:, None, :], m, axis=1)  # [n, vertex, coordinate]
+    steps = np.tri(m, m - 1, k=-1)  # vertex k adds the first k unit vectors of the order
+    rows = np.arange(n)[:, None, None]
+    Y[rows, np.arange(m)[None, :, None], order[:, None, :]] += steps[None]
+    counts = np.empty((n, m, m), dtype=np.int64)
+    counts[:, :, :-1] = (Y[:, :, :-1] - Y[:, :, 1:]).astype(np.int64)
+    counts[:, :, -1] = Y[:, :, -1].astype(np.int64)
+    return counts, lam
+
+
+@dataclass(frozen=True, eq=False)
+class GridAbstraction:
+    """The finite over-approximation of a POMDP's belief MDP at one resolution.
+
+    ``model``: the MDP (state i < ``vertices`` is grid vertex i, vertex 0 the initial belief; then
+    the target and the sink); ``beliefs``: csr float64[vertices, S], each vertex's belief;
+    ``expanded``: bool[vertices], False where the vertex is cut off (one choice giving its
+    full-observation bound); ``action``: int64[C], the model's action index of each choice of an
+    expanded vertex (-1 for cut-offs and sinks); ``rewards``: float64[C] (None for a
+    probability); ``target``: bool[states]; ``discount``; ``maximize``; ``resolution``: N."""
+
+    model: ExplicitModel
+    beliefs: sp.csr_matrix
+    expanded: np.ndarray
+    action: np.ndarray
+    rewards: np.ndarray | None
+    target: np.ndarray
+    discount: float
+    maximize: bool
+    resolution: int
+    exact: bool
+    """Complete and every successor belief is a grid vertex: on a POMDP the abstraction *is* the
+    reachable belief MDP, so its optimum is the POMDP's (no finer grid can tighten it)."""
+    adversary: np.ndarray
+    """bool[states]: the adversary's vertices (a game's; none on a POMDP)."""
+
+    @property
+    def vertices(self) -> int:
+        return int(self.beliefs.shape[0])
+
+    @property
+    def complete(self) -> bool:
+        """Every vertex explored was expanded (no cut-off values are used)."""
+        return bool(self.expanded.all())
+
+    def solve(self, options: SolverOptions = SolverOptions()) -> EngineResult:
+        """The abstraction's optimum per state by the sound engine of its objective."""
+        mx = np.where(self.adversary, not self.maximize, self.maximize)
+        if self.rewards is None:
+            return reach_probability(self.model, self.target, maximize=mx, options=options)
+        if self.discount < 1.0:
+            return discounted_reach_reward(self.model, self.rewards, self.target,
+                                           discount=self.discount, maximize=mx, options=options)
+        return expected_reach_reward(self.model, self.rewards, self.target, maximize=mx,
+                                     options=options)
+
+
+class _Dynamics:
+    """The game per action of its decision maker (continuing transitions, stopping gain,
+    rewards), and the other states' choices (the adversary's, or a single one)."""
+
+    def __init__(self, problem: Problem, adversary_rules: np.ndarray | None) -> None:
+        model = problem.model
+        self.model = model
+        self.S = S = model.num_states
+        layout = Layout.of(model, problem.player)
+        view = player_view(model, problem.player)
+        self.mask = layout.mask
+        self.actions = layout.used_actions
+        self.owned = (model.state_players == problem.player) if model.player_names else \
+            np.ones(S, dtype=bool)
+        obs_index = np.full(view.num_observations, -1, dtype=np.int64)
+        obs_index[layout.used_obs] = np.arange(layout.used_obs.size)
+        self.Z = Z = layout.used_obs.size
+        # the group of each state: its observation index for the decision maker's states, Z for
+        # the others (a vertex's support lies in one group)
+        self.group = np.where(self.owned, obs_index[view.state_obs], Z)
+        self.preferred = adversary_rules  # int64[S]: a choice per state (the first rule tried)
+        if problem.rewards is None:
+            # mass that cannot reach the target any more (within ``remain``) is worth 0
+            self.cont = problem.remain & ~problem.target & _can_reach(model, problem.target,
+                                                                      problem.remain)
+        else:
+            self.cont = ~problem.target
+        self.target = problem.target.astype(np.float64)
+        act_index = np.full(len(model.action_names), -1, dtype=np.int64)
+        act_index[layout.used_actions] = np.arange(layout.used_actions.size)
+        cs = model.choice_states
+        c_act = np.where(self.owned[cs], act_index[model.choice_actions], -1)
+        keep = sp.diags(self.cont.astype(np.float64))
+        self.P: list[sp.csr_matrix] = []
+        self.stop: list[np.ndarray] = []
+        self.reward: list[np.ndarray] = []
+        for a in range(layout.used_actions.size):
+            c = np.flatnonzero(c_act == a)
+            T = model.transitions[c].tocoo()
+            Pa = sp.csr_matrix((T.data, (cs[c][T.row], T.col)), shape=(S, S))
+            self.stop.append(np.asarray(Pa @ self.target).ravel())
+            self.P.append(sp.csr_matrix(Pa @ keep))
+            r = np.zeros(S)
+            if problem.rewards is not None:
+                r[cs[c]] = problem.rewards[c]
+            self.reward.append(r)
+        self.T_cont = sp.csr_matrix(model.transitions @ keep)
+        self.T_stop = np.asarray(model.transitions @ self.target).ravel()
+
+    def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The adversary's decision rules tried at a vertex on ``states``: (int64[m], the global
+        ids of the support's choices; float64[k, m], each rule's probability of each of them,
+        summing to 1 over each state's choices). Deterministic rules — all of them when there
+        are at most :data:`RULE_CAP`, else the preferred rule and its one-state deviations —
+        and the uniform mixture over each state's choices. Any rule, randomised or not, bounds
+        the optimum (the adversary restricted can only do worse, and a randomised rule hides its
+        choice from the decision maker)."""
+        rg = self.model.row_groups
+        lo, hi = rg[states], rg[states + 1]
+        n = hi - lo
+        cols = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())])
+        offset = np.r_[0, np.cumsum(n)[:-1]]
+        varying = np.flatnonzero(n > 1)
+        if float(np.prod(n[varying].astype(np.float64))) <= RULE_CAP:
+            picks = list(itertools.product(*[range(int(n[i])) for i in varying.tolist()]))
+            det = np.tile(lo, (len(picks), 1))
+            if varying.size:
+                det[:, varying] += np.asarray(picks, dtype=np.int64)
+        else:
+            base = lo.copy() if self.preferred is None else np.where(
+                (self.preferred[states] >= lo) & (self.preferred[states] < hi),
+                self.preferred[states], lo)
+            out = [base]
+            for i in varying.tolist():
+                for c in range(int(lo[i]), int(hi[i])):
+                    if c != base[i] and len(out) < RULE_CAP:
+                        rule = base.copy()
+                        rule[i] = c
+                        out.append(rule)
+            det = np.stack(out)
+        k = det.shape[0]
+        local = det - lo + offset  # column of each state's chosen choice
+        probs = np.zeros((k + (1 if varying.size else 0), cols.size))
+        probs[np.repeat(np.arange(k), states.size), local.ravel()] = 1.0
+        if varying.size:
+            probs[k] = np.repeat(1.0 / n, n)
+        return cols, probs
+
+
+class _Grid:
+    """The vertices found so far (mutable while exploring)."""
+
+    def __init__(self, S: int, resolution: int) -> None:
+        self.S, self.N = S, resolution
+        self.key: dict[bytes, int] = {}
+        self.rows: list[np.ndarray] = []
+        self.vals: list[np.ndarray] = []
+
+    def vertex(self, idx: np.ndarray, counts: np.ndarray) -> int:
+        nz = counts > 0
+        i, c = idx[nz], counts[nz]
+        k = i.tobytes() + c.tobytes()
+        found = self.key.get(k)
+        if found is None:
+            found = len(self.rows)
+            self.key[k] = found
+            self.rows.append(i)
+            self.vals.append(c / self.N)
+        return found
+
+    def matrix(self, first: int = 0, last: int | None = None) -> sp.csr_matrix:
+        rows, vals = self.rows[first:last], self.vals[first:last]
+        n = len(rows)
+        indptr = np.zeros(n + 1, dtype=np.int64)
+        indptr[1:] = np.cumsum([r.size for r in rows])
+        data = np.concatenate(vals) if n else np.zeros(0)
+        ind = np.concatenate(rows) if n else np.zeros(0, dtype=np.int64)
+        return sp.csr_matrix((data, ind, indptr), shape=(n, self.S))
+
+
+def full_observation_bounds(problem: Problem,
+                            deadline: float | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """A proven bound per state on what any strategy achieves — float64[S], the upper end of the
+    full-observation optimum when the decision maker maximises, the lower end when it minimises
+    (interval iteration; a decision maker that sees the state does at least as well as one that
+    does not) — and the full-observation optimum's choice per state (int64[S], -1 where none;
+    None when the solve gives none): the adversary's is the first rule the game abstraction
+    tries."""
+    checker = PropertyChecker(problem.model, coalition_of=problem.coalition_of,
+                              scalar=problem.scalar,
+                              options=CheckOptions(keep_strategy=True, solver=SolverOptions(
+                                  deadline=deadline, stiff_certificate=deadline is None)))
+    r = checker.query(problem.query, everywhere=True)
+    strategy = None if r.engine is None or r.engine.strategy is None else \
+        np.asarray(r.engine.strategy, dtype=np.int64)
+    if not r.sound:
+        return np.full(problem.model.num_states,
+                       np.inf if problem.maximize else -np.inf), strategy
+    return np.asarray(r.upper if problem.maximize else r.lower, dtype=np.float64), strategy
+
+
+def applies(problem: Problem) -> bool:
+    """Whether the grid abstraction covers ``problem``: a POMDP (any objective here), or a game
+    of the decision maker against one omniscient adversary with a probability objective."""
+    if problem.model.initial_states.size != 1:
+        return False
+    if belief.applies(problem):
+        return True
+    return (problem.adversary is not None and len(problem.model.player_names) == 2
+            and problem.rewards is None)
+
+
+_BATCH_ELEMENTS = 2_000_000
+"""A vectorised triangulation lays out parts × m × m counts; kept below this many."""
+
+
+def _chunks(sizes: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    """(support size m, indices of the parts of that size) in chunks of at most
+    :data:`_BATCH_ELEMENTS` counts."""
+    out: list[tuple[int, np.ndarray]] = []
+    for m in np.unique(sizes).tolist():
+        sel = np.flatnonzero(sizes == m)
+        step = max(1, _BATCH_ELEMENTS // (m * m))
+        out.extend((m, sel[i:i + step]) for i in range(0, sel.size, step))
+    return out
+
+
+class _Choices:
+    """The abstraction's choices while exploring: a key (vertex · span + local index) each, its
+    target mass and reward, and its successor entries (by key)."""
+
+    def __init__(self, span: int) -> None:
+        self.span = span
+        self.key: list[np.ndarray] = []
+        self.action: list[np.ndarray] = []
+        self.stop: list[np.ndarray] = []
+        self.reward: list[np.ndarray] = []
+        self.e_key: list[np.ndarray] = []
+        self.e_vertex: list[np.ndarray] = []
+        self.e_prob: list[np.ndarray] = []
+        self.on_grid = True  # every successor part so far is a vertex itself
+
+    def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, reward: np.ndarray,
+            D: sp.csr_matrix, dyn: _Dynamics, grid: _Grid) -> None:
+        """Choices ``keys`` whose continuing successor distributions are the rows of ``D``:
+        each row split into its groups (one per observation of the decision maker's states, one
+        for the others; a convex decomposition, so the bound stays sound), each part normalised
+        and triangulated."""
+        self.key.append(keys)
+        self.action.append(action)
+        self.stop.append(stop)
+        self.reward.append(reward)
+        coo = sp.csr_matrix(D).tocoo()
+        if not coo.nnz:
+            return
+        grp = dyn.group[coo.col]
+        pair = coo.row.astype(np.int64) * (dyn.Z + 1) + grp
+        o = np.lexsort((coo.col, pair))
+        pair, col, data = pair[o], coo.col[o].astype(np.int64), coo.data[o]
+        starts = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
+        sizes = np.diff(np.r_[starts, pair.size])
+        rows = pair[starts] // (dyn.Z + 1)
+        mass = np.add.reduceat(data, starts)
+        N = grid.N
+        # the parts of one support size together: one vectorised triangulation each
+        for m, sel in _chunks(sizes):
+            at = starts[sel][:, None] + np.arange(m)[None, :]
+            w = mass[sel]
+            counts, lam = freudenthal_batch(data[at] / w[:, None], N)
+            cols = col[at]
+            keep = lam > 0
+            self.on_grid = self.on_grid and bool((keep.sum(axis=1) == 1).all())
+            i, k = np.nonzero(keep)
+            vs = [grid.vertex(cols[a], counts[a, b]) for a, b in zip(i.tolist(), k.tolist())]
+            self.e_key.append(keys[rows[sel][i]].astype(np.int64))
+            self.e_vertex.append(np.asarray(vs, dtype=np.int64))
+            self.e_prob.append(w[i] * lam[i, k])
+
+
+@dataclass(frozen=True, eq=False)
+class CoarseBounds:
+    """A solved coarser abstraction, as bounds for a finer one's cut-offs: ``resolution`` N,
+    ``values`` float64[vertices] (the bound side of each vertex's value, proven: each vertex is
+    the initial belief of the same abstraction started there), and ``key`` the vertex of each
+    (support, counts) pair."""
+
+    resolution: int
+    values: np.ndarray
+    key: dict[bytes, int]
+
+    @staticmethod
+    def of(abstraction: GridAbstraction, values: np.ndarray) -> CoarseBounds:
+        B = abstraction.beliefs
+        N = abstraction.resolution
+        key = {}
+        for i in range(B.shape[0]):
+            lo, hi = B.indptr[i], B.indptr[i + 1]
+            counts = np.rint(B.data[lo:hi] * N).astype(np.int64)
+            key[B.indices[lo:hi].astype(np.int64).tobytes() + counts.tobytes()] = i
+        return CoarseBounds(N, values[:B.shape[0]], key)
+
+    def bounds(self, idx: list[np.ndarray], p: list[np.ndarray]) -> np.ndarray:
+        """float64[len(idx)]: for each belief (``p[j]`` on states ``idx[j]``) Σ λ_i W(u_i) over
+        the coarse grid's simplex around it (a bound by convexity), NaN where one of the
+        simplex's vertices is not in the coarse abstraction."""
+        out = np.full(len(idx), np.nan)
+        sizes = np.asarray([i.size for i in idx], dtype=np.int64)
+        for _, sel in _chunks(sizes):
+            P = np.stack([p[j] for j in sel.tolist()])
+            counts, lam = freudenthal_batch(P, self.resolution)
+            for r, j in enumerate(sel.tolist()):
+                total = 0.0
+                for c, w in zip(counts[r], lam[r]):
+                    if w <= 0:
+                        continue
+                    nz = c > 0
+                    v = self.key.get(idx[j][nz].tobytes() + c[nz].tobytes())
+                    if v is None:
+                        total = math.nan
+                        break
+                    total += w * float(self.values[v])
+                out[j] = total
+        return out
+
+
+def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
+                     deadline: float | None = None, max_vertices: int = MAX_VERTICES,
+                     adversary_rules: np.ndarray | None = None,
+                     coarse: CoarseBounds | None = None) -> GridAbstraction | None:
+    """The abstraction of ``problem`` at ``resolution``, explored breadth first from the initial
+    belief until ``max_vertices`` or ``deadline``.
+
+    On a POMDP the vertices are the agent's beliefs and the abstraction is an MDP. On a game
+    (:func:`applies`) there are two kinds of vertices: the decision maker's beliefs over its
+    states of one observation, where it chooses an action, and distributions over the other
+    states, where the adversary chooses a decision rule (a choice per state of the support; at
+    most :data:`RULE_CAP` rules, tried from ``adversary_rules``); the abstraction is a game.
+    The value of a one-sided game (a partially observing maximiser against an omniscient
+    adversary) is convex in the decision maker's belief (Horák, Bošanský, Pěchouček, AAAI
+    2017: for a fixed strategy of the decision maker the adversary best-responds state by
+    state, so the value is linear in the belief), and fixing the adversary's rule for one step
+    can only help the decision maker, so the abstraction's value bounds the game's optimum.
+
+    Args:
+        problem: the POMDP or game and its objective.
+        resolution: N >= 1 (grid beliefs are multiples of 1/N).
+        cutoff: float64[S], the bound per state used at cut-off vertices
+            (:func:`full_observation_bounds`).
+        adversary_rules: int64[S], the adversary's preferred choice per state (the
+            full-observation optimum's), or None.
+        coarse: a solved coarser abstraction; a cut-off vertex then gets the tighter of its
+            full-observation bound and its coarse simplex's interpolated bound.
+
+    Returns:
+        The abstraction, or None when it does not apply (:func:`applies`) or the initial state
+        does not continue (nothing to bound).
+    """
+    if not applies(problem):
+        return None
+    dyn = _Dynamics(problem, adversary_rules)
+    s0 = int(problem.model.initial_states[0])
+    if not dyn.cont[s0] or (dyn.owned[s0] and dyn.group[s0] < 0):
+        return None
+    grid = _Grid(dyn.S, resolution)
+    grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
+    Au = dyn.actions.size
+    choices = _Choices(Au + RULE_CAP + 1)
+    done = 0  # vertices [0, done) expanded, except those in ``skipped``
+    skipped: list[int] = []
+    while done < len(grid.rows) and done < max_vertices:
+        if (deadline is not None and time.perf_counter() > deadline) or interrupted():
+            break
+        last = min(len(grid.rows), max_vertices, done + min(_BATCH, max(64, done)))
+        ids = np.arange(done, last)
+        first = np.asarray([grid.rows[i][0] for i in range(done, last)])
+        mine = dyn.owned[first]
+        B = grid.matrix(done, last)
+        z = dyn.group[first]
+        for a in range(Au):
+            sel = np.flatnonzero(mine & (z >= 0))
+            sel = sel[dyn.mask[z[sel], a]]
+            if not sel.size:
+                continue
+            Ba = B[sel]
+            choices.add(ids[sel] * choices.span + a, np.full(sel.size, a, dtype=np.int64),
+                        np.asarray(Ba @ dyn.stop[a]).ravel(),
+                        np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a], dyn, grid)
+        for j in np.flatnonzero(~mine).tolist():
+            v = done + j
+            if deadline is not None and time.perf_counter() > deadline:
+                skipped.append(v)  # the adversary's vertices one by one: the rest are cut off
+                continue
+            states, p = grid.rows[v], grid.vals[v]
+            cols, probs = dyn.rules(states)
+            k = probs.shape[0]
+            mass = np.repeat(p, np.diff(dyn.model.row_groups)[states])
+            W = sp.csr_matrix(probs * mass)
+            W = sp.csr_matrix((W.data, cols[W.indices], W.indptr),
+                              shape=(k, dyn.model.num_choices))
+            choices.add(v * choices.span + Au + np.arange(k), np.full(k, -1, dtype=np.int64),
+                        np.asarray(W @ dyn.T_stop).ravel(), np.zeros(k), W @ dyn.T_cont, dyn,
+                        grid)
+        done = last
+    expanded = np.zeros(len(grid.rows), dtype=bool)
+    expanded[:done] = True
+    expanded[skipped] = False
+    return _assemble(problem, dyn, grid, expanded, resolution, cutoff, choices, coarse)
+
+
+def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarray,
+              resolution: int, cutoff: np.ndarray, ch: _Choices,
+              coarse: CoarseBounds | None) -> GridAbstraction:
+    """The abstraction: expanded vertices with their choices, cut-off vertices with one choice
+    worth their full-observation bound, then the target and the sink."""
+    V = len(grid.rows)
+    TARGET, SINK = V, V + 1
+    S_abs = V + 2
+    prob = problem.rewards is None
+
+    def cat(parts: list[np.ndarray], dtype: type = np.float64) -> np.ndarray:
+        return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype=dtype)
+
+    keys = cat(ch.key, np.int64)
+    order = np.argsort(keys, kind="stable")
+    keys = keys[order]
+    cv = keys // ch.span
+    ca = cat(ch.action, np.int64)[order]
+    stop, rew = cat(ch.stop)[order], cat(ch.reward)[order]
+    n_exp = keys.size  # the expanded choices, numbered 0..n_exp-1 in key (= vertex) order
+    ech = np.searchsorted(keys, cat(ch.e_key, np.int64))
+    ev, ep = cat(ch.e_vertex, np.int64), cat(ch.e_prob)
+    cont_mass = np.bincount(ech, weights=ep, minlength=n_exp)
+    rows = [ech, np.arange(n_exp)]
+    cols = [ev, np.full(n_exp, TARGET)]
+    vals = [ep, stop]
+    if prob:
+        loss = np.maximum(0.0, 1.0 - stop - cont_mass)
+        rows.append(np.arange(n_exp))
+        cols.append(np.full(n_exp, SINK))
+        vals.append(loss)
+    T_exp = sp.csr_matrix((cat(vals), (cat(rows, np.int64), cat(cols, np.int64))),
+                          shape=(n_exp, S_abs))
+    if not prob:
+        # the successor masses sum to 1 up to rounding: renormalised (no mass may leak to a sink,
+        # which for an expected reward would mean "never reaches the target")
+        sums = np.asarray(T_exp.sum(axis=1)).ravel()
+        T_exp = sp.csr_matrix(sp.diags(1.0 / np.where(sums > 0, sums, 1.0)) @ T_exp)
+    # cut-off vertices: one choice worth Σ_s v(s) cutoff(s)
+    cut_ids = np.flatnonzero(~expanded)
+    Bc = grid.matrix()[cut_ids]
+    finite = np.isfinite(cutoff)
+    u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
+    unbounded = np.asarray(Bc @ (~finite).astype(np.float64)).ravel() > 0
+    n_cut = cut_ids.size
+    if coarse is not None and n_cut:
+        sign = 1.0 if problem.maximize else -1.0
+        w = coarse.bounds([grid.rows[v] for v in cut_ids.tolist()],
+                          [grid.vals[v] for v in cut_ids.tolist()])
+        better = np.isfinite(w) & (unbounded | (sign * w < sign * u))
+        u = np.where(better, w, u)
+        unbounded &= ~better
+    if prob:
+        u = np.clip(u, 0.0, 1.0)
+        u = np.where(unbounded, 1.0 if problem.maximize else 0.0, u)
+        T_cut = sp.csr_matrix(
+            (np.r_[u, 1.0 - u], (np.r_[np.arange(n_cut), np.arange(n_cut)],
+                                  np.r_[np.full(n_cut, TARGET), np.full(n_cut, SINK)])),
+            shape=(n_cut, S_abs))
+        r_cut = np.zeros(n_cut)
+    else:
+        # an unbounded cut-off (an infinite expected reward) never reaches the target: PRISM's
+        # R[F] is then infinite, for either direction
+        dest = np.where(unbounded, SINK, TARGET)
+        T_cut = sp.csr_matrix((np.ones(n_cut), (np.arange(n_cut), dest)), shape=(n_cut, S_abs))
+        r_cut = np.where(unbounded, 0.0, u)
+    T_sinks = sp.csr_matrix((np.ones(2), ([0, 1], [TARGET, SINK])), shape=(2, S_abs))
+    # the rows in state order: each state's choices together (expanded choices in key order)
+    owner = np.r_[cv, cut_ids, [TARGET, SINK]]
+    perm = np.argsort(owner, kind="stable")
+    transitions = sp.vstack([T_exp, T_cut, T_sinks], format="csr")[perm]
+    per_state = np.bincount(owner, minlength=S_abs)
+    row_groups = np.zeros(S_abs + 1, dtype=np.int64)
+    row_groups[1:] = np.cumsum(per_state)
+    action = np.r_[ca, np.full(n_cut + 2, -1, dtype=np.int64)][perm]
+    # the adversary's vertices (expanded ones whose support is not the decision maker's)
+    theirs = np.zeros(S_abs, dtype=bool)
+    starts = np.asarray([r[0] for r in grid.rows], dtype=np.int64)
+    theirs[:V] = expanded & ~dyn.owned[starts]
+    if theirs.any():
+        model = make_model(ModelType.SMG, row_groups, transitions, initial_states=(0,),
+                           state_players=theirs.astype(np.int32),
+                           player_names=("decision maker", "adversary"))
+    else:
+        model = make_model(ModelType.MDP, row_groups, transitions, initial_states=(0,))
+    rewards = None
+    if not prob:
+        rewards = np.r_[rew, r_cut, np.zeros(2)][perm]
+    target = np.zeros(S_abs, dtype=bool)
+    target[TARGET] = True
+    return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,
+                           problem.discount, problem.maximize, resolution,
+                           ch.on_grid and bool(expanded.all()), theirs)
+
+
+@dataclass(frozen=True)
+class GridBound:
+    """The best proven bound found: ``value`` bounds the optimum over all strategies from above
+    when the agent maximises (below when it minimises); ``resolution``, ``vertices`` and
+    ``complete`` describe the abstraction that proved it (``exact``: it is the reachable belief
+    MDP itself, so the bound is the optimum up to the solver's precision); ``tried``:
+    (resolution, bound) of every abstraction solved; ``seconds``: time spent."""
+
+    value: float
+    resolution: int
+    vertices: int
+    complete: bool
+    exact: bool
+    tried: tuple[tuple[int, float], ...]
+    seconds: float
+
+
+def grid_bound(problem: Problem, *, deadline: float | None, target: float | None = None,
+               resolutions: tuple[int, ...] = RESOLUTIONS,
+               cutoff: np.ndarray | None = None,
+               vertices: int = MAX_VERTICES) -> GridBound | None:
+    """Abstractions of growing resolution while time remains; the tightest proven bound.
+
+    Args:
+        problem: a POMDP, or a one-sided game with a probability objective (:func:`applies`).
+        deadline: ``time.perf_counter()`` value by which to stop (an abstraction whose
+            exploration is cut short still proves a bound: its frontier is cut off); None: no
+            wall-clock cap.
+        target: stop as soon as the bound reaches this value (the other side of the bracket).
+        cutoff: the per-state bounds for cut-offs (default :func:`full_observation_bounds`).
+        vertices: the work budget: grid vertices explored at most, over all resolutions.
+
+    Returns:
+        The bound, or None when no abstraction applies or none was solved soundly in time.
+    """
+    t0 = time.perf_counter()
+    if not applies(problem):
+        return None
+    sign = 1.0 if problem.maximize else -1.0
+    rules = None
+    if cutoff is None:
+        cutoff, rules = full_observation_bounds(problem, deadline)
+    best: GridBound | None = None
+    tried: list[tuple[int, float]] = []
+    coarse: CoarseBounds | None = None
+    left = vertices
+    for N in resolutions:
+        now = time.perf_counter()
+        if (deadline is not None and now > deadline) or left <= 0 or interrupted():
+            break
+        # exploration may use most of what is left; the sound solve gets the rest
+        explore_until = None if deadline is None else now + 0.6 * (deadline - now)
+        abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
+                                       adversary_rules=rules, coarse=coarse,
+                                       max_vertices=left)
+        if abstraction is None:
+            return None
+        left -= int(abstraction.expanded.sum())
+        # policy iteration (the stiff iteration's certificate) has no deadline: only without one
+        result = abstraction.solve(SolverOptions(precision=PRECISION, relative=True,
+                                                 deadline=deadline, want_strategy=False,
+                                                 stiff_certificate=deadline is None))
+        if not result.sound:
+            continue
+        value = float(result.upper[0] if problem.maximize else result.lower[0])
+        tried.append((N, value))
+        exact = abstraction.exact and not abstraction.adversary.any()
+        if best is None or sign * value < sign * best.value:
+            best = GridBound(value, N, abstraction.vertices, abstraction.complete, exact, (), 0.0)
+        if exact or (target is not None and sign * best.value <= sign * target):
+            break
+        # the next resolution doubles this one: its cut-offs interpolate these values (the
+        # grids nest, so a fine vertex's coarse simplex has vertices this abstraction holds
+        # wherever it explored that far)
+        side = result.upper if problem.maximize else result.lower
+        coarse = CoarseBounds.of(abstraction, np.asarray(side, dtype=np.float64))
+    if best is None:
+        return None
+    return GridBound(best.value, best.resolution, best.vertices, best.complete, best.exact,
+                     tuple(tried), time.perf_counter() - t0)

@@ -1,0 +1,210 @@
+"""The belief-grid bound (posgmc.synthesis.belief_grid): Freudenthal's decomposition is a convex
+combination of grid beliefs; the abstraction's bound is on the optimistic side of every known
+POMDP optimum (hand-derived, Storm's completed belief unfolding) and of every strategy's proven
+value on random POMDPs, and equals the optimum where the reachable belief set is on the grid."""
+
+from __future__ import annotations
+
+import itertools
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from posgmc import api
+from posgmc.strategies.fss import FiniteStateStrategy
+from posgmc.strategies.verify import StrategyChecker
+from posgmc.syntax import parser
+from posgmc.synthesis import belief, belief_grid
+from posgmc.synthesis.search import parametrisation, problem_of
+from tests.synthesis.helpers import BLIND
+from tests.synthesis.test_belief import GUESS, random_pomdp
+
+ROOT = Path(__file__).resolve().parents[2]
+DATA = ROOT / "tests" / "data" / "benchmarks" / "pomdp"
+
+
+def _problem(model, prop: str):  # type: ignore[no-untyped-def]
+    coalition = api._resolver(model, False).coalition_of
+    return problem_of(model, parser.parse_property(prop).expr, player=0, adversary=None,
+                      coalition_of=coalition, scalar=api._scalar)
+
+
+def _built(path: Path | None = None, text: str | None = None, **constants: str):  # type: ignore[no-untyped-def]
+    session = api.load(path, text=text, constants=constants or None)
+    return api.build(session).model
+
+
+@settings(max_examples=200, deadline=None)
+@given(weights=st.lists(st.floats(0.001, 1.0), min_size=1, max_size=12),
+       resolution=st.sampled_from([1, 2, 3, 4, 7, 16, 64]))
+def test_freudenthal_is_a_convex_combination_of_grid_beliefs(weights: list[float],
+                                                             resolution: int) -> None:
+    p = np.asarray(weights) / np.sum(weights)
+    counts, lam = belief_grid.freudenthal(p, resolution)
+    assert counts.shape == (lam.size, p.size)
+    assert np.all(lam > 0) and abs(lam.sum() - 1.0) <= 1e-12
+    assert np.all(counts >= 0) and np.all(counts.sum(axis=1) == resolution)
+    assert np.abs(lam @ (counts / resolution) - p).max() <= 1e-9
+    assert lam.size <= p.size  # the vertices of one simplex of the triangulation
+
+
+@settings(max_examples=50, deadline=None)
+@given(rows=st.integers(1, 6), m=st.integers(1, 8), seed=st.integers(0, 1000),
+       resolution=st.sampled_from([1, 2, 5, 16]))
+def test_the_batch_triangulation_is_the_single_one(rows: int, m: int, seed: int,
+                                                   resolution: int) -> None:
+    P = np.random.default_rng(seed).random((rows, m)) + 0.01
+    P /= P.sum(axis=1, keepdims=True)
+    counts, lam = belief_grid.freudenthal_batch(P, resolution)
+    for i in range(rows):
+        one_counts, one_lam = belief_grid.freudenthal(P[i], resolution)
+        keep = lam[i] > 0
+        assert np.array_equal(counts[i][keep], one_counts)
+        assert np.array_equal(lam[i][keep], one_lam)
+
+
+def test_a_grid_belief_is_its_own_vertex() -> None:
+    counts, lam = belief_grid.freudenthal(np.array([0.25, 0.5, 0.25]), 4)
+    assert counts.tolist() == [[1, 2, 1]] and lam.tolist() == [1.0]
+
+
+def _bound(problem, seconds: float = 5.0) -> belief_grid.GridBound:  # type: ignore[no-untyped-def]
+    found = belief_grid.grid_bound(problem, deadline=time.perf_counter() + seconds)
+    assert found is not None
+    return found
+
+
+def test_guessing_game_is_exact() -> None:
+    """GUESS (tests/synthesis/test_belief.py): the optimum is 1, derived by hand; its reachable
+    beliefs ({s0}, {s1, s2} half each, {s3}, {s4}) are grid beliefs at N = 2, so the abstraction
+    is the belief MDP itself and the bound is the optimum (up to the solver's precision)."""
+    model = _built(text=GUESS)
+    assert model.num_states == 7
+    found = _bound(_problem(model, 'Pmax=? [ F "goal" ]'))
+    assert found.exact and found.resolution == 2
+    assert 1.0 <= found.value <= 1.0 + 1e-7
+
+
+def test_blind_cost_is_bounded_below_by_its_optimum() -> None:
+    """BLIND (tests/synthesis/test_synthesis.py): the optimum cost is 3/2, derived by hand."""
+    model = _built(text=BLIND)
+    assert model.num_states == 4
+    found = _bound(_problem(model, 'R{"cost"}min=? [ F s=3 ]'))
+    assert 1.5 - 1e-6 <= found.value <= 1.5
+
+
+@pytest.mark.parametrize(("path", "prop", "optimum", "states"), [
+    # models/tiger/README.md derives 2391/494 (Storm's unfolding agrees)
+    (ROOT / "models/tiger/tiger.pomdp", 'R{"cost"}min=? [ F "opened" ]', 2391 / 494, 19),
+    # models/trap_grid/README.md: (q^4 + q^6)/2 with q = 0.9
+    (ROOT / "models/trap_grid/trap_grid.pomdp", 'Pmax=? [ F "goal" ]',
+     (0.9 ** 4 + 0.9 ** 6) / 2, 25),
+    # models/maze/maze.props: 4.3 (PRISM's RESULT; Storm's unfolding, completed)
+    (ROOT / "models/maze/maze.pomdp", 'R{"steps"}min=? [ F "target" ]', 4.3, 12),
+    # tests/data/README.md: Storm's completed unfolding
+    (DATA / "nrp-8" / "sketch.templ", 'Pmax=? [ F "unfair" ]', 0.125, 125),
+    (DATA / "crypt-4" / "sketch.templ", 'Pmax=? [ F correct=1 ]', 1 / 3, 1972),
+])
+def test_the_bound_holds_against_known_optima(path: Path, prop: str, optimum: float,
+                                              states: int) -> None:
+    model = _built(path)
+    assert model.num_states == states
+    problem = _problem(model, prop)
+    found = _bound(problem, seconds=3.0)
+    if problem.maximize:
+        assert found.value >= optimum - 1e-9
+        assert found.value <= belief_grid.full_observation_bounds(problem)[0][
+            model.initial_states[0]] + 1e-9
+    else:
+        assert found.value <= optimum + 1e-9
+
+
+def test_the_bound_tightens_with_the_resolution_on_tiger() -> None:
+    """Tiger's belief is one number (the chance the tiger is left): the grid at N = 2^k has
+    vertices every 2^-k, and the bound climbs to the optimum 2391/494."""
+    model = _built(ROOT / "models/tiger/tiger.pomdp")
+    found = _bound(_problem(model, 'R{"cost"}min=? [ F "opened" ]'), seconds=5.0)
+    values = [v for _, v in found.tried]
+    assert values[0] < values[-1] <= 2391 / 494
+    assert 2391 / 494 - values[-1] <= 0.05
+
+
+@pytest.mark.slow
+def test_network_bound_holds() -> None:
+    model = _built(DATA / "network-2-8-20" / "sketch.templ")
+    assert model.num_states == 4589
+    coalition = api._resolver(model, False).coalition_of
+    text = 'R{"dropped_packets"}min=?[F sched=0 & t=8-1 & k=20-1 ]'
+    problem = problem_of(model, parser.parse_property(text).expr, player=0, adversary=None,
+                         coalition_of=coalition, scalar=api._scalar)
+    found = _bound(problem, seconds=20.0)
+    assert found.value <= 3.1989577412 + 1e-9
+
+
+def _deterministic_memoryless(problem) -> list[FiniteStateStrategy]:  # type: ignore[no-untyped-def]
+    """Every deterministic memoryless strategy of the POMDP (its actions per observation)."""
+    par = parametrisation(problem, 1)
+    options = [np.flatnonzero(par.mask[z]) for z in range(par.mask.shape[0])]
+    out = []
+    for pick in itertools.product(*options):
+        g = np.zeros(par.shapes[0][1:])
+        g[np.arange(len(pick)), list(pick)] = 1.0
+        d = np.ones((1, *par.mask.shape, 1))
+        out.append(par.strategy(g[None], d))
+    return out
+
+
+def _bracket_contains_the_brute_force(seed: int, maximize: bool) -> None:
+    model = random_pomdp(seed)
+    prop = 'Pmax=? [ F "goal" ]' if maximize else 'Pmin=? [ F "goal" ]'
+    problem = _problem(model, prop)
+    found = belief_grid.grid_bound(problem, deadline=time.perf_counter() + 2.0)
+    s0 = int(model.initial_states[0])
+    if found is None:  # the initial state does not continue: full observation is exact there
+        reach = belief._can_reach(model, problem.target, problem.remain)
+        assert not (problem.remain & ~problem.target & reach)[s0]
+        return
+    sign = 1.0 if maximize else -1.0
+    # the lower side: every deterministic memoryless strategy, and the belief-based controller
+    # (memory as needed), proven by the product check; the bound is on the far side of all
+    strategies = _deterministic_memoryless(problem)
+    controller = belief.belief_phase(problem, strategies[0], deadline=time.perf_counter() + 2.0)
+    if controller is not None:
+        strategies.append(controller.strategy)
+    for fss in strategies:
+        r = StrategyChecker(model, {0: fss}, coalition_of=problem.coalition_of,
+                            scalar=api._scalar).check(problem.query, text="t").guaranteed
+        assert r is not None and r.sound
+        achieved = r.lower if maximize else r.upper
+        assert sign * found.value >= sign * achieved - 1e-9
+    full = belief_grid.full_observation_bounds(problem)[0][s0]
+    assert sign * found.value <= sign * full + 1e-9
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), maximize=st.booleans())
+def test_random_pomdp_brackets_contain_every_strategy(seed: int, maximize: bool) -> None:
+    _bracket_contains_the_brute_force(seed, maximize)
+
+
+@pytest.mark.slow
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), maximize=st.booleans())
+def test_many_random_pomdp_brackets_contain_every_strategy(seed: int, maximize: bool) -> None:
+    _bracket_contains_the_brute_force(seed, maximize)
+
+
+def test_a_fully_observed_pomdp_is_bounded_exactly() -> None:
+    """With every state its own observation the beliefs are the states (grid vertices at any
+    N): the bound is the MDP's optimum, which the full-observation solve also gives."""
+    text = GUESS.replace("observables o endobservables", "observables s, o endobservables")
+    model = _built(text=text)
+    problem = _problem(model, 'Pmax=? [ F "goal" ]')
+    found = _bound(problem)
+    assert found.exact
+    assert found.value == pytest.approx(
+        belief_grid.full_observation_bounds(problem)[0][model.initial_states[0]], abs=1e-7)
