@@ -1,6 +1,6 @@
 """Observation-level policy iteration over deterministic FSSs (posgmc.synthesis.improvement), the
 search start that gathers information where the projections of the full-observation optimum do
-not (issue #9, scale): a hand-derived survey POMDP, the secure-autonomy case study at N=3, and on
+not: a hand-derived survey POMDP, the secure-autonomy case study at N=3, and on
 small random POSGs its number is the strategy checker's value of its strategy and lies within the
 brute-force range over every deterministic FSS."""
 
