@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import click
@@ -121,153 +122,200 @@ BUILD_GRACE = 1.0
 @select_option
 @strict_option
 @common
-def check(
-    model: str,
-    props: tuple[str, ...],
-    prop_texts: tuple[str, ...],
-    precision: float,
-    relative: bool,
-    method: str,
-    exact: bool,
-    full_observation: bool,
-    strategy_files: tuple[str, ...],
-    zero_based_players: bool,
-    memory: tuple[str, ...],
-    adversaries: int,
-    jobs: int,
-    executor: Literal["local", "ray"],
-    ray_address: str | None,
-    timeout: float | None,
-    effort: float,
-    seed: int,
-    progress_lines: bool,
-    quiet: bool,
-    gap: Any,
-    export_strategy: str | None,
-    as_json: bool,
-    json_lines: bool,
-    junit: str | None,
-    plot_file: str | None,
-    state_limit: int | None,
-    verbose: bool,
-    select: tuple[str, ...],
-    strict: bool,
-    consts: tuple[str, ...],
-    debug: bool,
-) -> None:
+def check(**settings: Any) -> None:
     """Check PROPS (files) and --prop properties on MODEL."""
+    request = CheckRequest(**settings)
+
+    def shown() -> int:
+        mode = progress_mode(quiet=request.quiet, lines=request.progress_lines,
+                             json_lines=request.json_lines)
+        with progress_view(mode):
+            return _run(request)
+
+    with interruptible():
+        guard(request.debug, shown, as_json=request.as_json or request.json_lines,
+              consts=request.consts)
+
+
+@dataclass(frozen=True)
+class CheckRequest:
+    """What ``check``'s command line asks for, one field per option (docs/cli.md)."""
+
+    model: str
+    props: tuple[str, ...]
+    prop_texts: tuple[str, ...]
+    precision: float
+    relative: bool
+    method: str
+    exact: bool
+    full_observation: bool
+    strategy_files: tuple[str, ...]
+    zero_based_players: bool
+    memory: tuple[str, ...]
+    adversaries: int
+    jobs: int
+    executor: Literal["local", "ray"]
+    ray_address: str | None
+    timeout: float | None
+    effort: float
+    seed: int
+    progress_lines: bool
+    quiet: bool
+    gap: Any
+    export_strategy: str | None
+    as_json: bool
+    json_lines: bool
+    junit: str | None
+    plot_file: str | None
+    state_limit: int | None
+    verbose: bool
+    select: tuple[str, ...]
+    strict: bool
+    consts: tuple[str, ...]
+    debug: bool
+
+
+def _run(request: CheckRequest) -> int:
+    """The command's phases: the options checked, each constant point checked (results shown as
+    they come), then the reports that cover every point; the exit status."""
+    swept, combos, strategies = _validated(request)
+    # results are shown as they are computed (a killed run keeps what it printed), except
+    # in the one-object --json and in sweep tables
+    streaming = not request.as_json and len(combos or [{}]) == 1
+    rows, code = _check_points(request, swept, combos, strategies, streaming=streaming)
+    _write_reports(request, swept, rows, streaming=streaming)
+    return code
+
+
+def _validated(
+    request: CheckRequest,
+) -> tuple[list[str], list[dict[str, Any]], dict[str | None, str]]:
+    """Every option checked before any work: (swept constants, one setting per point, the given
+    strategies by player)."""
+    r = request
+    if not r.props and not r.prop_texts:
+        raise click.UsageError("give a properties file or --prop TEXT")
+    swept, combos = expand_constants(r.consts)
+    if r.plot_file is not None:
+        if not r.plot_file.lower().endswith((".png", ".svg", ".pdf")):
+            raise InputError(f"{r.plot_file}: a plot is written as .png, .svg or .pdf")
+        from posgmc.tradeoffs.plot import require_matplotlib
+
+        require_matplotlib()  # before the sweep, not after it
+        if len(swept) != 1:
+            raise InputError("--plot draws properties against one swept constant; "
+                             f"{len(swept)} are swept",
+                             hint="give one constant a range, e.g. --const B=0:4")
+    if r.export_strategy is not None:
+        _check_export_extension(r.export_strategy, directory=None)
+    strategies = strategy_options(r.strategy_files)
+    if r.as_json and r.json_lines:
+        raise click.UsageError("give --json or --json-lines, not both")
+    if r.export_strategy is not None and strategies:
+        raise click.UsageError("--export-strategy writes the strategy that check computes; "
+                               "with --strategy the strategies are given, none is computed")
+    return swept, [dict(c) for c in combos], strategies
+
+
+def _check_points(
+    request: CheckRequest,
+    swept: list[str],
+    combos: list[dict[str, Any]],
+    strategies: dict[str | None, str],
+    *,
+    streaming: bool,
+) -> tuple[list[tuple[dict[str, Any], Any]], int]:
+    """Each constant point checked in turn, its strategies exported: (constants, report) per
+    point, and the exit status so far. Ctrl-C ends the loop after the point it cut short."""
     from posgmc import api
     from posgmc.checking.property_checker import CheckOptions
     from posgmc.engines.options import Method, SolverOptions
 
-    def run() -> int:
-        if not props and not prop_texts:
-            raise click.UsageError("give a properties file or --prop TEXT")
-        swept, combos = expand_constants(consts)
-        if plot_file is not None:
-            if not plot_file.lower().endswith((".png", ".svg", ".pdf")):
-                raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
-            from posgmc.tradeoffs.plot import require_matplotlib
-
-            require_matplotlib()  # before the sweep, not after it
-            if len(swept) != 1:
-                raise InputError("--plot draws properties against one swept constant; "
-                                 f"{len(swept)} are swept",
-                                 hint="give one constant a range, e.g. --const B=0:4")
-        if export_strategy is not None:
-            _check_export_extension(export_strategy, directory=None)
-        strategies = strategy_options(strategy_files)
-        workers = capped_jobs(jobs) if executor == "local" else jobs  # a Ray cluster: its own
-        options = CheckOptions(
-            solver=SolverOptions(method=Method(method), precision=precision, relative=relative),
-            keep_strategy=export_strategy is not None,
-            exact=exact,
+    r = request
+    workers = capped_jobs(r.jobs) if r.executor == "local" else r.jobs  # a Ray cluster: its own
+    options = CheckOptions(
+        solver=SolverOptions(method=Method(r.method), precision=r.precision, relative=r.relative),
+        keep_strategy=r.export_strategy is not None,
+        exact=r.exact,
+    )
+    rows: list[tuple[dict[str, Any], Any]] = []
+    code = EXIT_OK
+    for constants in combos or [{}]:
+        # the first synthesised property's --timeout counts from here: loading and
+        # building the model are inside it
+        loading = time.perf_counter()
+        session = api.load(r.model, constants=constants, strict=r.strict)
+        if r.export_strategy is not None and not rows:
+            # before any work: a destination that cannot be written is refused now, not
+            # after the whole budget
+            directory = synthesises(session, given_strategies=bool(strategies),
+                                    full_observation=r.full_observation)
+            _check_export_extension(r.export_strategy, directory=directory)
+            check_destination(r.export_strategy, directory=directory)
+        on_start, on_outcome = (
+            _streamers(r.model, constants, r.json_lines, r.verbose) if streaming else (None, None)
         )
-        if as_json and json_lines:
-            raise click.UsageError("give --json or --json-lines, not both")
-        if export_strategy is not None and strategies:
-            raise click.UsageError("--export-strategy writes the strategy that check computes; "
-                                   "with --strategy the strategies are given, none is computed")
-        rows: list[tuple[dict[str, Any], Any]] = []
-        code = EXIT_OK
-        # results are shown as they are computed (a killed run keeps what it printed), except
-        # in the one-object --json and in sweep tables
-        streaming = not as_json and len(combos or [{}]) == 1
-        for constants in combos or [{}]:
-            # the first synthesised property's --timeout counts from here: loading and
-            # building the model are inside it
-            loading = time.perf_counter()
-            session = api.load(model, constants=constants, strict=strict)
-            if export_strategy is not None and not rows:
-                # before any work: a destination that cannot be written is refused now, not
-                # after the whole budget
-                directory = synthesises(session, given_strategies=bool(strategies),
-                                        full_observation=full_observation)
-                _check_export_extension(export_strategy, directory=directory)
-                check_destination(export_strategy, directory=directory)
-            on_start, on_outcome = (
-                _streamers(model, constants, json_lines, verbose) if streaming else (None, None)
-            )
-            report = api.check(
-                session,
-                property_files=props,
-                properties=prop_texts,
-                options=options,
-                build_options=build_options(
-                    state_limit, False, None,
-                    # a --timeout bounds the whole run, the build included, which is given
-                    # at least BUILD_GRACE: a tiny budget still reports what synthesis found
-                    # on a small model rather than no model at all
-                    deadline=None if timeout is None else loading + max(timeout, BUILD_GRACE)),
-                full_observation=full_observation,
-                zero_based_players=zero_based_players,
-                strategies=strategies or None,
-                synthesis=synthesis_options(memory, timeout, seed, adversaries, workers,
-                                             started=loading, effort=effort,
-                                             executor=executor, ray_address=ray_address,
-                                             gap=gap),
-                on_start=on_start,
-                on_outcome=on_outcome,
-                select=selected(select),
-            )
-            if report.errors:
-                code = EXIT_ERROR
-            elif code == EXIT_OK and any(not_passed(r) for r in report.results):
-                code = EXIT_PROPERTY_FALSE
-            rows.append((constants, report))
-            if export_strategy is not None and not report.errors:
-                # a property that failed has said why; "no strategy to export" would hide it.
-                # Each property and constant point gets its own destination
-                for path in write_exports(export_strategy, report,
-                                          point=point_of(constants, swept),
-                                          several_points=len(combos) > 1):
-                    click.echo(f"wrote {path}", err=as_json or json_lines)
-            if interrupted():
-                # Ctrl-C: the property it cut short reported (and exported) its best verified
-                # defence; no further property or constant setting is checked
-                code = EXIT_INTERRUPTED
-                break
-        if junit is not None:
-            _write_check_junit(junit, model, swept, rows)
-        if plot_file is not None:
-            from posgmc.tradeoffs.plot import plot_sweeps
-            from posgmc.tradeoffs.sweep import sweeps_of_check
+        report = api.check(
+            session,
+            property_files=r.props,
+            properties=r.prop_texts,
+            options=options,
+            build_options=build_options(
+                r.state_limit, False, None,
+                # a --timeout bounds the whole run, the build included, which is given
+                # at least BUILD_GRACE: a tiny budget still reports what synthesis found
+                # on a small model rather than no model at all
+                deadline=None if r.timeout is None else loading + max(r.timeout, BUILD_GRACE)),
+            full_observation=r.full_observation,
+            zero_based_players=r.zero_based_players,
+            strategies=strategies or None,
+            synthesis=synthesis_options(r.memory, r.timeout, r.seed, r.adversaries, workers,
+                                        started=loading, effort=r.effort,
+                                        executor=r.executor, ray_address=r.ray_address,
+                                        gap=r.gap),
+            on_start=on_start,
+            on_outcome=on_outcome,
+            select=selected(r.select),
+        )
+        if report.errors:
+            code = EXIT_ERROR
+        elif code == EXIT_OK and any(not_passed(x) for x in report.results):
+            code = EXIT_PROPERTY_FALSE
+        rows.append((constants, report))
+        if r.export_strategy is not None and not report.errors:
+            # a property that failed has said why; "no strategy to export" would hide it.
+            # Each property and constant point gets its own destination
+            for path in write_exports(r.export_strategy, report,
+                                      point=point_of(constants, swept),
+                                      several_points=len(combos) > 1):
+                click.echo(f"wrote {path}", err=r.as_json or r.json_lines)
+        if interrupted():
+            # Ctrl-C: the property it cut short reported (and exported) its best verified
+            # defence; no further property or constant setting is checked
+            code = EXIT_INTERRUPTED
+            break
+    return rows, code
 
-            texts = [({n: const_text(v) for n, v in c.items()}, r) for c, r in rows]
-            plot_sweeps(sweeps_of_check(swept[0], texts), plot_file)
-        if as_json or (json_lines and not streaming):
-            click.echo(json.dumps(json_report(model, swept, rows)))
-        elif not streaming:
-            print_report(model, swept, rows, verbose=verbose)
-        return code
 
-    def shown() -> int:
-        mode = progress_mode(quiet=quiet, lines=progress_lines, json_lines=json_lines)
-        with progress_view(mode):
-            return run()
+def _write_reports(
+    request: CheckRequest, swept: list[str], rows: list[tuple[dict[str, Any], Any]], *,
+    streaming: bool,
+) -> None:
+    """What covers every point: JUnit, the plot, and the one JSON object or the sweep table
+    (a single point's results were shown as they came)."""
+    r = request
+    if r.junit is not None:
+        _write_check_junit(r.junit, r.model, swept, rows)
+    if r.plot_file is not None:
+        from posgmc.tradeoffs.plot import plot_sweeps
+        from posgmc.tradeoffs.sweep import sweeps_of_check
 
-    with interruptible():
-        guard(debug, shown, as_json=as_json or json_lines, consts=consts)
+        texts = [({n: const_text(v) for n, v in c.items()}, rep) for c, rep in rows]
+        plot_sweeps(sweeps_of_check(swept[0], texts), r.plot_file)
+    if r.as_json or (r.json_lines and not streaming):
+        click.echo(json.dumps(json_report(r.model, swept, rows)))
+    elif not streaming:
+        print_report(r.model, swept, rows, verbose=r.verbose)
 
 
 def _streamers(model: str, constants: dict[str, Any], json_lines: bool,  # type: ignore[no-untyped-def]
