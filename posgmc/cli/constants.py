@@ -3,15 +3,30 @@ one setting per combination, or refused where a command takes single values."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 from posgmc.errors import InputError
 
 if TYPE_CHECKING:
-    from posgmc.semantics.constants import ConstSetting, UserConstant
+    from posgmc.semantics.constants import ConstRange, ConstSetting, UserConstant
 
-__all__ = ["expand_constants", "const_json", "const_text", "single_constants"]
+__all__ = ["const_assignments", "expand_constants", "const_json", "const_text",
+           "single_constants"]
+
+
+def const_assignments(values: Sequence[str]) -> Iterator[tuple[str, ConstSetting | ConstRange]]:
+    """Each ``name=value`` (or range) of the ``--const`` options in order, with its position in
+    its option's text (the source is named ``--const``, or ``--const #i`` among several).
+
+    Raises:
+        ConstantError: malformed text, with its position.
+    """
+    from posgmc.semantics.constants import parse_const_assignments
+
+    for i, text in enumerate(values):
+        source = "--const" if len(values) == 1 else f"--const #{i + 1}"
+        yield from parse_const_assignments(text, source=source).items()
 
 
 def expand_constants(
@@ -23,15 +38,13 @@ def expand_constants(
         ConstantError: malformed text, a name given twice (with the position in the option's text).
     """
     from posgmc.errors import ConstantError
-    from posgmc.semantics.constants import ConstRange, expand_sweep, parse_const_assignments
+    from posgmc.semantics.constants import ConstRange, expand_sweep
 
     merged: dict[str, ConstSetting | ConstRange] = {}
-    for i, text in enumerate(values):
-        source = "--const" if len(values) == 1 else f"--const #{i + 1}"
-        for name, setting in parse_const_assignments(text, source=source).items():
-            if name in merged:
-                raise ConstantError(f"constant '{name}' is given twice", setting.span)
-            merged[name] = setting
+    for name, setting in const_assignments(values):
+        if name in merged:
+            raise ConstantError(f"constant '{name}' is given twice", setting.span)
+        merged[name] = setting
     swept = [n for n, v in merged.items() if isinstance(v, ConstRange)]
     return swept, expand_sweep(merged) if merged else []
 
@@ -72,14 +85,10 @@ def single_constants(consts: Sequence[str], *, what: str) -> dict[str, Any]:
         InputError: a range, at its position in the option's text; ConstantError as
             :func:`expand_constants`.
     """
-    from posgmc.semantics.constants import ConstRange, parse_const_assignments
+    from posgmc.semantics.constants import ConstRange
 
-    for i, text in enumerate(consts):
-        for n, setting in parse_const_assignments(
-            text, source="--const" if len(consts) == 1 else f"--const #{i + 1}"
-        ).items():
-            if isinstance(setting, ConstRange):
-                raise InputError(f"--const {n}: {what} takes single values, not ranges",
-                                 setting.span)
+    for n, setting in const_assignments(consts):
+        if isinstance(setting, ConstRange):
+            raise InputError(f"--const {n}: {what} takes single values, not ranges", setting.span)
     _, combos = expand_constants(consts)
     return dict(combos[0]) if combos else {}

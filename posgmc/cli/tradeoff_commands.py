@@ -8,7 +8,7 @@ from typing import Any
 import click
 
 from posgmc.checking.result_text import number_text
-from posgmc.cli.constants import const_text, single_constants
+from posgmc.cli.constants import const_assignments, const_text, single_constants
 from posgmc.cli.group import main
 from posgmc.cli.options import (
     EXIT_ERROR,
@@ -144,16 +144,13 @@ def pareto(
             raise InputError("--sweep takes one constant with a range, e.g. --sweep B=0:4")
         name = next(iter(swept))
         others: dict[str, Any] = {}
-        for i, text in enumerate(consts):
-            for n, setting in parse_const_assignments(
-                text, source="--const" if len(consts) == 1 else f"--const #{i + 1}"
-            ).items():
-                if isinstance(setting, ConstRange):
-                    raise InputError(f"--const {n}: only --sweep takes a range in pareto",
-                                     setting.span)
-                if n == name:
-                    raise InputError(f"constant '{n}' is both swept and given", setting.span)
-                others[n] = setting
+        for n, setting in const_assignments(consts):
+            if isinstance(setting, ConstRange):
+                raise InputError(f"--const {n}: only --sweep takes a range in pareto",
+                                 setting.span)
+            if n == name:
+                raise InputError(f"constant '{n}' is both swept and given", setting.span)
+            others[n] = setting
         values = [const_text(v) for v in rng.values()]
         result = sweep(model, prop_text, constant=name, settings=values, constants=others,
                        synthesis=synthesis_options(memory or ("auto",), timeout, seed,

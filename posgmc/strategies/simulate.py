@@ -39,6 +39,7 @@ from posgmc.checking.states import evaluate_states
 from posgmc.engines.graph import positive_reach, structure_of
 from posgmc.errors import LimitError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel
+from posgmc.resources import available_bytes
 from posgmc.semantics.queries import reward_structure
 from posgmc.strategies.binding import BoundStrategy, bind
 from posgmc.strategies.fss import FiniteStateStrategy
@@ -146,14 +147,14 @@ row search's arrays: about 17 arrays of 8 bytes)."""
 
 
 def _check_room(runs: int) -> None:
-    """Refuse ``runs`` whose arrays would not fit in the memory available now (``MemAvailable``
-    in /proc/meminfo; nothing is refused where it cannot be read), before anything is
-    allocated: numpy's MemoryError, or the kernel's OOM killer, otherwise.
+    """Refuse ``runs`` whose arrays would not fit in the memory available now
+    (:func:`posgmc.resources.available_bytes`; nothing is refused where it cannot be read), before
+    anything is allocated: numpy's MemoryError, or the kernel's OOM killer, otherwise.
 
     Raises:
         LimitError: with the memory needed and available, and the most runs that fit.
     """
-    available = _available_memory()
+    available = available_bytes()
     need = runs * _BYTES_PER_RUN
     if available is None or need <= 0.9 * available:
         return
@@ -164,17 +165,6 @@ def _check_room(runs: int) -> None:
         hint=f"simulate at most {fit} runs (--runs; the interval narrows with the square root of "
         "the runs)",
     )
-
-
-def _available_memory() -> int | None:
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        return None
-    return None
 
 
 def _sample_rows(csr_indptr: np.ndarray, cum: np.ndarray, indices: np.ndarray, rows: np.ndarray,

@@ -52,6 +52,7 @@ from posgmc.checking.property_checker import (
     PropertyChecker,
     ScalarEvaluator,
 )
+from posgmc.engines.graph import positive_reach, structure_of
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view
@@ -62,7 +63,7 @@ from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem, expired
 
 __all__ = ["BeliefController", "belief_controller", "belief_phase", "applies", "cutoff_values",
-           "node_cap", "PRECISION"]
+           "node_cap", "PRECISION", "can_reach"]
 
 PRECISION = 1e-9
 """Beliefs whose probabilities agree after rounding to this grid are one memory node."""
@@ -436,7 +437,7 @@ def belief_controller(
     sign = 1.0 if maximize else -1.0
     if rewards is None:
         # states that cannot reach the target (within ``remain``) are worth 0 whatever happens
-        cont = remain & ~target & _can_reach(model, target, remain)
+        cont = remain & ~target & can_reach(model, target, remain)
         gain = sign * target.astype(np.float64)
     else:
         cont = ~target
@@ -586,20 +587,11 @@ def _slots(reach: np.ndarray, node: np.ndarray, z: np.ndarray, Zu: int,
     return slot
 
 
-def _can_reach(model: ExplicitModel, target: np.ndarray, remain: np.ndarray) -> np.ndarray:
-    """bool[S]: the states from which some path through ``remain`` states reaches ``target``."""
+def can_reach(model: ExplicitModel, target: np.ndarray, remain: np.ndarray) -> np.ndarray:
+    """bool[S]: the states from which some path through ``remain`` states reaches ``target``
+    (the engines' positive reachability with every state choosing)."""
     S = model.num_states
-    T = model.transitions.tocoo()
-    src = model.choice_states[T.row]
-    ok = remain[src] & ~target[src]
-    # edges reversed (successor -> state), and a root S pointing to every target state
-    rows = np.concatenate([T.col[ok].astype(np.int64), np.full(int(target.sum()), S)])
-    cols = np.concatenate([src[ok], np.flatnonzero(target)])
-    G = sp.csr_matrix((np.ones(rows.size, dtype=np.int8), (rows, cols)), shape=(S + 1, S + 1))
-    order = csgraph.breadth_first_order(G, S, directed=True, return_predecessors=False)
-    out = np.zeros(S + 1, dtype=bool)
-    out[order] = True
-    return out[:S]
+    return positive_reach(structure_of(model), target, remain, existential=np.ones(S, dtype=bool))
 
 
 def _reachable(n: int, node: np.ndarray, choice: np.ndarray, csucc: np.ndarray) -> np.ndarray:

@@ -50,7 +50,7 @@ from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
 from posgmc.strategies.binding import player_view
 from posgmc.synthesis import belief
-from posgmc.synthesis.belief import _can_reach
+from posgmc.synthesis.belief import can_reach
 from posgmc.synthesis.budget import interrupted
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
@@ -211,7 +211,7 @@ class _Dynamics:
         self.preferred = adversary_rules  # int64[S]: a choice per state (the first rule tried)
         if problem.rewards is None:
             # mass that cannot reach the target any more (within ``remain``) is worth 0
-            self.cont = problem.remain & ~problem.target & _can_reach(model, problem.target,
+            self.cont = problem.remain & ~problem.target & can_reach(model, problem.target,
                                                                       problem.remain)
         else:
             self.cont = ~problem.target

@@ -209,7 +209,7 @@ def _never_worse_than_the_cutoff(seed: int, maximize: bool) -> None:
     base = _verified(model, problem, cutoff)
     found = belief.belief_phase(problem, cutoff, deadline=float("inf"))
     if found is None:  # the initial state is the goal or cannot reach it: nothing to explore
-        reach = belief._can_reach(model, problem.target, problem.remain)
+        reach = belief.can_reach(model, problem.target, problem.remain)
         assert not (problem.remain & ~problem.target & reach)[model.initial_states[0]]
         return
     proven = _verified(model, problem, found.strategy)

@@ -165,7 +165,7 @@ def _bracket_contains_the_brute_force(seed: int, maximize: bool) -> None:
     found = belief_grid.grid_bound(problem, deadline=time.perf_counter() + 2.0)
     s0 = int(model.initial_states[0])
     if found is None:  # the initial state does not continue: full observation is exact there
-        reach = belief._can_reach(model, problem.target, problem.remain)
+        reach = belief.can_reach(model, problem.target, problem.remain)
         assert not (problem.remain & ~problem.target & reach)[s0]
         return
     sign = 1.0 if maximize else -1.0
