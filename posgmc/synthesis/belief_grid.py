@@ -26,8 +26,12 @@ distinct vertices small and nests for N, 2N, 4N, ...
 The abstraction is an ordinary :class:`~posgmc.model.explicit.ExplicitModel` (an MDP: one state
 per vertex, then a target and a sink), so it is checked with the same sound engines as any model
 (interval iteration, end components handled) and the bound side of their result is the reported
-bound. Its transition probabilities are computed in float64 (posterior beliefs, the weights λ):
-they are exact up to rounding at the 1e-15 level, which the reported bound does not absorb.
+bound. Its transition probabilities are computed in float64 (posterior beliefs, the weights λ).
+A minimiser's choices are scaled below the exact belief successors (:func:`_dominate`), and stop
+masses, rewards and cut-off values are rounded to the optimistic side; a maximiser's continuing
+weights are the float decomposition (relative rounding ~1e-15 per step, not absorbed:
+docs/synthesis.md, "Floating point", says why a single dominating row cannot absorb it in a cycle
+of beliefs).
 """
 
 from __future__ import annotations
@@ -76,9 +80,10 @@ PRECISION = 1e-8
 _BATCH = 512
 """Vertices expanded between two looks at the clock."""
 
-_SNAP = 1e-9
+_SNAP = 1e-12
 """Cumulative coordinates within this (relative to N) of an integer are that integer: float
-noise in a posterior must not split a grid belief into a tiny simplex around it."""
+noise in a posterior (~1e-15 relative) must not split a grid belief into a tiny simplex around
+it; kept small because the snap moves the decomposition off the posterior by as much."""
 
 
 def freudenthal(p: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
@@ -235,6 +240,9 @@ class _Dynamics:
                 r[cs[c]] = problem.rewards[c]
             self.reward.append(r)
         self.T_cont = sp.csr_matrix(model.transitions @ keep)
+        # a stop mass sums a belief's products with per-state stop masses, themselves sums over
+        # a transition row: the longest such row bounds the inner sum's length
+        self.row_terms = int(np.diff(model.transitions.indptr).max(initial=0)) + 3
         self.T_stop = np.asarray(model.transitions @ self.target).ravel()
 
     def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -355,6 +363,60 @@ def _chunks(sizes: np.ndarray) -> list[tuple[int, np.ndarray]]:
     return out
 
 
+_UNIT = 2.0 ** -53
+"""float64's unit roundoff u: an operation's result is the exact one times (1 + e), |e| <= u."""
+
+
+def _rounding(terms: np.ndarray | int) -> np.ndarray:
+    """A bound, relative to the computed value, on the rounding error of a float64 sum of at
+    most ``terms`` products of nonnegative rounded numbers: 2 (k + 2) u, twice the classic
+    γ_{k+2} = (k + 2) u / (1 - (k + 2) u) (Higham, "Accuracy and Stability of Numerical
+    Algorithms", §3.1; with nonnegative terms the error is relative to the sum itself)."""
+    return 2.0 * (np.asarray(terms, dtype=np.float64) + 2.0) * _UNIT
+
+
+def _up(v: np.ndarray) -> np.ndarray:
+    """``v`` rounded up to the next float, zeros kept (a zero is exact: a structural zero
+    must not become an edge)."""
+    return np.where(v > 0, np.nextafter(v, np.inf), v)
+
+
+def _dominate(E: sp.csr_matrix, G: sp.csr_matrix, Y: sp.csr_matrix,
+              terms: np.ndarray) -> sp.csr_matrix:
+    """The vertex weights of a minimiser's choices, scaled so that they stay below the exact
+    belief successors despite floating point.
+
+    Row i of ``E`` (float64[n, V]) weighs grid vertices (``G``: float64[V, S], vertex j's belief
+    counts/N) so that x_i = E_i G approximates y_i, the exact continuing successor vector of the
+    choice (computed as ``Y``'s row with at most ``terms[i]`` products per entry). Rounding, the
+    snapping of near-integer coordinates and the weights' own rounding make x_i differ from y_i.
+    With V* the optimum as a function of an unnormalised belief — nonnegative, monotone,
+    positively homogeneous and, for a minimiser, superlinear (an infimum of linear functions:
+    one per strategy) — any κ_i <= 1 with κ_i x_i <= y_i entry by entry gives
+    V*(y) >= V*(κx) + V*(y - κx) >= κ V*(x) >= κ Σ_j E_ij V*(u_j). κ_i is the minimum over
+    x_i's support of a lower bound of y over an upper bound of x (the a-priori bounds of
+    :func:`_rounding`), rounded down; the mass given up goes to the sink (probability) or the
+    target (reward), both worth 0 to the minimiser.
+
+    Returns:
+        κ E.
+    """
+    n = E.shape[0]
+    if not n:
+        return E
+    X = sp.csr_matrix(E @ G)
+    X.sum_duplicates()
+    ax = _rounding(np.diff(E.indptr) + 1)  # the products E_ij G_js, G one rounding off counts/N
+    ay = _rounding(terms)
+    Xc = X.tocoo()
+    rows = Xc.row.astype(np.int64)
+    y_at = np.asarray(Y[rows, Xc.col]).ravel() if rows.size else np.zeros(0)
+    ratio = (y_at * (1.0 - ay[rows])) / (Xc.data * (1.0 + ax[rows])) * (1.0 - 4.0 * _UNIT)
+    kappa = np.ones(n)
+    np.minimum.at(kappa, rows, np.maximum(ratio, 0.0))
+    return sp.csr_matrix(sp.diags(kappa) @ E)
+
+
 class _Choices:
     """The abstraction's choices while exploring: a key (vertex · span + local index) each, its
     target mass and reward, and its successor entries (by key)."""
@@ -368,19 +430,26 @@ class _Choices:
         self.e_key: list[np.ndarray] = []
         self.e_vertex: list[np.ndarray] = []
         self.e_prob: list[np.ndarray] = []
+        self.successors: list[sp.csr_matrix] = []
+        self.terms: list[np.ndarray] = []
         self.on_grid = True  # every successor part so far is a vertex itself
 
     def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, reward: np.ndarray,
-            D: sp.csr_matrix, dyn: _Dynamics, grid: _Grid) -> None:
+            D: sp.csr_matrix, terms: np.ndarray, dyn: _Dynamics, grid: _Grid) -> None:
         """Choices ``keys`` whose continuing successor distributions are the rows of ``D``:
         each row split into its groups (one per observation of the decision maker's states, one
         for the others; a convex decomposition, so the bound stays sound), each part normalised
-        and triangulated."""
+        and triangulated. ``terms``: int64[len(keys)], the nonnegative products summed into each
+        entry of a row of ``D`` (and its stop mass and reward) at most, for the rounding bound
+        (:func:`_dominate`); ``D`` is kept as the successors the abstraction must dominate."""
         self.key.append(keys)
         self.action.append(action)
         self.stop.append(stop)
         self.reward.append(reward)
-        coo = sp.csr_matrix(D).tocoo()
+        D = sp.csr_matrix(D)
+        self.successors.append(D)
+        self.terms.append(np.asarray(terms, dtype=np.int64))
+        coo = D.tocoo()
         if not coo.nnz:
             return
         grp = dyn.group[coo.col]
@@ -429,27 +498,47 @@ class CoarseBounds:
             key[B.indices[lo:hi].astype(np.int64).tobytes() + counts.tobytes()] = i
         return CoarseBounds(N, values[:B.shape[0]], key)
 
-    def bounds(self, idx: list[np.ndarray], p: list[np.ndarray]) -> np.ndarray:
-        """float64[len(idx)]: for each belief (``p[j]`` on states ``idx[j]``) Σ λ_i W(u_i) over
-        the coarse grid's simplex around it (a bound by convexity), NaN where one of the
-        simplex's vertices is not in the coarse abstraction."""
+    def bounds(self, idx: list[np.ndarray], p: list[np.ndarray],
+               cap: np.ndarray | None) -> np.ndarray:
+        """float64[len(idx)]: for each belief (``p[j]`` on states ``idx[j]``) a proven bound on
+        its optimum by convexity over the coarse grid's simplex around it: Σ λ_i W(u_i), made to
+        hold under floating point as in :func:`_dominate` (the weights scaled so that the
+        combination stays below the belief, and when maximising what it leaves uncovered added
+        at ``cap`` per state; ``cap`` None: minimising). NaN where one of the simplex's vertices
+        is not in the coarse abstraction."""
         out = np.full(len(idx), np.nan)
         sizes = np.asarray([i.size for i in idx], dtype=np.int64)
-        for _, sel in _chunks(sizes):
+        N = self.resolution
+        for m, sel in _chunks(sizes):
             P = np.stack([p[j] for j in sel.tolist()])
-            counts, lam = freudenthal_batch(P, self.resolution)
+            counts, lam = freudenthal_batch(P, N)
             for r, j in enumerate(sel.tolist()):
-                total = 0.0
-                for c, w in zip(counts[r], lam[r]):
-                    if w <= 0:
-                        continue
-                    nz = c > 0
-                    v = self.key.get(idx[j][nz].tobytes() + c[nz].tobytes())
-                    if v is None:
-                        total = math.nan
-                        break
-                    total += w * float(self.values[v])
-                out[j] = total
+                keep = lam[r] > 0
+                cs, ws = counts[r][keep], lam[r][keep]
+                found = [self.key.get(idx[j][c > 0].tobytes() + c[c > 0].tobytes())
+                         for c in cs]
+                if any(v is None for v in found):
+                    continue
+                vals = self.values[np.asarray(found, dtype=np.int64)]
+                x = ws @ (cs / N)
+                y = P[r]
+                grow = _rounding(ws.size + 1)
+                on = x > 0
+                kappa = min(1.0, float(np.min(y[on] * (1.0 - 2.0 * _UNIT)
+                                              / (x[on] * (1.0 + grow)))) * (1.0 - 4.0 * _UNIT))
+                kappa = max(kappa, 0.0)
+                total = float(ws @ vals)
+                if cap is None:
+                    out[j] = max(0.0, kappa * total * (1.0 - grow - 4.0 * _UNIT))
+                    continue
+                c = cap[idx[j]]
+                left = np.maximum(y - kappa * x, 0.0) * (1.0 + 2.0 * _UNIT) + grow * (x + y)
+                extra = float(np.where(left > 0, left * np.where(np.isfinite(c), c, 0.0),
+                                       0.0).sum())
+                if bool(((left > 0) & ~np.isfinite(c)).any()):
+                    extra = math.inf
+                out[j] = float(_up(np.asarray(kappa * total * (1.0 + grow)
+                                              + extra * (1.0 + _rounding(m)))))
         return out
 
 
@@ -514,7 +603,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             Ba = B[sel]
             choices.add(ids[sel] * choices.span + a, np.full(sel.size, a, dtype=np.int64),
                         np.asarray(Ba @ dyn.stop[a]).ravel(),
-                        np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a], dyn, grid)
+                        np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a],
+                        np.diff(Ba.indptr) + dyn.row_terms, dyn, grid)
         for j in np.flatnonzero(~mine).tolist():
             v = done + j
             if deadline is not None and time.perf_counter() > deadline:
@@ -528,8 +618,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             W = sp.csr_matrix((W.data, cols[W.indices], W.indptr),
                               shape=(k, dyn.model.num_choices))
             choices.add(v * choices.span + Au + np.arange(k), np.full(k, -1, dtype=np.int64),
-                        np.asarray(W @ dyn.T_stop).ravel(), np.zeros(k), W @ dyn.T_cont, dyn,
-                        grid)
+                        np.asarray(W @ dyn.T_stop).ravel(), np.zeros(k), W @ dyn.T_cont,
+                        np.diff(W.indptr) + dyn.row_terms, dyn, grid)
         done = last
     expanded = np.zeros(len(grid.rows), dtype=bool)
     expanded[:done] = True
@@ -559,33 +649,49 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     n_exp = keys.size  # the expanded choices, numbered 0..n_exp-1 in key (= vertex) order
     ech = np.searchsorted(keys, cat(ch.e_key, np.int64))
     ev, ep = cat(ch.e_vertex, np.int64), cat(ch.e_prob)
-    cont_mass = np.bincount(ech, weights=ep, minlength=n_exp)
-    rows = [ech, np.arange(n_exp)]
-    cols = [ev, np.full(n_exp, TARGET)]
-    vals = [ep, stop]
+    E = sp.csr_matrix((ep, (ech, ev)), shape=(n_exp, V))
+    terms = cat(ch.terms, np.int64)[order]
+    finite = np.isfinite(cutoff)
+    cap = np.where(finite, cutoff, np.inf)
     if prob:
-        loss = np.maximum(0.0, 1.0 - stop - cont_mass)
-        rows.append(np.arange(n_exp))
-        cols.append(np.full(n_exp, SINK))
-        vals.append(loss)
-    T_exp = sp.csr_matrix((cat(vals), (cat(rows, np.int64), cat(cols, np.int64))),
-                          shape=(n_exp, S_abs))
-    if not prob:
-        # the successor masses sum to 1 up to rounding: renormalised (no mass may leak to a sink,
-        # which for an expected reward would mean "never reaches the target")
-        sums = np.asarray(T_exp.sum(axis=1)).ravel()
-        T_exp = sp.csr_matrix(sp.diags(1.0 / np.where(sums > 0, sums, 1.0)) @ T_exp)
+        cap = np.clip(np.where(finite, cap, 1.0), 0.0, 1.0)
+    if not problem.maximize and n_exp:
+        Y = sp.vstack(ch.successors, format="csr")[order]
+        E = _dominate(E, grid.matrix(), Y, terms)
+    kept = np.asarray(E.sum(axis=1)).ravel()
+    grow = 1.0 + _rounding(terms)
+    if prob:
+        # the stop mass (a sum of nonnegative products) rounded to the optimistic side
+        t = _up(stop * grow) if problem.maximize else np.maximum(0.0, stop * (2.0 - grow))
+        sink = np.maximum(0.0, 1.0 - t - kept)
+    else:
+        # a reward's stop mass is worth nothing more: what the vertices leave reaches the target
+        t = np.maximum(0.0, 1.0 - kept)
+        sink = np.zeros(n_exp)
+    rew_exp = (_up(rew * grow) if problem.maximize else np.maximum(0.0, rew * (2.0 - grow))) \
+        if not prob else np.zeros(n_exp)
+    Ec = E.tocoo()
+    T_exp = sp.csr_matrix(
+        (np.r_[Ec.data, t, sink],
+         (np.r_[Ec.row, np.arange(n_exp), np.arange(n_exp)].astype(np.int64),
+          np.r_[Ec.col, np.full(n_exp, TARGET), np.full(n_exp, SINK)].astype(np.int64))),
+        shape=(n_exp, S_abs))
+    T_exp.eliminate_zeros()
     # cut-off vertices: one choice worth Σ_s v(s) cutoff(s)
     cut_ids = np.flatnonzero(~expanded)
     Bc = grid.matrix()[cut_ids]
-    finite = np.isfinite(cutoff)
+    # Σ_s b(s) cutoff(s) rounded outward (a sum of nonnegative products)
     u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
+    slack = _rounding(np.diff(Bc.indptr))
+    u = _up(u * (1.0 + slack)) if problem.maximize else \
+        np.maximum(0.0, u * (1.0 - slack))
     unbounded = np.asarray(Bc @ (~finite).astype(np.float64)).ravel() > 0
     n_cut = cut_ids.size
     if coarse is not None and n_cut:
         sign = 1.0 if problem.maximize else -1.0
         w = coarse.bounds([grid.rows[v] for v in cut_ids.tolist()],
-                          [grid.vals[v] for v in cut_ids.tolist()])
+                          [grid.vals[v] for v in cut_ids.tolist()],
+                          cap if problem.maximize else None)
         better = np.isfinite(w) & (unbounded | (sign * w < sign * u))
         u = np.where(better, w, u)
         unbounded &= ~better
@@ -624,7 +730,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
         model = make_model(ModelType.MDP, row_groups, transitions, initial_states=(0,))
     rewards = None
     if not prob:
-        rewards = np.r_[rew, r_cut, np.zeros(2)][perm]
+        rewards = np.r_[rew_exp, r_cut, np.zeros(2)][perm]
     target = np.zeros(S_abs, dtype=bool)
     target[TARGET] = True
     return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,
