@@ -60,12 +60,17 @@ from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
 
 __all__ = ["GridAbstraction", "GridBound", "CoarseBounds", "applies", "freudenthal",
+           "UNFOLD_SHARE",
            "freudenthal_batch",
            "grid_abstraction", "grid_bound", "full_observation_bounds", "RESOLUTIONS",
            "MAX_VERTICES", "PRECISION", "RULE_CAP"]
 
 RESOLUTIONS = tuple(2 ** i for i in range(1, 11))
 """The grid resolutions tried in turn while the budget lasts (each grid refines the previous)."""
+
+UNFOLD_SHARE = 0.25
+"""The part of the vertex budget (and of the time) the belief unfolding may use before the
+grids: a finite reachable belief set within it gives the optimum itself."""
 
 RULE_CAP = 64
 """The adversary's decision rules tried at one vertex at most (all of them when there are no
@@ -294,6 +299,19 @@ class _Grid:
         self.rows: list[np.ndarray] = []
         self.vals: list[np.ndarray] = []
 
+    def belief(self, idx: np.ndarray, p: np.ndarray) -> int:
+        """The vertex of belief ``p`` on states ``idx`` itself (resolution 0: the belief
+        unfolding), identified by its float64 bits: beliefs equal up to rounding but reached
+        along different paths stay apart (no merging, so no belief is replaced by another)."""
+        k = idx.tobytes() + p.tobytes()
+        found = self.key.get(k)
+        if found is None:
+            found = len(self.rows)
+            self.key[k] = found
+            self.rows.append(idx)
+            self.vals.append(p)
+        return found
+
     def vertex(self, idx: np.ndarray, counts: np.ndarray) -> int:
         nz = counts > 0
         i, c = idx[nz], counts[nz]
@@ -461,6 +479,13 @@ class _Choices:
         rows = pair[starts] // (dyn.Z + 1)
         mass = np.add.reduceat(data, starts)
         N = grid.N
+        if N == 0:  # the belief unfolding: each posterior is a vertex itself
+            vs = [grid.belief(col[a:a + k], data[a:a + k] / w)
+                  for a, k, w in zip(starts.tolist(), sizes.tolist(), mass.tolist())]
+            self.e_key.append(keys[rows].astype(np.int64))
+            self.e_vertex.append(np.asarray(vs, dtype=np.int64))
+            self.e_prob.append(mass)
+            return
         # the parts of one support size together: one vectorised triangulation each
         for m, sel in _chunks(sizes):
             at = starts[sel][:, None] + np.arange(m)[None, :]
@@ -581,7 +606,10 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     if not dyn.cont[s0] or (dyn.owned[s0] and dyn.group[s0] < 0):
         return None
     grid = _Grid(dyn.S, resolution)
-    grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
+    if resolution == 0:
+        grid.belief(np.array([s0], dtype=np.int64), np.ones(1))
+    else:
+        grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
     Au = dyn.actions.size
     choices = _Choices(Au + RULE_CAP + 1)
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
@@ -758,7 +786,7 @@ class GridBound:
 def grid_bound(problem: Problem, *, deadline: float | None, target: float | None = None,
                resolutions: tuple[int, ...] = RESOLUTIONS,
                cutoff: np.ndarray | None = None,
-               vertices: int = MAX_VERTICES) -> GridBound | None:
+               vertices: int = MAX_VERTICES, unfold: bool = True) -> GridBound | None:
     """Abstractions of growing resolution while time remains; the tightest proven bound.
 
     Args:
@@ -769,6 +797,9 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
         target: stop as soon as the bound reaches this value (the other side of the bracket).
         cutoff: the per-state bounds for cut-offs (default :func:`full_observation_bounds`).
         vertices: the work budget: grid vertices explored at most, over all resolutions.
+        unfold: first explore the beliefs themselves (resolution 0, the belief unfolding) with
+            :data:`UNFOLD_SHARE` of the budget: where the reachable belief set is that small the
+            abstraction is the belief MDP and the bound its optimum (the grids then stop).
 
     Returns:
         The bound, or None when no abstraction applies or none was solved soundly in time.
@@ -784,15 +815,17 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     tried: list[tuple[int, float]] = []
     coarse: CoarseBounds | None = None
     left = vertices
-    for N in resolutions:
+    for N in ((0,) if unfold else ()) + tuple(resolutions):
         now = time.perf_counter()
         if (deadline is not None and now > deadline) or left <= 0 or interrupted():
             break
-        # exploration may use most of what is left; the sound solve gets the rest
-        explore_until = None if deadline is None else now + 0.6 * (deadline - now)
+        # exploration may use most of what is left (the unfolding its share); the sound solve
+        # gets the rest
+        share = UNFOLD_SHARE if N == 0 else 1.0
+        explore_until = None if deadline is None else now + 0.6 * share * (deadline - now)
         abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
                                        adversary_rules=rules, coarse=coarse,
-                                       max_vertices=left)
+                                       max_vertices=max(1, int(share * left)))
         if abstraction is None:
             return None
         left -= int(abstraction.expanded.sum())
@@ -812,8 +845,9 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
         # the next resolution doubles this one: its cut-offs interpolate these values (the
         # grids nest, so a fine vertex's coarse simplex has vertices this abstraction holds
         # wherever it explored that far)
-        side = result.upper if problem.maximize else result.lower
-        coarse = CoarseBounds.of(abstraction, np.asarray(side, dtype=np.float64))
+        if N > 0:
+            side = result.upper if problem.maximize else result.lower
+            coarse = CoarseBounds.of(abstraction, np.asarray(side, dtype=np.float64))
     if best is None:
         return None
     return GridBound(best.value, best.resolution, best.vertices, best.complete, best.exact,
