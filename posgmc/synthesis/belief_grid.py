@@ -37,7 +37,6 @@ of beliefs).
 from __future__ import annotations
 
 import itertools
-import math
 import time
 from dataclasses import dataclass
 
@@ -536,34 +535,33 @@ class CoarseBounds:
         N = self.resolution
         for m, sel in _chunks(sizes):
             P = np.stack([p[j] for j in sel.tolist()])
+            cols = np.stack([idx[j] for j in sel.tolist()])
             counts, lam = freudenthal_batch(P, N)
-            for r, j in enumerate(sel.tolist()):
-                keep = lam[r] > 0
-                cs, ws = counts[r][keep], lam[r][keep]
-                found = [self.key.get(idx[j][c > 0].tobytes() + c[c > 0].tobytes())
-                         for c in cs]
-                if any(v is None for v in found):
-                    continue
-                vals = self.values[np.asarray(found, dtype=np.int64)]
-                x = ws @ (cs / N)
-                y = P[r]
-                grow = _rounding(ws.size + 1)
-                on = x > 0
-                kappa = min(1.0, float(np.min(y[on] * (1.0 - 2.0 * _UNIT)
-                                              / (x[on] * (1.0 + grow)))) * (1.0 - 4.0 * _UNIT))
-                kappa = max(kappa, 0.0)
-                total = float(ws @ vals)
-                if cap is None:
-                    out[j] = max(0.0, kappa * total * (1.0 - grow - 4.0 * _UNIT))
-                    continue
-                c = cap[idx[j]]
-                left = np.maximum(y - kappa * x, 0.0) * (1.0 + 2.0 * _UNIT) + grow * (x + y)
-                extra = float(np.where(left > 0, left * np.where(np.isfinite(c), c, 0.0),
-                                       0.0).sum())
-                if bool(((left > 0) & ~np.isfinite(c)).any()):
-                    extra = math.inf
-                out[j] = float(_up(np.asarray(kappa * total * (1.0 + grow)
-                                              + extra * (1.0 + _rounding(m)))))
+            used = lam > 0
+            r, k = np.nonzero(used)
+            vid = np.full(lam.shape, -1, dtype=np.int64)
+            vid[r, k] = [self.key.get(cols[a][c > 0].tobytes() + c[c > 0].tobytes(), -1)
+                         for a, c in zip(r.tolist(), counts[r, k])]
+            known = ~(used & (vid < 0)).any(axis=1)
+            vals = np.where(used, self.values[np.maximum(vid, 0)], 0.0)
+            total = (lam * vals).sum(axis=1)
+            x = np.einsum("nk,nks->ns", lam, counts / N)
+            grow = _rounding(used.sum(axis=1) + 1)[:, None]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.where(x > 0, P * (1.0 - 2.0 * _UNIT) / (x * (1.0 + grow)), np.inf)
+            kappa = np.clip(ratio.min(axis=1) * (1.0 - 4.0 * _UNIT), 0.0, 1.0)
+            g = grow[:, 0]
+            if cap is None:
+                bound = np.maximum(0.0, kappa * total * (1.0 - g - 4.0 * _UNIT))
+            else:
+                c = cap[cols]
+                left = np.maximum(P - kappa[:, None] * x, 0.0) * (1.0 + 2.0 * _UNIT) \
+                    + grow * (x + P)
+                extra = np.where(left > 0, left * np.where(np.isfinite(c), c, 0.0), 0.0).sum(
+                    axis=1)
+                extra[((left > 0) & ~np.isfinite(c)).any(axis=1)] = np.inf
+                bound = _up(kappa * total * (1.0 + g) + extra * (1.0 + _rounding(m)))
+            out[sel[known]] = bound[known]
         return out
 
 
