@@ -186,11 +186,13 @@ def _deterministic_memoryless(problem) -> list[FiniteStateStrategy]:  # type: ig
     return out
 
 
-def _bracket_contains_the_brute_force(seed: int, maximize: bool) -> None:
+def _bracket_contains_the_brute_force(seed: int, maximize: bool, unfold: bool) -> None:
     model = random_pomdp(seed)
     prop = 'Pmax=? [ F "goal" ]' if maximize else 'Pmin=? [ F "goal" ]'
     problem = _problem(model, prop)
-    found = belief_grid.grid_bound(problem, deadline=time.perf_counter() + 2.0)
+    # the belief unfolding completes on most of these small POMDPs; without it the grids are
+    # what proves the bound
+    found = belief_grid.grid_bound(problem, deadline=time.perf_counter() + 2.0, unfold=unfold)
     s0 = int(model.initial_states[0])
     if found is None:  # the initial state does not continue: full observation is exact there
         reach = belief.can_reach(model, problem.target, problem.remain)
@@ -209,21 +211,25 @@ def _bracket_contains_the_brute_force(seed: int, maximize: bool) -> None:
         assert r is not None and r.sound
         achieved = r.lower if maximize else r.upper
         assert sign * found.value >= sign * achieved - 1e-9
+    # no looser than full observation, up to the abstraction's solving precision (its bound side
+    # is the end of an interval of relative width PRECISION: 2.2e-9 above on seed 5264)
     full = belief_grid.full_observation_bounds(problem)[0][s0]
-    assert sign * found.value <= sign * full + 1e-9
+    assert sign * found.value <= sign * full + 2 * belief_grid.PRECISION * max(1.0, abs(full))
 
 
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(seed=st.integers(0, 10_000), maximize=st.booleans())
-def test_random_pomdp_brackets_contain_every_strategy(seed: int, maximize: bool) -> None:
-    _bracket_contains_the_brute_force(seed, maximize)
+@given(seed=st.integers(0, 10_000), maximize=st.booleans(), unfold=st.booleans())
+def test_random_pomdp_brackets_contain_every_strategy(seed: int, maximize: bool,
+                                                      unfold: bool) -> None:
+    _bracket_contains_the_brute_force(seed, maximize, unfold)
 
 
 @pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(seed=st.integers(0, 10_000), maximize=st.booleans())
-def test_many_random_pomdp_brackets_contain_every_strategy(seed: int, maximize: bool) -> None:
-    _bracket_contains_the_brute_force(seed, maximize)
+@given(seed=st.integers(0, 10_000), maximize=st.booleans(), unfold=st.booleans())
+def test_many_random_pomdp_brackets_contain_every_strategy(seed: int, maximize: bool,
+                                                           unfold: bool) -> None:
+    _bracket_contains_the_brute_force(seed, maximize, unfold)
 
 
 def test_a_fully_observed_pomdp_is_bounded_exactly() -> None:
