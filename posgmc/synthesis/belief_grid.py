@@ -585,7 +585,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
 
     Args:
         problem: the POMDP or game and its objective.
-        resolution: N >= 1 (grid beliefs are multiples of 1/N).
+        resolution: N >= 1 (grid beliefs are multiples of 1/N), or 0: the belief unfolding
+            (every posterior is a vertex itself; complete, it is the reachable belief MDP).
         cutoff: float64[S], the bound per state used at cut-off vertices
             (:func:`full_observation_bounds`).
         adversary_rules: int64[S], the adversary's preferred choice per state (the
