@@ -13,25 +13,34 @@ Where the cluster is: ``--ray-address HOST:PORT`` (a ``ray start --head``), else
 copy of posgmc (shipped as a runtime-environment module), so the cluster only needs Ray and
 posgmc's dependencies.
 
+Independent calls (the points of a sweep or front, the runs of ``posgmc test``) run as Ray
+tasks of one CPU each (:func:`ray_results`, for :mod:`posgmc.synthesis.fanout`).
+
 Failure: an actor that dies (killed, out of memory, its node lost) is restarted with the problem
 and its job retried, :data:`RETRIES` times; then the run stops with a :class:`WorkerError` naming
-the job. Ctrl-C (or any error) cancels the jobs still queued and ends the actors.
+the job. Ctrl-C (or any error) cancels the jobs still queued and ends the actors. A Ray started
+on this machine for the run is shut down when the process exits, and the helper processes
+``ray.shutdown()`` leaves behind are ended with it (:func:`release`).
 """
 
 from __future__ import annotations
 
+import atexit
 import dataclasses
 import os
 import socket
+import sys
 import time
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import posgmc
 from posgmc.errors import InputError, UnsupportedError, WorkerError
+from posgmc.processes import Process, descendants, end
+from posgmc.synthesis.budget import interrupted
 from posgmc.synthesis.problem import Problem
 from posgmc.synthesis.tasks import (
     Job,
@@ -43,7 +52,8 @@ from posgmc.synthesis.tasks import (
     timed,
 )
 
-__all__ = ["RayPool", "RETRIES", "SAME_CLOCK", "START_SECONDS", "shared_fields"]
+__all__ = ["RayPool", "RETRIES", "SAME_CLOCK", "START_SECONDS", "shared_fields", "ray_results",
+           "release"]
 
 RETRIES = 2
 """How often a dead actor is restarted and its job retried before the run fails."""
@@ -55,6 +65,9 @@ machine, where ``time.perf_counter()`` is one clock): the jobs are then sent unc
 START_SECONDS = 120.0
 """How long the actors may take to start (a CPU free for each, the problem fetched) before the
 run stops with an error rather than waiting for CPUs that other work holds."""
+
+_POLL_SECONDS = 0.5
+"""How often a wait for Ray tasks looks whether Ctrl-C asked to stop."""
 
 _CONNECT_SECONDS = 5.0
 """How long reaching a given cluster address may take before the run stops with an error
@@ -176,8 +189,46 @@ def _connect(ray: Any, address: str | None) -> None:
     if given not in ("auto", "local") and "://" not in given:
         _reachable(given)
     package = str(Path(posgmc.__file__).resolve().parent)
+    before = descendants() if given == "local" else set()
     ray.init(address=given, include_dashboard=False, log_to_driver=False,
              logging_level="WARNING", runtime_env={"py_modules": [package]})
+    if given == "local":
+        # a Ray started here for this process: ended with it, helpers and all
+        _STARTED.update(descendants() - before)
+        _note_helpers()
+        atexit.register(release)
+
+
+_STARTED: set[Process] = set()
+"""The processes ``ray.init()`` started here (its GCS server, raylet, ...); empty when this
+process connected to a cluster that was already running."""
+
+_HELPERS: set[Process] = set()
+"""Every process seen below :data:`_STARTED` (agents, workers), kept because the terminal's
+Ctrl-C may end a raylet before this process does, leaving its children without a parent to
+find them by."""
+
+
+def _note_helpers() -> None:
+    """Add the processes now below :data:`_STARTED` to :data:`_HELPERS`."""
+    for pid, _ in list(_STARTED):
+        _HELPERS.update(descendants(pid))
+
+
+def release() -> None:
+    """Disconnect from Ray; when the Ray was started by this process, end every process it
+    started that ``ray.shutdown()`` leaves running (its dashboard and runtime-environment agents
+    do, and a Ctrl-C that reached the raylet first leaves more). Run at exit; harmless twice."""
+    ray = sys.modules.get("ray")
+    if ray is None:
+        return
+    _note_helpers()
+    if ray.is_initialized():
+        ray.shutdown()
+    leftovers = _STARTED | _HELPERS
+    _STARTED.clear()
+    _HELPERS.clear()
+    end(leftovers)
 
 
 def _cluster_cpus(ray: Any) -> int:
@@ -209,6 +260,7 @@ class RayPool:
         self._actors = [actor.remote(self._problem_ref) for _ in range(self.workers)]
         started = [a.ready.remote() for a in self._actors]
         ready, _ = ray.wait(started, num_returns=len(started), timeout=START_SECONDS)
+        _note_helpers()
         if len(ready) < len(started):
             self.close()
             raise WorkerError(
@@ -270,3 +322,61 @@ class RayPool:
             self._ray.kill(actor, no_restart=True)
         self._actors = []
         self._problem_ref = None
+
+
+def _call(function: Callable[..., Any], arguments: tuple[Any, ...]) -> Any:
+    """A fanned-out call, run in a Ray worker (:mod:`posgmc.synthesis.fanout`)."""
+    return function(*arguments)
+
+
+def ray_results(function: Callable[..., Any], arguments: Sequence[tuple[Any, ...]],
+                placement: Placement, names: Sequence[str]) -> Iterator[Any]:
+    """``function(*args)`` for each of ``arguments`` as Ray tasks of one CPU each, at most
+    ``placement.workers`` at a time (1: as many as the cluster has CPUs), yielded in their order;
+    a task whose worker dies is retried :data:`RETRIES` times, then a :class:`WorkerError` names
+    it (``names``). An early stop (an error, Ctrl-C, the caller done reading) cancels the tasks
+    still running or queued."""
+    ray = _ray()
+    _connect(ray, placement.address)
+    cpus = _cluster_cpus(ray)
+    limit = cpus if placement.workers <= 1 else min(placement.workers, cpus)
+    _note_helpers()
+    remote = ray.remote(num_cpus=1, max_retries=RETRIES)(_call)
+    refs: list[Any] = []
+    running: set[Any] = set()
+
+    def fill() -> None:
+        while len(refs) < len(arguments) and len(running) < limit:
+            refs.append(remote.remote(function, arguments[len(refs)]))
+            running.add(refs[-1])
+
+    try:
+        for i in range(len(arguments)):
+            fill()
+            while refs[i] in running:
+                ready, _ = ray.wait(list(running), num_returns=1, timeout=_POLL_SECONDS)
+                if not ready and interrupted():
+                    # Ctrl-C: the cluster's tasks cannot wind down as this process's phases
+                    # do (they do not see the stop); they are cancelled
+                    raise KeyboardInterrupt
+                running.difference_update(ready)
+                fill()
+            yield _value(ray, refs[i], names[i])
+            refs[i] = None  # the result is the caller's now; Ray may free it
+    finally:
+        for ref in running:
+            ray.cancel(ref, force=True)
+
+
+def _value(ray: Any, ref: Any, name: str) -> Any:
+    """A finished task's result, its own exception re-raised, or a WorkerError naming it."""
+    try:
+        return ray.get(ref)
+    except ray.exceptions.RayTaskError as e:
+        raise e.cause from None
+    except (ray.exceptions.WorkerCrashedError, ray.exceptions.ObjectLostError,
+            ray.exceptions.OutOfMemoryError, ray.exceptions.TaskCancelledError) as e:
+        raise WorkerError(
+            f"{name} failed: its Ray worker died {RETRIES + 1} times ({type(e).__name__})",
+            hint="see `ray status` and the cluster's logs; a worker out of memory needs "
+                 "nodes with more memory or a smaller model") from None
