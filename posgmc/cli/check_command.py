@@ -49,6 +49,7 @@ from posgmc.cli.running import guard
 from posgmc.cli.strategy_export import check_destination, point_of, synthesises, write_exports
 from posgmc.errors import InputError
 from posgmc.synthesis.budget import interrupted, interruptible
+from posgmc.synthesis.fanout import Spread
 
 __all__ = ["check", "check_point", "not_passed"]
 
@@ -182,8 +183,10 @@ def _run(request: CheckRequest) -> int:
     # results are shown as they are computed (a killed run keeps what it printed), except
     # in the one-object --json and in sweep tables
     streaming = not request.as_json and len(combos or [{}]) == 1
-    rows, code = _check_points(request, swept, combos, strategies, streaming=streaming)
-    _write_reports(request, swept, rows, streaming=streaming)
+    spread = Spread()
+    rows, code = _check_points(request, swept, combos, strategies, streaming=streaming,
+                               spread=spread)
+    _write_reports(request, swept, rows, streaming=streaming, spread=spread)
     return code
 
 
@@ -224,12 +227,13 @@ def _check_points(
     strategies: dict[str | None, str],
     *,
     streaming: bool,
+    spread: Spread,
 ) -> tuple[list[tuple[dict[str, Any], Any]], int]:
     """Each constant point checked, its strategies exported: (constants, report) per point, and
     the exit status so far. The points of a sweep are independent tasks on the executor
     (``--jobs``/``--executor``), their reports taken in sweep order, so that the output is that
     of one process; a single point gives the executor to its synthesis instead. Ctrl-C ends the
-    loop after the point it cut short."""
+    loop after the point it cut short. ``spread``: filled in with where the points ran."""
     from posgmc import api
     from posgmc.synthesis.fanout import each_result
     from posgmc.synthesis.tasks import Placement
@@ -255,7 +259,8 @@ def _check_points(
     rows: list[tuple[dict[str, Any], Any]] = []
     code = EXIT_OK
     reports = each_result(check_point, [(r, text, c, strategies, inner, streaming) for c in points],
-                          where if fanned else Placement(), labels=labels)
+                          where if fanned else Placement(), labels=labels, spread=spread,
+                          phase="constant point")
     try:
         for constants, report in zip(points, reports):
             if report.errors:
@@ -329,7 +334,7 @@ def check_point(request: CheckRequest, text: str, constants: dict[str, Any],
 
 def _write_reports(
     request: CheckRequest, swept: list[str], rows: list[tuple[dict[str, Any], Any]], *,
-    streaming: bool,
+    streaming: bool, spread: Spread,
 ) -> None:
     """What covers every point: JUnit, the plot, and the one JSON object or the sweep table
     (a single point's results were shown as they came)."""
@@ -343,7 +348,7 @@ def _write_reports(
         texts = [({n: const_text(v) for n, v in c.items()}, rep) for c, rep in rows]
         plot_sweeps(sweeps_of_check(swept[0], texts), r.plot_file)
     if r.as_json or (r.json_lines and not streaming):
-        click.echo(json.dumps(json_report(r.model, swept, rows)))
+        click.echo(json.dumps(json_report(r.model, swept, rows, points=spread.to_json())))
     elif not streaming:
         print_report(r.model, swept, rows, verbose=r.verbose)
 

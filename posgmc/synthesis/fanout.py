@@ -18,16 +18,41 @@ started and ends the pool's processes.
 from __future__ import annotations
 
 import multiprocessing
-from collections.abc import Callable, Generator, Iterator, Sequence
+import time
+from collections.abc import Callable, Generator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
 from typing import Any
 
 from posgmc.errors import WorkerError
 from posgmc.resources import usable_cpus
-from posgmc.synthesis.tasks import Placement
+from posgmc.synthesis.tasks import Placement, TaskLedger
 
-__all__ = ["each_result", "workers_for"]
+__all__ = ["each_result", "workers_for", "Spread", "timed_call"]
+
+
+@dataclass
+class Spread:
+    """Where :func:`each_result` ran its calls: ``executor`` ("local" or "ray"), ``workers``
+    (processes or Ray CPUs the calls could run on at once; 1: this process) and the ``ledger``
+    of the calls by phase, with the seconds each took where it ran."""
+
+    executor: str = "local"
+    workers: int = 1
+    ledger: TaskLedger = field(default_factory=TaskLedger)
+
+    def to_json(self) -> dict[str, Any]:
+        """The shape of a synthesis's ``"synthesis"`` placement: executor, workers, tasks."""
+        return {"executor": self.executor, "workers": self.workers,
+                "tasks": self.ledger.to_json()}
+
+
+def timed_call(function: Callable[..., Any], arguments: tuple[Any, ...]) -> tuple[Any, float]:
+    """``function(*arguments)`` and the seconds it took (measured where it runs)."""
+    t0 = time.perf_counter()
+    out = function(*arguments)
+    return out, time.perf_counter() - t0
 
 
 def workers_for(placement: Placement, calls: int) -> int:
@@ -38,10 +63,12 @@ def workers_for(placement: Placement, calls: int) -> int:
 
 def each_result(function: Callable[..., Any], arguments: Sequence[tuple[Any, ...]],
                 placement: Placement, *, labels: Sequence[str] | None = None,
+                spread: Spread | None = None, phase: str = "call",
                 ) -> Generator[Any, None, None]:
     """``function(*args)`` for each of ``arguments``, yielded in their order, where
     ``placement`` says (one call: always in this process, nothing shipped). ``labels`` name the
-    calls in errors (default: ``call i of n``).
+    calls in errors (default: ``call i of n``); ``spread``, when given, is filled in with where
+    they ran and each call's seconds under ``phase``.
 
     Raises:
         WorkerError: a worker died running a call (after Ray's retries).
@@ -50,21 +77,28 @@ def each_result(function: Callable[..., Any], arguments: Sequence[tuple[Any, ...
     """
     names = list(labels) if labels is not None else [
         f"call {i + 1} of {len(arguments)}" for i in range(len(arguments))]
+    record = spread if spread is not None else Spread()
+    timed = [(function, args) for args in arguments]
     if placement.executor == "ray" and len(arguments) > 1:
         from posgmc.synthesis.ray_pool import ray_results  # imports ray: only when asked for
 
-        yield from ray_results(function, arguments, placement, names)
-        return
-    workers = workers_for(placement, len(arguments))
-    if workers <= 1:
-        for args in arguments:
-            yield function(*args)
-        return
-    yield from _pool_results(function, arguments, workers, names)
+        record.executor = "ray"
+        results = ray_results(timed_call, timed, placement, names, record)
+    else:
+        record.executor = "local"
+        record.workers = workers_for(placement, len(arguments))
+        results = (_pool_results(timed_call, timed, record.workers, names)
+                   if record.workers > 1 else (timed_call(*call) for call in timed))
+    try:
+        for result, seconds in results:
+            record.ledger.record(phase, seconds)
+            yield result
+    finally:
+        results.close()
 
 
 def _pool_results(function: Callable[..., Any], arguments: Sequence[tuple[Any, ...]],
-                  workers: int, names: Sequence[str]) -> Iterator[Any]:
+                  workers: int, names: Sequence[str]) -> Generator[Any, None, None]:
     """The calls on a local pool of ``workers`` processes (the pool starts them as workers free
     up; the results are taken in order)."""
     methods = multiprocessing.get_all_start_methods()

@@ -32,7 +32,7 @@ import socket
 import sys
 import time
 from collections import Counter
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -330,16 +330,20 @@ def _call(function: Callable[..., Any], arguments: tuple[Any, ...]) -> Any:
 
 
 def ray_results(function: Callable[..., Any], arguments: Sequence[tuple[Any, ...]],
-                placement: Placement, names: Sequence[str]) -> Iterator[Any]:
+                placement: Placement, names: Sequence[str], spread: Any = None,
+                ) -> Generator[Any, None, None]:
     """``function(*args)`` for each of ``arguments`` as Ray tasks of one CPU each, at most
     ``placement.workers`` at a time (1: as many as the cluster has CPUs), yielded in their order;
     a task whose worker dies is retried :data:`RETRIES` times, then a :class:`WorkerError` names
     it (``names``). An early stop (an error, Ctrl-C, the caller done reading) cancels the tasks
-    still running or queued."""
+    still running or queued. ``spread``: a :class:`~posgmc.synthesis.fanout.Spread` whose
+    ``workers`` is set to the tasks run at once."""
     ray = _ray()
     _connect(ray, placement.address)
     cpus = _cluster_cpus(ray)
-    limit = cpus if placement.workers <= 1 else min(placement.workers, cpus)
+    limit = min(cpus if placement.workers <= 1 else min(placement.workers, cpus), len(arguments))
+    if spread is not None:
+        spread.workers = limit
     _note_helpers()
     remote = ray.remote(num_cpus=1, max_retries=RETRIES)(_call)
     refs: list[Any] = []
