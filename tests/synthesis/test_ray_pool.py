@@ -34,6 +34,7 @@ from posgmc.synthesis.ray_pool import (  # noqa: E402
     shared_fields,
 )
 from posgmc.synthesis.tasks import Placement  # noqa: E402
+from tests.synthesis import fanned  # noqa: E402
 from tests.synthesis.test_double_oracle import (  # noqa: E402
     SMALL,
     _problem,
@@ -133,6 +134,38 @@ def test_cli_check_on_ray_prints_the_numbers_of_one_process(cluster: Any) -> Non
     assert _without_times(on_ray) == _without_times(one)
     assert (on_ray["synthesis"]["executor"], on_ray["synthesis"]["workers"]) == ("ray", 2)
     assert (one["synthesis"]["executor"], one["synthesis"]["workers"]) == ("local", 1)
+
+
+@pytest.mark.parametrize("name", list(fanned.EXIT))
+def test_sweeps_fronts_and_test_runs_on_ray_print_one_process_s_output(
+        cluster: Any, name: str, tmp_path: Path) -> None:
+    """Each constant point, front weight and test run a Ray task (on both nodes of CI's
+    cluster): every number and line equals ``--jobs 1``'s, in the same order."""
+    args = fanned.commands(tmp_path)[name]
+    code, one = fanned.run(args)
+    assert code == fanned.EXIT[name], one
+    code, on_ray = fanned.run([*args, "--executor", "ray"])
+    assert code == fanned.EXIT[name], on_ray
+    assert fanned.comparable(name, on_ray) == fanned.comparable(name, one)
+    if name == "check sweep":
+        points = json.loads(on_ray)["points"]
+        assert points["executor"] == "ray" and points["tasks"]["constant point"]["count"] == 2
+
+
+def test_a_failing_ray_task_is_raised_in_order(cluster: Any) -> None:
+    from posgmc.synthesis.fanout import each_result
+
+    seen = []
+    with pytest.raises(InputError, match="no such file"):
+        for x in each_result(_load_or_fail, [("a",), ("",), ("b",)], Placement("ray", 2)):
+            seen.append(x)
+    assert seen == ["a"]
+
+
+def _load_or_fail(name: str) -> str:
+    if not name:
+        raise InputError("no such file")
+    return name
 
 
 def test_an_address_where_no_cluster_answers_is_an_input_error() -> None:
