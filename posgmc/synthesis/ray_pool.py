@@ -1,7 +1,9 @@
 """Synthesis jobs on a Ray cluster (``--executor ray``; ``pip install 'posgmc[ray]'``).
 
-The problem (the built model, the objective's arrays) goes into Ray's object store once; one
-long-lived actor per worker (one CPU each) receives it when it starts and keeps it, and then
+The problem (the objective's arrays, and the model: when it was built from text here, the recipe
+that builds it, :func:`shipped`) goes into Ray's object store once; one long-lived actor per
+worker (one CPU each) receives it when it starts, builds the model from the recipe once (before
+its first job) and keeps it, and then
 receives only the jobs — plain data: candidate strategies, adversaries, memory sizes, logits,
 deadlines (:mod:`posgmc.synthesis.tasks`); a value several jobs of a batch share (the defence
 evaluated against each adversary) goes into the object store once for the batch and each actor
@@ -39,6 +41,7 @@ from typing import Any
 
 import posgmc
 from posgmc.errors import InputError, UnsupportedError, WorkerError
+from posgmc.model.origin import Recipe, recipe_of
 from posgmc.processes import Process, descendants, end
 from posgmc.synthesis.budget import interrupted
 from posgmc.synthesis.problem import Problem
@@ -53,7 +56,7 @@ from posgmc.synthesis.tasks import (
 )
 
 __all__ = ["RayPool", "RETRIES", "SAME_CLOCK", "START_SECONDS", "shared_fields", "ray_results",
-           "release"]
+           "release", "shipped"]
 
 RETRIES = 2
 """How often a dead actor is restarted and its job retried before the run fails."""
@@ -115,12 +118,33 @@ _CACHED = 8
 """How many shared values an actor keeps (the latest batches')."""
 
 
-class _Worker:
-    """The actor: holds the problem, runs jobs on it."""
+def shipped(problem: Problem) -> tuple[Problem, Recipe | None]:
+    """What goes to each worker for ``problem``: when its model was built from text here
+    (:mod:`posgmc.model.origin`), the problem without the model and the recipe that builds it
+    (the text, constants and build options: kilobytes, however large the model); else the
+    problem as it is."""
+    recipe = recipe_of(problem.model)
+    if recipe is None:
+        return problem, None
+    return dataclasses.replace(problem, model=None), recipe  # type: ignore[arg-type]
 
-    def __init__(self, problem: Problem) -> None:
-        self.problem = problem
+
+class _Worker:
+    """The actor: holds the problem (its model built here from the recipe, when one came, before
+    the first job), runs jobs on it."""
+
+    def __init__(self, problem: Problem, recipe: Recipe | None = None) -> None:
+        self._given = problem
+        self._recipe = recipe
+        self._problem = problem if recipe is None else None
         self._shared: dict[Any, Any] = {}
+
+    @property
+    def problem(self) -> Problem:
+        if self._problem is None:
+            assert self._recipe is not None  # noqa: S101 - no problem yet: a recipe came
+            self._problem = dataclasses.replace(self._given, model=self._recipe())
+        return self._problem
 
     def _resolved(self, job: Job) -> Job:
         """``job`` with its shared fields fetched (once per value and actor)."""
@@ -256,8 +280,9 @@ class RayPool:
         cpus = _cluster_cpus(ray)
         self.workers = cpus if placement.workers <= 1 else min(placement.workers, cpus)
         actor = ray.remote(num_cpus=1, max_restarts=RETRIES, max_task_retries=RETRIES)(_Worker)
-        self._problem_ref = ray.put(problem)
-        self._actors = [actor.remote(self._problem_ref) for _ in range(self.workers)]
+        light, recipe = shipped(problem)
+        self._problem_ref = ray.put(light)
+        self._actors = [actor.remote(self._problem_ref, recipe) for _ in range(self.workers)]
         started = [a.ready.remote() for a in self._actors]
         ready, _ = ray.wait(started, num_returns=len(started), timeout=START_SECONDS)
         _note_helpers()
