@@ -191,7 +191,8 @@ def executor_options(f: F) -> F:
     )(f)
     f = click.option(
         "--jobs", type=click.IntRange(min=1), default=1, show_default=True,
-        help="Synthesis: workers for independent evaluations (results do not depend on it).",
+        help="Workers for independent work: synthesis's evaluations, or the points of a sweep "
+        "or front, or the runs of posgmc test (results and output do not depend on it).",
     )(f)
     return f
 def _gap(_ctx: Any, _param: Any, value: str | None) -> Any:
