@@ -265,3 +265,62 @@ def test_workers_build_a_model_read_from_text_themselves(cluster: Any) -> None:
         assert pool.map(jobs) == InProcess(problem).map(jobs)
     finally:
         pool.close()
+
+
+def _session_processes(session: int) -> list[str]:
+    """The command lines of the processes still running in ``session`` (zombies aside)."""
+    out = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            if os.getsid(int(entry)) != session:
+                continue
+            with open(f"/proc/{entry}/stat") as f:
+                stat = f.read()
+            with open(f"/proc/{entry}/cmdline", "rb") as f:
+                command = f.read().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        if stat[stat.rfind(")") + 2] not in "ZX":
+            out.append(command or stat.split(" ")[1])
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="reads Linux's /proc")
+@pytest.mark.parametrize("interrupt", [False, True])
+def test_a_ray_started_for_the_run_leaves_no_process_behind(interrupt: bool,
+                                                           tmp_path: Path) -> None:
+    """``--executor ray`` without an address starts a Ray for the run; when the run ends — on
+    its own, or by Ctrl-C once the Ray's tasks run — none of its processes is left (Ray's
+    shutdown alone leaves its dashboard and runtime-environment agents running)."""
+    import signal
+    import subprocess
+    import time
+
+    args = fanned.commands(tmp_path)["pareto sweep"]
+    if interrupt:
+        args = [*args[:-5], "--memory", "2", "--effort", "20", "-q"]  # still running when cut
+    env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
+    env["PYTHONPATH"] = str(ROOT)
+    run = subprocess.Popen([sys.executable, "-m", "posgmc", *args, "--executor", "ray"],
+                           env=env, start_new_session=True, stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
+    try:
+        if interrupt:
+            deadline = time.monotonic() + 120
+            while not any("ray::_call" in c or "ray::IDLE" in c
+                          for c in _session_processes(run.pid)):
+                assert run.poll() is None and time.monotonic() < deadline
+                time.sleep(0.2)
+            time.sleep(1.0)
+            os.killpg(run.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole group
+        out, err = run.communicate(timeout=300)
+        assert run.returncode == (130 if interrupt else 0), err
+        time.sleep(2)
+        assert _session_processes(run.pid) == []
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait()
