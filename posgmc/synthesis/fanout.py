@@ -27,6 +27,7 @@ from typing import Any
 
 from posgmc.errors import WorkerError
 from posgmc.resources import usable_cpus
+from posgmc.synthesis import progress
 from posgmc.synthesis.tasks import Placement, TaskLedger
 
 __all__ = ["each_result", "workers_for", "Spread", "timed_call"]
@@ -103,7 +104,9 @@ def _pool_results(function: Callable[..., Any], arguments: Sequence[tuple[Any, .
     up; the results are taken in order)."""
     methods = multiprocessing.get_all_start_methods()
     context = multiprocessing.get_context("fork" if "fork" in methods else None)
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+    # a forked worker inherits the progress sinks of this process, which shows its own
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                               initializer=progress.silence)
     done = False
     try:
         futures = [pool.submit(function, *args) for args in arguments]
