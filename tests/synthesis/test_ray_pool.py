@@ -185,6 +185,38 @@ def test_cli_ray_address_needs_the_ray_executor() -> None:
 # pool lives (until the end of the module)
 
 
+def test_workers_build_a_model_read_from_text_themselves(cluster: Any) -> None:
+    """A model built from text goes to the workers as its recipe (the text and constants), not
+    built; each worker builds it and gives the numbers of one process. (Before the pool
+    fixture below, which holds the cluster's CPUs from its first test on.)"""
+    import pickle
+
+    from posgmc import api
+    from posgmc.syntax import parser
+    from posgmc.synthesis.adversaries import enumerate_adversaries
+    from posgmc.synthesis.ray_pool import shipped
+    from posgmc.synthesis.search import problem_of
+
+    model = api.build(api.load(BEACON)).model
+    resolver = api._resolver(model, False)
+    expr = parser.parse_property('<<rover>> Pmax=? [ F "safe" ]').expr
+    player = next(iter(resolver.coalition_of(expr.coalition) or {0}))
+    problem = problem_of(model, expr, player=player, adversary=1 - player,
+                         coalition_of=resolver.coalition_of, scalar=api._scalar)
+    light, recipe = shipped(problem)
+    assert recipe is not None and light.model is None
+    assert len(pickle.dumps((light, recipe))) < len(pickle.dumps(problem))
+    assert problem.adversary is not None
+    jobs = [RankJob(a) for a in enumerate_adversaries(model, problem.adversary, memory=1,
+                                                      limit=4).strategies]
+    assert len(jobs) > 1
+    pool = RayPool(problem, Placement("ray", 2))
+    try:
+        assert pool.map(jobs) == InProcess(problem).map(jobs)
+    finally:
+        pool.close()
+
+
 @pytest.fixture(scope="module")
 def pool(cluster: Any) -> Any:
     """Two actors holding a small problem, shared by the tests below (starting an actor starts
@@ -234,37 +266,6 @@ def test_a_worker_that_keeps_dying_fails_the_run_naming_the_job(pool: RayPool) -
     with pytest.raises(WorkerError, match=rf"job 2 of 2 \(always dies\) failed: its Ray "
                                           rf"worker died {RETRIES + 1} times"):
         pool.map([_Where(0.0), _AlwaysDies()])
-
-
-def test_workers_build_a_model_read_from_text_themselves(cluster: Any) -> None:
-    """A model built from text goes to the workers as its recipe (the text and constants), not
-    built; each worker builds it and gives the numbers of one process."""
-    import pickle
-
-    from posgmc import api
-    from posgmc.syntax import parser
-    from posgmc.synthesis.adversaries import enumerate_adversaries
-    from posgmc.synthesis.ray_pool import shipped
-    from posgmc.synthesis.search import problem_of
-
-    model = api.build(api.load(BEACON)).model
-    resolver = api._resolver(model, False)
-    expr = parser.parse_property('<<rover>> Pmax=? [ F "safe" ]').expr
-    player = next(iter(resolver.coalition_of(expr.coalition) or {0}))
-    problem = problem_of(model, expr, player=player, adversary=1 - player,
-                         coalition_of=resolver.coalition_of, scalar=api._scalar)
-    light, recipe = shipped(problem)
-    assert recipe is not None and light.model is None
-    assert len(pickle.dumps((light, recipe))) < len(pickle.dumps(problem))
-    assert problem.adversary is not None
-    jobs = [RankJob(a) for a in enumerate_adversaries(model, problem.adversary, memory=1,
-                                                      limit=4).strategies]
-    assert len(jobs) > 1
-    pool = RayPool(problem, Placement("ray", 2))
-    try:
-        assert pool.map(jobs) == InProcess(problem).map(jobs)
-    finally:
-        pool.close()
 
 
 def _session_processes(session: int) -> list[str]:
