@@ -21,6 +21,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from _readme_block import replace_block
+
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
 
@@ -105,13 +107,6 @@ def render(table: Table) -> str:
     return "\n".join(lines)
 
 
-def replace_block(text: str, name: str, block: str) -> str:
-    begin, end = f"<!-- model_tables: {name} -->", "<!-- model_tables: end -->"
-    i = text.index(begin) + len(begin)
-    j = text.index(end, i)
-    return text[:i] + "\n" + block + "\n" + text[j:]
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", action="append", choices=sorted(TABLES))
@@ -123,7 +118,7 @@ def main() -> int:
         table = TABLES[name]
         block = render(table)  # minutes: the README is read after, so edits meanwhile stay
         text = table.readme.read_text()
-        new = replace_block(text, name, block)
+        new = replace_block(text, f"model_tables: {name}", block, end="<!-- model_tables: end -->")
         if new != text:
             stale += 1
             if a.check:
