@@ -287,8 +287,11 @@ def _check_points(
             # Each property and constant point gets its own destination
             for path in write_exports(r.export_strategy, report,
                                       point=point_of(constants, swept),
-                                      several_points=len(combos) > 1):
-                click.echo(f"wrote {path}", err=r.as_json or r.json_lines)
+                                      several_points=len(combos) > 1,
+                                      zero_based_players=r.zero_based_players):
+                click.echo(f"wrote {path.path}", err=r.as_json or r.json_lines)
+                if path.note:
+                    click.echo(f"  note: {path.note}", err=r.as_json or r.json_lines)
         if interrupted():
             # Ctrl-C: the property it cut short reported (and exported) its best verified
             # defence; no further property or constant setting is checked
