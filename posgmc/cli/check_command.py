@@ -103,9 +103,11 @@ BUILD_GRACE = 1.0
 @progress_options
 @gap_option
 @click.option("--export-strategy", type=click.Path(), default=None,
-              help="Write the optimal memoryless strategy of the property as JSON; for a "
-              "synthesised strategy, a directory receiving <player>.json. Several properties or "
-              "sweep points get one each (FILE.prop2.N=5.json, DIR/prop2/N=5/), each printed.")
+              help="Write the optimal memoryless strategy of the property's coalition as a "
+              "posgmc-fss/1 .json file (one memory node; FILE.<player>.json each for a coalition "
+              "of several); for a synthesised strategy, a directory receiving <player>.json. "
+              "Several properties or sweep points get one each (FILE.prop2.N=5.json, "
+              "DIR/prop2/N=5/), each printed.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (see docs/cli.md).")
 @click.option("--json-lines", "json_lines", is_flag=True,
               help="Print one JSON object per line as soon as it is known: the model, then each "
