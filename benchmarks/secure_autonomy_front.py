@@ -86,8 +86,9 @@ def main(argv: list[str] | None = None) -> int:
         sizes = tuple(range(int(lo_k), int(hi_k or lo_k) + 1))
         wall, cpu = time.perf_counter(), time.process_time()
         where = args.strategies / f"k={k}" if args.strategies else None
+        # belief=False: explicit memory sizes bound the strategy, as the CLI's --memory does
         options = SynthesisOptions(memory=sizes, effort=args.effort, timeout=args.timeout,
-                                   seed=args.seed)
+                                   seed=args.seed, belief=False)
         s = sweep(MODEL, PROP, constant="B", settings=budgets,
                   constants={"N": args.n, "flash": args.flash}, synthesis=options,
                   strategy_dir=where, also=[TIME])
