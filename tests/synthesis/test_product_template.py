@@ -15,7 +15,7 @@ from posgmc.syntax import parser
 from posgmc.synthesis.parametric import TEMPLATES
 from posgmc.synthesis.product_template import support_key
 from posgmc.synthesis.search import parametrisation, problem_of
-from tests.synthesis.helpers import random_posg
+from tests.random_games import random_posg
 
 
 def _problem(model):  # type: ignore[no-untyped-def]
