@@ -209,6 +209,9 @@ class _Dynamics:
         # the others (a vertex's support lies in one group)
         self.group = np.where(self.owned, obs_index[view.state_obs], Z)
         self.preferred = adversary_rules  # int64[S]: a choice per state (the first rule tried)
+        # the rules of each support seen (many vertices share one support)
+        self._rules: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self._entries: dict[bytes, tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         if problem.rewards is None:
             # mass that cannot reach the target any more (within ``remain``) is worth 0
             self.cont = problem.remain & ~problem.target & can_reach(model, problem.target,
@@ -244,7 +247,29 @@ class _Dynamics:
         are at most :data:`RULE_CAP`, else the preferred rule and its one-state deviations —
         and the uniform mixture over each state's choices. Any rule, randomised or not, bounds
         the optimum (the adversary restricted can only do worse, and a randomised rule hides its
-        choice from the decision maker)."""
+        choice from the decision maker). Computed once per support."""
+        key = states.tobytes()
+        found = self._rules.get(key)
+        if found is None:
+            found = self._rules[key] = self._rules_of(states)
+        return found
+
+    def rule_entries(self, states: np.ndarray, per_state: np.ndarray
+                     ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`rules` at a vertex on ``states`` as sparse entries (once per support): the
+        number of rules k, and per entry its rule, its global choice, its probability and the
+        index in ``states`` of the choice's state (``per_state``: each model state's choice
+        count)."""
+        key = states.tobytes()
+        found = self._entries.get(key)
+        if found is None:
+            cols, probs = self.rules(states)
+            r, c = np.nonzero(probs)
+            at = np.repeat(np.arange(states.size), per_state[states])[c]
+            found = self._entries[key] = (probs.shape[0], r, cols[c], probs[r, c], at)
+        return found
+
+    def _rules_of(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rg = self.model.row_groups
         lo, hi = rg[states], rg[states + 1]
         n = hi - lo
@@ -606,19 +631,14 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
                        first_local: int) -> None:
     """The choices of the adversary's ``vertices`` (one per decision rule :meth:`_Dynamics.rules`
     tries there), added to ``choices`` together: one block per vertex."""
-    rg = dyn.model.row_groups
-    per_state = np.diff(rg)
+    per_state = np.diff(dyn.model.row_groups)
     keys, block, r_parts, c_parts, v_parts = [], [], [], [], []
     n_rows = 0
     for v in vertices.tolist():
-        states, p = grid.rows[v], grid.vals[v]
-        cols, probs = dyn.rules(states)
-        k = probs.shape[0]
-        W = probs * np.repeat(p, per_state[states])
-        r, c = np.nonzero(W)
+        k, r, c, prob, at = dyn.rule_entries(grid.rows[v], per_state)
         r_parts.append(r + n_rows)
-        c_parts.append(cols[c])
-        v_parts.append(W[r, c])
+        c_parts.append(c)
+        v_parts.append(prob * grid.vals[v][at])  # a rule's weight times the state's mass
         keys.append(v * choices.span + first_local + np.arange(k))
         block.append(np.full(k, v, dtype=np.int64))
         n_rows += k
