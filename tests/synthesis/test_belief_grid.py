@@ -20,8 +20,8 @@ from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.synthesis import belief, belief_grid
 from posgmc.synthesis.search import parametrisation, problem_of
-from tests.synthesis.helpers import BLIND
-from tests.synthesis.test_belief import GUESS, random_pomdp
+from tests.random_games import random_pomdp
+from tests.synthesis.helpers import BLIND, GUESS
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests" / "data" / "benchmarks" / "pomdp"
@@ -113,7 +113,7 @@ def _bound(problem, seconds: float = 5.0) -> belief_grid.GridBound:  # type: ign
 
 
 def test_guessing_game_is_exact() -> None:
-    """GUESS (tests/synthesis/test_belief.py): the optimum is 1, derived by hand; its reachable
+    """GUESS (tests/synthesis/helpers.py): the optimum is 1, derived by hand; its reachable
     beliefs ({s0}, {s1, s2} half each, {s3}, {s4}) are grid beliefs at N = 2, so the abstraction
     is the belief MDP itself and the bound is the optimum (up to the solver's precision)."""
     model = _built(text=GUESS)
