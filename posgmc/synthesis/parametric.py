@@ -44,6 +44,7 @@ from posgmc.checking.property_checker import (
 )
 from posgmc.engines.graph import almost_sure_reach, positive_reach, structure_of
 from posgmc.engines.options import Method, SolverOptions
+from posgmc.engines.row_slots import RowSlots
 from posgmc.engines.system import HAVE_KERNELS, accumulate_rows
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view
@@ -406,13 +407,10 @@ class Parametrisation:
         any_choice = bool(T.shape[0] > S)
         # only the undecided states U are iterated (the others keep their fixed values). One
         # sweep: the values of U's rows into a buffer (scipy's kernel, no operator dispatch), the
-        # rows laid out by slot (slot 0: the first row of every state of U, in order; slot j: the
-        # j-th row of those with more than j), so the adversary's optimum is a contiguous copy
-        # and one elementwise min/max per slot (no reduceat over 10^5 groups)
+        # rows laid out by slot (:mod:`posgmc.engines.row_slots`: no reduceat over 10^5 groups)
         U = np.flatnonzero(unknown)
-        counts = np.diff(rg)[U]
-        slots = [np.flatnonzero(counts > j) for j in range(1, int(counts.max(initial=1)))]
-        order = np.concatenate([rg[U], *(rg[U[st]] + j for j, st in enumerate(slots, 1))])
+        by_slot = RowSlots.of(rg[U], np.diff(rg)[U])
+        order = by_slot.order
         T_slots = T[order]
         offset_slots = offset[order] if offset is not None else None
         row_buf = np.empty(order.size)
@@ -425,12 +423,7 @@ class Parametrisation:
                 np.multiply(row_buf, g_disc, out=row_buf)
             if offset_slots is not None:
                 np.add(row_buf, offset_slots, out=row_buf)
-            best = row_buf[:U.size].copy()
-            at = U.size
-            for st in slots:
-                best[st] = reduce(best[st], row_buf[at:at + st.size])
-                at += st.size
-            return best
+            return by_slot.best(row_buf, reduce)
 
         # the largest value outside U never changes: the stopping rule's scale is kept apart
         fixed_scale = max(1.0, float(np.abs(x[~unknown]).max(initial=0.0)))
@@ -451,13 +444,7 @@ class Parametrisation:
         # adjoint is 0, so no row there matters)
         pick = np.zeros(U.size, dtype=np.int64)
         if any_choice:
-            best = sweep(x)
-            at = order.size
-            for j in range(len(slots), 0, -1):  # the lowest attaining slot written last
-                st = slots[j - 1]
-                at -= st.size
-                pick[st[row_buf[at:at + st.size] == best[st]]] = j
-            pick[row_buf[:U.size] == best] = 0
+            pick = by_slot.first_attaining(row_buf, sweep(x))
         # the adjoint on U: y = g P_UU^T y + e_init (y = 0 outside U)
         chain_t = T[rg[U] + pick][:, U].T.tocsr()
         e = np.zeros(U.size)
