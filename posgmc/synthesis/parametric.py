@@ -42,15 +42,21 @@ from posgmc.checking.property_checker import (
     PropertyChecker,
     ScalarEvaluator,
 )
-from posgmc.engines.graph import almost_sure_reach, positive_reach, structure_of
+from posgmc.engines.graph import (
+    Structure,
+    almost_sure_reach,
+    positive_reach,
+    structure_of,
+)
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.row_slots import RowSlots
 from posgmc.engines.system import HAVE_KERNELS, accumulate_rows
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
-from posgmc.strategies.product import strategy_product
+from posgmc.strategies.product import StrategyProduct, strategy_product
 from posgmc.syntax.ast import ProbQuery, RewardQuery
+from posgmc.synthesis.product_template import ProductTemplate, support_key
 
 __all__ = ["Parametrisation", "Evaluation", "Layout", "game_views", "ITERATIVE_STATES"]
 
@@ -58,6 +64,9 @@ ITERATIVE_STATES = 50_000
 """Products with at least this many states are evaluated by warm-started value iteration
 (:meth:`Parametrisation._evaluate_iterative`) instead of sparse LU factorisations, whose fill-in
 makes each solve cost seconds at 10^5 states."""
+
+TEMPLATES = 4
+"""Product templates kept per parametrisation (the supports seen last)."""
 
 ITERATIVE_SWEEPS = 20_000
 """At most this many sweeps per iterative solve."""
@@ -177,6 +186,8 @@ class Parametrisation:
         self.act_index = np.full(A, -1, dtype=np.int64)
         self.act_index[self.used_actions] = np.arange(self.used_actions.size)
         self.maximize = query.direction is None or query.direction.name == "MAX"
+        # the products of the supports seen last (a search's candidates share one support)
+        self._templates: dict[bytes, ProductTemplate] = {}
         # (state_of, memory_of, best response) of the last evaluation: the next one's warm start
         self._last_response: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         # (state_of, memory_of, undecided states, values, adjoint) of the last iterative
@@ -249,9 +260,7 @@ class Parametrisation:
     ) -> Evaluation:
         """The initial value against the adversary's best response, and its gradient with respect
         to γ and δ (not yet through the softmax: see :meth:`logit_gradient`)."""
-        m = self.model
-        fss = self.strategy(gamma, delta)
-        prod = strategy_product(m, [bind(m, fss)])
+        prod = self._product(gamma, delta)
         pm = prod.model
         if pm.num_states >= ITERATIVE_STATES and self._iterative_applies():
             return self._evaluate_iterative(prod, gamma, delta, gradient=gradient)
@@ -319,6 +328,29 @@ class Parametrisation:
         y = np.zeros(S)
         y[U] = y_u
         return self._gradient(prod, x, y, gamma, delta, value)
+
+    def _product(self, gamma: np.ndarray, delta: np.ndarray) -> StrategyProduct:
+        """The product with the FSS γ, δ: refilled from the template of its support when there is
+        one (probability objectives, :mod:`~posgmc.synthesis.product_template`), else built (and
+        made the template of its support)."""
+        m = self.model
+        refillable = self.rewards is None and bool(
+            np.all(np.isfinite(gamma)) and np.all(np.isfinite(delta)))
+        key = support_key(gamma, delta) if refillable else b""
+        found = self._templates.get(key) if refillable else None
+        if found is not None:
+            return found.refill(gamma, delta)
+        prod = strategy_product(m, [bind(m, self.strategy(gamma, delta))])
+        if refillable:
+            template = ProductTemplate.of(
+                m, prod, key, owned=self.owned, obs_index=self.obs_index,
+                act_index=self.act_index, state_obs=self.view.state_obs,
+                shape=(self.k, *self.mask.shape))
+            if template is not None:
+                if len(self._templates) >= TEMPLATES:
+                    del self._templates[next(iter(self._templates))]  # the oldest
+                self._templates[key] = template
+        return prod
 
     def _gradient(self, prod, x: np.ndarray, y: np.ndarray, gamma: np.ndarray,  # type: ignore[no-untyped-def]
                   delta: np.ndarray, value: float) -> Evaluation:
@@ -492,10 +524,12 @@ def _ranges(counts: np.ndarray) -> np.ndarray:
     return out
 
 
-def structure_of_chain(chain: sp.csr_matrix):  # type: ignore[no-untyped-def]
-    """The graph structure of a Markov chain given as a square matrix (one row per state)."""
-    from posgmc.model.explicit import make_model
-    from posgmc.syntax.ast import ModelType
-
-    n = chain.shape[0]
-    return structure_of(make_model(ModelType.DTMC, np.arange(n + 1), chain))
+def structure_of_chain(chain: sp.csr_matrix) -> Structure:
+    """The graph structure of a Markov chain given as a square matrix (one row per state): its
+    canonical csr form (duplicates summed, zeros dropped, indices sorted, as a model holds it),
+    without building and validating a model around it (one per evaluated candidate)."""
+    T = sp.csr_matrix(chain, dtype=np.float64, copy=True)
+    T.sum_duplicates()
+    T.eliminate_zeros()
+    T.sort_indices()
+    return Structure.build(T, np.arange(T.shape[0] + 1, dtype=np.int64))
