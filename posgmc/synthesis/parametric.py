@@ -440,10 +440,19 @@ class Parametrisation:
         # only the undecided states U are iterated (the others keep their fixed values). One
         # sweep: the values of U's rows into a buffer (scipy's kernel, no operator dispatch), the
         # rows laid out by slot (:mod:`posgmc.engines.row_slots`: no reduceat over 10^5 groups)
+        # The columns are renumbered U first, so that the iterate is one vector whose head is U's
+        # values: no gather or scatter of U per sweep (each row keeps its stored order, so its
+        # sum is the same)
         U = np.flatnonzero(unknown)
+        nU = U.size
+        columns = np.concatenate([U, np.flatnonzero(~unknown)])
+        position = np.empty(S, dtype=T.indices.dtype)
+        position[columns] = np.arange(S, dtype=position.dtype)
         by_slot = RowSlots.of(rg[U], np.diff(rg)[U])
         order = by_slot.order
         T_slots = T[order]
+        T_slots = sp.csr_matrix((T_slots.data, position[T_slots.indices], T_slots.indptr),
+                                shape=T_slots.shape)
         offset_slots = offset[order] if offset is not None else None
         row_buf = np.empty(order.size)
 
@@ -459,13 +468,16 @@ class Parametrisation:
 
         # the largest value outside U never changes: the stopping rule's scale is kept apart
         fixed_scale = max(1.0, float(np.abs(x[~unknown]).max(initial=0.0)))
+        xp = x[columns]  # the iterate, U first
+        head = xp[:nU]
         for _ in range(ITERATIVE_SWEEPS):
-            new = sweep(x)
-            change = float(np.abs(new - x[U]).max(initial=0.0))
-            x[U] = new
+            new = sweep(xp)
+            change = float(np.abs(new - head).max(initial=0.0))
+            head[:] = new
             scale = max(fixed_scale, float(np.abs(new).max(initial=0.0)))
             if change <= ITERATIVE_TOLERANCE * scale:
                 break
+        x[U] = head
         init = int(prod.initial_map[0])
         value = float(x[init])
         y_warm = warm[4] if same and warm is not None and warm[4] is not None else None
@@ -476,7 +488,7 @@ class Parametrisation:
         # adjoint is 0, so no row there matters)
         pick = np.zeros(U.size, dtype=np.int64)
         if any_choice:
-            pick = by_slot.first_attaining(row_buf, sweep(x))
+            pick = by_slot.first_attaining(row_buf, sweep(xp))
         # the adjoint on U: y = g P_UU^T y + e_init (y = 0 outside U)
         chain_t = T[rg[U] + pick][:, U].T.tocsr()
         e = np.zeros(U.size)
