@@ -45,11 +45,12 @@ from posgmc.checking.property_checker import (
 from posgmc.engines.graph import (
     Structure,
     almost_sure_reach,
-    concat_ranges,
     positive_reach,
     structure_of,
 )
 from posgmc.engines.options import Method, SolverOptions
+from posgmc.engines.row_slots import RowSlots
+from posgmc.engines.system import HAVE_KERNELS, accumulate_rows
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
@@ -435,62 +436,75 @@ class Parametrisation:
         if same and warm is not None:
             x[unknown] = warm[3][unknown]
         reduce = np.minimum if self.maximize else np.maximum  # the adversary's side
-        any_choice = bool(choosing.any())
-        # the adversary's rows, contiguous, and where each of its states' rows start among them
-        chooser = np.flatnonzero(choosing)
-        chooser_rows = concat_ranges(rg[chooser], rg[chooser + 1])
-        chooser_starts = np.concatenate([[0], np.cumsum(np.diff(rg)[chooser])[:-1]]).astype(
-            np.int64
-        )
-        first_row = rg[:-1]
+        any_choice = bool(T.shape[0] > S)
+        # only the undecided states U are iterated (the others keep their fixed values). One
+        # sweep: the values of U's rows into a buffer (scipy's kernel, no operator dispatch), the
+        # rows laid out by slot (:mod:`posgmc.engines.row_slots`: no reduceat over 10^5 groups)
+        # The columns are renumbered U first, so that the iterate is one vector whose head is U's
+        # values: no gather or scatter of U per sweep (each row keeps its stored order, so its
+        # sum is the same)
+        U = np.flatnonzero(unknown)
+        nU = U.size
+        columns = np.concatenate([U, np.flatnonzero(~unknown)])
+        position = np.empty(S, dtype=T.indices.dtype)
+        position[columns] = np.arange(S, dtype=position.dtype)
+        by_slot = RowSlots.of(rg[U], np.diff(rg)[U])
+        order = by_slot.order
+        T_slots = T[order]
+        T_slots = sp.csr_matrix((T_slots.data, position[T_slots.indices], T_slots.indptr),
+                                shape=T_slots.shape)
+        offset_slots = offset[order] if offset is not None else None
+        row_buf = np.empty(order.size)
 
-        def sweep(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            rows = T @ values
+        def sweep(values: np.ndarray) -> np.ndarray:
+            """The adversary's optimum in every state of U (the rows' values stay in
+            ``row_buf``)."""
+            _row_values(T_slots, values, row_buf)
             if g_disc != 1.0:
-                rows *= g_disc
-            if offset is not None:
-                rows += offset
-            if not any_choice:
-                return rows, rows
-            best = rows[first_row]
-            best[chooser] = reduce.reduceat(rows[chooser_rows], chooser_starts)
-            return rows, best
+                np.multiply(row_buf, g_disc, out=row_buf)
+            if offset_slots is not None:
+                np.add(row_buf, offset_slots, out=row_buf)
+            return by_slot.best(row_buf, reduce)
 
-        scale = 1.0
+        # the largest value outside U never changes: the stopping rule's scale is kept apart
+        fixed_scale = max(1.0, float(np.abs(x[~unknown]).max(initial=0.0)))
+        xp = x[columns]  # the iterate, U first
+        head = xp[:nU]
         for _ in range(ITERATIVE_SWEEPS):
-            _, best = sweep(x)
-            new = np.where(unknown, best, x)
-            change = float(np.abs(new - x).max(initial=0.0))
-            x = new
-            scale = max(1.0, float(np.abs(x).max(initial=0.0)))
+            new = sweep(xp)
+            change = float(np.abs(new - head).max(initial=0.0))
+            head[:] = new
+            scale = max(fixed_scale, float(np.abs(new).max(initial=0.0)))
             if change <= ITERATIVE_TOLERANCE * scale:
                 break
+        x[U] = head
         init = int(prod.initial_map[0])
         value = float(x[init])
         y_warm = warm[4] if same and warm is not None and warm[4] is not None else None
         if not gradient or not unknown[init]:
             self._warm = (prod.state_of, prod.memory_of, unknown, x, y_warm)
             return Evaluation(value, np.zeros(self.shapes[0]), np.zeros(self.shapes[1]))
-        rows = rg[:-1].copy()
-        if any_choice:  # the best response: the first row attaining the adversary's optimum
-            values, best = sweep(x)
-            hits = np.flatnonzero(values == best[pm.choice_states])
-            states, first = np.unique(pm.choice_states[hits], return_index=True)
-            rows[states] = hits[first]
-        chain_t = T[rows].T.tocsr() if any_choice else T.T.tocsr()
-        e = np.zeros(S)
-        e[init] = 1.0
-        y = y_warm.copy() if y_warm is not None else e.copy()
+        # the best response in U: the first row attaining the adversary's optimum (outside U the
+        # adjoint is 0, so no row there matters)
+        pick = np.zeros(U.size, dtype=np.int64)
+        if any_choice:
+            pick = by_slot.first_attaining(row_buf, sweep(xp))
+        # the adjoint on U: y = g P_UU^T y + e_init (y = 0 outside U)
+        chain_t = T[rg[U] + pick][:, U].T.tocsr()
+        e = np.zeros(U.size)
+        e[np.searchsorted(U, init)] = 1.0
+        y_u = y_warm[U] if y_warm is not None else e.copy()
+        col_buf = np.empty(U.size)
         for _ in range(ITERATIVE_SWEEPS):
-            new = chain_t @ y
-            if g_disc != 1.0:
-                new *= g_disc
-            new[~unknown] = 0.0
+            _row_values(chain_t, y_u, col_buf)
+            new = col_buf * g_disc if g_disc != 1.0 else col_buf.copy()
             new += e
-            change = float(np.abs(new - y).max(initial=0.0))
-            y = new
-            if change <= ITERATIVE_TOLERANCE * max(1.0, float(np.abs(y).max(initial=0.0))):
+            change = float(np.abs(new - y_u).max(initial=0.0))
+            y_u = new
+            if change <= ITERATIVE_TOLERANCE * max(1.0, float(np.abs(y_u).max(initial=0.0))):
                 break
+        y = np.zeros(S)
+        y[U] = y_u
         self._warm = (prod.state_of, prod.memory_of, unknown, x, y)
         return self._gradient(prod, x, y, gamma, delta, value)
 
@@ -501,6 +515,17 @@ class Parametrisation:
         ga = gamma * (ev.grad_action - np.sum(gamma * ev.grad_action, axis=2, keepdims=True))
         gd = delta * (ev.grad_update - np.sum(delta * ev.grad_update, axis=3, keepdims=True))
         return ga * self.mask[None], gd
+
+
+def _row_values(A: sp.csr_matrix, x: np.ndarray, out: np.ndarray) -> None:
+    """``out = A @ x`` in place (scipy's kernel where available: the solves here are thousands of
+    sweeps of one matrix, and the operator's dispatch and allocation cost as much as the
+    product)."""
+    out.fill(0.0)
+    if HAVE_KERNELS:
+        accumulate_rows(A, 0, A.shape[0], x, out)
+    else:  # pragma: no cover - depends on the scipy build
+        out += A @ x
 
 
 def _ranges(counts: np.ndarray) -> np.ndarray:
