@@ -455,16 +455,17 @@ class Parametrisation:
                                 shape=T_slots.shape)
         offset_slots = offset[order] if offset is not None else None
         row_buf = np.empty(order.size)
+        best_buf, diff = np.empty(nU), np.empty(nU)  # reused: no allocation per sweep
 
         def sweep(values: np.ndarray) -> np.ndarray:
-            """The adversary's optimum in every state of U (the rows' values stay in
-            ``row_buf``)."""
+            """The adversary's optimum in every state of U, in ``best_buf`` (the rows' values
+            stay in ``row_buf``)."""
             _row_values(T_slots, values, row_buf)
             if g_disc != 1.0:
                 np.multiply(row_buf, g_disc, out=row_buf)
             if offset_slots is not None:
                 np.add(row_buf, offset_slots, out=row_buf)
-            return by_slot.best(row_buf, reduce)
+            return by_slot.best(row_buf, reduce, out=best_buf)
 
         # the largest value outside U never changes: the stopping rule's scale is kept apart
         fixed_scale = max(1.0, float(np.abs(x[~unknown]).max(initial=0.0)))
@@ -472,9 +473,11 @@ class Parametrisation:
         head = xp[:nU]
         for _ in range(ITERATIVE_SWEEPS):
             new = sweep(xp)
-            change = float(np.abs(new - head).max(initial=0.0))
+            np.subtract(new, head, out=diff)
+            change = float(np.abs(diff, out=diff).max(initial=0.0))
             head[:] = new
-            scale = max(fixed_scale, float(np.abs(new).max(initial=0.0)))
+            np.abs(new, out=diff)
+            scale = max(fixed_scale, float(diff.max(initial=0.0)))
             if change <= ITERATIVE_TOLERANCE * scale:
                 break
         x[U] = head
