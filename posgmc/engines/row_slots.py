@@ -35,11 +35,15 @@ class RowSlots:
         order = np.concatenate([starts, *(starts[st] + j for j, st in enumerate(slots, 1))])
         return RowSlots(order.astype(np.int64, copy=False), slots, int(starts.size))
 
-    def best(self, values: np.ndarray, ufunc: np.ufunc) -> np.ndarray:
+    def best(self, values: np.ndarray, ufunc: np.ufunc, out: np.ndarray | None = None
+             ) -> np.ndarray:
         """float64[num_states]: ``ufunc`` (np.maximum or np.minimum) over each state's rows, from
-        the rows' ``values`` in slot order."""
+        the rows' ``values`` in slot order; into ``out`` when given (no allocation)."""
         n = self.num_states
-        out: np.ndarray = values[:n].copy()
+        if out is None:
+            out = values[:n].copy()
+        else:
+            out[:] = values[:n]
         at = n
         for st in self.slots:
             out[st] = ufunc(out[st], values[at:at + st.size])

@@ -455,16 +455,17 @@ class Parametrisation:
                                 shape=T_slots.shape)
         offset_slots = offset[order] if offset is not None else None
         row_buf = np.empty(order.size)
+        best_buf, diff = np.empty(nU), np.empty(nU)  # reused: no allocation per sweep
 
         def sweep(values: np.ndarray) -> np.ndarray:
-            """The adversary's optimum in every state of U (the rows' values stay in
-            ``row_buf``)."""
+            """The adversary's optimum in every state of U, in ``best_buf`` (the rows' values
+            stay in ``row_buf``)."""
             _row_values(T_slots, values, row_buf)
             if g_disc != 1.0:
                 np.multiply(row_buf, g_disc, out=row_buf)
             if offset_slots is not None:
                 np.add(row_buf, offset_slots, out=row_buf)
-            return by_slot.best(row_buf, reduce)
+            return by_slot.best(row_buf, reduce, out=best_buf)
 
         # the largest value outside U never changes: the stopping rule's scale is kept apart
         fixed_scale = max(1.0, float(np.abs(x[~unknown]).max(initial=0.0)))
@@ -472,9 +473,11 @@ class Parametrisation:
         head = xp[:nU]
         for _ in range(ITERATIVE_SWEEPS):
             new = sweep(xp)
-            change = float(np.abs(new - head).max(initial=0.0))
+            np.subtract(new, head, out=diff)
+            change = float(np.abs(diff, out=diff).max(initial=0.0))
             head[:] = new
-            scale = max(fixed_scale, float(np.abs(new).max(initial=0.0)))
+            np.abs(new, out=diff)
+            scale = max(fixed_scale, float(diff.max(initial=0.0)))
             if change <= ITERATIVE_TOLERANCE * scale:
                 break
         x[U] = head
@@ -491,17 +494,23 @@ class Parametrisation:
             pick = by_slot.first_attaining(row_buf, sweep(xp))
         # the adjoint on U: y = g P_UU^T y + e_init (y = 0 outside U)
         chain_t = T[rg[U] + pick][:, U].T.tocsr()
-        e = np.zeros(U.size)
-        e[np.searchsorted(U, init)] = 1.0
-        y_u = y_warm[U] if y_warm is not None else e.copy()
-        col_buf = np.empty(U.size)
+        at = int(np.searchsorted(U, init))
+        if y_warm is not None:
+            y_u = y_warm[U]
+        else:
+            y_u = np.zeros(nU)
+            y_u[at] = 1.0
+        # two buffers swapped per sweep, no allocation (y >= 0: P and e_init are)
+        new, diff = np.empty(nU), np.empty(nU)
         for _ in range(ITERATIVE_SWEEPS):
-            _row_values(chain_t, y_u, col_buf)
-            new = col_buf * g_disc if g_disc != 1.0 else col_buf.copy()
-            new += e
-            change = float(np.abs(new - y_u).max(initial=0.0))
-            y_u = new
-            if change <= ITERATIVE_TOLERANCE * max(1.0, float(np.abs(y_u).max(initial=0.0))):
+            _row_values(chain_t, y_u, new)
+            if g_disc != 1.0:
+                np.multiply(new, g_disc, out=new)
+            new[at] += 1.0
+            np.subtract(new, y_u, out=diff)
+            change = float(np.abs(diff, out=diff).max(initial=0.0))
+            y_u, new = new, y_u
+            if change <= ITERATIVE_TOLERANCE * max(1.0, float(y_u.max(initial=0.0))):
                 break
         y = np.zeros(S)
         y[U] = y_u
