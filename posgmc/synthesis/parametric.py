@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse import csgraph
 from scipy.sparse.linalg import splu
 
 from posgmc.checking.property_checker import (
@@ -295,10 +296,7 @@ class Parametrisation:
         zero_a, zero_d = np.zeros(self.shapes[0]), np.zeros(self.shapes[1])
         g_disc = self.discount
         if self.rewards is None:  # reachability: x = P x on U, 1 on the target, 0 elsewhere
-            reach = positive_reach(
-                structure_of_chain(chain), tgt, rem, existential=np.ones(S, bool)
-            )
-            unknown = reach & ~tgt
+            unknown = chain_reach(chain, tgt, rem) & ~tgt
             x = tgt.astype(np.float64)
         elif g_disc < 1.0:  # discounted cost until the target: x = r + g P x off the target
             unknown = ~tgt
@@ -542,6 +540,25 @@ def _ranges(counts: np.ndarray) -> np.ndarray:
     total = int(counts.sum())
     starts = np.repeat(np.cumsum(counts) - counts, counts)
     out: np.ndarray = np.arange(total) - starts
+    return out
+
+
+def chain_reach(chain: sp.csr_matrix, target: np.ndarray, remain: np.ndarray) -> np.ndarray:
+    """bool[S]: the states of a Markov chain (square matrix, one row per state) with a path of
+    positive probability to ``target`` through ``remain`` (the target included) — the engines'
+    ``positive_reach`` on the chain, as one breadth-first search (scipy's, compiled) backwards
+    from a virtual root before every target state, with no per-layer Python step."""
+    S = chain.shape[0]
+    coo = sp.coo_matrix(chain)
+    edge = (coo.data > 0) & remain[coo.row] & ~target[coo.row]
+    goal = np.flatnonzero(target)
+    src = np.concatenate([coo.col[edge].astype(np.int64), np.full(goal.size, S)])
+    dst = np.concatenate([coo.row[edge].astype(np.int64), goal])
+    graph = sp.csr_matrix((np.ones(src.size, dtype=np.int8), (src, dst)), shape=(S + 1, S + 1))
+    order = csgraph.breadth_first_order(graph, S, directed=True, return_predecessors=False)
+    found = np.zeros(S + 1, dtype=bool)
+    found[order] = True
+    out: np.ndarray = found[:S] | target
     return out
 
 

@@ -1,18 +1,21 @@
 """Refilled products (posgmc.synthesis.product_template): for every FSS of a template's support,
 the refilled product is the one strategy_product builds (same states, rows and pattern; the
-same probabilities up to the order of floating-point sums), on random POSGs and memory sizes."""
+same probabilities up to the order of floating-point sums), on random POSGs and memory sizes; and
+the candidate chain's reachability analysis (parametric.chain_reach) is the engines'."""
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
+from posgmc.engines.graph import positive_reach
 from posgmc.strategies.binding import bind
 from posgmc.strategies.product import strategy_product
 from posgmc.syntax import parser
-from posgmc.synthesis.parametric import TEMPLATES
+from posgmc.synthesis.parametric import TEMPLATES, chain_reach, structure_of_chain
 from posgmc.synthesis.product_template import support_key
 from posgmc.synthesis.search import parametrisation, problem_of
 from tests.random_games import random_posg
@@ -70,3 +73,15 @@ def test_the_template_is_reused_within_a_support() -> None:
         assert par._product(gamma, delta).model.num_states == ref.model.num_states
     assert len(par._templates) == 1
     assert all(0.0 <= v <= 1.0 for v in values)
+
+
+@given(seed=st.integers(0, 10_000), n=st.integers(1, 30), density=st.floats(0.0, 0.3))
+def test_chain_reach_is_the_engines_positive_reach(seed: int, n: int, density: float) -> None:
+    # a candidate's chain is analysed by one compiled search instead of the engines' attractor
+    rng = np.random.default_rng(seed)
+    P = sp.random(n, n, density=density, random_state=rng, format="csr")
+    P.data[rng.random(P.nnz) < 0.2] = 0.0  # stored zeros are no edges
+    target, remain = rng.random(n) < 0.2, rng.random(n) < 0.7
+    expected = positive_reach(structure_of_chain(P), target, remain,
+                              existential=np.ones(n, dtype=bool))
+    assert np.array_equal(chain_reach(P, target, remain), expected)
