@@ -49,7 +49,7 @@ from posgmc.engines.rewards import expected_reach_reward
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
 from posgmc.strategies.binding import player_view
-from posgmc.synthesis import belief
+from posgmc.synthesis import belief, stage_lp
 from posgmc.synthesis.belief import can_reach
 from posgmc.synthesis.budget import interrupted
 from posgmc.synthesis.parametric import Layout
@@ -72,6 +72,13 @@ MAX_VERTICES = 400_000
 
 PRECISION = 1e-8
 """The relative precision the abstraction is solved to (its bound side is what is reported)."""
+
+MIX_CAP = 4
+"""Randomised rules from stage LPs kept at one adversary vertex at most (the latest first)."""
+
+MIX_ROUNDS = 4
+"""Stage-LP rounds (solve, choose the adversary's mixtures, solve again) per resolution at most;
+the rounds stop earlier when the bound no longer moves."""
 
 _BATCH = 512
 """Vertices expanded between two looks at the clock."""
@@ -456,7 +463,8 @@ class CoarseBounds:
 def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                      deadline: float | None = None, max_vertices: int = MAX_VERTICES,
                      adversary_rules: np.ndarray | None = None,
-                     coarse: CoarseBounds | None = None) -> GridAbstraction | None:
+                     coarse: CoarseBounds | None = None,
+                     mixtures: Mixtures | None = None) -> GridAbstraction | None:
     """The abstraction of ``problem`` at ``resolution``, explored breadth first from the initial
     belief until ``max_vertices`` or ``deadline``.
 
@@ -480,6 +488,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             full-observation optimum's), or None.
         coarse: a solved coarser abstraction; a cut-off vertex then gets the tighter of its
             full-observation bound and its coarse simplex's interpolated bound.
+        mixtures: randomised rules offered to the adversary at some of its vertices besides
+            the deterministic ones (:func:`stage_mixtures`).
 
     Returns:
         The abstraction, or None when it does not apply (:func:`applies`) or the initial state
@@ -494,7 +504,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     grid = _Grid(dyn.S, resolution)
     grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
     Au = dyn.actions.size
-    choices = _Choices(Au + RULE_CAP + 1)
+    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP)
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
     skipped: list[int] = []
     while done < len(grid.rows) and done < max_vertices:
@@ -522,6 +532,10 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                 continue
             states, p = grid.rows[v], grid.vals[v]
             cols, probs = dyn.rules(states)
+            if mixtures is not None:
+                extra = mixtures.at(states, p, resolution)
+                if extra is not None:
+                    probs = np.vstack([probs, extra[:MIX_CAP]])
             k = probs.shape[0]
             mass = np.repeat(p, np.diff(dyn.model.row_groups)[states])
             W = sp.csr_matrix(probs * mass)
@@ -632,6 +646,76 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
                            ch.on_grid and bool(expanded.all()), theirs)
 
 
+class Mixtures:
+    """Randomised decision rules of the adversary per belief (mutable while refining): each a
+    probability per choice of the belief's support states, in the order of ``_Dynamics.rules``.
+    Keyed by the belief itself (support and counts reduced by their common divisor with N), so
+    the rules carry over to finer grids, which nest."""
+
+    def __init__(self) -> None:
+        self.rules: dict[bytes, np.ndarray] = {}
+
+    @staticmethod
+    def key(states: np.ndarray, p: np.ndarray, resolution: int) -> bytes:
+        counts = np.rint(p * resolution).astype(np.int64)
+        g = math.gcd(int(resolution), *counts.tolist())
+        key: bytes = states.astype(np.int64).tobytes() + b"/" + (counts // g).tobytes()
+        return key
+
+    def at(self, states: np.ndarray, p: np.ndarray, resolution: int) -> np.ndarray | None:
+        return self.rules.get(self.key(states, p, resolution))
+
+    def add(self, states: np.ndarray, p: np.ndarray, resolution: int, rule: np.ndarray) -> bool:
+        """Offer ``rule`` at the belief (the latest first, at most :data:`MIX_CAP`); False when
+        it is already offered there."""
+        k = self.key(states, p, resolution)
+        old = self.rules.get(k)
+        if old is not None and np.abs(old - rule).max(axis=1).min() <= 1e-9:
+            return False
+        self.rules[k] = rule[None] if old is None else np.vstack([rule, old])[:MIX_CAP]
+        return True
+
+
+def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.ndarray,
+                   cutoff: np.ndarray, mixtures: Mixtures, *,
+                   deadline: float | None = None) -> int:
+    """Add to ``mixtures`` the adversary's LP-optimal randomised rules at each of the
+    abstraction's expanded adversary vertices: against the abstraction's solved ``values`` (its
+    bound side per state) and the per-state ``cutoff`` bounds at the unit beliefs
+    (:func:`posgmc.synthesis.stage_lp.stage_rule`), and against the one-step estimate from the
+    same bounds (:func:`posgmc.synthesis.stage_lp.one_step_rule`: it reaches posteriors the
+    abstraction has not explored yet). In breadth-first order until ``deadline``. Returns how
+    many new rules were added."""
+    dyn = _Dynamics(problem, None)
+    V = abstraction.vertices
+    data = stage_lp.StageData.of(dyn.T_cont, dyn.T_stop, abstraction.beliefs,
+                                 np.asarray(values, dtype=np.float64)[:V], cutoff,
+                                 minimise=problem.maximize)
+    finite = np.where(np.isfinite(cutoff), cutoff, np.nan)
+    Q = np.stack([dyn.stop[a] + dyn.P[a] @ np.nan_to_num(finite, nan=0.0)
+                  + dyn.P[a] @ np.where(np.isnan(finite), np.inf, 0.0)
+                  for a in range(dyn.actions.size)]) if dyn.actions.size else np.zeros((0, dyn.S))
+    step = stage_lp.OneStep(np.nan_to_num(Q, nan=np.inf), dyn.mask, dyn.group, cutoff, dyn.Z)
+    rg = dyn.model.row_groups
+    B = abstraction.beliefs
+    added = 0
+    for v in np.flatnonzero(abstraction.adversary[:V]).tolist():
+        if (deadline is not None and time.perf_counter() > deadline) or interrupted():
+            break
+        lo, hi = B.indptr[v], B.indptr[v + 1]
+        states = B.indices[lo:hi].astype(np.int64)
+        p = B.data[lo:hi]
+        cols, _ = dyn.rules(states)
+        owner = np.repeat(np.arange(states.size), rg[states + 1] - rg[states])
+        if (rg[states + 1] - rg[states]).max() <= 1:
+            continue  # nothing to randomise
+        for rule in (stage_lp.one_step_rule(data, step, p, cols, owner),
+                     stage_lp.stage_rule(data, states, p, cols, owner)):
+            if rule is not None and mixtures.add(states, p, abstraction.resolution, rule):
+                added += 1
+    return added
+
+
 @dataclass(frozen=True)
 class GridBound:
     """The best proven bound found: ``value`` bounds the optimum over all strategies from above
@@ -678,36 +762,61 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     tried: list[tuple[int, float]] = []
     coarse: CoarseBounds | None = None
     left = vertices
+    game = problem.adversary is not None
+    mixtures = Mixtures() if game else None
     for N in resolutions:
-        now = time.perf_counter()
-        if (deadline is not None and now > deadline) or left <= 0 or interrupted():
+        side: np.ndarray | None = None
+        solved: GridAbstraction | None = None
+        at_n: float | None = None
+        # a POMDP: one abstraction per resolution; a game: then rounds of stage LPs that offer
+        # the adversary randomised rules against the values just solved, and a new solve
+        for _ in range(1 + (MIX_ROUNDS if game else 0)):
+            now = time.perf_counter()
+            if (deadline is not None and now > deadline) or left <= 0 or interrupted():
+                break
+            # exploration may use most of what is left; the sound solve gets the rest
+            explore_until = None if deadline is None else now + 0.6 * (deadline - now)
+            abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
+                                           adversary_rules=rules, coarse=coarse,
+                                           max_vertices=left, mixtures=mixtures)
+            if abstraction is None:
+                return None
+            left -= int(abstraction.expanded.sum())
+            # policy iteration (the stiff iteration's certificate) has no deadline: only
+            # without one
+            result = abstraction.solve(SolverOptions(precision=PRECISION, relative=True,
+                                                     deadline=deadline, want_strategy=False,
+                                                     stiff_certificate=deadline is None))
+            if not result.sound:
+                break
+            value = float(result.upper[0] if problem.maximize else result.lower[0])
+            tried.append((N, value))
+            exact = abstraction.exact and not abstraction.adversary.any()
+            if best is None or sign * value < sign * best.value:
+                best = GridBound(value, N, abstraction.vertices, abstraction.complete, exact, (),
+                                 0.0)
+            if exact or (target is not None and sign * best.value <= sign * target):
+                break
+            if at_n is None or sign * value < sign * at_n:
+                at_n, solved = value, abstraction
+                side = np.asarray(result.upper if problem.maximize else result.lower,
+                                  dtype=np.float64)
+            elif at_n is not None and sign * value >= sign * at_n - 1e-9 * max(1.0, abs(at_n)):
+                break  # the last rules did not tighten the bound
+            if mixtures is None or not abstraction.adversary.any() or stage_mixtures(
+                    problem, abstraction, np.asarray(
+                        result.upper if problem.maximize else result.lower, dtype=np.float64),
+                    cutoff, mixtures, deadline=deadline) == 0:
+                break
+        if best is not None and (best.exact or (target is not None
+                                                and sign * best.value <= sign * target)):
             break
-        # exploration may use most of what is left; the sound solve gets the rest
-        explore_until = None if deadline is None else now + 0.6 * (deadline - now)
-        abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
-                                       adversary_rules=rules, coarse=coarse,
-                                       max_vertices=left)
-        if abstraction is None:
-            return None
-        left -= int(abstraction.expanded.sum())
-        # policy iteration (the stiff iteration's certificate) has no deadline: only without one
-        result = abstraction.solve(SolverOptions(precision=PRECISION, relative=True,
-                                                 deadline=deadline, want_strategy=False,
-                                                 stiff_certificate=deadline is None))
-        if not result.sound:
+        if solved is None or side is None:
             continue
-        value = float(result.upper[0] if problem.maximize else result.lower[0])
-        tried.append((N, value))
-        exact = abstraction.exact and not abstraction.adversary.any()
-        if best is None or sign * value < sign * best.value:
-            best = GridBound(value, N, abstraction.vertices, abstraction.complete, exact, (), 0.0)
-        if exact or (target is not None and sign * best.value <= sign * target):
-            break
         # the next resolution doubles this one: its cut-offs interpolate these values (the
         # grids nest, so a fine vertex's coarse simplex has vertices this abstraction holds
         # wherever it explored that far)
-        side = result.upper if problem.maximize else result.lower
-        coarse = CoarseBounds.of(abstraction, np.asarray(side, dtype=np.float64))
+        coarse = CoarseBounds.of(solved, side)
     if best is None:
         return None
     return GridBound(best.value, best.resolution, best.vertices, best.complete, best.exact,
