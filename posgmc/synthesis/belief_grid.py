@@ -242,6 +242,12 @@ class _Dynamics:
                 r[cs[c]] = problem.rewards[c]
             self.reward.append(r)
         self.T_cont = sp.csr_matrix(model.transitions @ keep)
+        # per choice: the reward of taking it (the adversary's rules pay theirs), and what the
+        # target is worth when reached (1 for a probability, 0 for a reward: nothing more)
+        self.choice_reward = np.zeros(model.num_choices) if problem.rewards is None else \
+            np.asarray(problem.rewards, dtype=np.float64)
+        self.stop_value = 1.0 if problem.rewards is None else 0.0
+        self.discount = float(problem.discount)
         self.T_stop = np.asarray(model.transitions @ self.target).ravel()
 
     def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -337,14 +343,14 @@ def full_observation_bounds(problem: Problem,
 
 
 def applies(problem: Problem) -> bool:
-    """Whether the grid abstraction covers ``problem``: a POMDP (any objective here), or a game
-    of the decision maker against one omniscient adversary with a probability objective."""
+    """Whether the grid abstraction covers ``problem``: a POMDP, or a game of the decision maker
+    against one omniscient adversary (any objective here: a probability, an expected reward until
+    a target, a discounted cost)."""
     if problem.model.initial_states.size != 1:
         return False
     if belief.applies(problem):
         return True
-    return (problem.adversary is not None and len(problem.model.player_names) == 2
-            and problem.rewards is None)
+    return problem.adversary is not None and len(problem.model.player_names) == 2
 
 
 _BATCH_ELEMENTS = 2_000_000
@@ -542,7 +548,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             W = sp.csr_matrix((W.data, cols[W.indices], W.indptr),
                               shape=(k, dyn.model.num_choices))
             choices.add(v * choices.span + Au + np.arange(k), np.full(k, -1, dtype=np.int64),
-                        np.asarray(W @ dyn.T_stop).ravel(), np.zeros(k), W @ dyn.T_cont, dyn,
+                        np.asarray(W @ dyn.T_stop).ravel(),
+                        np.asarray(W @ dyn.choice_reward).ravel(), W @ dyn.T_cont, dyn,
                         grid)
         done = last
     expanded = np.zeros(len(grid.rows), dtype=bool)
@@ -690,9 +697,11 @@ def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.nd
     V = abstraction.vertices
     data = stage_lp.StageData.of(dyn.T_cont, dyn.T_stop, abstraction.beliefs,
                                  np.asarray(values, dtype=np.float64)[:V], cutoff,
-                                 minimise=problem.maximize)
+                                 minimise=problem.maximize, reward=dyn.choice_reward,
+                                 stop_value=dyn.stop_value, discount=dyn.discount)
     finite = np.where(np.isfinite(cutoff), cutoff, np.nan)
-    Q = np.stack([dyn.stop[a] + dyn.P[a] @ np.nan_to_num(finite, nan=0.0)
+    Q = np.stack([dyn.reward[a] + dyn.stop_value * dyn.stop[a]
+                  + dyn.discount * (dyn.P[a] @ np.nan_to_num(finite, nan=0.0))
                   + dyn.P[a] @ np.where(np.isnan(finite), np.inf, 0.0)
                   for a in range(dyn.actions.size)]) if dyn.actions.size else np.zeros((0, dyn.S))
     step = stage_lp.OneStep(np.nan_to_num(Q, nan=np.inf), dyn.mask, dyn.group, cutoff, dyn.Z)
@@ -740,7 +749,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     """Abstractions of growing resolution while time remains; the tightest proven bound.
 
     Args:
-        problem: a POMDP, or a one-sided game with a probability objective (:func:`applies`).
+        problem: a POMDP, or a one-sided game (:func:`applies`).
         deadline: ``time.perf_counter()`` value by which to stop (an abstraction whose
             exploration is cut short still proves a bound: its frontier is cut off); None: no
             wall-clock cap.

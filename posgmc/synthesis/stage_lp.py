@@ -11,16 +11,17 @@ the solved abstraction's values W_i at its vertices b_i (and the per-state bound
 beliefs), the lower convex envelope of the points (b_i, W_i) estimates it, and choosing π
 against that envelope is a linear program in (π, μ):
 
-    minimise   Σ_c π_c p(s_c) stop_c + Σ_i μ_i W_i
+    minimise   Σ_c π_c p(s_c) (stop_c + r_c) + γ Σ_i μ_i W_i
     subject to Σ_i μ_i b_i(s') = Σ_c π_c p(s_c) T(c, s')    for every successor state s'
                Σ_{c of s} π_c = 1 for every s of the support,  π >= 0, μ >= 0
 
-(maximise when the adversary maximises). The LP's optimum is *not* trusted as a bound: its
-float value, and the envelope, only choose which rule to offer the adversary. The rule is added
-to the abstraction's choices at that vertex, and the abstraction is solved again by the sound
-engines; any rule the adversary may play keeps the abstraction's value a bound on the game's
-(restricting the minimiser can only raise the max-min), so the bound stays proven whatever the
-LP returns.
+(stop_c the target mass, worth 1 for a probability and 0 for a reward, r_c the choice's reward,
+γ the discount; maximise when the adversary maximises). The LP's optimum is *not* trusted as a
+bound: its float value, and the envelope, only choose which rule to offer the adversary. The
+rule is added to the abstraction's choices at that vertex, and the abstraction is solved again
+by the sound engines; any rule the adversary may play keeps the abstraction's value a bound on
+the game's (restricting the minimiser can only raise the max-min), so the bound stays proven
+whatever the LP returns.
 """
 
 from __future__ import annotations
@@ -44,7 +45,9 @@ class StageData:
     continuing successor mass of each choice, ``T_stop`` float64[choices] its target mass;
     ``beliefs`` csr float64[vertices, S] the abstraction's vertices, ``values`` float64[vertices]
     their solved values; ``unit`` float64[S] a value per single-state belief (inf: unknown);
-    ``minimise``: whether the adversary minimises."""
+    ``minimise``: whether the adversary minimises; ``reward`` float64[choices] each choice's
+    reward, ``stop_value`` what reaching the target is worth (1 for a probability, 0 for a
+    reward), ``discount`` the factor on the successors' values (1: none)."""
 
     T_cont: sp.csr_matrix
     T_stop: np.ndarray
@@ -52,13 +55,26 @@ class StageData:
     values: np.ndarray
     unit: np.ndarray
     minimise: bool
+    reward: np.ndarray
+    stop_value: float
+    discount: float
 
     @staticmethod
     def of(T_cont: sp.csr_matrix, T_stop: np.ndarray, beliefs: sp.csr_matrix,
-           values: np.ndarray, unit: np.ndarray, minimise: bool) -> StageData:
-        return StageData(sp.csr_matrix(T_cont), np.asarray(T_stop, dtype=np.float64),
-                         sp.csr_matrix(beliefs), np.asarray(values, dtype=np.float64),
-                         np.asarray(unit, dtype=np.float64), minimise)
+           values: np.ndarray, unit: np.ndarray, minimise: bool, *,
+           reward: np.ndarray | None = None, stop_value: float = 1.0,
+           discount: float = 1.0) -> StageData:
+        T = sp.csr_matrix(T_cont)
+        r = np.zeros(T.shape[0]) if reward is None else np.asarray(reward, dtype=np.float64)
+        return StageData(T, np.asarray(T_stop, dtype=np.float64), sp.csr_matrix(beliefs),
+                         np.asarray(values, dtype=np.float64), np.asarray(unit, dtype=np.float64),
+                         minimise, r, float(stop_value), float(discount))
+
+    def now(self, cols: np.ndarray, mass: np.ndarray) -> np.ndarray:
+        """float64[cols.size]: what each choice is worth in this step (its reward and its
+        target mass), weighted by its state's belief mass."""
+        out: np.ndarray = mass * (self.stop_value * self.T_stop[cols] + self.reward[cols])
+        return out
 
 
 def stage_rule(data: StageData, states: np.ndarray, p: np.ndarray, cols: np.ndarray,
@@ -97,7 +113,8 @@ def stage_rule(data: StageData, states: np.ndarray, p: np.ndarray, cols: np.ndar
     A_rule = sp.csr_matrix((np.ones(k), (owner, np.arange(k))), shape=(n_states, k + n_pts))
     A = sp.vstack([A_eq, A_rule], format="csr")
     b = np.r_[np.zeros(succ.size), np.ones(n_states)]
-    cost = np.r_[mass * data.T_stop[cols], data.values[cand], data.unit[succ]]
+    cost = np.r_[data.now(cols, mass),
+                 data.discount * np.r_[data.values[cand], data.unit[succ]]]
     if not data.minimise:
         cost = -cost
     try:
@@ -144,7 +161,7 @@ def one_step_rule(data: StageData, step: OneStep, p: np.ndarray, cols: np.ndarra
     groups = np.unique(g[~theirs])
     Js = J[:, succ].toarray()  # [k, successors]: small (one belief's choices)
     # linear part: target mass now, and the adversary's successors at their value
-    linear = mass * data.T_stop[cols] + Js[:, theirs] @ step.value[succ[theirs]]
+    linear = data.now(cols, mass) + data.discount * (Js[:, theirs] @ step.value[succ[theirs]])
     sign = 1.0 if data.minimise else -1.0
     cost = np.r_[sign * linear, sign * np.ones(groups.size)]
     rows: list[np.ndarray] = []
@@ -152,7 +169,7 @@ def one_step_rule(data: StageData, step: OneStep, p: np.ndarray, cols: np.ndarra
         at = g == z
         for a in np.flatnonzero(step.mask[z]).tolist():
             row = np.zeros(k + groups.size)
-            row[:k] = Js[:, at] @ step.Q[a, succ[at]]
+            row[:k] = data.discount * (Js[:, at] @ step.Q[a, succ[at]])
             row[k + j] = -1.0
             rows.append(sign * row)  # minimise: piece <= t; maximise: piece >= t
     A_ub = np.stack(rows) if rows else None

@@ -21,6 +21,7 @@ from tests.synthesis.helpers import every_deterministic, fss_guaranteed, random_
 
 ROOT = Path(__file__).resolve().parents[2]
 HIDE = ROOT / "tests" / "data" / "games" / "hide.posg"
+ROUNDS = ROOT / "tests" / "data" / "games" / "hide_rounds.posg"
 
 
 def _game(model, prop: str, zero_based: bool = False):  # type: ignore[no-untyped-def]
@@ -56,6 +57,32 @@ def test_a_dyadic_mixture_is_found_exactly() -> None:
     at resolution 4: the bound is the optimum up to the solver's relative precision."""
     found = _bound(_hide("1/3"))
     assert 0.25 <= found.value <= 0.25 * (1 + 1e-7)
+
+
+def _rounds(prop: str):  # type: ignore[no-untyped-def]
+    model = api.build(api.load(ROUNDS, constants={"r": "0.5"})).model
+    # phase 0; phase 1 on either side; phase 2 (won)
+    assert model.num_states == 4
+    return _game(model, prop)
+
+
+def test_expected_rounds_are_bounded_below_by_the_optimum() -> None:
+    """hide_rounds.posg, r = 1/2: at least 3 rounds are expected (the model's comment); the
+    bound side is the lower one, from 2 (deterministic rules and the uniform mixture) to
+    within 1e-2 of 3, never above it."""
+    found = _bound(_rounds('<<seeker>> R{"rounds"}min=? [ F "won" ]'))
+    assert found.tried[0] == (2, pytest.approx(2.0, abs=1e-6))
+    assert 3.0 - 1e-2 <= found.value <= 3.0
+
+
+def test_discounted_rounds_are_bounded_below_by_the_optimum() -> None:
+    """hide_rounds.posg, r = 1/2, discount 0.9: the optimum is 0.9 / (1 - 0.81 (2/3)) =
+    1.95652... (the model's comment, p = 1/3); deterministic rules concede p = 1/2:
+    0.9 / (1 - 0.81 / 2) = 1.51260..."""
+    found = _bound(_rounds('<<seeker>> R{"rounds"}min=? [ Fdiscount=0.9 "won" ]'))
+    optimum = 0.9 / (1 - 0.81 * (2 / 3))
+    assert found.tried[0] == (2, pytest.approx(0.9 / (1 - 0.81 / 2), abs=1e-6))
+    assert optimum - 1e-2 <= found.value <= optimum
 
 
 def test_stage_rules_are_distributions_per_state() -> None:
