@@ -812,10 +812,13 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
                                   dtype=np.float64)
             elif at_n is not None and sign * value >= sign * at_n - 1e-9 * max(1.0, abs(at_n)):
                 break  # the last rules did not tighten the bound
+            # the stage LPs get at most a third of what is left (a finer grid may need the rest)
+            lp_until = None if deadline is None else \
+                time.perf_counter() + (deadline - time.perf_counter()) / 3
             if mixtures is None or not abstraction.adversary.any() or stage_mixtures(
                     problem, abstraction, np.asarray(
                         result.upper if problem.maximize else result.lower, dtype=np.float64),
-                    cutoff, mixtures, deadline=deadline) == 0:
+                    cutoff, mixtures, deadline=lp_until) == 0:
                 break
         if best is not None and (best.exact or (target is not None
                                                 and sign * best.value <= sign * target)):
