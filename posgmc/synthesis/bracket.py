@@ -10,7 +10,9 @@ optimum is at least that much for a maximiser, at most for a minimiser). The oth
 * on a game, ``upper_bound``: the decision maker seeing everything against one fixed adversary
   strategy (the strongest enumerated). Any fixed adversary bounds the max-min, because the
   omniscient adversary of ``guaranteed`` may play it;
-* on a POMDP, the belief-grid abstraction (:mod:`posgmc.synthesis.belief_grid`).
+* on a POMDP and on a one-sided game, the belief-grid abstraction
+  (:mod:`posgmc.synthesis.belief_grid`; on a game the adversary's rules at each belief include
+  randomised ones chosen by :mod:`posgmc.synthesis.stage_lp`).
 """
 
 from __future__ import annotations
