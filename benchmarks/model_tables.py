@@ -15,11 +15,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import resource
 import subprocess
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+from _readme_block import replace_block
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
@@ -45,12 +49,38 @@ TIME = '<<planner>> R{"time"}min=? [ Fdiscount=0.95 "retrieved" ]'
 
 STEPS = 'R{"steps"}min=? [ F "target" ]'
 COST = 'R{"cost"}min=? [ F "opened" ]'
+SAFE = '<<rover>> Pmax=? [ F "safe" ]'
+ARRIVED = '<<convoy>> Pmax=? [ F "arrived" ]'
+ASSET = '<<attacker>> Pmax=? [ F "asset" ]'
+GOAL = 'Pmax=? [ F "goal" ]'
+
+
+def _memories(prop: str) -> tuple[Row, ...]:
+    return tuple(Row(("--prop", prop, "--memory", str(k))) for k in (1, 2, 3))
+
 
 TABLES: dict[str, Table] = {
     "maze": Table(MODELS / "maze" / "README.md", "maze.pomdp", {"steps": STEPS},
                   tuple(Row(("--prop", "steps", "--memory", str(k))) for k in (1, 2, 3))),
     "tiger": Table(MODELS / "tiger" / "README.md", "tiger.pomdp", {"cost": COST},
                    tuple(Row(("--prop", "cost", "--memory", str(k))) for k in (1, 2, 3))),
+    "beacon": Table(MODELS / "beacon" / "README.md", "beacon.posg", {"safe": SAFE},
+                    _memories("safe")),
+    "convoy": Table(
+        MODELS / "convoy" / "README.md", "convoy.posg", {"P": ARRIVED},
+        (
+            *_memories("P"),
+            Row(("--prop", "P", "--strategy", "convoy=mixed.fss.json", "--strategy",
+                 "attacker=ambushA.fss.json")),
+            Row(("--prop", "P", "--strategy", "convoy=mixed.fss.json", "--strategy",
+                 "attacker=ambushB.fss.json")),
+            Row(("--prop", "P", "--strategy", "attacker=ambush_mixed.fss.json")),
+        ),
+    ),
+    "cyber_deception": Table(MODELS / "cyber_deception" / "README.md", "cyber_deception.posg",
+                             {"asset": ASSET}, _memories("asset")),
+    "trap_grid": Table(MODELS / "trap_grid" / "README.md", "trap_grid.pomdp", {"goal": GOAL},
+                       _memories("goal")),
     "secure_autonomy": Table(
         MODELS / "secure_autonomy" / "README.md", "secure_autonomy.posg",
         {"mission": MISSION, "time": TIME},
@@ -70,8 +100,8 @@ def _bound(b: dict[str, float] | None) -> str:
     return f"{b['value']:.10g} [{b['lower']:.10g}, {b['upper']:.10g}]"
 
 
-def run_row(table: Table, row: Row) -> tuple[str, float]:
-    """The table line of ``row`` and the seconds its command took."""
+def run_row(table: Table, row: Row) -> tuple[str, float, float]:
+    """The table line of ``row`` and the wall and CPU seconds its command took."""
     args = list(row.args)
     shown = " ".join(args)
     for i, a in enumerate(args):
@@ -79,9 +109,11 @@ def run_row(table: Table, row: Row) -> tuple[str, float]:
             args[i] = table.props[a]
     command = [sys.executable, "-m", "posgmc", "check",
                str(table.readme.parent / table.model), *args, "--json", "--quiet"]
-    started = time.perf_counter()
-    out = subprocess.run(command, capture_output=True, text=True, cwd=ROOT, check=False)
-    seconds = time.perf_counter() - started
+    started, cpu = time.perf_counter(), _children_cpu()
+    # from the README's folder, as its commands are written (strategy files beside the model)
+    out = subprocess.run(command, capture_output=True, text=True, cwd=table.readme.parent,
+                         env={**os.environ, "PYTHONPATH": str(ROOT)}, check=False)
+    seconds, cpu = time.perf_counter() - started, _children_cpu() - cpu
     if out.returncode not in (0, 1):
         raise SystemExit(f"{shown}: exit {out.returncode}\n{out.stderr}")
     r = json.loads(out.stdout)["results"][0]
@@ -91,7 +123,12 @@ def run_row(table: Table, row: Row) -> tuple[str, float]:
     line = (f"| `{shown}` | {_bound(r.get('guaranteed'))} | {_bound(r.get('vs_fss_adversary'))} "
             f"| {_bound(r.get('upper_bound'))} | {rounds} |"
             + (f" cut by {cut}" if cut else ""))
-    return line, seconds
+    return line, seconds, cpu
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def render(table: Table) -> str:
@@ -99,17 +136,11 @@ def render(table: Table) -> str:
              "vs_fss_adversary | upper_bound | per memory size (policy iteration) |",
              "|---|---|---|---|---|"]
     for row in table.rows:
-        line, seconds = run_row(table, row)
-        print(f"{seconds:6.1f} s  {line}", file=sys.stderr)
+        line, seconds, cpu = run_row(table, row)
+        print(f"{seconds:6.1f} s wall {cpu:6.1f} s CPU (load {os.getloadavg()[0]:.1f})  {line}",
+              file=sys.stderr)
         lines.append(line)
     return "\n".join(lines)
-
-
-def replace_block(text: str, name: str, block: str) -> str:
-    begin, end = f"<!-- model_tables: {name} -->", "<!-- model_tables: end -->"
-    i = text.index(begin) + len(begin)
-    j = text.index(end, i)
-    return text[:i] + "\n" + block + "\n" + text[j:]
 
 
 def main() -> int:
@@ -123,7 +154,7 @@ def main() -> int:
         table = TABLES[name]
         block = render(table)  # minutes: the README is read after, so edits meanwhile stay
         text = table.readme.read_text()
-        new = replace_block(text, name, block)
+        new = replace_block(text, f"model_tables: {name}", block, end="<!-- model_tables: end -->")
         if new != text:
             stale += 1
             if a.check:

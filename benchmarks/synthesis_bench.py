@@ -1,23 +1,25 @@
 """Synthesis quality and time against PAYNT, both in the same invocation.
 
 Usage:
-    python benchmarks/synthesis_bench.py [--set posmg|pomdp] [--timeout 30] [--paynt-timeout 30]
-        [--only NAME ...] [--shared DIR] [--bracket] [--no-paynt]
+    python benchmarks/synthesis_bench.py [--set posmg|pomdp] [--effort 1] [--timeout SECONDS]
+        [--paynt-timeout 30] [--only NAME ...] [--shared DIR] [--bracket] [--no-paynt]
 
 For every POSMG under posmg/ of the benchmarks folder (--shared, default $POSGMC_SHARED_BENCHMARKS
 or tests/data/benchmarks) with a DRN sketch (or, with --set pomdp, every POMDP under pomdp/;
---only NAME... for a subset): posgmc synthesises the
-coalition's strategy (`check` without --strategy: gradient search over randomised FSSs with
-memory 1..3 against the omniscient opponent, verified by sound interval iteration) within
---timeout, and PAYNT 0.5.0 (`python -m paynt DIR --sketch sketch.templ --props sketch.props
---fsc-synthesis --timeout T`, run by $POSGMC_REFERENCE_PYTHON) within --paynt-timeout. PAYNT's
-value is the last "optimum" it prints. Prints a markdown table: our guaranteed with its proven
-bounds, the full-observation value, vs_fss_adversary and upper_bound, the adversary phases
-(enumerated [all] / ranked / kept / added by the double oracle; which defence is reported), our
-time; PAYNT's value and time; who is better.
+--only NAME... for a subset): posgmc synthesises the coalition's strategy (`check` without
+--strategy: gradient search over randomised FSSs with memory 1..3 against the omniscient
+opponent, verified by sound interval iteration) with the deterministic work budget --effort
+(docs/synthesis.md: its numbers depend only on the model, the options and the seed, never on the
+machine; --timeout is an optional wall-clock cap, and a row it cut says "cut by --timeout"), and
+PAYNT 0.5.0 (`python -m paynt DIR --sketch sketch.templ --props sketch.props --fsc-synthesis
+--timeout T`, run by $POSGMC_REFERENCE_PYTHON) within its own --paynt-timeout. PAYNT's value is
+the last "optimum" it prints. Prints a markdown table: our guaranteed with its proven bounds, the
+full-observation value, vs_fss_adversary and upper_bound, the adversary phases (enumerated [all] /
+ranked / kept / added by the double oracle; which defence is reported), our time (wall and CPU);
+PAYNT's value and time; who is better.
 
 With --bracket the table is the optimum bracket's instead (docs/synthesis.md): posgmc runs with
-`--gap 0` (the search gets 70 % of --timeout, the belief grid the rest), and on POMDPs Storm's
+`--gap 0` (the belief grid's budget counted in vertices, times --effort), and on POMDPs Storm's
 belief-space bounds run in the same invocation with as much time as posgmc's bound side took
 (benchmarks/_storm_belief.py: the discretisation at resolution 2 and the finest that fits,
 and the belief unfolding). Columns: the bracket [lower, upper] and its gap, what proved the bound
@@ -51,21 +53,24 @@ def first_property(directory: Path) -> str:
     raise SystemExit(f"{directory}: no property")
 
 
-def ours(directory: Path, timeout: float, bracket: bool = False) -> dict[str, object]:
+def ours(directory: Path, effort: float, timeout: float | None,
+         bracket: bool = False) -> dict[str, object]:
     sys.path.insert(0, str(ROOT))
     from posgmc import api
     from posgmc.synthesis.options import Gap, SynthesisOptions
 
     prop = first_property(directory)
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.process_time()
     report = api.check(
         api.load(directory / "sketch.templ"),
         properties=[prop],
         zero_based_players=True,
-        synthesis=SynthesisOptions(timeout=timeout, started=started,  # loading counts
+        synthesis=SynthesisOptions(effort=effort, timeout=timeout,
+                                   started=started,  # loading counts towards the cap
                                    gap=Gap(0.0) if bracket else None),
     )
     seconds = time.perf_counter() - started
+    cpu = time.process_time() - cpu
     outcome = report.outcomes[0]
     if isinstance(outcome, tuple):
         return {"property": prop, "error": outcome[1].message, "seconds": seconds}
@@ -79,9 +84,11 @@ def ours(directory: Path, timeout: float, bracket: bool = False) -> dict[str, ob
     return {"property": prop, "guaranteed": outcome.guaranteed, "full": outcome.full_observation,
             "vs": outcome.vs_fss_adversary, "ub": outcome.upper_bound, "adversaries": adversaries,
             "memory": dict(outcome.memory), "partial": outcome.synthesis["partial"],
+            "cut": stats.get("cut"),
             "optimum": outcome.optimum, "optimum_bound": stats.get("optimum_bound", {}),
             "phases": stats.get("phases", {}),
-            "deterministic": rounds[-1]["deterministic"] if rounds else None, "seconds": seconds}
+            "deterministic": rounds[-1]["deterministic"] if rounds else None, "seconds": seconds,
+            "cpu": cpu}
 
 
 def paynt(directory: Path, timeout: float) -> dict[str, object]:
@@ -123,9 +130,9 @@ def storm_belief(directory: Path, prop: str, seconds: float) -> dict[str, object
     return found
 
 
-def bracket_row(d: Path, timeout: float) -> str:
+def bracket_row(d: Path, effort: float, timeout: float | None) -> str:
     """One row of the --bracket table."""
-    a = ours(d, timeout, bracket=True)
+    a = ours(d, effort, timeout, bracket=True)
     prop = str(a["property"])
     if "error" in a:
         return f"| {d.name} | `{prop}` | error: {a['error']} |" + " - |" * 9
@@ -172,8 +179,12 @@ def bracket_row(d: Path, timeout: float) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--timeout", type=float, default=30.0)
-    ap.add_argument("--paynt-timeout", type=float, default=30.0)
+    ap.add_argument("--effort", type=float, default=1.0,
+                    help="posgmc's work budget, a multiplier of every phase's (default 1)")
+    ap.add_argument("--timeout", type=float, default=None,
+                    help="an optional wall-clock cap in seconds on posgmc's synthesis per model")
+    ap.add_argument("--paynt-timeout", type=float, default=30.0,
+                    help="PAYNT's --timeout in seconds (default 30)")
     ap.add_argument("--only", nargs="*", default=None)
     ap.add_argument("--set", choices=["posmg", "pomdp"], default="posmg")
     ap.add_argument(
@@ -196,16 +207,16 @@ def main() -> None:
               "| Storm gap | sound | posgmc s (bound side s) |")
         print("|---|---|---|---|---|---|---|---|---|---|---|---|")
         for d in dirs:
-            print(bracket_row(d, args.timeout), flush=True)
+            print(bracket_row(d, args.effort, args.timeout), flush=True)
         return
     print(
         "| model | property | posgmc guaranteed [lower, upper] | full observation "
-        "| vs_fss_adversary | upper_bound | adversaries | memory | posgmc (s) "
+        "| vs_fss_adversary | upper_bound | adversaries | memory | posgmc s (CPU s) "
         "| PAYNT --fsc-synthesis | PAYNT (s) | better |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for d in dirs:
-        a = ours(d, args.timeout)
+        a = ours(d, args.effort, args.timeout)
         b = paynt(d, args.paynt_timeout) if not args.no_paynt else {"error": "not run"}
         prop = str(a["property"]).replace("|", "\\|")
         if "error" in a:
@@ -215,7 +226,8 @@ def main() -> None:
         else:
             g = a["guaranteed"]
             mine = f"{g.value:.6f} [{g.lower:.6f}, {g.upper:.6f}]" + (
-                " (partial)" if a["partial"] else ""
+                " (cut by --timeout)" if a["cut"] == "timeout" else " (partial)" if a["partial"]
+                else ""
             )
             full = f"{a['full'].value:.6f}"
             vs = f"{a['vs'].value:.6f}" if a["vs"] is not None else "-"
@@ -235,7 +247,7 @@ def main() -> None:
         pt = f"{b['seconds']:.1f}" if "seconds" in b else "-"
         print(
             f"| {d.name} | `{prop}` | {mine} | {full} | {vs} | {ub} | {adversaries} | {memory} "
-            f"| {a['seconds']:.1f} | {theirs} | {pt} | {better} |",
+            f"| {a['seconds']:.1f} ({a.get('cpu', 0.0):.1f}) | {theirs} | {pt} | {better} |",
             flush=True,
         )
 

@@ -48,6 +48,7 @@ from posgmc.cli.progress_view import before_output, progress_mode, progress_view
 from posgmc.cli.running import guard
 from posgmc.cli.strategy_export import check_destination, point_of, synthesises, write_exports
 from posgmc.errors import InputError
+from posgmc.synthesis import progress
 from posgmc.synthesis.budget import interrupted, interruptible
 
 __all__ = ["check", "not_passed"]
@@ -102,9 +103,11 @@ BUILD_GRACE = 1.0
 @progress_options
 @gap_option
 @click.option("--export-strategy", type=click.Path(), default=None,
-              help="Write the optimal memoryless strategy of the property as JSON; for a "
-              "synthesised strategy, a directory receiving <player>.json. Several properties or "
-              "sweep points get one each (FILE.prop2.N=5.json, DIR/prop2/N=5/), each printed.")
+              help="Write the optimal memoryless strategy of the property's coalition as a "
+              "posgmc-fss/1 .json file (one memory node; FILE.<player>.json each for a coalition "
+              "of several); for a synthesised strategy, a directory receiving <player>.json. "
+              "Several properties or sweep points get one each (FILE.prop2.N=5.json, "
+              "DIR/prop2/N=5/), each printed.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (see docs/cli.md).")
 @click.option("--json-lines", "json_lines", is_flag=True,
               help="Print one JSON object per line as soon as it is known: the model, then each "
@@ -282,13 +285,20 @@ def _check_points(
         elif code == EXIT_OK and any(not_passed(x) for x in report.results):
             code = EXIT_PROPERTY_FALSE
         rows.append((constants, report))
+        if len(combos) > 1:
+            # a sweep's table comes at the end: each point is reported as it completes
+            label = ",".join(f"{n}={const_text(constants[n])}" for n in swept)
+            progress.point_done(label, _headline(report), len(rows), len(combos))
         if r.export_strategy is not None and not report.errors:
             # a property that failed has said why; "no strategy to export" would hide it.
             # Each property and constant point gets its own destination
             for path in write_exports(r.export_strategy, report,
                                       point=point_of(constants, swept),
-                                      several_points=len(combos) > 1):
-                click.echo(f"wrote {path}", err=r.as_json or r.json_lines)
+                                      several_points=len(combos) > 1,
+                                      zero_based_players=r.zero_based_players):
+                click.echo(f"wrote {path.path}", err=r.as_json or r.json_lines)
+                if path.note:
+                    click.echo(f"  note: {path.note}", err=r.as_json or r.json_lines)
         if interrupted():
             # Ctrl-C: the property it cut short reported (and exported) its best verified
             # defence; no further property or constant setting is checked
@@ -316,6 +326,19 @@ def _write_reports(
         click.echo(json.dumps(json_report(r.model, swept, rows)))
     elif not streaming:
         print_report(r.model, swept, rows, verbose=r.verbose)
+
+
+def _headline(report: Any) -> float | None:
+    """A point's headline number, when it checked one property: the proven ``guaranteed`` of a
+    synthesis or given strategies, else the numeric value."""
+    if len(report.outcomes) != 1 or isinstance(report.outcomes[0], tuple):
+        return None
+    r = report.outcomes[0]
+    if r.guaranteed is not None:
+        return float(r.guaranteed.value)
+    value = r.value
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) \
+        else None
 
 
 def _streamers(model: str, constants: dict[str, Any], json_lines: bool,  # type: ignore[no-untyped-def]

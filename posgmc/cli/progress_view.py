@@ -83,7 +83,7 @@ def _now(status: progress.Status) -> progress.Status:
 
 def _line(status: progress.Status) -> str:
     head = "interrupted, verifying the best so far (Ctrl-C again aborts)" if interrupted() \
-        else "synthesis"
+        else "sweep" if status.unit == "point" else "synthesis"
     return f"{head}: {_now(status).text()}"
 
 
@@ -158,6 +158,9 @@ def _live() -> Iterator[None]:
 
     def sink(status: progress.Status) -> None:
         _HOLD[0] = False
+        if status.unit == "point" and _LIVE:
+            # a completed point of a sweep or front stays on the screen, above the live line
+            _LIVE[-1].console.print(Text(_line(status)), highlight=False)
 
     console = Console(stderr=True)
     # results printed on a terminal's stdout meanwhile go above the status line; a redirected

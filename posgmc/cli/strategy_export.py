@@ -3,7 +3,14 @@ destination per property and constant point, so that no strategy overwrites anot
 
 Two forms: a synthesised strategy (a ``pomdp``/``posg`` without ``--strategy`` and
 ``--full-observation``) goes to a directory, ``<player>.json`` per player; a model checker's
-memoryless strategy goes to a file. With one property and one constant point the destination is
+memoryless strategy goes to a file, in the same ``posgmc-fss/1`` format with one memory node: the
+strategy of the query's coalition (``<<rover>>``: the rover's; the agent's on an mdp), so that
+``check --strategy FILE`` gives back the number printed. A coalition of several players writes one
+file per player, ``FILE-stem.<player>.json``. Where the choices cannot be said by the player's
+observation and the action's label (``--full-observation`` on a posg: the player does not see
+the whole state; two choices of one state with the same label), the file is the state-indexed
+memoryless strategy (``"memoryless": true``), which every reader also accepts, and the message
+says why. With one property and one constant point the destination is
 the one given; with several properties or a ``--const`` sweep each property and point gets its
 own: a subdirectory ``DIR/<property>/<point>/`` (directory form) or a file
 ``FILE-stem.<property>.<point>.json`` (file form), where ``<property>`` is the property's name
@@ -18,14 +25,24 @@ import re
 import stat
 import tempfile
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from posgmc.errors import InputError
 
-__all__ = ["check_destination", "synthesises", "write_exports"]
+__all__ = ["Written", "check_destination", "coalition_players", "synthesises", "write_exports"]
 
 OPTION = "--export-strategy"
+
+
+@dataclass(frozen=True)
+class Written:
+    """A file written: its path, and what it holds when that needs saying (why it is not
+    ``posgmc-fss/1``)."""
+
+    path: str
+    note: str | None = None
 
 
 def synthesises(session: Any, *, given_strategies: bool, full_observation: bool) -> bool:
@@ -146,23 +163,24 @@ def destination(root: str, *, directory: bool, index: int, name: str | None,
 
 
 def write_exports(root: str, report: Any, *, point: Mapping[str, str],
-                  several_points: bool) -> list[str]:
-    """Write the strategies of one report (one constant point) under ``root``; the paths written.
+                  several_points: bool, zero_based_players: bool = False) -> list[Written]:
+    """Write the strategies of one report (one constant point) under ``root``; the files written.
 
     A synthesised result's strategies go to ``<player>.json`` in its directory (a second strategy
     of the same player, the composed defence that ``vs_fss_adversary`` is about, to
-    ``<player>.vs_fss.json``); otherwise each property's memoryless strategy to its file.
+    ``<player>.vs_fss.json``); otherwise each property's memoryless strategy, as the coalition's
+    ``posgmc-fss/1`` strategy with one memory node, to its file (the module docstring).
 
     Raises:
         InputError: no property of the report has a strategy to export (only unbounded P and R
             queries have a memoryless one), or a destination cannot be written.
     """
-    from posgmc.strategies.files import write_memoryless_strategy, write_strategy
+    from posgmc.strategies.files import write_strategy
 
     results = [r for r in report.outcomes if not isinstance(r, tuple)]
     several = len(report.outcomes) > 1
     shown = point if several_points else {}
-    written: list[str] = []
+    written: list[Written] = []
     synthesised = any(getattr(r, "strategies", ()) for r in results)
     for index, r in enumerate(report.outcomes):
         if isinstance(r, tuple):
@@ -177,16 +195,71 @@ def write_exports(root: str, report: Any, *, point: Mapping[str, str],
                 path = os.path.join(where, f"{player}.vs_fss.json" if player in players
                                     else f"{player}.json")
                 write_strategy(fss, path)
-                written.append(path)
+                written.append(Written(path))
                 players.add(player)
         elif not synthesised and r.strategy is not None:
-            write_memoryless_strategy(where, r.property, report.model, r.strategy)
-            written.append(where)
+            written += _write_memoryless(where, r, report.model, zero_based_players)
     if not written and results:
         raise InputError(f"{OPTION}: no property checked here has a strategy to export",
                          hint="a memoryless strategy comes with unbounded P and R queries "
                          "(F, U, C, ...); a synthesised one with P and R queries of a pomdp/posg")
     return written
+
+
+def _write_memoryless(where: str, result: Any, model: Any, zero_based: bool) -> list[Written]:
+    """A model checker's memoryless strategy as ``posgmc-fss/1`` files, one per coalition player
+    (the state-indexed form where the choices cannot be said by observation and label)."""
+    from posgmc.strategies.binding import bind, memoryless_strategy
+    from posgmc.strategies.files import write_memoryless_strategy, write_strategy
+    from posgmc.strategies.fss import StrategyError
+
+    players = coalition_players(result.property, model, zero_based)
+    strategies = []
+    try:
+        for p in players:
+            fss = memoryless_strategy(model, p, result.strategy)
+            bind(model, fss)  # what check --strategy will do with the file: it must fit
+            strategies.append(fss)
+    except (StrategyError, InputError) as e:
+        write_memoryless_strategy(where, result.property, model, result.strategy)
+        reason = e.message.split(": ", 1)[-1] if isinstance(e, StrategyError) else e.message
+        return [Written(where, "the state-indexed memoryless strategy of every player, not "
+                        f"posgmc-fss/1: {reason}")]
+    if len(strategies) == 1:
+        write_strategy(strategies[0], where)
+        return [Written(where)]
+    base, ext = os.path.splitext(where)
+    paths = []
+    for fss in strategies:
+        path = f"{base}.{_part(fss.player)}{ext or '.json'}"
+        write_strategy(fss, path)
+        paths.append(Written(path))
+    return paths
+
+
+def coalition_players(prop: str, model: Any, zero_based: bool) -> list[int]:
+    """The players whose choices a model checker's strategy for ``prop`` is about, in the model's
+    order: the coalition of its (first) query (``<<C>>``: C; ``[[C]]``: the players against C,
+    who hold C to the value); every player of a game when the query names none; ``[0]``, the
+    agent, on an mdp."""
+    from posgmc.semantics.queries import QueryResolver
+    from posgmc.syntax.ast import CoalitionKind, ProbQuery, RewardQuery
+    from posgmc.syntax.parser import parse_property
+    from posgmc.syntax.traversal import iter_nodes
+
+    everyone = list(range(len(model.player_names))) or [0]
+    if not model.player_names:
+        return everyone
+    query = next((n for n in iter_nodes(parse_property(prop).expr)
+                  if isinstance(n, (ProbQuery, RewardQuery))), None)
+    if query is None or query.coalition is None:
+        return everyone
+    resolver = QueryResolver(model.model_type, tuple(model.player_names),
+                             tuple(rm.name for rm in model.reward_models), zero_based)
+    members = resolver.coalition_of(query.coalition) or frozenset(everyone)
+    if query.coalition.kind is CoalitionKind.BRACKET:
+        members = frozenset(everyone) - members
+    return sorted(members) or everyone
 
 
 def _make_directory(path: str) -> None:

@@ -256,9 +256,7 @@ class SynthesisChecker:
                                      else 0.9 * budget, started=started))
         result = inner.check(query, text=text, name=name)
         defence = result.strategies[0]
-        bare = expr if expr.threshold is None else dataclasses.replace(
-            expr, threshold=None, direction=Direction.MAX if expr.threshold.op in (
-                ComparisonOp.GE, ComparisonOp.GT) else Direction.MIN)
+        bare = _without_threshold(expr)
         g = StrategyChecker(self.model, {defence.player: defence}, coalition_of=self.coalition_of,
                             scalar=self.scalar, options=_until(self.options, clock.end)
                             ).check(bare, text=text).guaranteed
@@ -307,7 +305,11 @@ class SynthesisChecker:
 
     def check(self, expr: Expr, *, text: str, name: str | None = None) -> PropertyResult:
         """Synthesise and verify. A threshold holds when ``guaranteed`` meets it, fails when the
-        full-observation value cannot, and is unknown in between."""
+        full-observation value cannot, and is unknown in between.
+
+        The phases, in order: the search and the adversary phases (:meth:`_search_phase`), the
+        optimum bracket (:func:`_bracket_phase`), the reported numbers (:func:`_shown_numbers`),
+        the answer (:meth:`_answer`), then the note and the statistics that explain it."""
         if not isinstance(expr, (ProbQuery, RewardQuery)):
             raise UnsupportedError(
                 "synthesis answers P and R queries of partially observable models",
@@ -317,16 +319,40 @@ class SynthesisChecker:
         player = self._player(expr)
         if needs_product(expr):
             return self._on_product(expr, text=text, name=name)
-        bare = expr
-        if expr.threshold is not None:
-            maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
-            bare = dataclasses.replace(expr, threshold=None,
-                                       direction=Direction.MAX if maximize else Direction.MIN)
-        # the work budget is counted per phase (budget.py); a wall-clock cap T (--timeout) is
-        # shared: up to 7/10 of it for the search (the deterministic search, then the gradient
-        # search), up to 17/20 for the adversary phases, the rest for the sound checks of the
-        # reported numbers, which stop at the end of the cap (interval iteration stopped early:
-        # bounds still proven, only wider; the result then says partial, cut by the timeout)
+        run = self._check_run(expr, player, text)
+        searched = self._search_phase(run)
+        bracket = _bracket_phase(run, searched)
+        shown = _shown_numbers(run, searched)
+        answer = self._answer(expr, shown, bracket.optimum)
+        result, adversaries = searched.result, searched.adversaries
+        return PropertyResult(
+            property=text, name=name, kind=answer.kind, value=answer.value, lower=answer.lower,
+            upper=answer.upper, seconds=sum(result.phases.values()),
+            method=f"synthesis ({result.method})",
+            # exit 0 only when every printed number is proven: an unproven guaranteed (the budget
+            # cut its check short) leaves the answer unconverged unless a threshold is decided
+            converged=shown.g.converged or isinstance(answer.value, bool),
+            sound=all(b.sound for b in (shown.g, shown.vs, shown.ub, shown.full) if b is not None),
+            note=self._note(expr, run, searched, shown, bracket, answer),
+            per_initial=(answer.value,),
+            guaranteed=shown.g, vs_fss_adversary=shown.vs, upper_bound=shown.ub,
+            memory=((run.player_name, shown.defence.memory_size),),
+            full_observation=shown.full, optimum=bracket.optimum,
+            synthesis=self._statistics(run, searched, bracket),
+            maximizing=run.bare.direction is Direction.MAX,
+            # Boolean observables written true/false in strategy files, as in the model
+            strategies=tuple(
+                with_boolean_observables(f, self.model) for f in
+                (shown.defence,) + ((shown.worst,) if shown.worst is not None else ())
+                + ((adversaries.composed,) if adversaries is not None
+                   and adversaries.vs_from_composed and adversaries.composed is not None
+                   else ())),
+        )
+
+    def _check_run(self, expr: ProbQuery | RewardQuery, player: int, text: str) -> _CheckRun:
+        """The check's record: its budget starts (``progress`` too), the players' settings and
+        the problem synthesis solves."""
+        bare = _without_threshold(expr)
         started = self._budget_start()
         clock = Clock(started, self.synthesis.timeout)
         progress.begin(text)
@@ -339,21 +365,34 @@ class SynthesisChecker:
         adversary = others[0] if len(others) == 1 else None
         problem = problem_of(self.model, bare, player=player, adversary=adversary,
                              coalition_of=self.coalition_of, scalar=self.scalar)
-        bracketing = settings.bracket
+        return _CheckRun(bare, player, names[player] if names else "", adversary, settings,
+                         problem, started, clock)
+
+    def _search_phase(self, run: _CheckRun) -> _Searched:
+        """The search (:func:`~posgmc.synthesis.search.synthesize`), its defence sharpened, then
+        the adversary phases when the game has one adversary and they are asked for.
+
+        The work budget is counted per phase (budget.py); a wall-clock cap T (--timeout) is
+        shared: up to 7/10 of it for the search (the deterministic search, then the gradient
+        search), up to 17/20 for the adversary phases, the rest for the sound checks of the
+        reported numbers, which stop at the end of the cap (interval iteration stopped early:
+        bounds still proven, only wider; the result then says partial, cut by the timeout)."""
+        settings, clock, problem = run.settings, run.clock, run.problem
         with closing(executor_for(problem, settings.placement)) as executor:
             # with --gap the bound side has its share of the budget; without, a little on top
             cap = self.synthesis.timeout
             budget = None if cap is None else cap * (
-                1.0 - GAP_SHARE if bracketing and settings.gap is not None else 1.0)
-            phases_follow = adversary is not None and settings.adversaries > 0
+                1.0 - GAP_SHARE if settings.bracket and settings.gap is not None else 1.0)
+            phases_follow = run.adversary is not None and settings.adversaries > 0
             # without adversary phases the search has their time too
             search = dataclasses.replace(
                 settings, timeout=None if budget is None else
-                budget * (_SEARCH_SHARE if phases_follow else _ADVERSARY_END), started=started)
+                budget * (_SEARCH_SHARE if phases_follow else _ADVERSARY_END),
+                started=run.started)
             result = synthesize(
                 self.model,
-                bare,
-                player=player,
+                run.bare,
+                player=run.player,
                 coalition_of=self.coalition_of,
                 scalar=self.scalar,
                 options=search,
@@ -368,12 +407,12 @@ class SynthesisChecker:
                     self.model, {f.player: f}, coalition_of=self.coalition_of,
                     scalar=self.scalar,
                     options=_until(self.options, clock.at(_ADVERSARY_END)),
-                ).check(bare, text="synthesis").guaranteed,
+                ).check(run.bare, text="synthesis").guaranteed,
                 problem.maximize)
             if strategy is not result.strategy:
                 result = dataclasses.replace(result, strategy=strategy, guaranteed=g_search)
             adversaries = None
-            if adversary is not None and settings.adversaries > 0:
+            if phases_follow:
                 adversaries = self._adversary_phases(problem, executor, result, settings,
                                                      clock.at(_ADVERSARY_END),
                                                      _until(self.options, clock.end))
@@ -382,81 +421,90 @@ class SynthesisChecker:
         # what cut the work budget short, if anything: the cap (the sound checks then stopped at
         # its end: wider, still proven bounds) or an interrupt
         cut = result.cut or clock.cut()
-        defence, g, full = adversaries.defence if adversaries else result.strategy, \
-            adversaries.guaranteed if adversaries else result.guaranteed, result.full_observation
-        vs = ub = worst = None
         if adversaries is not None:
-            vs, ub, worst = adversaries.vs, adversaries.ub, adversaries.worst
             result.phases.update(adversaries.phases)
-        optimum: Optimum | None = None
-        by_optimum = False
-        bracket_stats: dict[str, object] = {}
-        if bracketing:
-            # the grid's work budget is counted in vertices (effort scales it), so its bound
-            # depends only on model, options and seed; a wall-clock cap stops it at its end
-            now = time.perf_counter()
-            end = clock.end
-            vertices = GAP_VERTICES if settings.gap is not None else DEFAULT_VERTICES
-            optimum, bracket_stats = optimum_of(problem, g, full, ub, deadline=end,
-                                                gap=settings.gap,
-                                                vertices=int(vertices * settings.effort))
-            result.phases["optimum bound"] = time.perf_counter() - now
-        # a number whose check the budget cut short before it converged was not computed: its
-        # point would be a midpoint of wide bounds (0.5 in [0, 1] when it had no time at all), so
-        # it is left out; guaranteed, the headline, stays with its proven bounds and says so
-        vs, ub = (b if b is not None and b.converged else None for b in (vs, ub))
-        full_shown = full if full.converged else None
-        ordered = ordered_numbers(
-            {"guaranteed": g, "vs_fss_adversary": vs, "upper_bound": ub,
-             "full_observation": full_shown},
-            maximizing=bare.direction is Direction.MAX)
-        g = ordered["guaranteed"] or g
-        vs, ub = ordered["vs_fss_adversary"], ordered["upper_bound"]
-        full_shown = ordered["full_observation"]
-        progress.report("done", best=g.lower if bare.direction is Direction.MAX else g.upper,
-                        proven=g.sound)
-        value: float | bool | None = g.value
-        kind = ResultKind.PROBABILITY if isinstance(expr, ProbQuery) else ResultKind.REWARD
-        lower: float | None = g.lower
-        upper: float | None = g.upper
-        if expr.threshold is not None:
-            p = float(self.scalar(expr.threshold.value))
-            holds: Callable[[float], bool] = {
-                ComparisonOp.GE: lambda x: x >= p,
-                ComparisonOp.GT: lambda x: x > p,
-                ComparisonOp.LE: lambda x: x <= p,
-                ComparisonOp.LT: lambda x: x < p,
-            }[expr.threshold.op]
-            maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
-            proven = holds(g.lower if maximize else g.upper) and g.sound
-            # no defence reaches the threshold: not with full observation, nor against the
-            # enumerated adversaries, nor where the optimum's bound side misses it
-            bound = ub if ub is not None else full_shown
-            refuted = bound is not None and bound.sound and not holds(
-                bound.upper if maximize else bound.lower)
-            by_optimum = (optimum is not None and optimum.sound and not refuted
-                          and not holds(optimum.upper if maximize else optimum.lower))
-            refuted = refuted or by_optimum
-            value = True if proven else False if refuted else None
-            kind, lower, upper = ResultKind.BOOLEAN, None, None
-        player_name = self.model.player_names[player] if self.model.player_names else ""
-        direction = "at least" if (bare.direction is Direction.MAX) else "at most"
-        note = (f"guaranteed: the synthesised strategy of {player_name or 'the agent'!s} ensures "
+        return _Searched(result, search_sharpening, adversaries, where, cut)
+
+    def _answer(self, expr: ProbQuery | RewardQuery, shown: _ShownNumbers,
+                optimum: Optimum | None) -> _Answer:
+        """The property's answer: ``guaranteed`` for a query; for a threshold, true when
+        ``guaranteed`` proves it, false when no defence reaches it (not with full observation,
+        nor against the enumerated adversaries, nor where the optimum's bound side misses it),
+        else unknown."""
+        g, kind = shown.g, (ResultKind.PROBABILITY if isinstance(expr, ProbQuery)
+                            else ResultKind.REWARD)
+        if expr.threshold is None:
+            return _Answer(g.value, kind, g.lower, g.upper, by_optimum=False)
+        p = float(self.scalar(expr.threshold.value))
+        holds: Callable[[float], bool] = {
+            ComparisonOp.GE: lambda x: x >= p,
+            ComparisonOp.GT: lambda x: x > p,
+            ComparisonOp.LE: lambda x: x <= p,
+            ComparisonOp.LT: lambda x: x < p,
+        }[expr.threshold.op]
+        maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
+        proven = holds(g.lower if maximize else g.upper) and g.sound
+        bound = shown.ub if shown.ub is not None else shown.full
+        refuted = bound is not None and bound.sound and not holds(
+            bound.upper if maximize else bound.lower)
+        by_optimum = (optimum is not None and optimum.sound and not refuted
+                      and not holds(optimum.upper if maximize else optimum.lower))
+        refuted = refuted or by_optimum
+        value = True if proven else False if refuted else None
+        return _Answer(value, ResultKind.BOOLEAN, None, None, by_optimum=by_optimum)
+
+    @staticmethod
+    def _note(expr: ProbQuery | RewardQuery, run: _CheckRun, searched: _Searched,
+              shown: _ShownNumbers, bracket: _Bracket, answer: _Answer) -> str:
+        """What each reported number means, and which were left out and why."""
+        result, adversaries, optimum = searched.result, searched.adversaries, bracket.optimum
+        agent = run.player_name or "the agent"
+        direction = "at least" if (run.bare.direction is Direction.MAX) else "at most"
+        note = (f"guaranteed: the synthesised strategy of {agent!s} ensures "
                 f"{direction} this against every adversary (checked by {result.method}); "
                 f"full_observation: the value if it saw everything")
         if optimum is not None:
             note += ("; optimum: proven bounds on the best value any strategy of "
-                     f"{player_name or 'the agent'} (any memory) achieves against every "
-                     f"adversary, the {'upper' if problem.maximize else 'lower'}"
+                     f"{agent} (any memory) achieves against every "
+                     f"adversary, the {'upper' if run.problem.maximize else 'lower'}"
                      f" one by {optimum.method}")
-            if expr.threshold is not None and value is False and by_optimum:
+            if expr.threshold is not None and answer.value is False and answer.by_optimum:
                 note += ("; false: the optimum's bound side misses the threshold, so no defence "
                          "of any memory meets it")
+        if adversaries is not None:
+            settings = run.settings
+            adversary_kind = ("memoryless" if settings.adversary_memory == 1
+                              else f"{settings.adversary_memory}-node finite-state")
+            counted = adversaries.stats["vs_adversaries"]
+            if shown.vs is not None:
+                note += ("; vs_fss_adversary: the " + ("composed" if adversaries.vs_from_composed
+                         else "synthesised") + " strategy's worst value against the adversary's "
+                         f"deterministic {adversary_kind} strategies"
+                         + (" (all of them)" if adversaries.stats["exhaustive"] else
+                            f" (the {counted} strongest found)"))
+            if shown.ub is not None:
+                note += "; upper_bound: no defence does better against the strongest of them"
+        left_out = [k for k, b in (("full_observation", result.full_observation),
+                                   ("vs_fss_adversary", adversaries.vs if adversaries else None),
+                                   ("upper_bound", adversaries.ub if adversaries else None))
+                    if b is not None and not b.converged]
+        if left_out:
+            note += (f"; {' and '.join(left_out)} left out: the budget ended "
+                     f"{'its check' if len(left_out) == 1 else 'their checks'} before the bounds "
+                     "converged")
+        return note
+
+    def _statistics(self, run: _CheckRun, searched: _Searched,
+                    bracket: _Bracket) -> dict[str, object]:
+        """The run's statistics (``synthesis`` in the result): what cut it, where it ran, each
+        phase's seconds, the rounds, the deterministic search's, the bracket's, the adversary
+        phases' and what was sharpened of the reported defence."""
+        result, adversaries = searched.result, searched.adversaries
         stats: dict[str, object] = {
             "partial": result.partial or bool(adversaries and adversaries.partial)
-            or cut is not None,
-            "cut": cut,
-            "synthesis": where,
+            or searched.cut is not None,
+            "cut": searched.cut,
+            "synthesis": searched.where,
             "phases": {k: round(v, 3) for k, v in result.phases.items()},
             "rounds": [
                 {"memory": r.memory, "value_policy_iteration": r.guaranteed.value,
@@ -472,60 +520,23 @@ class SynthesisChecker:
                 for d in result.deterministic
             ],
         }
-        if optimum is not None:
-            stats["optimum_bound"] = bracket_stats
-            if settings.gap is not None:
-                stats["gap_met"] = settings.gap.met(optimum.lower, optimum.upper)
-        extra: tuple = ()  # type: ignore[type-arg]
+        if bracket.optimum is not None:
+            stats["optimum_bound"] = bracket.stats
+            if run.settings.gap is not None:
+                stats["gap_met"] = run.settings.gap.met(bracket.optimum.lower,
+                                                        bracket.optimum.upper)
         if adversaries is not None:
             stats.update(adversaries.stats)
         # what was sharpened of the reported defence (the composed one's, when it is reported)
         composed_sharpening = stats.pop("composed_sharpening", None)
         sharpening = composed_sharpening if stats.get("defence") == "composed" else \
-            search_sharpening
+            searched.search_sharpening
         if sharpening is not None:
             stats["sharpening"] = sharpening
             stats["sharpened"] = sharpening["text"]  # type: ignore[index]
         if adversaries is not None:
-            stats["adversary_memory"] = settings.adversary_memory
-            adversary_kind = ("memoryless" if settings.adversary_memory == 1
-                              else f"{settings.adversary_memory}-node finite-state")
-            counted = adversaries.stats["vs_adversaries"]
-            if vs is not None:
-                note += ("; vs_fss_adversary: the " + ("composed" if adversaries.vs_from_composed
-                         else "synthesised") + " strategy's worst value against the adversary's "
-                         f"deterministic {adversary_kind} strategies"
-                         + (" (all of them)" if adversaries.stats["exhaustive"] else
-                            f" (the {counted} strongest found)"))
-            if ub is not None:
-                note += "; upper_bound: no defence does better against the strongest of them"
-        left_out = [k for k, b in (("full_observation", result.full_observation),
-                                   ("vs_fss_adversary", adversaries.vs if adversaries else None),
-                                   ("upper_bound", adversaries.ub if adversaries else None))
-                    if b is not None and not b.converged]
-        if left_out:
-            note += (f"; {' and '.join(left_out)} left out: the budget ended "
-                     f"{'its check' if len(left_out) == 1 else 'their checks'} before the bounds "
-                     "converged")
-        if adversaries is not None:
-            if adversaries.vs_from_composed and adversaries.composed is not None:
-                extra = (adversaries.composed,)
-        return PropertyResult(
-            property=text, name=name, kind=kind, value=value, lower=lower, upper=upper,
-            seconds=sum(result.phases.values()), method=f"synthesis ({result.method})",
-            # exit 0 only when every printed number is proven: an unproven guaranteed (the budget
-            # cut its check short) leaves the answer unconverged unless a threshold is decided
-            converged=g.converged or isinstance(value, bool),
-            sound=all(b.sound for b in (g, vs, ub, full_shown) if b is not None),
-            note=note, per_initial=(value,),
-            guaranteed=g, vs_fss_adversary=vs, upper_bound=ub,
-            memory=((player_name, defence.memory_size),),
-            full_observation=full_shown, optimum=optimum, synthesis=stats,
-            maximizing=bare.direction is Direction.MAX,
-            # Boolean observables written true/false in strategy files, as in the model
-            strategies=tuple(with_boolean_observables(f, self.model) for f in
-                             (defence,) + ((worst,) if worst is not None else ()) + extra),
-        )
+            stats["adversary_memory"] = run.settings.adversary_memory
+        return stats
 
 
 @dataclass(frozen=True)
@@ -542,3 +553,118 @@ class _AdversaryOutcome:
     partial: bool
     phases: dict[str, float]
     stats: dict[str, object]
+
+
+def _without_threshold(expr: ProbQuery | RewardQuery) -> ProbQuery | RewardQuery:
+    """The query synthesis optimises for ``expr``: a threshold's comparison becomes the
+    direction (>= and > maximise, <= and < minimise)."""
+    if expr.threshold is None:
+        return expr
+    maximize = expr.threshold.op in (ComparisonOp.GE, ComparisonOp.GT)
+    return dataclasses.replace(expr, threshold=None,
+                               direction=Direction.MAX if maximize else Direction.MIN)
+
+
+@dataclass(frozen=True, eq=False)
+class _CheckRun:
+    """One property's synthesis: the query optimised (``bare``), the decision maker (index and
+    name) and its one adversary (or None), the players' settings, the problem, where the budget
+    started and its clock."""
+
+    bare: ProbQuery | RewardQuery
+    player: int
+    player_name: str
+    adversary: int | None
+    settings: SynthesisOptions
+    problem: Problem
+    started: float
+    clock: Clock
+
+
+@dataclass(frozen=True, eq=False)
+class _Searched:
+    """What the search and the adversary phases found: the search's result (its defence
+    sharpened), what sharpening did to it, the adversary phases' outcome (None: none ran), where
+    the work ran and what cut the budget short (None: nothing)."""
+
+    result: SynthesisResult
+    search_sharpening: dict[str, object] | None
+    adversaries: _AdversaryOutcome | None
+    where: dict[str, object]
+    cut: str | None
+
+
+@dataclass(frozen=True, eq=False)
+class _Bracket:
+    """The optimum bracket (None: not asked for) and its statistics."""
+
+    optimum: Optimum | None
+    stats: dict[str, object]
+
+
+def _bracket_phase(run: _CheckRun, searched: _Searched) -> _Bracket:
+    """Proven bounds on the optimum over every defence (:mod:`posgmc.synthesis.bracket`), when
+    asked for. The grid's work budget is counted in vertices (effort scales it), so its bound
+    depends only on model, options and seed; a wall-clock cap stops it at its end."""
+    if not run.settings.bracket:
+        return _Bracket(None, {})
+    result, adversaries = searched.result, searched.adversaries
+    g = adversaries.guaranteed if adversaries else result.guaranteed
+    ub = adversaries.ub if adversaries is not None else None
+    now = time.perf_counter()
+    vertices = GAP_VERTICES if run.settings.gap is not None else DEFAULT_VERTICES
+    optimum, stats = optimum_of(run.problem, g, result.full_observation, ub,
+                                deadline=run.clock.end, gap=run.settings.gap,
+                                vertices=int(vertices * run.settings.effort))
+    result.phases["optimum bound"] = time.perf_counter() - now
+    return _Bracket(optimum, stats)
+
+
+@dataclass(frozen=True, eq=False)
+class _ShownNumbers:
+    """The numbers reported, each proven and in order (:func:`ordered_numbers`): ``guaranteed``
+    and the converged ones of ``vs_fss_adversary``, ``upper_bound`` and ``full_observation``;
+    the reported defence and the adversary's worst strategy against it."""
+
+    g: Bound
+    vs: Bound | None
+    ub: Bound | None
+    full: Bound | None
+    defence: FiniteStateStrategy
+    worst: FiniteStateStrategy | None
+
+
+def _shown_numbers(run: _CheckRun, searched: _Searched) -> _ShownNumbers:
+    """The reported numbers. A number whose check the budget cut short before it converged was
+    not computed: its point would be a midpoint of wide bounds (0.5 in [0, 1] when it had no
+    time at all), so it is left out; guaranteed, the headline, stays with its proven bounds and
+    says so."""
+    result, adversaries = searched.result, searched.adversaries
+    defence = adversaries.defence if adversaries else result.strategy
+    g = adversaries.guaranteed if adversaries else result.guaranteed
+    full = result.full_observation
+    vs = ub = worst = None
+    if adversaries is not None:
+        vs, ub, worst = adversaries.vs, adversaries.ub, adversaries.worst
+    vs, ub = (b if b is not None and b.converged else None for b in (vs, ub))
+    ordered = ordered_numbers(
+        {"guaranteed": g, "vs_fss_adversary": vs, "upper_bound": ub,
+         "full_observation": full if full.converged else None},
+        maximizing=run.bare.direction is Direction.MAX)
+    g = ordered["guaranteed"] or g
+    maximize = run.bare.direction is Direction.MAX
+    progress.report("done", best=g.lower if maximize else g.upper, proven=g.sound)
+    return _ShownNumbers(g, ordered["vs_fss_adversary"], ordered["upper_bound"],
+                         ordered["full_observation"], defence, worst)
+
+
+@dataclass(frozen=True)
+class _Answer:
+    """The property's value (a number, or a threshold's true/false/None), its kind and bounds
+    (None for a threshold), and whether the optimum's bound side refuted the threshold."""
+
+    value: float | bool | None
+    kind: ResultKind
+    lower: float | None
+    upper: float | None
+    by_optimum: bool

@@ -470,6 +470,14 @@ class DeterministicResult:
     families: int
     seconds: float
 
+    @classmethod
+    def of_member(cls, q: Quotient, member: np.ndarray, *, value: float, exhaustive: bool,
+                  families: int, seconds: float) -> DeterministicResult:
+        """The deterministic ``q.memory``-node FSS that ``member`` (bool[H, O], one option per
+        hole of ``q``) picks, with what was found about it."""
+        gamma, delta = _arrays(q, member)
+        return cls(q.memory, gamma, delta, value, exhaustive, families, seconds)
+
 
 def search(problem: Problem, memory: int, *, deadline: float | None,
            max_families: int | None = None,
@@ -567,9 +575,9 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
         stack.extend(children)
     if best is None:
         return None
-    gamma, delta = _arrays(q, best[1])
-    return DeterministicResult(memory, gamma, delta, best[0], exhaustive, families,
-                               time.perf_counter() - started)
+    return DeterministicResult.of_member(q, best[1], value=best[0], exhaustive=exhaustive,
+                                         families=families,
+                                         seconds=time.perf_counter() - started)
 
 
 def _member_of(q: Quotient, gamma: np.ndarray, delta: np.ndarray) -> np.ndarray:

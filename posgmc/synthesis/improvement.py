@@ -43,7 +43,6 @@ import numpy as np
 from posgmc.synthesis.deterministic import (
     DeterministicResult,
     Quotient,
-    _arrays,
     _bellman_parts,
     _member_of,
     _solve,
@@ -157,9 +156,9 @@ def improve(problem: Problem, memory: int, *, deadline: float | None,
             since += 1
     if best is None:
         return None
-    gamma, delta = _arrays(q, best[1])
-    return DeterministicResult(memory, gamma, delta, best[0], False, rounds,
-                               time.perf_counter() - started)
+    return DeterministicResult.of_member(q, best[1], value=best[0], exhaustive=False,
+                                         families=rounds,
+                                         seconds=time.perf_counter() - started)
 
 
 @dataclass(frozen=True, eq=False)
@@ -196,9 +195,9 @@ class ImprovementJob:
                 q = quotient_of(problem, k)
                 if q is None:  # no longer fits in the memory available
                     continue
-                gamma, delta = _arrays(q, _member_of(q, best.gamma, best.delta) & q.offered)
-                r = DeterministicResult(k, gamma, delta, best.value, False, r.families,
-                                        r.seconds)
+                r = DeterministicResult.of_member(
+                    q, _member_of(q, best.gamma, best.delta) & q.offered, value=best.value,
+                    exhaustive=False, families=r.families, seconds=r.seconds)
             found.append(r)
             best = r
         return tuple(found)

@@ -19,11 +19,12 @@ from __future__ import annotations
 
 import time
 from contextlib import closing
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
 import numpy as np
 
+from posgmc.checking.intervals import QueryValue
 from posgmc.checking.property_checker import (
     CheckOptions,
     CoalitionResolver,
@@ -122,7 +123,10 @@ def synthesize(
 
     Candidates are compared by policy iteration on their products (exact linear solves); the
     chosen one is checked again with ``check_options`` (by default sound interval iteration),
-    and that check's bounds are the reported ``guaranteed``.
+    and that check's bounds are the reported ``guaranteed``. The phases, in order: the
+    full-observation solve, the deterministic phases (policy iteration over observations, the
+    deterministic search), the gradient rounds per memory size, the deterministic defences of the
+    sizes those rounds never reached, the belief controller (a pomdp), the verification.
 
     Raises:
         UnsupportedError: an objective other than unbounded reachability, or a coalition of
@@ -131,9 +135,6 @@ def synthesize(
     now = time.perf_counter()
     started = now if options.started is None else min(options.started, now)
     clock = Clock(started, options.timeout)
-    effort = options.budget
-    end = clock.end
-    deadline = end  # the search's; a pomdp keeps a share of the cap for the belief phase
     if executor is None:
         others = [p for p in range(len(model.player_names)) if p != player]
         problem = problem_of(
@@ -148,45 +149,130 @@ def synthesize(
             return synthesize(model, expr, player=player, coalition_of=coalition_of,
                               scalar=scalar, options=options, check_options=check_options,
                               executor=own)
+    run = _search_run(model, player=player, coalition_of=coalition_of, scalar=scalar,
+                      options=options, check_options=check_options, executor=executor,
+                      clock=clock)
+    phases: dict[str, float] = {}
+    full, full_bound = _full_observation_phase(run, phases)
+    seeds = _deterministic_phases(run, phases)
+    search = _gradient_phase(run, full, seeds)
+    best = _unreached_sizes(run, seeds, search)
+    best = _belief_phase(run, best, phases)
+    rounds = _memory_rounds(run, search)
+    phases["gradient search"] = search.t_search
+    phases["candidates (policy iteration)"] = search.t_verify
+    final = _verification_phase(run, best, phases)
+    # what cut the budget short, if anything: the cap or an interrupt (seen by every phase as an
+    # expired deadline); a check stopped by the caller's deadline (check_options) proves wider
+    # bounds
+    cut = clock.cut()
+    partial = cut is not None or not final.converged
+    return SynthesisResult(
+        final.strategy, final.guaranteed, full_bound, rounds, partial, phases, final.method,
+        tuple(seeds.deterministic[k] for k in sorted(seeds.deterministic)), cut)
+
+
+# --- the phases of :func:`synthesize` ------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class _SearchRun:
+    """What every phase of one synthesis reads: the model, the problem (from the executor), the
+    caller's resolvers and options, the work budget's clock and the search's deadline (a pomdp
+    keeps a share of a wall-clock cap for the belief phase)."""
+
+    model: ExplicitModel
+    problem: Problem
+    player: int
+    coalition_of: CoalitionResolver
+    scalar: ScalarEvaluator
+    options: SynthesisOptions
+    check_options: CheckOptions
+    executor: Executor
+    clock: Clock
+    deadline: float | None
+    with_belief: bool
+
+    @property
+    def query(self) -> ProbQuery | RewardQuery:
+        return self.problem.query
+
+    @property
+    def maximize(self) -> bool:
+        return self.problem.query.direction is Direction.MAX
+
+    @property
+    def sign(self) -> float:
+        return 1.0 if self.maximize else -1.0
+
+    def parametrisation(self, k: int) -> Parametrisation:
+        """The decision maker's k-node FSSs (with the caller's resolvers)."""
+        p = self.problem
+        return Parametrisation(self.model, self.player, k, p.query, p.target, p.remain,
+                               coalition_of=self.coalition_of, scalar=self.scalar,
+                               rewards=p.rewards, discount=p.discount)
+
+    def ranked(self, fss: FiniteStateStrategy) -> Bound:
+        """``fss``'s bound by policy iteration on its product (a ranking, not a proof)."""
+        bound = StrategyChecker(self.model, {fss.player: fss}, coalition_of=self.coalition_of,
+                                scalar=self.scalar, options=_POLICY
+                                ).check(self.query, text="synthesis").guaranteed
+        assert bound is not None  # noqa: S101 - the decision maker's strategy is given
+        return bound
+
+
+def _search_run(model: ExplicitModel, *, player: int, coalition_of: CoalitionResolver,
+                scalar: ScalarEvaluator, options: SynthesisOptions, check_options: CheckOptions,
+                executor: Executor, clock: Clock) -> _SearchRun:
+    """The run's record; with the belief phase to come, the search ends at its share of the
+    cap."""
     problem = executor.problem
     with_belief = bool(options.belief if options.belief is not None
                        else options.memory == AUTO_MEMORY) and belief.applies(problem)
-    if with_belief:
-        deadline = clock.at(1.0 - belief.SHARE)
-    # the full-observation solve stops at the search's deadline too (its bounds stay proven)
-    base = PropertyChecker(model, coalition_of=coalition_of, scalar=scalar,
-                           options=CheckOptions(keep_strategy=True,
-                                                solver=SolverOptions(deadline=deadline)))
-    query = problem.query
-    direction = query.direction
-    target, remain, rewards, discount = (
-        problem.target,
-        problem.remain,
-        problem.rewards,
-        problem.discount,
-    )
-    maximize = direction is Direction.MAX
-    sign = 1.0 if maximize else -1.0
-    phases: dict[str, float] = {}
+    deadline = clock.at(1.0 - belief.SHARE) if with_belief else clock.end
+    return _SearchRun(model, problem, player, coalition_of, scalar, options, check_options,
+                      executor, clock, deadline, with_belief)
 
+
+def _full_observation_phase(run: _SearchRun, phases: dict[str, float],
+                            ) -> tuple[QueryValue, Bound]:
+    """The full-observation optimum (its strategy kept for the projected starts) and its bound
+    at the initial state; it stops at the search's deadline too (its bounds stay proven)."""
+    base = PropertyChecker(run.model, coalition_of=run.coalition_of, scalar=run.scalar,
+                           options=CheckOptions(keep_strategy=True,
+                                                solver=SolverOptions(deadline=run.deadline)))
     t0 = time.perf_counter()
     progress.report("full observation")
-    full = base.query(query, everywhere=False)
-    init = model.initial_states[0]
+    full = base.query(run.query, everywhere=False)
+    init = run.model.initial_states[0]
     full_bound = Bound(
         float(full.values[init]), float(full.lower[init]), float(full.upper[init]),
         full.sound and full.converged, full.converged,
     )
     phases["full observation"] = time.perf_counter() - t0
-    # observation-level policy iteration over deterministic FSSs first (cheap: a few value
-    # iterations per size; it carries directed moves and the value of gathering information into
-    # the start, where the projections below leave them tied), then the direct search over
-    # deterministic FSSs (abstraction refinement, its share of the budget): their best defences
-    # per memory size join that size's candidates and starts
+    return full, full_bound
+
+
+@dataclass(frozen=True)
+class _DeterministicSeeds:
+    """The deterministic phases' best defences per memory size: policy iteration over
+    observations' (``improved``) and the deterministic search's (``deterministic``)."""
+
+    improved: dict[int, DeterministicResult]
+    deterministic: dict[int, DeterministicResult]
+
+
+def _deterministic_phases(run: _SearchRun, phases: dict[str, float]) -> _DeterministicSeeds:
+    """Observation-level policy iteration over deterministic FSSs first (cheap: a few value
+    iterations per size; it carries directed moves and the value of gathering information into
+    the start, where the projections leave them tied), then the direct search over deterministic
+    FSSs (abstraction refinement, its share of the budget): their best defences per memory size
+    join that size's candidates and starts."""
+    options, effort, executor = run.options, run.options.budget, run.executor
     t0 = time.perf_counter()
     progress.report("policy iteration (observations)")
-    improved_det = improvement_phase(
-        executor, _with_warm_up(options.memory), deadline,
+    improved = improvement_phase(
+        executor, _with_warm_up(options.memory), run.deadline,
         rounds=effort.default("improvement_rounds"),
     )
     phases["policy iteration (observations)"] = time.perf_counter() - t0
@@ -199,180 +285,216 @@ def synthesize(
         progress.report("deterministic search", done=0, total=effort.units(share),
                         unit="families")
     deterministic = deterministic_phase(
-        executor, options.memory, deadline, families=effort.units(share),
-        seeds=tuple(improved_det.values()),
+        executor, options.memory, run.deadline, families=effort.units(share),
+        seeds=tuple(improved.values()),
     ) if share > 0 else {}
     phases["deterministic search"] = time.perf_counter() - t0
+    return _DeterministicSeeds(improved, deterministic)
 
-    verifier = StrategyChecker  # built per candidate (its products are cached per checker)
-    rng = np.random.default_rng(options.seed)
+
+@dataclass(eq=False)
+class _GradientSearch:
+    """The gradient rounds' state as they go: the best defence overall (with its logits), the
+    best per memory size, the parametrisations built, and per size the seconds spent and the
+    evaluations made so far; the search and candidate-check seconds."""
+
     best: tuple[FiniteStateStrategy, Bound] | None = None
     best_logits: tuple[np.ndarray, np.ndarray] | None = None
-    evaluations = 0
-    t_search = t_verify = 0.0
-    # pass 0 tries every memory size from the projected full-observation strategy (and the best
-    # smaller one, embedded); later passes restart each size from new random points (and the best
-    # so far) for as long as a pass improves the best, at most ``passes`` (the work budget)
-    params: dict[int, Parametrisation] = {}
-    best_of: dict[int, tuple[FiniteStateStrategy, Bound]] = {}
-    seconds_of: dict[int, float] = {}
-    evaluations_of: dict[int, int] = {}
-    # a memory range that does not start at 1 is warm-started from a memoryless defence (a k-FSS
-    # embeds into k+1 nodes): --memory 2 searches k = 1 first and never reports less than it
-    sizes = _with_warm_up(options.memory)
-    passes = effort.default("passes")
+    params: dict[int, Parametrisation] = field(default_factory=dict)
+    best_of: dict[int, tuple[FiniteStateStrategy, Bound]] = field(default_factory=dict)
+    seconds_of: dict[int, float] = field(default_factory=dict)
+    evaluations_of: dict[int, int] = field(default_factory=dict)
+    evaluations: int = 0
+    t_search: float = 0.0
+    t_verify: float = 0.0
+
+
+def _gradient_phase(run: _SearchRun, full: QueryValue, seeds: _DeterministicSeeds,
+                    ) -> _GradientSearch:
+    """The gradient rounds. Pass 0 tries every memory size from the projected full-observation
+    strategy (and the best smaller one, embedded); later passes restart each size from new random
+    points (and the best so far) for as long as a pass improves the best, at most ``passes`` (the
+    work budget). A memory range that does not start at 1 is warm-started from a memoryless
+    defence (a k-FSS embeds into k+1 nodes): --memory 2 searches k = 1 first and never reports
+    less than it."""
+    rng = np.random.default_rng(run.options.seed)
+    search = _GradientSearch()
+    sizes = _with_warm_up(run.options.memory)
+    passes = run.options.budget.default("passes")
     for pass_no in range(passes):
         improved = False
         for i, k in enumerate(sizes):
-            if expired(deadline) and best is not None:
+            if expired(run.deadline) and search.best is not None:
                 break
             progress.report("gradient search", memory=k, done=pass_no * len(sizes) + i,
                             total=passes * len(sizes), unit="round")
-            round_start = time.perf_counter()
-            if k not in params:
-                params[k] = Parametrisation(model, player, k, query, target, remain,
-                                            coalition_of=coalition_of, scalar=scalar,
-                                            rewards=rewards, discount=discount)
-            par = params[k]
-            # the best smaller defence first (when the round's time runs out, the starts that
-            # build on what is known have run), then the full-observation optimum projected
-            # two ways (pessimistic QMDP, majority vote), then random logits
-            starts = []
-            # the deterministic defences (policy iteration's, the deterministic search's), the
-            # better first, first of all
-            seeded = [] if pass_no else _distinct(sorted(
-                (r for r in (improved_det.get(k), deterministic.get(k)) if r is not None),
-                key=lambda r: -sign * r.value))
-            for found_det in seeded:
-                starts.append(_hard_logits(found_det.gamma, found_det.delta))
-            if best_logits is not None and best is not None and best[0].memory_size <= k:
-                la0, ld0 = _embedded(par, *best_logits)
-                starts.append((la0, ld0))
-                if best[0].memory_size < k:
-                    # the embedding is a stationary point of the larger space (the new nodes
-                    # copy node 0): perturbed copies let the nodes specialise
-                    for _ in range(2):
-                        starts.append((la0 + rng.normal(size=la0.shape),
-                                       ld0 + 2.0 * rng.normal(size=ld0.shape)))
-            if pass_no == 0:
-                starts.append(_qmdp(par, full, model, rewards, discount, sign))
-                starts.append(_projected(par, full, model))
-            for _ in range(effort.units(options.restarts)):
-                starts.append((rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])))
-            found, n_eval, seconds = _round(
-                par,
-                starts,
-                sign,
-                options,
-                deadline,
-                executor,
-                model,
-                query,
-                coalition_of,
-                scalar,
-                maximize,
-                extra=tuple((r.gamma, r.delta) for r in seeded),
-            )
-            evaluations += n_eval
-            t_search += seconds[0]
-            t_verify += seconds[1]
-            if found is not None and (best is None or _better(found[1], best[1], maximize)):
-                best = (found[0], found[1])
-                best_logits = found[2]
-                improved = True
-                progress.report("gradient search", memory=k, best=found[1].value)
-            # else the smaller defence stays: embedded into k nodes (_embed_strategy) it
-            # guarantees exactly as much, so k never does worse; the smaller one is reported
-            if found is not None and (
-                k not in best_of or _better(found[1], best_of[k][1], maximize)
-            ):
-                best_of[k] = (found[0], found[1])
-            seconds_of[k] = seconds_of.get(k, 0.0) + time.perf_counter() - round_start
-            evaluations_of[k] = evaluations
-        if expired(deadline) or not improved:
+            improved = _gradient_round(run, search, k, pass_no, full, seeds, rng) or improved
+        if expired(run.deadline) or not improved:
             break
-    # the deterministic defences of the memory sizes the gradient rounds never reached
-    for k, found_det in sorted([*improved_det.items(), *deterministic.items()],
-                               key=lambda kr: (kr[0], -sign * kr[1].value)):
-        if k in best_of:
+    return search
+
+
+def _gradient_round(run: _SearchRun, search: _GradientSearch, k: int, pass_no: int,
+                    full: QueryValue,
+                    seeds: _DeterministicSeeds, rng: np.random.Generator) -> bool:
+    """One round of memory size ``k``: its starts, the ascent from each and the checked
+    candidates; ``search`` records what it found. Returns whether it improved the best."""
+    round_start = time.perf_counter()
+    if k not in search.params:
+        search.params[k] = run.parametrisation(k)
+    par = search.params[k]
+    # the deterministic defences (policy iteration's, the deterministic search's), the better
+    # first, on the first pass
+    seeded = [] if pass_no else _distinct(sorted(
+        (r for r in (seeds.improved.get(k), seeds.deterministic.get(k)) if r is not None),
+        key=lambda r: -run.sign * r.value))
+    starts = _round_starts(run, search, par, pass_no, full, seeded, rng)
+    found, n_eval, seconds = _round(par, starts, run,
+                                    extra=tuple((r.gamma, r.delta) for r in seeded))
+    search.evaluations += n_eval
+    search.t_search += seconds[0]
+    search.t_verify += seconds[1]
+    improved = False
+    if found is not None and (search.best is None
+                              or _better(found[1], search.best[1], run.maximize)):
+        search.best = (found[0], found[1])
+        search.best_logits = found[2]
+        improved = True
+        progress.report("gradient search", memory=k, best=found[1].value)
+    # else the smaller defence stays: embedded into k nodes (_embed_strategy) it guarantees
+    # exactly as much, so k never does worse; the smaller one is reported
+    if found is not None and (
+        k not in search.best_of or _better(found[1], search.best_of[k][1], run.maximize)
+    ):
+        search.best_of[k] = (found[0], found[1])
+    search.seconds_of[k] = search.seconds_of.get(k, 0.0) + time.perf_counter() - round_start
+    search.evaluations_of[k] = search.evaluations
+    return improved
+
+
+def _round_starts(run: _SearchRun, search: _GradientSearch, par: Parametrisation, pass_no: int,
+                  full: QueryValue, seeded: list[DeterministicResult], rng: np.random.Generator,
+                  ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """A round's starts, in the order they run: the deterministic defences ``seeded``, the best
+    smaller defence (when the round's time runs out, the starts that build on what is known have
+    run), then on the first pass the full-observation optimum projected two ways (pessimistic
+    QMDP, majority vote), then random logits."""
+    k = par.k
+    starts = [_hard_logits(found_det.gamma, found_det.delta) for found_det in seeded]
+    best, best_logits = search.best, search.best_logits
+    if best_logits is not None and best is not None and best[0].memory_size <= k:
+        la0, ld0 = _embedded(par, *best_logits)
+        starts.append((la0, ld0))
+        if best[0].memory_size < k:
+            # the embedding is a stationary point of the larger space (the new nodes copy node
+            # 0): perturbed copies let the nodes specialise
+            for _ in range(2):
+                starts.append((la0 + rng.normal(size=la0.shape),
+                               ld0 + 2.0 * rng.normal(size=ld0.shape)))
+    if pass_no == 0:
+        p = run.problem
+        starts.append(_qmdp(par, full, run.model, p.rewards, p.discount, run.sign))
+        starts.append(_projected(par, full, run.model))
+    for _ in range(run.options.budget.units(run.options.restarts)):
+        starts.append((rng.normal(size=par.shapes[0]), rng.normal(size=par.shapes[1])))
+    return starts
+
+
+def _unreached_sizes(run: _SearchRun, seeds: _DeterministicSeeds, search: _GradientSearch,
+                     ) -> tuple[FiniteStateStrategy, Bound] | None:
+    """The deterministic defences of the memory sizes the gradient rounds never reached, ranked
+    and recorded in ``search``; returns the best defence overall."""
+    best = search.best
+    for k, found_det in sorted([*seeds.improved.items(), *seeds.deterministic.items()],
+                               key=lambda kr: (kr[0], -run.sign * kr[1].value)):
+        if k in search.best_of:
             continue
-        fss = params[k].strategy(found_det.gamma, found_det.delta) if k in params else \
-            Parametrisation(model, player, k, query, target, remain, coalition_of=coalition_of,
-                            scalar=scalar, rewards=rewards, discount=discount
-                            ).strategy(found_det.gamma, found_det.delta)
-        bound = StrategyChecker(model, {fss.player: fss}, coalition_of=coalition_of, scalar=scalar,
-                                options=_POLICY).check(query, text="synthesis").guaranteed
-        assert bound is not None  # noqa: S101 - the decision maker's strategy is given
-        best_of[k] = (fss, bound)
-        seconds_of[k], evaluations_of[k] = 0.0, evaluations
-        if best is None or _better(bound, best[1], maximize):
+        par = search.params[k] if k in search.params else run.parametrisation(k)
+        fss = par.strategy(found_det.gamma, found_det.delta)
+        bound = run.ranked(fss)
+        search.best_of[k] = (fss, bound)
+        search.seconds_of[k], search.evaluations_of[k] = 0.0, search.evaluations
+        if best is None or _better(bound, best[1], run.maximize):
             best = (fss, bound)
-    # a pomdp: the belief-based controller handing over to the best defence at its frontier
-    # (:mod:`posgmc.synthesis.belief`), kept when its product check beats the best
-    belief_result = None
-    if with_belief and best is not None:
-        t0 = time.perf_counter()
-        progress.report("belief exploration")
-        belief_result = _belief_candidate(problem, best[0], end, model, query, coalition_of,
-                                          scalar, maximize, effort.default("belief_nodes"))
-        if belief_result is not None and _better(belief_result[1], best[1], maximize):
-            best = belief_result
-        phases["belief exploration"] = time.perf_counter() - t0
-    # per memory size: the best defence with at most that many nodes (a smaller one embeds)
+    return best
+
+
+def _belief_phase(run: _SearchRun, best: tuple[FiniteStateStrategy, Bound] | None,
+                  phases: dict[str, float]) -> tuple[FiniteStateStrategy, Bound] | None:
+    """A pomdp: the belief-based controller handing over to the best defence at its frontier
+    (:mod:`posgmc.synthesis.belief`), kept when its product check beats the best."""
+    if not run.with_belief or best is None:
+        return best
+    t0 = time.perf_counter()
+    progress.report("belief exploration")
+    found = _belief_candidate(run, best[0], run.options.budget.default("belief_nodes"))
+    if found is not None and _better(found[1], best[1], run.maximize):
+        best = found
+    phases["belief exploration"] = time.perf_counter() - t0
+    return best
+
+
+def _memory_rounds(run: _SearchRun, search: _GradientSearch) -> tuple[MemoryRound, ...]:
+    """Per memory size: the best defence with at most that many nodes (a smaller one embeds)."""
     rounds = []
     upto: tuple[FiniteStateStrategy, Bound] | None = None
-    for k in sizes:
-        if k not in best_of:
+    for k in _with_warm_up(run.options.memory):
+        if k not in search.best_of:
             continue
-        if upto is None or _better(best_of[k][1], upto[1], maximize):
-            upto = best_of[k]
-        rounds.append(MemoryRound(k, upto[1], upto[0].is_deterministic, evaluations_of[k],
-                                  seconds_of[k]))
-    phases["gradient search"] = t_search
-    phases["candidates (policy iteration)"] = t_verify
+        if upto is None or _better(search.best_of[k][1], upto[1], run.maximize):
+            upto = search.best_of[k]
+        rounds.append(MemoryRound(k, upto[1], upto[0].is_deterministic,
+                                  search.evaluations_of[k], search.seconds_of[k]))
+    return tuple(rounds)
+
+
+@dataclass(frozen=True)
+class _Verified:
+    """The reported defence, its proven bound (``guaranteed``), the method that proved it and
+    whether that check converged."""
+
+    strategy: FiniteStateStrategy
+    guaranteed: Bound
+    method: str
+    converged: bool
+
+
+def _verification_phase(run: _SearchRun, best: tuple[FiniteStateStrategy, Bound] | None,
+                        phases: dict[str, float]) -> _Verified:
+    """The chosen defence (with the memory asked for) checked by the caller's method (sound
+    interval iteration by default). Policy iteration ranked the candidates, but its
+    floating-point solves of nearly singular systems are no proof (it can exceed the
+    full-observation value by ~1e-9), so it is never what is reported."""
     assert best is not None  # noqa: S101 - the first memory size always runs
-    if best[0].memory_size < min(options.memory):
+    strategy = best[0]
+    if strategy.memory_size < min(run.options.memory):
         # the warm-up's defence won: report it with the memory asked for (the new nodes are
         # never entered, so it guarantees exactly as much)
-        best = (_embed_strategy(best[0], min(options.memory)), best[1])
-    # the reported number: the chosen defence checked by the caller's method (sound interval
-    # iteration by default). Policy iteration ranked the candidates, but its floating-point
-    # solves of nearly singular systems are no proof (it can exceed the full-observation value
-    # by ~1e-9), so it is never what is reported
+        strategy = _embed_strategy(strategy, min(run.options.memory))
     t0 = time.perf_counter()
     progress.report("verification")
-    final = verifier(model, {best[0].player: best[0]}, coalition_of=coalition_of, scalar=scalar,
-                     options=check_options).check(query, text="synthesis")
+    final = StrategyChecker(run.model, {strategy.player: strategy},
+                            coalition_of=run.coalition_of, scalar=run.scalar,
+                            options=run.check_options).check(run.query, text="synthesis")
     phases["verification"] = time.perf_counter() - t0
     assert final.guaranteed is not None  # noqa: S101 - the decision maker's strategy is given
-    guaranteed, method = final.guaranteed, final.method
-    # what cut the budget short, if anything: the cap or an interrupt (seen by every phase as an
-    # expired deadline); a check stopped by the caller's deadline (check_options) proves wider
-    # bounds
-    cut = clock.cut()
-    partial = cut is not None or not final.converged
-    return SynthesisResult(best[0], guaranteed, full_bound, tuple(rounds), partial, phases, method,
-                           tuple(deterministic[k] for k in sorted(deterministic)), cut)
+    return _Verified(strategy, final.guaranteed, final.method, final.converged)
 
 
-def _belief_candidate(problem: Problem, cutoff: FiniteStateStrategy, end: float | None,
-                      model: ExplicitModel, query: Expr, coalition_of: CoalitionResolver,
-                      scalar: ScalarEvaluator, maximize: bool, nodes: int,
+def _belief_candidate(run: _SearchRun, cutoff: FiniteStateStrategy, nodes: int,
                       ) -> tuple[FiniteStateStrategy, Bound] | None:
     """The belief-based controller over ``cutoff`` (at most ``nodes`` belief nodes explored) and
     its bound by policy iteration on its product (a ranking, like every candidate's), or None."""
     # under a cap the controller is built with a fifth of what is left to spare: its product is
     # checked after
     now = time.perf_counter()
-    found = belief.belief_phase(problem, cutoff,
+    end = run.clock.end
+    found = belief.belief_phase(run.problem, cutoff,
                                 None if end is None else now + 0.8 * max(0.0, end - now),
                                 explore=nodes)
     if found is None:
         return None
-    r = StrategyChecker(model, {found.strategy.player: found.strategy}, coalition_of=coalition_of,
-                        scalar=scalar, options=_POLICY).check(query, text="synthesis")
-    assert r.guaranteed is not None  # noqa: S101 - the decision maker's strategy is given
-    return found.strategy, r.guaranteed
+    return found.strategy, run.ranked(found.strategy)
 
 
 DETERMINISTIC_FAMILIES_POMDP = 0
@@ -404,15 +526,7 @@ def _with_warm_up(memory: tuple[int, ...]) -> tuple[int, ...]:
 def _round(
     par: Parametrisation,
     starts: list[tuple[np.ndarray, np.ndarray]],
-    sign: float,
-    options: SynthesisOptions,
-    deadline: float | None,
-    executor: Executor,
-    model: ExplicitModel,
-    query: Expr,
-    coalition_of: CoalitionResolver,
-    scalar: ScalarEvaluator,
-    maximize: bool,
+    run: _SearchRun,
     extra: tuple[tuple[np.ndarray, np.ndarray], ...] = (),
 ) -> tuple[
     tuple[FiniteStateStrategy, Bound, tuple[np.ndarray, np.ndarray]] | None,
@@ -424,6 +538,7 @@ def _round(
     candidates checked by policy iteration on their products. Returns the
     best (strategy, its bound, its logits), the number of evaluations and (search, check)
     seconds."""
+    sign, options, deadline, model = run.sign, run.options, run.deadline, run.model
     evaluations = 0
     t0 = time.perf_counter()
     candidates: list[tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]] = []
@@ -432,7 +547,7 @@ def _round(
     budget = options.budget
     jobs = [AscendJob(par.k, la, ld, budget.units(options.iterations), options.learning_rate,
                       deadline) for la, ld in starts]
-    for i, ((la, ld), n_eval) in enumerate(executor.map(jobs)):
+    for i, ((la, ld), n_eval) in enumerate(run.executor.map(jobs)):
         if i and not n_eval:
             continue  # the budget ran out before this start moved
         evaluations += n_eval
@@ -474,11 +589,8 @@ def _round(
         if best is not None and expired(deadline):
             break  # the most promising candidate is checked; the rest only within the cap
         fss = par.strategy(g, d)
-        r = StrategyChecker(model, {fss.player: fss}, coalition_of=coalition_of, scalar=scalar,
-                            options=_POLICY).check(query, text="synthesis")
-        bound = r.guaranteed
-        assert bound is not None  # noqa: S101 - the decision maker's strategy is given
-        if best is None or _better(bound, best[1], maximize):
+        bound = run.ranked(fss)
+        if best is None or _better(bound, best[1], run.maximize):
             best = (fss, bound, logits)
     return best, evaluations, (t_search, time.perf_counter() - t0)
 

@@ -122,7 +122,9 @@ def test_partially_observable_needs_full_observation(run) -> None:  # type: igno
     assert "full-observation value" in r.output
 
 
-def test_export_strategy_writes_one_entry_per_deciding_state(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_export_strategy_writes_the_coalition_s_memoryless_fss(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """A model checker's strategy is written as posgmc-fss/1 with one memory node, the format of
+    every other strategy file: the coalition's (here the rover's) choice in each of its states."""
     from posgmc import api
     from posgmc.checking.property_checker import CheckOptions
 
@@ -130,28 +132,32 @@ def test_export_strategy_writes_one_entry_per_deciding_state(run, tmp_path: Path
     prop = '<<rover>> Pmax=? [ F "goal" ]'
     r = run("check", ROVER, "--prop", prop, "--export-strategy", str(out))
     assert r.exit_code == EXIT_OK, r.output
+    assert f"wrote {out}" in r.output
     doc = json.loads(out.read_text())
-    assert doc["property"] == prop and doc["memoryless"] is True
+    assert (doc["format"], doc["player"], doc["memory_size"]) == ("posgmc-fss/1", "rover", 1)
+    assert doc["observables"] == ["turn", "x", "budget", "spoofed"]
     report = api.check(api.load(ROVER), properties=[prop], options=CheckOptions(keep_strategy=True))
     m, strategy = report.model, report.results[0].strategy
-    deciding = [s for s in range(m.num_states) if strategy[s] >= 0]
-    assert [e["state"] for e in doc["states"]] == deciding
-    for e in doc["states"]:
-        s, c = e["state"], int(m.row_groups[e["state"]]) + e["choice"]
-        assert c == strategy[s] and m.row_groups[s] <= c < m.row_groups[s + 1]
-        assert e["action"] == m.action_names[int(m.choice_actions[c])]
-        assert e["player"] == m.player_names[int(m.state_players[s])]
-        assert list(e["valuation"].values()) == [int(v) for v in m.state_values[s]]
+    rover = [s for s in range(m.num_states) if m.state_players[s] == 0]
+    assert len(doc["rules"]) == len(rover)  # one rule per state the rover sees (all of it)
+    rules = {tuple(rule["observation"].values()): rule["action"] for rule in doc["rules"]}
+    for s in rover:
+        action = rules[tuple(int(v) for v in m.state_values[s])]
+        c = int(strategy[s]) if strategy[s] >= 0 else int(m.row_groups[s])  # no decision: first
+        assert action == {m.action_names[int(m.choice_actions[c])]: 1.0}
 
 
 def test_export_strategy_of_a_strategy_that_chooses_nowhere(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
-    """``F true``: every state is a target, so no state decides and the streamed document still
-    parses, with an empty list."""
+    """``F true``: every state is a target, so no state decides; the file still holds a rule for
+    each of the rover's states (its first choice) and checks to 1."""
     out = tmp_path / "strategy.json"
-    r = run("check", ROVER, "--prop", "<<rover>> Pmax=? [ F true ]", "--export-strategy", str(out))
+    prop = "<<rover>> Pmax=? [ F true ]"
+    r = run("check", ROVER, "--prop", prop, "--export-strategy", str(out))
     assert r.exit_code == EXIT_OK, r.output
-    doc = json.loads(out.read_text())
-    assert doc == {"property": "<<rover>> Pmax=? [ F true ]", "memoryless": True, "states": []}
+    assert json.loads(out.read_text())["format"] == "posgmc-fss/1"
+    again = run("check", ROVER, "--prop", prop, "--strategy", str(out), "--json")
+    assert again.exit_code == EXIT_OK, again.output
+    assert json.loads(again.output)["results"][0]["guaranteed"]["value"] == 1.0
 
 
 def test_export_strategy_needs_an_unbounded_query(run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]

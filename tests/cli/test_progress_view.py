@@ -110,3 +110,33 @@ def test_ctrl_c_prints_exports_and_keeps_the_best_verified_defence(tmp_path: Pat
     assert again.exit_code == 0, again.output
     checked = json.loads(again.stdout)["results"][0]["guaranteed"]
     assert (checked["lower"], checked["upper"]) == (g["lower"], g["upper"])
+
+
+# by hand: x=0 reaches x=1 with probability p, else x=2; P(F x=1) = p
+CHAIN = """dtmc
+const double p;
+module m x : [0..2] init 0; [] x=0 -> p:(x'=1) + 1-p:(x'=2); [] x>0 -> true; endmodule
+"""
+
+
+def test_a_check_sweep_reports_each_point_as_it_completes(tmp_path: Path) -> None:
+    """check --const p=...: the table comes at the end, so each point is reported on its own as it
+    completes, with its number (the chain's by hand: 0.1, 0.5, 0.9): a --progress line on stderr,
+    a progress event with --json-lines."""
+    path = tmp_path / "chain.prism"
+    path.write_text(CHAIN)
+    args = ["check", str(path), "--prop", "P=? [ F x=1 ]", "--const", "p=0.1:0.4:0.9"]
+    r = CliRunner().invoke(main, [*args, "--progress"])
+    assert r.exit_code == 0, r.output
+    done = [x for x in r.stderr.splitlines() if x.startswith("sweep: point ")]
+    assert [x.split("point ")[1].split(" done")[0] for x in done] == ["p=0.1", "p=0.5", "p=0.9"]
+    for i, (line, want) in enumerate(zip(done, ("0.1", "0.5", "0.9")), start=1):
+        assert f"guaranteed {want}" in line and f"point {i}/3" in line
+    r = CliRunner().invoke(main, [*args, "--json-lines"])
+    assert r.exit_code == 0, r.output
+    objects = [json.loads(x) for x in r.stdout.splitlines()]
+    events = [o["progress"] for o in objects if "progress" in o]
+    assert [(e["unit"], e["done"], e["total"]) for e in events] == [("point", i, 3)
+                                                                    for i in (1, 2, 3)]
+    assert [round(e["best"], 9) for e in events] == [0.1, 0.5, 0.9]
+    assert "runs" in objects[-1]  # then the sweep's one JSON object, as --json prints it

@@ -82,7 +82,7 @@ def test_a_sweep_gets_a_file_per_point(tmp_path: Path) -> None:
     for n in (5, 6):
         doc = json.loads((tmp_path / f"s.N={n}.json").read_text())
         # the valuations are those of that point's model: x reaches N there, never beyond
-        assert max(e["valuation"]["x"] for e in doc["states"]) <= n
+        assert max(rule["observation"]["x"] for rule in doc["rules"]) <= n
     assert not out.exists()
 
 
@@ -195,3 +195,87 @@ def test_a_synthesis_sweep_gets_a_directory_per_point(tmp_path: Path) -> None:
     assert _wrote(r.stdout) == [str(out / "accuracy=0.75" / "agent.json"),
                                 str(out / "accuracy=0.85" / "agent.json")]
     assert all(Path(p).exists() for p in _wrote(r.stdout))
+
+
+CHOICE_MDP = """mdp
+module m
+  s : [0..2] init 0;
+  [safe]  s=0 -> 0.9:(s'=1) + 0.1:(s'=0);
+  [risky] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
+  [stay]  s>0 -> true;
+endmodule
+label "one" = s=1;
+"""
+
+
+@pytest.mark.parametrize(("prop", "value"), [('Pmax=? [ F "one" ]', 1.0),
+                                             ('Pmin=? [ F "one" ]', 0.5)])
+def test_an_mdp_scheduler_is_written_as_the_agent_s_fss_and_rechecks(
+        tmp_path: Path, prop: str, value: float) -> None:
+    """s=0 either retries (safe: reaches "one" surely) or gambles (risky: 1/2), so the Pmax and the
+    Pmin scheduler differ in their one decision; each file, checked again, gives its number."""
+    model = tmp_path / "choice.nm"
+    model.write_text(CHOICE_MDP)
+    out = tmp_path / "s.json"
+    r = run("check", str(model), "--prop", prop, "--export-strategy", str(out))
+    assert r.exit_code == 0, r.output
+    assert _wrote(r.output) == [str(out)]
+    doc = json.loads(out.read_text())
+    assert (doc["format"], doc["player"], doc["memory_size"]) == ("posgmc-fss/1", "", 1)
+    decision = next(rule for rule in doc["rules"] if rule["observation"] == {"s": 0})
+    assert decision["action"] == {"safe" if value == 1.0 else "risky": 1.0}
+    # the scheduler fixed, the other direction gives the same number
+    other = prop.replace("max", "MIN").replace("min", "max").replace("MIN", "min")
+    again = run("check", str(model), "--prop", other, "--strategy", str(out), "--json")
+    assert again.exit_code == 0, again.output
+    g = json.loads(again.stdout)["results"][0]["guaranteed"]
+    assert g["lower"] <= value <= g["upper"]
+    shown = run("show-strategy", str(out))
+    assert shown.exit_code == 0, shown.output
+    assert "1 memory node" in shown.output and "deterministic" in shown.output
+
+
+def test_a_game_strategy_is_the_coalition_s_fss_and_rechecks(tmp_path: Path) -> None:
+    """rover.smg: the file is the rover's strategy alone (the attacker's is not the coalition's),
+    so ``--strategy FILE`` needs no player and gives back the printed number."""
+    out = tmp_path / "s.json"
+    r = run("check", ROVER_SMG, "--prop", SAFE_REACH, "--export-strategy", str(out), "--json")
+    assert r.exit_code == 0, r.output
+    assert _wrote(r.stderr) == [str(out)]
+    assert json.loads(out.read_text())["player"] == "rover"
+    reported = json.loads(r.stdout)["results"][0]
+    again = run("check", ROVER_SMG, "--prop", SAFE_REACH, "--strategy", str(out), "--json")
+    assert again.exit_code == 0, again.output
+    g = json.loads(again.stdout)["results"][0]["guaranteed"]
+    assert g["lower"] <= reported["upper"] and reported["lower"] <= g["upper"]
+
+
+def test_a_coalition_of_two_gets_a_file_per_player(tmp_path: Path) -> None:
+    """red_and_black's ``<<gambler,casino>>``: one file per coalition player; both given back
+    reproduce the value (0.064 at start=1, models/red_and_black/README.md)."""
+    model = str(ROOT / "models" / "red_and_black" / "red_and_black.smg")
+    prop = '<<gambler,casino>> Pmax=? [ F "rich" ]'
+    out = tmp_path / "s.json"
+    r = run("check", model, "--const", "start=1", "--prop", prop, "--export-strategy", str(out))
+    assert r.exit_code == 0, r.output
+    gambler, casino = tmp_path / "s.gambler.json", tmp_path / "s.casino.json"
+    assert _wrote(r.output) == [str(gambler), str(casino)] and not out.exists()
+    again = run("check", model, "--const", "start=1", "--prop", prop, "--strategy",
+                f"gambler={gambler}", "--strategy", f"casino={casino}", "--json")
+    assert again.exit_code == 0, again.output
+    g = json.loads(again.stdout)["results"][0]["guaranteed"]
+    assert g["lower"] <= 0.064 <= g["upper"]
+
+
+def test_a_full_observation_strategy_of_a_posg_stays_state_indexed(tmp_path: Path) -> None:
+    """--full-observation on rover.posg: the optimal choices differ between states the rover
+    cannot tell apart, so no posgmc-fss/1 file of the rover says them; the state-indexed form is
+    written and the message says why."""
+    out = tmp_path / "s.json"
+    r = run("check", str(ROVER_POSG), "--prop", SAFE_REACH, "--full-observation",
+            "--export-strategy", str(out))
+    assert r.exit_code == 0, r.output
+    assert _wrote(r.output) == [str(out)]
+    assert "note: the state-indexed memoryless strategy of every player, not posgmc-fss/1" \
+        in r.output
+    assert json.loads(out.read_text())["memoryless"] is True

@@ -1,4 +1,5 @@
-"""The memoryless strategy that ``check --export-strategy`` writes for a fully observable model is
+"""The state-indexed memoryless strategy (``{"property", "memoryless": true, "states"}``), which
+``check --export-strategy`` wrote for a fully observable model before it wrote posgmc-fss/1, is
 read wherever a strategy is (``check --strategy``, ``show-strategy``, the API), as the player's
 strategy with one memory node."""
 
@@ -24,10 +25,15 @@ VALUE = 0.9876561794
 
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The state-indexed form, as ``check --export-strategy`` wrote it before it wrote
+    posgmc-fss/1 (and still writes it where a choice cannot be said by observation and label)."""
+    from posgmc.checking.property_checker import CheckOptions
+    from posgmc.strategies.files import write_memoryless_strategy
+
     path = tmp_path_factory.mktemp("export") / "s.json"
-    r = CliRunner().invoke(main, ["check", ROVER, "--prop", REACH, "--export-strategy", str(path)])
-    assert r.exit_code == 0, r.output
-    assert f"wrote {path}" in r.output
+    report = api.check(api.load(ROVER), properties=[REACH],
+                       options=CheckOptions(keep_strategy=True))
+    write_memoryless_strategy(path, REACH, report.model, report.results[0].strategy)
     return path
 
 

@@ -12,7 +12,7 @@ from posgmc import api
 from posgmc.strategies.simulate import wilson
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
-from tests.strategies.helpers import drawn_game
+from tests.random_games import drawn_game
 
 ROOT = Path(__file__).resolve().parents[2]
 ROVER = ROOT / "models" / "rover.posg"

@@ -21,7 +21,7 @@ from posgmc.strategies.files import read_strategy, strategy_from_json
 from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 from posgmc.strategies.product import strategy_product
 from posgmc.syntax.ast import ModelType
-from tests.strategies.helpers import games
+from tests.random_games import games
 
 ROOT = Path(__file__).resolve().parents[2]
 ROVER = ROOT / "models" / "rover.posg"

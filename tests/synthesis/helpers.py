@@ -1,5 +1,5 @@
-"""Random small POSGs, brute-force enumerations of deterministic strategies and small models
-shared by the synthesis tests."""
+"""Brute-force enumerations of deterministic strategies and small models shared by the synthesis
+tests (the random games: :mod:`tests.random_games`)."""
 
 from __future__ import annotations
 
@@ -7,13 +7,14 @@ import itertools
 
 import numpy as np
 
-from posgmc.model.explicit import Observation, make_model
+from posgmc import api
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
-from posgmc.syntax.ast import ModelType
+from posgmc.syntax import parser
+from posgmc.synthesis.checker import SynthesisChecker
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.problem import POLICY
-from posgmc.synthesis.search import parametrisation
+from posgmc.synthesis.search import parametrisation, problem_of
 from tests.conftest import BENCHMARKS
 
 POSMG = BENCHMARKS / "posmg"
@@ -25,50 +26,28 @@ SMALL = SynthesisOptions(memory=(1,), restarts=1, iterations=10, timeout=120, ad
 """Small enough to finish far within the budget (so runs are deterministic), on 3-7 states."""
 
 
-def random_posg(seed: int):  # type: ignore[no-untyped-def]
-    """A random POSG with 4-8 states besides an absorbing goal and an absorbing sink: player 0
-    sees one bit and has 2-3 labels per observation, player 1 (the adversary) sees the state and
-    has 1-2 labels; every choice moves to 1-3 random states (the sink among them), so values
-    are neither all 0 nor all 1 and both players matter."""
-    rng = np.random.default_rng(seed)
-    S = int(rng.integers(4, 9)) + 2
-    goal, sink = S - 2, S - 1
-    owner = rng.integers(0, 2, size=S)
-    owner[0] = 0
-    owner[[goal, sink]] = 1
-    obs0 = rng.integers(0, 2, size=S)
-    labels0 = {
-        z: sorted(rng.choice(["a", "b", "c"], size=int(rng.integers(2, 4)), replace=False).tolist())
-        for z in (0, 1)
-    }
-    names = ("", "a", "b", "c", "x", "y")
-    rows, actions, row_groups = [], [], [0]
-    for s in range(S):
-        if s in (goal, sink):
-            acts = ["x"]
-        elif owner[s] == 0:
-            acts = labels0[int(obs0[s])]
-        else:
-            acts = ["x", "y"][: int(rng.integers(1, 3))]
-        for a in acts:
-            row = np.zeros(S)
-            if s in (goal, sink):
-                row[s] = 1.0
-            else:
-                succ = rng.choice(S, size=int(rng.integers(1, 4)), replace=False)
-                row[succ] = rng.random(succ.size) + 0.1
-                row /= row.sum()
-            rows.append(row)
-            actions.append(names.index(a))
-        row_groups.append(len(rows))
-    ids = np.where(owner == 0, obs0, 2).astype(np.int32)
-    return make_model(
-        ModelType.POSG, row_groups, np.array(rows), choice_actions=actions, action_names=names,
-        state_players=owner, player_names=("p0", "p1"),
-        observations=(Observation(0, ids, ("o",), np.array([[0], [1], [2]])),),
-        labels={"goal": np.arange(S) == goal}, variable_names=("s",),
-        state_values=np.arange(S)[:, None],
-    )
+def reach_problem(model):  # type: ignore[no-untyped-def]
+    """The problem of :data:`PROP` on ``model``: p0 against p1."""
+    coalition = api._resolver(model, False).coalition_of
+    return problem_of(model, parser.parse_property(PROP).expr, player=0, adversary=1,
+                      coalition_of=coalition, scalar=api._scalar)
+
+
+def synthesised(model, options: SynthesisOptions = SMALL):  # type: ignore[no-untyped-def]
+    """:data:`PROP` on ``model`` answered by synthesis with ``options``."""
+    checker = SynthesisChecker(model, coalition_of=api._resolver(model, False).coalition_of,
+                               scalar=api._scalar, synthesis=options)
+    return checker.check(parser.parse_property(PROP).expr, text=PROP)
+
+
+def without_times(doc: dict) -> dict:  # type: ignore[type-arg]
+    """A result's synthesis statistics without what depends on time or placement."""
+    # "synthesis": where the jobs ran and their times (the task counts: test_jobs_... below)
+    out = {k: v for k, v in doc.items() if k not in ("seconds", "phases", "synthesis")}
+    out["rounds"] = [{k: v for k, v in r.items() if k != "seconds"} for r in doc["rounds"]]
+    out["deterministic"] = [{k: v for k, v in r.items() if k != "seconds"}
+                            for r in doc.get("deterministic", [])]
+    return out
 
 
 def deterministic_strategies(model, player: int, observables, values, offered):  # type: ignore[no-untyped-def]

@@ -14,7 +14,7 @@ from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import enumerate_adversaries, versus_adversaries
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.search import synthesize
-from tests.strategies.helpers import drawn_game
+from tests.random_games import drawn_game
 from tests.synthesis.helpers import POSMG, deterministic_strategies, labels_by_observation
 
 PROP = '<<p0>> Pmax=? [ F "goal" ]'

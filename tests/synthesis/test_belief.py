@@ -22,7 +22,8 @@ from posgmc.syntax.ast import ModelType
 from posgmc.synthesis import belief
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.search import problem_of
-from tests.synthesis.helpers import BLIND, random_posg
+from tests.random_games import random_posg
+from tests.synthesis.helpers import BLIND
 
 # by hand: a coin in s=0 puts the agent in s=1 or s=2, which it cannot tell apart (o=0 in s=0..4).
 # In s=1 "a" wins and "b" moves to s=3; in s=2 "b" wins and "a" moves to s=4; in s=3 "a" wins, in

@@ -26,7 +26,8 @@ from posgmc.syntax import parser
 from posgmc.synthesis.bracket import optimum_of
 from posgmc.synthesis.options import Gap, SynthesisOptions
 from posgmc.synthesis.search import parametrisation, problem_of
-from tests.synthesis.helpers import BLIND, random_posg
+from tests.random_games import random_posg
+from tests.synthesis.helpers import BLIND
 
 ROOT = Path(__file__).resolve().parents[2]
 TRAP = ROOT / "models" / "trap_grid" / "trap_grid.pomdp"

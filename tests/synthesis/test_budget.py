@@ -18,7 +18,8 @@ from posgmc import api
 from posgmc.syntax import parser
 from posgmc.synthesis import budget
 from posgmc.synthesis.checker import SynthesisChecker
-from tests.synthesis.helpers import POSMG, PROP, SMALL, random_posg
+from tests.random_games import random_posg
+from tests.synthesis.helpers import POSMG, PROP, SMALL
 
 
 def _checker(model, options):  # type: ignore[no-untyped-def]

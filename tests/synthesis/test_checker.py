@@ -19,7 +19,7 @@ from posgmc.checking.results import Bound, PropertyResult, ordered_numbers
 from posgmc.cli.check_command import not_passed
 from posgmc.engines.options import SolverOptions
 from posgmc.synthesis.options import SynthesisOptions
-from tests.synthesis.helpers import random_posg
+from tests.random_games import random_posg
 
 PROPS = (
     '<<p0>> Pmax=? [ F "goal" ]',

@@ -12,12 +12,8 @@ from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import _forward
 from posgmc.synthesis.deterministic import DeterministicJob, quotient_of, search
 from posgmc.synthesis.search import problem_of
-from tests.synthesis.helpers import (
-    POSMG,
-    every_deterministic,
-    fss_guaranteed,
-    random_posg,
-)
+from tests.random_games import random_posg
+from tests.synthesis.helpers import POSMG, every_deterministic, fss_guaranteed
 
 
 def _problem(model, prop: str):  # type: ignore[no-untyped-def]

@@ -17,40 +17,19 @@ from posgmc.checking.property_checker import CheckOptions
 from posgmc.strategies.files import read_strategy, write_strategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
-from posgmc.synthesis.checker import SynthesisChecker
 from posgmc.synthesis.double_oracle import VersusJob, _best_response, one_sided
 from posgmc.synthesis.executors import InProcess
-from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.problem import POLICY
-from posgmc.synthesis.search import problem_of
+from tests.random_games import random_posg
 from tests.synthesis.helpers import (
     PROP,
     SMALL,
     deterministic_strategies,
     labels_by_observation,
-    random_posg,
+    reach_problem,
+    synthesised,
+    without_times,
 )
-
-
-def _problem(model):  # type: ignore[no-untyped-def]
-    coalition = api._resolver(model, False).coalition_of
-    return problem_of(model, parser.parse_property(PROP).expr, player=0, adversary=1,
-                      coalition_of=coalition, scalar=api._scalar)
-
-
-def _synthesised(model, options: SynthesisOptions = SMALL):  # type: ignore[no-untyped-def]
-    checker = SynthesisChecker(model, coalition_of=api._resolver(model, False).coalition_of,
-                               scalar=api._scalar, synthesis=options)
-    return checker.check(parser.parse_property(PROP).expr, text=PROP)
-
-
-def _without_times(doc: dict) -> dict:  # type: ignore[type-arg]
-    # "synthesis": where the jobs ran and their times (the task counts: test_jobs_... below)
-    out = {k: v for k, v in doc.items() if k not in ("seconds", "phases", "synthesis")}
-    out["rounds"] = [{k: v for k, v in r.items() if k != "seconds"} for r in doc["rounds"]]
-    out["deterministic"] = [{k: v for k, v in r.items() if k != "seconds"}
-                            for r in doc.get("deterministic", [])]
-    return out
 
 
 @pytest.mark.parametrize("seed", [0, 1, 4, 5, 7, 11, 13, 15])
@@ -60,9 +39,9 @@ def test_ranking_composition_and_double_oracle(seed: int) -> None:
     (floats, 1e-9); when the exhaustive double oracle stops, no enumerated adversary hurts the
     composed defence more than the kept ones do."""
     model = random_posg(seed)
-    problem = _problem(model)
+    problem = reach_problem(model)
     executor = InProcess(problem)
-    search = _synthesised(model, replace(SMALL, adversaries=0))
+    search = synthesised(model, replace(SMALL, adversaries=0))
     defence = search.strategies[0]
     found = one_sided(problem, executor, defence=defence, keep=1, adversary_memory=1,
                       enumeration_limit=10_000, restarts=1, oracle_rounds=8, iterations=15,
@@ -111,7 +90,7 @@ def test_pipeline_invariants_on_random_posgs(seed: int, tmp_path_factory) -> Non
     model = random_posg(seed)
     coalition = api._resolver(model, False).coalition_of
     q = parser.parse_property(PROP).expr
-    r = _synthesised(model)
+    r = synthesised(model)
     assert r.guaranteed is not None and r.upper_bound is not None and r.vs_fss_adversary is not None
     assert r.synthesis["exhaustive"] is True
     # brute force, both players deterministic and memoryless
@@ -159,16 +138,16 @@ def test_pipeline_invariants_on_random_posgs(seed: int, tmp_path_factory) -> Non
                             scalar=api._scalar, options=CheckOptions()).check(q, text=PROP)
     assert again.guaranteed == r.guaranteed
     # bit-identical under the same seed
-    assert _without_times(_synthesised(model).to_json()) == _without_times(r.to_json())
+    assert without_times(synthesised(model).to_json()) == without_times(r.to_json())
 
 
 def test_jobs_give_bit_identical_results() -> None:
     """--jobs 2 runs the search's starts, the ranking, the compositions and the responses in a
     process pool; every job starts from its description only, so the result is --jobs 1's."""
     model = random_posg(3)
-    one = _synthesised(model, replace(SMALL, memory=(1, 2), adversaries=3))
-    two = _synthesised(model, replace(SMALL, memory=(1, 2), adversaries=3, jobs=2))
-    assert _without_times(two.to_json()) == _without_times(one.to_json())
+    one = synthesised(model, replace(SMALL, memory=(1, 2), adversaries=3))
+    two = synthesised(model, replace(SMALL, memory=(1, 2), adversaries=3, jobs=2))
+    assert without_times(two.to_json()) == without_times(one.to_json())
     ran = {w: r.synthesis["synthesis"] for w, r in (("one", one), ("two", two))}
     assert (ran["one"]["executor"], ran["one"]["workers"]) == ("local", 1)
     assert (ran["two"]["executor"], ran["two"]["workers"]) == ("local", 2)
@@ -188,9 +167,9 @@ def test_gradient_best_response_is_a_strategy_of_the_game(memory: int) -> None:
     starts from. Seed 15: the strongest adversary by full-information optimum is not the best
     response (see above), so the gradient has something to find."""
     model = random_posg(15)
-    problem = _problem(model)
+    problem = reach_problem(model)
     executor = InProcess(problem)
-    search = _synthesised(model, replace(SMALL, memory=(2,), adversaries=0))
+    search = synthesised(model, replace(SMALL, memory=(2,), adversaries=0))
     defence = search.strategies[0]
     found = one_sided(problem, executor, defence=defence, keep=1, adversary_memory=1,
                       enumeration_limit=10_000, restarts=0, oracle_rounds=0, iterations=10,

@@ -20,7 +20,8 @@ from posgmc.synthesis.deterministic import _solve, quotient_of
 from posgmc.synthesis.improvement import ImprovementJob, hole_scores, improve
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.search import _projected, _qmdp, parametrisation, problem_of
-from tests.synthesis.helpers import every_deterministic, fss_guaranteed, random_posg
+from tests.random_games import random_posg
+from tests.synthesis.helpers import every_deterministic, fss_guaranteed
 
 ROOT = Path(__file__).resolve().parents[2]
 SECURE = ROOT / "models" / "secure_autonomy" / "secure_autonomy.posg"

@@ -16,14 +16,15 @@ from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.model.explicit import Observation, RewardModel, make_model
+from posgmc.model.explicit import RewardModel, make_model
 from posgmc.syntax import parser
 from posgmc.syntax.ast import ModelType
 from posgmc.synthesis.adversaries import enumerate_adversaries
 from posgmc.synthesis.double_oracle import VersusJob
 from posgmc.synthesis.milp import Encoding, compose_milp, encoding_of, supported
 from posgmc.synthesis.search import parametrisation, problem_of
-from tests.synthesis.helpers import POSMG, random_posg
+from tests.random_games import looping_posg, random_posg
+from tests.synthesis.helpers import POSMG
 
 
 def _problem(model, prop: str):  # type: ignore[no-untyped-def]
@@ -58,61 +59,6 @@ def test_milp_is_the_brute_force_min_max(seed: int, full_observation: bool) -> N
     # its strategy achieves it (the strategy checker on each product)
     assert max(VersusJob(found.strategy, a).run(problem) for a in adversaries) == pytest.approx(
         best, abs=1e-7
-    )
-
-
-def looping_posg(seed: int, *, full_observation: bool = False):  # type: ignore[no-untyped-def]
-    """A random POSG with 3-5 states besides an absorbing goal and an absorbing sink, built so
-    that end components avoiding both are common: each choice moves to 1-2 states drawn mostly
-    among the non-absorbing ones (a choice may loop forever without reaching anything). Player 0
-    sees one bit (or, with ``full_observation``, the state) and has 2-3 labels per observation;
-    player 1 sees the state and has 1-2 labels. Reward structure "c": a positive reward of
-    1-3 per choice outside the goal, so ``Rmin`` is encoded by flows. The first choice of state 0
-    can reach the sink (the adversary owns it: a game without a reachable adversary state is
-    not what these tests are about)."""
-    rng = np.random.default_rng(seed)
-    S = int(rng.integers(3, 6)) + 2
-    goal, sink = S - 2, S - 1
-    owner = rng.integers(0, 2, size=S)
-    owner[0] = 0
-    owner[[goal, sink]] = 1
-    obs0 = rng.integers(0, 2, size=S)
-    labels0 = {z: sorted(rng.choice(["a", "b", "c"], size=int(rng.integers(2, 4)),
-                                    replace=False).tolist()) for z in (0, 1)}
-    names = ("", "a", "b", "c", "x", "y")
-    rows, actions, row_groups, reward = [], [], [0], []
-    for s in range(S):
-        if s in (goal, sink):
-            acts = ["x"]
-        elif owner[s] == 0:
-            acts = labels0[int(obs0[s])]
-        else:
-            acts = ["x", "y"][: int(rng.integers(1, 3))]
-        for a in acts:
-            row = np.zeros(S)
-            if s in (goal, sink):
-                row[s] = 1.0
-            else:
-                pool = np.arange(S) if rng.random() < 0.5 else np.arange(S - 2)
-                succ = rng.choice(pool, size=min(int(rng.integers(1, 3)), pool.size),
-                                  replace=False)
-                if s == 0 and not actions:  # the adversary's sink is reachable, always
-                    succ = np.union1d(succ, [sink])
-                row[succ] = rng.random(succ.size) + 0.1
-                row /= row.sum()
-            rows.append(row)
-            actions.append(names.index(a))
-            reward.append(0.0 if s == goal else float(rng.integers(1, 4)))
-        row_groups.append(len(rows))
-    ids = np.where(owner == 0, obs0, 2).astype(np.int32)
-    observations = () if full_observation else (
-        Observation(0, ids, ("o",), np.array([[0], [1], [2]])),)
-    return make_model(
-        ModelType.POSG, row_groups, np.array(rows), choice_actions=actions, action_names=names,
-        state_players=owner, player_names=("p0", "p1"), observations=observations,
-        labels={"goal": np.arange(S) == goal}, variable_names=("s",),
-        state_values=np.arange(S)[:, None],
-        reward_models=(RewardModel("c", choice=np.array(reward)),),
     )
 
 

@@ -34,12 +34,12 @@ from posgmc.synthesis.ray_pool import (  # noqa: E402
     shared_fields,
 )
 from posgmc.synthesis.tasks import Placement  # noqa: E402
-from tests.synthesis.test_double_oracle import (  # noqa: E402
+from tests.random_games import random_posg  # noqa: E402
+from tests.synthesis.helpers import (  # noqa: E402
     SMALL,
-    _problem,
-    _synthesised,
-    _without_times,
-    random_posg,
+    reach_problem,
+    synthesised,
+    without_times,
 )
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -104,9 +104,9 @@ def test_ray_gives_the_numbers_of_one_process(cluster: Any) -> None:
     not bind: SMALL finishes far within it, even on a loaded machine)."""
     model = random_posg(3)
     options = replace(SMALL, memory=(1, 2), adversaries=3, timeout=600)
-    one = _synthesised(model, options)
-    on_ray = _synthesised(model, replace(options, jobs=2, executor="ray"))
-    assert _without_times(on_ray.to_json()) == _without_times(one.to_json())
+    one = synthesised(model, options)
+    on_ray = synthesised(model, replace(options, jobs=2, executor="ray"))
+    assert without_times(on_ray.to_json()) == without_times(one.to_json())
     for a, b in zip(one.strategies, on_ray.strategies, strict=True):
         assert np.array_equal(a.action, b.action) and np.array_equal(a.update, b.update)
     here, there = one.synthesis["synthesis"], on_ray.synthesis["synthesis"]
@@ -130,7 +130,7 @@ def test_cli_check_on_ray_prints_the_numbers_of_one_process(cluster: Any) -> Non
     assert runs["one"]["model"] == runs["ray"]["model"]
     one, on_ray = (runs[n]["results"][0] for n in ("one", "ray"))
     assert one["guaranteed"]["value"] == pytest.approx(0.5, abs=1e-6)  # models/beacon/README.md
-    assert _without_times(on_ray) == _without_times(one)
+    assert without_times(on_ray) == without_times(one)
     assert (on_ray["synthesis"]["executor"], on_ray["synthesis"]["workers"]) == ("ray", 2)
     assert (one["synthesis"]["executor"], one["synthesis"]["workers"]) == ("local", 1)
 
@@ -156,7 +156,7 @@ def test_cli_ray_address_needs_the_ray_executor() -> None:
 def pool(cluster: Any) -> Any:
     """Two actors holding a small problem, shared by the tests below (starting an actor starts
     a Python process); the last of them leaves an actor dead for good."""
-    workers = RayPool(_problem(random_posg(3)), Placement("ray", 2))
+    workers = RayPool(reach_problem(random_posg(3)), Placement("ray", 2))
     yield workers
     workers.close()
 
@@ -174,7 +174,7 @@ def test_a_shared_defence_goes_once_and_gives_the_same_values(pool: RayPool) -> 
     """The candidate evaluation's jobs share the defence: it is put in the object store once
     for the batch, the jobs carry a reference, and the values are those of one process."""
     problem = pool.problem
-    search = _synthesised(problem.model, replace(SMALL, adversaries=3))
+    search = synthesised(problem.model, replace(SMALL, adversaries=3))
     defence, adversary = search.strategies[0], search.strategies[1]
     jobs = [VersusJob(defence, adversary), VersusJob(defence, adversary)]
     stored: list[object] = []

@@ -17,7 +17,8 @@ from posgmc.synthesis.executors import InProcess, ProcessPool, executor_for
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.search import AscendJob
 from posgmc.synthesis.tasks import Placement, TaskLedger, phase_of, rebased
-from tests.synthesis.test_double_oracle import _problem, random_posg
+from tests.random_games import random_posg
+from tests.synthesis.helpers import reach_problem
 
 
 @dataclass(frozen=True)
@@ -50,7 +51,7 @@ def test_each_job_kind_names_its_phase() -> None:
 
 def test_executors_record_what_ran_by_phase() -> None:
     """In this process and in a pool of two: the same results and task counts."""
-    problem = _problem(random_posg(3))
+    problem = reach_problem(random_posg(3))
     jobs = [_Square(i) for i in range(5)]
     for executor in (InProcess(problem), ProcessPool(problem, 2)):
         try:
@@ -73,7 +74,7 @@ def test_ledger_json() -> None:
 def test_placement_of_the_options() -> None:
     """--jobs 1 runs in this process, more in a local pool; --executor and --ray-address are
     carried to the placement."""
-    problem = _problem(random_posg(3))
+    problem = reach_problem(random_posg(3))
     assert isinstance(executor_for(problem, 1), InProcess)
     pool = executor_for(problem, Placement("local", 2))
     pool.close()
