@@ -17,7 +17,8 @@ from posgmc import api
 from posgmc.syntax import parser
 from posgmc.synthesis import belief_grid, stage_lp
 from posgmc.synthesis.search import problem_of
-from tests.synthesis.helpers import every_deterministic, fss_guaranteed, random_posg
+from tests.random_games import random_posg
+from tests.synthesis.helpers import every_deterministic, fss_guaranteed
 
 ROOT = Path(__file__).resolve().parents[2]
 HIDE = ROOT / "tests" / "data" / "games" / "hide.posg"
