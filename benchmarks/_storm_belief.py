@@ -1,5 +1,5 @@
 """Storm's belief-space bounds for one POMDP, as JSON on stdout (run by the reference
-interpreter, /root/refenv/bin/python, from synthesis_bench.py --bracket).
+interpreter, ``$POSGMC_REFERENCE_PYTHON``, from synthesis_bench.py --bracket).
 
 Usage:
     python _storm_belief.py MODEL PROPERTY SECONDS

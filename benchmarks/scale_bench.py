@@ -21,7 +21,8 @@ Each phase runs on three executors: in this process (1 worker), a local process 
 it). Printed per row: wall time, the speed-up over one worker, the overhead per task (the
 workers' time not spent in jobs: workers x wall - the jobs' own seconds, per task) and the bytes
 shipped per task (the job's and its result's pickles; the problem itself goes once per worker,
-shown apart; Ray sends a value the jobs of a batch share, the defence, once per batch, counted
+shown apart: on Ray without its model, which each worker builds from the model's text; Ray
+sends a value the jobs of a batch share, the defence, once per batch, counted
 once here). Every executor's results are checked equal to one process's. The machine's load
 (uptime) is printed with the table: on a shared machine the speed-up is only as good as the
 cores that are free.
@@ -50,6 +51,7 @@ from posgmc.synthesis.double_oracle import RankJob, VersusJob  # noqa: E402
 from posgmc.synthesis.executors import Executor, executor_for  # noqa: E402
 from posgmc.synthesis.problem import Problem  # noqa: E402
 from posgmc.synthesis.ray_pool import shared_fields  # noqa: E402
+from posgmc.synthesis.ray_pool import shipped as shipped_to_ray  # noqa: E402
 from posgmc.synthesis.search import parametrisation, problem_of  # noqa: E402
 from posgmc.synthesis.tasks import Placement  # noqa: E402
 
@@ -116,6 +118,7 @@ def main() -> None:
     print("| N | states | phase | tasks | executor | wall s | speed-up | overhead/task ms "
           "| bytes/task | load (1 min) |")
     print("|---|---|---|---|---|---|---|---|---|---|")
+    notes: list[str] = []
     for n in args.n:
         problem = problem_for(n)
         model = problem.model
@@ -126,6 +129,14 @@ def main() -> None:
         phases = {"ranking": [RankJob(a) for a in adversaries],
                   "candidate evaluation": [VersusJob(defence, a) for a in adversaries]}
         problem_bytes = len(pickle.dumps(problem, protocol=5))
+        # what a Ray worker receives instead: the problem without its model, and the recipe
+        # that builds the model from its text (posgmc.model.origin), built once per worker
+        light, recipe = shipped_to_ray(problem)
+        recipe_bytes = len(pickle.dumps((light, recipe), protocol=5))
+        t0 = time.perf_counter()
+        rebuilt = recipe() if recipe is not None else model
+        rebuild_seconds = time.perf_counter() - t0
+        assert rebuilt.num_states == model.num_states  # noqa: S101 - the same model
         reference: dict[str, list] = {}  # type: ignore[type-arg]
         single: dict[str, float] = {}
         for label, placement in placements:
@@ -151,8 +162,15 @@ def main() -> None:
                           f"| {shipped:,.0f} | {load:.1f} |", flush=True)
             finally:
                 executor.close()
-        print(f"\n(N={n}: the problem pickles to {problem_bytes / 1e6:.1f} MB, shipped once "
-              "per worker)\n" if n == args.n[-1] else "", end="")
+        notes.append(f"N={n}: the problem with its built model pickles to "
+                     f"{problem_bytes / 1e6:.1f} MB; each Ray worker receives "
+                     f"{recipe_bytes / 1e3:.0f} kB instead (the problem without the model, and "
+                     f"the model's text and constants) and builds the model once "
+                     f"({rebuild_seconds:.2f} s here); a local pool's forked workers receive "
+                     "nothing")
+    print()
+    for note in notes:
+        print(f"- {note}")
     print(f"\n# load after: {os.getloadavg()}")
 
 

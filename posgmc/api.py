@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -27,6 +28,7 @@ from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 from posgmc.checking.property_checker import CheckOptions, PropertyChecker
 from posgmc.checking.results import PropertyResult
 from posgmc.compiler import BuildOptions, build_model
+from posgmc.compiler.options import ProgressMode
 from posgmc.deep_stack import deep_generator, deep_stack
 from posgmc.engines import kernels, scc
 from posgmc.errors import (
@@ -39,6 +41,7 @@ from posgmc.errors import (
 )
 from posgmc.model.actions import choices_by_index
 from posgmc.model.explicit import ExplicitModel
+from posgmc.model.origin import remember
 from posgmc.semantics import operators as ops
 from posgmc.semantics import stages as sem
 from posgmc.semantics.evaluate import Value, evaluate_constant
@@ -403,7 +406,22 @@ def build(
         model = dataclasses.replace(built.model, choice_actions=named[0], action_names=named[1])
         built = dataclasses.replace(built, model=model)
     _warm_up_when_large(built.model.num_choices)
+    if session.source.text:  # not a model handed over built (Session.of_model)
+        # how to build this model again (a cluster's worker does, from the text): the options
+        # without the build's own clock and progress, which do not change the model
+        again = dataclasses.replace(options, deadline=None, progress=ProgressMode.NEVER)
+        remember(built.model, functools.partial(_rebuilt, session.path, session.source.text,
+                                                dict(session.constants), session.strict, again,
+                                                allow_extra_constants))
     return built
+
+
+def _rebuilt(path: str | None, text: str, constants: dict[str, object], strict: bool,
+            options: BuildOptions, allow_extra_constants: bool) -> ExplicitModel:
+    """The model :func:`build` built from this text, constants and options, built again (see
+    :mod:`posgmc.model.origin`)."""
+    session = load(path, text=text, constants=constants, strict=strict)
+    return build(session, options=options, allow_extra_constants=allow_extra_constants).model
 
 
 def _warm_up_when_large(size: int) -> None:

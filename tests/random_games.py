@@ -1,4 +1,5 @@
-"""Random small two-player POSGs for the tests, drawn from one parametrised generator.
+"""Random small games for the tests: two-player POSGs drawn from one parametrised generator, and
+POMDPs.
 
 Player 0 sees one bit (observation 0 or 1; player 1's states show observation 2) and has its
 labels per observation among "a", "b", "c"; player 1 (the adversary) sees the state and has "x"
@@ -188,4 +189,37 @@ def drawn_game(seed: int) -> tuple[ExplicitModel, FiniteStateStrategy, FiniteSta
 
     return find(
         games(), pick, settings=settings(database=None, derandomize=True, max_examples=1000)
+    )
+
+
+def random_pomdp(seed: int) -> ExplicitModel:
+    """A random POMDP: 4-8 states besides an absorbing goal and sink, two observations (goal and
+    sink a third), 2-3 labels per observation, each choice to 1-3 random states."""
+    rng = np.random.default_rng(seed)
+    S = int(rng.integers(4, 9)) + 2
+    goal, sink = S - 2, S - 1
+    obs = rng.integers(0, 2, size=S)
+    obs[[goal, sink]] = 2
+    labels = {z: sorted(rng.choice(["a", "b", "c"], size=int(rng.integers(2, 4)),
+                                   replace=False).tolist()) for z in (0, 1)}
+    labels[2] = ["a"]
+    names = ("", "a", "b", "c")
+    rows, actions, row_groups = [], [], [0]
+    for s in range(S):
+        for a in labels[int(obs[s])]:
+            row = np.zeros(S)
+            if s in (goal, sink):
+                row[s] = 1.0
+            else:
+                succ = rng.choice(S, size=int(rng.integers(1, 4)), replace=False)
+                row[succ] = rng.random(succ.size) + 0.1
+                row /= row.sum()
+            rows.append(row)
+            actions.append(names.index(a))
+        row_groups.append(len(rows))
+    return make_model(
+        ModelType.POMDP, row_groups, np.array(rows), choice_actions=actions, action_names=names,
+        observations=(Observation(0, obs.astype(np.int32), ("o",), np.array([[0], [1], [2]])),),
+        labels={"goal": np.arange(S) == goal}, variable_names=("s",),
+        state_values=np.arange(S)[:, None],
     )

@@ -18,13 +18,13 @@ from posgmc.cli.options import (
     EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
-    capped_jobs,
     common,
     effort_option,
     executor_options,
     full_observation_option,
     gap_option,
     memory_option,
+    placement_of,
     positive_finite,
     progress_options,
     seed_option,
@@ -50,8 +50,9 @@ from posgmc.cli.strategy_export import check_destination, point_of, synthesises,
 from posgmc.errors import InputError
 from posgmc.synthesis import progress
 from posgmc.synthesis.budget import interrupted, interruptible
+from posgmc.synthesis.fanout import Spread
 
-__all__ = ["check", "not_passed"]
+__all__ = ["check", "check_point", "not_passed"]
 
 
 BUILD_GRACE = 1.0
@@ -185,8 +186,10 @@ def _run(request: CheckRequest) -> int:
     # results are shown as they are computed (a killed run keeps what it printed), except
     # in the one-object --json and in sweep tables
     streaming = not request.as_json and len(combos or [{}]) == 1
-    rows, code = _check_points(request, swept, combos, strategies, streaming=streaming)
-    _write_reports(request, swept, rows, streaming=streaming)
+    spread = Spread()
+    rows, code = _check_points(request, swept, combos, strategies, streaming=streaming,
+                               spread=spread)
+    _write_reports(request, swept, rows, streaming=streaming, spread=spread)
     return code
 
 
@@ -227,89 +230,121 @@ def _check_points(
     strategies: dict[str | None, str],
     *,
     streaming: bool,
+    spread: Spread,
 ) -> tuple[list[tuple[dict[str, Any], Any]], int]:
-    """Each constant point checked in turn, its strategies exported: (constants, report) per
-    point, and the exit status so far. Ctrl-C ends the loop after the point it cut short."""
+    """Each constant point checked, its strategies exported: (constants, report) per point, and
+    the exit status so far. The points of a sweep are independent tasks on the executor
+    (``--jobs``/``--executor``), their reports taken in sweep order, so that the output is that
+    of one process; a single point gives the executor to its synthesis instead. Ctrl-C ends the
+    loop after the point it cut short. ``spread``: filled in with where the points ran."""
+    from posgmc import api
+    from posgmc.synthesis.fanout import each_result
+    from posgmc.synthesis.tasks import Placement
+
+    r = request
+    points = combos or [{}]
+    where = placement_of(r.jobs, r.executor, r.ray_address)
+    first = api.load(r.model, constants=points[0], strict=r.strict)
+    if r.export_strategy is not None:
+        # before any work: a destination that cannot be written is refused now, not after the
+        # whole budget
+        directory = synthesises(first, given_strategies=bool(strategies),
+                                full_observation=r.full_observation)
+        _check_export_extension(r.export_strategy, directory=directory)
+        check_destination(r.export_strategy, directory=directory)
+    # the model's text travels to the workers (a cluster's nodes need not see the file)
+    text = first.source.text
+    fanned = len(points) > 1
+    inner = Placement() if fanned else where
+    labels = [f"point {i + 1} of {len(points)} ("
+              + ",".join(f"{n}={v}" for n, v in point_of(c, swept).items()) + ")"
+              for i, c in enumerate(points)]
+    rows: list[tuple[dict[str, Any], Any]] = []
+    code = EXIT_OK
+    reports = each_result(check_point, [(r, text, c, strategies, inner, streaming) for c in points],
+                          where if fanned else Placement(), labels=labels, spread=spread,
+                          phase="constant point")
+    try:
+        for constants, report in zip(points, reports):
+            if report.errors:
+                code = EXIT_ERROR
+            elif code == EXIT_OK and any(not_passed(x) for x in report.results):
+                code = EXIT_PROPERTY_FALSE
+            rows.append((constants, report))
+            if len(combos) > 1:
+                # a sweep's table comes at the end: each point is reported as it completes
+                label = ",".join(f"{n}={const_text(constants[n])}" for n in swept)
+                progress.point_done(label, _headline(report), len(rows), len(combos))
+            if r.export_strategy is not None and not report.errors:
+                # a property that failed has said why; "no strategy to export" would hide it.
+                # Each property and constant point gets its own destination
+                for path in write_exports(r.export_strategy, report,
+                                          point=point_of(constants, swept),
+                                          several_points=len(combos) > 1,
+                                          zero_based_players=r.zero_based_players):
+                    click.echo(f"wrote {path.path}", err=r.as_json or r.json_lines)
+                    if path.note:
+                        click.echo(f"  note: {path.note}", err=r.as_json or r.json_lines)
+            if interrupted():
+                # Ctrl-C: the property it cut short reported (and exported) its best verified
+                # defence; no further property or constant setting is checked
+                code = EXIT_INTERRUPTED
+                break
+    finally:
+        reports.close()  # an early stop cancels the points still running
+    return rows, code
+
+
+def check_point(request: CheckRequest, text: str, constants: dict[str, Any],
+                strategies: dict[str | None, str], placement: Any, streaming: bool) -> Any:
+    """One constant point of ``check``: the model (``text``, read from ``request.model``) with
+    ``constants``, every property checked, the synthesis's jobs placed by ``placement``; its
+    :class:`~posgmc.api.CheckReport`. Plain data in and out: a task of a sweep on any executor;
+    ``streaming``: print the header and each result as they come (a single point, run here)."""
     from posgmc import api
     from posgmc.checking.property_checker import CheckOptions
     from posgmc.engines.options import Method, SolverOptions
 
     r = request
-    workers = capped_jobs(r.jobs) if r.executor == "local" else r.jobs  # a Ray cluster: its own
-    options = CheckOptions(
-        solver=SolverOptions(method=Method(r.method), precision=r.precision, relative=r.relative),
-        keep_strategy=r.export_strategy is not None,
-        exact=r.exact,
+    # the first synthesised property's --timeout counts from here: loading and building the
+    # model are inside it
+    loading = time.perf_counter()
+    session = api.load(r.model, text=text, constants=constants, strict=r.strict)
+    on_start, on_outcome = (
+        _streamers(r.model, constants, r.json_lines, r.verbose) if streaming else (None, None)
     )
-    rows: list[tuple[dict[str, Any], Any]] = []
-    code = EXIT_OK
-    for constants in combos or [{}]:
-        # the first synthesised property's --timeout counts from here: loading and
-        # building the model are inside it
-        loading = time.perf_counter()
-        session = api.load(r.model, constants=constants, strict=r.strict)
-        if r.export_strategy is not None and not rows:
-            # before any work: a destination that cannot be written is refused now, not
-            # after the whole budget
-            directory = synthesises(session, given_strategies=bool(strategies),
-                                    full_observation=r.full_observation)
-            _check_export_extension(r.export_strategy, directory=directory)
-            check_destination(r.export_strategy, directory=directory)
-        on_start, on_outcome = (
-            _streamers(r.model, constants, r.json_lines, r.verbose) if streaming else (None, None)
-        )
-        report = api.check(
-            session,
-            property_files=r.props,
-            properties=r.prop_texts,
-            options=options,
-            build_options=build_options(
-                r.state_limit, False, None,
-                # a --timeout bounds the whole run, the build included, which is given
-                # at least BUILD_GRACE: a tiny budget still reports what synthesis found
-                # on a small model rather than no model at all
-                deadline=None if r.timeout is None else loading + max(r.timeout, BUILD_GRACE)),
-            full_observation=r.full_observation,
-            zero_based_players=r.zero_based_players,
-            strategies=strategies or None,
-            synthesis=synthesis_options(r.memory, r.timeout, r.seed, r.adversaries, workers,
-                                        started=loading, effort=r.effort,
-                                        executor=r.executor, ray_address=r.ray_address,
-                                        gap=r.gap),
-            on_start=on_start,
-            on_outcome=on_outcome,
-            select=selected(r.select),
-        )
-        if report.errors:
-            code = EXIT_ERROR
-        elif code == EXIT_OK and any(not_passed(x) for x in report.results):
-            code = EXIT_PROPERTY_FALSE
-        rows.append((constants, report))
-        if len(combos) > 1:
-            # a sweep's table comes at the end: each point is reported as it completes
-            label = ",".join(f"{n}={const_text(constants[n])}" for n in swept)
-            progress.point_done(label, _headline(report), len(rows), len(combos))
-        if r.export_strategy is not None and not report.errors:
-            # a property that failed has said why; "no strategy to export" would hide it.
-            # Each property and constant point gets its own destination
-            for path in write_exports(r.export_strategy, report,
-                                      point=point_of(constants, swept),
-                                      several_points=len(combos) > 1,
-                                      zero_based_players=r.zero_based_players):
-                click.echo(f"wrote {path.path}", err=r.as_json or r.json_lines)
-                if path.note:
-                    click.echo(f"  note: {path.note}", err=r.as_json or r.json_lines)
-        if interrupted():
-            # Ctrl-C: the property it cut short reported (and exported) its best verified
-            # defence; no further property or constant setting is checked
-            code = EXIT_INTERRUPTED
-            break
-    return rows, code
+    return api.check(
+        session,
+        property_files=r.props,
+        properties=r.prop_texts,
+        options=CheckOptions(
+            solver=SolverOptions(method=Method(r.method), precision=r.precision,
+                                 relative=r.relative),
+            keep_strategy=r.export_strategy is not None,
+            exact=r.exact,
+        ),
+        build_options=build_options(
+            r.state_limit, False, None,
+            # a --timeout bounds the whole run, the build included, which is given at least
+            # BUILD_GRACE: a tiny budget still reports what synthesis found on a small model
+            # rather than no model at all
+            deadline=None if r.timeout is None else loading + max(r.timeout, BUILD_GRACE)),
+        full_observation=r.full_observation,
+        zero_based_players=r.zero_based_players,
+        strategies=strategies or None,
+        synthesis=synthesis_options(r.memory, r.timeout, r.seed, r.adversaries,
+                                    placement.workers, started=loading, effort=r.effort,
+                                    executor=placement.executor,
+                                    ray_address=placement.address, gap=r.gap),
+        on_start=on_start,
+        on_outcome=on_outcome,
+        select=selected(r.select),
+    )
 
 
 def _write_reports(
     request: CheckRequest, swept: list[str], rows: list[tuple[dict[str, Any], Any]], *,
-    streaming: bool,
+    streaming: bool, spread: Spread,
 ) -> None:
     """What covers every point: JUnit, the plot, and the one JSON object or the sweep table
     (a single point's results were shown as they came)."""
@@ -323,7 +358,7 @@ def _write_reports(
         texts = [({n: const_text(v) for n, v in c.items()}, rep) for c, rep in rows]
         plot_sweeps(sweeps_of_check(swept[0], texts), r.plot_file)
     if r.as_json or (r.json_lines and not streaming):
-        click.echo(json.dumps(json_report(r.model, swept, rows)))
+        click.echo(json.dumps(json_report(r.model, swept, rows, points=spread.to_json())))
     elif not streaming:
         print_report(r.model, swept, rows, verbose=r.verbose)
 

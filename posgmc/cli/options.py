@@ -24,7 +24,7 @@ __all__ = [
     "full_observation_option", "memory_option", "timeout_option", "effort_option",
     "progress_options", "seed_option", "executor_options", "gap_option", "positive_finite",
     "finite", "nonnegative_finite",
-    "memory_sizes", "synthesis_options", "strategy_options",
+    "memory_sizes", "synthesis_options", "strategy_options", "placement_of", "capped_jobs",
 ]
 
 EXIT_OK = 0
@@ -191,7 +191,8 @@ def executor_options(f: F) -> F:
     )(f)
     f = click.option(
         "--jobs", type=click.IntRange(min=1), default=1, show_default=True,
-        help="Synthesis: workers for independent evaluations (results do not depend on it).",
+        help="Workers for independent work: synthesis's evaluations, or the points of a sweep "
+        "or front, or the runs of posgmc test (results and output do not depend on it).",
     )(f)
     return f
 def _gap(_ctx: Any, _param: Any, value: str | None) -> Any:
@@ -269,6 +270,23 @@ def synthesis_options(memory: Sequence[str] | str, timeout: float | None, seed: 
                             player_memory=tuple(sorted(named.items())),
                             belief=False if explicit else None, started=started, effort=effort,
                             gap=gap)
+
+
+def placement_of(jobs: int, executor: str, ray_address: str | None) -> Any:
+    """:func:`executor_options`' values as a :class:`~posgmc.synthesis.tasks.Placement`: a local
+    ``--jobs`` capped at the usable processors (said on stderr), a Ray cluster's left as given
+    (the cluster has its own CPUs).
+
+    Raises:
+        click.BadParameter: ``--ray-address`` without ``--executor ray``.
+    """
+    from posgmc.synthesis.tasks import Placement
+
+    if ray_address is not None and executor != "ray":
+        raise click.BadParameter("is for --executor ray", param_hint="'--ray-address'")
+    if executor == "ray":
+        return Placement("ray", jobs, ray_address)
+    return Placement("local", capped_jobs(jobs))
 
 
 def capped_jobs(jobs: int) -> int:

@@ -24,8 +24,11 @@ def outcome_json(r: Any) -> dict[str, Any]:
 
 
 def json_report(
-    model: str, swept: list[str], rows: Sequence[tuple[Mapping[str, object], CheckReport]]
+    model: str, swept: list[str], rows: Sequence[tuple[Mapping[str, object], CheckReport]],
+    points: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
+    """``check --json``: one point's report, or a sweep's ``runs`` with ``points``, where the
+    points ran (executor, workers, and the ``"constant point"`` tasks with their seconds)."""
     def one(constants: Mapping[str, object], report: CheckReport) -> dict[str, Any]:
         stats = report.model.statistics()
         return {
@@ -38,7 +41,10 @@ def json_report(
     if len(rows) == 1:
         out = {"model_file": model, **one(*rows[0])}
         return out
-    return {"model_file": model, "swept": swept, "runs": [one(c, r) for c, r in rows]}
+    out = {"model_file": model, "swept": swept, "runs": [one(c, r) for c, r in rows]}
+    if points is not None:
+        out["points"] = dict(points)
+    return out
 
 
 def fmt(v: Any) -> str:

@@ -19,9 +19,11 @@ from posgmc.cli.options import (
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
     effort_option,
+    executor_options,
     full_observation_option,
     memory_option,
     nonnegative_finite,
+    placement_of,
     seed_option,
     select_option,
     selected,
@@ -34,12 +36,14 @@ from posgmc.cli.options import (
 from posgmc.cli.running import guard
 from posgmc.cli.test_suite import Run, discover
 from posgmc.errors import InputError, PosgmcError
+from posgmc.synthesis.fanout import each_result
+from posgmc.synthesis.tasks import Placement
 
 if TYPE_CHECKING:
     from posgmc.api import Session
     from posgmc.io.junit import Case
 
-__all__ = ["test"]
+__all__ = ["test", "test_run"]
 
 F = Callable[..., Any]
 
@@ -84,6 +88,7 @@ def _line(**_: Any) -> None:
               help="Also write a JUnit XML report (one test case per checked property, over "
               "every run).")
 @_run_options
+@executor_options
 @click.option("--debug", is_flag=True, help="Show Python tracebacks for errors.")
 @click.pass_context
 def test(ctx: click.Context, /, paths: tuple[str, ...], junit: str | None, debug: bool,
@@ -95,26 +100,31 @@ def test(ctx: click.Context, /, paths: tuple[str, ...], junit: str | None, debug
     from posgmc.io.junit import write_junit
 
     def run() -> int:
+        where = placement_of(given.pop("jobs"), given.pop("executor"), given.pop("ray_address"))
         runs = discover(paths)
         if not runs:
             raise InputError(f"no model with a properties file under {', '.join(paths)}")
+        # every argument line read before any work; then each run a task on the executor (a
+        # single run gives it to its synthesis instead), their outputs printed in run order
+        single = len(runs) == 1
+        calls = [(r, _merged(ctx, given, r), where if single else Placement(), single)
+                 for r in runs]
+        outcomes = each_result(test_run, calls, Placement() if single else where,
+                               labels=[_title(r) for r in runs])
         total = _Tally()
-        for r in runs:
-            options = _merged(ctx, given, r)
-            if len(runs) > 1:
-                click.echo(f"== {_title(r)}")
-            tally = _Tally()
-            try:
-                _run_one(r, options, tally)
-            except PosgmcError as e:
-                if len(runs) == 1:
-                    raise
-                tally.errors += 1
-                click.echo(e.render(), err=True)
-                tally.cases.append(_case(str(r.props), str(r.model), 0.0, error=e.message))
-            if len(runs) > 1:
-                click.echo(f"   {tally.summary()}")
-            total.add(tally)
+        try:
+            for r, (lines, tally, error) in zip(runs, outcomes):
+                if not single:
+                    click.echo(f"== {_title(r)}")
+                for line in lines:
+                    click.echo(line)
+                if error is not None:
+                    click.echo(error.render(), err=True)
+                if not single:
+                    click.echo(f"   {tally.summary()}")
+                total.add(tally)
+        finally:
+            outcomes.close()
         if junit is not None:
             write_junit(junit, "posgmc test", total.cases)
         click.echo(total.summary())
@@ -190,9 +200,30 @@ def _merged_constants(given: Sequence[str], line: Sequence[str]) -> tuple[str, .
     return tuple(k for k in kept if k) + tuple(line)
 
 
-def _run_one(r: Run, o: dict[str, Any], tally: _Tally) -> None:
+def test_run(r: Run, o: dict[str, Any], placement: Any,
+             single: bool) -> tuple[list[str], _Tally, PosgmcError | None]:
+    """One run of ``posgmc test``: the lines it prints, its tally, and the error that stopped it
+    (counted in the tally); ``single``: the command's only run, whose error is raised instead.
+    Synthesis's jobs go where ``placement`` says. Plain data in and out: a task on any
+    executor."""
+    lines: list[str] = []
+    tally = _Tally()
+    try:
+        # the only run prints its verdicts as they come (it runs in this process)
+        _run_one(r, o, tally, click.echo if single else lines.append, placement)
+    except PosgmcError as e:
+        if single:
+            raise
+        tally.errors += 1
+        tally.cases.append(_case(str(r.props), str(r.model), 0.0, error=e.message))
+        return lines, tally, e
+    return lines, tally, None
+
+
+def _run_one(r: Run, o: dict[str, Any], tally: _Tally, say: Callable[[str], Any],
+             placement: Any) -> None:
     """Check one model against one properties file with options ``o``, counting into
-    ``tally``."""
+    ``tally``, each verdict given to ``say``."""
     from posgmc import api
     from posgmc.checking.property_checker import CheckOptions
     from posgmc.compiler.options import BuildOptions
@@ -214,17 +245,19 @@ def _run_one(r: Run, o: dict[str, Any], tally: _Tally) -> None:
             session, property_files=props, built=built, full_observation=o["full_observation"],
             zero_based_players=o["zero_based_players"], strategies=loaded,
             synthesis=synthesis_options(
-                o["memory"], o["timeout"], o["seed"], effort=o["effort"]
+                o["memory"], o["timeout"], o["seed"], jobs=placement.workers,
+                effort=o["effort"], executor=placement.executor, ray_address=placement.address,
             ),
             options=CheckOptions(exact=exact), select=selected(o["select"]),
         ):
             seconds, started = time.perf_counter() - started, time.perf_counter()
-            _grade(prop, outcome, texts, label, seconds, o["tolerance"], tally)
+            _grade(prop, outcome, texts, label, seconds, o["tolerance"], tally, say)
 
 
 def _grade(prop: Any, outcome: Any, texts: dict[str, str], label: str, seconds: float,
-           tolerance: float, tally: _Tally) -> None:
-    """One property's outcome against its RESULT line, printed and counted."""
+           tolerance: float, tally: _Tally, say: Callable[[str], Any]) -> None:
+    """One property's outcome against its RESULT line, counted, its verdict given to
+    ``say``."""
     from posgmc.checking.expected import expected_for, grade
 
     where = f"{prop.span.file}:{prop.span.line}"
@@ -245,12 +278,12 @@ def _grade(prop: Any, outcome: Any, texts: dict[str, str], label: str, seconds: 
     what = f" ({exp.number})" if exp.number else ""
     if verdict.passed:
         tally.passed += 1
-        click.echo(f"PASS {where}: {name}: {verdict.actual}{what}")
+        say(f"PASS {where}: {name}: {verdict.actual}{what}")
         tally.cases.append(_case(name, where, seconds))
     else:
         tally.failed += 1
         message = f"expected {verdict.expected}{what}, got {verdict.actual}"
-        click.echo(f"FAIL {where}: {name}: {message}")
+        say(f"FAIL {where}: {name}: {message}")
         tally.cases.append(_case(name, where, seconds, failure=message))
 
 

@@ -3,7 +3,7 @@ of a ``multi(...)`` query on an mdp, as a table, CSV and a plot (:mod:`posgmc.tr
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import click
 
@@ -16,9 +16,11 @@ from posgmc.cli.options import (
     EXIT_PROPERTY_FALSE,
     common,
     effort_option,
+    executor_options,
     finite,
     full_observation_option,
     memory_option,
+    placement_of,
     progress_options,
     seed_option,
     synthesis_options,
@@ -72,6 +74,7 @@ __all__ = ["pareto"]
 @full_observation_option
 @zero_based_players_option
 @memory_option
+@executor_options
 @timeout_option
 @effort_option
 @seed_option
@@ -91,6 +94,9 @@ def pareto(
     full_observation: bool,
     zero_based_players: bool,
     memory: tuple[str, ...],
+    jobs: int,
+    executor: Literal["local", "ray"],
+    ray_address: str | None,
     timeout: float | None,
     effort: float,
     seed: int,
@@ -103,9 +109,11 @@ def pareto(
     or the Pareto front of a multi(...) query with its approximation band."""
     from posgmc.io.atomic import atomic_write_text
     from posgmc.semantics.constants import ConstRange, parse_const_assignments
+    from posgmc.synthesis.tasks import Placement
     from posgmc.tradeoffs.sweep import sweep, to_csv
 
     def run() -> int:
+        where = placement_of(jobs, executor, ray_address)
         if plot_file is not None:
             if not plot_file.lower().endswith((".png", ".svg", ".pdf")):
                 raise InputError(f"{plot_file}: a plot is written as .png, .svg or .pdf")
@@ -124,7 +132,8 @@ def pareto(
                 raise UnsupportedError("--cost draws a defender front of its own: --sweep, "
                                        "--also and --full-observation do not apply to it")
             return _defence(model, prop_text, cost_text, weights_text, budgets, consts,
-                            memory, timeout, effort, seed, csv_file, plot_file, strategy_dir)
+                            memory, timeout, effort, seed, csv_file, plot_file, strategy_dir,
+                            where)
         if prop_text.lstrip().startswith("multi"):
             if sweep_text is not None:
                 raise UnsupportedError(
@@ -152,11 +161,15 @@ def pareto(
                 raise InputError(f"constant '{n}' is both swept and given", setting.span)
             others[n] = setting
         values = [const_text(v) for v in rng.values()]
+        # each point a task on the executor; a single point gives it to its synthesis
+        inner = where if len(values) == 1 else Placement()
         result = sweep(model, prop_text, constant=name, settings=values, constants=others,
                        synthesis=synthesis_options(memory or ("auto",), timeout, seed,
-                                                   effort=effort),
+                                                   jobs=inner.workers, effort=effort,
+                                                   executor=inner.executor,
+                                                   ray_address=inner.address),
                        full_observation=full_observation, zero_based_players=zero_based_players,
-                       strategy_dir=strategy_dir, also=also)
+                       strategy_dir=strategy_dir, also=also, placement=where)
         _print(result)
         if csv_file is not None:
             atomic_write_text(csv_file, to_csv(result))
@@ -237,7 +250,7 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
              budgets: tuple[float, ...], consts: tuple[str, ...], memory: tuple[str, ...],
              timeout: float | None, effort: float, seed: int, csv_file: str | None,
              plot_file: str | None,
-             strategy_dir: str | None) -> int:
+             strategy_dir: str | None, placement: Any) -> int:
     """``pareto --prop MISSION --cost COST``: the defender front
     (:mod:`posgmc.tradeoffs.defence`)."""
     import math
@@ -268,7 +281,7 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
     front = defence_front(model, mission, cost, weights=weights,
                           constants=single_constants(consts, what="a front"), memory=sizes,
                           timeout=timeout, effort=effort, seed=seed, budgets=budgets,
-                          strategy_dir=strategy_dir)
+                          strategy_dir=strategy_dir, placement=placement)
     click.echo(f"defender front: {front.mission} against {front.cost} "
                f"({len(front.points)} defences, {front.seconds:.1f} s)")
     rows = [("w", "mission: guaranteed [lower, upper]", "cost: guaranteed [lower, upper]",

@@ -22,7 +22,10 @@ the product (:mod:`posgmc.strategies.product`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
+from weakref import WeakKeyDictionary
 
 import numpy as np
 
@@ -221,68 +224,58 @@ def _unseen_warnings(fss: FiniteStateStrategy, who: str, produced: np.ndarray
     return tuple(out)
 
 
-def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
-    """Match ``fss`` to ``model``.
+_T = TypeVar("_T")
+
+_FACTS: WeakKeyDictionary[ExplicitModel, dict[object, object]] = WeakKeyDictionary()
+"""What binding learns about a model and keeps while the model lives: per player the labels each
+observation offers (checked once), and the matching of a strategy's observation list to the
+model's ids (a search binds thousands of strategies over the same observations; the matching is a
+sort of the model's observation values, the dominant cost of binding on a large model)."""
+
+_KEPT_MATCHINGS = 64
+"""Observation matchings kept per model (the oldest dropped first)."""
+
+
+def _remembered(model: ExplicitModel, key: object, make: Callable[[], _T]) -> _T:
+    facts = _FACTS.get(model)
+    if facts is None:
+        facts = _FACTS[model] = {}
+    if key not in facts:
+        if len(facts) >= _KEPT_MATCHINGS:
+            del facts[next(iter(facts))]
+        facts[key] = make()
+    return facts[key]  # type: ignore[return-value]
+
+
+def _owned(model: ExplicitModel, p: int) -> tuple[np.ndarray, np.ndarray]:
+    """(bool[S] the states of player ``p``, the observation ids of those states)."""
+    return _remembered(model, ("owned", p), lambda: _find_owned(model, p))
+
+
+def _find_owned(model: ExplicitModel, p: int) -> tuple[np.ndarray, np.ndarray]:
+    owned = (model.state_players == p) if model.player_names else np.ones(model.num_states, bool)
+    owned_obs = np.unique(player_view(model, p).state_obs[owned])
+    for a in (owned, owned_obs):
+        a.setflags(write=False)
+    return owned, owned_obs
+
+
+def _offered(model: ExplicitModel, p: int) -> np.ndarray:
+    """bool[Zm, A]: the labels each observation of player ``p`` offers, once the model is
+    checked to be fit for observation-based strategies (each label once per state, one label set
+    per observation).
 
     Raises:
-        StrategyError: the strategy does not fit the model (see the module docstring).
-        InputError: states of the player with one observation offer different actions, or one
-            state offers two choices with the same label.
+        InputError: a state offers two choices with one label, or states of one observation
+            offer different labels.
     """
-    file = fss.source
-    try:
-        p = player_index(model, fss.player)
-    except StrategyError as e:
-        raise StrategyError(
-            e.message.split(": ", 1)[-1], path="player", file=file, hint=e.hint
-        ) from None
+    return _remembered(model, ("offered", p), lambda: _check_offered(model, p))
+
+
+def _check_offered(model: ExplicitModel, p: int) -> np.ndarray:
     view = player_view(model, p)
-    if fss.observables != view.observables:
-        raise StrategyError(
-            f"the observables {list(fss.observables)} are not those of {view.who}: "
-            f"{list(view.observables)}",
-            path="observables",
-            file=file,
-            hint="list the player's observables in declaration order (all state variables for a "
-            "player that observes everything; [] for a model read from DRN)",
-        )
-    owned = (model.state_players == p) if model.player_names else np.ones(model.num_states, bool)
-
-    # -- observations: the strategy's rows matched to the model's ids (one sort, no dict) -------
-    Zm, Zs = view.num_observations, fss.num_observations
-    both = np.vstack([view.obs_values, fss.observation_values])
-    _, inverse = np.unique(both, axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    key_model, key_fss = inverse[:Zm], inverse[Zm:]
-    lookup = np.full(int(inverse.max(initial=-1)) + 1, -1, dtype=np.int64)
-    lookup[key_fss] = np.arange(Zs)
-    obs_map = lookup[key_model]
-    model_of = np.full(Zs, -1, dtype=np.int64)  # the model's id of each strategy observation
-    model_of[obs_map[obs_map >= 0]] = np.flatnonzero(obs_map >= 0)
-    produced = np.zeros(Zs, dtype=bool)
-    owned_obs = np.unique(view.state_obs[owned])
-    produced[obs_map[owned_obs][obs_map[owned_obs] >= 0]] = True
-    warnings = _unseen_warnings(fss, view.who, produced)
-
-    # -- actions ---------------------------------------------------------------------------------
-    names = {a: i for i, a in enumerate(model.action_names)}
-    action_map = np.full(len(model.action_names), -1, dtype=np.int64)
-    label_model = np.array([names.get(label, -1) for label in fss.actions], dtype=np.int64)
-    action_map[label_model[label_model >= 0]] = np.flatnonzero(label_model >= 0)
-    entry_rule = np.repeat(np.arange(fss.num_rules), np.diff(fss.choice_start))
-    unknown = np.flatnonzero(label_model[fss.choice_action] < 0) if fss.num_actions else \
-        np.zeros(0, dtype=np.int64)
-    if unknown.size:
-        first = int(unknown[0])
-        r, label = int(entry_rule[first]), fss.actions[int(fss.choice_action[first])]
-        raise StrategyError(
-            f"the model has no action labelled {label!r}",
-            path=_rule_where(fss, r, f".action.{label}"),
-            file=file,
-            hint="actions are named by their label, e.g. [fwd] in the model is \"fwd\"",
-        )
-
-    # -- the labels each observation offers (states of one observation must agree) -------------
+    Zm = view.num_observations
+    owned, _ = _owned(model, p)
     rows = np.flatnonzero(owned[model.choice_states])
     acts = model.choice_actions[rows]
     states = model.choice_states[rows]
@@ -310,6 +303,92 @@ def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
             f"different actions: {model.action_names[a]!r} is enabled in some of them only",
             hint="states a player cannot tell apart must offer it the same action labels",
         )
+    offered.setflags(write=False)
+    return offered
+
+
+def _matched_observations(model: ExplicitModel, p: int, fss: FiniteStateStrategy
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(obs_map int64[Zm]: the strategy's index of each model observation id, -1 where it has
+    no rule; model_of int64[Zs]: the model's id of each strategy observation, -1 where the model
+    has none; produced bool[Zs]: whether the model shows it to the player in one of its states)."""
+    values = np.ascontiguousarray(fss.observation_values, dtype=np.int64)
+    key = ("observations", p, values.shape, values.tobytes())
+    return _remembered(model, key, lambda: _match_observations(model, p, values))
+
+
+def _match_observations(model: ExplicitModel, p: int, fss_values: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    view = player_view(model, p)
+    _, owned_obs = _owned(model, p)
+    Zm, Zs = view.num_observations, fss_values.shape[0]
+    both = np.vstack([view.obs_values, fss_values])
+    _, inverse = np.unique(both, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    key_model, key_fss = inverse[:Zm], inverse[Zm:]
+    lookup = np.full(int(inverse.max(initial=-1)) + 1, -1, dtype=np.int64)
+    lookup[key_fss] = np.arange(Zs)
+    obs_map = lookup[key_model]
+    model_of = np.full(Zs, -1, dtype=np.int64)  # the model's id of each strategy observation
+    model_of[obs_map[obs_map >= 0]] = np.flatnonzero(obs_map >= 0)
+    produced = np.zeros(Zs, dtype=bool)
+    produced[obs_map[owned_obs][obs_map[owned_obs] >= 0]] = True
+    for a in (obs_map, model_of, produced):
+        a.setflags(write=False)
+    return obs_map, model_of, produced
+
+
+def bind(model: ExplicitModel, fss: FiniteStateStrategy) -> BoundStrategy:
+    """Match ``fss`` to ``model``.
+
+    Raises:
+        StrategyError: the strategy does not fit the model (see the module docstring).
+        InputError: states of the player with one observation offer different actions, or one
+            state offers two choices with the same label.
+    """
+    file = fss.source
+    try:
+        p = player_index(model, fss.player)
+    except StrategyError as e:
+        raise StrategyError(
+            e.message.split(": ", 1)[-1], path="player", file=file, hint=e.hint
+        ) from None
+    view = player_view(model, p)
+    if fss.observables != view.observables:
+        raise StrategyError(
+            f"the observables {list(fss.observables)} are not those of {view.who}: "
+            f"{list(view.observables)}",
+            path="observables",
+            file=file,
+            hint="list the player's observables in declaration order (all state variables for a "
+            "player that observes everything; [] for a model read from DRN)",
+        )
+    owned, _ = _owned(model, p)
+
+    # -- observations: the strategy's rows matched to the model's ids (one sort, no dict) -------
+    obs_map, model_of, produced = _matched_observations(model, p, fss)
+    warnings = _unseen_warnings(fss, view.who, produced)
+
+    # -- actions ---------------------------------------------------------------------------------
+    names = {a: i for i, a in enumerate(model.action_names)}
+    action_map = np.full(len(model.action_names), -1, dtype=np.int64)
+    label_model = np.array([names.get(label, -1) for label in fss.actions], dtype=np.int64)
+    action_map[label_model[label_model >= 0]] = np.flatnonzero(label_model >= 0)
+    entry_rule = np.repeat(np.arange(fss.num_rules), np.diff(fss.choice_start))
+    unknown = np.flatnonzero(label_model[fss.choice_action] < 0) if fss.num_actions else \
+        np.zeros(0, dtype=np.int64)
+    if unknown.size:
+        first = int(unknown[0])
+        r, label = int(entry_rule[first]), fss.actions[int(fss.choice_action[first])]
+        raise StrategyError(
+            f"the model has no action labelled {label!r}",
+            path=_rule_where(fss, r, f".action.{label}"),
+            file=file,
+            hint="actions are named by their label, e.g. [fwd] in the model is \"fwd\"",
+        )
+
+    # -- the labels each observation offers (states of one observation must agree) -------------
+    offered = _offered(model, p)
     # every played label must be offered under the rule's observation (one test per entry)
     z_entry = fss.rule_observation[entry_rule]
     bad = produced[z_entry]

@@ -216,6 +216,9 @@ class _Dynamics:
         # the others (a vertex's support lies in one group)
         self.group = np.where(self.owned, obs_index[view.state_obs], Z)
         self.preferred = adversary_rules  # int64[S]: a choice per state (the first rule tried)
+        # the rules of each support seen (many vertices share one support)
+        self._rules: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self._entries: dict[bytes, tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         if problem.rewards is None:
             # mass that cannot reach the target any more (within ``remain``) is worth 0
             self.cont = problem.remain & ~problem.target & can_reach(model, problem.target,
@@ -257,7 +260,29 @@ class _Dynamics:
         are at most :data:`RULE_CAP`, else the preferred rule and its one-state deviations —
         and the uniform mixture over each state's choices. Any rule, randomised or not, bounds
         the optimum (the adversary restricted can only do worse, and a randomised rule hides its
-        choice from the decision maker)."""
+        choice from the decision maker). Computed once per support."""
+        key = states.tobytes()
+        found = self._rules.get(key)
+        if found is None:
+            found = self._rules[key] = self._rules_of(states)
+        return found
+
+    def rule_entries(self, states: np.ndarray, per_state: np.ndarray
+                     ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`rules` at a vertex on ``states`` as sparse entries (once per support): the
+        number of rules k, and per entry its rule, its global choice, its probability and the
+        index in ``states`` of the choice's state (``per_state``: each model state's choice
+        count)."""
+        key = states.tobytes()
+        found = self._entries.get(key)
+        if found is None:
+            cols, probs = self.rules(states)
+            r, c = np.nonzero(probs)
+            at = np.repeat(np.arange(states.size), per_state[states])[c]
+            found = self._entries[key] = (probs.shape[0], r, cols[c], probs[r, c], at)
+        return found
+
+    def _rules_of(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rg = self.model.row_groups
         lo, hi = rg[states], rg[states + 1]
         n = hi - lo
@@ -291,7 +316,9 @@ class _Dynamics:
 
 
 class _Grid:
-    """The vertices found so far (mutable while exploring)."""
+    """The vertices found so far (mutable while exploring). A vertex is identified by its
+    support's state ids and counts (zero counts dropped), as the bytes of the int64 array
+    [ids..., counts...]; new vertices are numbered in the order they are first referred to."""
 
     def __init__(self, S: int, resolution: int) -> None:
         self.S, self.N = S, resolution
@@ -301,15 +328,66 @@ class _Grid:
 
     def vertex(self, idx: np.ndarray, counts: np.ndarray) -> int:
         nz = counts > 0
-        i, c = idx[nz], counts[nz]
+        i, c = idx[nz].astype(np.int64), counts[nz].astype(np.int64)
         k = i.tobytes() + c.tobytes()
         found = self.key.get(k)
         if found is None:
             found = len(self.rows)
-            self.key[k] = found
-            self.rows.append(i)
-            self.vals.append(c / self.N)
+            self._append(k, i, c)
         return found
+
+    def _append(self, key: bytes, idx: np.ndarray, counts: np.ndarray) -> None:
+        self.key[key] = len(self.rows)
+        self.rows.append(idx)
+        self.vals.append(counts / self.N)
+
+    def lookup(self, parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+               total: int) -> np.ndarray:
+        """int64[total], the vertex of every reference, the new ones added: ``parts`` are
+        (int64[r] ranks, int64[r, m] state ids, int64[r, m] counts), the ranks together a
+        permutation of 0..total-1, the order the references are taken in. New vertices are
+        numbered in that order, as one :meth:`vertex` call per reference in rank order would
+        number them; but references to one vertex are merged first (sorting their keys), so
+        the table is consulted once per distinct vertex, not once per reference."""
+        ids = np.empty(total, dtype=np.int64)
+        by_width: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
+        for ranks, idx, counts in parts:
+            nz = counts > 0
+            q = nz.sum(axis=1)
+            for width in np.unique(q).tolist():
+                s = q == width
+                keep = nz[s]
+                by_width.setdefault(width, []).append((ranks[s], np.concatenate(
+                    [idx[s][keep].reshape(-1, width), counts[s][keep].reshape(-1, width)],
+                    axis=1)))
+        fresh: list[tuple[int, bytes, int, np.ndarray]] = []  # (rank, key, unique, its table)
+        solved: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        for width, group in by_width.items():
+            ranks = np.concatenate([g[0] for g in group])
+            K = np.concatenate([g[1] for g in group]).astype(np.int64)
+            o = np.argsort(ranks, kind="stable")
+            ranks, K = ranks[o], np.ascontiguousarray(K[o])
+            view = K.view(np.dtype((np.void, 16 * width))).ravel()
+            # first: the lowest-ranked reference to each distinct vertex (ranks are sorted)
+            _, first, inverse = np.unique(view, return_index=True, return_inverse=True)
+            found = np.empty(first.size, dtype=np.int64)
+            for u, f in enumerate(first.tolist()):
+                k = K[f].tobytes()
+                v = self.key.get(k)
+                if v is None:
+                    fresh.append((int(ranks[f]), k, u, found))
+                    v = -1
+                found[u] = v
+            solved.append((ranks, inverse.ravel(), found))
+        fresh.sort(key=lambda x: x[0])
+        for _, k, u, found in fresh:
+            row = np.frombuffer(k, dtype=np.int64)
+            w = row.size // 2
+            found[u] = len(self.rows)
+            self._append(k, row[:w].copy(), row[w:].copy())
+        for ranks, inverse, found in solved:
+            ids[ranks] = found[inverse]
+        return ids
 
     def matrix(self, first: int = 0, last: int | None = None) -> sp.csr_matrix:
         rows, vals = self.rows[first:last], self.vals[first:last]
@@ -384,11 +462,14 @@ class _Choices:
         self.on_grid = True  # every successor part so far is a vertex itself
 
     def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, reward: np.ndarray,
-            D: sp.csr_matrix, dyn: _Dynamics, grid: _Grid) -> None:
+            D: sp.csr_matrix, dyn: _Dynamics, grid: _Grid,
+            block: np.ndarray | None = None) -> None:
         """Choices ``keys`` whose continuing successor distributions are the rows of ``D``:
         each row split into its groups (one per observation of the decision maker's states, one
         for the others; a convex decomposition, so the bound stays sound), each part normalised
-        and triangulated."""
+        and triangulated. ``block`` (int64 per row, ascending; default all 0): rows of
+        different blocks are as if added by separate calls, one block after the other (the
+        order new grid vertices are numbered in)."""
         self.key.append(keys)
         self.action.append(action)
         self.stop.append(stop)
@@ -403,9 +484,16 @@ class _Choices:
         starts = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
         sizes = np.diff(np.r_[starts, pair.size])
         rows = pair[starts] // (dyn.Z + 1)
+        row_block = np.zeros(D.shape[0], dtype=np.int64) if block is None else block
         mass = np.add.reduceat(data, starts)
         N = grid.N
-        # the parts of one support size together: one vectorised triangulation each
+        # the parts of one support size together: one vectorised triangulation each; the
+        # references to grid vertices are then taken in the order of one call per block, per
+        # support size, per part, per vertex of its simplex
+        order_keys: list[tuple[np.ndarray, ...]] = []
+        refs: list[tuple[np.ndarray, np.ndarray]] = []
+        e_key: list[np.ndarray] = []
+        e_prob: list[np.ndarray] = []
         for m, sel in _chunks(sizes):
             at = starts[sel][:, None] + np.arange(m)[None, :]
             w = mass[sel]
@@ -414,10 +502,22 @@ class _Choices:
             keep = lam > 0
             self.on_grid = self.on_grid and bool((keep.sum(axis=1) == 1).all())
             i, k = np.nonzero(keep)
-            vs = [grid.vertex(cols[a], counts[a, b]) for a, b in zip(i.tolist(), k.tolist())]
-            self.e_key.append(keys[rows[sel][i]].astype(np.int64))
-            self.e_vertex.append(np.asarray(vs, dtype=np.int64))
-            self.e_prob.append(w[i] * lam[i, k])
+            r = rows[sel][i]
+            order_keys.append((k, starts[sel][i], np.full(i.size, m), row_block[r]))
+            refs.append((cols[i], counts[i, k]))
+            e_key.append(keys[r].astype(np.int64))
+            e_prob.append(w[i] * lam[i, k])
+        total = sum(k.size for k, *_ in order_keys)
+        seq = np.lexsort(tuple(np.concatenate(c) for c in zip(*order_keys)))
+        rank = np.empty(total, dtype=np.int64)
+        rank[seq] = np.arange(total)
+        parts, at0 = [], 0
+        for cols, counts in refs:
+            parts.append((rank[at0:at0 + cols.shape[0]], cols, counts))
+            at0 += cols.shape[0]
+        self.e_key.append(np.concatenate(e_key)[seq])
+        self.e_vertex.append(grid.lookup(parts, total))  # in rank order
+        self.e_prob.append(np.concatenate(e_prob)[seq])
 
 
 @dataclass(frozen=True, eq=False)
@@ -531,31 +631,52 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             choices.add(ids[sel] * choices.span + a, np.full(sel.size, a, dtype=np.int64),
                         np.asarray(Ba @ dyn.stop[a]).ravel(),
                         np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a], dyn, grid)
-        for j in np.flatnonzero(~mine).tolist():
-            v = done + j
-            if deadline is not None and time.perf_counter() > deadline:
-                skipped.append(v)  # the adversary's vertices one by one: the rest are cut off
-                continue
-            states, p = grid.rows[v], grid.vals[v]
-            cols, probs = dyn.rules(states)
-            if mixtures is not None:
-                extra = mixtures.at(states, p, resolution)
-                if extra is not None:
-                    probs = np.vstack([probs, extra[:MIX_CAP]])
-            k = probs.shape[0]
-            mass = np.repeat(p, np.diff(dyn.model.row_groups)[states])
-            W = sp.csr_matrix(probs * mass)
-            W = sp.csr_matrix((W.data, cols[W.indices], W.indptr),
-                              shape=(k, dyn.model.num_choices))
-            choices.add(v * choices.span + Au + np.arange(k), np.full(k, -1, dtype=np.int64),
-                        np.asarray(W @ dyn.T_stop).ravel(),
-                        np.asarray(W @ dyn.choice_reward).ravel(), W @ dyn.T_cont, dyn,
-                        grid)
+        theirs = done + np.flatnonzero(~mine)
+        if theirs.size and deadline is not None and time.perf_counter() > deadline:
+            skipped.extend(theirs.tolist())  # the adversary's vertices are cut off
+        elif theirs.size:
+            _adversary_choices(theirs, dyn, grid, choices, Au, mixtures)
         done = last
     expanded = np.zeros(len(grid.rows), dtype=bool)
     expanded[:done] = True
     expanded[skipped] = False
     return _assemble(problem, dyn, grid, expanded, resolution, cutoff, choices, coarse)
+
+
+def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choices: _Choices,
+                       first_local: int, mixtures: Mixtures | None = None) -> None:
+    """The choices of the adversary's ``vertices`` (one per decision rule :meth:`_Dynamics.rules`
+    tries there, then the randomised rules ``mixtures`` offers there), added to ``choices``
+    together: one block per vertex."""
+    per_state = np.diff(dyn.model.row_groups)
+    keys, block, r_parts, c_parts, v_parts = [], [], [], [], []
+    n_rows = 0
+    for v in vertices.tolist():
+        states, p = grid.rows[v], grid.vals[v]
+        k, r, c, prob, at = dyn.rule_entries(states, per_state)
+        extra = None if mixtures is None else mixtures.at(states, p, grid.N)
+        if extra is not None:
+            cols, _ = dyn.rules(states)
+            owner = np.repeat(np.arange(states.size), per_state[states])
+            r2, c2 = np.nonzero(extra[:MIX_CAP])
+            r = np.r_[r, k + r2]
+            c = np.r_[c, cols[c2]]
+            prob = np.r_[prob, extra[r2, c2]]
+            at = np.r_[at, owner[c2]]
+            k += min(extra.shape[0], MIX_CAP)
+        r_parts.append(r + n_rows)
+        c_parts.append(c)
+        v_parts.append(prob * p[at])  # a rule's weight times the state's mass
+        keys.append(v * choices.span + first_local + np.arange(k))
+        block.append(np.full(k, v, dtype=np.int64))
+        n_rows += k
+    W_all = sp.csr_matrix((np.concatenate(v_parts), (np.concatenate(r_parts),
+                                                      np.concatenate(c_parts))),
+                          shape=(n_rows, dyn.model.num_choices))
+    choices.add(np.concatenate(keys), np.full(n_rows, -1, dtype=np.int64),
+                np.asarray(W_all @ dyn.T_stop).ravel(),
+                np.asarray(W_all @ dyn.choice_reward).ravel(), W_all @ dyn.T_cont,
+                dyn, grid, block=np.concatenate(block))
 
 
 def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarray,

@@ -48,6 +48,7 @@ from scipy.sparse import csgraph
 
 from posgmc.engines import objectives as obj
 from posgmc.engines.options import Method, SolverOptions
+from posgmc.engines.row_slots import RowSlots
 from posgmc.engines.system import HAVE_KERNELS, accumulate_rows
 from posgmc.errors import LimitError, UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
@@ -269,12 +270,32 @@ def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: 
         return out
 
     free = ~fixed
+    # the sweeps take the free states' rows only (the fixed states keep their values), laid out
+    # by slot (:mod:`posgmc.engines.row_slots`: no reduceat over 10^5 groups per sweep)
+    F = np.flatnonzero(free)
+    by_slot = RowSlots.of(starts[F], counts[F])
+    A_free = A[by_slot.order]
+    offset_free = offset[by_slot.order]
+    flip_free = state_flip[F]
+    v_free = np.empty(by_slot.order.size)
+
+    def optimum(x: np.ndarray) -> np.ndarray:
+        """The Bellman update: the best row of every free state, the fixed values elsewhere."""
+        if HAVE_KERNELS:
+            v_free[:] = offset_free
+            accumulate_rows(A_free, 0, A_free.shape[0], x, v_free)
+            values = v_free
+        else:  # pragma: no cover - depends on the scipy build
+            values = offset_free + A_free @ x
+        y = x.copy()
+        y[F] = by_slot.best(values, np.maximum) * flip_free
+        return y
+
     sign = problem.sign
     init = q.initial
     cut = False
     for sweep in range(_MAX_SWEEPS):
-        y = np.maximum.reduceat(row_values(x), starts) * state_flip
-        y[fixed] = fixed_values[fixed]
+        y = optimum(x)
         if cutoff is not None and sign * y[init] <= sign * cutoff + 1e-12:
             x, cut = y, True
             break

@@ -232,7 +232,8 @@ class _Program:
         least fixed point, whose rows are all tight at the optimum: t pushed one tolerance below
         x(init)). That says nothing about the program (HiGHS had found an optimum, within
         tolerance), so the solve is repeated without presolve, on the original rows,
-        which are then the rows HiGHS's tolerance applied to (with a fresh ``node_limit``)."""
+        which are then the rows HiGHS's tolerance applied to (with a fresh ``node_limit``). A solve
+        stopped by ``node_limit`` with an incumbent (scipy's same status 4) is returned as it is."""
         cost = np.zeros(self.num_vars)
         cost[objective] = -sense
         matrix = sp.csr_matrix(
@@ -256,7 +257,9 @@ class _Program:
                        constraints=LinearConstraint(matrix, np.concatenate(self.row_lo),
                                                     np.concatenate(self.row_hi)),
                        options=options)
-            if res.status != _SOLVE_ERROR:
+            # scipy reports HiGHS's "solution limit reached" (the node budget ran out, with an
+            # incumbent) under the same status: that is an answer, not an error
+            if res.status != _SOLVE_ERROR or res.x is not None:
                 return res
         return res
 

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse import csgraph
 from scipy.sparse.linalg import splu
 
 from posgmc.checking.property_checker import (
@@ -42,13 +43,21 @@ from posgmc.checking.property_checker import (
     PropertyChecker,
     ScalarEvaluator,
 )
-from posgmc.engines.graph import almost_sure_reach, concat_ranges, positive_reach, structure_of
+from posgmc.engines.graph import (
+    Structure,
+    almost_sure_reach,
+    positive_reach,
+    structure_of,
+)
 from posgmc.engines.options import Method, SolverOptions
+from posgmc.engines.row_slots import RowSlots
+from posgmc.engines.system import HAVE_KERNELS, accumulate_rows
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
-from posgmc.strategies.product import strategy_product
+from posgmc.strategies.product import StrategyProduct, strategy_product
 from posgmc.syntax.ast import ProbQuery, RewardQuery
+from posgmc.synthesis.product_template import ProductTemplate, support_key
 
 __all__ = ["Parametrisation", "Evaluation", "Layout", "game_views", "ITERATIVE_STATES"]
 
@@ -56,6 +65,9 @@ ITERATIVE_STATES = 50_000
 """Products with at least this many states are evaluated by warm-started value iteration
 (:meth:`Parametrisation._evaluate_iterative`) instead of sparse LU factorisations, whose fill-in
 makes each solve cost seconds at 10^5 states."""
+
+TEMPLATES = 4
+"""Product templates kept per parametrisation (the supports seen last)."""
 
 ITERATIVE_SWEEPS = 20_000
 """At most this many sweeps per iterative solve."""
@@ -175,6 +187,8 @@ class Parametrisation:
         self.act_index = np.full(A, -1, dtype=np.int64)
         self.act_index[self.used_actions] = np.arange(self.used_actions.size)
         self.maximize = query.direction is None or query.direction.name == "MAX"
+        # the products of the supports seen last (a search's candidates share one support)
+        self._templates: dict[bytes, ProductTemplate] = {}
         # (state_of, memory_of, best response) of the last evaluation: the next one's warm start
         self._last_response: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         # (state_of, memory_of, undecided states, values, adjoint) of the last iterative
@@ -247,9 +261,7 @@ class Parametrisation:
     ) -> Evaluation:
         """The initial value against the adversary's best response, and its gradient with respect
         to γ and δ (not yet through the softmax: see :meth:`logit_gradient`)."""
-        m = self.model
-        fss = self.strategy(gamma, delta)
-        prod = strategy_product(m, [bind(m, fss)])
+        prod = self._product(gamma, delta)
         pm = prod.model
         if pm.num_states >= ITERATIVE_STATES and self._iterative_applies():
             return self._evaluate_iterative(prod, gamma, delta, gradient=gradient)
@@ -284,10 +296,7 @@ class Parametrisation:
         zero_a, zero_d = np.zeros(self.shapes[0]), np.zeros(self.shapes[1])
         g_disc = self.discount
         if self.rewards is None:  # reachability: x = P x on U, 1 on the target, 0 elsewhere
-            reach = positive_reach(
-                structure_of_chain(chain), tgt, rem, existential=np.ones(S, bool)
-            )
-            unknown = reach & ~tgt
+            unknown = chain_reach(chain, tgt, rem) & ~tgt
             x = tgt.astype(np.float64)
         elif g_disc < 1.0:  # discounted cost until the target: x = r + g P x off the target
             unknown = ~tgt
@@ -317,6 +326,29 @@ class Parametrisation:
         y = np.zeros(S)
         y[U] = y_u
         return self._gradient(prod, x, y, gamma, delta, value)
+
+    def _product(self, gamma: np.ndarray, delta: np.ndarray) -> StrategyProduct:
+        """The product with the FSS γ, δ: refilled from the template of its support when there is
+        one (probability objectives, :mod:`~posgmc.synthesis.product_template`), else built (and
+        made the template of its support)."""
+        m = self.model
+        refillable = self.rewards is None and bool(
+            np.all(np.isfinite(gamma)) and np.all(np.isfinite(delta)))
+        key = support_key(gamma, delta) if refillable else b""
+        found = self._templates.get(key) if refillable else None
+        if found is not None:
+            return found.refill(gamma, delta)
+        prod = strategy_product(m, [bind(m, self.strategy(gamma, delta))])
+        if refillable:
+            template = ProductTemplate.of(
+                m, prod, key, owned=self.owned, obs_index=self.obs_index,
+                act_index=self.act_index, state_obs=self.view.state_obs,
+                shape=(self.k, *self.mask.shape))
+            if template is not None:
+                if len(self._templates) >= TEMPLATES:
+                    del self._templates[next(iter(self._templates))]  # the oldest
+                self._templates[key] = template
+        return prod
 
     def _gradient(self, prod, x: np.ndarray, y: np.ndarray, gamma: np.ndarray,  # type: ignore[no-untyped-def]
                   delta: np.ndarray, value: float) -> Evaluation:
@@ -402,62 +434,84 @@ class Parametrisation:
         if same and warm is not None:
             x[unknown] = warm[3][unknown]
         reduce = np.minimum if self.maximize else np.maximum  # the adversary's side
-        any_choice = bool(choosing.any())
-        # the adversary's rows, contiguous, and where each of its states' rows start among them
-        chooser = np.flatnonzero(choosing)
-        chooser_rows = concat_ranges(rg[chooser], rg[chooser + 1])
-        chooser_starts = np.concatenate([[0], np.cumsum(np.diff(rg)[chooser])[:-1]]).astype(
-            np.int64
-        )
-        first_row = rg[:-1]
+        any_choice = bool(T.shape[0] > S)
+        # only the undecided states U are iterated (the others keep their fixed values). One
+        # sweep: the values of U's rows into a buffer (scipy's kernel, no operator dispatch), the
+        # rows laid out by slot (:mod:`posgmc.engines.row_slots`: no reduceat over 10^5 groups)
+        # The columns are renumbered U first, so that the iterate is one vector whose head is U's
+        # values: no gather or scatter of U per sweep (each row keeps its stored order, so its
+        # sum is the same)
+        U = np.flatnonzero(unknown)
+        nU = U.size
+        columns = np.concatenate([U, np.flatnonzero(~unknown)])
+        position = np.empty(S, dtype=T.indices.dtype)
+        position[columns] = np.arange(S, dtype=position.dtype)
+        by_slot = RowSlots.of(rg[U], np.diff(rg)[U])
+        order = by_slot.order
+        T_slots = T[order]
+        T_slots = sp.csr_matrix((T_slots.data, position[T_slots.indices], T_slots.indptr),
+                                shape=T_slots.shape)
+        offset_slots = offset[order] if offset is not None else None
+        row_buf = np.empty(order.size)
+        best_buf, diff = np.empty(nU), np.empty(nU)  # reused: no allocation per sweep
 
-        def sweep(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            rows = T @ values
+        def sweep(values: np.ndarray) -> np.ndarray:
+            """The adversary's optimum in every state of U, in ``best_buf`` (the rows' values
+            stay in ``row_buf``)."""
+            _row_values(T_slots, values, row_buf)
             if g_disc != 1.0:
-                rows *= g_disc
-            if offset is not None:
-                rows += offset
-            if not any_choice:
-                return rows, rows
-            best = rows[first_row]
-            best[chooser] = reduce.reduceat(rows[chooser_rows], chooser_starts)
-            return rows, best
+                np.multiply(row_buf, g_disc, out=row_buf)
+            if offset_slots is not None:
+                np.add(row_buf, offset_slots, out=row_buf)
+            return by_slot.best(row_buf, reduce, out=best_buf)
 
-        scale = 1.0
+        # the largest value outside U never changes: the stopping rule's scale is kept apart
+        fixed_scale = max(1.0, float(np.abs(x[~unknown]).max(initial=0.0)))
+        xp = x[columns]  # the iterate, U first
+        head = xp[:nU]
         for _ in range(ITERATIVE_SWEEPS):
-            _, best = sweep(x)
-            new = np.where(unknown, best, x)
-            change = float(np.abs(new - x).max(initial=0.0))
-            x = new
-            scale = max(1.0, float(np.abs(x).max(initial=0.0)))
+            new = sweep(xp)
+            np.subtract(new, head, out=diff)
+            change = float(np.abs(diff, out=diff).max(initial=0.0))
+            head[:] = new
+            np.abs(new, out=diff)
+            scale = max(fixed_scale, float(diff.max(initial=0.0)))
             if change <= ITERATIVE_TOLERANCE * scale:
                 break
+        x[U] = head
         init = int(prod.initial_map[0])
         value = float(x[init])
         y_warm = warm[4] if same and warm is not None and warm[4] is not None else None
         if not gradient or not unknown[init]:
             self._warm = (prod.state_of, prod.memory_of, unknown, x, y_warm)
             return Evaluation(value, np.zeros(self.shapes[0]), np.zeros(self.shapes[1]))
-        rows = rg[:-1].copy()
-        if any_choice:  # the best response: the first row attaining the adversary's optimum
-            values, best = sweep(x)
-            hits = np.flatnonzero(values == best[pm.choice_states])
-            states, first = np.unique(pm.choice_states[hits], return_index=True)
-            rows[states] = hits[first]
-        chain_t = T[rows].T.tocsr() if any_choice else T.T.tocsr()
-        e = np.zeros(S)
-        e[init] = 1.0
-        y = y_warm.copy() if y_warm is not None else e.copy()
+        # the best response in U: the first row attaining the adversary's optimum (outside U the
+        # adjoint is 0, so no row there matters)
+        pick = np.zeros(U.size, dtype=np.int64)
+        if any_choice:
+            pick = by_slot.first_attaining(row_buf, sweep(xp))
+        # the adjoint on U: y = g P_UU^T y + e_init (y = 0 outside U)
+        chain_t = T[rg[U] + pick][:, U].T.tocsr()
+        at = int(np.searchsorted(U, init))
+        if y_warm is not None:
+            y_u = y_warm[U]
+        else:
+            y_u = np.zeros(nU)
+            y_u[at] = 1.0
+        # two buffers swapped per sweep, no allocation (y >= 0: P and e_init are)
+        new, diff = np.empty(nU), np.empty(nU)
         for _ in range(ITERATIVE_SWEEPS):
-            new = chain_t @ y
+            _row_values(chain_t, y_u, new)
             if g_disc != 1.0:
-                new *= g_disc
-            new[~unknown] = 0.0
-            new += e
-            change = float(np.abs(new - y).max(initial=0.0))
-            y = new
-            if change <= ITERATIVE_TOLERANCE * max(1.0, float(np.abs(y).max(initial=0.0))):
+                np.multiply(new, g_disc, out=new)
+            new[at] += 1.0
+            np.subtract(new, y_u, out=diff)
+            change = float(np.abs(diff, out=diff).max(initial=0.0))
+            y_u, new = new, y_u
+            if change <= ITERATIVE_TOLERANCE * max(1.0, float(y_u.max(initial=0.0))):
                 break
+        y = np.zeros(S)
+        y[U] = y_u
         self._warm = (prod.state_of, prod.memory_of, unknown, x, y)
         return self._gradient(prod, x, y, gamma, delta, value)
 
@@ -470,6 +524,17 @@ class Parametrisation:
         return ga * self.mask[None], gd
 
 
+def _row_values(A: sp.csr_matrix, x: np.ndarray, out: np.ndarray) -> None:
+    """``out = A @ x`` in place (scipy's kernel where available: the solves here are thousands of
+    sweeps of one matrix, and the operator's dispatch and allocation cost as much as the
+    product)."""
+    out.fill(0.0)
+    if HAVE_KERNELS:
+        accumulate_rows(A, 0, A.shape[0], x, out)
+    else:  # pragma: no cover - depends on the scipy build
+        out += A @ x
+
+
 def _ranges(counts: np.ndarray) -> np.ndarray:
     """0..c-1 for each count c, concatenated."""
     total = int(counts.sum())
@@ -478,10 +543,31 @@ def _ranges(counts: np.ndarray) -> np.ndarray:
     return out
 
 
-def structure_of_chain(chain: sp.csr_matrix):  # type: ignore[no-untyped-def]
-    """The graph structure of a Markov chain given as a square matrix (one row per state)."""
-    from posgmc.model.explicit import make_model
-    from posgmc.syntax.ast import ModelType
+def chain_reach(chain: sp.csr_matrix, target: np.ndarray, remain: np.ndarray) -> np.ndarray:
+    """bool[S]: the states of a Markov chain (square matrix, one row per state) with a path of
+    positive probability to ``target`` through ``remain`` (the target included) — the engines'
+    ``positive_reach`` on the chain, as one breadth-first search (scipy's, compiled) backwards
+    from a virtual root before every target state, with no per-layer Python step."""
+    S = chain.shape[0]
+    coo = sp.coo_matrix(chain)
+    edge = (coo.data > 0) & remain[coo.row] & ~target[coo.row]
+    goal = np.flatnonzero(target)
+    src = np.concatenate([coo.col[edge].astype(np.int64), np.full(goal.size, S)])
+    dst = np.concatenate([coo.row[edge].astype(np.int64), goal])
+    graph = sp.csr_matrix((np.ones(src.size, dtype=np.int8), (src, dst)), shape=(S + 1, S + 1))
+    order = csgraph.breadth_first_order(graph, S, directed=True, return_predecessors=False)
+    found = np.zeros(S + 1, dtype=bool)
+    found[order] = True
+    out: np.ndarray = found[:S] | target
+    return out
 
-    n = chain.shape[0]
-    return structure_of(make_model(ModelType.DTMC, np.arange(n + 1), chain))
+
+def structure_of_chain(chain: sp.csr_matrix) -> Structure:
+    """The graph structure of a Markov chain given as a square matrix (one row per state): its
+    canonical csr form (duplicates summed, zeros dropped, indices sorted, as a model holds it),
+    without building and validating a model around it (one per evaluated candidate)."""
+    T = sp.csr_matrix(chain, dtype=np.float64, copy=True)
+    T.sum_duplicates()
+    T.eliminate_zeros()
+    T.sort_indices()
+    return Structure.build(T, np.arange(T.shape[0] + 1, dtype=np.int64))

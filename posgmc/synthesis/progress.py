@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
-__all__ = ["Status", "report", "reporting", "current", "begin", "point_done"]
+__all__ = ["Status", "report", "reporting", "current", "begin", "point_done", "silence"]
 
 
 @dataclass(frozen=True)
@@ -102,6 +102,13 @@ def reporting(sink: Sink) -> Iterator[None]:
     finally:
         _SINKS.remove(sink)
         _STATE.clear()
+
+
+def silence() -> None:
+    """This process reports nothing from now on: a worker forked to run whole computations (the
+    points of a sweep) for a process that shows its own progress."""
+    _SINKS.clear()
+    _STATE.clear()
 
 
 def point_done(label: str, value: float | None, done: int, total: int) -> None:

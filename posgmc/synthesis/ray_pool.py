@@ -1,7 +1,9 @@
 """Synthesis jobs on a Ray cluster (``--executor ray``; ``pip install 'posgmc[ray]'``).
 
-The problem (the built model, the objective's arrays) goes into Ray's object store once; one
-long-lived actor per worker (one CPU each) receives it when it starts and keeps it, and then
+The problem (the objective's arrays, and the model: when it was built from text here, the recipe
+that builds it, :func:`shipped`) goes into Ray's object store once; one long-lived actor per
+worker (one CPU each) receives it when it starts, builds the model from the recipe once (before
+its first job) and keeps it, and then
 receives only the jobs — plain data: candidate strategies, adversaries, memory sizes, logits,
 deadlines (:mod:`posgmc.synthesis.tasks`); a value several jobs of a batch share (the defence
 evaluated against each adversary) goes into the object store once for the batch and each actor
@@ -13,25 +15,35 @@ Where the cluster is: ``--ray-address HOST:PORT`` (a ``ray start --head``), else
 copy of posgmc (shipped as a runtime-environment module), so the cluster only needs Ray and
 posgmc's dependencies.
 
+Independent calls (the points of a sweep or front, the runs of ``posgmc test``) run as Ray
+tasks of one CPU each (:func:`ray_results`, for :mod:`posgmc.synthesis.fanout`).
+
 Failure: an actor that dies (killed, out of memory, its node lost) is restarted with the problem
 and its job retried, :data:`RETRIES` times; then the run stops with a :class:`WorkerError` naming
-the job. Ctrl-C (or any error) cancels the jobs still queued and ends the actors.
+the job. Ctrl-C (or any error) cancels the jobs still queued and ends the actors. A Ray started
+on this machine for the run is shut down when the process exits, and the helper processes
+``ray.shutdown()`` leaves behind are ended with it (:func:`release`).
 """
 
 from __future__ import annotations
 
+import atexit
 import dataclasses
 import os
 import socket
+import sys
 import time
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Generator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import posgmc
 from posgmc.errors import InputError, UnsupportedError, WorkerError
+from posgmc.model.origin import Recipe, recipe_of
+from posgmc.processes import Process, descendants, end
+from posgmc.synthesis.budget import interrupted
 from posgmc.synthesis.problem import Problem
 from posgmc.synthesis.tasks import (
     Job,
@@ -43,7 +55,8 @@ from posgmc.synthesis.tasks import (
     timed,
 )
 
-__all__ = ["RayPool", "RETRIES", "SAME_CLOCK", "START_SECONDS", "shared_fields"]
+__all__ = ["RayPool", "RETRIES", "SAME_CLOCK", "START_SECONDS", "shared_fields", "ray_results",
+           "release", "shipped"]
 
 RETRIES = 2
 """How often a dead actor is restarted and its job retried before the run fails."""
@@ -55,6 +68,9 @@ machine, where ``time.perf_counter()`` is one clock): the jobs are then sent unc
 START_SECONDS = 120.0
 """How long the actors may take to start (a CPU free for each, the problem fetched) before the
 run stops with an error rather than waiting for CPUs that other work holds."""
+
+_POLL_SECONDS = 0.5
+"""How often a wait for Ray tasks looks whether Ctrl-C asked to stop."""
 
 _CONNECT_SECONDS = 5.0
 """How long reaching a given cluster address may take before the run stops with an error
@@ -102,12 +118,33 @@ _CACHED = 8
 """How many shared values an actor keeps (the latest batches')."""
 
 
-class _Worker:
-    """The actor: holds the problem, runs jobs on it."""
+def shipped(problem: Problem) -> tuple[Problem, Recipe | None]:
+    """What goes to each worker for ``problem``: when its model was built from text here
+    (:mod:`posgmc.model.origin`), the problem without the model and the recipe that builds it
+    (the text, constants and build options: kilobytes, however large the model); else the
+    problem as it is."""
+    recipe = recipe_of(problem.model)
+    if recipe is None:
+        return problem, None
+    return dataclasses.replace(problem, model=None), recipe  # type: ignore[arg-type]
 
-    def __init__(self, problem: Problem) -> None:
-        self.problem = problem
+
+class _Worker:
+    """The actor: holds the problem (its model built here from the recipe, when one came, before
+    the first job), runs jobs on it."""
+
+    def __init__(self, problem: Problem, recipe: Recipe | None = None) -> None:
+        self._given = problem
+        self._recipe = recipe
+        self._problem = problem if recipe is None else None
         self._shared: dict[Any, Any] = {}
+
+    @property
+    def problem(self) -> Problem:
+        if self._problem is None:
+            assert self._recipe is not None  # noqa: S101 - no problem yet: a recipe came
+            self._problem = dataclasses.replace(self._given, model=self._recipe())
+        return self._problem
 
     def _resolved(self, job: Job) -> Job:
         """``job`` with its shared fields fetched (once per value and actor)."""
@@ -176,8 +213,46 @@ def _connect(ray: Any, address: str | None) -> None:
     if given not in ("auto", "local") and "://" not in given:
         _reachable(given)
     package = str(Path(posgmc.__file__).resolve().parent)
+    before = descendants() if given == "local" else set()
     ray.init(address=given, include_dashboard=False, log_to_driver=False,
              logging_level="WARNING", runtime_env={"py_modules": [package]})
+    if given == "local":
+        # a Ray started here for this process: ended with it, helpers and all
+        _STARTED.update(descendants() - before)
+        _note_helpers()
+        atexit.register(release)
+
+
+_STARTED: set[Process] = set()
+"""The processes ``ray.init()`` started here (its GCS server, raylet, ...); empty when this
+process connected to a cluster that was already running."""
+
+_HELPERS: set[Process] = set()
+"""Every process seen below :data:`_STARTED` (agents, workers), kept because the terminal's
+Ctrl-C may end a raylet before this process does, leaving its children without a parent to
+find them by."""
+
+
+def _note_helpers() -> None:
+    """Add the processes now below :data:`_STARTED` to :data:`_HELPERS`."""
+    for pid, _ in list(_STARTED):
+        _HELPERS.update(descendants(pid))
+
+
+def release() -> None:
+    """Disconnect from Ray; when the Ray was started by this process, end every process it
+    started that ``ray.shutdown()`` leaves running (its dashboard and runtime-environment agents
+    do, and a Ctrl-C that reached the raylet first leaves more). Run at exit; harmless twice."""
+    ray = sys.modules.get("ray")
+    if ray is None:
+        return
+    _note_helpers()
+    if ray.is_initialized():
+        ray.shutdown()
+    leftovers = _STARTED | _HELPERS
+    _STARTED.clear()
+    _HELPERS.clear()
+    end(leftovers)
 
 
 def _cluster_cpus(ray: Any) -> int:
@@ -205,10 +280,12 @@ class RayPool:
         cpus = _cluster_cpus(ray)
         self.workers = cpus if placement.workers <= 1 else min(placement.workers, cpus)
         actor = ray.remote(num_cpus=1, max_restarts=RETRIES, max_task_retries=RETRIES)(_Worker)
-        self._problem_ref = ray.put(problem)
-        self._actors = [actor.remote(self._problem_ref) for _ in range(self.workers)]
+        light, recipe = shipped(problem)
+        self._problem_ref = ray.put(light)
+        self._actors = [actor.remote(self._problem_ref, recipe) for _ in range(self.workers)]
         started = [a.ready.remote() for a in self._actors]
         ready, _ = ray.wait(started, num_returns=len(started), timeout=START_SECONDS)
+        _note_helpers()
         if len(ready) < len(started):
             self.close()
             raise WorkerError(
@@ -270,3 +347,65 @@ class RayPool:
             self._ray.kill(actor, no_restart=True)
         self._actors = []
         self._problem_ref = None
+
+
+def _call(function: Callable[..., Any], arguments: tuple[Any, ...]) -> Any:
+    """A fanned-out call, run in a Ray worker (:mod:`posgmc.synthesis.fanout`)."""
+    return function(*arguments)
+
+
+def ray_results(function: Callable[..., Any], arguments: Sequence[tuple[Any, ...]],
+                placement: Placement, names: Sequence[str], spread: Any = None,
+                ) -> Generator[Any, None, None]:
+    """``function(*args)`` for each of ``arguments`` as Ray tasks of one CPU each, at most
+    ``placement.workers`` at a time (1: as many as the cluster has CPUs), yielded in their order;
+    a task whose worker dies is retried :data:`RETRIES` times, then a :class:`WorkerError` names
+    it (``names``). An early stop (an error, Ctrl-C, the caller done reading) cancels the tasks
+    still running or queued. ``spread``: a :class:`~posgmc.synthesis.fanout.Spread` whose
+    ``workers`` is set to the tasks run at once."""
+    ray = _ray()
+    _connect(ray, placement.address)
+    cpus = _cluster_cpus(ray)
+    limit = min(cpus if placement.workers <= 1 else min(placement.workers, cpus), len(arguments))
+    if spread is not None:
+        spread.workers = limit
+    _note_helpers()
+    remote = ray.remote(num_cpus=1, max_retries=RETRIES)(_call)
+    refs: list[Any] = []
+    running: set[Any] = set()
+
+    def fill() -> None:
+        while len(refs) < len(arguments) and len(running) < limit:
+            refs.append(remote.remote(function, arguments[len(refs)]))
+            running.add(refs[-1])
+
+    try:
+        for i in range(len(arguments)):
+            fill()
+            while refs[i] in running:
+                ready, _ = ray.wait(list(running), num_returns=1, timeout=_POLL_SECONDS)
+                if not ready and interrupted():
+                    # Ctrl-C: the cluster's tasks cannot wind down as this process's phases
+                    # do (they do not see the stop); they are cancelled
+                    raise KeyboardInterrupt
+                running.difference_update(ready)
+                fill()
+            yield _value(ray, refs[i], names[i])
+            refs[i] = None  # the result is the caller's now; Ray may free it
+    finally:
+        for ref in running:
+            ray.cancel(ref, force=True)
+
+
+def _value(ray: Any, ref: Any, name: str) -> Any:
+    """A finished task's result, its own exception re-raised, or a WorkerError naming it."""
+    try:
+        return ray.get(ref)
+    except ray.exceptions.RayTaskError as e:
+        raise e.cause from None
+    except (ray.exceptions.WorkerCrashedError, ray.exceptions.ObjectLostError,
+            ray.exceptions.OutOfMemoryError, ray.exceptions.TaskCancelledError) as e:
+        raise WorkerError(
+            f"{name} failed: its Ray worker died {RETRIES + 1} times ({type(e).__name__})",
+            hint="see `ray status` and the cluster's logs; a worker out of memory needs "
+                 "nodes with more memory or a smaller model") from None

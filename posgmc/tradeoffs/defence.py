@@ -206,6 +206,7 @@ def defence_front(
     budgets: Sequence[float] = (),
     strategy_dir: str | Path | None = None,
     include_mission: bool = True,
+    placement: Any = None,
 ) -> DefenceFront:
     """Synthesise one defence per weight and verify both objectives under each.
 
@@ -223,6 +224,9 @@ def defence_front(
         budgets: cost constraints ``c`` to answer from the verified points.
         strategy_dir: write each defence to ``<dir>/w=<w>/<player>.json`` and verify the file.
         include_mission: also synthesise for the mission query itself (``w = inf``).
+        placement: where the weights' defences are synthesised and verified, each a task
+            (:class:`~posgmc.synthesis.tasks.Placement`; default: one after the other here);
+            the front does not depend on it.
 
     Returns:
         The :class:`DefenceFront`.
@@ -232,6 +236,8 @@ def defence_front(
     """
     from posgmc import api
     from posgmc.strategies.files import write_strategy
+    from posgmc.synthesis.fanout import each_result
+    from posgmc.synthesis.tasks import Placement
 
     start = time.perf_counter()
     ws = [float(w) for w in weights]
@@ -245,14 +251,26 @@ def defence_front(
                                hint="on an mdp use pareto --prop 'multi(...)'")
     m, c = _queries(session, mission, cost)
     full = _full_observation(session, built, m.text, c.text)
-    points = []
+    points: list[DefencePoint] = []
     every = ws + ([math.inf] if include_mission else [])
-    for w in every:
-        points.append(_point(session, built, m, c, w, memory=memory, timeout=timeout, effort=effort,
-                             seed=seed, strategy_dir=strategy_dir, write=write_strategy))
-        done = points[-1]
-        progress.point_done(f"w={_fmt_weight(w)}", None if done.mission is None
-                            else float(done.mission.value), len(points), len(every))
+    # each weight a task; the model's text travels (a cluster's nodes need not see the file)
+    calls = [(str(path), session.source.text, dict(constants or {}), m.text, c.text, w, memory,
+              timeout, effort, seed, strategy_dir is not None) for w in every]
+    # this process's model serves the weights run here (and, forked, those of a local pool)
+    _BUILT.clear()
+    _BUILT[_model_key(str(path), session.source.text, dict(constants or {}))] = (session, built)
+    results = each_result(front_point, calls, placement or Placement(),
+                          labels=[f"w={_fmt_weight(w)}" for w in every])
+    try:
+        for done in results:
+            if strategy_dir is not None and done.strategy is not None:
+                done = _written(done, strategy_dir, write_strategy)
+            points.append(done)
+            progress.point_done(f"w={_fmt_weight(done.weight)}", None if done.mission is None
+                                else float(done.mission.value), len(points), len(every))
+    finally:
+        results.close()
+        _BUILT.clear()
     front = pareto_indices(points)
     answers = tuple(_answer(session, built, m, c, points, float(b), strategy_dir, write_strategy)
                     for b in budgets)
@@ -317,6 +335,52 @@ def _full_observation(
         else:
             out.append(Bound(float(o.value), float(o.lower), float(o.upper), o.sound))
     return out[0], out[1]
+
+
+_BUILT: dict[tuple[str, str, str], tuple[Any, Any]] = {}
+"""This process's model of a front (session, built) by (path, text, constants): built once per
+worker, whatever the number of weights it runs."""
+
+
+def _model_key(path: str, text: str, constants: Mapping[str, Any]) -> tuple[str, str, str]:
+    return path, text, repr(sorted(constants.items()))
+
+
+def front_point(path: str, text: str, constants: dict[str, Any], mission: str, cost: str,
+                weight: float, memory: Any, timeout: float | None, effort: float, seed: int,
+                from_file: bool) -> DefencePoint:
+    """One weight of :func:`defence_front`: its defence synthesised and both objectives verified
+    under it (``from_file``: read back from a ``posgmc-fss/1`` file written to a temporary
+    folder, as :func:`_written` then writes it where asked). Plain data in and out: a task on any
+    executor."""
+    import tempfile
+    from contextlib import nullcontext
+
+    from posgmc import api
+    from posgmc.strategies.files import write_strategy
+
+    key = _model_key(path, text, constants)
+    if key not in _BUILT:
+        session = api.load(path, text=text, constants=constants)
+        _BUILT.clear()
+        _BUILT[key] = (session, api.build(session))
+    session, built = _BUILT[key]
+    m, c = _queries(session, mission, cost)
+    folder = tempfile.TemporaryDirectory(prefix="posgmc-front-") if from_file else nullcontext()
+    with folder as where:
+        point = _point(session, built, m, c, weight, memory=memory, timeout=timeout,
+                       effort=effort, seed=seed, strategy_dir=where, write=write_strategy)
+    return dataclasses.replace(point, strategy_file=None)
+
+
+def _written(point: DefencePoint, strategy_dir: str | Path, write: Any) -> DefencePoint:
+    """``point`` with its defence written to ``<strategy_dir>/w=<w>/<player>.json`` (the file
+    its numbers were verified from, written again where asked)."""
+    folder = os.path.join(str(strategy_dir), f"w={_fmt_weight(point.weight)}")
+    os.makedirs(folder, exist_ok=True)
+    where = os.path.join(folder, f"{point.strategy.player or 'agent'}.json")
+    write(point.strategy, where)
+    return dataclasses.replace(point, strategy_file=where)
 
 
 def _point(session: Any, built: Any, mission: Any, cost: Any, weight: float, *, memory: Any,

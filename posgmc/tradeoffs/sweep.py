@@ -11,6 +11,7 @@ adversary's take-down budget ``B = 0..2`` (models/secure_autonomy/README.md).
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import math
 import os
@@ -76,6 +77,7 @@ def sweep(
     zero_based_players: bool = False,
     strategy_dir: str | Path | None = None,
     also: Sequence[str] = (),
+    placement: Any = None,
 ) -> Sweep:
     """Check (or synthesise for) ``prop`` at every value of ``constant``.
 
@@ -97,41 +99,64 @@ def sweep(
         The sweep; a point whose property fails keeps its error (the others go on, as in PRISM).
     """
     from posgmc import api
+    from posgmc.synthesis.fanout import each_result
+    from posgmc.synthesis.tasks import Placement
+
+    # the model's text travels to the workers (a cluster's nodes need not see the file); a
+    # file that cannot be read is the sweep's error, raised once
+    text = api.load(path).source.text
+    calls = [(str(path), text, prop, constant, setting, dict(constants or {}), synthesis,
+              full_observation, zero_based_players, tuple(also)) for setting in settings]
+    points: list[SweepPoint] = []
+    results = each_result(sweep_point, calls, placement or Placement(),
+                          labels=[f"{constant}={s}" for s in settings])
+    try:
+        for point in results:
+            if strategy_dir is not None and point.result is not None and point.result.strategies:
+                point = _written(point, constant, strategy_dir)
+            points.append(point)
+            progress.point_done(f"{constant}={point.setting}", _headline(point.result),
+                                len(points), len(settings))
+    finally:
+        results.close()
+    _raise_common_error(points)
+    return Sweep(constant, prop, tuple(points), tuple(also))
+
+
+def sweep_point(path: str, text: str, prop: str, constant: str, setting: Any,
+                constants: dict[str, Any], synthesis: Any, full_observation: bool,
+                zero_based_players: bool, also: tuple[str, ...]) -> SweepPoint:
+    """One point of :func:`sweep`: the model (``text``, read from ``path``) with ``constants``
+    and ``constant`` = ``setting``, ``prop`` checked or synthesised, the ``also`` properties under
+    its defence; strategies not yet written (:func:`_written`). Plain data in and out: a task on
+    any executor."""
+    from posgmc import api
+
+    label = str(setting)
+    values = {**constants, constant: setting}
+    try:
+        session = api.load(path, text=text, constants=values)
+        report = api.check(session, properties=[prop], synthesis=synthesis,
+                           full_observation=full_observation,
+                           zero_based_players=zero_based_players)
+    except PosgmcError as e:
+        return SweepPoint(label, _number(label), None, e)
+    outcome = report.outcomes[0]
+    if isinstance(outcome, tuple):
+        return SweepPoint(label, _number(label), None, outcome[1])
+    return SweepPoint(label, _number(label), outcome, None, None, _also(session, also, outcome))
+
+
+def _written(point: SweepPoint, constant: str, strategy_dir: str | Path) -> SweepPoint:
+    """``point`` with its strategies written to ``<strategy_dir>/<constant>=<setting>/``."""
     from posgmc.strategies.files import write_strategy
 
-    points: list[SweepPoint] = []
-    for setting in settings:
-        if points:
-            last = points[-1]
-            progress.point_done(f"{constant}={last.setting}", _headline(last.result),
-                                len(points), len(settings))
-        text = str(setting)
-        values = {**dict(constants or {}), constant: setting}
-        try:
-            session = api.load(path, constants=values)
-            report = api.check(session, properties=[prop], synthesis=synthesis,
-                               full_observation=full_observation,
-                               zero_based_players=zero_based_players)
-        except PosgmcError as e:
-            points.append(SweepPoint(text, _number(text), None, e))
-            continue
-        outcome = report.outcomes[0]
-        if isinstance(outcome, tuple):
-            points.append(SweepPoint(text, _number(text), None, outcome[1]))
-            continue
-        where = None
-        if strategy_dir is not None and outcome.strategies:
-            where = os.path.join(str(strategy_dir), f"{constant}={text}")
-            os.makedirs(where, exist_ok=True)
-            for fss in outcome.strategies:
-                write_strategy(fss, os.path.join(where, f"{fss.player or 'agent'}.json"))
-        points.append(SweepPoint(text, _number(text), outcome, None, where,
-                                 _also(session, also, outcome)))
-    _raise_common_error(points)
-    if points:
-        progress.point_done(f"{constant}={points[-1].setting}", _headline(points[-1].result),
-                            len(points), len(settings))
-    return Sweep(constant, prop, tuple(points), tuple(also))
+    assert point.result is not None  # noqa: S101 - a point with strategies has a result
+    where = os.path.join(str(strategy_dir), f"{constant}={point.setting}")
+    os.makedirs(where, exist_ok=True)
+    for fss in point.result.strategies:
+        write_strategy(fss, os.path.join(where, f"{fss.player or 'agent'}.json"))
+    return dataclasses.replace(point, strategy_dir=where)
 
 
 def _headline(result: PropertyResult | None) -> float | None:

@@ -5,6 +5,7 @@ observations the model never shows: binding is linear and the warnings are summa
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -72,6 +73,29 @@ def test_the_raw_model_error_names_the_agent_and_the_state_once(tmp_path: Path) 
     with pytest.raises(InputError) as info:
         bind(raw, fss)
     assert info.value.message.startswith("state 0 of the agent offers two choices labelled ''")
+
+
+def test_the_raw_model_error_is_raised_on_every_bind(tmp_path: Path) -> None:
+    # binding remembers a model's facts only once they are checked: a second bind of an unfit
+    # model fails as the first did
+    raw = parse_drn(MODEL.read_text(), file=str(MODEL))
+    fss = read_strategy(_strategy(tmp_path, "", at_obs0=""))
+    for _ in range(2):
+        with pytest.raises(InputError):
+            bind(raw, fss)
+
+
+def test_remembered_observation_matchings_follow_each_strategy_order(tmp_path: Path) -> None:
+    # the matching of a strategy's observation list is remembered per list: a strategy whose
+    # list names observations 0 and 1 the other way round binds the other way round
+    model = api.build(api.load(MODEL)).model
+    fss = read_strategy(_strategy(tmp_path, "#1"))
+    swapped = dataclasses.replace(
+        fss, observation_values=fss.observation_values[[1, 0, 2]].copy())
+    for _ in range(2):
+        a, b = bind(model, fss), bind(model, swapped)
+        assert a.obs_map.tolist() == [0, 1, 2]  # the file's rules are for observations 0, 1, 2
+        assert b.obs_map.tolist() == [1, 0, 2]
 
 
 def test_an_exported_strategy_reads_back(tmp_path: Path) -> None:

@@ -123,3 +123,31 @@ module m
 endmodule
 rewards "cost" [a] s=1|s=2 : 1; [b] s=1|s=2 : 1; endrewards
 """
+
+
+# by hand: a coin in s=0 puts the agent in s=1 or s=2, which it cannot tell apart (o=0 in s=0..4).
+# In s=1 "a" wins and "b" moves to s=3; in s=2 "b" wins and "a" moves to s=4; in s=3 "a" wins, in
+# s=4 "b" wins, the other action loses (s=6). With memory: "a" first, and if the game goes on the
+# agent is in s=4, where "b" wins: Pmax = 1. Memoryless with P(a) = q: 1/2 (q + (1-q) q) +
+# 1/2 (q (1-q) + (1-q)) = 1/2 + q (1-q), at most 3/4 (q = 1/2); deterministic: 1/2.
+GUESS = """
+pomdp
+observables o endobservables
+module m
+  s : [0..6] init 0;
+  o : [0..2] init 0;
+  [a] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
+  [b] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
+  [a] s=1 -> (s'=5)&(o'=1);
+  [b] s=1 -> (s'=3);
+  [a] s=2 -> (s'=4);
+  [b] s=2 -> (s'=5)&(o'=1);
+  [a] s=3 -> (s'=5)&(o'=1);
+  [b] s=3 -> (s'=6)&(o'=2);
+  [a] s=4 -> (s'=6)&(o'=2);
+  [b] s=4 -> (s'=5)&(o'=1);
+  [a] s>=5 -> true;
+  [b] s>=5 -> true;
+endmodule
+label "goal" = s=5;
+"""

@@ -13,44 +13,15 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
-from posgmc.model.explicit import Observation, make_model
 from posgmc.strategies.files import read_strategy, write_strategy
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
-from posgmc.syntax.ast import ModelType
 from posgmc.synthesis import belief
 from posgmc.synthesis.options import SynthesisOptions
 from posgmc.synthesis.search import problem_of
-from tests.random_games import random_posg
-from tests.synthesis.helpers import BLIND
-
-# by hand: a coin in s=0 puts the agent in s=1 or s=2, which it cannot tell apart (o=0 in s=0..4).
-# In s=1 "a" wins and "b" moves to s=3; in s=2 "b" wins and "a" moves to s=4; in s=3 "a" wins, in
-# s=4 "b" wins, the other action loses (s=6). With memory: "a" first, and if the game goes on the
-# agent is in s=4, where "b" wins: Pmax = 1. Memoryless with P(a) = q: 1/2 (q + (1-q) q) +
-# 1/2 (q (1-q) + (1-q)) = 1/2 + q (1-q), at most 3/4 (q = 1/2); deterministic: 1/2.
-GUESS = """
-pomdp
-observables o endobservables
-module m
-  s : [0..6] init 0;
-  o : [0..2] init 0;
-  [a] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
-  [b] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
-  [a] s=1 -> (s'=5)&(o'=1);
-  [b] s=1 -> (s'=3);
-  [a] s=2 -> (s'=4);
-  [b] s=2 -> (s'=5)&(o'=1);
-  [a] s=3 -> (s'=5)&(o'=1);
-  [b] s=3 -> (s'=6)&(o'=2);
-  [a] s=4 -> (s'=6)&(o'=2);
-  [b] s=4 -> (s'=5)&(o'=1);
-  [a] s>=5 -> true;
-  [b] s>=5 -> true;
-endmodule
-label "goal" = s=5;
-"""
+from tests.random_games import random_pomdp, random_posg
+from tests.synthesis.helpers import BLIND, GUESS
 
 
 def _setup(text: str, prop: str):  # type: ignore[no-untyped-def]
@@ -141,39 +112,6 @@ def test_the_belief_phase_is_for_pomdps_only() -> None:
     problem = problem_of(model, parser.parse_property('<<p0>> Pmax=? [ F "goal" ]').expr,
                          player=0, adversary=1, coalition_of=coalition, scalar=api._scalar)
     assert not belief.applies(problem)
-
-
-def random_pomdp(seed: int):  # type: ignore[no-untyped-def]
-    """A random POMDP: 4-8 states besides an absorbing goal and sink, two observations (goal and
-    sink a third), 2-3 labels per observation, each choice to 1-3 random states."""
-    rng = np.random.default_rng(seed)
-    S = int(rng.integers(4, 9)) + 2
-    goal, sink = S - 2, S - 1
-    obs = rng.integers(0, 2, size=S)
-    obs[[goal, sink]] = 2
-    labels = {z: sorted(rng.choice(["a", "b", "c"], size=int(rng.integers(2, 4)),
-                                   replace=False).tolist()) for z in (0, 1)}
-    labels[2] = ["a"]
-    names = ("", "a", "b", "c")
-    rows, actions, row_groups = [], [], [0]
-    for s in range(S):
-        for a in labels[int(obs[s])]:
-            row = np.zeros(S)
-            if s in (goal, sink):
-                row[s] = 1.0
-            else:
-                succ = rng.choice(S, size=int(rng.integers(1, 4)), replace=False)
-                row[succ] = rng.random(succ.size) + 0.1
-                row /= row.sum()
-            rows.append(row)
-            actions.append(names.index(a))
-        row_groups.append(len(rows))
-    return make_model(
-        ModelType.POMDP, row_groups, np.array(rows), choice_actions=actions, action_names=names,
-        observations=(Observation(0, obs.astype(np.int32), ("o",), np.array([[0], [1], [2]])),),
-        labels={"goal": np.arange(S) == goal}, variable_names=("s",),
-        state_values=np.arange(S)[:, None],
-    )
 
 
 # the default run: two random POMDPs plus fixed seeds covering each branch below (each under a

@@ -20,8 +20,8 @@ from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.synthesis import belief, belief_grid
 from posgmc.synthesis.search import parametrisation, problem_of
-from tests.synthesis.helpers import BLIND
-from tests.synthesis.test_belief import GUESS, random_pomdp
+from tests.random_games import random_pomdp
+from tests.synthesis.helpers import BLIND, GUESS
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests" / "data" / "benchmarks" / "pomdp"
@@ -72,6 +72,40 @@ def test_a_grid_belief_is_its_own_vertex() -> None:
     assert counts.tolist() == [[1, 2, 1]] and lam.tolist() == [1.0]
 
 
+
+@given(seed=st.integers(0, 10_000), n_parts=st.integers(1, 4), known=st.integers(0, 6))
+def test_the_batched_lookup_numbers_vertices_as_one_call_per_reference(
+        seed: int, n_parts: int, known: int) -> None:
+    # the exploration looks vertices up in batches; it must find (and number) exactly what one
+    # ``vertex`` call per reference in rank order does, or the explored grid would change
+    rng = np.random.default_rng(seed)
+    parts = []
+    for _ in range(n_parts):
+        r, m = int(rng.integers(1, 30)), int(rng.integers(1, 4))
+        idx = np.sort(rng.choice(5, size=(r, m)), axis=1).astype(np.int64)
+        counts = rng.integers(0, 3, size=(r, m)).astype(np.int64)  # zero counts are dropped
+        counts[:, 0] += 1
+        parts.append((idx, counts))
+    total = sum(idx.shape[0] for idx, _ in parts)
+    ranks = rng.permutation(total)
+    one, batched = belief_grid._Grid(5, 4), belief_grid._Grid(5, 4)
+    for g in (one, batched):  # some vertices known before the batch
+        for j in range(known):
+            g.vertex(np.array([j % 5], dtype=np.int64), np.array([4], dtype=np.int64))
+    in_order: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    with_ranks, at = [], 0
+    for idx, counts in parts:
+        r = ranks[at:at + idx.shape[0]]
+        with_ranks.append((r, idx, counts))
+        in_order.update((int(k), (idx[i], counts[i])) for i, k in enumerate(r))
+        at += idx.shape[0]
+    expected = [one.vertex(*in_order[k]) for k in range(total)]
+    assert batched.lookup(with_ranks, total).tolist() == expected
+    assert one.key == batched.key
+    assert all(np.array_equal(a, b) for a, b in zip(one.rows, batched.rows, strict=True))
+    assert all(np.array_equal(a, b) for a, b in zip(one.vals, batched.vals, strict=True))
+
+
 def _bound(problem, seconds: float = 5.0) -> belief_grid.GridBound:  # type: ignore[no-untyped-def]
     found = belief_grid.grid_bound(problem, deadline=time.perf_counter() + seconds)
     assert found is not None
@@ -79,7 +113,7 @@ def _bound(problem, seconds: float = 5.0) -> belief_grid.GridBound:  # type: ign
 
 
 def test_guessing_game_is_exact() -> None:
-    """GUESS (tests/synthesis/test_belief.py): the optimum is 1, derived by hand; its reachable
+    """GUESS (tests/synthesis/helpers.py): the optimum is 1, derived by hand; its reachable
     beliefs ({s0}, {s1, s2} half each, {s3}, {s4}) are grid beliefs at N = 2, so the abstraction
     is the belief MDP itself and the bound is the optimum (up to the solver's precision)."""
     model = _built(text=GUESS)

@@ -231,3 +231,32 @@ def test_shared_posmgs_against_brute_force(name: str, num_states: int,
     assert found is not None and found.optimal
     assert found.value == pytest.approx(best, abs=1e-5)
     _achieves(found, problem, enumeration.strategies, best)
+
+
+def test_a_node_limited_solve_keeps_its_incumbent(monkeypatch: pytest.MonkeyPatch) -> None:
+    # HiGHS stopped by the node budget ("solution limit reached", scipy's status 4 like a solve
+    # error) has an answer: it is returned, not thrown away for a second solve without presolve
+    from posgmc.synthesis import milp as milp_module
+
+    rng = np.random.default_rng(7)
+    n = 60  # a knapsack of near-equal ratios, which HiGHS cannot close in one node
+    weights = rng.integers(1000, 10000, n)
+    values = weights + rng.integers(0, 50, n)
+    prog = milp_module._Program()
+    x = prog.variables(n, 0.0, 1.0, binary=True)
+    total = int(prog.variables(1, 0.0, float(values.sum()))[0])
+    capacity = float(weights.sum()) / 2 + 0.5
+    prog.constrain(1, np.zeros(n), x, weights.astype(float), -np.inf, capacity)
+    prog.constrain(1, np.zeros(n + 1), np.r_[x, total], np.r_[-values, 1.0], -np.inf, 0.0)
+    calls = []
+    real = milp_module.milp
+
+    def counted(*args, **kwargs):  # type: ignore[no-untyped-def]
+        calls.append(kwargs["options"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(milp_module, "milp", counted)
+    res = prog.solve(total, 1.0, None, node_limit=1)
+    assert res is not None and res.x is not None
+    assert res.status == 4 and "limit" in res.message  # stopped by the budget, as intended
+    assert len(calls) == 1 and calls[0]["presolve"] is True

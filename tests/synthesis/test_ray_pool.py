@@ -35,6 +35,7 @@ from posgmc.synthesis.ray_pool import (  # noqa: E402
 )
 from posgmc.synthesis.tasks import Placement  # noqa: E402
 from tests.random_games import random_posg  # noqa: E402
+from tests.synthesis import fanned  # noqa: E402
 from tests.synthesis.helpers import (  # noqa: E402
     SMALL,
     reach_problem,
@@ -135,6 +136,38 @@ def test_cli_check_on_ray_prints_the_numbers_of_one_process(cluster: Any) -> Non
     assert (one["synthesis"]["executor"], one["synthesis"]["workers"]) == ("local", 1)
 
 
+@pytest.mark.parametrize("name", list(fanned.EXIT))
+def test_sweeps_fronts_and_test_runs_on_ray_print_one_process_s_output(
+        cluster: Any, name: str, tmp_path: Path) -> None:
+    """Each constant point, front weight and test run a Ray task (on both nodes of CI's
+    cluster): every number and line equals ``--jobs 1``'s, in the same order."""
+    args = fanned.commands(tmp_path)[name]
+    code, one = fanned.run(args)
+    assert code == fanned.EXIT[name], one
+    code, on_ray = fanned.run([*args, "--executor", "ray"])
+    assert code == fanned.EXIT[name], on_ray
+    assert fanned.comparable(name, on_ray) == fanned.comparable(name, one)
+    if name == "check sweep":
+        points = json.loads(on_ray)["points"]
+        assert points["executor"] == "ray" and points["tasks"]["constant point"]["count"] == 2
+
+
+def test_a_failing_ray_task_is_raised_in_order(cluster: Any) -> None:
+    from posgmc.synthesis.fanout import each_result
+
+    seen = []
+    with pytest.raises(InputError, match="no such file"):
+        for x in each_result(_load_or_fail, [("a",), ("",), ("b",)], Placement("ray", 2)):
+            seen.append(x)
+    assert seen == ["a"]
+
+
+def _load_or_fail(name: str) -> str:
+    if not name:
+        raise InputError("no such file")
+    return name
+
+
 def test_an_address_where_no_cluster_answers_is_an_input_error() -> None:
     with pytest.raises(InputError, match=r"--ray-address 127\.0\.0\.1:1: no Ray cluster"):
         _reachable("127.0.0.1:1")
@@ -150,6 +183,38 @@ def test_cli_ray_address_needs_the_ray_executor() -> None:
 
 # the pool tests last: the last leaves one of the pool's actors dead, holding nothing, while the
 # pool lives (until the end of the module)
+
+
+def test_workers_build_a_model_read_from_text_themselves(cluster: Any) -> None:
+    """A model built from text goes to the workers as its recipe (the text and constants), not
+    built; each worker builds it and gives the numbers of one process. (Before the pool
+    fixture below, which holds the cluster's CPUs from its first test on.)"""
+    import pickle
+
+    from posgmc import api
+    from posgmc.syntax import parser
+    from posgmc.synthesis.adversaries import enumerate_adversaries
+    from posgmc.synthesis.ray_pool import shipped
+    from posgmc.synthesis.search import problem_of
+
+    model = api.build(api.load(BEACON)).model
+    resolver = api._resolver(model, False)
+    expr = parser.parse_property('<<rover>> Pmax=? [ F "safe" ]').expr
+    player = next(iter(resolver.coalition_of(expr.coalition) or {0}))
+    problem = problem_of(model, expr, player=player, adversary=1 - player,
+                         coalition_of=resolver.coalition_of, scalar=api._scalar)
+    light, recipe = shipped(problem)
+    assert recipe is not None and light.model is None
+    assert len(pickle.dumps((light, recipe))) < len(pickle.dumps(problem))
+    assert problem.adversary is not None
+    jobs = [RankJob(a) for a in enumerate_adversaries(model, problem.adversary, memory=1,
+                                                      limit=4).strategies]
+    assert len(jobs) > 1
+    pool = RayPool(problem, Placement("ray", 2))
+    try:
+        assert pool.map(jobs) == InProcess(problem).map(jobs)
+    finally:
+        pool.close()
 
 
 @pytest.fixture(scope="module")
@@ -201,3 +266,62 @@ def test_a_worker_that_keeps_dying_fails_the_run_naming_the_job(pool: RayPool) -
     with pytest.raises(WorkerError, match=rf"job 2 of 2 \(always dies\) failed: its Ray "
                                           rf"worker died {RETRIES + 1} times"):
         pool.map([_Where(0.0), _AlwaysDies()])
+
+
+def _session_processes(session: int) -> list[str]:
+    """The command lines of the processes still running in ``session`` (zombies aside)."""
+    out = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            if os.getsid(int(entry)) != session:
+                continue
+            with open(f"/proc/{entry}/stat") as f:
+                stat = f.read()
+            with open(f"/proc/{entry}/cmdline", "rb") as f:
+                command = f.read().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        if stat[stat.rfind(")") + 2] not in "ZX":
+            out.append(command or stat.split(" ")[1])
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="reads Linux's /proc")
+@pytest.mark.parametrize("interrupt", [False, True])
+def test_a_ray_started_for_the_run_leaves_no_process_behind(interrupt: bool,
+                                                           tmp_path: Path) -> None:
+    """``--executor ray`` without an address starts a Ray for the run; when the run ends — on
+    its own, or by Ctrl-C once the Ray's tasks run — none of its processes is left (Ray's
+    shutdown alone leaves its dashboard and runtime-environment agents running)."""
+    import signal
+    import subprocess
+    import time
+
+    args = fanned.commands(tmp_path)["pareto sweep"]
+    if interrupt:
+        args = [*args[:-5], "--memory", "2", "--effort", "20", "-q"]  # still running when cut
+    env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
+    env["PYTHONPATH"] = str(ROOT)
+    run = subprocess.Popen([sys.executable, "-m", "posgmc", *args, "--executor", "ray"],
+                           env=env, start_new_session=True, stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
+    try:
+        if interrupt:
+            deadline = time.monotonic() + 120
+            while not any("ray::_call" in c or "ray::IDLE" in c
+                          for c in _session_processes(run.pid)):
+                assert run.poll() is None and time.monotonic() < deadline
+                time.sleep(0.2)
+            time.sleep(1.0)
+            os.killpg(run.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole group
+        out, err = run.communicate(timeout=300)
+        assert run.returncode == (130 if interrupt else 0), err
+        time.sleep(2)
+        assert _session_processes(run.pid) == []
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait()
