@@ -76,6 +76,11 @@ PRECISION = 1e-8
 MIX_CAP = 4
 """Randomised rules from stage LPs kept at one adversary vertex at most (the latest first)."""
 
+LP_SHARE = 50
+"""The stage LPs' budget: one adversary vertex's LPs per this many vertices of the grid's
+budget (400 without ``--gap``, 8,000 with it), so that they cost a bounded share of the bound
+side's work."""
+
 MIX_ROUNDS = 4
 """Stage-LP rounds (solve, choose the adversary's mixtures, solve again) per resolution at most;
 the rounds stop earlier when the bound no longer moves."""
@@ -806,14 +811,14 @@ class Mixtures:
 
 def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.ndarray,
                    cutoff: np.ndarray, mixtures: Mixtures, *,
-                   deadline: float | None = None) -> int:
+                   deadline: float | None = None, limit: int | None = None) -> tuple[int, int]:
     """Add to ``mixtures`` the adversary's LP-optimal randomised rules at each of the
     abstraction's expanded adversary vertices: against the abstraction's solved ``values`` (its
     bound side per state) and the per-state ``cutoff`` bounds at the unit beliefs
     (:func:`posgmc.synthesis.stage_lp.stage_rule`), and against the one-step estimate from the
     same bounds (:func:`posgmc.synthesis.stage_lp.one_step_rule`: it reaches posteriors the
-    abstraction has not explored yet). In breadth-first order until ``deadline``. Returns how
-    many new rules were added."""
+    abstraction has not explored yet). In breadth-first order until ``deadline`` or ``limit``
+    vertices. Returns how many new rules were added and at how many vertices LPs were solved."""
     dyn = _Dynamics(problem, None)
     V = abstraction.vertices
     data = stage_lp.StageData.of(dyn.T_cont, dyn.T_stop, abstraction.beliefs,
@@ -828,9 +833,10 @@ def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.nd
     step = stage_lp.OneStep(np.nan_to_num(Q, nan=np.inf), dyn.mask, dyn.group, cutoff, dyn.Z)
     rg = dyn.model.row_groups
     B = abstraction.beliefs
-    added = 0
+    added = solved = 0
     for v in np.flatnonzero(abstraction.adversary[:V]).tolist():
-        if (deadline is not None and time.perf_counter() > deadline) or interrupted():
+        if (deadline is not None and time.perf_counter() > deadline) or interrupted() or \
+                (limit is not None and solved >= limit):
             break
         lo, hi = B.indptr[v], B.indptr[v + 1]
         states = B.indices[lo:hi].astype(np.int64)
@@ -839,11 +845,12 @@ def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.nd
         owner = np.repeat(np.arange(states.size), rg[states + 1] - rg[states])
         if (rg[states + 1] - rg[states]).max() <= 1:
             continue  # nothing to randomise
+        solved += 1
         for rule in (stage_lp.one_step_rule(data, step, p, cols, owner),
                      stage_lp.stage_rule(data, states, p, cols, owner)):
             if rule is not None and mixtures.add(states, p, abstraction.resolution, rule):
                 added += 1
-    return added
+    return added, solved
 
 
 @dataclass(frozen=True)
@@ -894,6 +901,9 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     left = vertices
     game = problem.adversary is not None
     mixtures = Mixtures() if game else None
+    # the stage LPs' work budget, in vertices solved over all rounds (deterministic, like the
+    # grid's): one per LP_SHARE vertices of the grid's budget
+    lps_left = vertices // LP_SHARE
     for N in resolutions:
         side: np.ndarray | None = None
         solved: GridAbstraction | None = None
@@ -936,10 +946,14 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             # the stage LPs get at most a third of what is left (a finer grid may need the rest)
             lp_until = None if deadline is None else \
                 time.perf_counter() + (deadline - time.perf_counter()) / 3
-            if mixtures is None or not abstraction.adversary.any() or stage_mixtures(
-                    problem, abstraction, np.asarray(
-                        result.upper if problem.maximize else result.lower, dtype=np.float64),
-                    cutoff, mixtures, deadline=lp_until) == 0:
+            if mixtures is None or not abstraction.adversary.any() or lps_left <= 0:
+                break
+            added, used = stage_mixtures(
+                problem, abstraction, np.asarray(
+                    result.upper if problem.maximize else result.lower, dtype=np.float64),
+                cutoff, mixtures, deadline=lp_until, limit=lps_left)
+            lps_left -= used
+            if added == 0:
                 break
         if best is not None and (best.exact or (target is not None
                                                 and sign * best.value <= sign * target)):
