@@ -76,9 +76,9 @@ PRECISION = 1e-8
 MIX_CAP = 4
 """Randomised rules from stage LPs kept at one adversary vertex at most (the latest first)."""
 
-LP_SHARE = 50
+LP_SHARE = 500
 """The stage LPs' budget: one adversary vertex's LPs per this many vertices of the grid's
-budget (400 without ``--gap``, 8,000 with it), so that they cost a bounded share of the bound
+budget (40 without ``--gap``, 800 with it), so that they cost a bounded share of the bound
 side's work."""
 
 MIX_ROUNDS = 4
@@ -873,7 +873,7 @@ class GridBound:
 def grid_bound(problem: Problem, *, deadline: float | None, target: float | None = None,
                resolutions: tuple[int, ...] = RESOLUTIONS,
                cutoff: np.ndarray | None = None,
-               vertices: int = MAX_VERTICES) -> GridBound | None:
+               vertices: int = MAX_VERTICES, mix: bool = True) -> GridBound | None:
     """Abstractions of growing resolution while time remains; the tightest proven bound.
 
     Args:
@@ -884,6 +884,9 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
         target: stop as soon as the bound reaches this value (the other side of the bracket).
         cutoff: the per-state bounds for cut-offs (default :func:`full_observation_bounds`).
         vertices: the work budget: grid vertices explored at most, over all resolutions.
+        mix: on a game, offer the adversary randomised rules from stage LPs
+            (:func:`stage_mixtures`) in rounds of re-solving; False: its deterministic rules and
+            the uniform mixture only (one solve per resolution).
 
     Returns:
         The bound, or None when no abstraction applies or none was solved soundly in time.
@@ -900,7 +903,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     coarse: CoarseBounds | None = None
     left = vertices
     game = problem.adversary is not None
-    mixtures = Mixtures() if game else None
+    mixtures = Mixtures() if game and mix else None
     # the stage LPs' work budget, in vertices solved over all rounds (deterministic, like the
     # grid's): one per LP_SHARE vertices of the grid's budget
     lps_left = vertices // LP_SHARE
@@ -910,7 +913,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
         at_n: float | None = None
         # a POMDP: one abstraction per resolution; a game: then rounds of stage LPs that offer
         # the adversary randomised rules against the values just solved, and a new solve
-        for _ in range(1 + (MIX_ROUNDS if game else 0)):
+        for _ in range(1 + (MIX_ROUNDS if mixtures is not None else 0)):
             now = time.perf_counter()
             if (deadline is not None and now > deadline) or left <= 0 or interrupted():
                 break

@@ -66,8 +66,10 @@ def optimum_of(problem: Problem, guaranteed: Bound, full_observation: Bound,
         want = gap if gap is not None else Gap(1e-6)
         # stop refining once the bound side is within the gap of the achieved side
         stop_at = achieved + sign * want.width(achieved, achieved)
+        # the adversary's randomised rules (stage LPs, re-solves) only when a gap is asked for:
+        # the default bracket must stay cheap
         found = belief_grid.grid_bound(problem, deadline=deadline, target=stop_at,
-                                       vertices=vertices)
+                                       vertices=vertices, mix=gap is not None)
         if found is not None:
             kind = "exact belief MDP" if found.exact else "complete" if found.complete else \
                 "frontier cut off at full observation"
