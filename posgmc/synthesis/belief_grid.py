@@ -26,8 +26,12 @@ distinct vertices small and nests for N, 2N, 4N, ...
 The abstraction is an ordinary :class:`~posgmc.model.explicit.ExplicitModel` (an MDP: one state
 per vertex, then a target and a sink), so it is checked with the same sound engines as any model
 (interval iteration, end components handled) and the bound side of their result is the reported
-bound. Its transition probabilities are computed in float64 (posterior beliefs, the weights λ):
-they are exact up to rounding at the 1e-15 level, which the reported bound does not absorb.
+bound. Its transition probabilities are computed in float64 (posterior beliefs, the weights λ).
+A minimiser's choices are scaled below the exact belief successors (:func:`_dominate`), and stop
+masses, rewards and cut-off values are rounded to the optimistic side; a maximiser's continuing
+weights are the float decomposition (relative rounding ~1e-15 per step, not absorbed:
+docs/synthesis.md, "Floating point", says why a single dominating row cannot absorb it in a cycle
+of beliefs).
 """
 
 from __future__ import annotations
@@ -56,12 +60,17 @@ from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
 
 __all__ = ["GridAbstraction", "GridBound", "CoarseBounds", "applies", "freudenthal",
+           "UNFOLD_SHARE",
            "freudenthal_batch",
            "grid_abstraction", "grid_bound", "full_observation_bounds", "RESOLUTIONS",
            "MAX_VERTICES", "PRECISION", "RULE_CAP"]
 
 RESOLUTIONS = tuple(2 ** i for i in range(1, 11))
 """The grid resolutions tried in turn while the budget lasts (each grid refines the previous)."""
+
+UNFOLD_SHARE = 0.25
+"""The part of the vertex budget (and of the time) the belief unfolding may use before the
+grids: a finite reachable belief set within it gives the optimum itself."""
 
 RULE_CAP = 64
 """The adversary's decision rules tried at one vertex at most (all of them when there are no
@@ -88,9 +97,10 @@ the rounds stop earlier when the bound no longer moves."""
 _BATCH = 512
 """Vertices expanded between two looks at the clock."""
 
-_SNAP = 1e-9
+_SNAP = 1e-12
 """Cumulative coordinates within this (relative to N) of an integer are that integer: float
-noise in a posterior must not split a grid belief into a tiny simplex around it."""
+noise in a posterior (~1e-15 relative) must not split a grid belief into a tiny simplex around
+it; kept small because the snap moves the decomposition off the posterior by as much."""
 
 
 def freudenthal(p: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
@@ -256,6 +266,9 @@ class _Dynamics:
             np.asarray(problem.rewards, dtype=np.float64)
         self.stop_value = 1.0 if problem.rewards is None else 0.0
         self.discount = float(problem.discount)
+        # a stop mass sums a belief's products with per-state stop masses, themselves sums over
+        # a transition row: the longest such row bounds the inner sum's length
+        self.row_terms = int(np.diff(model.transitions.indptr).max(initial=0)) + 3
         self.T_stop = np.asarray(model.transitions @ self.target).ravel()
 
     def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -330,6 +343,19 @@ class _Grid:
         self.key: dict[bytes, int] = {}
         self.rows: list[np.ndarray] = []
         self.vals: list[np.ndarray] = []
+
+    def belief(self, idx: np.ndarray, p: np.ndarray) -> int:
+        """The vertex of belief ``p`` on states ``idx`` itself (resolution 0: the belief
+        unfolding), identified by its float64 bits: beliefs equal up to rounding but reached
+        along different paths stay apart (no merging, so no belief is replaced by another)."""
+        k = idx.tobytes() + p.tobytes()
+        found = self.key.get(k)
+        if found is None:
+            found = len(self.rows)
+            self.key[k] = found
+            self.rows.append(idx)
+            self.vals.append(p)
+        return found
 
     def vertex(self, idx: np.ndarray, counts: np.ndarray) -> int:
         nz = counts > 0
@@ -451,6 +477,60 @@ def _chunks(sizes: np.ndarray) -> list[tuple[int, np.ndarray]]:
     return out
 
 
+_UNIT = 2.0 ** -53
+"""float64's unit roundoff u: an operation's result is the exact one times (1 + e), |e| <= u."""
+
+
+def _rounding(terms: np.ndarray | int) -> np.ndarray:
+    """A bound, relative to the computed value, on the rounding error of a float64 sum of at
+    most ``terms`` products of nonnegative rounded numbers: 2 (k + 2) u, twice the classic
+    γ_{k+2} = (k + 2) u / (1 - (k + 2) u) (Higham, "Accuracy and Stability of Numerical
+    Algorithms", §3.1; with nonnegative terms the error is relative to the sum itself)."""
+    return 2.0 * (np.asarray(terms, dtype=np.float64) + 2.0) * _UNIT
+
+
+def _up(v: np.ndarray) -> np.ndarray:
+    """``v`` rounded up to the next float, zeros kept (a zero is exact: a structural zero
+    must not become an edge)."""
+    return np.where(v > 0, np.nextafter(v, np.inf), v)
+
+
+def _dominate(E: sp.csr_matrix, G: sp.csr_matrix, Y: sp.csr_matrix,
+              terms: np.ndarray) -> sp.csr_matrix:
+    """The vertex weights of a minimiser's choices, scaled so that they stay below the exact
+    belief successors despite floating point.
+
+    Row i of ``E`` (float64[n, V]) weighs grid vertices (``G``: float64[V, S], vertex j's belief
+    counts/N) so that x_i = E_i G approximates y_i, the exact continuing successor vector of the
+    choice (computed as ``Y``'s row with at most ``terms[i]`` products per entry). Rounding, the
+    snapping of near-integer coordinates and the weights' own rounding make x_i differ from y_i.
+    With V* the optimum as a function of an unnormalised belief — nonnegative, monotone,
+    positively homogeneous and, for a minimiser, superlinear (an infimum of linear functions:
+    one per strategy) — any κ_i <= 1 with κ_i x_i <= y_i entry by entry gives
+    V*(y) >= V*(κx) + V*(y - κx) >= κ V*(x) >= κ Σ_j E_ij V*(u_j). κ_i is the minimum over
+    x_i's support of a lower bound of y over an upper bound of x (the a-priori bounds of
+    :func:`_rounding`), rounded down; the mass given up goes to the sink (probability) or the
+    target (reward), both worth 0 to the minimiser.
+
+    Returns:
+        κ E.
+    """
+    n = E.shape[0]
+    if not n:
+        return E
+    X = sp.csr_matrix(E @ G)
+    X.sum_duplicates()
+    ax = _rounding(np.diff(E.indptr) + 1)  # the products E_ij G_js, G one rounding off counts/N
+    ay = _rounding(terms)
+    Xc = X.tocoo()
+    rows = Xc.row.astype(np.int64)
+    y_at = np.asarray(Y[rows, Xc.col]).ravel() if rows.size else np.zeros(0)
+    ratio = (y_at * (1.0 - ay[rows])) / (Xc.data * (1.0 + ax[rows])) * (1.0 - 4.0 * _UNIT)
+    kappa = np.ones(n)
+    np.minimum.at(kappa, rows, np.maximum(ratio, 0.0))
+    return sp.csr_matrix(sp.diags(kappa) @ E)
+
+
 class _Choices:
     """The abstraction's choices while exploring: a key (vertex · span + local index) each, its
     target mass and reward, and its successor entries (by key)."""
@@ -464,22 +544,30 @@ class _Choices:
         self.e_key: list[np.ndarray] = []
         self.e_vertex: list[np.ndarray] = []
         self.e_prob: list[np.ndarray] = []
+        self.successors: list[sp.csr_matrix] = []
+        self.terms: list[np.ndarray] = []
         self.on_grid = True  # every successor part so far is a vertex itself
 
     def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, reward: np.ndarray,
-            D: sp.csr_matrix, dyn: _Dynamics, grid: _Grid,
+            D: sp.csr_matrix, terms: np.ndarray, dyn: _Dynamics, grid: _Grid,
             block: np.ndarray | None = None) -> None:
         """Choices ``keys`` whose continuing successor distributions are the rows of ``D``:
         each row split into its groups (one per observation of the decision maker's states, one
         for the others; a convex decomposition, so the bound stays sound), each part normalised
-        and triangulated. ``block`` (int64 per row, ascending; default all 0): rows of
-        different blocks are as if added by separate calls, one block after the other (the
-        order new grid vertices are numbered in)."""
+        and triangulated (on the belief unfolding, resolution 0, each part is a vertex itself).
+        ``terms``: int64[len(keys)], the nonnegative products summed into each entry of a row of
+        ``D`` (and its stop mass and reward) at most, for the rounding bound (:func:`_dominate`);
+        ``D`` is kept as the successors the abstraction must dominate. ``block`` (int64 per
+        row, ascending; default all 0): rows of different blocks are as if added by separate
+        calls, one block after the other (the order new grid vertices are numbered in)."""
         self.key.append(keys)
         self.action.append(action)
         self.stop.append(stop)
         self.reward.append(reward)
-        coo = sp.csr_matrix(D).tocoo()
+        D = sp.csr_matrix(D)
+        self.successors.append(D)
+        self.terms.append(np.asarray(terms, dtype=np.int64))
+        coo = D.tocoo()
         if not coo.nnz:
             return
         grp = dyn.group[coo.col]
@@ -492,6 +580,13 @@ class _Choices:
         row_block = np.zeros(D.shape[0], dtype=np.int64) if block is None else block
         mass = np.add.reduceat(data, starts)
         N = grid.N
+        if N == 0:  # the belief unfolding: each posterior is a vertex itself
+            vs = [grid.belief(col[a:a + k], data[a:a + k] / w)
+                  for a, k, w in zip(starts.tolist(), sizes.tolist(), mass.tolist())]
+            self.e_key.append(keys[rows].astype(np.int64))
+            self.e_vertex.append(np.asarray(vs, dtype=np.int64))
+            self.e_prob.append(mass)
+            return
         # the parts of one support size together: one vectorised triangulation each; the
         # references to grid vertices are then taken in the order of one call per block, per
         # support size, per part, per vertex of its simplex
@@ -547,27 +642,46 @@ class CoarseBounds:
             key[B.indices[lo:hi].astype(np.int64).tobytes() + counts.tobytes()] = i
         return CoarseBounds(N, values[:B.shape[0]], key)
 
-    def bounds(self, idx: list[np.ndarray], p: list[np.ndarray]) -> np.ndarray:
-        """float64[len(idx)]: for each belief (``p[j]`` on states ``idx[j]``) Σ λ_i W(u_i) over
-        the coarse grid's simplex around it (a bound by convexity), NaN where one of the
-        simplex's vertices is not in the coarse abstraction."""
+    def bounds(self, idx: list[np.ndarray], p: list[np.ndarray],
+               cap: np.ndarray | None) -> np.ndarray:
+        """float64[len(idx)]: for each belief (``p[j]`` on states ``idx[j]``) a proven bound on
+        its optimum by convexity over the coarse grid's simplex around it: Σ λ_i W(u_i), made to
+        hold under floating point as in :func:`_dominate` (the weights scaled so that the
+        combination stays below the belief, and when maximising what it leaves uncovered added
+        at ``cap`` per state; ``cap`` None: minimising). NaN where one of the simplex's vertices
+        is not in the coarse abstraction."""
         out = np.full(len(idx), np.nan)
         sizes = np.asarray([i.size for i in idx], dtype=np.int64)
-        for _, sel in _chunks(sizes):
+        N = self.resolution
+        for m, sel in _chunks(sizes):
             P = np.stack([p[j] for j in sel.tolist()])
-            counts, lam = freudenthal_batch(P, self.resolution)
-            for r, j in enumerate(sel.tolist()):
-                total = 0.0
-                for c, w in zip(counts[r], lam[r]):
-                    if w <= 0:
-                        continue
-                    nz = c > 0
-                    v = self.key.get(idx[j][nz].tobytes() + c[nz].tobytes())
-                    if v is None:
-                        total = math.nan
-                        break
-                    total += w * float(self.values[v])
-                out[j] = total
+            cols = np.stack([idx[j] for j in sel.tolist()])
+            counts, lam = freudenthal_batch(P, N)
+            used = lam > 0
+            r, k = np.nonzero(used)
+            vid = np.full(lam.shape, -1, dtype=np.int64)
+            vid[r, k] = [self.key.get(cols[a][c > 0].tobytes() + c[c > 0].tobytes(), -1)
+                         for a, c in zip(r.tolist(), counts[r, k])]
+            known = ~(used & (vid < 0)).any(axis=1)
+            vals = np.where(used, self.values[np.maximum(vid, 0)], 0.0)
+            total = (lam * vals).sum(axis=1)
+            x = np.einsum("nk,nks->ns", lam, counts / N)
+            grow = _rounding(used.sum(axis=1) + 1)[:, None]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.where(x > 0, P * (1.0 - 2.0 * _UNIT) / (x * (1.0 + grow)), np.inf)
+            kappa = np.clip(ratio.min(axis=1) * (1.0 - 4.0 * _UNIT), 0.0, 1.0)
+            g = grow[:, 0]
+            if cap is None:
+                bound = np.maximum(0.0, kappa * total * (1.0 - g - 4.0 * _UNIT))
+            else:
+                c = cap[cols]
+                left = np.maximum(P - kappa[:, None] * x, 0.0) * (1.0 + 2.0 * _UNIT) \
+                    + grow * (x + P)
+                extra = np.where(left > 0, left * np.where(np.isfinite(c), c, 0.0), 0.0).sum(
+                    axis=1)
+                extra[((left > 0) & ~np.isfinite(c)).any(axis=1)] = np.inf
+                bound = _up(kappa * total * (1.0 + g) + extra * (1.0 + _rounding(m)))
+            out[sel[known]] = bound[known]
         return out
 
 
@@ -592,7 +706,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
 
     Args:
         problem: the POMDP or game and its objective.
-        resolution: N >= 1 (grid beliefs are multiples of 1/N).
+        resolution: N >= 1 (grid beliefs are multiples of 1/N), or 0: the belief unfolding
+            (every posterior is a vertex itself; complete, it is the reachable belief MDP).
         cutoff: float64[S], the bound per state used at cut-off vertices
             (:func:`full_observation_bounds`).
         adversary_rules: int64[S], the adversary's preferred choice per state (the
@@ -613,7 +728,10 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     if not dyn.cont[s0] or (dyn.owned[s0] and dyn.group[s0] < 0):
         return None
     grid = _Grid(dyn.S, resolution)
-    grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
+    if resolution == 0:
+        grid.belief(np.array([s0], dtype=np.int64), np.ones(1))
+    else:
+        grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
     Au = dyn.actions.size
     choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP)
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
@@ -635,7 +753,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             Ba = B[sel]
             choices.add(ids[sel] * choices.span + a, np.full(sel.size, a, dtype=np.int64),
                         np.asarray(Ba @ dyn.stop[a]).ravel(),
-                        np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a], dyn, grid)
+                        np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a],
+                        np.diff(Ba.indptr) + dyn.row_terms, dyn, grid)
         theirs = done + np.flatnonzero(~mine)
         if theirs.size and deadline is not None and time.perf_counter() > deadline:
             skipped.extend(theirs.tolist())  # the adversary's vertices are cut off
@@ -681,7 +800,7 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
     choices.add(np.concatenate(keys), np.full(n_rows, -1, dtype=np.int64),
                 np.asarray(W_all @ dyn.T_stop).ravel(),
                 np.asarray(W_all @ dyn.choice_reward).ravel(), W_all @ dyn.T_cont,
-                dyn, grid, block=np.concatenate(block))
+                np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=np.concatenate(block))
 
 
 def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarray,
@@ -706,33 +825,49 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     n_exp = keys.size  # the expanded choices, numbered 0..n_exp-1 in key (= vertex) order
     ech = np.searchsorted(keys, cat(ch.e_key, np.int64))
     ev, ep = cat(ch.e_vertex, np.int64), cat(ch.e_prob)
-    cont_mass = np.bincount(ech, weights=ep, minlength=n_exp)
-    rows = [ech, np.arange(n_exp)]
-    cols = [ev, np.full(n_exp, TARGET)]
-    vals = [ep, stop]
+    E = sp.csr_matrix((ep, (ech, ev)), shape=(n_exp, V))
+    terms = cat(ch.terms, np.int64)[order]
+    finite = np.isfinite(cutoff)
+    cap = np.where(finite, cutoff, np.inf)
     if prob:
-        loss = np.maximum(0.0, 1.0 - stop - cont_mass)
-        rows.append(np.arange(n_exp))
-        cols.append(np.full(n_exp, SINK))
-        vals.append(loss)
-    T_exp = sp.csr_matrix((cat(vals), (cat(rows, np.int64), cat(cols, np.int64))),
-                          shape=(n_exp, S_abs))
-    if not prob:
-        # the successor masses sum to 1 up to rounding: renormalised (no mass may leak to a sink,
-        # which for an expected reward would mean "never reaches the target")
-        sums = np.asarray(T_exp.sum(axis=1)).ravel()
-        T_exp = sp.csr_matrix(sp.diags(1.0 / np.where(sums > 0, sums, 1.0)) @ T_exp)
+        cap = np.clip(np.where(finite, cap, 1.0), 0.0, 1.0)
+    if not problem.maximize and n_exp:
+        Y = sp.vstack(ch.successors, format="csr")[order]
+        E = _dominate(E, grid.matrix(), Y, terms)
+    kept = np.asarray(E.sum(axis=1)).ravel()
+    grow = 1.0 + _rounding(terms)
+    if prob:
+        # the stop mass (a sum of nonnegative products) rounded to the optimistic side
+        t = _up(stop * grow) if problem.maximize else np.maximum(0.0, stop * (2.0 - grow))
+        sink = np.maximum(0.0, 1.0 - t - kept)
+    else:
+        # a reward's stop mass is worth nothing more: what the vertices leave reaches the target
+        t = np.maximum(0.0, 1.0 - kept)
+        sink = np.zeros(n_exp)
+    rew_exp = (_up(rew * grow) if problem.maximize else np.maximum(0.0, rew * (2.0 - grow))) \
+        if not prob else np.zeros(n_exp)
+    Ec = E.tocoo()
+    T_exp = sp.csr_matrix(
+        (np.r_[Ec.data, t, sink],
+         (np.r_[Ec.row, np.arange(n_exp), np.arange(n_exp)].astype(np.int64),
+          np.r_[Ec.col, np.full(n_exp, TARGET), np.full(n_exp, SINK)].astype(np.int64))),
+        shape=(n_exp, S_abs))
+    T_exp.eliminate_zeros()
     # cut-off vertices: one choice worth Σ_s v(s) cutoff(s)
     cut_ids = np.flatnonzero(~expanded)
     Bc = grid.matrix()[cut_ids]
-    finite = np.isfinite(cutoff)
+    # Σ_s b(s) cutoff(s) rounded outward (a sum of nonnegative products)
     u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
+    slack = _rounding(np.diff(Bc.indptr))
+    u = _up(u * (1.0 + slack)) if problem.maximize else \
+        np.maximum(0.0, u * (1.0 - slack))
     unbounded = np.asarray(Bc @ (~finite).astype(np.float64)).ravel() > 0
     n_cut = cut_ids.size
     if coarse is not None and n_cut:
         sign = 1.0 if problem.maximize else -1.0
         w = coarse.bounds([grid.rows[v] for v in cut_ids.tolist()],
-                          [grid.vals[v] for v in cut_ids.tolist()])
+                          [grid.vals[v] for v in cut_ids.tolist()],
+                          cap if problem.maximize else None)
         better = np.isfinite(w) & (unbounded | (sign * w < sign * u))
         u = np.where(better, w, u)
         unbounded &= ~better
@@ -771,7 +906,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
         model = make_model(ModelType.MDP, row_groups, transitions, initial_states=(0,))
     rewards = None
     if not prob:
-        rewards = np.r_[rew, r_cut, np.zeros(2)][perm]
+        rewards = np.r_[rew_exp, r_cut, np.zeros(2)][perm]
     target = np.zeros(S_abs, dtype=bool)
     target[TARGET] = True
     return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,
@@ -873,7 +1008,8 @@ class GridBound:
 def grid_bound(problem: Problem, *, deadline: float | None, target: float | None = None,
                resolutions: tuple[int, ...] = RESOLUTIONS,
                cutoff: np.ndarray | None = None,
-               vertices: int = MAX_VERTICES, mix: bool = True) -> GridBound | None:
+               vertices: int = MAX_VERTICES, unfold: bool = True,
+               mix: bool = True) -> GridBound | None:
     """Abstractions of growing resolution while time remains; the tightest proven bound.
 
     Args:
@@ -884,6 +1020,9 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
         target: stop as soon as the bound reaches this value (the other side of the bracket).
         cutoff: the per-state bounds for cut-offs (default :func:`full_observation_bounds`).
         vertices: the work budget: grid vertices explored at most, over all resolutions.
+        unfold: first explore the beliefs themselves (resolution 0, the belief unfolding) with
+            :data:`UNFOLD_SHARE` of the budget: where the reachable belief set is that small the
+            abstraction is the belief MDP and the bound its optimum (the grids then stop).
         mix: on a game, offer the adversary randomised rules from stage LPs
             (:func:`stage_mixtures`) in rounds of re-solving; False: its deterministic rules and
             the uniform mixture only (one solve per resolution).
@@ -907,21 +1046,26 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     # the stage LPs' work budget, in vertices solved over all rounds (deterministic, like the
     # grid's): one per LP_SHARE vertices of the grid's budget
     lps_left = vertices // LP_SHARE
-    for N in resolutions:
+    for N in ((0,) if unfold else ()) + tuple(resolutions):
         side: np.ndarray | None = None
         solved: GridAbstraction | None = None
         at_n: float | None = None
         # a POMDP: one abstraction per resolution; a game: then rounds of stage LPs that offer
         # the adversary randomised rules against the values just solved, and a new solve
-        for _ in range(1 + (MIX_ROUNDS if mixtures is not None else 0)):
+        # the unfolding (N = 0) has no grid beliefs to key the adversary's mixtures by
+        mixing = mixtures if N > 0 else None
+        for _ in range(1 + (MIX_ROUNDS if mixing is not None else 0)):
             now = time.perf_counter()
             if (deadline is not None and now > deadline) or left <= 0 or interrupted():
                 break
-            # exploration may use most of what is left; the sound solve gets the rest
-            explore_until = None if deadline is None else now + 0.6 * (deadline - now)
+            # exploration may use most of what is left (the unfolding its share); the sound
+            # solve gets the rest
+            share = UNFOLD_SHARE if N == 0 else 1.0
+            explore_until = None if deadline is None else now + 0.6 * share * (deadline - now)
             abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
                                            adversary_rules=rules, coarse=coarse,
-                                           max_vertices=left, mixtures=mixtures)
+                                           max_vertices=max(1, int(share * left)),
+                                           mixtures=mixing)
             if abstraction is None:
                 return None
             left -= int(abstraction.expanded.sum())
@@ -949,19 +1093,19 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             # the stage LPs get at most a third of what is left (a finer grid may need the rest)
             lp_until = None if deadline is None else \
                 time.perf_counter() + (deadline - time.perf_counter()) / 3
-            if mixtures is None or not abstraction.adversary.any() or lps_left <= 0:
+            if mixing is None or not abstraction.adversary.any() or lps_left <= 0:
                 break
             added, used = stage_mixtures(
                 problem, abstraction, np.asarray(
                     result.upper if problem.maximize else result.lower, dtype=np.float64),
-                cutoff, mixtures, deadline=lp_until, limit=lps_left)
+                cutoff, mixing, deadline=lp_until, limit=lps_left)
             lps_left -= used
             if added == 0:
                 break
         if best is not None and (best.exact or (target is not None
                                                 and sign * best.value <= sign * target)):
             break
-        if solved is None or side is None:
+        if solved is None or side is None or N == 0:
             continue
         # the next resolution doubles this one: its cut-offs interpolate these values (the
         # grids nest, so a fine vertex's coarse simplex has vertices this abstraction holds

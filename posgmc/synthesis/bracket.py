@@ -73,8 +73,9 @@ def optimum_of(problem: Problem, guaranteed: Bound, full_observation: Bound,
         if found is not None:
             kind = "exact belief MDP" if found.exact else "complete" if found.complete else \
                 "frontier cut off at full observation"
-            candidates.append((found.value, f"belief grid (resolution {found.resolution}, "
-                                            f"{found.vertices} vertices, {kind})"))
+            where = f"belief grid (resolution {found.resolution}, {found.vertices} vertices" \
+                if found.resolution else f"belief unfolding ({found.vertices} beliefs"
+            candidates.append((found.value, f"{where}, {kind})"))
             stats = {"resolution": found.resolution, "vertices": found.vertices,
                      "complete": found.complete, "exact": found.exact,
                      "tried": [{"resolution": n, "bound": v} for n, v in found.tried]}

@@ -55,7 +55,7 @@ def test_trap_grid_bracket_is_the_optimum() -> None:
     assert o.lower <= TRAP_OPTIMUM <= o.upper
     assert o.lower == r.guaranteed.lower
     assert o.upper <= r.full_observation.upper
-    assert o.gap <= 1e-6 and "belief grid" in o.method
+    assert o.gap <= 1e-6 and "belief" in o.method
     assert r.to_json()["optimum"] == {"lower": o.lower, "upper": o.upper, "gap": o.gap,
                                       "method": o.method}
 
@@ -116,7 +116,7 @@ def test_game_bracket_uses_full_observation_and_the_adversary_bound() -> None:
     # the belief game's grid bound: 0.9, the two-node rover's value, so 0.9 is the optimum (the
     # full-observation value is 1: the rover that sees the jammer always gets through)
     assert r.full_observation.lower >= 1.0 - 1e-6
-    assert 0.9 <= o.upper <= 0.9 + 1e-6 and "belief grid" in o.method
+    assert 0.9 <= o.upper <= 0.9 + 1e-6 and "belief" in o.method
 
 
 def test_a_game_where_the_adversary_must_mix_is_bracketed_below_full_observation() -> None:
