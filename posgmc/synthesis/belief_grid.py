@@ -37,6 +37,7 @@ of beliefs).
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from dataclasses import dataclass
 
@@ -52,7 +53,7 @@ from posgmc.engines.rewards import expected_reach_reward
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
 from posgmc.strategies.binding import player_view
-from posgmc.synthesis import belief
+from posgmc.synthesis import belief, stage_lp
 from posgmc.synthesis.belief import can_reach
 from posgmc.synthesis.budget import interrupted
 from posgmc.synthesis.parametric import Layout
@@ -80,6 +81,18 @@ MAX_VERTICES = 400_000
 
 PRECISION = 1e-8
 """The relative precision the abstraction is solved to (its bound side is what is reported)."""
+
+MIX_CAP = 4
+"""Randomised rules from stage LPs kept at one adversary vertex at most (the latest first)."""
+
+LP_SHARE = 500
+"""The stage LPs' budget: one adversary vertex's LPs per this many vertices of the grid's
+budget (40 without ``--gap``, 800 with it), so that they cost a bounded share of the bound
+side's work."""
+
+MIX_ROUNDS = 4
+"""Stage-LP rounds (solve, choose the adversary's mixtures, solve again) per resolution at most;
+the rounds stop earlier when the bound no longer moves."""
 
 _BATCH = 512
 """Vertices expanded between two looks at the clock."""
@@ -247,6 +260,12 @@ class _Dynamics:
                 r[cs[c]] = problem.rewards[c]
             self.reward.append(r)
         self.T_cont = sp.csr_matrix(model.transitions @ keep)
+        # per choice: the reward of taking it (the adversary's rules pay theirs), and what the
+        # target is worth when reached (1 for a probability, 0 for a reward: nothing more)
+        self.choice_reward = np.zeros(model.num_choices) if problem.rewards is None else \
+            np.asarray(problem.rewards, dtype=np.float64)
+        self.stop_value = 1.0 if problem.rewards is None else 0.0
+        self.discount = float(problem.discount)
         # a stop mass sums a belief's products with per-state stop masses, themselves sums over
         # a transition row: the longest such row bounds the inner sum's length
         self.row_terms = int(np.diff(model.transitions.indptr).max(initial=0)) + 3
@@ -433,14 +452,14 @@ def full_observation_bounds(problem: Problem,
 
 
 def applies(problem: Problem) -> bool:
-    """Whether the grid abstraction covers ``problem``: a POMDP (any objective here), or a game
-    of the decision maker against one omniscient adversary with a probability objective."""
+    """Whether the grid abstraction covers ``problem``: a POMDP, or a game of the decision maker
+    against one omniscient adversary (any objective here: a probability, an expected reward until
+    a target, a discounted cost)."""
     if problem.model.initial_states.size != 1:
         return False
     if belief.applies(problem):
         return True
-    return (problem.adversary is not None and len(problem.model.player_names) == 2
-            and problem.rewards is None)
+    return problem.adversary is not None and len(problem.model.player_names) == 2
 
 
 _BATCH_ELEMENTS = 2_000_000
@@ -669,7 +688,8 @@ class CoarseBounds:
 def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                      deadline: float | None = None, max_vertices: int = MAX_VERTICES,
                      adversary_rules: np.ndarray | None = None,
-                     coarse: CoarseBounds | None = None) -> GridAbstraction | None:
+                     coarse: CoarseBounds | None = None,
+                     mixtures: Mixtures | None = None) -> GridAbstraction | None:
     """The abstraction of ``problem`` at ``resolution``, explored breadth first from the initial
     belief until ``max_vertices`` or ``deadline``.
 
@@ -694,6 +714,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             full-observation optimum's), or None.
         coarse: a solved coarser abstraction; a cut-off vertex then gets the tighter of its
             full-observation bound and its coarse simplex's interpolated bound.
+        mixtures: randomised rules offered to the adversary at some of its vertices besides
+            the deterministic ones (:func:`stage_mixtures`).
 
     Returns:
         The abstraction, or None when it does not apply (:func:`applies`) or the initial state
@@ -711,7 +733,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     else:
         grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
     Au = dyn.actions.size
-    choices = _Choices(Au + RULE_CAP + 1)
+    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP)
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
     skipped: list[int] = []
     while done < len(grid.rows) and done < max_vertices:
@@ -737,7 +759,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
         if theirs.size and deadline is not None and time.perf_counter() > deadline:
             skipped.extend(theirs.tolist())  # the adversary's vertices are cut off
         elif theirs.size:
-            _adversary_choices(theirs, dyn, grid, choices, Au)
+            _adversary_choices(theirs, dyn, grid, choices, Au, mixtures)
         done = last
     expanded = np.zeros(len(grid.rows), dtype=bool)
     expanded[:done] = True
@@ -746,17 +768,29 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
 
 
 def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choices: _Choices,
-                       first_local: int) -> None:
+                       first_local: int, mixtures: Mixtures | None = None) -> None:
     """The choices of the adversary's ``vertices`` (one per decision rule :meth:`_Dynamics.rules`
-    tries there), added to ``choices`` together: one block per vertex."""
+    tries there, then the randomised rules ``mixtures`` offers there), added to ``choices``
+    together: one block per vertex."""
     per_state = np.diff(dyn.model.row_groups)
     keys, block, r_parts, c_parts, v_parts = [], [], [], [], []
     n_rows = 0
     for v in vertices.tolist():
-        k, r, c, prob, at = dyn.rule_entries(grid.rows[v], per_state)
+        states, p = grid.rows[v], grid.vals[v]
+        k, r, c, prob, at = dyn.rule_entries(states, per_state)
+        extra = None if mixtures is None else mixtures.at(states, p, grid.N)
+        if extra is not None:
+            cols, _ = dyn.rules(states)
+            owner = np.repeat(np.arange(states.size), per_state[states])
+            r2, c2 = np.nonzero(extra[:MIX_CAP])
+            r = np.r_[r, k + r2]
+            c = np.r_[c, cols[c2]]
+            prob = np.r_[prob, extra[r2, c2]]
+            at = np.r_[at, owner[c2]]
+            k += min(extra.shape[0], MIX_CAP)
         r_parts.append(r + n_rows)
         c_parts.append(c)
-        v_parts.append(prob * grid.vals[v][at])  # a rule's weight times the state's mass
+        v_parts.append(prob * p[at])  # a rule's weight times the state's mass
         keys.append(v * choices.span + first_local + np.arange(k))
         block.append(np.full(k, v, dtype=np.int64))
         n_rows += k
@@ -764,7 +798,8 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
                                                       np.concatenate(c_parts))),
                           shape=(n_rows, dyn.model.num_choices))
     choices.add(np.concatenate(keys), np.full(n_rows, -1, dtype=np.int64),
-                np.asarray(W_all @ dyn.T_stop).ravel(), np.zeros(n_rows), W_all @ dyn.T_cont,
+                np.asarray(W_all @ dyn.T_stop).ravel(),
+                np.asarray(W_all @ dyn.choice_reward).ravel(), W_all @ dyn.T_cont,
                 np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=np.concatenate(block))
 
 
@@ -879,6 +914,80 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
                            ch.on_grid and bool(expanded.all()), theirs)
 
 
+class Mixtures:
+    """Randomised decision rules of the adversary per belief (mutable while refining): each a
+    probability per choice of the belief's support states, in the order of ``_Dynamics.rules``.
+    Keyed by the belief itself (support and counts reduced by their common divisor with N), so
+    the rules carry over to finer grids, which nest."""
+
+    def __init__(self) -> None:
+        self.rules: dict[bytes, np.ndarray] = {}
+
+    @staticmethod
+    def key(states: np.ndarray, p: np.ndarray, resolution: int) -> bytes:
+        counts = np.rint(p * resolution).astype(np.int64)
+        g = math.gcd(int(resolution), *counts.tolist())
+        key: bytes = states.astype(np.int64).tobytes() + b"/" + (counts // g).tobytes()
+        return key
+
+    def at(self, states: np.ndarray, p: np.ndarray, resolution: int) -> np.ndarray | None:
+        return self.rules.get(self.key(states, p, resolution))
+
+    def add(self, states: np.ndarray, p: np.ndarray, resolution: int, rule: np.ndarray) -> bool:
+        """Offer ``rule`` at the belief (the latest first, at most :data:`MIX_CAP`); False when
+        it is already offered there."""
+        k = self.key(states, p, resolution)
+        old = self.rules.get(k)
+        if old is not None and np.abs(old - rule).max(axis=1).min() <= 1e-9:
+            return False
+        self.rules[k] = rule[None] if old is None else np.vstack([rule, old])[:MIX_CAP]
+        return True
+
+
+def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.ndarray,
+                   cutoff: np.ndarray, mixtures: Mixtures, *,
+                   deadline: float | None = None, limit: int | None = None) -> tuple[int, int]:
+    """Add to ``mixtures`` the adversary's LP-optimal randomised rules at each of the
+    abstraction's expanded adversary vertices: against the abstraction's solved ``values`` (its
+    bound side per state) and the per-state ``cutoff`` bounds at the unit beliefs
+    (:func:`posgmc.synthesis.stage_lp.stage_rule`), and against the one-step estimate from the
+    same bounds (:func:`posgmc.synthesis.stage_lp.one_step_rule`: it reaches posteriors the
+    abstraction has not explored yet). In breadth-first order until ``deadline`` or ``limit``
+    vertices. Returns how many new rules were added and at how many vertices LPs were solved."""
+    dyn = _Dynamics(problem, None)
+    V = abstraction.vertices
+    data = stage_lp.StageData.of(dyn.T_cont, dyn.T_stop, abstraction.beliefs,
+                                 np.asarray(values, dtype=np.float64)[:V], cutoff,
+                                 minimise=problem.maximize, reward=dyn.choice_reward,
+                                 stop_value=dyn.stop_value, discount=dyn.discount)
+    finite = np.where(np.isfinite(cutoff), cutoff, np.nan)
+    Q = np.stack([dyn.reward[a] + dyn.stop_value * dyn.stop[a]
+                  + dyn.discount * (dyn.P[a] @ np.nan_to_num(finite, nan=0.0))
+                  + dyn.P[a] @ np.where(np.isnan(finite), np.inf, 0.0)
+                  for a in range(dyn.actions.size)]) if dyn.actions.size else np.zeros((0, dyn.S))
+    step = stage_lp.OneStep(np.nan_to_num(Q, nan=np.inf), dyn.mask, dyn.group, cutoff, dyn.Z)
+    rg = dyn.model.row_groups
+    B = abstraction.beliefs
+    added = solved = 0
+    for v in np.flatnonzero(abstraction.adversary[:V]).tolist():
+        if (deadline is not None and time.perf_counter() > deadline) or interrupted() or \
+                (limit is not None and solved >= limit):
+            break
+        lo, hi = B.indptr[v], B.indptr[v + 1]
+        states = B.indices[lo:hi].astype(np.int64)
+        p = B.data[lo:hi]
+        cols, _ = dyn.rules(states)
+        owner = np.repeat(np.arange(states.size), rg[states + 1] - rg[states])
+        if (rg[states + 1] - rg[states]).max() <= 1:
+            continue  # nothing to randomise
+        solved += 1
+        for rule in (stage_lp.one_step_rule(data, step, p, cols, owner),
+                     stage_lp.stage_rule(data, states, p, cols, owner)):
+            if rule is not None and mixtures.add(states, p, abstraction.resolution, rule):
+                added += 1
+    return added, solved
+
+
 @dataclass(frozen=True)
 class GridBound:
     """The best proven bound found: ``value`` bounds the optimum over all strategies from above
@@ -899,11 +1008,12 @@ class GridBound:
 def grid_bound(problem: Problem, *, deadline: float | None, target: float | None = None,
                resolutions: tuple[int, ...] = RESOLUTIONS,
                cutoff: np.ndarray | None = None,
-               vertices: int = MAX_VERTICES, unfold: bool = True) -> GridBound | None:
+               vertices: int = MAX_VERTICES, unfold: bool = True,
+               mix: bool = True) -> GridBound | None:
     """Abstractions of growing resolution while time remains; the tightest proven bound.
 
     Args:
-        problem: a POMDP, or a one-sided game with a probability objective (:func:`applies`).
+        problem: a POMDP, or a one-sided game (:func:`applies`).
         deadline: ``time.perf_counter()`` value by which to stop (an abstraction whose
             exploration is cut short still proves a bound: its frontier is cut off); None: no
             wall-clock cap.
@@ -913,6 +1023,9 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
         unfold: first explore the beliefs themselves (resolution 0, the belief unfolding) with
             :data:`UNFOLD_SHARE` of the budget: where the reachable belief set is that small the
             abstraction is the belief MDP and the bound its optimum (the grids then stop).
+        mix: on a game, offer the adversary randomised rules from stage LPs
+            (:func:`stage_mixtures`) in rounds of re-solving; False: its deterministic rules and
+            the uniform mixture only (one solve per resolution).
 
     Returns:
         The bound, or None when no abstraction applies or none was solved soundly in time.
@@ -928,39 +1041,76 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     tried: list[tuple[int, float]] = []
     coarse: CoarseBounds | None = None
     left = vertices
+    game = problem.adversary is not None
+    mixtures = Mixtures() if game and mix else None
+    # the stage LPs' work budget, in vertices solved over all rounds (deterministic, like the
+    # grid's): one per LP_SHARE vertices of the grid's budget
+    lps_left = vertices // LP_SHARE
     for N in ((0,) if unfold else ()) + tuple(resolutions):
-        now = time.perf_counter()
-        if (deadline is not None and now > deadline) or left <= 0 or interrupted():
+        side: np.ndarray | None = None
+        solved: GridAbstraction | None = None
+        at_n: float | None = None
+        # a POMDP: one abstraction per resolution; a game: then rounds of stage LPs that offer
+        # the adversary randomised rules against the values just solved, and a new solve
+        # the unfolding (N = 0) has no grid beliefs to key the adversary's mixtures by
+        mixing = mixtures if N > 0 else None
+        for _ in range(1 + (MIX_ROUNDS if mixing is not None else 0)):
+            now = time.perf_counter()
+            if (deadline is not None and now > deadline) or left <= 0 or interrupted():
+                break
+            # exploration may use most of what is left (the unfolding its share); the sound
+            # solve gets the rest
+            share = UNFOLD_SHARE if N == 0 else 1.0
+            explore_until = None if deadline is None else now + 0.6 * share * (deadline - now)
+            abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
+                                           adversary_rules=rules, coarse=coarse,
+                                           max_vertices=max(1, int(share * left)),
+                                           mixtures=mixing)
+            if abstraction is None:
+                return None
+            left -= int(abstraction.expanded.sum())
+            # policy iteration (the stiff iteration's certificate) has no deadline: only
+            # without one
+            result = abstraction.solve(SolverOptions(precision=PRECISION, relative=True,
+                                                     deadline=deadline, want_strategy=False,
+                                                     stiff_certificate=deadline is None))
+            if not result.sound:
+                break
+            value = float(result.upper[0] if problem.maximize else result.lower[0])
+            tried.append((N, value))
+            exact = abstraction.exact and not abstraction.adversary.any()
+            if best is None or sign * value < sign * best.value:
+                best = GridBound(value, N, abstraction.vertices, abstraction.complete, exact, (),
+                                 0.0)
+            if exact or (target is not None and sign * best.value <= sign * target):
+                break
+            if at_n is None or sign * value < sign * at_n:
+                at_n, solved = value, abstraction
+                side = np.asarray(result.upper if problem.maximize else result.lower,
+                                  dtype=np.float64)
+            elif at_n is not None and sign * value >= sign * at_n - 1e-9 * max(1.0, abs(at_n)):
+                break  # the last rules did not tighten the bound
+            # the stage LPs get at most a third of what is left (a finer grid may need the rest)
+            lp_until = None if deadline is None else \
+                time.perf_counter() + (deadline - time.perf_counter()) / 3
+            if mixing is None or not abstraction.adversary.any() or lps_left <= 0:
+                break
+            added, used = stage_mixtures(
+                problem, abstraction, np.asarray(
+                    result.upper if problem.maximize else result.lower, dtype=np.float64),
+                cutoff, mixing, deadline=lp_until, limit=lps_left)
+            lps_left -= used
+            if added == 0:
+                break
+        if best is not None and (best.exact or (target is not None
+                                                and sign * best.value <= sign * target)):
             break
-        # exploration may use most of what is left (the unfolding its share); the sound solve
-        # gets the rest
-        share = UNFOLD_SHARE if N == 0 else 1.0
-        explore_until = None if deadline is None else now + 0.6 * share * (deadline - now)
-        abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
-                                       adversary_rules=rules, coarse=coarse,
-                                       max_vertices=max(1, int(share * left)))
-        if abstraction is None:
-            return None
-        left -= int(abstraction.expanded.sum())
-        # policy iteration (the stiff iteration's certificate) has no deadline: only without one
-        result = abstraction.solve(SolverOptions(precision=PRECISION, relative=True,
-                                                 deadline=deadline, want_strategy=False,
-                                                 stiff_certificate=deadline is None))
-        if not result.sound:
+        if solved is None or side is None or N == 0:
             continue
-        value = float(result.upper[0] if problem.maximize else result.lower[0])
-        tried.append((N, value))
-        exact = abstraction.exact and not abstraction.adversary.any()
-        if best is None or sign * value < sign * best.value:
-            best = GridBound(value, N, abstraction.vertices, abstraction.complete, exact, (), 0.0)
-        if exact or (target is not None and sign * best.value <= sign * target):
-            break
         # the next resolution doubles this one: its cut-offs interpolate these values (the
         # grids nest, so a fine vertex's coarse simplex has vertices this abstraction holds
         # wherever it explored that far)
-        if N > 0:
-            side = result.upper if problem.maximize else result.lower
-            coarse = CoarseBounds.of(abstraction, np.asarray(side, dtype=np.float64))
+        coarse = CoarseBounds.of(solved, side)
     if best is None:
         return None
     return GridBound(best.value, best.resolution, best.vertices, best.complete, best.exact,

@@ -10,7 +10,9 @@ optimum is at least that much for a maximiser, at most for a minimiser). The oth
 * on a game, ``upper_bound``: the decision maker seeing everything against one fixed adversary
   strategy (the strongest enumerated). Any fixed adversary bounds the max-min, because the
   omniscient adversary of ``guaranteed`` may play it;
-* on a POMDP, the belief-grid abstraction (:mod:`posgmc.synthesis.belief_grid`).
+* on a POMDP and on a one-sided game, the belief-grid abstraction
+  (:mod:`posgmc.synthesis.belief_grid`; on a game the adversary's rules at each belief include
+  randomised ones chosen by :mod:`posgmc.synthesis.stage_lp`).
 """
 
 from __future__ import annotations
@@ -64,8 +66,10 @@ def optimum_of(problem: Problem, guaranteed: Bound, full_observation: Bound,
         want = gap if gap is not None else Gap(1e-6)
         # stop refining once the bound side is within the gap of the achieved side
         stop_at = achieved + sign * want.width(achieved, achieved)
+        # the adversary's randomised rules (stage LPs, re-solves) only when a gap is asked for:
+        # the default bracket must stay cheap
         found = belief_grid.grid_bound(problem, deadline=deadline, target=stop_at,
-                                       vertices=vertices)
+                                       vertices=vertices, mix=gap is not None)
         if found is not None:
             kind = "exact belief MDP" if found.exact else "complete" if found.complete else \
                 "frontier cut off at full observation"

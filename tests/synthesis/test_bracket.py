@@ -33,6 +33,7 @@ ROOT = Path(__file__).resolve().parents[2]
 TRAP = ROOT / "models" / "trap_grid" / "trap_grid.pomdp"
 TRAP_OPTIMUM = (0.9 ** 4 + 0.9 ** 6) / 2  # models/trap_grid/README.md
 BEACON = ROOT / "models" / "beacon" / "beacon.posg"
+HIDE = ROOT / "tests" / "data" / "games" / "hide.posg"
 
 
 def test_gap_parses_absolute_and_relative() -> None:
@@ -116,6 +117,20 @@ def test_game_bracket_uses_full_observation_and_the_adversary_bound() -> None:
     # full-observation value is 1: the rover that sees the jammer always gets through)
     assert r.full_observation.lower >= 1.0 - 1e-6
     assert 0.9 <= o.upper <= 0.9 + 1e-6 and "belief" in o.method
+
+
+def test_a_game_where_the_adversary_must_mix_is_bracketed_below_full_observation() -> None:
+    """tests/data/games/hide.posg, r = 1/2: the optimum is 1/3 (the model's comment: the hider
+    mixes left with 1/3, the seeker opens left with 1/3); full observation is 1/2 (the seeker
+    that sees the side; the hider hides right). The search's memoryless seeker and the grid's
+    randomised hider close the bracket to the requested 1e-3 around 1/3."""
+    r = api.synthesize(api.load(HIDE, constants={"r": "0.5"}), '<<seeker>> Pmax=? [ F "won" ]',
+                       memory=1, effort=0.2, gap=1e-3)
+    o = r.optimum
+    assert o is not None and o.sound and "belief grid" in o.method
+    assert r.full_observation.lower >= 0.5 - 1e-6
+    assert o.lower <= 1 / 3 <= o.upper <= 1 / 3 + 1e-3
+    assert o.gap <= 1e-3
 
 
 def _random_game_bracket(seed: int, maximize: bool) -> None:
