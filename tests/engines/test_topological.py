@@ -93,7 +93,9 @@ SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[Heal
 
 
 def test_random_reach_bounds_enclose_exact_rationals(forced: Forced) -> None:
-    @SETTINGS
+    # derandomized for the same reason as the reward test below: the coverage counts at the end
+    # depend on the draw (the topological path ran 9 times in one run, under the bar of 10)
+    @settings(SETTINGS, derandomize=True)
     @given(layered_models(), st.booleans(), st.booleans())
     def check(model: ExplicitModel, flip: bool, relative: bool) -> None:
         S = model.num_states
