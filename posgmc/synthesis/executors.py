@@ -17,7 +17,7 @@ executor keeps a :class:`~posgmc.synthesis.tasks.TaskLedger` of the jobs it ran,
 from __future__ import annotations
 
 import multiprocessing
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any, Protocol
 
@@ -77,6 +77,17 @@ def _run_timed(job: Job) -> tuple[Any, float]:
     return timed(job, _INSTALLED[0])
 
 
+def local_pool(workers: int, initializer: Callable[..., None],
+               initargs: tuple[Any, ...] = ()) -> ProcessPoolExecutor:
+    """A pool of ``workers`` local processes, forked where the platform allows (a fork shares the
+    parent's imports and compiled kernels instead of starting them again), each set up by
+    ``initializer(*initargs)``."""
+    methods = multiprocessing.get_all_start_methods()
+    context = multiprocessing.get_context("fork" if "fork" in methods else None)
+    return ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                               initializer=initializer, initargs=initargs)
+
+
 class ProcessPool:
     """A local pool of ``workers`` processes (forked where the platform allows), each given the
     problem once; a batch of one job runs in this process (no pickling)."""
@@ -87,10 +98,7 @@ class ProcessPool:
         self.problem = problem
         self.workers = workers
         self.ledger = TaskLedger()
-        methods = multiprocessing.get_all_start_methods()
-        context = multiprocessing.get_context("fork" if "fork" in methods else None)
-        self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
-                                         initializer=_install, initargs=(problem,))
+        self._pool = local_pool(workers, _install, (problem,))
 
     def map(self, jobs: Sequence[Job]) -> list[Any]:
         if len(jobs) <= 1:

@@ -17,10 +17,7 @@ started and ends the pool's processes.
 
 from __future__ import annotations
 
-import multiprocessing
-import time
 from collections.abc import Callable, Generator, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from typing import Any
@@ -28,9 +25,10 @@ from typing import Any
 from posgmc.errors import WorkerError
 from posgmc.resources import usable_cpus
 from posgmc.synthesis import progress
-from posgmc.synthesis.tasks import Placement, TaskLedger
+from posgmc.synthesis.executors import local_pool
+from posgmc.synthesis.tasks import Placement, TaskLedger, timed_call
 
-__all__ = ["each_result", "workers_for", "Spread", "timed_call"]
+__all__ = ["each_result", "workers_for", "Spread"]
 
 
 @dataclass
@@ -47,13 +45,6 @@ class Spread:
         """The shape of a synthesis's ``"synthesis"`` placement: executor, workers, tasks."""
         return {"executor": self.executor, "workers": self.workers,
                 "tasks": self.ledger.to_json()}
-
-
-def timed_call(function: Callable[..., Any], arguments: tuple[Any, ...]) -> tuple[Any, float]:
-    """``function(*arguments)`` and the seconds it took (measured where it runs)."""
-    t0 = time.perf_counter()
-    out = function(*arguments)
-    return out, time.perf_counter() - t0
 
 
 def workers_for(placement: Placement, calls: int) -> int:
@@ -102,11 +93,8 @@ def _pool_results(function: Callable[..., Any], arguments: Sequence[tuple[Any, .
                   workers: int, names: Sequence[str]) -> Generator[Any, None, None]:
     """The calls on a local pool of ``workers`` processes (the pool starts them as workers free
     up; the results are taken in order)."""
-    methods = multiprocessing.get_all_start_methods()
-    context = multiprocessing.get_context("fork" if "fork" in methods else None)
     # a forked worker inherits the progress sinks of this process, which shows its own
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
-                               initializer=progress.silence)
+    pool = local_pool(workers, progress.silence)
     done = False
     try:
         futures = [pool.submit(function, *args) for args in arguments]

@@ -12,14 +12,14 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal, Protocol
 
 from posgmc.synthesis.problem import Problem
 
-__all__ = ["Job", "CLOCK_FIELDS", "phase_of", "rebased", "timed", "record_here", "TaskLedger",
-           "Placement"]
+__all__ = ["Job", "CLOCK_FIELDS", "phase_of", "rebased", "timed", "timed_call", "record_here",
+           "TaskLedger", "Placement"]
 
 
 class Job(Protocol):
@@ -54,11 +54,16 @@ def rebased(job: Job, offset: float) -> Job:
     return dataclasses.replace(job, **changes) if changes else job
 
 
+def timed_call(function: Callable[..., Any], arguments: tuple[Any, ...]) -> tuple[Any, float]:
+    """``function(*arguments)`` and the seconds it took (measured where it runs)."""
+    t0 = time.perf_counter()
+    out = function(*arguments)
+    return out, time.perf_counter() - t0
+
+
 def timed(job: Job, problem: Problem) -> tuple[Any, float]:
     """``job.run(problem)`` and the seconds it took."""
-    t0 = time.perf_counter()
-    out = job.run(problem)
-    return out, time.perf_counter() - t0
+    return timed_call(job.run, (problem,))
 
 
 @dataclass

@@ -19,6 +19,7 @@ from typing import Any
 from click.testing import CliRunner
 
 from posgmc.cli import main
+from tests.tradeoffs.helpers import CHOICE
 
 ROOT = Path(__file__).resolve().parents[2]
 PROP = '<<rover>> Pmax=? [ F "safe" ]'
@@ -29,21 +30,6 @@ module m
   [] x<2 -> p : (x'=x+1) + 1-p : (x'=2);
   [] x=2 -> true;
 endmodule
-"""
-CHOICE = """pomdp
-observables s endobservables
-module m
-  s : [0..2] init 0;
-  [safe]  s=0 -> 0.9:(s'=1) + 0.1:(s'=2);
-  [cheap] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
-  [end]   s>0 -> true;
-endmodule
-label "goal" = s=1;
-label "done" = s>0;
-rewards "cost"
-  [safe] true : 10;
-  [cheap] true : 1;
-endrewards
 """
 SMALL = ["--memory", "1", "--effort", "0.2", "-q"]
 """A work budget that ends far within any clock (no --timeout: the numbers are the budget's)."""

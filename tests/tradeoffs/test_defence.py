@@ -24,22 +24,7 @@ from posgmc import api
 from posgmc.cli import main
 from posgmc.errors import InputError, UnsupportedError
 from posgmc.tradeoffs.defence import best_under, defence_front, defence_front_to_csv
-
-CHOICE = """pomdp
-observables s endobservables
-module m
-  s : [0..2] init 0;
-  [safe]  s=0 -> 0.9:(s'=1) + 0.1:(s'=2);
-  [cheap] s=0 -> 0.5:(s'=1) + 0.5:(s'=2);
-  [end]   s>0 -> true;
-endmodule
-label "goal" = s=1;
-label "done" = s>0;
-rewards "cost"
-  [safe] true : 10;
-  [cheap] true : 1;
-endrewards
-"""
+from tests.tradeoffs.helpers import CHOICE
 
 JAM = """posg
 player planner
