@@ -203,6 +203,16 @@ class PropertyResult:
         (:class:`~posgmc.checking.multi.Front`), else None."""
         return getattr(self.multi, "front", None)
 
+    @builtins.property
+    def headline(self) -> float | None:
+        """The one number a progress report shows for this result: the proven ``guaranteed`` of
+        a synthesis or of given strategies, else the numeric value (None for a Boolean)."""
+        if self.guaranteed is not None:
+            return float(self.guaranteed.value)
+        value = self.value
+        return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) \
+            else None
+
     def to_json(self) -> dict[str, Any]:
         """The documented machine-readable form (see docs/cli.md)."""
 

@@ -10,6 +10,7 @@ from typing import Any, Literal
 
 import click
 
+from posgmc.checking.results import PropertyResult
 from posgmc.cli.constants import const_json, const_text, expand_constants
 from posgmc.cli.group import main
 from posgmc.cli.model_commands import build_options
@@ -368,12 +369,8 @@ def _headline(report: Any) -> float | None:
     synthesis or given strategies, else the numeric value."""
     if len(report.outcomes) != 1 or isinstance(report.outcomes[0], tuple):
         return None
-    r = report.outcomes[0]
-    if r.guaranteed is not None:
-        return float(r.guaranteed.value)
-    value = r.value
-    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) \
-        else None
+    result: PropertyResult = report.outcomes[0]
+    return result.headline
 
 
 def _streamers(model: str, constants: dict[str, Any], json_lines: bool,  # type: ignore[no-untyped-def]

@@ -115,7 +115,8 @@ def sweep(
             if strategy_dir is not None and point.result is not None and point.result.strategies:
                 point = _written(point, constant, strategy_dir)
             points.append(point)
-            progress.point_done(f"{constant}={point.setting}", _headline(point.result),
+            progress.point_done(f"{constant}={point.setting}",
+                                None if point.result is None else point.result.headline,
                                 len(points), len(settings))
     finally:
         results.close()
@@ -157,16 +158,6 @@ def _written(point: SweepPoint, constant: str, strategy_dir: str | Path) -> Swee
     for fss in point.result.strategies:
         write_strategy(fss, os.path.join(where, f"{fss.player or 'agent'}.json"))
     return dataclasses.replace(point, strategy_dir=where)
-
-
-def _headline(result: PropertyResult | None) -> float | None:
-    """A point's headline number: the proven ``guaranteed`` under synthesis, else the value."""
-    if result is None:
-        return None
-    if result.guaranteed is not None:
-        return float(result.guaranteed.value)
-    return float(result.value) if isinstance(result.value, (int, float)) and not isinstance(
-        result.value, bool) else None
 
 
 def _raise_common_error(points: Sequence[SweepPoint]) -> None:
