@@ -6,7 +6,7 @@ which compare every number with ``--jobs 1``.
 Where the numbers come from: models/beacon with the jammer's budget B left open (memoryless rover:
 a coin flip at every budget, models/beacon/README.md); the one-shot choice of
 tests/tradeoffs/test_defence.py (cost 1 / mission 1/2 against cost 10 / mission 0.9); the chain of
-tests/cli/test_test_command.py (P(F (x=1 & X x=2)) = p).
+tests/cli/helpers.py (P(F (x=1 & X x=2)) = p).
 """
 
 from __future__ import annotations
@@ -19,18 +19,11 @@ from typing import Any
 from click.testing import CliRunner
 
 from posgmc.cli import main
+from tests.cli.helpers import CHAIN
 from tests.tradeoffs.helpers import CHOICE
 
 ROOT = Path(__file__).resolve().parents[2]
 PROP = '<<rover>> Pmax=? [ F "safe" ]'
-CHAIN = """dtmc
-const double p;
-module m
-  x : [0..2] init 0;
-  [] x<2 -> p : (x'=x+1) + 1-p : (x'=2);
-  [] x=2 -> true;
-endmodule
-"""
 SMALL = ["--memory", "1", "--effort", "0.2", "-q"]
 """A work budget that ends far within any clock (no --timeout: the numbers are the budget's)."""
 
@@ -85,3 +78,15 @@ def comparable(name: str, output: str) -> Any:
 def run(args: list[str]) -> tuple[int, str]:
     out = CliRunner().invoke(main, args, catch_exceptions=False)
     return out.exit_code, out.stdout
+
+
+def agrees_with_one_process(name: str, args: list[str], placement: list[str]) -> tuple[str, str]:
+    """The command ``name`` (of :func:`commands`) run with ``--jobs 1`` and with the options
+    ``placement``: both exit as :data:`EXIT` says and print the same (the seconds aside).
+    Returns (one process's output, the placed run's output)."""
+    code, one = run(args)
+    assert code == EXIT[name], one
+    code, placed = run([*args, *placement])
+    assert code == EXIT[name], placed
+    assert comparable(name, placed) == comparable(name, one)
+    return one, placed

@@ -100,12 +100,8 @@ def test_stopping_early_ends_the_pool() -> None:
 def test_commands_on_two_workers_print_one_process_s_output(name: str, tmp_path: Path) -> None:
     """Every number and line of a sweep, a front and test runs on a pool of two equals
     ``--jobs 1``'s, in the same order (the seconds aside)."""
-    args = fanned.commands(tmp_path)[name]
-    code, one = fanned.run(args)
-    assert code == fanned.EXIT[name], one
-    code, two = fanned.run([*args, "--jobs", "2"])
-    assert code == fanned.EXIT[name], two
-    assert fanned.comparable(name, two) == fanned.comparable(name, one)
+    one, two = fanned.agrees_with_one_process(name, fanned.commands(tmp_path)[name],
+                                              ["--jobs", "2"])
     if name == "check sweep":
         assert json.loads(two)["points"]["tasks"]["constant point"]["count"] == 2
         assert json.loads(two)["points"]["workers"] == 2

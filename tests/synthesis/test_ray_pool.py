@@ -141,12 +141,8 @@ def test_sweeps_fronts_and_test_runs_on_ray_print_one_process_s_output(
         cluster: Any, name: str, tmp_path: Path) -> None:
     """Each constant point, front weight and test run a Ray task (on both nodes of CI's
     cluster): every number and line equals ``--jobs 1``'s, in the same order."""
-    args = fanned.commands(tmp_path)[name]
-    code, one = fanned.run(args)
-    assert code == fanned.EXIT[name], one
-    code, on_ray = fanned.run([*args, "--executor", "ray"])
-    assert code == fanned.EXIT[name], on_ray
-    assert fanned.comparable(name, on_ray) == fanned.comparable(name, one)
+    _, on_ray = fanned.agrees_with_one_process(name, fanned.commands(tmp_path)[name],
+                                               ["--executor", "ray"])
     if name == "check sweep":
         points = json.loads(on_ray)["points"]
         assert points["executor"] == "ray" and points["tasks"]["constant point"]["count"] == 2
