@@ -59,6 +59,7 @@ from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.syntax.ast import ProbQuery, RewardQuery
+from posgmc.synthesis.belief_stage import StageDynamics, stage_dynamics
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem, expired
 
@@ -149,41 +150,21 @@ class _Explorer:
         self,
         model: ExplicitModel,
         layout: Layout,
-        obs: np.ndarray,
-        cont: np.ndarray,
-        gain: np.ndarray,
-        rewards: np.ndarray | None,
+        dynamics: StageDynamics,
         discount: float,
-        sign: float,
         cut: np.ndarray,
         upper: np.ndarray,
     ) -> None:
         self.S = model.num_states
         self.mask = layout.mask
         self.Zu, self.Au = layout.mask.shape
-        self.obs = obs  # int64[S]: the strategy's observation index of each state (-1: none)
+        self.obs = dynamics.obs  # int64[S]: the strategy's observation index (-1: none)
         self.discount = discount
         self.cut = cut  # float64[S, kc], signed, -inf where unknown
         self.upper = upper  # float64[S], signed full-observation values
-        self.gain = gain  # float64[S]: signed value of mass that stops there (the target)
-        act_index = np.full(len(model.action_names), -1, dtype=np.int64)
-        act_index[layout.used_actions] = np.arange(layout.used_actions.size)
-        c_act = act_index[model.choice_actions]
-        cs = model.choice_states
-        keep_c = sp.diags(cont.astype(np.float64))
-        self.P: list[sp.csr_matrix] = []  # per action: S x S, continuing columns only
-        self.stop: list[np.ndarray] = []  # per action: float64[S], signed gain of stopping mass
-        self.reward: list[np.ndarray] = []  # per action: float64[S], signed action reward
-        for a in range(self.Au):
-            c = np.flatnonzero(c_act == a)
-            T = model.transitions[c].tocoo()
-            Pa = sp.csr_matrix((T.data, (cs[c][T.row], T.col)), shape=(self.S, self.S))
-            self.stop.append(np.asarray(Pa @ gain).ravel())
-            self.P.append(sp.csr_matrix(Pa @ keep_c))
-            r = np.zeros(self.S)
-            if rewards is not None:
-                r[cs[c]] = sign * rewards[c]
-            self.reward.append(r)
+        self.P = dynamics.P  # per action: S x S, continuing columns only
+        self.stop = dynamics.stop  # per action: float64[S], signed gain of stopping mass
+        self.reward = dynamics.reward  # per action: float64[S], signed action reward
         # nodes: predicted distributions over continuing states
         self.node_key: dict[bytes, int] = {}
         self.num_nodes = 0
@@ -401,13 +382,15 @@ def belief_controller(
     deadline: float | None,
     max_nodes: int | None = None,
     explore: int = MAX_EXPLORED,
+    adversary_rule: np.ndarray | None = None,
 ) -> BeliefController | None:
-    """A belief-based FSS for ``player`` (the only player of a POMDP) that hands over to
-    ``cutoff`` at its frontier.
+    """A belief-based FSS for ``player`` (the only player of a POMDP, or the decision maker of a
+    turn-based game against one omniscient adversary) that hands over to ``cutoff`` at its
+    frontier.
 
     Args:
-        model: the POMDP.
-        player: its agent.
+        model: the POMDP or the game.
+        player: its decision maker.
         cutoff: the strategy handed over to (in the layout of :class:`Layout` for ``model``).
         cut_values: float64[S, k]: ``cutoff``'s value from (s, m) (:func:`cutoff_values`).
         upper: float64[S]: the full-observation values (bounds for any strategy).
@@ -421,6 +404,9 @@ def belief_controller(
         max_nodes: belief memory nodes at most (default :func:`node_cap`).
         explore: belief nodes explored at most (the work budget; at most
             :data:`MAX_EXPLORED`).
+        adversary_rule: on a game, the stage rule the controller assumes for the other
+            player (float64[C], :mod:`posgmc.synthesis.belief_stage`); ``cut_values`` and
+            ``upper`` are then against the omniscient adversary. None on a POMDP.
 
     Returns:
         The controller, or None when there is nothing to explore (the initial state does not
@@ -442,17 +428,20 @@ def belief_controller(
     else:
         cont = ~target
         gain = np.zeros(model.num_states)
-    s0 = int(model.initial_states[0])
-    if model.initial_states.size != 1 or not cont[s0]:
+    if model.initial_states.size != 1 or not cont[int(model.initial_states[0])]:
         return None
-    obs_index = np.full(view.num_observations, -1, dtype=np.int64)
-    obs_index[layout.used_obs] = np.arange(layout.used_obs.size)
-    obs = obs_index[view.state_obs]
+    dynamics = stage_dynamics(model, player, cont=cont, gain=gain, rewards=rewards,
+                              discount=discount, sign=sign, rule=adversary_rule)
+    first = np.flatnonzero(dynamics.initial > 0)
+    if not first.size:
+        return None
     cut = sign * cut_values
     cut = np.where(np.isnan(cut), -np.inf, cut)
     up = np.where(np.isnan(upper), np.inf, sign * upper)
-    ex = _Explorer(model, layout, obs, cont, gain, rewards, discount, sign, cut, up)
-    ex.add_nodes(sp.csr_matrix(([1.0], ([0], [s0])), shape=(1, model.num_states)))
+    ex = _Explorer(model, layout, dynamics, discount, cut, up)
+    p0 = dynamics.initial[first]
+    ex.add_nodes(sp.csr_matrix((p0 / p0.sum(), (np.zeros(first.size, dtype=np.int64), first)),
+                               shape=(1, model.num_states)))
     # explore more nodes than an FSS holds: the policy reaches a part of them
     limit = min(explore, MAX_EXPLORED)
     now = time.perf_counter()
