@@ -63,8 +63,8 @@ from posgmc.synthesis.belief_stage import StageDynamics, stage_dynamics
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem, expired
 
-__all__ = ["BeliefController", "belief_controller", "belief_phase", "applies", "cutoff_values",
-           "node_cap", "PRECISION", "can_reach"]
+__all__ = ["BeliefController", "belief_controller", "belief_points", "belief_phase", "applies",
+           "cutoff_values", "node_cap", "PRECISION", "can_reach"]
 
 PRECISION = 1e-9
 """Beliefs whose probabilities agree after rounding to this grid are one memory node."""
@@ -413,12 +413,73 @@ def belief_controller(
         continue, the cut-off strategy is in another layout, or no node fits the caps).
     """
     layout = Layout.of(model, player)
+    cap = node_cap(model, layout, cutoff.memory_size) if max_nodes is None else max_nodes
+    if cap < 1:
+        return None
+    ex = _explored(model, player=player, cutoff=cutoff, cut_values=cut_values, upper=upper,
+                   target=target, remain=remain, rewards=rewards, discount=discount,
+                   maximize=maximize, deadline=deadline, explore=explore,
+                   adversary_rule=adversary_rule)
+    if ex is None:
+        return None
+    return _freeze(ex, cutoff, cap, deadline, 1.0 if maximize else -1.0)
+
+
+def belief_points(
+    model: ExplicitModel,
+    *,
+    player: int,
+    cutoff: FiniteStateStrategy,
+    cut_values: np.ndarray,
+    upper: np.ndarray,
+    target: np.ndarray,
+    remain: np.ndarray,
+    rewards: np.ndarray | None,
+    discount: float,
+    maximize: bool,
+    deadline: float | None,
+    explore: int = MAX_EXPLORED,
+    adversary_rule: np.ndarray | None = None,
+) -> sp.csr_matrix | None:
+    """The belief nodes :func:`belief_controller` explores with the same arguments, as rows
+    (float64, nodes x S, each the predicted distribution over the continuing states where the
+    decision maker acts next, in the order they were found: the initial one first); None when
+    there is nothing to explore."""
+    ex = _explored(model, player=player, cutoff=cutoff, cut_values=cut_values, upper=upper,
+                   target=target, remain=remain, rewards=rewards, discount=discount,
+                   maximize=maximize, deadline=deadline, explore=explore,
+                   adversary_rule=adversary_rule)
+    if ex is None:
+        return None
+    node, _, w = ex.arrays()
+    B = ex.belief_matrix()
+    # a node's distribution: its beliefs (one per observation) weighted by their probability
+    W = sp.csr_matrix((w, (node, np.arange(node.size))), shape=(ex.num_nodes, node.size))
+    return sp.csr_matrix(W @ B)
+
+
+def _explored(
+    model: ExplicitModel,
+    *,
+    player: int,
+    cutoff: FiniteStateStrategy,
+    cut_values: np.ndarray,
+    upper: np.ndarray,
+    target: np.ndarray,
+    remain: np.ndarray,
+    rewards: np.ndarray | None,
+    discount: float,
+    maximize: bool,
+    deadline: float | None,
+    explore: int,
+    adversary_rule: np.ndarray | None,
+) -> _Explorer | None:
+    """The belief MDP explored as :func:`belief_controller` describes (None: nothing to
+    explore)."""
+    layout = Layout.of(model, player)
     view = player_view(model, player)
     if (cutoff.actions != tuple(model.action_names[a] for a in layout.used_actions)
             or not np.array_equal(cutoff.observation_values, view.obs_values[layout.used_obs])):
-        return None
-    cap = node_cap(model, layout, cutoff.memory_size) if max_nodes is None else max_nodes
-    if cap < 1:
         return None
     sign = 1.0 if maximize else -1.0
     if rewards is None:
@@ -478,7 +539,7 @@ def belief_controller(
         if not pick.size:
             break  # the hand-over is as good as the optimistic value everywhere left
         ex.expand(np.sort(pick))
-    return _freeze(ex, cutoff, cap, deadline, sign)
+    return ex
 
 
 def _freeze(ex: _Explorer, cutoff: FiniteStateStrategy, cap: int, deadline: float | None,

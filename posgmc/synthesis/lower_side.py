@@ -1,16 +1,17 @@
 """Closing the optimum bracket from the achievable side: under ``--gap``, when the search's
-defence and the bound side leave more than the gap, belief-based controllers
-(:mod:`posgmc.synthesis.belief`) with growing exploration budgets — more memory nodes — over the
-defence, each checked like every other candidate.
+defence and the bound side leave more than the gap, strategies with more memory over the defence,
+from beliefs explored with growing budgets: the policy graph backed up at them
+(:mod:`posgmc.synthesis.policy_graph`) and, on a POMDP, the belief controller
+(:mod:`posgmc.synthesis.belief`), each ranked like every other candidate.
 
-On a POMDP the controller's belief is exact. On a one-sided game (a partially observing decision
-maker against an omniscient adversary) the decision maker's belief depends on the adversary's
-unseen moves: each controller assumes one stage rule for them (:mod:`posgmc.synthesis.
-belief_stage`): the full-observation optimum's choice in each state, the uniform mixture, and the
-adversary's best response to the current defence (its choices in the defence's product, mixed
-over the defence's memory nodes). The assumption is a heuristic only: a controller counts by what
-the sound product check of its FSS against *every* adversary proves (``verify``), and it replaces
-the defence only when that proven number is better.
+On a POMDP the beliefs are exact. On a one-sided game (a partially observing decision maker
+against an omniscient adversary) the decision maker's belief depends on the adversary's unseen
+moves: each exploration assumes one stage rule for them (:mod:`posgmc.synthesis.belief_stage`):
+the adversary's best response to the current defence (its choices in the defence's product,
+mixed over the defence's memory nodes), the full-observation optimum's choice in each state, the
+uniform mixture. The assumption only places the backups: a policy graph's values are the
+product's own, and the best candidate replaces the defence only when the sound product check of
+its FSS against *every* adversary (``verify``) proves more.
 
 The work is counted in explored belief nodes (``--effort`` scales it), so the controllers, and
 so the numbers, depend only on the model, the options and the seed; a wall-clock cap stops it.
@@ -31,12 +32,20 @@ from posgmc.strategies.binding import bind
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.strategies.verify import StrategyChecker
-from posgmc.synthesis import belief, belief_grid
+from posgmc.synthesis import belief, belief_grid, policy_graph
 from posgmc.synthesis.belief_stage import deterministic_rule, uniform_rule
 from posgmc.synthesis.options import Gap
 from posgmc.synthesis.problem import POLICY, Problem, expired
 
-__all__ = ["LowerSide", "applies", "close_from_below", "GROWTH", "FIRST_BUDGET", "SHARE"]
+__all__ = ["LowerSide", "applies", "close_from_below", "GROWTH", "FIRST_BUDGET", "SHARE",
+           "GRAPH_NODES", "GRAPH_MAX"]
+
+GRAPH_NODES = 256
+"""The first policy graph (:mod:`posgmc.synthesis.policy_graph`) adds this many memory nodes at
+most; each next one twice as many, up to :data:`GRAPH_MAX`."""
+
+GRAPH_MAX = 1024
+"""The most memory nodes a policy graph adds (its product lays the model out once per node)."""
 
 SHARE = 0.15
 """Under a wall-clock cap with ``--gap``: the part of it at its end kept for the lower side (the
@@ -96,24 +105,24 @@ def close_from_below(problem: Problem, defence: FiniteStateStrategy, guaranteed:
                                coalition_of=problem.coalition_of, scalar=problem.scalar)
     best: tuple[float, FiniteStateStrategy] | None = None
     for name, rule in _rules(problem, defence, choice):
-        budget = FIRST_BUDGET * nodes
+        explore, graph = FIRST_BUDGET * nodes, GRAPH_NODES
         while not expired(deadline):
-            found = belief.belief_controller(
-                problem.model, player=problem.player, cutoff=defence, cut_values=cut,
-                upper=upper, target=problem.target, remain=problem.remain,
-                rewards=problem.rewards, discount=problem.discount, maximize=maximize,
-                deadline=deadline, explore=budget, adversary_rule=rule)
-            if found is None:
-                break
-            ranked = _rank(problem, found.strategy)
-            tried.append({"adversary_rule": name, "explore": budget, "explored": found.explored,
-                          "memory": found.strategy.memory_size, "ranked": ranked})
-            if best is None or sign * ranked > sign * best[0]:
-                best = (ranked, found.strategy)
-            closed = gap.met(*sorted((ranked, bound)))
-            if closed or found.explored < budget or budget >= belief.MAX_EXPLORED:
-                break  # within the gap, or the exploration ended before its budget
-            budget = min(belief.MAX_EXPLORED, GROWTH * budget)
+            made, explored = _candidates(problem, defence, cut, upper, rule, explore, graph,
+                                         deadline)
+            for kind, fss in made:
+                ranked = _rank(problem, fss)
+                tried.append({"kind": kind, "adversary_rule": name, "explore": explore,
+                              "explored": explored, "memory": fss.memory_size,
+                              "ranked": ranked})
+                if best is None or sign * ranked > sign * best[0]:
+                    best = (ranked, fss)
+            # more beliefs while the exploration used its whole budget, more nodes up to the cap
+            grown = (explore if explored < explore else
+                     min(belief.MAX_EXPLORED, GROWTH * explore), min(GRAPH_MAX, 2 * graph))
+            if not made or (best is not None and gap.met(*sorted((best[0], bound)))) \
+                    or grown == (explore, graph):
+                break  # within the gap, or nothing left to grow
+            explore, graph = grown
         if best is not None and gap.met(*sorted((best[0], bound))):
             break
     if best is None or sign * best[0] <= sign * achieved or expired(deadline):
@@ -123,6 +132,36 @@ def close_from_below(problem: Problem, defence: FiniteStateStrategy, guaranteed:
     if not proven.sound or sign * value <= sign * achieved:
         return LowerSide(None, None, tuple(tried))
     return LowerSide(best[1], proven, tuple(tried))
+
+
+def _candidates(problem: Problem, defence: FiniteStateStrategy, cut: np.ndarray,
+                upper: np.ndarray, rule: np.ndarray | None, explore: int, graph: int,
+                deadline: float | None) -> tuple[list[tuple[str, FiniteStateStrategy]], int]:
+    """The strategies built from the beliefs explored with ``explore`` nodes under ``rule``:
+    the policy graph backed up at them (at most ``graph`` new nodes) and, on a POMDP, the
+    belief controller; and how many belief nodes were explored."""
+    args = dict(player=problem.player, cutoff=defence, cut_values=cut, upper=upper,
+                target=problem.target, remain=problem.remain, rewards=problem.rewards,
+                discount=problem.discount, maximize=problem.maximize, deadline=deadline,
+                explore=explore, adversary_rule=rule)
+    made: list[tuple[str, FiniteStateStrategy]] = []
+    points = belief.belief_points(problem.model, **args)  # type: ignore[arg-type]
+    if points is None:
+        return made, 0
+    pg = policy_graph.backed_up(
+        problem.model, player=problem.player, cutoff=defence, cut_values=cut, beliefs=points,
+        target=problem.target, remain=problem.remain, rewards=problem.rewards,
+        discount=problem.discount, maximize=problem.maximize, max_nodes=graph,
+        deadline=deadline)
+    if pg is not None:
+        made.append(("policy graph", pg.strategy))
+    if problem.adversary is None and not expired(deadline):
+        # on a POMDP the belief is exact: the belief MDP's controller too (in a game it would
+        # trust the assumed rule, which the omniscient adversary need not follow)
+        found = belief.belief_controller(problem.model, **args)  # type: ignore[arg-type]
+        if found is not None:
+            made.append(("belief controller", found.strategy))
+    return made, points.shape[0]
 
 
 def _rank(problem: Problem, fss: FiniteStateStrategy) -> float:
