@@ -20,6 +20,7 @@ so the numbers, depend only on the model, the options and the seed; a wall-clock
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -46,6 +47,10 @@ most; each next one twice as many, up to :data:`GRAPH_MAX`."""
 
 GRAPH_MAX = 1024
 """The most memory nodes a policy graph adds (its product lays the model out once per node)."""
+
+BUILD_SHARE = 0.6
+"""Under a cap: the part of the lower side's time for building candidates (the sound check of
+the best one has the rest)."""
 
 SHARE = 0.15
 """Under a wall-clock cap with ``--gap``: the part of it at its end kept for the lower side (the
@@ -100,15 +105,19 @@ def close_from_below(problem: Problem, defence: FiniteStateStrategy, guaranteed:
     tried: list[dict[str, object]] = []
     if not applies(problem):
         return LowerSide(None, None, ())
-    upper, choice = belief_grid.full_observation_bounds(problem, deadline)
+    # under a cap the candidates are built in the first part of the time left, so that the
+    # best one's product check has the rest
+    now = time.perf_counter()
+    build_until = None if deadline is None else now + BUILD_SHARE * max(0.0, deadline - now)
+    upper, choice = belief_grid.full_observation_bounds(problem, build_until)
     cut = belief.cutoff_values(problem.model, defence, problem.query,
                                coalition_of=problem.coalition_of, scalar=problem.scalar)
     best: tuple[float, FiniteStateStrategy] | None = None
     for name, rule in _rules(problem, defence, choice):
         explore, graph = FIRST_BUDGET * nodes, GRAPH_NODES
-        while not expired(deadline):
+        while not expired(build_until):
             made, explored = _candidates(problem, defence, cut, upper, rule, explore, graph,
-                                         deadline)
+                                         build_until)
             for kind, fss in made:
                 ranked = _rank(problem, fss)
                 tried.append({"kind": kind, "adversary_rule": name, "explore": explore,
