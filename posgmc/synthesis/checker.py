@@ -429,8 +429,9 @@ class SynthesisChecker:
 
     def _lower_phase(self, run: _CheckRun, searched: _Searched, bracket: _Bracket
                      ) -> tuple[_Searched, _Bracket]:
-        """Under ``--gap``, when the bracket is still wider: belief-based controllers over the
-        reported defence (:mod:`posgmc.synthesis.lower_side`) until the rest of the budget; one
+        """Under ``--gap``, when the bracket is still wider: strategies with more memory over
+        the reported defence (:mod:`posgmc.synthesis.lower_side`: policy graphs, on a POMDP
+        belief controllers) until the rest of the budget; one
         whose sound check against every adversary proves more becomes the reported defence (the
         numbers about the old one against the enumerated adversaries are dropped, not
         carried over), and the bracket's achievable side moves with it."""

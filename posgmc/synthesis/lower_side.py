@@ -122,7 +122,7 @@ def close_from_below(problem: Problem, defence: FiniteStateStrategy, guaranteed:
                 ranked = _rank(problem, fss)
                 tried.append({"kind": kind, "adversary_rule": name, "explore": explore,
                               "explored": explored, "memory": fss.memory_size,
-                              "ranked": ranked})
+                              "ranked": ranked if math.isfinite(ranked) else None})
                 if best is None or sign * ranked > sign * best[0]:
                     best = (ranked, fss)
             # more beliefs while the exploration used its whole budget, more nodes up to the cap
