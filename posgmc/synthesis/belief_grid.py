@@ -1038,11 +1038,46 @@ def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.nd
         if (rg[states + 1] - rg[states]).max() <= 1:
             continue  # nothing to randomise
         solved += 1
-        for rule in (stage_lp.one_step_rule(data, step, p, cols, owner),
+        for rule in (*_grid_rules(dyn, cols, owner, p, abstraction.resolution),
+                     stage_lp.one_step_rule(data, step, p, cols, owner),
                      stage_lp.stage_rule(data, states, p, cols, owner)):
             if rule is not None and mixtures.add(states, p, abstraction.resolution, rule):
                 added += 1
     return added, solved
+
+
+GRID_TARGETS = 8
+"""Combinations of target vertices tried for one adversary vertex's grid rules at most."""
+
+
+def _grid_rules(dyn: _Dynamics, cols: np.ndarray, owner: np.ndarray, p: np.ndarray,
+                resolution: int) -> list[np.ndarray | None]:
+    """Randomised rules at an adversary vertex (belief ``p`` over the states owning ``cols``)
+    whose posterior is a grid vertex in every observation group of the successors
+    (:func:`posgmc.synthesis.stage_lp.grid_rule`): the targets are the vertices of the simplex
+    around the uniform mixture's posterior (the grid beliefs near what randomising gives), the
+    combinations over the groups in the order of their weights, at most :data:`GRID_TARGETS`."""
+    if resolution <= 0:
+        return []
+    J = sp.csr_matrix(sp.diags(p[owner]) @ dyn.T_cont[cols])
+    n = np.bincount(owner)
+    y = np.asarray(J.T @ (1.0 / n[owner])).ravel()
+    succ = np.flatnonzero(y > 0)
+    if not succ.size:
+        return []
+    groups: list[list[tuple[float, np.ndarray, np.ndarray]]] = []
+    for g in np.unique(dyn.group[succ]).tolist():
+        states = succ[dyn.group[succ] == g]
+        part = y[states] / y[states].sum()
+        counts, lam = freudenthal(part, resolution)
+        order = np.argsort(-lam, kind="stable")
+        groups.append([(float(lam[i]), states[counts[i] > 0],
+                        counts[i][counts[i] > 0] / resolution) for i in order.tolist()])
+    out: list[np.ndarray | None] = []
+    for combo in itertools.islice(itertools.product(*groups), GRID_TARGETS):
+        targets = [(states, belief) for _, states, belief in combo]
+        out.append(stage_lp.grid_rule(J, owner, targets))
+    return out
 
 
 @dataclass(frozen=True)
