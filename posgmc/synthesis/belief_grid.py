@@ -1009,7 +1009,9 @@ def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.nd
     bound side per state) and the per-state ``cutoff`` bounds at the unit beliefs
     (:func:`posgmc.synthesis.stage_lp.stage_rule`), and against the one-step estimate from the
     same bounds (:func:`posgmc.synthesis.stage_lp.one_step_rule`: it reaches posteriors the
-    abstraction has not explored yet). In breadth-first order until ``deadline`` or ``limit``
+    abstraction has not explored yet), and the rules whose posterior is a grid vertex itself
+    (:func:`_grid_rules`: nothing leaks to the decision maker through a decomposition, where
+    both estimates are flat). In breadth-first order until ``deadline`` or ``limit``
     vertices. Returns how many new rules were added and at how many vertices LPs were solved."""
     dyn = _Dynamics(problem, None)
     V = abstraction.vertices
