@@ -1073,8 +1073,8 @@ def _grid_rules(dyn: _Dynamics, cols: np.ndarray, owner: np.ndarray, p: np.ndarr
         part = y[states] / y[states].sum()
         counts, lam = freudenthal(part, resolution)
         order = np.argsort(-lam, kind="stable")
-        groups.append([(float(lam[i]), states[counts[i] > 0],
-                        counts[i][counts[i] > 0] / resolution) for i in order.tolist()])
+        # the whole group's states: those outside the vertex's support must get no mass
+        groups.append([(float(lam[i]), states, counts[i] / resolution) for i in order.tolist()])
     out: list[np.ndarray | None] = []
     for combo in itertools.islice(itertools.product(*groups), GRID_TARGETS):
         targets = [(states, belief) for _, states, belief in combo]
