@@ -77,6 +77,14 @@ greatest solution capped at hi is then not exact: not offered.
 The answer is a candidate: the caller evaluates its strategy against the kept adversaries (a
 linear solve per product) and the reported numbers come from the sound engines
 (:mod:`posgmc.synthesis.checker`), never from this float optimum.
+
+**The incumbent's probe.** A caller that already holds a defence of value v against the kept
+adversaries only wants a better one. Every defence's worst value is a feasible objective (the
+encodings are exact), so when HiGHS's root node, with v as cutoff, proves that no solution does
+better than v (less :data:`PROBE_MARGIN`), no branch-and-bound could have proposed a defence the
+caller would take: :func:`compose_milp` then returns None at once. The cutoff's presolve,
+propagation and cuts often settle this where the LP relaxation of the big-M rows (value 1 for a
+probability) cannot; when they do not, the full solve runs exactly as without the probe.
 """
 
 from __future__ import annotations
