@@ -27,9 +27,11 @@ import numpy as np
 
 __all__ = ["BUDGET_BYTES", "SupportCache", "digest"]
 
-BUDGET_BYTES = 64 * 1024 * 1024
-"""Bytes of cached arrays per cache, at most: about 4 MB per product of 10^5 states, so a search
-over one model's products keeps its working set while a long session cannot grow without bound."""
+BUDGET_BYTES = 32 * 1024 * 1024
+"""Bytes of cached arrays per cache, at most (five caches: the transposed patterns, the
+attractors, policy iteration's two, the candidate chains' reach): an attractor of a product of
+10^5 states keeps about 3 MB, so about ten of them stay, while the rover's whole synthesis needs
+7 MB; a long session, or a worker of ``--jobs``, cannot grow without bound."""
 
 V = TypeVar("V")
 
