@@ -19,13 +19,14 @@ from __future__ import annotations
 
 import hashlib
 import threading
+import weakref
 from collections import OrderedDict
 from collections.abc import Callable
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 
-__all__ = ["BUDGET_BYTES", "SupportCache", "digest"]
+__all__ = ["BUDGET_BYTES", "SupportCache", "clear_all", "digest"]
 
 BUDGET_BYTES = 32 * 1024 * 1024
 """Bytes of cached arrays per cache, at most (five caches: the transposed patterns, the
@@ -60,7 +61,8 @@ class SupportCache(Generic[V]):
     """A thread-safe least-recently-used map from digests to results, within a byte budget.
 
     ``size_of`` gives a result's size in bytes (what it holds in arrays); a result larger than
-    the whole budget is computed and returned but not kept."""
+    the whole budget is computed and returned but not kept. Every cache is listed for
+    :func:`clear_all`."""
 
     def __init__(self, size_of: Callable[[V], int], budget: int = BUDGET_BYTES) -> None:
         self._size_of = size_of
@@ -70,6 +72,7 @@ class SupportCache(Generic[V]):
         self._lock = threading.Lock()
         self.hits = 0
         self.misses = 0
+        _ALL.add(self)
 
     def get(self, key: bytes) -> V | None:
         """The result kept for ``key`` (now the most recently used), or None."""
@@ -108,3 +111,13 @@ class SupportCache(Generic[V]):
 
     def __len__(self) -> int:
         return len(self._entries)
+
+
+_ALL: weakref.WeakSet[SupportCache[Any]] = weakref.WeakSet()
+
+
+def clear_all() -> None:
+    """Forget what every cache remembers: a measurement that runs several syntheses in one
+    process (a benchmark comparing two options) starts each as a fresh command would."""
+    for cache in list(_ALL):
+        cache.clear()

@@ -68,10 +68,9 @@ def test_a_switch_on_rounding_noise_is_banned(monkeypatch: pytest.MonkeyPatch) -
 
 
 def _clear_support_caches() -> None:
-    from posgmc.engines import graph
+    from posgmc.engines.support_cache import clear_all
 
-    for cache in (graph._ATTRACTORS, graph._TRANSPOSED, ex._CLASSES, ex._SETTLED):
-        cache.clear()
+    clear_all()
 
 
 @settings(max_examples=150, deadline=None)

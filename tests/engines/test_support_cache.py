@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 
 from posgmc.engines import graph
 from posgmc.engines.graph import Structure, attractor, structure_of
-from posgmc.engines.support_cache import SupportCache, digest
-from posgmc.model.explicit import ExplicitModel
+from posgmc.engines.support_cache import SupportCache, clear_all, digest
+from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.syntax.ast import ModelType
 from tests.engines.engine_models import small_models
 
@@ -111,3 +111,14 @@ def test_other_supports_other_keys() -> None:
     # 0 reaches 1 in a, not in b (where 0 only loops)
     assert attractor(a, goal, existential=everyone, candidates=everyone)[0].tolist() == [1, 1]
     assert attractor(b, goal, existential=everyone, candidates=everyone)[0].tolist() == [0, 1]
+
+
+def test_clear_all_forgets_every_cache() -> None:
+    cache: SupportCache[np.ndarray] = SupportCache(lambda a: a.nbytes)
+    cache.put(digest(1), np.zeros(3))
+    m = make_model(ModelType.MDP, [0, 1, 2], np.array([[0.0, 1.0], [0.0, 1.0]]))
+    attractor(structure_of(m), np.array([False, True]), existential=np.ones(2, dtype=bool),
+              candidates=np.ones(2, dtype=bool))
+    assert len(cache) == 1 and len(graph._ATTRACTORS) > 0
+    clear_all()
+    assert len(cache) == 0 and len(graph._ATTRACTORS) == 0 and len(graph._TRANSPOSED) == 0
