@@ -41,15 +41,12 @@ from posgmc.synthesis.problem import expired
 
 __all__ = ["PolicyGraph", "backed_up"]
 
-_ADVERSARY_SWEEPS = 1_000
+_ADVERSARY_SWEEPS = 10_000
 """Sweeps of the adversary's minimum at most, where its states follow each other."""
 
-UNKNOWN = -1e300
-"""The (signed) value of a node from a state where it is not known: worse than anything."""
+_TOLERANCE = 1e-13
+"""The adversary's part has converged when no value moves by more than this in a sweep."""
 
-_KNOWN = 1e299
-_KNOWN_BELOW = -1e299
-"""Values beyond these are (sums with) :data:`UNKNOWN`."""
 
 _MARGIN = 1e-9
 """A backup must beat a belief's best node by this much (relative) to become a node."""
@@ -117,35 +114,43 @@ class _Backups:
         self.adv_r = r[ac]
 
     def extend(self, alpha: np.ndarray) -> np.ndarray:
-        """W: float64[S, K] from α (float64[mine, K]): α in my states, the stop value where the
-        mass stops, the adversary's minimum in its states (:data:`UNKNOWN` where a choice leads
-        to an unknown value). Columns are independent: new nodes' columns extend the old."""
+        """W: float64[S, K] from α (float64[mine, K], -inf where unknown): α in my states, the
+        stop value where the mass stops, the adversary's minimum in its states (-inf, the worst
+        for the decision maker, where a choice may lead to an unknown value; mass the adversary
+        keeps among its own states for ever is worth 0, as in the product). Columns are
+        independent: new nodes' columns extend the old."""
         K = alpha.shape[1]
         W = np.repeat(self.stop_value[:, None], K, axis=1)
         W[self.mine] = alpha
         if not self.theirs.size:
             return W
-        W[self.theirs] = -UNKNOWN  # not yet known: the adversary's minimum lowers it
+        # value iteration of the adversary's part from 0 (nothing reached yet): its minimum
+        # over the moves so far, until it no longer changes
+        W[self.theirs] = 0.0
         for _ in range(_ADVERSARY_SWEEPS):
-            Q = self.adv_r[:, None] + self.discount * np.asarray(self.adv_T @ W)
-            best = np.full((self.S, K), -UNKNOWN)
+            Q = self.adv_r[:, None] + self.discount * _expect(self.adv_T, W)
+            best = np.full((self.S, K), np.inf)
             np.minimum.at(best, self.adv_choice_state, Q)
-            new = np.clip(best[self.theirs], UNKNOWN, -UNKNOWN)
-            if np.array_equal(new, W[self.theirs]):
-                break
+            new = best[self.theirs]
+            old = W[self.theirs]
+            both = np.isfinite(new) & np.isfinite(old)
             W[self.theirs] = new
-        W[self.theirs] = np.where(np.abs(W[self.theirs]) >= _KNOWN, UNKNOWN, W[self.theirs])
+            if np.array_equal(np.isfinite(new), np.isfinite(old)) and \
+                    np.abs(new[both] - old[both]).max(initial=0.0) <= _TOLERANCE:
+                break
         return W
 
     def q(self, a: int, W: np.ndarray) -> np.ndarray:
         """float64[mine, K]: taking action a in each of my states, then node m's values."""
-        return self.r[a][:, None] + self.discount * np.asarray(self.P[a] @ W)
+        out: np.ndarray = self.r[a][:, None] + self.discount * _expect(self.P[a], W)
+        return out
 
     def q_at(self, a: int, rows: np.ndarray, nodes: np.ndarray, W: np.ndarray) -> np.ndarray:
         """float64[rows]: action a in my states ``rows`` (local), then node ``nodes[i]``."""
         P = self.P[a][rows]
         owner = np.repeat(np.arange(rows.size), np.diff(P.indptr))
-        terms = P.data * W[P.indices, nodes[owner]]
+        w = W[P.indices, nodes[owner]]
+        terms = np.where(P.data > 0, P.data * np.where(P.data > 0, w, 0.0), 0.0)
         out: np.ndarray = self.r[a][rows] + self.discount * np.bincount(
             owner, weights=terms, minlength=rows.size)
         return out
@@ -171,7 +176,7 @@ def backed_up(model: ExplicitModel, *, player: int, cutoff: FiniteStateStrategy,
         return None
     bk = _Backups(model, player, target, remain, rewards, discount, sign)
     alpha = sign * np.asarray(cut_values, dtype=np.float64)[bk.mine]
-    alpha = np.where(np.isnan(alpha), UNKNOWN, alpha)
+    alpha = np.where(np.isnan(alpha), -np.inf, alpha)
     B = sp.csr_matrix(beliefs)[:, bk.mine]
     # (belief, observation) pairs: a belief's mass on each observation's states
     Bz = B.tocoo()
@@ -210,10 +215,12 @@ def backed_up(model: ExplicitModel, *, player: int, cutoff: FiniteStateStrategy,
             V = np.asarray(pair_rows @ Q)
             m = V.argmax(axis=1)
             v = V[np.arange(keys.size), m]
-            better = bk.mask[pair_z, a] & (v > best_pair) & (v > _KNOWN_BELOW)
+            better = bk.mask[pair_z, a] & (v > best_pair)
             best_pair[better] = v[better]
             arg_pair[better, 0], arg_pair[better, 1] = a, first + m[better]
-            U = np.asarray(uniform @ Q)
+            # the default rule's ranking: unknown values as a very bad finite one, so that every
+            # observation gets an allowed action
+            U = np.asarray(uniform @ np.where(np.isfinite(Q), Q, -1e300))
             mu = U.argmax(axis=1)
             u = U[np.arange(bk.Z), mu]
             ub = bk.mask[:, a] & (u > best_uni)
@@ -223,8 +230,7 @@ def backed_up(model: ExplicitModel, *, player: int, cutoff: FiniteStateStrategy,
         lost = ~np.isfinite(best_pair)
         arg_pair[lost] = arg_uni[pair_z[lost]]
         # each belief's backup value against its current best node's
-        backup = np.bincount(pair_belief, weights=np.where(lost, UNKNOWN, best_pair),
-                             minlength=nb)
+        backup = np.bincount(pair_belief, weights=best_pair, minlength=nb)
         gain = backup - current
         margin = _MARGIN * np.maximum(1.0, np.abs(current))
         order = np.lexsort((np.arange(nb), -gain))
@@ -247,7 +253,7 @@ def backed_up(model: ExplicitModel, *, player: int, cutoff: FiniteStateStrategy,
             for a in np.unique(za).tolist():
                 rows = np.flatnonzero(za == a)
                 col[rows] = bk.q_at(a, rows, nxt[bk.z_of[rows]], W)
-            cols.append(np.where(col <= _KNOWN_BELOW, UNKNOWN, col))
+            cols.append(col)
         if not cols:
             break
         fresh = np.stack(cols, axis=1)
@@ -256,9 +262,20 @@ def backed_up(model: ExplicitModel, *, player: int, cutoff: FiniteStateStrategy,
     # the initial node: the best from the initial state itself (the adversary's minimum there
     # when it moves first), not from the first belief, which assumed its rule
     values0 = W[int(model.initial_states[0])]
-    initial = int(values0.argmax())
+    initial = int(values0.argmax()) if np.isfinite(values0).any() else cutoff.initial_memory
     fss = _fss(cutoff, kc, new_action, new_next, bk.mask, initial)
     return PolicyGraph(fss, sign * float(values0[initial]), len(new_action), rounds)
+
+
+def _expect(P: sp.csr_matrix, W: np.ndarray) -> np.ndarray:
+    """P @ W where W may hold infinities: -inf wherever a successor with positive probability
+    is -inf (unknown, the worst), else +inf wherever one is +inf (not yet known), else the
+    finite expectation (no 0 * inf)."""
+    out = np.asarray(P @ np.where(np.isfinite(W), W, 0.0))
+    pos = np.asarray(P @ np.isposinf(W).astype(np.float64)) > 0
+    neg = np.asarray(P @ np.isneginf(W).astype(np.float64)) > 0
+    out = np.where(pos, np.inf, out)
+    return np.where(neg, -np.inf, out)
 
 
 def _fss(cutoff: FiniteStateStrategy, kc: int, actions: list[np.ndarray],

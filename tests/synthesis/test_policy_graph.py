@@ -100,6 +100,7 @@ def test_random_pomdp_graphs_are_valued_exactly(seed: int, maximize: bool) -> No
 @given(seed=st.integers(0, 10_000), maximize=st.booleans())
 @example(seed=0, maximize=True)
 @example(seed=3, maximize=False)
+@example(seed=124, maximize=False)  # the adversary's states form cycles with exits
 def test_random_game_graphs_are_valued_exactly(seed: int, maximize: bool) -> None:
     """Against the omniscient adversary, whichever stage rule the beliefs assumed."""
     _estimate_is_the_product_value(random_posg(seed), 1, maximize)
