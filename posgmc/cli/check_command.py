@@ -10,7 +10,7 @@ from typing import Any, Literal
 
 import click
 
-from posgmc.checking.results import PropertyResult
+from posgmc.checking.results import Bound, PropertyResult
 from posgmc.cli.constants import const_json, const_text, expand_constants
 from posgmc.cli.group import main
 from posgmc.cli.model_commands import build_options
@@ -364,9 +364,9 @@ def _write_reports(
         print_report(r.model, swept, rows, verbose=r.verbose)
 
 
-def _headline(report: Any) -> float | None:
-    """A point's headline number, when it checked one property: the proven ``guaranteed`` of a
-    synthesis or given strategies, else the numeric value."""
+def _headline(report: Any) -> Bound | None:
+    """A point's headline number with its bounds, when it checked one property: the proven
+    ``guaranteed`` of a synthesis or given strategies, else the numeric value."""
     if len(report.outcomes) != 1 or isinstance(report.outcomes[0], tuple):
         return None
     result: PropertyResult = report.outcomes[0]

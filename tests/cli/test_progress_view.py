@@ -140,3 +140,35 @@ def test_a_check_sweep_reports_each_point_as_it_completes(tmp_path: Path) -> Non
                                                                     for i in (1, 2, 3)]
     assert [round(e["best"], 9) for e in events] == [0.1, 0.5, 0.9]
     assert "runs" in objects[-1]  # then the sweep's one JSON object, as --json prints it
+
+
+# by hand: x=0 stays with probability q, reaches x=1 with 0.375, else x=2: P(F x=1) = 0.375/(1-q),
+# 0.5 at q=0.25 and 0.75 at q=0.5; interval iteration stops near, not at, those values
+LOOP = """dtmc
+const double q;
+module m x : [0..2] init 0;
+  [] x=0 -> q:(x'=0) + 0.375:(x'=1) + 0.625-q:(x'=2); [] x>0 -> true;
+endmodule
+"""
+
+
+def test_a_sweep_point_prints_its_number_as_the_table_does(tmp_path: Path) -> None:
+    """A point's progress line shows the shortest decimal inside the proven interval, the same
+    text as the sweep's table, not the iteration's raw point (e.g. 0.7499998924)."""
+    path = tmp_path / "loop.prism"
+    path.write_text(LOOP)
+    args = ["check", str(path), "--prop", "P=? [ F x=1 ]", "--const", "q=0.25:0.25:0.5"]
+    raw = json.loads(CliRunner().invoke(main, [*args, "--json"]).stdout)
+    values = [run["results"][0]["value"] for run in raw["runs"]]
+    assert values != [0.5, 0.75]  # the raw numbers are not the short ones: the test can fail
+    r = CliRunner().invoke(main, [*args, "--progress"])
+    assert r.exit_code == 0, r.output
+    table = [line.split("\t")[1] for line in r.stdout.splitlines() if line.startswith("0.")]
+    assert table == ["0.5", "0.75"]
+    done = [x for x in r.stderr.splitlines() if x.startswith("sweep: point ")]
+    assert [x.split(" | ")[1] for x in done] == [f"guaranteed {t}" for t in table]
+    r = CliRunner().invoke(main, [*args, "--json-lines"])
+    events = [json.loads(x)["progress"] for x in r.stdout.splitlines() if '"progress"' in x]
+    # JSON keeps full precision, with the proven bounds the text was shortened within
+    assert [e["best"] for e in events] == values
+    assert all(e["bound"]["lower"] <= e["best"] <= e["bound"]["upper"] for e in events)
