@@ -16,6 +16,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from posgmc.cli import main
@@ -172,3 +173,69 @@ def test_a_sweep_point_prints_its_number_as_the_table_does(tmp_path: Path) -> No
     # JSON keeps full precision, with the proven bounds the text was shortened within
     assert [e["best"] for e in events] == values
     assert all(e["bound"]["lower"] <= e["best"] <= e["bound"]["upper"] for e in events)
+
+
+def _children(pid: int) -> list[int]:
+    """The child processes of ``pid`` (forked by any of its threads)."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            found += [int(c) for c in (task / "children").read_text().split()]
+        except OSError:  # the thread ended
+            pass
+    return found
+
+
+@pytest.mark.parametrize(("command", "jobs"), [("check", 1), ("check", 2), ("pareto", 2)])
+def test_ctrl_c_during_a_sweep_reports_finished_cut_and_cancelled_points(
+        tmp_path: Path, command: str, jobs: int) -> None:
+    """SIGINT to the process group (as a terminal's Ctrl-C) during a check --const or a pareto
+    --sweep, in one process or on a local pool: exit 130; each point cut short reports its best
+    verified defence in the table; a line on stderr names the points finished, cut short and
+    cancelled, which together are the sweep's four points (models/beacon with its budget B left
+    open)."""
+    if not Path("/proc/self/task").exists():
+        pytest.skip("finds the pool's workers through /proc")
+    model = tmp_path / "budget.posg"
+    text = (ROOT / "models" / "beacon" / "beacon.posg").read_text()
+    assert "const int B = 1;" in text
+    model.write_text(text.replace("const int B = 1;", "const int B;"))
+    out, err = tmp_path / "out.txt", tmp_path / "err.txt"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    with out.open("w") as o, err.open("w") as e:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "posgmc", command, str(model), "--prop",
+             '<<rover>> Pmax=? [ F "safe" ]', "--const" if command == "check" else "--sweep",
+             "B=0:3", "--memory", "1",
+             "--effort", "500", "--jobs", str(jobs), "--progress"],
+            stdout=o, stderr=e, env=env, start_new_session=True)
+        try:
+            if jobs == 1:
+                _wait_for(err, "gradient search", 60)
+            else:
+                end = time.monotonic() + 60
+                while len(_children(proc.pid)) < jobs and time.monotonic() < end:
+                    time.sleep(0.05)
+                assert len(_children(proc.pid)) == jobs
+                time.sleep(1.0)  # the workers are into their points' searches
+            os.killpg(proc.pid, signal.SIGINT)
+            code = proc.wait(timeout=120)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+    assert code == 130, err.read_text()
+    summary = [x for x in err.read_text().splitlines() if x.startswith("interrupted: ")]
+    assert len(summary) == 1, err.read_text()
+    line = summary[0]
+    finished = line.split(" points finished (")[1].split(")")[0].split("; ")
+    cut = line.split("defence reported: ")[1].split("; cancelled")[0].split("; ")
+    cancelled = line.split("cancelled: ")[1].split("; ") if "cancelled: " in line else []
+    # the points running when interrupted (one per job) were cut short and still reported
+    assert finished == [f"B={b}" for b in range(len(finished))] and len(finished) >= jobs
+    assert cut == finished[:len(cut)] and len(cut) >= jobs
+    assert finished + cancelled == [f"B={b}" for b in range(4)] and cancelled
+    assert f"{len(finished)} of 4 points finished" in line
+    rows = [x.split() for x in out.read_text().splitlines() if x[:1].isdigit()]
+    assert [r[0] for r in rows] == [f.split("=")[1] for f in finished]
+    # every reported number is proven: a memoryless rover guesses the exit, 0.5 (beacon's README)
+    assert all(r[1] == "0.5" for r in rows)
