@@ -221,8 +221,11 @@ def test_ctrl_c_during_a_sweep_reports_finished_cut_and_cancelled_points(
             os.killpg(proc.pid, signal.SIGINT)
             code = proc.wait(timeout=120)
         finally:
-            if proc.poll() is None:
-                proc.kill()
+            # the whole group: a pool's workers (deaf to SIGINT) must not outlive a failed test
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
     assert code == 130, err.read_text()
     summary = [x for x in err.read_text().splitlines() if x.startswith("interrupted: ")]
     assert len(summary) == 1, err.read_text()
