@@ -16,8 +16,9 @@ started and ends the pool's processes.
 
 Interrupt (Ctrl-C, :func:`~posgmc.synthesis.budget.interrupted`): the calls already running wind
 down and their results are still yielded where they can (in this process, the call running; in a
-local pool, every running call: the pool's workers ignore the terminal's SIGINT and are told to
-stop by the driver, exactly once, so that each reports its best so far); on Ray the running tasks
+local pool, every running call: the workers are stopped by the terminal's Ctrl-C, and by the
+driver's stop signal when it alone was interrupted, so that each reports its best so far); on
+Ray the running tasks
 are cancelled (they do not see the stop). The calls not started are cancelled. Either way the
 generator then ends normally and :attr:`Spread.cancelled` names the calls that gave no result, so
 that the caller reports which points finished and which did not.
@@ -134,14 +135,14 @@ _STOP_SIGNAL = getattr(signal, "SIGUSR1", None)
 
 
 def _fanned_worker() -> None:
-    """A pool worker of a fan-out: no progress of its own, deaf to the terminal's Ctrl-C (which
-    the whole process group receives), stopped by the driver instead, once, as a Ctrl-C would
-    stop this process's synthesis: it winds down and returns its best so far."""
+    """A pool worker of a fan-out: no progress of its own; stopped by the driver's stop signal
+    as a Ctrl-C would stop this process's synthesis (it winds down and returns its best so far).
+    Its SIGINT handler is the driver's, inherited: under ``interruptible`` the terminal's Ctrl-C
+    (which the whole process group receives) requests the same stop, and the driver's signal
+    after it only repeats the request; elsewhere a Ctrl-C interrupts it as it does the driver."""
     progress.silence()
-    if _STOP_SIGNAL is None:
-        return
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(_STOP_SIGNAL, _stop_requested)
+    if _STOP_SIGNAL is not None:
+        signal.signal(_STOP_SIGNAL, _stop_requested)
 
 
 def _stop_requested(signum: int, frame: Any) -> None:

@@ -221,7 +221,7 @@ def test_ctrl_c_during_a_sweep_reports_finished_cut_and_cancelled_points(
             os.killpg(proc.pid, signal.SIGINT)
             code = proc.wait(timeout=120)
         finally:
-            # the whole group: a pool's workers (deaf to SIGINT) must not outlive a failed test
+            # the whole group: a pool's workers must not outlive a failed test
             try:
                 os.killpg(proc.pid, signal.SIGKILL)
             except ProcessLookupError:
