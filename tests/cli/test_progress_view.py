@@ -242,3 +242,46 @@ def test_ctrl_c_during_a_sweep_reports_finished_cut_and_cancelled_points(
     assert [r[0] for r in rows] == [f.split("=")[1] for f in finished]
     # every reported number is proven: a memoryless rover guesses the exit, 0.5 (beacon's README)
     assert all(r[1] == "0.5" for r in rows)
+
+
+def test_ctrl_c_during_a_defence_front_reports_its_weights_and_writes_no_csv(
+        tmp_path: Path) -> None:
+    """SIGINT to the process group during pareto --cost on a pool of two: exit 130, the weights
+    that finished are printed (the running ones wound down: "(partial)"), the last line names
+    the cancelled ones, and no CSV of half a front is written."""
+    if not Path("/proc/self/task").exists():
+        pytest.skip("finds the pool's workers through /proc")
+    model = tmp_path / "budget.posg"
+    text = (ROOT / "models" / "beacon" / "beacon.posg").read_text()
+    model.write_text(text + '\nrewards "time"\n  true : 1;\nendrewards\n')
+    out, err, table = tmp_path / "out.txt", tmp_path / "err.txt", tmp_path / "front.csv"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    with out.open("w") as o, err.open("w") as e:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "posgmc", "pareto", str(model), "--prop",
+             '<<rover>> Pmax=? [ F "safe" ]', "--cost", '<<rover>> R{"time"}min=? [ F "over" ]',
+             "--weights", "0,1,2,5", "--memory", "1", "--effort", "500", "--jobs", "2",
+             "--csv", str(table)],
+            stdout=o, stderr=e, env=env, start_new_session=True)
+        try:
+            end = time.monotonic() + 60
+            while len(_children(proc.pid)) < 2 and time.monotonic() < end:
+                time.sleep(0.05)
+            assert len(_children(proc.pid)) == 2
+            time.sleep(1.0)
+            os.killpg(proc.pid, signal.SIGINT)
+            code = proc.wait(timeout=120)
+        finally:
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+    assert code == 130, err.read_text()
+    line = [x for x in err.read_text().splitlines() if x.startswith("interrupted: ")][-1]
+    finished = line.split(" points finished (")[1].split(")")[0].split("; ")
+    cancelled = line.split("cancelled: ")[1].split("; ")
+    assert finished + cancelled == ["w=0", "w=1", "w=2", "w=5", "w=inf"]
+    assert len(finished) >= 2 and "of 5 points finished" in line
+    rows = [x.split()[0] for x in out.read_text().splitlines() if x[:1].isdigit()]
+    assert rows == [w.split("=")[1] for w in finished]
+    assert not table.exists()
