@@ -41,10 +41,15 @@ correction. :func:`solve` returns proven bounds ``lower <= lfp <= upper``:
   iteration proves as above); B^k of an upper bound stays above the value (a fixpoint of the
   monotone B), and iterating B from above converges to the value of the proper strategies
   (Bertsekas & Yu, 2016), which is the value sought.
-* **floating point**: ``F(U) <= U`` is accepted up to a relative 1e-13 (rounding noise of one step;
-  without it a guess sitting exactly on the fixpoint could never be confirmed), and the final
+* **floating point**: ``F(U) <= U`` is accepted up to a relative four ulps (rounding noise of one
+  step; without it a guess sitting exactly on the fixpoint could never be confirmed), and the final
   bounds are widened outwards by a relative 1e-10, which covers the rounding of all iterations.
-  Bounds are therefore proven up to floating-point error, like every float-based checker's.
+  Bounds are therefore proven up to floating-point error, like every float-based checker's. A
+  guess is given up as below the value only when the upper iterate falls below the lower one by
+  more than that 1e-10: the lower iterate's own rounding can put it some ulps above an upper
+  iterate that deflation has set exactly to the value, and a tighter test failed every guess
+  there (a maximiser's end component through single-choice minimiser states, as in a game with
+  the minimiser's strategy fixed).
 
 The layout of the system and the Bellman kernels are in :mod:`posgmc.engines.system`; this
 module runs them. Blocks (large systems only) are consecutive backward-search layers of the
@@ -218,9 +223,15 @@ An absolute tolerance would be unsound: with a slow contraction (a self-loop of 
 ``bugfixes/export-precision/rare.nm``: ``Rmin=? [F rare]`` is 1, and a slack of 1e-13 accepted
 an upper bound of 1e-6)."""
 
+_ROUNDING = 1e-10
+"""Relative floating-point error of the iterates that the final bounds are widened by
+(:func:`widen`). The lower iterate can exceed the exact value by more than :data:`_NOISE` (its
+row values are updated incrementally, and every step rounds), so an upper iterate that is exact
+(deflated to an exit whose value is representable) may sit a few ulps below it."""
+
 
 def widen(
-    lower: np.ndarray, upper: np.ndarray, *, relative: float = 1e-10
+    lower: np.ndarray, upper: np.ndarray, *, relative: float = _ROUNDING
 ) -> tuple[np.ndarray, np.ndarray]:
     """Outward rounding: the iterates carry floating-point error (a few ulps per step, amplified at
     most by the inverse contraction rate), far below any requested precision; widening by a
@@ -697,7 +708,11 @@ def _verify(
             if bool(np.all(Xn[:, 1] <= X[:, 1] + slack)):
                 run.verified = True
                 np.minimum(run.proven_upper, np.maximum(Xn[:, 1], X[:, 1]), out=run.proven_upper)
-            elif np.any(Xn[:, 1] < Xn[:, 0] - slack):
+            elif np.any(Xn[:, 1] < Xn[:, 0] - _ROUNDING * np.abs(Xn[:, 0])):
+                # the guess is below the value somewhere: it cannot verify. Only a crossing
+                # beyond the rounding of the lower iterate says so; within it, an upper iterate
+                # already at the value (a deflated end component whose best exit is exact)
+                # would fail every guess forever and the upper bound would never be proven.
                 run.swap()
                 return
         else:

@@ -75,7 +75,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from posgmc.engines import scc
-from posgmc.engines.iteration import _NOISE, Bounds, EndComponents, solve, widen
+from posgmc.engines.iteration import _NOISE, _ROUNDING, Bounds, EndComponents, solve, widen
 from posgmc.engines.options import SolverOptions
 from posgmc.engines.system import Block, System
 
@@ -292,7 +292,7 @@ def _solve_components(
             c0, c1, sys.num_max, A.indptr, A.indices, A.data, sys.offset, sys.stays,
             row_ptr, row_list, order, comp_ptr, comp_of, iterate, lower, upper, scratch,
             float(cap), deflate, share, options.relative, options.max_iterations,
-            _SELF_LOOP_LIMIT, _NOISE,
+            _SELF_LOOP_LIMIT, _NOISE, _ROUNDING,
         )
         if status != sweeps.OK:
             return None

@@ -167,10 +167,14 @@ def _solve_range(
     max_iterations: int,
     limit: float,
     noise: float,
+    rounding: float,
 ) -> tuple[int, int, bool]:
     """Components ``c0:c1`` (see the module docstring); ``lower``/``upper``: float64[n], the
     bounds (components before ``c0`` final, ``upper`` = ``cap`` elsewhere), updated in place;
-    ``scratch``: float64[k, 2], k at least the largest component's size.
+    ``scratch``: float64[k, 2], k at least the largest component's size. ``noise``: the relative
+    slack of ``F(U) <= U``; ``rounding``: the relative error of the lower iterate, beyond which an
+    upper iterate below it means a guess below the value (as in
+    :func:`posgmc.engines.iteration._verify`).
 
     Returns ``(status, iterations, internal)``: :data:`OK` or :data:`FAILED`; the most sweeps
     one component took; whether a component had an internal row (one that stays inside it with
@@ -366,7 +370,7 @@ def _solve_range(
                         slack = noise * abs(upper[s])
                         if not scratch[i - base, 0] <= upper[s] + slack:
                             below = False
-                        if scratch[i - base, 0] < lower[s] - slack:
+                        if scratch[i - base, 0] < lower[s] - rounding * abs(lower[s]):
                             crossed = True
                     if below:
                         verified = True
