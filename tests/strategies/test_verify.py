@@ -21,6 +21,7 @@ from posgmc.strategies.files import read_strategy, strategy_from_json
 from posgmc.strategies.fss import FiniteStateStrategy, StrategyError
 from posgmc.strategies.product import strategy_product
 from posgmc.syntax.ast import ModelType
+from tests.conftest import BENCHMARKS
 from tests.random_games import games
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -116,6 +117,38 @@ def test_both_strategies_give_all_three_numbers_in_order() -> None:
     j = r.to_json()
     assert set(j) >= {"guaranteed", "vs_fss_adversary", "upper_bound", "memory"}
     assert j["guaranteed"] == {"value": g.value, "lower": g.lower, "upper": g.upper}
+
+
+# -- PAYNT's attacker-one-defender under a fixed defence: end components of the attacker --------
+
+ATTACKER = BENCHMARKS / "posmg" / "attacker-one-defender" / "sketch.templ"
+DEFENCE = ROOT / "tests" / "data" / "strategies" / "attacker-one-defender-defence.fss.json"
+DEFENCE_GUARANTEED = 0.974183355939
+"""tests/data/README.md (strategies/): the product solved as a linear program outside posgmc;
+Storm's sound value iteration agrees within its precision."""
+
+
+@pytest.mark.parametrize("method", [Method.INTERVAL, Method.POLICY, Method.EXACT])
+def test_defence_with_attacker_end_components_is_proven(method: Method) -> None:
+    """The attacker's end components run through the fixed defender's one-choice states and
+    their best exits have exactly representable values: the upper bound once stayed at 1 there
+    (every guess failed on a few ulps of rounding in the lower bound), for every method."""
+    session = api.load(ATTACKER)
+    model = api.build(session).model
+    fss = read_strategy(DEFENCE)
+    product = strategy_product(model, [bind(model, fss)])
+    assert (product.model.num_states, product.model.num_choices) == (150, 330)
+    report = api.check(
+        session, properties=['<<0>> Pmin=? [ F "goal" ]'], strategies={"0": fss},
+        zero_based_players=True,
+        options=CheckOptions(solver=SolverOptions(method=method)),
+    )
+    outcome = report.outcomes[0]
+    assert not isinstance(outcome, tuple)
+    g = outcome.guaranteed
+    assert g is not None and g.sound and g.converged
+    assert g.lower <= DEFENCE_GUARANTEED <= g.upper
+    assert g.upper - g.lower <= 2e-6
 
 
 # -- a tiny guessing game: hand derivation and brute force in exact rationals ------------------
