@@ -87,8 +87,8 @@ class OrderedPlan:
         data = transitions.data[self.entries]
         off = np.zeros(self.rows.size) if offset is None else offset[self.rows]
         solve_ordered(self.indptr, self.indices, data, self.state_rows, self.U, self.order,
-                      self.comp_ptr, off, float(discount), bool(minimize), float(tol),
-                      float(scale), int(max_sweeps), x)
+                      self.comp_ptr, off, float(discount), np.full(self.U.size, bool(minimize)),
+                      float(tol), float(scale), int(max_sweeps), x)
 
     def adjoint(self, chain_t: sp.csr_matrix, y: np.ndarray, at: int, *, discount: float,
                 tol: float, max_sweeps: int) -> None:
@@ -103,7 +103,7 @@ class OrderedPlan:
         solve_ordered(chain_t.indptr.astype(np.int64), chain_t.indices.astype(np.int64),
                       chain_t.data, np.arange(n + 1, dtype=np.int64), local,
                       self.order[::-1].copy(), (n - self.comp_ptr[::-1]).copy(), offset,
-                      float(discount), True, float(tol), 1.0, int(max_sweeps), y)
+                      float(discount), np.ones(n, dtype=bool), float(tol), 1.0, int(max_sweeps), y)
 
     def best_rows(self, transitions: sp.csr_matrix, x: np.ndarray, offset: np.ndarray | None, *,
                   discount: float, minimize: bool) -> np.ndarray:

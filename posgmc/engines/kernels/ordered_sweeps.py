@@ -9,14 +9,15 @@ step and each other component iterates only over its own states with values belo
 final.
 
 :data:`solve_ordered` solves ``x_s = opt_{r in rows(s)} (offset[r] + g * sum_j A[r, j] x[j])``
-for the states listed in ``order`` (``opt`` min or max), grouped by ``comp_ptr`` into components
-processed in that order, each by Gauss-Seidel sweeps until no value of the component changes by
-more than ``tol * max(scale, its largest |value|)``. A row's entry on its own state is eliminated
-(``x_s = (c + g * rest) / (1 - g * p)``, the exact solution of that state's equation given the
-others, as :mod:`posgmc.engines.topological` does), so a one-state component is solved in one
-step. If the order is not a topological one (a component reads a state of a later one), the
-components still converge: closing passes over all states in order repeat until none changes by
-more than the tolerance. The floating-point operations are a row's plain sums in entry order, in
+for the states listed in ``order`` (``opt`` min where ``minimize[s]``, else max), grouped by
+``comp_ptr`` into components processed in that order, each by Gauss-Seidel sweeps until no value
+of the component changes by more than ``tol * max(scale, its largest |value|)``. A row's entry on
+its own state is eliminated (``x_s = (c + g * rest) / (1 - g * p)``, the exact solution of that
+state's equation given the others, as :mod:`posgmc.engines.topological` does), so a one-state
+component is solved in one step. If the order is not a topological one (a component reads a
+state of a later one), the components still converge: closing passes over all states in order
+repeat until none changes by more than the tolerance. The floating-point operations are a row's
+plain sums in entry order, in
 a fixed sequence: the same arrays give the same bits.
 """
 
@@ -39,7 +40,7 @@ def _solve_ordered(
     comp_ptr: np.ndarray,
     offset: np.ndarray,
     discount: float,
-    minimize: bool,
+    minimize: np.ndarray,
     tol: float,
     scale: float,
     max_sweeps: int,
@@ -64,6 +65,7 @@ def _solve_ordered(
             for i in range(lo, hi):
                 s = order[i]
                 own = column[s]
+                low = minimize[s]
                 # the optimum over the state's rows, its own entries eliminated
                 best = 0.0
                 first = True
@@ -81,7 +83,7 @@ def _solve_ordered(
                         v = (offset[r] + discount * rest) / denominator
                     else:  # (almost) a pure self-loop: one plain step
                         v = offset[r] + discount * (rest + self_p * x[own])
-                    if first or (v < best if minimize else v > best):
+                    if first or (v < best if low else v > best):
                         best = v
                         first = False
                 d = abs(best - x[own])
@@ -103,7 +105,7 @@ def _warm_up() -> None:
     one = np.array([0, 1], dtype=np.int64)
     solve_ordered(one, np.array([0], dtype=np.int64), np.array([0.5]), one,
                   np.array([0], dtype=np.int64), np.array([0], dtype=np.int64), one,
-                  np.array([1.0]), 1.0, True, 1e-9, 1.0, 10, np.zeros(1))
+                  np.array([1.0]), 1.0, np.ones(1, dtype=np.bool_), 1e-9, 1.0, 10, np.zeros(1))
 
 
 on_warm_up(_warm_up)
