@@ -36,7 +36,7 @@ class OrderedPlan:
     product rows taken; ``order``/``comp_ptr``: the local states by component, successors first
     (component c is ``order[comp_ptr[c]:comp_ptr[c+1]]``), inside a component in descending
     product index. ``structure``: the matrix's own
-    ``indptr`` and ``indices`` (what the plan is valid for)."""
+    ``indptr`` and ``indices`` and ``unknown``, bool[S] (what the plan is valid for)."""
 
     U: np.ndarray
     indptr: np.ndarray
@@ -47,6 +47,7 @@ class OrderedPlan:
     order: np.ndarray
     comp_ptr: np.ndarray
     structure: tuple[np.ndarray, np.ndarray]
+    unknown: np.ndarray
 
     @staticmethod
     def of(transitions: sp.csr_matrix, row_groups: np.ndarray, unknown: np.ndarray) -> OrderedPlan:
@@ -71,13 +72,18 @@ class OrderedPlan:
         comp_ptr = np.concatenate([[0], cuts, [U.size]]).astype(np.int64)
         return OrderedPlan(U, indptr, transitions.indices[entries].astype(np.int64), entries,
                            state_rows, rows, order.astype(np.int64), comp_ptr,
-                           (transitions.indptr, transitions.indices))
+                           (transitions.indptr, transitions.indices), unknown)
 
-    def fits(self, transitions: sp.csr_matrix) -> bool:
-        """Whether ``transitions`` has the structure the plan was built for."""
+    def fits(self, transitions: sp.csr_matrix, unknown: np.ndarray) -> bool:
+        """Whether ``transitions`` has the structure and ``unknown`` (bool[S]) the undecided
+        states the plan was built for (a product refilled from a template shares its arrays:
+        then no comparison of contents)."""
         indptr, indices = self.structure
-        return bool(np.array_equal(indptr, transitions.indptr)
-                    and np.array_equal(indices, transitions.indices))
+        same_matrix = (indptr is transitions.indptr and indices is transitions.indices) or (
+            np.array_equal(indptr, transitions.indptr)
+            and np.array_equal(indices, transitions.indices))
+        return bool(same_matrix and (unknown is self.unknown or np.array_equal(
+            self.U, np.flatnonzero(unknown))))
 
     def values(self, transitions: sp.csr_matrix, x: np.ndarray, offset: np.ndarray | None, *,
                discount: float, minimize: bool, tol: float, scale: float, max_sweeps: int) -> None:

@@ -384,13 +384,19 @@ class Parametrisation:
         yc = y[defend][q_of_c]
         Wc = W[c]  # [E, k]
         d = delta[ni, zi, ai]  # [E, k]
-        grad_a = np.zeros(self.shapes[0])
         own = np.sum(d * Wc, axis=1)
         if self.rewards is not None:
             own = own + self.rewards[c]  # the action's own cost
-        np.add.at(grad_a, (ni, zi, ai), yc * own)
-        grad_d = np.zeros(self.shapes[1])
-        np.add.at(grad_d, (ni, zi, ai), (yc * gamma[ni, zi, ai])[:, None] * Wc)
+        # sums per parameter by bincount (in entry order, as np.add.at adds, at a fraction of
+        # its cost)
+        shape_a = self.shapes[0]
+        size_a = int(np.prod(shape_a))
+        flat = np.ravel_multi_index((ni, zi, ai), shape_a)
+        grad_a = np.bincount(flat, weights=yc * own, minlength=size_a).reshape(shape_a)
+        k = self.k
+        weights = ((yc * gamma[ni, zi, ai])[:, None] * Wc).ravel()
+        grad_d = np.bincount((flat[:, None] * k + np.arange(k)).ravel(), weights=weights,
+                             minlength=size_a * k).reshape(self.shapes[1])
         return Evaluation(value, grad_a, grad_d)
 
     # -- large products: warm-started value iteration ---------------------------------------------
@@ -422,7 +428,7 @@ class Parametrisation:
         tgt = self.target[prod.state_of]
         choosing = np.diff(rg) > 1
         warm = self._warm
-        same = warm is not None and np.array_equal(warm[0], prod.state_of) and np.array_equal(
+        same = warm is not None and _equal(warm[0], prod.state_of) and _equal(
             warm[1], prod.memory_of)
         if same and warm is not None:
             unknown = warm[2]
@@ -534,7 +540,7 @@ class Parametrisation:
         its plan built once per product structure; ``x`` holds the fixed values outside the
         undecided states and the start on them."""
         plan = self._plan
-        if plan is None or not plan.fits(T) or not np.array_equal(plan.U, np.flatnonzero(unknown)):
+        if plan is None or not plan.fits(T, unknown):
             plan = OrderedPlan.of(T, prod.model.row_groups, unknown)
             self._plan = plan
         U = plan.U
@@ -581,6 +587,11 @@ def _row_values(A: sp.csr_matrix, x: np.ndarray, out: np.ndarray) -> None:
         accumulate_rows(A, 0, A.shape[0], x, out)
     else:  # pragma: no cover - depends on the scipy build
         out += A @ x
+
+
+def _equal(a: np.ndarray, b: np.ndarray) -> bool:
+    """The same array (a refilled product shares its template's) or equal contents."""
+    return a is b or bool(np.array_equal(a, b))
 
 
 def _ranges(counts: np.ndarray) -> np.ndarray:
