@@ -63,6 +63,7 @@ from posgmc.resources import check_allocation
 from posgmc.strategies.binding import player_view
 from posgmc.syntax.ast import ModelType
 from posgmc.synthesis.executors import Executor
+from posgmc.synthesis.ordered_evaluation import solving_order
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem, expired
 
@@ -106,13 +107,8 @@ class Quotient:
         initial state: the later states lie nearer the exits). A family's graph is a subgraph,
         so the order holds for every family (:mod:`posgmc.engines.scc`)."""
         free = ~(self.target | (~self.remain if self.rewards is None else False))
-        F = np.flatnonzero(free)
-        labels = scc.components(self.model.transitions, self.model.row_groups, within=free)[F]
-        order = np.lexsort((-np.arange(F.size), labels))
-        ranked = labels[order]
-        cuts = np.flatnonzero(ranked[1:] != ranked[:-1]) + 1
-        comp_ptr = np.concatenate([[0], cuts, [F.size]]).astype(np.int64)
-        return F[order].astype(np.int64), comp_ptr
+        order, comp_ptr = solving_order(self.model.transitions, self.model.row_groups, free)
+        return np.flatnonzero(free)[order], comp_ptr
 
     @property
     def num_holes(self) -> int:

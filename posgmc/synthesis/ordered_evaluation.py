@@ -24,7 +24,7 @@ import scipy.sparse as sp
 from posgmc.engines import scc
 from posgmc.engines.kernels.ordered_sweeps import solve_ordered
 
-__all__ = ["OrderedPlan"]
+__all__ = ["OrderedPlan", "solving_order"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,16 +62,9 @@ class OrderedPlan:
         indptr = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
         entries = np.repeat(transitions.indptr[rows], lengths) + (
             np.arange(int(indptr[-1])) - np.repeat(indptr[:-1], lengths))
-        labels = scc.components(transitions, row_groups, within=unknown)[U]
-        # components successors first (labels: see posgmc.engines.scc); inside one, the states
-        # in descending product index (explored from the initial state, so the later ones lie
-        # nearer the exits the values flow in from: a quarter of the updates of ascending order)
-        order = np.lexsort((-np.arange(U.size), labels))
-        ranked = labels[order]
-        cuts = np.flatnonzero(ranked[1:] != ranked[:-1]) + 1
-        comp_ptr = np.concatenate([[0], cuts, [U.size]]).astype(np.int64)
+        order, comp_ptr = solving_order(transitions, row_groups, unknown)
         return OrderedPlan(U, indptr, transitions.indices[entries].astype(np.int64), entries,
-                           state_rows, rows, order.astype(np.int64), comp_ptr,
+                           state_rows, rows, order, comp_ptr,
                            (transitions.indptr, transitions.indices), unknown)
 
     def fits(self, transitions: sp.csr_matrix, unknown: np.ndarray) -> bool:
@@ -129,3 +122,40 @@ class OrderedPlan:
         first = np.unique(owner, return_index=True)[1]  # owners ascending, every state attains
         out: np.ndarray = attaining[first] - starts
         return out
+
+
+def solving_order(transitions: sp.csr_matrix, row_groups: np.ndarray, states: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """(order, comp_ptr) for :data:`~posgmc.engines.kernels.ordered_sweeps.solve_ordered`: the
+    positions (int64, into ``np.flatnonzero(states)``) of the ``states`` (bool[S]) by strongly
+    connected component of the graph of all their rows, successors first (the labels of
+    :func:`posgmc.engines.scc.components`), component c ``order[comp_ptr[c]:comp_ptr[c+1]]``.
+    Inside a component the states come in descending index: a model is explored from its
+    initial state, so the later states lie nearer the exits the values flow in from (on the
+    secure-autonomy products a quarter of the updates of ascending order). The order is checked:
+    if some row read a state of a later component, all states form one component instead (plain
+    Gauss-Seidel, still convergent)."""
+    F = np.flatnonzero(states)
+    labels = scc.components(transitions, row_groups, within=states)[F]
+    order = np.lexsort((-np.arange(F.size), labels)).astype(np.int64)
+    ranked = labels[order]
+    cuts = np.flatnonzero(ranked[1:] != ranked[:-1]) + 1
+    comp_ptr = np.concatenate([[0], cuts, [F.size]]).astype(np.int64)
+    # the check: no entry of a listed state's rows leads to a later component
+    comp = np.full(row_groups.size - 1, -1, dtype=np.int64)
+    comp[F[order]] = np.repeat(np.arange(comp_ptr.size - 1), np.diff(comp_ptr))
+    counts = np.diff(row_groups)[F]
+    rows = np.repeat(row_groups[F], counts) + _ranges(counts)
+    lengths = np.diff(transitions.indptr)[rows]
+    entries = np.repeat(transitions.indptr[rows], lengths) + _ranges(lengths)
+    reader = np.repeat(np.repeat(comp[F], counts), lengths)
+    if np.any(comp[transitions.indices[entries]] > reader):
+        comp_ptr = np.array([0, F.size], dtype=np.int64)
+    return order, comp_ptr
+
+
+def _ranges(counts: np.ndarray) -> np.ndarray:
+    """0..c-1 for each count c, concatenated."""
+    starts = np.repeat(np.cumsum(counts) - counts, counts)
+    out: np.ndarray = np.arange(int(counts.sum())) - starts
+    return out

@@ -14,10 +14,10 @@ for the states listed in ``order`` (``opt`` min where ``minimize[s]``, else max)
 of the component changes by more than ``tol * max(scale, its largest |value|)``. A row's entry on
 its own state is eliminated (``x_s = (c + g * rest) / (1 - g * p)``, the exact solution of that
 state's equation given the others, as :mod:`posgmc.engines.topological` does), so a one-state
-component is solved in one step. If the order is not a topological one (a component reads a
-state of a later one), the components still converge: closing passes over all states in order
-repeat until none changes by more than the tolerance. The floating-point operations are a row's
-plain sums in entry order, in
+component is solved in one step. The order must be topological (a component's rows read only
+its own states, earlier components' and states not listed): the callers check it
+(:func:`posgmc.synthesis.ordered_evaluation.solving_order`). The floating-point operations are a
+row's plain sums in entry order, in
 a fixed sequence: the same arrays give the same bits.
 """
 
@@ -50,15 +50,9 @@ def _solve_ordered(
     its rows ``state_rows[s]:state_rows[s+1]`` of the csr arrays). Returns the number of state
     updates made (the work done)."""
     work = 0
-    n = order.size
-    components = comp_ptr.size - 1
-    for c in range(components + 1):
-        if c < components:
-            lo, hi = comp_ptr[c], comp_ptr[c + 1]
-            passes = max_sweeps if hi - lo > 1 else 1
-        else:  # closing passes over all states: nothing moves if the order was topological
-            lo, hi = 0, n
-            passes = max_sweeps
+    for c in range(comp_ptr.size - 1):
+        lo, hi = comp_ptr[c], comp_ptr[c + 1]
+        passes = max_sweeps if hi - lo > 1 else 1
         for _ in range(passes):
             change = 0.0
             size = scale

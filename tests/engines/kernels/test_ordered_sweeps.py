@@ -1,9 +1,9 @@
 """The compiled Gauss-Seidel kernel for float estimates
 (:mod:`posgmc.engines.kernels.ordered_sweeps`): on random discounted games (a contraction, one
 fixpoint) its values agree with the fixpoint computed independently here (numpy Jacobi sweeps to
-1e-14), whatever the processing order (a topological one, or any permutation: the closing passes
-repair it), with self-loops and states of several rows, min and max states mixed; and a chain
-(one row per state) solved in component order needs one update per state."""
+1e-14), in the checked component order or as one component in any order, with self-loops and
+states of several rows, min and max states mixed; and a chain (one row per state) solved in
+component order needs one update per state."""
 
 from __future__ import annotations
 
@@ -13,8 +13,9 @@ import scipy.sparse as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from posgmc.engines import kernels
+from posgmc.engines import kernels, scc
 from posgmc.engines.kernels.ordered_sweeps import solve_ordered
+from posgmc.synthesis.ordered_evaluation import solving_order
 
 pytestmark = pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
 
@@ -50,29 +51,53 @@ def _jacobi(T: sp.csr_matrix, rg: np.ndarray, reward: np.ndarray, minimize: np.n
 
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.integers(1, 12), st.integers(0, 3), st.booleans())
-def test_values_agree_with_the_fixpoint_in_any_order(seed: int, states: int, fixed: int,
-                                                     shuffled: bool) -> None:
+def test_values_agree_with_the_fixpoint(seed: int, states: int, fixed: int, by_component: bool
+                                        ) -> None:
+    """In the components of :func:`~posgmc.synthesis.ordered_evaluation.solving_order`, or all
+    states as one component in any order (plain Gauss-Seidel)."""
     T, rg, reward, minimize = _random_game(seed, states, fixed)
     g = 0.9
     rng = np.random.default_rng(seed + 1)
     start = np.concatenate([rng.random(states), rng.random(fixed)])  # any start on the free part
     expected = _jacobi(T, rg, reward, minimize, start, g)
-    order = rng.permutation(states) if shuffled else np.arange(states)
-    cuts = np.sort(rng.choice(np.arange(1, states), size=min(2, states - 1), replace=False)) \
-        if states > 1 else np.zeros(0, dtype=np.int64)
-    comp_ptr = np.concatenate([[0], cuts, [states]]).astype(np.int64)
+    if by_component:
+        # the fixed states as absorbing ones, so that the graph is a model's
+        full = sp.vstack([T, sp.csr_matrix((np.ones(fixed), (np.arange(fixed), states +
+                                                               np.arange(fixed))),
+                                           shape=(fixed, states + fixed))]).tocsr()
+        full_rg = np.concatenate([rg, rg[-1] + 1 + np.arange(fixed)])
+        mask = np.arange(states + fixed) < states
+        order, comp_ptr = solving_order(full, full_rg, mask)
+    else:
+        order = rng.permutation(states).astype(np.int64)
+        comp_ptr = np.array([0, states], dtype=np.int64)
     x = start.copy()
     solve_ordered(T.indptr.astype(np.int64), T.indices.astype(np.int64), T.data, rg,
-                  np.arange(states, dtype=np.int64), order.astype(np.int64), comp_ptr, reward, g,
-                  minimize, 1e-13, 1.0, 100_000, x)
+                  np.arange(states, dtype=np.int64), order, comp_ptr, reward, g, minimize,
+                  1e-13, 1.0, 100_000, x)
     assert np.array_equal(x[states:], start[states:])  # the fixed values are only read
     assert np.abs(x - expected).max() <= 1e-10
+
+
+def test_a_wrong_order_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The chain 0 <- 1 <- 2 (state 0 into the fixed state 3): three components, 0 first. Were
+    the labels not topological (patched here), state 1 would read state 0 unsolved: the check
+    of :func:`solving_order` then makes all states one component."""
+    T = sp.csr_matrix(np.array([[0.5, 0, 0, 0.5], [0.5, 0.5, 0, 0], [0, 0.5, 0.5, 0],
+                                [0, 0, 0, 1.0]]))
+    rg = np.arange(5, dtype=np.int64)
+    listed = np.array([True, True, True, False])
+    order, comp_ptr = solving_order(T, rg, listed)
+    assert order.tolist() == [0, 1, 2] and comp_ptr.tolist() == [0, 1, 2, 3]
+    monkeypatch.setattr(scc, "components", lambda *_a, **_k: np.array([2, 1, 0, -1]))
+    order, comp_ptr = solving_order(T, rg, listed)
+    assert order.tolist() == [2, 1, 0] and comp_ptr.tolist() == [0, 3]
 
 
 def test_a_chain_in_component_order_is_solved_in_one_pass() -> None:
     """States 0 <- 1 <- 2 (state i moves to i - 1 with probability 0.5, else stays: a self-loop),
     state 0 to the fixed state 3 (value 1): each state's equation, its self-loop eliminated, is
-    final once its successor is; one update per state, then one closing pass."""
+    final once its successor is: one update per state."""
     T = sp.csr_matrix(np.array([[0.5, 0, 0, 0.5], [0.5, 0.5, 0, 0], [0, 0.5, 0.5, 0]]))
     x = np.array([0.0, 0.0, 0.0, 1.0])
     work = solve_ordered(T.indptr.astype(np.int64), T.indices.astype(np.int64), T.data,
@@ -80,4 +105,4 @@ def test_a_chain_in_component_order_is_solved_in_one_pass() -> None:
                          np.arange(3, dtype=np.int64), np.arange(4, dtype=np.int64),
                          np.zeros(3), 1.0, np.zeros(3, dtype=bool), 1e-12, 1.0, 100, x)
     assert x.tolist() == [1.0, 1.0, 1.0, 1.0]  # reached surely: 0.5 / (1 - 0.5) per step
-    assert work == 3 + 3
+    assert work == 3
