@@ -25,14 +25,10 @@ fall in different halves. Families are explored best bound first (the most recen
 good members come early; when no family is left the search is *exhaustive*: the result is an
 optimal deterministic k-FSS (up to the float tolerance of the solves).
 
-Every solve is value iteration on the quotient: vectorised Jacobi sweeps, or on a large quotient
-with the compiled kernels the Gauss-Seidel kernel of :mod:`posgmc.engines.kernels.ordered_sweeps`
-in the order of the quotient's strongly connected components (:attr:`Quotient.solving_order`,
-computed once per quotient: most states are then final after one step). Floats; a family starts
-from its parent's values, which lie on the decision maker's good side of its own, so that a
-family that provably cannot beat the incumbent is cut (the Jacobi sweeps stop as soon as that
-shows, the kernel's result is compared once); σ breaks ties between equally good options towards
-the option its hole uses in the most states, so that choices that
+Every solve is vectorised value iteration on the quotient (floats; a family starts from its
+parent's values, which lie on the decision maker's good side of its own, so that the iteration
+can stop as soon as the family provably cannot beat the incumbent); σ breaks ties between
+equally good options towards the option its hole uses in the most states, so that choices that
 do not matter cause no split. This ranks and prunes; the defence it returns is verified
 afterwards like every other candidate (:mod:`posgmc.synthesis.search`). The search is deterministic:
 no randomness, the order fixed by the bounds and a counter, its extent a number of families
@@ -42,7 +38,6 @@ solved (the work budget); only the wall-clock cap can cut it short.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import time
 from dataclasses import dataclass
 from typing import ClassVar
@@ -52,8 +47,6 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from posgmc.engines import objectives as obj
-from posgmc.engines import scc
-from posgmc.engines.kernels.ordered_sweeps import solve_ordered
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.row_slots import RowSlots
 from posgmc.engines.system import HAVE_KERNELS, accumulate_rows
@@ -63,7 +56,6 @@ from posgmc.resources import check_allocation
 from posgmc.strategies.binding import player_view
 from posgmc.syntax.ast import ModelType
 from posgmc.synthesis.executors import Executor
-from posgmc.synthesis.ordered_evaluation import solving_order
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem, expired
 
@@ -96,19 +88,6 @@ class Quotient:
     maximize: np.ndarray
     initial: int
     offered: np.ndarray
-
-    @functools.cached_property
-    def solving_order(self) -> tuple[np.ndarray, np.ndarray]:
-        """(order, comp_ptr): the states outside the target and the avoided states (those whose
-        value is not fixed by :func:`_bellman_parts` for either objective: the target of a
-        discounted cost, the target or a state leaving ``remain`` of a probability, all values
-        the rows only read) by strongly connected component of the quotient with all options,
-        successors first, inside a component in descending state index (explored from the
-        initial state: the later states lie nearer the exits). A family's graph is a subgraph,
-        so the order holds for every family (:mod:`posgmc.engines.scc`)."""
-        free = ~(self.target | (~self.remain if self.rewards is None else False))
-        order, comp_ptr = solving_order(self.model.transitions, self.model.row_groups, free)
-        return np.flatnonzero(free)[order], comp_ptr
 
     @property
     def num_holes(self) -> int:
@@ -290,31 +269,7 @@ def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: 
         out: np.ndarray = offset + A @ x
         return out
 
-    sign = problem.sign
-    init = q.initial
-    if scc.compiled_at(Q):
-        x = _solve_ordered(q, T, rg, x, base, gamma, precision)
-        cut = cutoff is not None and sign * x[init] <= sign * cutoff + 1e-12
-    else:
-        x, cut = _jacobi(A, offset, starts, counts, ~fixed, state_flip, x, init, sign, cutoff,
-                         precision, deadline)
-    v = row_values(x).copy()
-    best = np.maximum.reduceat(v, starts)
-    # among the rows within the precision of the optimum, the one whose (hole, option) is
-    # optimal in the most states of its hole (ties: the first row), so that σ is consistent
-    # wherever the choice does not matter
-    good = v >= np.repeat(best, counts) - 1e2 * precision
-    strategy = np.where(fixed, -1, rows[_consistent_choice(q, rows, good, starts)])
-    return _Solved(float(x[init]), x, strategy, cut)
-
-
-def _jacobi(A: sp.csr_matrix, offset: np.ndarray, starts: np.ndarray, counts: np.ndarray,
-            free: np.ndarray, state_flip: np.ndarray, x: np.ndarray, init: int, sign: float,
-            cutoff: float | None, precision: float, deadline: float | None
-            ) -> tuple[np.ndarray, bool]:
-    """The value iteration of :func:`_solve` by vectorised Jacobi sweeps over the family's rows
-    ``A`` (every state maximises: the minimising states' rows negated, the discount folded in;
-    ``offset`` the rows' constants): (the values, whether cut at ``cutoff`` or ``deadline``)."""
+    free = ~fixed
     # the sweeps take the free states' rows only (the fixed states keep their values), laid out
     # by slot (:mod:`posgmc.engines.row_slots`: no reduceat over 10^5 groups per sweep)
     F = np.flatnonzero(free)
@@ -336,6 +291,8 @@ def _jacobi(A: sp.csr_matrix, offset: np.ndarray, starts: np.ndarray, counts: np
         y[F] = by_slot.best(values, np.maximum) * flip_free
         return y
 
+    sign = problem.sign
+    init = q.initial
     cut = False
     for sweep in range(_MAX_SWEEPS):
         y = optimum(x)
@@ -349,25 +306,14 @@ def _jacobi(A: sp.csr_matrix, offset: np.ndarray, starts: np.ndarray, counts: np
         if expired(deadline):  # every sweep: one sweep of a quotient with large memory is long
             cut = True
             break
-    return x, cut
-
-
-def _solve_ordered(q: Quotient, T: sp.csr_matrix, rg: np.ndarray, x: np.ndarray,
-                   base: np.ndarray, gamma: float, precision: float) -> np.ndarray:
-    """The value iteration of :func:`_solve` on a large quotient: the compiled Gauss-Seidel
-    kernel (:mod:`posgmc.engines.kernels.ordered_sweeps`) over the family's rows ``T`` (grouped
-    by ``rg``) in the quotient's component order, from ``x`` (updated in place and returned), a
-    component done when no value moves by more than ``precision`` (relative to values above 1).
-    From a start on one side of the value the iterates stay there, as the Jacobi sweeps' do
-    (both apply the same monotone operator, the self-loops eliminated as in
-    :mod:`posgmc.engines.topological`): a cutoff applied to the result means the same."""
-    order, comp_ptr = q.solving_order
-    Q = q.model.num_states
-    solve_ordered(T.indptr.astype(np.int64), T.indices.astype(np.int64), T.data,
-                  rg.astype(np.int64), np.arange(Q, dtype=np.int64), order, comp_ptr,
-                  base.astype(np.float64), float(gamma), ~q.maximize, float(precision), 1.0,
-                  _MAX_SWEEPS, x)
-    return x
+    v = row_values(x).copy()
+    best = np.maximum.reduceat(v, starts)
+    # among the rows within the precision of the optimum, the one whose (hole, option) is
+    # optimal in the most states of its hole (ties: the first row), so that σ is consistent
+    # wherever the choice does not matter
+    good = v >= np.repeat(best, counts) - 1e2 * precision
+    strategy = np.where(fixed, -1, rows[_consistent_choice(q, rows, good, starts)])
+    return _Solved(float(x[init]), x, strategy, cut)
 
 
 def _consistent_choice(
