@@ -233,7 +233,6 @@ class _Dynamics:
         self.preferred = adversary_rules  # int64[S]: a choice per state (the first rule tried)
         # the rules of each support seen (many vertices share one support)
         self._rules: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        self._entries: dict[bytes, tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         if problem.rewards is None:
             # mass that cannot reach the target any more (within ``remain``) is worth 0
             self.cont = problem.remain & ~problem.target & can_reach(model, problem.target,
@@ -285,52 +284,53 @@ class _Dynamics:
             found = self._rules[key] = self._rules_of(states)
         return found
 
-    def rule_entries(self, states: np.ndarray, per_state: np.ndarray
-                     ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`rules` at a vertex on ``states`` as sparse entries (once per support): the
-        number of rules k, and per entry its rule, its global choice, its probability and the
-        index in ``states`` of the choice's state (``per_state``: each model state's choice
-        count)."""
-        key = states.tobytes()
-        found = self._entries.get(key)
-        if found is None:
-            cols, probs = self.rules(states)
-            r, c = np.nonzero(probs)
-            at = np.repeat(np.arange(states.size), per_state[states])[c]
-            found = self._entries[key] = (probs.shape[0], r, cols[c], probs[r, c], at)
-        return found
-
     def _rules_of(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rg = self.model.row_groups
         lo, hi = rg[states], rg[states + 1]
         n = hi - lo
         cols = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())])
         offset = np.r_[0, np.cumsum(n)[:-1]]
-        varying = np.flatnonzero(n > 1)
-        if float(np.prod(n[varying].astype(np.float64))) <= RULE_CAP:
-            picks = list(itertools.product(*[range(int(n[i])) for i in varying.tolist()]))
-            det = np.tile(lo, (len(picks), 1))
-            if varying.size:
-                det[:, varying] += np.asarray(picks, dtype=np.int64)
-        else:
-            base = lo.copy() if self.preferred is None else np.where(
-                (self.preferred[states] >= lo) & (self.preferred[states] < hi),
-                self.preferred[states], lo)
-            out = [base]
-            for i in varying.tolist():
-                for c in range(int(lo[i]), int(hi[i])):
-                    if c != base[i] and len(out) < RULE_CAP:
-                        rule = base.copy()
-                        rule[i] = c
-                        out.append(rule)
-            det = np.stack(out)
+        det = _deterministic_picks(n, self._base(states, lo, hi)[None])[0]
         k = det.shape[0]
-        local = det - lo + offset  # column of each state's chosen choice
-        probs = np.zeros((k + (1 if varying.size else 0), cols.size))
-        probs[np.repeat(np.arange(k), states.size), local.ravel()] = 1.0
-        if varying.size:
+        varying = n > 1
+        probs = np.zeros((k + (1 if varying.any() else 0), cols.size))
+        probs[np.repeat(np.arange(k), states.size), (det + offset).ravel()] = 1.0
+        if varying.any():
             probs[k] = np.repeat(1.0 / n, n)
         return cols, probs
+
+    def _base(self, states: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """The local index of each state's preferred choice (its first where none is given),
+        elementwise for ``states`` of any shape."""
+        if self.preferred is None:
+            return np.zeros(states.shape, dtype=np.int64)
+        pref = self.preferred[states]
+        out: np.ndarray = np.where((pref >= lo) & (pref < hi), pref - lo, 0)
+        return out
+
+
+def _deterministic_picks(n: np.ndarray, base: np.ndarray) -> np.ndarray:
+    """The adversary's deterministic rules (:meth:`_Dynamics.rules`) at vertices whose support
+    states offer ``n`` (int64[m]) choices each: int64[g, k, m], rule r's local choice per state
+    at each of the g vertices. All combinations when there are at most :data:`RULE_CAP` (the
+    same at every vertex, in lexicographic order over the states with a choice); else the
+    preferred rule ``base`` (int64[g, m], local indices) and its one-state deviations, state by
+    state, each state's other choices in their order, the first RULE_CAP in all."""
+    g, m = base.shape
+    varying = np.flatnonzero(n > 1)
+    if float(np.prod(n[varying].astype(np.float64))) <= RULE_CAP:
+        combos = list(itertools.product(*[range(int(n[i])) for i in varying.tolist()]))
+        picks = np.asarray(combos, dtype=np.int64).reshape(len(combos), varying.size)
+        det = np.zeros((picks.shape[0], m), dtype=np.int64)
+        det[:, varying] = picks
+        return np.broadcast_to(det, (g,) + det.shape).copy()
+    # deviation j sets state who[j] to its alt[j]-th choice other than the preferred one
+    who = np.repeat(varying, n[varying] - 1)[:RULE_CAP - 1]
+    alt = np.concatenate([np.arange(int(n[i]) - 1) for i in varying.tolist()])[:RULE_CAP - 1]
+    det = np.repeat(base[:, None, :], 1 + who.size, axis=1)
+    at = base[:, who]
+    det[:, 1 + np.arange(who.size), who] = alt + (alt >= at)
+    return det
 
 
 class _Grid:
@@ -771,36 +771,93 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
                        first_local: int, mixtures: Mixtures | None = None) -> None:
     """The choices of the adversary's ``vertices`` (one per decision rule :meth:`_Dynamics.rules`
     tries there, then the randomised rules ``mixtures`` offers there), added to ``choices``
-    together: one block per vertex."""
-    per_state = np.diff(dyn.model.row_groups)
-    keys, block, r_parts, c_parts, v_parts = [], [], [], [], []
-    n_rows = 0
-    for v in vertices.tolist():
-        states, p = grid.rows[v], grid.vals[v]
-        k, r, c, prob, at = dyn.rule_entries(states, per_state)
-        extra = None if mixtures is None else mixtures.at(states, p, grid.N)
-        if extra is not None:
+    together: one block per vertex, the vertices in the given order and each one's rules in the
+    order of :meth:`_Dynamics.rules`.
+
+    Vertices whose support states offer the same numbers of choices share the structure of their
+    rules, so the entries are laid out for each such group at once (:func:`_rule_entries`);
+    only the randomised rules of ``mixtures`` are looked up vertex by vertex."""
+    rg = dyn.model.row_groups
+    per_state = np.diff(rg)
+    states_of = [grid.rows[v] for v in vertices.tolist()]
+    mass_of = [grid.vals[v] for v in vertices.tolist()]
+    sizes = np.fromiter((s.size for s in states_of), dtype=np.int64, count=len(states_of))
+    # per group of vertices: each entry's vertex (its position), rule, global choice, weight
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+    rules_at = np.zeros(vertices.size, dtype=np.int64)
+    for m in np.unique(sizes).tolist():
+        at_m = np.flatnonzero(sizes == m)
+        St = np.stack([states_of[i] for i in at_m.tolist()]).astype(np.int64)
+        Pm = np.stack([mass_of[i] for i in at_m.tolist()])
+        n_all = per_state[St]
+        shapes, which = np.unique(n_all, axis=0, return_inverse=True)
+        for j in range(shapes.shape[0]):
+            sel = np.flatnonzero(which.ravel() == j)
+            k, vi, r, col, w = _rule_entries(dyn, shapes[j], St[sel], Pm[sel])
+            parts.append((at_m[sel][vi], r, col, w))
+            rules_at[at_m[sel]] = k
+    extras: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
+    if mixtures is not None:
+        for i, (states, p) in enumerate(zip(states_of, mass_of)):
+            extra = mixtures.at(states, p, grid.N)
+            if extra is None:
+                continue
             cols, _ = dyn.rules(states)
             owner = np.repeat(np.arange(states.size), per_state[states])
             r2, c2 = np.nonzero(extra[:MIX_CAP])
-            r = np.r_[r, k + r2]
-            c = np.r_[c, cols[c2]]
-            prob = np.r_[prob, extra[r2, c2]]
-            at = np.r_[at, owner[c2]]
-            k += min(extra.shape[0], MIX_CAP)
-        r_parts.append(r + n_rows)
-        c_parts.append(c)
-        v_parts.append(prob * p[at])  # a rule's weight times the state's mass
-        keys.append(v * choices.span + first_local + np.arange(k))
-        block.append(np.full(k, v, dtype=np.int64))
-        n_rows += k
-    W_all = sp.csr_matrix((np.concatenate(v_parts), (np.concatenate(r_parts),
-                                                      np.concatenate(c_parts))),
+            extras.append((i, r2 + rules_at[i], cols[c2], extra[r2, c2] * p[owner[c2]]))
+            rules_at[i] += min(extra.shape[0], MIX_CAP)
+    # each vertex's rows in the given order of the vertices
+    first_row = np.r_[0, np.cumsum(rules_at)[:-1]]
+    n_rows = int(rules_at.sum())
+    rows = [first_row[pos] + r for pos, r, _, _ in parts]
+    cols_ = [c for _, _, c, _ in parts]
+    weights = [w for _, _, _, w in parts]
+    for i, r2, c2, w2 in extras:
+        rows.append(first_row[i] + r2)
+        cols_.append(c2)
+        weights.append(w2)
+    W_all = sp.csr_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols_))),
                           shape=(n_rows, dyn.model.num_choices))
-    choices.add(np.concatenate(keys), np.full(n_rows, -1, dtype=np.int64),
+    owner_row = np.repeat(np.arange(vertices.size), rules_at)
+    local = np.arange(n_rows) - first_row[owner_row]
+    choices.add(vertices[owner_row] * choices.span + first_local + local,
+                np.full(n_rows, -1, dtype=np.int64),
                 np.asarray(W_all @ dyn.T_stop).ravel(),
                 np.asarray(W_all @ dyn.choice_reward).ravel(), W_all @ dyn.T_cont,
-                np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=np.concatenate(block))
+                np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=vertices[owner_row])
+
+
+def _rule_entries(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
+                  ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The rules of :meth:`_Dynamics.rules` at g vertices whose supports ``states`` (int64[g, m])
+    offer ``n`` (int64[m]) choices per state, with belief masses ``mass`` (float64[g, m]), as
+    entries: the number of rules k per vertex, then per entry (vertex by vertex, rule by rule,
+    each rule's choices in their order) its vertex (0..g-1), its rule, its global choice and its
+    weight (the rule's probability of the choice times its state's mass)."""
+    rg = dyn.model.row_groups
+    g, m = states.shape
+    lo = rg[states]
+    det = _deterministic_picks(n, dyn._base(states, lo, rg[states + 1]))  # [g, k, m]
+    k_det = det.shape[1]
+    varying = bool((n > 1).any())
+    k = k_det + (1 if varying else 0)
+    e = int(n.sum()) if varying else m  # entries per rule at most: the uniform mixture's
+    col = np.zeros((g, k, e), dtype=np.int64)
+    w = np.zeros((g, k, e))
+    real = np.zeros((k, e), dtype=bool)
+    col[:, :k_det, :m] = lo[:, None, :] + det
+    w[:, :k_det, :m] = mass[:, None, :]
+    real[:k_det, :m] = True
+    if varying:
+        owner = np.repeat(np.arange(m), n)
+        within = np.arange(e) - np.r_[0, np.cumsum(n)[:-1]][owner]
+        col[:, k_det, :] = lo[:, owner] + within
+        w[:, k_det, :] = (1.0 / n)[owner] * mass[:, owner]
+        real[k_det, :] = True
+    vi, r, _ = np.nonzero(np.broadcast_to(real, (g, k, e)))
+    keep = np.broadcast_to(real, (g, k, e))
+    return k, vi, r, col[keep], w[keep]
 
 
 def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarray,
@@ -952,7 +1009,9 @@ def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.nd
     bound side per state) and the per-state ``cutoff`` bounds at the unit beliefs
     (:func:`posgmc.synthesis.stage_lp.stage_rule`), and against the one-step estimate from the
     same bounds (:func:`posgmc.synthesis.stage_lp.one_step_rule`: it reaches posteriors the
-    abstraction has not explored yet). In breadth-first order until ``deadline`` or ``limit``
+    abstraction has not explored yet), and the rules whose posterior is a grid vertex itself
+    (:func:`_grid_rules`: nothing leaks to the decision maker through a decomposition, where
+    both estimates are flat). In breadth-first order until ``deadline`` or ``limit``
     vertices. Returns how many new rules were added and at how many vertices LPs were solved."""
     dyn = _Dynamics(problem, None)
     V = abstraction.vertices
@@ -981,11 +1040,46 @@ def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.nd
         if (rg[states + 1] - rg[states]).max() <= 1:
             continue  # nothing to randomise
         solved += 1
-        for rule in (stage_lp.one_step_rule(data, step, p, cols, owner),
+        for rule in (*_grid_rules(dyn, cols, owner, p, abstraction.resolution),
+                     stage_lp.one_step_rule(data, step, p, cols, owner),
                      stage_lp.stage_rule(data, states, p, cols, owner)):
             if rule is not None and mixtures.add(states, p, abstraction.resolution, rule):
                 added += 1
     return added, solved
+
+
+GRID_TARGETS = 8
+"""Combinations of target vertices tried for one adversary vertex's grid rules at most."""
+
+
+def _grid_rules(dyn: _Dynamics, cols: np.ndarray, owner: np.ndarray, p: np.ndarray,
+                resolution: int) -> list[np.ndarray | None]:
+    """Randomised rules at an adversary vertex (belief ``p`` over the states owning ``cols``)
+    whose posterior is a grid vertex in every observation group of the successors
+    (:func:`posgmc.synthesis.stage_lp.grid_rule`): the targets are the vertices of the simplex
+    around the uniform mixture's posterior (the grid beliefs near what randomising gives), the
+    combinations over the groups in the order of their weights, at most :data:`GRID_TARGETS`."""
+    if resolution <= 0:
+        return []
+    J = sp.csr_matrix(sp.diags(p[owner]) @ dyn.T_cont[cols])
+    n = np.bincount(owner)
+    y = np.asarray(J.T @ (1.0 / n[owner])).ravel()
+    succ = np.flatnonzero(y > 0)
+    if not succ.size:
+        return []
+    groups: list[list[tuple[float, np.ndarray, np.ndarray]]] = []
+    for g in np.unique(dyn.group[succ]).tolist():
+        states = succ[dyn.group[succ] == g]
+        part = y[states] / y[states].sum()
+        counts, lam = freudenthal(part, resolution)
+        order = np.argsort(-lam, kind="stable")
+        # the whole group's states: those outside the vertex's support must get no mass
+        groups.append([(float(lam[i]), states, counts[i] / resolution) for i in order.tolist()])
+    out: list[np.ndarray | None] = []
+    for combo in itertools.islice(itertools.product(*groups), GRID_TARGETS):
+        targets = [(states, belief) for _, states, belief in combo]
+        out.append(stage_lp.grid_rule(J, owner, targets))
+    return out
 
 
 @dataclass(frozen=True)

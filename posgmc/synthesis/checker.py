@@ -653,7 +653,7 @@ def _shown_numbers(run: _CheckRun, searched: _Searched) -> _ShownNumbers:
         maximizing=run.bare.direction is Direction.MAX)
     g = ordered["guaranteed"] or g
     maximize = run.bare.direction is Direction.MAX
-    progress.report("done", best=g.lower if maximize else g.upper, proven=g.sound)
+    progress.report("done", best=g.lower if maximize else g.upper, proven=g.sound, bound=g)
     return _ShownNumbers(g, ordered["vs_fss_adversary"], ordered["upper_bound"],
                          ordered["full_observation"], defence, worst)
 
