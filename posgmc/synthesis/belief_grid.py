@@ -40,6 +40,7 @@ import itertools
 import math
 import time
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 import scipy.sparse as sp
@@ -56,6 +57,7 @@ from posgmc.strategies.binding import player_view
 from posgmc.synthesis import belief, stage_lp
 from posgmc.synthesis.belief import can_reach
 from posgmc.synthesis.budget import interrupted
+from posgmc.synthesis.grid_certificate import Enclosure, certified_upper
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
 
@@ -188,6 +190,9 @@ class GridAbstraction:
     reachable belief MDP, so its optimum is the POMDP's (no finer grid can tighten it)."""
     adversary: np.ndarray
     """bool[states]: the adversary's vertices (a game's; none on a POMDP)."""
+    enclosure: Enclosure | None = None
+    """A maximiser's: the exact belief MDP's rows enclosed, to prove the bound for it
+    (:func:`~posgmc.synthesis.grid_certificate.certified_upper`)."""
 
     @property
     def vertices(self) -> int:
@@ -249,17 +254,34 @@ class _Dynamics:
         self.P: list[sp.csr_matrix] = []
         self.stop: list[np.ndarray] = []
         self.reward: list[np.ndarray] = []
+        self.choice_of: list[np.ndarray] = []  # per action: each state's choice (-1: none)
+        # per action, the mass a state's choice sends to states that do not continue (the
+        # target, or no way to it): exactly 0 where the float is (sums of nonnegative products)
+        self.lost: list[np.ndarray] = []
+        gone = (~self.cont).astype(np.float64)
+        # the exact model is the stored one with every row scaled to sum to 1 (rows are checked
+        # to within 1e-9): how far a stored probability lies from it, relatively
+        sums = np.asarray(model.transitions.sum(axis=1)).ravel()
+        k = np.diff(model.transitions.indptr).astype(np.float64)
+        dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * _UNIT, initial=0.0))
+        self.input_rel = 2.0 * dev / max(1.0 - dev, 0.5)
+        self._exact_rows: dict[int, dict[int, Fraction]] = {}
         for a in range(layout.used_actions.size):
             c = np.flatnonzero(c_act == a)
+            at = np.full(S, -1, dtype=np.int64)
+            at[cs[c]] = c
+            self.choice_of.append(at)
             T = model.transitions[c].tocoo()
             Pa = sp.csr_matrix((T.data, (cs[c][T.row], T.col)), shape=(S, S))
             self.stop.append(np.asarray(Pa @ self.target).ravel())
+            self.lost.append(np.asarray(Pa @ gone).ravel())
             self.P.append(sp.csr_matrix(Pa @ keep))
             r = np.zeros(S)
             if problem.rewards is not None:
                 r[cs[c]] = problem.rewards[c]
             self.reward.append(r)
         self.T_cont = sp.csr_matrix(model.transitions @ keep)
+        self.T_lost = np.asarray(model.transitions @ gone).ravel()
         # per choice: the reward of taking it (the adversary's rules pay theirs), and what the
         # target is worth when reached (1 for a probability, 0 for a reward: nothing more)
         self.choice_reward = np.zeros(model.num_choices) if problem.rewards is None else \
@@ -270,6 +292,19 @@ class _Dynamics:
         # a transition row: the longest such row bounds the inner sum's length
         self.row_terms = int(np.diff(model.transitions.indptr).max(initial=0)) + 3
         self.T_stop = np.asarray(model.transitions @ self.target).ravel()
+
+    def exact_row(self, choice: int) -> dict[int, Fraction]:
+        """The exact model's row of ``choice``: the stored probabilities as rationals, scaled
+        to sum to 1 (cached)."""
+        found = self._exact_rows.get(choice)
+        if found is None:
+            T = self.model.transitions
+            lo, hi = T.indptr[choice], T.indptr[choice + 1]
+            vals = [Fraction(float(p)) for p in T.data[lo:hi]]
+            total = sum(vals, Fraction(0))
+            found = self._exact_rows[choice] = {
+                int(c): v / total for c, v in zip(T.indices[lo:hi].tolist(), vals)}
+        return found
 
     def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The adversary's decision rules tried at a vertex on ``states``: (int64[m], the global
@@ -495,6 +530,55 @@ def _up(v: np.ndarray) -> np.ndarray:
     return np.where(v > 0, np.nextafter(v, np.inf), v)
 
 
+def _entry_rounding(terms: np.ndarray, input_rel: float) -> np.ndarray:
+    """A bound, relative to the computed value, on how far a continuing successor entry (or a
+    stop mass, or a reward) of the exact model lies from its float: the float sum's own
+    rounding (:func:`_rounding`, doubled for the adversary's rules, a product more), the
+    stored rows' distance to the exact ones (``input_rel``), and the vertex belief's (counts/N
+    is exact for N a power of two, one rounding otherwise)."""
+    return 2.0 * _rounding(terms) + input_rel + 2.0 * _UNIT
+
+
+def _weight_errors(P: np.ndarray, lam: np.ndarray, rel: np.ndarray, resolution: int
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """How far the exact decomposition of each part may lie from the float one.
+
+    ``P``: float64[n, m], the parts' float posteriors (as triangulated by
+    :func:`freudenthal_batch`, weights ``lam``); ``rel``: float64[n], the relative bound on each
+    part's continuing entries (:func:`_entry_rounding`). The exact posterior's cumulative
+    coordinates x*_i = N Σ_{j>=i} y*_j / Σ_j y*_j lie within Δ_i = N (3 rel + 4 (m + 4) u) of
+    the float ones (a ratio of sums of nonnegative terms, each within ``rel``, and the float
+    division and cumulative sum), plus the snap's displacement; the barycentric weight of each
+    vertex of the float simplex is a difference of two sorted fractional parts (one rounding), so
+    the exact weights in that simplex are within ε = 2 max Δ + 2u of ``lam``.
+
+    Returns:
+        (float64[n, m] η, bool[n] ambiguous, float64[n] Δ'): where every weight exceeds ε the
+        exact posterior lies in the float simplex with the same vertices and each exact vertex
+        weight e* = w* λ* is at most (1 + η) times the float one (w* the exact part mass);
+        elsewhere the part is *ambiguous* (near a face: the exact simplex may differ). Δ' bounds
+        |x* - x̃| for the exact combination x̃ of the float weights (for the leak).
+    """
+    n, m = P.shape
+    u = _UNIT
+    if m == 1:
+        return np.full((n, 1), (rel[:, None] + 4.0 * u) * 1.02), np.zeros(n, dtype=bool), \
+            np.zeros(n)
+    N = float(resolution)
+    x = N * np.cumsum(P[:, ::-1], axis=1)[:, ::-1]
+    x[:, 0] = N
+    dist = np.abs(x - np.rint(x))
+    snap = np.where(dist <= _SNAP * N, dist, 0.0)
+    delta = N * (3.0 * rel[:, None] + 4.0 * (m + 4) * u) + snap
+    dmax = delta.max(axis=1) + (m + 2) * u * N
+    eps = 2.0 * dmax + 2.0 * u
+    ambiguous = (lam <= eps[:, None]).any(axis=1)
+    with np.errstate(divide="ignore"):
+        eta = (rel[:, None] + (m + 3) * u + eps[:, None] / np.where(lam > 0, lam, 0.0)) * 1.02 \
+            + 4.0 * u
+    return eta, ambiguous, dmax
+
+
 def _dominate(E: sp.csr_matrix, G: sp.csr_matrix, Y: sp.csr_matrix,
               terms: np.ndarray) -> sp.csr_matrix:
     """The vertex weights of a minimiser's choices, scaled so that they stay below the exact
@@ -531,15 +615,77 @@ def _dominate(E: sp.csr_matrix, G: sp.csr_matrix, Y: sp.csr_matrix,
     return sp.csr_matrix(sp.diags(kappa) @ E)
 
 
+def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
+                     lam: np.ndarray, eta: np.ndarray, amb: np.ndarray, rel: np.ndarray,
+                     source: tuple[sp.csr_matrix, np.ndarray, np.ndarray], dyn: _Dynamics,
+                     N: int) -> None:
+    """Ambiguous parts (near a face of the triangulation: the float simplex may not hold the
+    exact posterior) triangulated in exact rational arithmetic instead, in place: the exact
+    continuing vector y*_s = Σ_k B_k T*_k(s) (the exact model's rows :meth:`_Dynamics.exact_row`,
+    B's entries exact: the vertex belief counts/N with N a power of two, or a deterministic
+    rule's state masses), its Freudenthal simplex and weights (the same construction as
+    :func:`freudenthal`, ties broken alike), so the part's vertices are the exact
+    decomposition's and each weight is the float of the exact one. Rows whose B is not exact
+    (a randomised rule's products) stay ambiguous."""
+    B, choice_of, exact_rows = source
+    m = cols.shape[1]
+    for i in parts.tolist():
+        r = int(rows[i])
+        if not exact_rows[r]:
+            continue
+        states = cols[i].tolist()
+        y = dict.fromkeys(states, Fraction(0))
+        for k, bk in zip(B.indices[B.indptr[r]:B.indptr[r + 1]].tolist(),
+                         B.data[B.indptr[r]:B.indptr[r + 1]].tolist()):
+            row = dyn.exact_row(int(choice_of[k]))
+            b = Fraction(bk)
+            for s in states:
+                p = row.get(s)
+                if p is not None:
+                    y[s] += b * p
+        ys = [y[s] for s in states]
+        total = sum(ys, Fraction(0))
+        if total <= 0:
+            continue
+        x = [Fraction(N)]
+        tail = Fraction(0)
+        tails = [Fraction(0)] * m
+        for j in range(m - 1, 0, -1):
+            tail += ys[j]
+            tails[j] = tail
+        x += [N * tails[j] / total for j in range(1, m)]
+        v = [math.floor(xj) for xj in x]
+        d = [xj - vj for xj, vj in zip(x, v)]
+        order = sorted(range(1, m), key=lambda j: -d[j])
+        dd = [d[j] for j in order]
+        lam_x = [1 - dd[0]] + [dd[q - 1] - dd[q] for q in range(1, m - 1)] + [dd[-1]]
+        Y = np.tile(np.asarray(v, dtype=np.int64), (m, 1))
+        for q in range(1, m):
+            Y[q:, order[q - 1]] += 1
+        counts[i, :, :-1] = Y[:, :-1] - Y[:, 1:]
+        counts[i, :, -1] = Y[:, -1]
+        lam[i] = [float(val) for val in lam_x]
+        amb[i] = False
+        eta[i] = (rel[i] + (m + 4) * _UNIT) * 1.02 + 4.0 * _UNIT
+
+
 class _Choices:
     """The abstraction's choices while exploring: a key (vertex · span + local index) each, its
     target mass and reward, and its successor entries (by key)."""
 
-    def __init__(self, span: int) -> None:
+    def __init__(self, span: int, cap: np.ndarray | None = None) -> None:
         self.span = span
+        # the full-observation bound per state (what an ambiguous part's uncovered mass is worth
+        # at most); None: not tracked (a minimiser's abstraction)
+        self.cap = cap
+        self.e_eta: list[np.ndarray] = []  # per entry: η (inf: an ambiguous part's)
+        self.a_key: list[np.ndarray] = []  # per ambiguous part: its choice, leak and slack
+        self.a_leak: list[np.ndarray] = []
+        self.a_slack: list[np.ndarray] = []
         self.key: list[np.ndarray] = []
         self.action: list[np.ndarray] = []
         self.stop: list[np.ndarray] = []
+        self.lost: list[np.ndarray] = []
         self.reward: list[np.ndarray] = []
         self.e_key: list[np.ndarray] = []
         self.e_vertex: list[np.ndarray] = []
@@ -548,9 +694,10 @@ class _Choices:
         self.terms: list[np.ndarray] = []
         self.on_grid = True  # every successor part so far is a vertex itself
 
-    def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, reward: np.ndarray,
-            D: sp.csr_matrix, terms: np.ndarray, dyn: _Dynamics, grid: _Grid,
-            block: np.ndarray | None = None) -> None:
+    def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, lost: np.ndarray,
+            reward: np.ndarray, D: sp.csr_matrix, terms: np.ndarray, dyn: _Dynamics, grid: _Grid,
+            block: np.ndarray | None = None,
+            source: tuple[sp.csr_matrix, np.ndarray, np.ndarray] | None = None) -> None:
         """Choices ``keys`` whose continuing successor distributions are the rows of ``D``:
         each row split into its groups (one per observation of the decision maker's states, one
         for the others; a convex decomposition, so the bound stays sound), each part normalised
@@ -559,10 +706,13 @@ class _Choices:
         ``D`` (and its stop mass and reward) at most, for the rounding bound (:func:`_dominate`);
         ``D`` is kept as the successors the abstraction must dominate. ``block`` (int64 per
         row, ascending; default all 0): rows of different blocks are as if added by separate
-        calls, one block after the other (the order new grid vertices are numbered in)."""
+        calls, one block after the other (the order new grid vertices are numbered in).
+        ``source`` (a maximiser's, for :func:`_resolve_exactly`): ``D`` = B T as (csr B, the
+        model choice of each column of B, bool per row: B's entries are exact)."""
         self.key.append(keys)
         self.action.append(action)
         self.stop.append(stop)
+        self.lost.append(lost)
         self.reward.append(reward)
         D = sp.csr_matrix(D)
         self.successors.append(D)
@@ -580,12 +730,23 @@ class _Choices:
         row_block = np.zeros(D.shape[0], dtype=np.int64) if block is None else block
         mass = np.add.reduceat(data, starts)
         N = grid.N
+        rel = _entry_rounding(np.asarray(terms, dtype=np.int64), dyn.input_rel)
         if N == 0:  # the belief unfolding: each posterior is a vertex itself
             vs = [grid.belief(col[a:a + k], data[a:a + k] / w)
                   for a, k, w in zip(starts.tolist(), sizes.tolist(), mass.tolist())]
             self.e_key.append(keys[rows].astype(np.int64))
             self.e_vertex.append(np.asarray(vs, dtype=np.int64))
             self.e_prob.append(mass)
+            if self.cap is not None:
+                # the vertex is the float posterior itself, not the exact one: every part is
+                # ambiguous; |y*_s - w fl(y_s / w)| <= y_s (rel + 2u)
+                r = rel[rows]
+                self.e_eta.append(np.full(rows.size, np.inf))
+                self.a_key.append(keys[rows].astype(np.int64))
+                self.a_leak.append(_up(np.add.reduceat(
+                    data * self.cap[col] * (rel[pair // (dyn.Z + 1)] + 2.0 * _UNIT) * 1.02,
+                    starts)))
+                self.a_slack.append(_up(mass * (r + (sizes + 2) * _UNIT) * 1.02))
             return
         # the parts of one support size together: one vectorised triangulation each; the
         # references to grid vertices are then taken in the order of one call per block, per
@@ -594,12 +755,22 @@ class _Choices:
         refs: list[tuple[np.ndarray, np.ndarray]] = []
         e_key: list[np.ndarray] = []
         e_prob: list[np.ndarray] = []
+        e_eta: list[np.ndarray] = []
         for m, sel in _chunks(sizes):
             at = starts[sel][:, None] + np.arange(m)[None, :]
             w = mass[sel]
-            counts, lam = freudenthal_batch(data[at] / w[:, None], N)
+            P = data[at] / w[:, None]
+            counts, lam = freudenthal_batch(P, N)
             cols = col[at]
             keep = lam > 0
+            if self.cap is not None:
+                eta, amb, dmax = _weight_errors(P, lam, rel[rows[sel]], N)
+                if amb.any() and source is not None and N & (N - 1) == 0:
+                    _resolve_exactly(np.flatnonzero(amb), rows[sel], cols, counts, lam, eta,
+                                     amb, rel[rows[sel]], source, dyn, N)
+                    keep = lam > 0
+                self._enclose(P, w, cols, rel[rows[sel]], keys[rows[sel]], N, keep, e_eta,
+                              eta, amb, dmax)
             self.on_grid = self.on_grid and bool((keep.sum(axis=1) == 1).all())
             i, k = np.nonzero(keep)
             r = rows[sel][i]
@@ -618,6 +789,36 @@ class _Choices:
         self.e_key.append(np.concatenate(e_key)[seq])
         self.e_vertex.append(grid.lookup(parts, total))  # in rank order
         self.e_prob.append(np.concatenate(e_prob)[seq])
+        if self.cap is not None:
+            self.e_eta.append(np.concatenate(e_eta)[seq])
+
+    def _enclose(self, P: np.ndarray, w: np.ndarray, cols: np.ndarray,
+                 rel: np.ndarray, keys: np.ndarray, N: int, keep: np.ndarray,
+                 e_eta: list[np.ndarray], eta: np.ndarray, amb: np.ndarray,
+                 dmax: np.ndarray) -> None:
+        """The exact weights' enclosure of triangulated parts (:func:`_weight_errors`): η per
+        kept vertex (inf in an ambiguous part), and per ambiguous part its leak
+        Σ_s cap(s) |y*_s - x_s| and slack (how much its float weights may exceed its exact
+        mass), x = Σ_k e_k u_k the float weights' combination:
+        |y*_s - x_s| <= w ((rel + (m + 1) u) (P_s + 2Δ'/N) + 2Δ'/N), and
+        Σ_k e_k - w* <= w (rel + (2m + 2) u)."""
+        u = _UNIT
+        m = P.shape[1]
+        assert self.cap is not None
+        i, k = np.nonzero(keep)
+        e_eta.append(np.where(amb[i], np.inf, eta[i, k]))
+        if not amb.any():
+            return
+        a = np.flatnonzero(amb)
+        shift = 2.0 * dmax[a, None] / N
+        r = (rel[a, None] + (m + 1) * u) * 1.02
+        c = self.cap[cols[a]]
+        per = (r * (P[a] + shift) + shift) * 1.02
+        with np.errstate(invalid="ignore"):
+            leak = np.where(per > 0, per * c, 0.0).sum(axis=1)
+        self.a_key.append(keys[a].astype(np.int64))
+        self.a_leak.append(_up(w[a] * leak * (1.0 + 2.0 * (m + 2) * u)))
+        self.a_slack.append(_up(w[a] * (rel[a] + (2 * m + 2) * u) * 1.02))
 
 
 @dataclass(frozen=True, eq=False)
@@ -733,7 +934,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     else:
         grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
     Au = dyn.actions.size
-    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP)
+    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP,
+                       _caps(cutoff, problem.rewards is None) if problem.maximize else None)
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
     skipped: list[int] = []
     while done < len(grid.rows) and done < max_vertices:
@@ -752,9 +954,10 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                 continue
             Ba = B[sel]
             choices.add(ids[sel] * choices.span + a, np.full(sel.size, a, dtype=np.int64),
-                        np.asarray(Ba @ dyn.stop[a]).ravel(),
+                        np.asarray(Ba @ dyn.stop[a]).ravel(), np.asarray(Ba @ dyn.lost[a]).ravel(),
                         np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a],
-                        np.diff(Ba.indptr) + dyn.row_terms, dyn, grid)
+                        np.diff(Ba.indptr) + dyn.row_terms, dyn, grid,
+                        source=(Ba, dyn.choice_of[a], np.ones(sel.size, dtype=bool)))
         theirs = done + np.flatnonzero(~mine)
         if theirs.size and deadline is not None and time.perf_counter() > deadline:
             skipped.extend(theirs.tolist())  # the adversary's vertices are cut off
@@ -773,7 +976,7 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
     tries there, then the randomised rules ``mixtures`` offers there), added to ``choices``
     together: one block per vertex."""
     per_state = np.diff(dyn.model.row_groups)
-    keys, block, r_parts, c_parts, v_parts = [], [], [], [], []
+    keys, block, r_parts, c_parts, v_parts, probs = [], [], [], [], [], []
     n_rows = 0
     for v in vertices.tolist():
         states, p = grid.rows[v], grid.vals[v]
@@ -789,6 +992,7 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
             at = np.r_[at, owner[c2]]
             k += min(extra.shape[0], MIX_CAP)
         r_parts.append(r + n_rows)
+        probs.append(prob)
         c_parts.append(c)
         v_parts.append(prob * p[at])  # a rule's weight times the state's mass
         keys.append(v * choices.span + first_local + np.arange(k))
@@ -797,10 +1001,71 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
     W_all = sp.csr_matrix((np.concatenate(v_parts), (np.concatenate(r_parts),
                                                       np.concatenate(c_parts))),
                           shape=(n_rows, dyn.model.num_choices))
+    # a row's state masses are exact where its rule is deterministic (each factor 1)
+    rule_rows = np.concatenate(r_parts)
+    exact = np.ones(n_rows, dtype=bool)
+    np.logical_and.at(exact, rule_rows, np.concatenate(probs) == 1.0)
     choices.add(np.concatenate(keys), np.full(n_rows, -1, dtype=np.int64),
-                np.asarray(W_all @ dyn.T_stop).ravel(),
+                np.asarray(W_all @ dyn.T_stop).ravel(), np.asarray(W_all @ dyn.T_lost).ravel(),
                 np.asarray(W_all @ dyn.choice_reward).ravel(), W_all @ dyn.T_cont,
-                np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=np.concatenate(block))
+                np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=np.concatenate(block),
+                source=(W_all, np.arange(dyn.model.num_choices), exact))
+
+
+def _caps(cutoff: np.ndarray, probability: bool) -> np.ndarray:
+    """The proven bound per state used where a belief's value is bounded state by state: the
+    cut-off bound, +inf where none; a probability's clipped to [0, 1]."""
+    finite = np.isfinite(cutoff)
+    cap = np.where(finite, cutoff, np.inf)
+    if probability:
+        cap = np.clip(np.where(finite, cap, 1.0), 0.0, 1.0)
+    return np.asarray(cap, dtype=np.float64)
+
+
+def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matrix,
+               ech: np.ndarray, ev: np.ndarray, ep: np.ndarray, lost: np.ndarray,
+               top: np.ndarray, cut_ids: np.ndarray, cut_top: np.ndarray,
+               cut_infinite: np.ndarray, adversary: np.ndarray, probability: bool,
+               discount: float, input_rel: float) -> Enclosure:
+    """The exact abstraction's rows enclosed (:class:`~posgmc.synthesis.grid_certificate.
+    Enclosure`) for a maximiser: each expanded choice's vertex weights raised by their η (the
+    float weights where the part is ambiguous), its ``top`` (the stop mass or reward, already
+    rounded up for float sums) raised by input rounding, its ambiguous parts' leak and slack;
+    then the cut-off rows."""
+    n_exp, V = E.shape
+    eta = np.concatenate(ch.e_eta) if ch.e_eta else np.zeros(0)
+    hi = np.where(np.isfinite(eta), _up(ep * (1.0 + eta)), ep)
+    coef = sp.csr_matrix((hi, (ech, ev)), shape=(n_exp, V))
+    coef.sum_duplicates()
+    amb_row = np.zeros(n_exp, dtype=bool)
+    leak = np.zeros(n_exp)
+    slack = np.zeros(n_exp)
+    if ch.a_key:
+        at = np.searchsorted(keys, np.concatenate(ch.a_key))
+        amb_row[at] = True
+        np.add.at(leak, at, np.concatenate(ch.a_leak))
+        np.add.at(slack, at, np.concatenate(ch.a_slack))
+        leak, slack = _up(leak * (1.0 + 4.0 * _UNIT)), _up(slack * (1.0 + 4.0 * _UNIT))
+    # a lower bound on the exact mass that does not continue (t* + sink*): the exact masses
+    # sum to 1, each part's at most its enclosure (certified: coef; ambiguous: its float
+    # weights plus slack), and t* <= t for a probability (whose t is counted apart)
+    k = np.diff(coef.indptr).astype(np.float64)
+    covered = np.asarray(coef.sum(axis=1)).ravel() + slack
+    if probability:
+        covered = covered + _up(top * (1.0 + input_rel + 4.0 * _UNIT))
+    covered = covered * (1.0 + 2.0 * (k + 4.0) * _UNIT)
+    gone = np.where(lost > 0, np.maximum(0.0, (1.0 - covered) - 4.0 * _UNIT), 0.0)
+    n_cut = cut_ids.size
+    state = np.r_[keys // ch.span, cut_ids].astype(np.int64)
+    coef = sp.vstack([coef, sp.csr_matrix((n_cut, V))], format="csr")
+    raise_top = 1.0 + input_rel + 4.0 * _UNIT
+    return Enclosure(
+        state=state, coef=coef, top=np.r_[_up(top * raise_top), cut_top],
+        slack=np.r_[slack, np.zeros(n_cut)], leak=np.r_[leak, np.zeros(n_cut)],
+        gone=np.r_[gone, np.zeros(n_cut)],
+        clean=np.r_[~amb_row & (lost == 0), np.zeros(n_cut, dtype=bool)],
+        infinite=np.r_[np.zeros(n_exp, dtype=bool), cut_infinite],
+        adversary=adversary, probability=probability, discount=discount)
 
 
 def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarray,
@@ -822,6 +1087,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     cv = keys // ch.span
     ca = cat(ch.action, np.int64)[order]
     stop, rew = cat(ch.stop)[order], cat(ch.reward)[order]
+    lost = cat(ch.lost)[order]
     n_exp = keys.size  # the expanded choices, numbered 0..n_exp-1 in key (= vertex) order
     ech = np.searchsorted(keys, cat(ch.e_key, np.int64))
     ev, ep = cat(ch.e_vertex, np.int64), cat(ch.e_prob)
@@ -909,9 +1175,15 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
         rewards = np.r_[rew_exp, r_cut, np.zeros(2)][perm]
     target = np.zeros(S_abs, dtype=bool)
     target[TARGET] = True
+    enclosure = None
+    if problem.maximize:
+        enclosure = _enclosure(
+            ch, order, keys, E, ech, ev, ep, lost, t if prob else rew_exp, cut_ids,
+            u if prob else r_cut, np.zeros(n_cut, dtype=bool) if prob else unbounded,
+            theirs[:V], prob, problem.discount, dyn.input_rel)
     return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,
                            problem.discount, problem.maximize, resolution,
-                           ch.on_grid and bool(expanded.all()), theirs)
+                           ch.on_grid and bool(expanded.all()), theirs, enclosure)
 
 
 class Mixtures:
@@ -1005,6 +1277,21 @@ class GridBound:
     seconds: float
 
 
+def _proven_side(abstraction: GridAbstraction, result: EngineResult) -> np.ndarray | None:
+    """The bound side per vertex, proven for the exact belief MDP: a minimiser's lower values
+    (its rows are scaled below the exact ones, :func:`_dominate`); a maximiser's upper values
+    raised until the exact operator's enclosure is below them
+    (:func:`~posgmc.synthesis.grid_certificate.certified_upper`), None when that fails. A
+    probability's bound is clipped to 1."""
+    if not abstraction.maximize:
+        return np.asarray(result.lower, dtype=np.float64)[:abstraction.vertices]
+    assert abstraction.enclosure is not None
+    W = certified_upper(abstraction.enclosure, np.asarray(result.upper, dtype=np.float64))
+    if W is None:
+        return None
+    return np.minimum(W, 1.0) if abstraction.rewards is None else W
+
+
 def grid_bound(problem: Problem, *, deadline: float | None, target: float | None = None,
                resolutions: tuple[int, ...] = RESOLUTIONS,
                cutoff: np.ndarray | None = None,
@@ -1076,7 +1363,10 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
                                                      stiff_certificate=deadline is None))
             if not result.sound:
                 break
-            value = float(result.upper[0] if problem.maximize else result.lower[0])
+            proven = _proven_side(abstraction, result)
+            if proven is None:
+                break
+            value = float(proven[0])
             tried.append((N, value))
             exact = abstraction.exact and not abstraction.adversary.any()
             if best is None or sign * value < sign * best.value:
@@ -1086,8 +1376,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
                 break
             if at_n is None or sign * value < sign * at_n:
                 at_n, solved = value, abstraction
-                side = np.asarray(result.upper if problem.maximize else result.lower,
-                                  dtype=np.float64)
+                side = proven
             elif at_n is not None and sign * value >= sign * at_n - 1e-9 * max(1.0, abs(at_n)):
                 break  # the last rules did not tighten the bound
             # the stage LPs get at most a third of what is left (a finer grid may need the rest)
@@ -1095,10 +1384,8 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
                 time.perf_counter() + (deadline - time.perf_counter()) / 3
             if mixing is None or not abstraction.adversary.any() or lps_left <= 0:
                 break
-            added, used = stage_mixtures(
-                problem, abstraction, np.asarray(
-                    result.upper if problem.maximize else result.lower, dtype=np.float64),
-                cutoff, mixing, deadline=lp_until, limit=lps_left)
+            added, used = stage_mixtures(problem, abstraction, proven, cutoff, mixing,
+                                         deadline=lp_until, limit=lps_left)
             lps_left -= used
             if added == 0:
                 break
