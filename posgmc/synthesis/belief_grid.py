@@ -934,8 +934,16 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     else:
         grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
     Au = dyn.actions.size
-    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP,
-                       _caps(cutoff, problem.rewards is None) if problem.maximize else None)
+    cap = None
+    if problem.maximize:
+        # an ambiguous part's uncovered mass is worth at most cap(s) per state; with negative
+        # rewards what it covers in excess may be worth less than nothing, unbounded: no leak
+        # is finite then
+        negative = problem.rewards is not None and bool((np.asarray(problem.rewards) < 0).any())
+        cap = _caps(cutoff, problem.rewards is None)
+        if negative:
+            cap = np.full_like(cap, np.inf)
+    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP, cap)
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
     skipped: list[int] = []
     while done < len(grid.rows) and done < max_vertices:
@@ -1024,7 +1032,7 @@ def _caps(cutoff: np.ndarray, probability: bool) -> np.ndarray:
 
 def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matrix,
                ech: np.ndarray, ev: np.ndarray, ep: np.ndarray, lost: np.ndarray,
-               top: np.ndarray, cut_ids: np.ndarray, cut_top: np.ndarray,
+               top: np.ndarray, top_rel: np.ndarray, cut_ids: np.ndarray, cut_top: np.ndarray,
                cut_infinite: np.ndarray, adversary: np.ndarray, probability: bool,
                discount: float, input_rel: float) -> Enclosure:
     """The exact abstraction's rows enclosed (:class:`~posgmc.synthesis.grid_certificate.
@@ -1049,18 +1057,27 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
     # a lower bound on the exact mass that does not continue (t* + sink*): the exact masses
     # sum to 1, each part's at most its enclosure (certified: coef; ambiguous: its float
     # weights plus slack), and t* <= t for a probability (whose t is counted apart)
+    # the stop mass or reward (either sign) within 2 top_rel of its float (rounded already, and
+    # the exact model's rows)
+    spread = 2.0 * top_rel + input_rel + 4.0 * _UNIT
+    top_hi = top + np.abs(top) * spread
+    top_hi = np.where(top_hi != 0, np.nextafter(top_hi, np.inf), top_hi)
     k = np.diff(coef.indptr).astype(np.float64)
     covered = np.asarray(coef.sum(axis=1)).ravel() + slack
     if probability:
-        covered = covered + _up(top * (1.0 + input_rel + 4.0 * _UNIT))
+        covered = covered + np.maximum(top_hi, 0.0)
     covered = covered * (1.0 + 2.0 * (k + 4.0) * _UNIT)
     gone = np.where(lost > 0, np.maximum(0.0, (1.0 - covered) - 4.0 * _UNIT), 0.0)
+    # and a lower bound on the exact continuing mass (for a negative value per unit of it)
+    lost_hi = _up(lost * (1.0 + spread) * (1.0 + 4.0 * _UNIT))
+    kept_lo = np.where((lost > 0) | (slack > 0),
+                       np.maximum(0.0, (1.0 - (lost_hi + slack) * (1.0 + 4.0 * _UNIT))
+                                  - 4.0 * _UNIT), 1.0)
     n_cut = cut_ids.size
     state = np.r_[keys // ch.span, cut_ids].astype(np.int64)
     coef = sp.vstack([coef, sp.csr_matrix((n_cut, V))], format="csr")
-    raise_top = 1.0 + input_rel + 4.0 * _UNIT
     return Enclosure(
-        state=state, coef=coef, top=np.r_[_up(top * raise_top), cut_top],
+        state=state, coef=coef, top=np.r_[top_hi, cut_top], kept_lo=np.r_[kept_lo, np.ones(n_cut)],
         slack=np.r_[slack, np.zeros(n_cut)], leak=np.r_[leak, np.zeros(n_cut)],
         gone=np.r_[gone, np.zeros(n_cut)],
         clean=np.r_[~amb_row & (lost == 0), np.zeros(n_cut, dtype=bool)],
@@ -1178,7 +1195,8 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     enclosure = None
     if problem.maximize:
         enclosure = _enclosure(
-            ch, order, keys, E, ech, ev, ep, lost, t if prob else rew_exp, cut_ids,
+            ch, order, keys, E, ech, ev, ep, lost, t if prob else rew_exp, _rounding(terms),
+            cut_ids,
             u if prob else r_cut, np.zeros(n_cut, dtype=bool) if prob else unbounded,
             theirs[:V], prob, problem.discount, dyn.input_rel)
     return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,

@@ -80,6 +80,7 @@ class Enclosure:
     slack: np.ndarray
     leak: np.ndarray
     gone: np.ndarray
+    kept_lo: np.ndarray
     clean: np.ndarray
     infinite: np.ndarray
     adversary: np.ndarray
@@ -121,21 +122,24 @@ def bellman_upper(enc: Enclosure, W: np.ndarray) -> np.ndarray:
     k = np.diff(coef.indptr).astype(np.float64)
     with np.errstate(invalid="ignore"):
         spread = np.asarray(S.sum(axis=1)).ravel() * (1.0 + 2.0 * (k + 2.0) * _UNIT)
-        extra = spread + m * enc.slack * (1.0 + 2.0 * _UNIT) + enc.leak
+        extra = spread + enc.leak
         if enc.probability:
             extra = extra + enc.top * np.maximum(1.0 - m, 0.0) * (1.0 + 2.0 * _UNIT)
         extra = np.where(extra > 0, extra * (1.0 + 4.0 * _UNIT), extra)
-        # the mass known to be lost is worth 0, not m (rounded so that m - m gone stays above)
-        base = np.where(enc.gone > 0, m * np.maximum(0.0, 1.0 - enc.gone) * (1.0 + 2.0 * _UNIT),
-                        m)
-        base = np.where((enc.gone > 0) & (base > 0), np.nextafter(base, np.inf), base)
+        # m per unit of the exact continuing mass, at most 1 - gone + slack (m >= 0) and at
+        # least kept_lo (m < 0); exact where both are 1
+        mass_hi = np.where((enc.gone > 0) | (enc.slack > 0),
+                           np.nextafter((1.0 - enc.gone) + enc.slack, np.inf), 1.0)
+        mass = np.where(m >= 0, mass_hi, enc.kept_lo)
+        base = m * mass
+        base = np.where(mass != 1.0, np.nextafter(base, np.inf), base)
         cont = np.where(extra > 0, np.nextafter(base + extra, np.inf), base)
         if enc.probability:
             out = cont
         else:
             if enc.discount < 1.0:
-                cont = _up(cont * enc.discount * (1.0 + 2.0 * _UNIT))
-            out = np.where(enc.top > 0, np.nextafter(enc.top + cont, np.inf), cont)
+                cont = np.nextafter(cont * enc.discount, np.inf)
+            out = np.where(enc.top != 0, np.nextafter(enc.top + cont, np.inf), cont)
     out = np.where(np.isnan(out), np.inf, out)
     return np.where(enc.infinite, np.inf, out)
 
@@ -224,7 +228,9 @@ def certified_upper(enc: Enclosure, upper: np.ndarray) -> np.ndarray | None:
     ambiguous rows, or non-finite values where they matter)."""
     V = enc.vertices
     U = np.asarray(upper, dtype=np.float64)[:V].copy()
-    U = np.where(np.isnan(U), np.inf, np.maximum(U, 0.0))
+    U = np.where(np.isnan(U), np.inf, U)
+    if enc.probability:
+        U = np.maximum(U, 0.0)
     mec_of, count = _components(enc)
     if count:
         best = np.full(count, -np.inf)
