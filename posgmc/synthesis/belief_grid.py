@@ -28,10 +28,11 @@ per vertex, then a target and a sink), so it is checked with the same sound engi
 (interval iteration, end components handled) and the bound side of their result is the reported
 bound. Its transition probabilities are computed in float64 (posterior beliefs, the weights λ).
 A minimiser's choices are scaled below the exact belief successors (:func:`_dominate`), and stop
-masses, rewards and cut-off values are rounded to the optimistic side; a maximiser's continuing
-weights are the float decomposition (relative rounding ~1e-15 per step, not absorbed:
-docs/synthesis.md, "Floating point", says why a single dominating row cannot absorb it in a cycle
-of beliefs).
+masses, rewards and cut-off values are rounded to the optimistic side. A maximiser's rows cannot
+dominate the exact ones one by one in a cycle of beliefs (docs/synthesis.md, "Floating point"):
+its abstraction carries an enclosure of the exact rows (certified weights, parts near a face
+triangulated in exact arithmetic, :func:`_resolve_exactly`), and the engine's upper values are
+proven for the exact belief MDP by :func:`~posgmc.synthesis.grid_certificate.certified_upper`.
 """
 
 from __future__ import annotations
