@@ -267,6 +267,7 @@ class _Dynamics:
         dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * _UNIT, initial=0.0))
         self.input_rel = 2.0 * dev / max(1.0 - dev, 0.5)
         self._exact_rows: dict[int, dict[int, Fraction]] = {}
+        self._dyadic: dict[int, dict[int, tuple[int, int]] | None] = {}
         for a in range(layout.used_actions.size):
             c = np.flatnonzero(c_act == a)
             at = np.full(S, -1, dtype=np.int64)
@@ -305,6 +306,22 @@ class _Dynamics:
             total = sum(vals, Fraction(0))
             found = self._exact_rows[choice] = {
                 int(c): v / total for c, v in zip(T.indices[lo:hi].tolist(), vals)}
+        return found
+
+    def dyadic_row(self, choice: int) -> dict[int, tuple[int, int]] | None:
+        """The row of ``choice`` as (numerator, power-of-two denominator) per column when its
+        stored probabilities sum to exactly 1 (then the exact model's row is the stored one,
+        and integer arithmetic is exact on it); None otherwise (cached)."""
+        if choice in self._dyadic:
+            return self._dyadic[choice]
+        T = self.model.transitions
+        lo, hi = T.indptr[choice], T.indptr[choice + 1]
+        ratios = [float(p).as_integer_ratio() for p in T.data[lo:hi]]
+        den = max((d for _, d in ratios), default=1)
+        total = sum(n * (den // d) for n, d in ratios)
+        found = {int(c): r for c, r in zip(T.indices[lo:hi].tolist(), ratios)} \
+            if total == den else None
+        self._dyadic[choice] = found
         return found
 
     def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -616,6 +633,41 @@ def _dominate(E: sp.csr_matrix, G: sp.csr_matrix, Y: sp.csr_matrix,
     return sp.csr_matrix(sp.diags(kappa) @ E)
 
 
+def _exact_part(B: sp.csr_matrix, r: int, choice_of: np.ndarray, states: list[int],
+                dyn: _Dynamics) -> list[int] | list[Fraction]:
+    """The exact continuing vector y*_s = Σ_k B_rk T*_k(s) on ``states``, up to a common
+    positive factor: integers over a common power-of-two denominator when every row used sums
+    to exactly 1 (:meth:`_Dynamics.dyadic_row`), else rationals (the rows scaled,
+    :meth:`_Dynamics.exact_row`)."""
+    lo, hi = B.indptr[r], B.indptr[r + 1]
+    ks, bs = B.indices[lo:hi].tolist(), B.data[lo:hi].tolist()
+    rows = [dyn.dyadic_row(int(choice_of[k])) for k in ks]
+    if all(row is not None for row in rows):
+        terms: list[tuple[int, int, int]] = []  # (state index, numerator, denominator)
+        at = {s: j for j, s in enumerate(states)}
+        for bk, row in zip(bs, rows):
+            assert row is not None
+            bn, bd = float(bk).as_integer_ratio()
+            for s, j in at.items():
+                p = row.get(s)
+                if p is not None:
+                    terms.append((j, bn * p[0], bd * p[1]))
+        den = max((d for _, _, d in terms), default=1)
+        out = [0] * len(states)
+        for j, n, d in terms:
+            out[j] += n * (den // d)
+        return out
+    y = dict.fromkeys(states, Fraction(0))
+    for k, bk in zip(ks, bs):
+        exact = dyn.exact_row(int(choice_of[k]))
+        b = Fraction(bk)
+        for s in states:
+            q = exact.get(s)
+            if q is not None:
+                y[s] += b * q
+    return [y[s] for s in states]
+
+
 def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
                      lam: np.ndarray, eta: np.ndarray, amb: np.ndarray, rel: np.ndarray,
                      source: tuple[sp.csr_matrix, np.ndarray, np.ndarray], dyn: _Dynamics,
@@ -635,31 +687,24 @@ def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, coun
         if not exact_rows[r]:
             continue
         states = cols[i].tolist()
-        y = dict.fromkeys(states, Fraction(0))
-        for k, bk in zip(B.indices[B.indptr[r]:B.indptr[r + 1]].tolist(),
-                         B.data[B.indptr[r]:B.indptr[r + 1]].tolist()):
-            row = dyn.exact_row(int(choice_of[k]))
-            b = Fraction(bk)
-            for s in states:
-                p = row.get(s)
-                if p is not None:
-                    y[s] += b * p
-        ys = [y[s] for s in states]
-        total = sum(ys, Fraction(0))
+        ys = _exact_part(B, r, choice_of, states, dyn)
+        total = sum(ys)
         if total <= 0:
             continue
-        x = [Fraction(N)]
-        tail = Fraction(0)
-        tails = [Fraction(0)] * m
+        # x_j = N Y_j / Y_0 (Y_j the tail sums): floor and remainder in the numerators' ring
+        # (integers, or rationals when a row needed scaling), the weights their differences
+        tails = [total] * m
+        acc = 0 * total
         for j in range(m - 1, 0, -1):
-            tail += ys[j]
-            tails[j] = tail
-        x += [N * tails[j] / total for j in range(1, m)]
-        v = [math.floor(xj) for xj in x]
-        d = [xj - vj for xj, vj in zip(x, v)]
-        order = sorted(range(1, m), key=lambda j: -d[j])
-        dd = [d[j] for j in order]
-        lam_x = [1 - dd[0]] + [dd[q - 1] - dd[q] for q in range(1, m - 1)] + [dd[-1]]
+            acc = acc + ys[j]
+            tails[j] = acc
+        v = [N] + [int((N * tails[j]) // total) for j in range(1, m)]
+        rem = [0 * total] + [N * tails[j] - v[j] * total for j in range(1, m)]
+        order = sorted(range(1, m), key=lambda j: -rem[j])
+        dd = [rem[j] for j in order]
+        lam_x = [Fraction(total - dd[0]) / total] + \
+            [Fraction(dd[q - 1] - dd[q]) / total for q in range(1, m - 1)] + \
+            [Fraction(dd[-1]) / total]
         Y = np.tile(np.asarray(v, dtype=np.int64), (m, 1))
         for q in range(1, m):
             Y[q:, order[q - 1]] += 1
@@ -766,9 +811,12 @@ class _Choices:
             keep = lam > 0
             if self.cap is not None:
                 eta, amb, dmax = _weight_errors(P, lam, rel[rows[sel]], N)
-                if amb.any() and source is not None and N & (N - 1) == 0:
-                    _resolve_exactly(np.flatnonzero(amb), rows[sel], cols, counts, lam, eta,
-                                     amb, rel[rows[sel]], source, dyn, N)
+                # only where the row loses nothing: a row that does is in no end component, and
+                # a leak there costs at most the expected number of steps times itself
+                todo = np.flatnonzero(amb & (lost[rows[sel]] == 0))
+                if todo.size and source is not None and N & (N - 1) == 0:
+                    _resolve_exactly(todo, rows[sel], cols, counts, lam, eta, amb,
+                                     rel[rows[sel]], source, dyn, N)
                     keep = lam > 0
                 self._enclose(P, w, cols, rel[rows[sel]], keys[rows[sel]], N, keep, e_eta,
                               eta, amb, dmax)
