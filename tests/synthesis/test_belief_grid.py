@@ -313,7 +313,8 @@ def test_every_choice_is_on_the_optimistic_side_of_its_exact_belief_successors(
     the exact continuing successors y entry by entry and the target mass below the exact stop
     mass (so the choice's value is below the exact one's, V* being superlinear). Maximising:
     the target mass is at least the exact stop mass (the continuing weights are the float
-    decomposition: docs/synthesis.md says why their rounding is not absorbed)."""
+    decomposition; what proves the maximiser's bound is its enclosure, checked by
+    test_a_maximisers_enclosure_holds_the_exact_belief_successors)."""
     model = random_pomdp(seed)
     prop = 'Pmax=? [ F "goal" ]' if maximize else 'Pmin=? [ F "goal" ]'
     problem = _problem(model, prop)
