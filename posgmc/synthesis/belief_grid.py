@@ -41,7 +41,6 @@ import itertools
 import math
 import time
 from dataclasses import dataclass
-from fractions import Fraction
 
 import numpy as np
 import scipy.sparse as sp
@@ -266,8 +265,7 @@ class _Dynamics:
         k = np.diff(model.transitions.indptr).astype(np.float64)
         dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * _UNIT, initial=0.0))
         self.input_rel = 2.0 * dev / max(1.0 - dev, 0.5)
-        self._exact_rows: dict[int, dict[int, Fraction]] = {}
-        self._dyadic: dict[int, dict[int, tuple[int, int]] | None] = {}
+        self._integer_rows: dict[int, tuple[dict[int, int], int]] = {}
         for a in range(layout.used_actions.size):
             c = np.flatnonzero(c_act == a)
             at = np.full(S, -1, dtype=np.int64)
@@ -295,33 +293,18 @@ class _Dynamics:
         self.row_terms = int(np.diff(model.transitions.indptr).max(initial=0)) + 3
         self.T_stop = np.asarray(model.transitions @ self.target).ravel()
 
-    def exact_row(self, choice: int) -> dict[int, Fraction]:
-        """The exact model's row of ``choice``: the stored probabilities as rationals, scaled
-        to sum to 1 (cached)."""
-        found = self._exact_rows.get(choice)
+    def integer_row(self, choice: int) -> tuple[dict[int, int], int]:
+        """The exact model's row of ``choice`` (its stored probabilities scaled to sum to 1) as
+        integer numerators per column over one integer denominator (cached)."""
+        found = self._integer_rows.get(choice)
         if found is None:
             T = self.model.transitions
             lo, hi = T.indptr[choice], T.indptr[choice + 1]
-            vals = [Fraction(float(p)) for p in T.data[lo:hi]]
-            total = sum(vals, Fraction(0))
-            found = self._exact_rows[choice] = {
-                int(c): v / total for c, v in zip(T.indices[lo:hi].tolist(), vals)}
-        return found
-
-    def dyadic_row(self, choice: int) -> dict[int, tuple[int, int]] | None:
-        """The row of ``choice`` as (numerator, power-of-two denominator) per column when its
-        stored probabilities sum to exactly 1 (then the exact model's row is the stored one,
-        and integer arithmetic is exact on it); None otherwise (cached)."""
-        if choice in self._dyadic:
-            return self._dyadic[choice]
-        T = self.model.transitions
-        lo, hi = T.indptr[choice], T.indptr[choice + 1]
-        ratios = [float(p).as_integer_ratio() for p in T.data[lo:hi]]
-        den = max((d for _, d in ratios), default=1)
-        total = sum(n * (den // d) for n, d in ratios)
-        found = {int(c): r for c, r in zip(T.indices[lo:hi].tolist(), ratios)} \
-            if total == den else None
-        self._dyadic[choice] = found
+            ratios = [float(p).as_integer_ratio() for p in T.data[lo:hi]]
+            den = max((d for _, d in ratios), default=1)  # powers of two: the largest is a
+            nums = [n * (den // d) for n, d in ratios]    # common multiple
+            found = self._integer_rows[choice] = (
+                dict(zip(T.indices[lo:hi].tolist(), nums)), sum(nums))
         return found
 
     def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -634,38 +617,25 @@ def _dominate(E: sp.csr_matrix, G: sp.csr_matrix, Y: sp.csr_matrix,
 
 
 def _exact_part(B: sp.csr_matrix, r: int, choice_of: np.ndarray, states: list[int],
-                dyn: _Dynamics) -> list[int] | list[Fraction]:
-    """The exact continuing vector y*_s = Σ_k B_rk T*_k(s) on ``states``, up to a common
-    positive factor: integers over a common power-of-two denominator when every row used sums
-    to exactly 1 (:meth:`_Dynamics.dyadic_row`), else rationals (the rows scaled,
-    :meth:`_Dynamics.exact_row`)."""
+                dyn: _Dynamics) -> list[int]:
+    """The exact continuing vector y*_s = Σ_k B_rk T*_k(s) on ``states`` (the exact model's
+    rows :meth:`_Dynamics.integer_row`, B's entries as the rationals they are), as integer
+    numerators over one common denominator (a positive factor the triangulation ignores)."""
     lo, hi = B.indptr[r], B.indptr[r + 1]
-    ks, bs = B.indices[lo:hi].tolist(), B.data[lo:hi].tolist()
-    rows = [dyn.dyadic_row(int(choice_of[k])) for k in ks]
-    if all(row is not None for row in rows):
-        terms: list[tuple[int, int, int]] = []  # (state index, numerator, denominator)
-        at = {s: j for j, s in enumerate(states)}
-        for bk, row in zip(bs, rows):
-            assert row is not None
-            bn, bd = float(bk).as_integer_ratio()
-            for s, j in at.items():
-                p = row.get(s)
-                if p is not None:
-                    terms.append((j, bn * p[0], bd * p[1]))
-        den = max((d for _, _, d in terms), default=1)
-        out = [0] * len(states)
-        for j, n, d in terms:
-            out[j] += n * (den // d)
-        return out
-    y = dict.fromkeys(states, Fraction(0))
-    for k, bk in zip(ks, bs):
-        exact = dyn.exact_row(int(choice_of[k]))
-        b = Fraction(bk)
-        for s in states:
-            q = exact.get(s)
-            if q is not None:
-                y[s] += b * q
-    return [y[s] for s in states]
+    terms: list[tuple[int, int, int]] = []  # (state index, numerator, denominator)
+    at = {s: j for j, s in enumerate(states)}
+    for k, bk in zip(B.indices[lo:hi].tolist(), B.data[lo:hi].tolist()):
+        row, total = dyn.integer_row(int(choice_of[k]))
+        bn, bd = float(bk).as_integer_ratio()
+        for s, j in at.items():
+            n = row.get(s)
+            if n is not None:
+                terms.append((j, bn * n, bd * total))
+    den = math.lcm(*(d for _, _, d in terms)) if terms else 1
+    out = [0] * len(states)
+    for j, n, d in terms:
+        out[j] += n * (den // d)
+    return out
 
 
 def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
@@ -674,7 +644,7 @@ def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, coun
                      N: int) -> None:
     """Ambiguous parts (near a face of the triangulation: the float simplex may not hold the
     exact posterior) triangulated in exact rational arithmetic instead, in place: the exact
-    continuing vector y*_s = Σ_k B_k T*_k(s) (the exact model's rows :meth:`_Dynamics.exact_row`,
+    continuing vector y*_s = Σ_k B_k T*_k(s) in integers (:func:`_exact_part`,
     B's entries exact: the vertex belief counts/N with N a power of two, or a deterministic
     rule's state masses), its Freudenthal simplex and weights (the same construction as
     :func:`freudenthal`, ties broken alike), so the part's vertices are the exact
@@ -694,23 +664,26 @@ def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, coun
         # x_j = N Y_j / Y_0 (Y_j the tail sums): floor and remainder in the numerators' ring
         # (integers, or rationals when a row needed scaling), the weights their differences
         tails = [total] * m
-        acc = 0 * total
+        acc = 0
         for j in range(m - 1, 0, -1):
-            acc = acc + ys[j]
+            acc += ys[j]
             tails[j] = acc
-        v = [N] + [int((N * tails[j]) // total) for j in range(1, m)]
-        rem = [0 * total] + [N * tails[j] - v[j] * total for j in range(1, m)]
+        v = [N] + [(N * tails[j]) // total for j in range(1, m)]
+        rem = [0] + [N * tails[j] - v[j] * total for j in range(1, m)]
         order = sorted(range(1, m), key=lambda j: -rem[j])
         dd = [rem[j] for j in order]
-        lam_x = [Fraction(total - dd[0]) / total] + \
-            [Fraction(dd[q - 1] - dd[q]) / total for q in range(1, m - 1)] + \
-            [Fraction(dd[-1]) / total]
-        Y = np.tile(np.asarray(v, dtype=np.int64), (m, 1))
-        for q in range(1, m):
-            Y[q:, order[q - 1]] += 1
-        counts[i, :, :-1] = Y[:, :-1] - Y[:, 1:]
-        counts[i, :, -1] = Y[:, -1]
-        lam[i] = [float(val) for val in lam_x]
+        # each weight a quotient of integers, rounded once (int / int is correctly rounded)
+        nums = [total - dd[0]] + [dd[q - 1] - dd[q] for q in range(1, m - 1)] + [dd[-1]]
+        # vertex q adds the unit vectors of the first q coordinates in the order
+        first = [0] * m  # the vertex from which each coordinate has its unit added
+        for q, j in enumerate(order):
+            first[j] = q + 1
+        rows_q = []
+        for q in range(m):
+            Y = [vj + (1 if 0 < first[j] <= q else 0) for j, vj in enumerate(v)]
+            rows_q.append([Y[j] - Y[j + 1] for j in range(m - 1)] + [Y[m - 1]])
+        counts[i] = rows_q
+        lam[i] = [a / total for a in nums]
         amb[i] = False
         eta[i] = (rel[i] + (m + 4) * _UNIT) * 1.02 + 4.0 * _UNIT
 

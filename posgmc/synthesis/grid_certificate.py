@@ -26,7 +26,8 @@ lost), for any vector W >= 0 and m = the least W over the row's vertices,
 
 (for an expected reward ``top`` is added and the rest scaled by the discount). The right-hand
 side, evaluated with rounding to +inf, is ``R(W)``; the exact operator at W is at most ``R(W)``.
-If ``R(W) <= W`` at every vertex (the maximiser's: every row; the adversary's: some row), then
+If ``R(W) <= W`` at every vertex (the maximiser's: every row; the adversary's: some row; a
+probability's W = 1 needs nothing, V*_n <= 1 anyway), then
 the n-step values V*_n of the belief MDP satisfy V*_n <= W at every vertex by induction
 (V*_{n+1}(v) <= exact operator at V*_n <= R(W) <= W, with V*_n <= cap at the unit beliefs), and
 V* = lim V*_n <= W: the grid's bound for the exact POMDP.
@@ -221,6 +222,14 @@ def _steps(enc: Enclosure, mec_of: np.ndarray, count: int) -> np.ndarray | None:
     return h[rep]
 
 
+def _capped(enc: Enclosure, W: np.ndarray) -> np.ndarray:
+    """Where W needs no check: a probability's 1 (V*_n <= 1 holds anyway, so the induction
+    only needs min(1, R(W)) <= W)."""
+    if enc.probability:
+        return np.asarray(W >= 1.0)
+    return np.zeros(W.shape, dtype=bool)
+
+
 def certified_upper(enc: Enclosure, upper: np.ndarray) -> np.ndarray | None:
     """A vector W >= ``upper`` (float64[>= vertices], the engine's upper values of the float
     abstraction) over the vertices with R(W) <= W checked (the module docstring): W bounds the
@@ -237,8 +246,10 @@ def certified_upper(enc: Enclosure, upper: np.ndarray) -> np.ndarray | None:
         inn = mec_of >= 0
         np.maximum.at(best, mec_of[inn], U[inn])
         U[inn] = best[mec_of[inn]]
+    if enc.probability:
+        U = np.minimum(U, 1.0)
     R = _per_state(enc, bellman_upper(enc, U))
-    over = np.where(R > U, R - U, 0.0)
+    over = np.where((R > U) & ~_capped(enc, U), R - U, 0.0)
     over = np.where(np.isnan(over), np.inf, over)
     if not (over > 0).any():
         return U
@@ -251,7 +262,9 @@ def certified_upper(enc: Enclosure, upper: np.ndarray) -> np.ndarray | None:
             np.isfinite(U), U, 0.0), initial=0.0))
         W = _up(U + d * h * (1.0 + 4.0 * _UNIT))
         W = np.where(np.isnan(W), np.inf, W)
+        if enc.probability:
+            W = np.minimum(W, 1.0)
         R = _per_state(enc, bellman_upper(enc, W))
-        if bool((R <= W).all()):
+        if bool(((R <= W) | _capped(enc, W)).all()):
             return W
     return None
