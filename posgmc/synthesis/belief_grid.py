@@ -1407,8 +1407,16 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             if proven is None:
                 break
             value = float(proven[0])
+            solved_at = float(result.upper[0] if problem.maximize else result.lower[0])
+            # the initial state's own cut-off bound holds too (a certificate may be looser)
+            s0 = int(problem.model.initial_states[0])
+            if problem.maximize and np.isfinite(cutoff[s0]):
+                value = min(value, float(cutoff[s0]))
             tried.append((N, value))
-            exact = abstraction.exact and not abstraction.adversary.any()
+            # the belief MDP itself, and its solution proven as it is (a certificate that had
+            # to raise it, or fell back to the cut-off, leaves finer grids something to do)
+            exact = abstraction.exact and not abstraction.adversary.any() and \
+                sign * value <= sign * solved_at + 1e-9 * max(1.0, abs(solved_at))
             if best is None or sign * value < sign * best.value:
                 best = GridBound(value, N, abstraction.vertices, abstraction.complete, exact, (),
                                  0.0)
