@@ -32,6 +32,7 @@ CASES = (
 def main() -> None:
     sys.path.insert(0, str(ROOT))
     from posgmc import api
+    from posgmc.engines.support_cache import clear_all
     from posgmc.synthesis.options import SynthesisOptions
 
     print("| model | property | CPU s without | CPU s with | increase | wall s (without / "
@@ -41,6 +42,7 @@ def main() -> None:
         model = api.load(ROOT / path)
         row = []
         for bracket in (False, True):
+            clear_all()  # each run as a fresh command: no graph search remembered from the other
             c0, t0 = time.process_time(), time.perf_counter()
             r = api.check(model, properties=[prop],
                           synthesis=SynthesisOptions(bracket=bracket)).results[0]

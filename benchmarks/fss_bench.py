@@ -41,6 +41,12 @@ def _synthesis_path(root: Path, repeat: int) -> None:
     from posgmc.strategies.fss import FiniteStateStrategy
     from posgmc.strategies.product import strategy_product
 
+    try:  # --root may be a checkout from before the searches were remembered
+        from posgmc.engines.support_cache import clear_all
+    except ImportError:
+        def clear_all() -> None:
+            pass
+
     session = api.load(HERE / "models" / "jammer_grid.posg", constants={"N": 20, "B": 2})
     model = api.build(session).model
     view = player_view(model, 0)
@@ -66,6 +72,7 @@ def _synthesis_path(root: Path, repeat: int) -> None:
         make, read, prod = [], [], []
         states = 0
         for _ in range(repeat):
+            clear_all()  # every repetition as a fresh command: no graph search remembered
             a, u = action.copy(), (update * (action[..., None] > 0))
             t0 = time.perf_counter()
             fss = FiniteStateStrategy.from_arrays(

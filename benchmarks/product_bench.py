@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from posgmc import api
+from posgmc.engines.support_cache import clear_all
 from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
@@ -77,6 +78,7 @@ def main() -> None:
         fss = random_strategy(model, k, np.random.default_rng(args.seed + k))
         builds, checks = [], []
         for _ in range(args.repeat):
+            clear_all()  # every repetition as a fresh command: no graph search remembered
             t0 = time.perf_counter()
             product = strategy_product(model, [bind(model, fss)])
             builds.append(time.perf_counter() - t0)

@@ -45,6 +45,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from posgmc import api  # noqa: E402
+from posgmc.engines.support_cache import clear_all  # noqa: E402
 from posgmc.syntax import parser  # noqa: E402
 from posgmc.synthesis.adversaries import enumerate_adversaries  # noqa: E402
 from posgmc.synthesis.double_oracle import RankJob, VersusJob  # noqa: E402
@@ -140,11 +141,13 @@ def main() -> None:
         reference: dict[str, list] = {}  # type: ignore[type-arg]
         single: dict[str, float] = {}
         for label, placement in placements:
+            clear_all()  # a pool's workers fork from here: none inherits remembered searches
             executor = executor_for(problem, placement)
             try:
                 for phase, jobs in phases.items():
                     best: tuple[float, float] | None = None
                     for _ in range(args.repeat):
+                        clear_all()  # no graph search remembered from the last run here
                         out, wall, busy = timed_map(executor, jobs)
                         if phase not in reference:
                             reference[phase] = out

@@ -38,6 +38,7 @@ from scipy.sparse.csgraph import connected_components
 
 from posgmc.engines import kernels, scc
 from posgmc.engines.kernels import graph as graph_kernels
+from posgmc.engines.support_cache import SupportCache, digest
 from posgmc.model.explicit import ExplicitModel
 
 __all__ = [
@@ -66,7 +67,9 @@ class Structure:
     probabilities, so the transpose carries 4 bytes per entry);
     ``row_groups``: int64[S + 1] (the model's own array); ``choice_state``: int32[C] (int64 when S
     does not fit), the state of every choice; ``num_choices``: int64[S] (computed when first
-    read).
+    read); ``key``: the digest of the support (``indptr``, ``indices``, ``row_groups``): two
+    structures with the same key have the same searches (:mod:`posgmc.engines.support_cache`).
+    The transposed arrays are read-only: structures of one support share them.
     """
 
     transitions: sp.csr_matrix
@@ -74,6 +77,7 @@ class Structure:
     back_choices: np.ndarray
     row_groups: np.ndarray
     choice_state: np.ndarray
+    key: bytes = b""
 
     @cached_property
     def num_choices(self) -> np.ndarray:
@@ -90,15 +94,34 @@ class Structure:
 
     @staticmethod
     def build(transitions: sp.csr_matrix, row_groups: np.ndarray) -> Structure:
-        """The structure of a csr matrix whose rows are grouped by ``row_groups``."""
-        back_ptr, back_choices, choice_state = _transposed_pattern(transitions, row_groups)
+        """The structure of a csr matrix whose rows are grouped by ``row_groups`` (the transposed
+        pattern computed once per support: see :data:`_TRANSPOSED`)."""
+        key = digest(transitions.indptr, transitions.indices, row_groups,
+                     int(transitions.shape[1]), int(_compiled(int(transitions.shape[0]))))
+        found = _TRANSPOSED.get(key)
+        if found is None:
+            found = _transposed_pattern(transitions, row_groups)
+            for a in found:
+                a.flags.writeable = False
+            _TRANSPOSED.put(key, found)
+        back_ptr, back_choices, choice_state = found
         return Structure(
             transitions=transitions,
             back_ptr=back_ptr,
             back_choices=back_choices,
             row_groups=row_groups,
             choice_state=choice_state,
+            key=key,
         )
+
+
+def _nbytes(arrays: tuple[np.ndarray | None, ...]) -> int:
+    return sum(a.nbytes for a in arrays if a is not None)
+
+
+_TRANSPOSED: SupportCache[tuple[np.ndarray, np.ndarray, np.ndarray]] = SupportCache(_nbytes)
+"""The transposed pattern of every recently built support (a cache, not configuration): the
+products of a synthesis with strategies of one support, and the chains of one policy, share it."""
 
 
 def _index_dtype(bound: int) -> type[np.signedinteger[Any]]:
@@ -221,8 +244,22 @@ def attractor(
         hit the set when the state joined (a memoryless attractor strategy for existential states),
         -1 elsewhere.
     """
-    if _compiled(g.num_choices_total):
-        return _attractor_compiled(
+    compiled = _compiled(g.num_choices_total)
+    key = digest(
+        g.key or digest(g.transitions.indptr, g.transitions.indices, g.row_groups),
+        int(compiled),
+        _flags(initial),
+        _flags(existential),
+        _flags(candidates),
+        None if allowed is None else _flags(allowed),
+        None if initial_choices is None else _flags(initial_choices),
+        None if preferred is None else np.asarray(preferred, dtype=np.int64),
+    )
+    found = _ATTRACTORS.get(key)
+    if found is None:
+        layers = np.full(g.num_states, -1, dtype=np.int64)
+        search = _attractor_compiled if compiled else _attractor_layered
+        inside, witness = search(
             g,
             initial,
             existential=existential,
@@ -230,8 +267,43 @@ def attractor(
             allowed=allowed,
             initial_choices=initial_choices,
             preferred=preferred,
-            layer=layer,
+            layer=layers,
         )
+        joined = np.flatnonzero(layers >= 0)
+        found = (inside, witness, joined, layers[joined])
+        for a in found:
+            a.flags.writeable = False
+        _ATTRACTORS.put(key, found)
+    inside, witness, joined, joined_layer = found
+    if layer is not None:
+        layer[joined] = joined_layer
+    return inside.copy(), witness.copy()
+
+
+def _flags(a: np.ndarray) -> np.ndarray:
+    """``a`` as bool (a digest must not tell a bool mask from the same mask as int8)."""
+    return np.asarray(a, dtype=bool)
+
+
+_ATTRACTORS: SupportCache[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = SupportCache(
+    _nbytes
+)
+"""Recent attractors by the digest of their structure's support and arguments (a cache, not
+configuration): synthesis repeats the same searches on products of one support."""
+
+
+def _attractor_layered(
+    g: Structure,
+    initial: np.ndarray,
+    *,
+    existential: np.ndarray,
+    candidates: np.ndarray,
+    allowed: np.ndarray | None,
+    initial_choices: np.ndarray | None,
+    preferred: np.ndarray | None,
+    layer: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`attractor` by the numpy search, layer by layer."""
     S = g.num_states
     C = g.num_choices_total
     inside = initial.copy()

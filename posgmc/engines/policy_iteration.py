@@ -22,12 +22,14 @@ and is chosen by the caller:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from posgmc.engines.graph import Structure, almost_sure_reach, attractor, positive_buchi
+from posgmc.engines.support_cache import SupportCache, digest
 from posgmc.engines.system import System
 
 __all__ = ["Grouped", "grouped", "evaluate", "policy_iteration", "policy_values_to_rows"]
@@ -54,6 +56,14 @@ class Grouped:
     @property
     def n(self) -> int:
         return int(self.row_groups.size - 1)
+
+    @cached_property
+    def support(self) -> bytes:
+        """The digest of the matrix's pattern (stored entries, and which of them are zero) and
+        row groups: what the graph searches of :func:`evaluate` and :func:`_prepare_min` read
+        of it (:mod:`posgmc.engines.support_cache`)."""
+        m = self.matrix
+        return digest(m.indptr, m.indices, m.data != 0, self.row_groups, int(m.shape[1]))
 
     def restrict(self, keep: np.ndarray) -> Grouped:
         """The rows with ``keep`` (every state must keep at least one)."""
@@ -104,28 +114,54 @@ def evaluate(gr: Grouped, rows: np.ndarray) -> np.ndarray:
     A = gr.matrix[rows].tocsr()
     b = gr.offset[rows]
     leaks = ~gr.stays[rows]
-    st = _chain_structure(A)
-    everyone = np.ones(n, dtype=bool)
-    none = np.zeros(n, dtype=bool)
-    leaving, _ = attractor(
-        st, none, existential=everyone, candidates=everyone, initial_choices=leaks
-    )
-    trapped = ~leaving
-    collecting, _ = attractor(
-        st, none, existential=everyone, candidates=trapped, initial_choices=trapped & (b > 0)
-    )
-    infinite, _ = attractor(st, collecting & trapped, existential=everyone, candidates=everyone)
-    zero = trapped & ~infinite
-    rest = ~(infinite | zero)
+    infinite, idx = _chain_classes(gr, rows, A, leaks, b > 0)
     x = np.zeros(n)
     x[infinite] = np.inf
-    idx = np.flatnonzero(rest)
     if idx.size:
         sub = A[idx][:, idx]
         M = (sp.identity(idx.size, format="csc") - sub.tocsc()).tocsc()
         sol = spla.spsolve(M, b[idx])
         x[idx] = np.atleast_1d(sol)
     return x
+
+
+def _chain_classes(gr: Grouped, rows: np.ndarray, A: sp.csr_matrix, leaks: np.ndarray,
+                   collects: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(infinite, rest)`` of the chain ``A`` (the rows ``rows`` of ``gr``) for :func:`evaluate`:
+    bool[n] the states that reach a closed part collecting a positive constant, int64[k] the
+    states whose value needs the linear solve (neither infinite nor in a closed part collecting
+    nothing). Graph searches only: remembered per support of the chain (:data:`_CLASSES`)."""
+    key = digest(gr.support, rows, leaks, collects)
+    found = _CLASSES.get(key)
+    if found is None:
+        n = gr.n
+        st = _chain_structure(A)
+        everyone = np.ones(n, dtype=bool)
+        none = np.zeros(n, dtype=bool)
+        leaving, _ = attractor(
+            st, none, existential=everyone, candidates=everyone, initial_choices=leaks
+        )
+        trapped = ~leaving
+        collecting, _ = attractor(
+            st, none, existential=everyone, candidates=trapped, initial_choices=trapped & collects
+        )
+        infinite, _ = attractor(st, collecting & trapped, existential=everyone,
+                                candidates=everyone)
+        zero = trapped & ~infinite
+        found = (infinite, np.flatnonzero(~(infinite | zero)))
+        for a in found:
+            a.flags.writeable = False
+        _CLASSES.put(key, found)
+    return found
+
+
+def _nbytes(arrays: tuple[np.ndarray | None, ...]) -> int:
+    return sum(a.nbytes for a in arrays if a is not None)
+
+
+_CLASSES: SupportCache[tuple[np.ndarray, np.ndarray]] = SupportCache(_nbytes)
+"""The classes of :func:`_chain_classes` of recent chains (a cache, not configuration): the best
+responses of a synthesis evaluate the same few policies on products of one support."""
 
 
 def _row_values(gr: Grouped, x: np.ndarray) -> np.ndarray:
@@ -197,7 +233,37 @@ def _prepare_min(
       strict improvements keep.
 
     Returns ``(rows, fixed)``: the start rows and the minimiser states whose row is final.
+    Graph searches only: remembered per support of the augmented structure (:data:`_SETTLED`).
     """
+    leak = np.maximum(1.0 - np.asarray(gr.matrix.sum(axis=1)).ravel(), 0.0)
+    leak[gr.stays] = 0.0
+    key = digest(gr.support, leak > 0, gr.maximize, gr.offset > 0, int(unbounded))
+    found = _SETTLED.get(key)
+    if found is None:
+        found = _settle_min(gr, unbounded=unbounded)
+        for a in found:
+            if a is not None:
+                a.flags.writeable = False
+        _SETTLED.put(key, found)
+    fixed, idle_rows, start, witness = found
+    rows = np.where(fixed, idle_rows, rows)
+    if start is not None and witness is not None:
+        rows = np.where(start, witness, rows)
+    return rows, fixed.copy()
+
+
+_SETTLED: SupportCache[tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]] = (
+    SupportCache(_nbytes)
+)
+"""The answers of :func:`_settle_min` for recent systems (a cache, not configuration)."""
+
+
+def _settle_min(
+    gr: Grouped, *, unbounded: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """The graph searches of :func:`_prepare_min`: ``(fixed, idle_rows, start, witness)``, bool[n]
+    the minimiser states settled idle and int64[n] their idle row; with ``unbounded`` bool[n] the
+    minimiser states started towards the idle states and int64[n] their row (else None)."""
     n = gr.n
     st = _augmented(gr)
     maximize = np.append(gr.maximize, True)
@@ -217,17 +283,16 @@ def _prepare_min(
     idle_rows = np.full(n + 1, -1, dtype=np.int64)
     idle_rows[st.choice_state[ok[::-1]]] = ok[::-1]
     fixed = (idle & minimisers & (idle_rows >= 0))[:n]
-    rows = np.where(fixed, idle_rows[:n], rows)
-    if unbounded:
-        infinite, _ = positive_buchi(
-            st, positive_rows, np.ones(n + 1, dtype=bool), existential=maximize
-        )
-        goal = idle.copy()
-        goal[n] = True
-        reach, witness = almost_sure_reach(st, goal, ~infinite, existential=minimisers)
-        start = (minimisers & reach & ~goal & (witness >= 0))[:n]
-        rows = np.where(start, witness[:n], rows)
-    return rows, fixed
+    if not unbounded:
+        return fixed, idle_rows[:n], None, None
+    infinite, _ = positive_buchi(
+        st, positive_rows, np.ones(n + 1, dtype=bool), existential=maximize
+    )
+    goal = idle.copy()
+    goal[n] = True
+    reach, witness = almost_sure_reach(st, goal, ~infinite, existential=minimisers)
+    start = (minimisers & reach & ~goal & (witness >= 0))[:n]
+    return fixed, idle_rows[:n], start, witness[:n]
 
 
 def _mdp_pi(

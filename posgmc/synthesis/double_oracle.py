@@ -425,7 +425,7 @@ def _with_milp(problem: Problem, executor: Executor, kept: list[FiniteStateStrat
     now = time.perf_counter()
     found = milp.compose_milp(problem, kept, memory=memory,
                               deadline=None if deadline is None else now + 0.5 * (deadline - now),
-                              bound=composed.value, nodes=nodes)
+                              bound=composed.value, nodes=nodes, incumbent=composed.value)
     if found is None:
         return composed
     sign = problem.sign

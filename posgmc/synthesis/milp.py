@@ -77,12 +77,21 @@ greatest solution capped at hi is then not exact: not offered.
 The answer is a candidate: the caller evaluates its strategy against the kept adversaries (a
 linear solve per product) and the reported numbers come from the sound engines
 (:mod:`posgmc.synthesis.checker`), never from this float optimum.
+
+**The incumbent's probe.** A caller that already holds a defence of value v against the kept
+adversaries only wants a better one. Every defence's worst value is a feasible objective (the
+encodings are exact), so when HiGHS's root node, with v as cutoff, proves that no solution does
+better than v (less :data:`PROBE_MARGIN`), no branch-and-bound could have proposed a defence the
+caller would take: :func:`compose_milp` then returns None at once. The cutoff's presolve,
+propagation and cuts often settle this where the LP relaxation of the big-M rows (value 1 for a
+probability) cannot; when they do not, the full solve runs exactly as without the probe.
 """
 
 from __future__ import annotations
 
 import enum
 import time
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
@@ -234,12 +243,6 @@ class _Program:
         tolerance), so the solve is repeated without presolve, on the original rows,
         which are then the rows HiGHS's tolerance applied to (with a fresh ``node_limit``). A solve
         stopped by ``node_limit`` with an incumbent (scipy's same status 4) is returned as it is."""
-        cost = np.zeros(self.num_vars)
-        cost[objective] = -sense
-        matrix = sp.csr_matrix(
-            (np.concatenate(self.vals), (np.concatenate(self.rows), np.concatenate(self.cols))),
-            shape=(self.num_rows, self.num_vars),
-        )
         res = None
         for presolve in (True, False):
             # HiGHS stops within 1e-4 (relative) of the optimum by default: ask for the optimum
@@ -252,19 +255,68 @@ class _Program:
                 options["time_limit"] = left
             if node_limit is not None:
                 options["node_limit"] = node_limit
-            res = milp(cost, integrality=np.concatenate(self.integer),
-                       bounds=LinearBounds(np.concatenate(self.lower), np.concatenate(self.upper)),
-                       constraints=LinearConstraint(matrix, np.concatenate(self.row_lo),
-                                                    np.concatenate(self.row_hi)),
-                       options=options)
+            res = self._highs(objective, sense, options)
             # scipy reports HiGHS's "solution limit reached" (the node budget ran out, with an
             # incumbent) under the same status: that is an answer, not an error
             if res.status != _SOLVE_ERROR or res.x is not None:
                 return res
         return res
 
+    def cannot_beat(self, objective: int, sense: float, incumbent: float,
+                    deadline: float | None) -> bool:
+        """Whether HiGHS proves, at the root node, that no solution has ``sense`` * column
+        ``objective`` above ``sense * incumbent`` less a margin of :data:`PROBE_MARGIN`
+        (relative): the root with the incumbent as cutoff (HiGHS's ``objective_bound``, which
+        prunes every node that cannot do better), whose presolve, propagation and cuts often
+        settle this where the LP relaxation of the big-M rows (1 for a probability) cannot.
+        False whenever the probe is inconclusive (the root does not settle it, a solve error,
+        the deadline): then the full solve must run."""
+        if not np.isfinite(incumbent):
+            return False
+        margin = PROBE_MARGIN * (1.0 + abs(incumbent))
+        options: dict[str, object] = {"disp": False, "presolve": True, "node_limit": 1,
+                                      "objective_bound": -sense * incumbent + margin}
+        if deadline is not None:
+            left = deadline - time.perf_counter()
+            if left <= 0:
+                return False
+            options["time_limit"] = left
+        with warnings.catch_warnings():
+            # scipy passes HiGHS options it does not know verbatim, with a warning saying so
+            warnings.filterwarnings("ignore", message="Unrecognized options",
+                                    category=RuntimeWarning)
+            res = self._highs(objective, sense, options)
+        if res.status == _INFEASIBLE:
+            return True  # nothing beats the cutoff
+        # "optimal" under a cutoff: the tree is exhausted; a solution it reports that does not
+        # pass the cutoff (HiGHS then returns a feasible point of no interest) means none does
+        return bool(res.status == _OPTIMAL and res.x is not None
+                    and sense * float(res.x[objective]) <= sense * incumbent - margin)
+
+    def _highs(self, objective: int, sense: float, options: dict[str, object]):  # type: ignore[no-untyped-def]
+        """scipy's HiGHS on this program, optimising column ``objective`` in direction
+        ``sense``."""
+        cost = np.zeros(self.num_vars)
+        cost[objective] = -sense
+        matrix = sp.csr_matrix(
+            (np.concatenate(self.vals), (np.concatenate(self.rows), np.concatenate(self.cols))),
+            shape=(self.num_rows, self.num_vars),
+        )
+        return milp(cost, integrality=np.concatenate(self.integer),
+                    bounds=LinearBounds(np.concatenate(self.lower), np.concatenate(self.upper)),
+                    constraints=LinearConstraint(matrix, np.concatenate(self.row_lo),
+                                                 np.concatenate(self.row_hi)),
+                    options=options)
+
 
 _SOLVE_ERROR = 4  # scipy.optimize.milp's status for HiGHS's "solve error" (_Program.solve)
+_OPTIMAL = 0  # scipy.optimize.milp's statuses for an optimum and for an infeasible program
+_INFEASIBLE = 2
+
+PROBE_MARGIN = 1e-5
+"""Relative margin under the incumbent's value at which :meth:`_Program.cannot_beat` cuts off:
+far above HiGHS's tolerances (1e-7 on rows whose big-M coefficients are about 3 for a
+probability), so a defence that beats the incumbent is never pruned by rounding."""
 
 
 def _product(problem: Problem, adversary: FiniteStateStrategy, par: Parametrisation,
@@ -297,7 +349,7 @@ def _product(problem: Problem, adversary: FiniteStateStrategy, par: Parametrisat
 
 def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *, memory: int = 1,
                  deadline: float | None = None, bound: float | None = None,
-                 nodes: int | None = None,
+                 nodes: int | None = None, incumbent: float | None = None,
                  ) -> MilpComposition | None:
     """The best deterministic memoryless defence against ``adversaries`` (module docstring).
 
@@ -310,12 +362,18 @@ def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *
             depend on the machine); None: no limit.
         bound: for ``Rmin [F ψ]``: an upper bound on the optimum (an incumbent's value), needed
             for the flows' big-M; ignored otherwise.
+        incumbent: the value against ``adversaries`` of the defence the caller has (None: none):
+            when HiGHS's root node proves that no deterministic memoryless defence beats it
+            (:meth:`_Program.cannot_beat`), None is returned without branching. Every defence's
+            worst value over the products is a solution's objective (the encodings are exact),
+            so the full solve could not have returned a better one either: the answer is the
+            same, only the branch-and-bound is saved.
 
     Returns:
         The composition, or None when the objective is not supported, there is no adversary, a
         product has an end component (``Rmax``), no finite ``bound`` was given (``Rmin``), the
         program is infeasible (no defence of finite value within the bound) or HiGHS finds no
-        solution before ``deadline``.
+        solution before ``deadline``, or nothing can beat ``incumbent``.
     """
     encoding = encoding_of(problem)
     if not adversaries or encoding is None or problem.adversary is None:
@@ -364,6 +422,8 @@ def compose_milp(problem: Problem, adversaries: Sequence[FiniteStateStrategy], *
         x = _bellman(prog, p, t, sign, problem.discount, lo, hi)
         if encoding == Encoding.RANKING:
             _ranking(prog, p, x)
+    if incumbent is not None and prog.cannot_beat(t, sign, incumbent, deadline):
+        return None
     res = prog.solve(t, sign, deadline, nodes)
     if res is None or res.x is None:
         return None

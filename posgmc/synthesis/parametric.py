@@ -51,6 +51,7 @@ from posgmc.engines.graph import (
 )
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.row_slots import RowSlots
+from posgmc.engines.support_cache import SupportCache, digest
 from posgmc.engines.system import HAVE_KERNELS, accumulate_rows
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view
@@ -309,9 +310,10 @@ class Parametrisation:
         U = np.flatnonzero(unknown)
         if U.size == 0 or not np.isfinite(x[init]):
             return Evaluation(float(x[init]), zero_a, zero_d)
-        PUU = chain[U][:, U].tocsc()
+        rows_u = chain[U]  # selected once: each selection of a small matrix costs scipy ~0.1 ms
+        PUU = rows_u[:, U].tocsc()
         if self.rewards is None:
-            b = np.asarray(chain[U][:, np.flatnonzero(tgt)].sum(axis=1)).ravel()
+            b = np.asarray(rows_u[:, np.flatnonzero(tgt)].sum(axis=1)).ravel()
         else:
             prod_rewards = pm.reward_model(self.query.reward).choice_rewards(pm.row_groups)  # type: ignore[union-attr]
             b = prod_rewards[rows][U]
@@ -547,7 +549,25 @@ def chain_reach(chain: sp.csr_matrix, target: np.ndarray, remain: np.ndarray) ->
     """bool[S]: the states of a Markov chain (square matrix, one row per state) with a path of
     positive probability to ``target`` through ``remain`` (the target included) — the engines'
     ``positive_reach`` on the chain, as one breadth-first search (scipy's, compiled) backwards
-    from a virtual root before every target state, with no per-layer Python step."""
+    from a virtual root before every target state, with no per-layer Python step. Remembered per
+    support of the chain (:data:`_REACHED`): the candidates of a search induce the same few
+    chains' patterns with other probabilities."""
+    key = digest(chain.indptr, chain.indices, chain.data > 0, int(chain.shape[1]),
+                 np.asarray(target, dtype=bool), np.asarray(remain, dtype=bool))
+    found = _REACHED.get(key)
+    if found is None:
+        found = _chain_search(chain, target, remain)
+        found.flags.writeable = False
+        _REACHED.put(key, found)
+    return found.copy()
+
+
+_REACHED: SupportCache[np.ndarray] = SupportCache(lambda a: int(a.nbytes))
+"""The answers of :func:`chain_reach` for recent chains (a cache, not configuration)."""
+
+
+def _chain_search(chain: sp.csr_matrix, target: np.ndarray, remain: np.ndarray) -> np.ndarray:
+    """:func:`chain_reach` by the breadth-first search."""
     S = chain.shape[0]
     coo = sp.coo_matrix(chain)
     edge = (coo.data > 0) & remain[coo.row] & ~target[coo.row]

@@ -260,3 +260,58 @@ def test_a_node_limited_solve_keeps_its_incumbent(monkeypatch: pytest.MonkeyPatc
     assert res is not None and res.x is not None
     assert res.status == 4 and "limit" in res.message  # stopped by the budget, as intended
     assert len(calls) == 1 and calls[0]["presolve"] is True
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), full_observation=st.booleans(),
+       direction=st.sampled_from(["Pmax", "Pmin"]), offset=st.floats(-0.05, 0.05))
+def test_the_incumbent_probe_prunes_only_what_cannot_win(seed: int, full_observation: bool,
+                                                         direction: str, offset: float) -> None:
+    """With the caller's incumbent value, compose_milp returns None only when no deterministic
+    memoryless defence beats it (brute force), and otherwise exactly what it returns without
+    one (the full solve is the same)."""
+    model, problem, adversaries = _looping_case(seed, full_observation,
+                                                f'<<p0>> {direction}=? [ F "goal" ]')
+    sign = problem.sign
+    best, _ = _brute_force(problem, adversaries)
+    incumbent = best - sign * offset  # offset > 0: the best defence beats the incumbent
+    plain = compose_milp(problem, adversaries)
+    probed = compose_milp(problem, adversaries, incumbent=incumbent)
+    if probed is None:
+        assert sign * best <= sign * incumbent + 1e-7
+    else:
+        assert plain is not None
+        assert probed.value == plain.value and np.array_equal(probed.gamma, plain.gamma)
+    if offset > 1e-3:
+        assert probed is not None  # a better defence exists: never pruned
+
+
+def test_the_probe_skips_the_branching_when_nothing_wins(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The loop game of test_ranking_is_needed_on_a_loop (max-min 1/2): against an incumbent of
+    0.6 HiGHS's root proves that no defence wins, so it runs once on one node; against 0.4 the
+    full solve runs and finds the 1/2."""
+    from posgmc.synthesis import milp as milp_module
+
+    rows = [[1, 0, 0], [0, 0.5, 0.5], [0, 1, 0], [0, 0, 1]]
+    model = make_model(ModelType.POSG, [0, 2, 3, 4], np.array(rows, dtype=float),
+                       choice_actions=[1, 2, 3, 3], action_names=("", "a", "b", "x"),
+                       state_players=[0, 1, 1], player_names=("p0", "p1"),
+                       labels={"goal": np.array([False, True, False])},
+                       variable_names=("s",), state_values=np.arange(3)[:, None])
+    assert (model.num_states, model.num_choices) == (3, 4)
+    problem = _problem(model, '<<p0>> Pmax=? [ F "goal" ]')
+    adversaries = enumerate_adversaries(model, 1, memory=1, limit=4).strategies
+    calls = []
+    real = milp_module.milp
+
+    def counted(*args, **kwargs):  # type: ignore[no-untyped-def]
+        calls.append(dict(kwargs["options"]))  # scipy pops from it
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(milp_module, "milp", counted)
+    assert compose_milp(problem, adversaries, incumbent=0.6) is None
+    assert len(calls) == 1 and calls[0]["node_limit"] == 1
+    calls.clear()
+    found = compose_milp(problem, adversaries, incumbent=0.4)
+    assert found is not None and found.value == pytest.approx(0.5, abs=1e-9)
+    assert len(calls) == 2  # the probe, then the solve

@@ -85,3 +85,11 @@ def test_chain_reach_is_the_engines_positive_reach(seed: int, n: int, density: f
     expected = positive_reach(structure_of_chain(P), target, remain,
                               existential=np.ones(n, dtype=bool))
     assert np.array_equal(chain_reach(P, target, remain), expected)
+    # remembered per support: the same pattern with other (positive) probabilities gets the same
+    # answer, other stored zeros do not
+    Q = P.copy()
+    Q.data[Q.data > 0] = rng.uniform(0.5, 1.0, int((Q.data > 0).sum()))
+    assert np.array_equal(chain_reach(Q, target, remain), expected)
+    if P.nnz:
+        Q.data[:] = 0.0
+        assert np.array_equal(chain_reach(Q, target, remain), target)
