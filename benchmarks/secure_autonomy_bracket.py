@@ -8,9 +8,11 @@ Usage::
 
 Every row synthesises ``<<planner>> Pmax=? [ F "retrieved" ]`` with ``api.synthesize(...,
 gap=GAP)`` (the search keeps 70 % of the row's timeout, the belief grid of the one-sided game
-the rest, docs/synthesis.md) and prints the proven bracket ``optimum = [lower, upper]``, its
-gap, what proved the bound side, the wall and CPU seconds of the row and the load average
-before and after it (the machine may be shared: CPU seconds say how much work the row got).
+and then the lower side the rest, docs/synthesis.md) and prints the proven bracket
+``optimum = [lower, upper]``, its gap, what proved the bound side, the planner's memory nodes in
+the reported defence (more than the row's memory when the lower side replaced it), the wall and
+CPU seconds of the row and the load average before and after it (the machine may be shared: CPU
+seconds say how much work the row got).
 Prints a Markdown table on stdout, one row at a time.
 """
 
@@ -62,12 +64,14 @@ def row(name: str, constants: dict[str, str], memory: str, timeout: float, gap: 
     load1 = os.getloadavg()[0]
     o = result.optimum
     const = ",".join(f"{k}={v}" for k, v in constants.items())
+    # the reported defence's memory nodes (more than --memory when --gap's lower side replaced it)
+    nodes = dict(result.memory).get("planner", "-")
     if o is None:
         return f"| {name} | `{const}` | `--memory {memory} --timeout {timeout:g}` | - | - | - | " \
-               f"{wall:.0f} | {cpu:.0f} | {load0:.1f}-{load1:.1f} |"
+               f"{nodes} | {wall:.0f} | {cpu:.0f} | {load0:.1f}-{load1:.1f} |"
     sound = "" if o.sound else " (not sound)"
     return (f"| {name} | `{const}` | `--memory {memory} --timeout {timeout:g}` | "
-            f"[{o.lower:.10g}, {o.upper:.10g}]{sound} | {o.gap:.4f} | {o.method} | "
+            f"[{o.lower:.10g}, {o.upper:.10g}]{sound} | {o.gap:.4f} | {o.method} | {nodes} | "
             f"{wall:.0f} | {cpu:.0f} | {load0:.1f}-{load1:.1f} |")
 
 
@@ -84,9 +88,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--only: no such row (rows: {', '.join(r[0] for r in ROWS)})")
     print(f"`python benchmarks/secure_autonomy_bracket.py --gap {args.gap:g}` "
           f"(seed {args.seed}, {os.cpu_count()} cores):\n")
-    print("| row | `--const` | options | optimum [lower, upper] | gap | bound side | wall s | "
-          "CPU s | load |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| row | `--const` | options | optimum [lower, upper] | gap | bound side | "
+          "defence nodes | wall s | CPU s | load |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name, constants, memory, timeout in rows:
         print(row(name, constants, memory, timeout * args.timeout_scale, args.gap, args.seed),
               flush=True)

@@ -16,7 +16,8 @@ PAYNT 0.5.0 (`python -m paynt DIR --sketch sketch.templ --props sketch.props --f
 the last "optimum" it prints. Prints a markdown table: our guaranteed with its proven bounds, the
 full-observation value, vs_fss_adversary and upper_bound, the adversary phases (enumerated [all] /
 ranked / kept / added by the double oracle; which defence is reported), our time (wall and CPU);
-PAYNT's value and time; who is better.
+PAYNT's value and time ("not run" with --no-paynt or without a reference interpreter, "fails:"
+and its last message when it ran and printed no optimum); who is better.
 
 With --bracket the table is the optimum bracket's instead (docs/synthesis.md): posgmc runs with
 `--gap 0` (the belief grid's budget counted in vertices, times --effort), and on POMDPs Storm's
@@ -37,6 +38,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from _locations import reference_python, shared_benchmarks  # this folder is on sys.path
 
@@ -91,9 +93,13 @@ def ours(directory: Path, effort: float, timeout: float | None,
             "cpu": cpu}
 
 
+NOT_RUN = "not run"
+
+
 def paynt(directory: Path, timeout: float) -> dict[str, object]:
+    """PAYNT's last optimum and time, or its error; ``{"skipped": why}`` when it could not run."""
     if REFPY is None or not REFPY.exists():
-        return {"error": "set POSGMC_REFERENCE_PYTHON (benchmarks/README.md)"}
+        return {"skipped": "set POSGMC_REFERENCE_PYTHON (benchmarks/README.md)"}
     cmd = [str(REFPY), "-m", "paynt", str(directory), "--sketch", "sketch.templ", "--props",
            "sketch.props", "--fsc-synthesis", "--timeout", str(int(timeout))]
     started = time.perf_counter()
@@ -128,6 +134,26 @@ def storm_belief(directory: Path, prop: str, seconds: float) -> dict[str, object
         return {"error": "no result"}
     found: dict[str, object] = json.loads(lines[-1])
     return found
+
+
+def paynt_cells(b: dict[str, Any], guaranteed: Any, maximize: bool) -> tuple[str, str, str]:
+    """The PAYNT columns of a row: its value (or how it failed, or "not run" when it was not run:
+    --no-paynt, no reference interpreter), its seconds, and which tool is better; ``guaranteed``
+    is posgmc's proven Bound, None when posgmc failed."""
+    if "skipped" in b:
+        return NOT_RUN, "-", "-" if guaranteed is None else f"- (PAYNT {NOT_RUN})"
+    theirs = f"{b['value']:.6f}" if "value" in b else f"fails: {b['error']}"
+    seconds = f"{b['seconds']:.1f}" if "seconds" in b else "-"
+    if guaranteed is None:
+        return theirs, seconds, "PAYNT" if "value" in b else "-"
+    if "value" not in b:
+        return theirs, seconds, "posgmc (PAYNT fails)"
+    g = guaranteed
+    diff = (g.lower - b["value"]) if maximize else (b["value"] - g.upper)
+    # equal within the precision of the proven bounds (1e-6 absolute) and PAYNT's printed
+    # digits (6 significant)
+    tol = max(2e-6, 1e-6 * abs(b["value"]))
+    return theirs, seconds, "posgmc" if diff > tol else "PAYNT" if diff < -tol else "equal"
 
 
 def bracket_row(d: Path, effort: float, timeout: float | None) -> str:
@@ -217,12 +243,11 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for d in dirs:
         a = ours(d, args.effort, args.timeout)
-        b = paynt(d, args.paynt_timeout) if not args.no_paynt else {"error": "not run"}
+        b = paynt(d, args.paynt_timeout) if not args.no_paynt else {"skipped": "--no-paynt"}
         prop = str(a["property"]).replace("|", "\\|")
         if "error" in a:
             mine = f"error: {a['error']}"
             full = memory = vs = ub = adversaries = "-"
-            better = "PAYNT" if "value" in b else "-"
         else:
             g = a["guaranteed"]
             mine = f"{g.value:.6f} [{g.lower:.6f}, {g.upper:.6f}]" + (
@@ -234,17 +259,8 @@ def main() -> None:
             ub = f"{a['ub'].value:.6f}" if a["ub"] is not None else "-"
             adversaries = a["adversaries"]
             memory = ", ".join(f"{k or 'agent'}={v}" for k, v in a["memory"].items())
-            if "value" in b:
-                maximize = "max" in prop
-                diff = (g.lower - b["value"]) if maximize else (b["value"] - g.upper)
-                # equal within the precision of the proven bounds (1e-6 absolute) and PAYNT's
-                # printed digits (6 significant)
-                tol = max(2e-6, 1e-6 * abs(b["value"]))
-                better = "posgmc" if diff > tol else "PAYNT" if diff < -tol else "equal"
-            else:
-                better = "posgmc (PAYNT fails)"
-        theirs = f"{b['value']:.6f}" if "value" in b else f"fails: {b['error']}"
-        pt = f"{b['seconds']:.1f}" if "seconds" in b else "-"
+        theirs, pt, better = paynt_cells(b, None if "error" in a else a["guaranteed"],
+                                         "max" in prop)
         print(
             f"| {d.name} | `{prop}` | {mine} | {full} | {vs} | {ub} | {adversaries} | {memory} "
             f"| {a['seconds']:.1f} ({a.get('cpu', 0.0):.1f}) | {theirs} | {pt} | {better} |",

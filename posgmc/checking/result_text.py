@@ -134,7 +134,9 @@ def _how_found(r: PropertyResult, stats: Mapping[str, Any]) -> str:
         what = f"{who}'s strategy"
     composed = stats.get("defence") == "composed"
     source = (f"composed against the {stats.get('adversaries_kept', 0)} strongest adversary "
-              "strategies" if composed else "found by the search")
+              "strategies" if composed else
+              "a belief-based controller built to close the optimum bracket (--gap)"
+              if stats.get("defence") == "belief" else "found by the search")
     proven = r.method.removeprefix("synthesis (").removesuffix(")")
     line = f"  how: {what}, {source}, proven by {proven} iteration" if proven == "interval" else \
         f"  how: {what}, {source}, proven by {proven}"
@@ -175,8 +177,11 @@ def _synthesis_detail(stats: Mapping[str, Any]) -> list[str]:
             f" the {stats['adversaries_kept']} strongest"
             + (f" ({added} added by the double oracle)" if added else "")
             + ("; the composed defence is reported" if stats["defence"] == "composed" else
+               "; a belief-based controller is reported (--gap), not checked against them"
+               if stats["defence"] == "belief" else
                "; the search's defence is reported (the composed one proves no more)")
-            + (f"; 'against the adversaries found' is the composed defence's, over "
+            + ("" if stats["defence"] == "belief" else
+               f"; 'against the adversaries found' is the composed defence's, over "
                f"{stats['vs_adversaries']}" if stats["vs_fss_defence"] != stats["defence"] else
                f"; 'against the adversaries found' is over {stats['vs_adversaries']}"))
     return lines

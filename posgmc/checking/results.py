@@ -204,14 +204,19 @@ class PropertyResult:
         return getattr(self.multi, "front", None)
 
     @builtins.property
-    def headline(self) -> float | None:
-        """The one number a progress report shows for this result: the proven ``guaranteed`` of
-        a synthesis or of given strategies, else the numeric value (None for a Boolean)."""
+    def headline(self) -> Bound | None:
+        """The one number a progress report shows for this result, with its proven bounds (so it
+        prints as the result does): the ``guaranteed`` of a synthesis or of given strategies, else
+        the numeric value (its bounds those of the value, or the value itself where it has none;
+        None for a Boolean)."""
         if self.guaranteed is not None:
-            return float(self.guaranteed.value)
+            return self.guaranteed
         value = self.value
-        return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) \
-            else None
+        if not isinstance(value, (int, float)) or isinstance(value, bool):
+            return None
+        v = float(value)
+        return Bound(v, v if self.lower is None else float(self.lower),
+                     v if self.upper is None else float(self.upper), self.sound, self.converged)
 
     def to_json(self) -> dict[str, Any]:
         """The documented machine-readable form (see docs/cli.md)."""

@@ -10,7 +10,7 @@ from typing import Any, Literal
 
 import click
 
-from posgmc.checking.results import PropertyResult
+from posgmc.checking.results import Bound, PropertyResult
 from posgmc.cli.constants import const_json, const_text, expand_constants
 from posgmc.cli.group import main
 from posgmc.cli.model_commands import build_options
@@ -39,6 +39,7 @@ from posgmc.cli.options import (
 )
 from posgmc.cli.printing import (
     fmt,
+    interrupt_summary,
     json_report,
     outcome_json,
     print_header,
@@ -286,14 +287,30 @@ def _check_points(
                     click.echo(f"wrote {path.path}", err=r.as_json or r.json_lines)
                     if path.note:
                         click.echo(f"  note: {path.note}", err=r.as_json or r.json_lines)
-            if interrupted():
-                # Ctrl-C: the property it cut short reported (and exported) its best verified
-                # defence; no further property or constant setting is checked
-                code = EXIT_INTERRUPTED
-                break
     finally:
         reports.close()  # an early stop cancels the points still running
+    if interrupted():
+        # Ctrl-C: each property it cut short reported (and exported) its best verified defence;
+        # no further property is checked, and a sweep's points not started (or, on Ray, running)
+        # were cancelled: say which points finished, which were cut short, which not
+        code = EXIT_INTERRUPTED
+        if fanned:
+            cancelled = [points[labels.index(name)] for name in spread.cancelled]
+            click.echo(interrupted_points(rows, cancelled, swept), err=True)
     return rows, code
+
+
+def interrupted_points(rows: list[tuple[dict[str, Any], Any]], cancelled: list[dict[str, Any]],
+                       swept: list[str]) -> str:
+    """What an interrupted sweep did: the points that finished (those the interrupt cut short
+    report their best verified defence) and those cancelled."""
+    def text(constants: dict[str, Any]) -> str:
+        return ",".join(f"{n}={const_text(constants[n])}" for n in swept)
+
+    cut = [text(c) for c, report in rows
+           if any(not isinstance(o, tuple) and (o.synthesis or {}).get("cut") == "interrupt"
+                  for o in report.outcomes)]
+    return interrupt_summary([text(c) for c, _ in rows], cut, [text(c) for c in cancelled])
 
 
 def check_point(request: CheckRequest, text: str, constants: dict[str, Any],
@@ -350,6 +367,8 @@ def _write_reports(
     """What covers every point: JUnit, the plot, and the one JSON object or the sweep table
     (a single point's results were shown as they came)."""
     r = request
+    if not rows:  # interrupted before any point finished: nothing to report
+        return
     if r.junit is not None:
         _write_check_junit(r.junit, r.model, swept, rows)
     if r.plot_file is not None:
@@ -358,15 +377,17 @@ def _write_reports(
 
         texts = [({n: const_text(v) for n, v in c.items()}, rep) for c, rep in rows]
         plot_sweeps(sweeps_of_check(swept[0], texts), r.plot_file)
+    sweep = len(rows) + len(spread.cancelled) > 1
     if r.as_json or (r.json_lines and not streaming):
-        click.echo(json.dumps(json_report(r.model, swept, rows, points=spread.to_json())))
+        click.echo(json.dumps(json_report(r.model, swept, rows, points=spread.to_json(),
+                                          sweep=sweep)))
     elif not streaming:
-        print_report(r.model, swept, rows, verbose=r.verbose)
+        print_report(r.model, swept, rows, verbose=r.verbose, sweep=sweep)
 
 
-def _headline(report: Any) -> float | None:
-    """A point's headline number, when it checked one property: the proven ``guaranteed`` of a
-    synthesis or given strategies, else the numeric value."""
+def _headline(report: Any) -> Bound | None:
+    """A point's headline number with its bounds, when it checked one property: the proven
+    ``guaranteed`` of a synthesis or given strategies, else the numeric value."""
     if len(report.outcomes) != 1 or isinstance(report.outcomes[0], tuple):
         return None
     result: PropertyResult = report.outcomes[0]

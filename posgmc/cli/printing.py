@@ -14,7 +14,8 @@ from posgmc.cli.constants import const_json, const_text
 if TYPE_CHECKING:
     from posgmc.api import CheckReport
 
-__all__ = ["fmt", "outcome_json", "json_report", "print_header", "print_outcome", "print_report"]
+__all__ = ["fmt", "interrupt_summary", "outcome_json", "json_report", "print_header",
+           "print_outcome", "print_report"]
 
 
 def outcome_json(r: Any) -> dict[str, Any]:
@@ -25,10 +26,12 @@ def outcome_json(r: Any) -> dict[str, Any]:
 
 def json_report(
     model: str, swept: list[str], rows: Sequence[tuple[Mapping[str, object], CheckReport]],
-    points: Mapping[str, Any] | None = None,
+    points: Mapping[str, Any] | None = None, *, sweep: bool | None = None,
 ) -> dict[str, Any]:
     """``check --json``: one point's report, or a sweep's ``runs`` with ``points``, where the
-    points ran (executor, workers, and the ``"constant point"`` tasks with their seconds)."""
+    points ran (executor, workers, and the ``"constant point"`` tasks with their seconds, and
+    the points an interrupt cancelled); ``sweep``: whether the rows are a sweep's (default: more
+    than one row; an interrupted sweep may have finished one)."""
     def one(constants: Mapping[str, object], report: CheckReport) -> dict[str, Any]:
         stats = report.model.statistics()
         return {
@@ -38,7 +41,7 @@ def json_report(
             "results": [outcome_json(r) for r in report.outcomes],
         }
 
-    if len(rows) == 1:
+    if not (len(rows) > 1 if sweep is None else sweep):
         out = {"model_file": model, **one(*rows[0])}
         return out
     out = {"model_file": model, "swept": swept, "runs": [one(c, r) for c, r in rows]}
@@ -104,11 +107,13 @@ def print_outcome(r: Any, *, verbose: bool = False, seen: set[str] | None = None
 
 def print_report(
     model: str, swept: list[str], rows: Sequence[tuple[Mapping[str, object], CheckReport]],
-    *, verbose: bool = False,
+    *, verbose: bool = False, sweep: bool | None = None,
 ) -> None:
+    """One point's results, or a sweep's table per property (``sweep``: whether the rows are a
+    sweep's; default: more than one row)."""
     first = rows[0][1]
     print_header(model, first.model.statistics(), first.build_seconds, first.warnings)
-    if len(rows) == 1:
+    if not (len(rows) > 1 if sweep is None else sweep):
         seen: set[str] = set()
         for r in first.outcomes:
             print_outcome(r, verbose=verbose, seen=seen)
@@ -122,3 +127,18 @@ def print_report(
             click.echo("\t".join([const_text(constants[n]) for n in swept] + [value]))
             if isinstance(r, tuple):
                 click.echo(r[1].render(), err=True)
+
+
+def interrupt_summary(finished: Sequence[str], cut: Sequence[str],
+                      cancelled: Sequence[str]) -> str:
+    """The line an interrupted sweep or front ends with: the points that finished (``cut``: those
+    of them the interrupt cut short, which report their best verified defence) and the points
+    cancelled (not started, or cut on Ray: no result)."""
+    total = len(finished) + len(cancelled)
+    line = (f"interrupted: {len(finished)} of {total} points finished"
+            + (f" ({'; '.join(finished)})" if finished else ""))
+    if cut:
+        line += f"; cut short, their best verified defence reported: {'; '.join(cut)}"
+    if cancelled:
+        line += f"; cancelled: {'; '.join(cancelled)}"
+    return line

@@ -12,6 +12,7 @@ from posgmc.cli.constants import const_assignments, const_text, single_constants
 from posgmc.cli.group import main
 from posgmc.cli.options import (
     EXIT_ERROR,
+    EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_PROPERTY_FALSE,
     common,
@@ -27,10 +28,11 @@ from posgmc.cli.options import (
     timeout_option,
     zero_based_players_option,
 )
-from posgmc.cli.printing import fmt
+from posgmc.cli.printing import fmt, interrupt_summary
 from posgmc.cli.progress_view import progress_mode, progress_view
 from posgmc.cli.running import guard
 from posgmc.errors import InputError, SourceSpan, SourceText, UnsupportedError
+from posgmc.synthesis.budget import interrupted, interruptible
 
 __all__ = ["pareto"]
 
@@ -163,6 +165,9 @@ def pareto(
         values = [const_text(v) for v in rng.values()]
         # each point a task on the executor; a single point gives it to its synthesis
         inner = where if len(values) == 1 else Placement()
+        # Ctrl-C: the points running wind down and report their best verified defence, the
+        # others are cancelled; the table shows the points that finished, no CSV or plot of
+        # half a sweep is written, and the exit status is 130
         result = sweep(model, prop_text, constant=name, settings=values, constants=others,
                        synthesis=synthesis_options(memory or ("auto",), timeout, seed,
                                                    jobs=inner.workers, effort=effort,
@@ -170,6 +175,8 @@ def pareto(
                                                    ray_address=inner.address),
                        full_observation=full_observation, zero_based_players=zero_based_players,
                        strategy_dir=strategy_dir, also=also, placement=where)
+        if interrupted():
+            return _interrupted_sweep(result)
         _print(result)
         if csv_file is not None:
             atomic_write_text(csv_file, to_csv(result))
@@ -185,9 +192,13 @@ def pareto(
     def shown() -> int:
         # each point of a sweep or front is reported as it completes (the tables come at the end)
         with progress_view(progress_mode(quiet=quiet, lines=progress_lines, json_lines=False)):
-            return run()
+            code = run()
+        # a Ctrl-C the path did not report on (a multi(...) query runs to its end)
+        return EXIT_INTERRUPTED if interrupted() else code
 
-    guard(debug, shown, consts=consts)
+    # the first Ctrl-C asks the sweep or front to wind down (a second aborts)
+    with interruptible():
+        guard(debug, shown, consts=consts)
 
 
 def _multi(model: str, prop_text: str, consts: tuple[str, ...], csv_file: str | None,
@@ -332,6 +343,14 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
     click.echo("each row: one synthesised defence, both numbers proven for it against every "
                "adversary; * = on the front (no other defence found is better on both proven "
                "bounds). The front is what was found, a lower bound on the best trade-off.")
+    if interrupted():
+        # the weights running wound down and report their best verified defence (the rows
+        # marked partial); no CSV or plot of half a front is written
+        done = {p.weight for p in front.points}
+        click.echo(interrupt_summary(
+            [f"w={_weight_text(p.weight)}" for p in front.points], [],
+            [f"w={_weight_text(w)}" for w in [*weights, math.inf] if w not in done]), err=True)
+        return EXIT_INTERRUPTED
     if csv_file is not None:
         atomic_write_text(csv_file, defence_front_to_csv(front))
     if plot_file is not None:
@@ -340,6 +359,10 @@ def _defence(model: str, mission: str, cost: str, weights_text: str | None,
         plot_defence_fronts([("", front)], plot_file)
     failed = any(p.error is not None for p in front.points)
     return EXIT_ERROR if failed else EXIT_OK
+
+
+def _weight_text(w: float) -> str:
+    return "inf" if w == float("inf") else f"{w:g}"
 
 
 def _also_cell(a: Any) -> str:
@@ -374,6 +397,19 @@ def _bound_headers(result: Any) -> tuple[str, str]:
         return "full_observation", "upper_bound"
     full = f"{role_of('full_observation', maximizing=directions[0])} (full_observation)"
     return full, f"{role_of('upper_bound', maximizing=directions[0])} (upper_bound)"
+
+
+def _interrupted_sweep(result: Any) -> int:
+    """An interrupted ``pareto --sweep``: the points that finished, and which were cut short or
+    cancelled."""
+    if result.points:
+        _print(result)
+    finished = [f"{result.constant}={p.setting}" for p in result.points]
+    cut = [f"{result.constant}={p.setting}" for p in result.points
+           if p.result is not None and (p.result.synthesis or {}).get("cut") == "interrupt"]
+    click.echo(interrupt_summary(finished, cut,
+                                 [f"{result.constant}={s}" for s in result.cancelled]), err=True)
+    return EXIT_INTERRUPTED
 
 
 def _print(result: Any) -> None:

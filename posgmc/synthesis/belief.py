@@ -59,11 +59,12 @@ from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.syntax.ast import ProbQuery, RewardQuery
+from posgmc.synthesis.belief_stage import StageDynamics, stage_dynamics
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem, expired
 
-__all__ = ["BeliefController", "belief_controller", "belief_phase", "applies", "cutoff_values",
-           "node_cap", "PRECISION", "can_reach"]
+__all__ = ["BeliefController", "belief_controller", "belief_points", "belief_phase", "applies",
+           "cutoff_values", "node_cap", "PRECISION", "can_reach"]
 
 PRECISION = 1e-9
 """Beliefs whose probabilities agree after rounding to this grid are one memory node."""
@@ -149,41 +150,21 @@ class _Explorer:
         self,
         model: ExplicitModel,
         layout: Layout,
-        obs: np.ndarray,
-        cont: np.ndarray,
-        gain: np.ndarray,
-        rewards: np.ndarray | None,
+        dynamics: StageDynamics,
         discount: float,
-        sign: float,
         cut: np.ndarray,
         upper: np.ndarray,
     ) -> None:
         self.S = model.num_states
         self.mask = layout.mask
         self.Zu, self.Au = layout.mask.shape
-        self.obs = obs  # int64[S]: the strategy's observation index of each state (-1: none)
+        self.obs = dynamics.obs  # int64[S]: the strategy's observation index (-1: none)
         self.discount = discount
         self.cut = cut  # float64[S, kc], signed, -inf where unknown
         self.upper = upper  # float64[S], signed full-observation values
-        self.gain = gain  # float64[S]: signed value of mass that stops there (the target)
-        act_index = np.full(len(model.action_names), -1, dtype=np.int64)
-        act_index[layout.used_actions] = np.arange(layout.used_actions.size)
-        c_act = act_index[model.choice_actions]
-        cs = model.choice_states
-        keep_c = sp.diags(cont.astype(np.float64))
-        self.P: list[sp.csr_matrix] = []  # per action: S x S, continuing columns only
-        self.stop: list[np.ndarray] = []  # per action: float64[S], signed gain of stopping mass
-        self.reward: list[np.ndarray] = []  # per action: float64[S], signed action reward
-        for a in range(self.Au):
-            c = np.flatnonzero(c_act == a)
-            T = model.transitions[c].tocoo()
-            Pa = sp.csr_matrix((T.data, (cs[c][T.row], T.col)), shape=(self.S, self.S))
-            self.stop.append(np.asarray(Pa @ gain).ravel())
-            self.P.append(sp.csr_matrix(Pa @ keep_c))
-            r = np.zeros(self.S)
-            if rewards is not None:
-                r[cs[c]] = sign * rewards[c]
-            self.reward.append(r)
+        self.P = dynamics.P  # per action: S x S, continuing columns only
+        self.stop = dynamics.stop  # per action: float64[S], signed gain of stopping mass
+        self.reward = dynamics.reward  # per action: float64[S], signed action reward
         # nodes: predicted distributions over continuing states
         self.node_key: dict[bytes, int] = {}
         self.num_nodes = 0
@@ -401,13 +382,15 @@ def belief_controller(
     deadline: float | None,
     max_nodes: int | None = None,
     explore: int = MAX_EXPLORED,
+    adversary_rule: np.ndarray | None = None,
 ) -> BeliefController | None:
-    """A belief-based FSS for ``player`` (the only player of a POMDP) that hands over to
-    ``cutoff`` at its frontier.
+    """A belief-based FSS for ``player`` (the only player of a POMDP, or the decision maker of a
+    turn-based game against one omniscient adversary) that hands over to ``cutoff`` at its
+    frontier.
 
     Args:
-        model: the POMDP.
-        player: its agent.
+        model: the POMDP or the game.
+        player: its decision maker.
         cutoff: the strategy handed over to (in the layout of :class:`Layout` for ``model``).
         cut_values: float64[S, k]: ``cutoff``'s value from (s, m) (:func:`cutoff_values`).
         upper: float64[S]: the full-observation values (bounds for any strategy).
@@ -421,18 +404,82 @@ def belief_controller(
         max_nodes: belief memory nodes at most (default :func:`node_cap`).
         explore: belief nodes explored at most (the work budget; at most
             :data:`MAX_EXPLORED`).
+        adversary_rule: on a game, the stage rule the controller assumes for the other
+            player (float64[C], :mod:`posgmc.synthesis.belief_stage`); ``cut_values`` and
+            ``upper`` are then against the omniscient adversary. None on a POMDP.
 
     Returns:
         The controller, or None when there is nothing to explore (the initial state does not
         continue, the cut-off strategy is in another layout, or no node fits the caps).
     """
     layout = Layout.of(model, player)
+    cap = node_cap(model, layout, cutoff.memory_size) if max_nodes is None else max_nodes
+    if cap < 1:
+        return None
+    ex = _explored(model, player=player, cutoff=cutoff, cut_values=cut_values, upper=upper,
+                   target=target, remain=remain, rewards=rewards, discount=discount,
+                   maximize=maximize, deadline=deadline, explore=explore,
+                   adversary_rule=adversary_rule)
+    if ex is None:
+        return None
+    return _freeze(ex, cutoff, cap, deadline, 1.0 if maximize else -1.0)
+
+
+def belief_points(
+    model: ExplicitModel,
+    *,
+    player: int,
+    cutoff: FiniteStateStrategy,
+    cut_values: np.ndarray,
+    upper: np.ndarray,
+    target: np.ndarray,
+    remain: np.ndarray,
+    rewards: np.ndarray | None,
+    discount: float,
+    maximize: bool,
+    deadline: float | None,
+    explore: int = MAX_EXPLORED,
+    adversary_rule: np.ndarray | None = None,
+) -> sp.csr_matrix | None:
+    """The belief nodes :func:`belief_controller` explores with the same arguments, as rows
+    (float64, nodes x S, each the predicted distribution over the continuing states where the
+    decision maker acts next, in the order they were found: the initial one first); None when
+    there is nothing to explore."""
+    ex = _explored(model, player=player, cutoff=cutoff, cut_values=cut_values, upper=upper,
+                   target=target, remain=remain, rewards=rewards, discount=discount,
+                   maximize=maximize, deadline=deadline, explore=explore,
+                   adversary_rule=adversary_rule)
+    if ex is None:
+        return None
+    node, _, w = ex.arrays()
+    B = ex.belief_matrix()
+    # a node's distribution: its beliefs (one per observation) weighted by their probability
+    W = sp.csr_matrix((w, (node, np.arange(node.size))), shape=(ex.num_nodes, node.size))
+    return sp.csr_matrix(W @ B)
+
+
+def _explored(
+    model: ExplicitModel,
+    *,
+    player: int,
+    cutoff: FiniteStateStrategy,
+    cut_values: np.ndarray,
+    upper: np.ndarray,
+    target: np.ndarray,
+    remain: np.ndarray,
+    rewards: np.ndarray | None,
+    discount: float,
+    maximize: bool,
+    deadline: float | None,
+    explore: int,
+    adversary_rule: np.ndarray | None,
+) -> _Explorer | None:
+    """The belief MDP explored as :func:`belief_controller` describes (None: nothing to
+    explore)."""
+    layout = Layout.of(model, player)
     view = player_view(model, player)
     if (cutoff.actions != tuple(model.action_names[a] for a in layout.used_actions)
             or not np.array_equal(cutoff.observation_values, view.obs_values[layout.used_obs])):
-        return None
-    cap = node_cap(model, layout, cutoff.memory_size) if max_nodes is None else max_nodes
-    if cap < 1:
         return None
     sign = 1.0 if maximize else -1.0
     if rewards is None:
@@ -442,17 +489,20 @@ def belief_controller(
     else:
         cont = ~target
         gain = np.zeros(model.num_states)
-    s0 = int(model.initial_states[0])
-    if model.initial_states.size != 1 or not cont[s0]:
+    if model.initial_states.size != 1 or not cont[int(model.initial_states[0])]:
         return None
-    obs_index = np.full(view.num_observations, -1, dtype=np.int64)
-    obs_index[layout.used_obs] = np.arange(layout.used_obs.size)
-    obs = obs_index[view.state_obs]
+    dynamics = stage_dynamics(model, player, cont=cont, gain=gain, rewards=rewards,
+                              discount=discount, sign=sign, rule=adversary_rule)
+    first = np.flatnonzero(dynamics.initial > 0)
+    if not first.size:
+        return None
     cut = sign * cut_values
     cut = np.where(np.isnan(cut), -np.inf, cut)
     up = np.where(np.isnan(upper), np.inf, sign * upper)
-    ex = _Explorer(model, layout, obs, cont, gain, rewards, discount, sign, cut, up)
-    ex.add_nodes(sp.csr_matrix(([1.0], ([0], [s0])), shape=(1, model.num_states)))
+    ex = _Explorer(model, layout, dynamics, discount, cut, up)
+    p0 = dynamics.initial[first]
+    ex.add_nodes(sp.csr_matrix((p0 / p0.sum(), (np.zeros(first.size, dtype=np.int64), first)),
+                               shape=(1, model.num_states)))
     # explore more nodes than an FSS holds: the policy reaches a part of them
     limit = min(explore, MAX_EXPLORED)
     now = time.perf_counter()
@@ -489,7 +539,7 @@ def belief_controller(
         if not pick.size:
             break  # the hand-over is as good as the optimistic value everywhere left
         ex.expand(np.sort(pick))
-    return _freeze(ex, cutoff, cap, deadline, sign)
+    return ex
 
 
 def _freeze(ex: _Explorer, cutoff: FiniteStateStrategy, cap: int, deadline: float | None,

@@ -41,6 +41,7 @@ import itertools
 import math
 import time
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 import scipy.sparse as sp
@@ -238,7 +239,6 @@ class _Dynamics:
         self.preferred = adversary_rules  # int64[S]: a choice per state (the first rule tried)
         # the rules of each support seen (many vertices share one support)
         self._rules: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        self._entries: dict[bytes, tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         if problem.rewards is None:
             # mass that cannot reach the target any more (within ``remain``) is worth 0
             self.cont = problem.remain & ~problem.target & can_reach(model, problem.target,
@@ -321,52 +321,53 @@ class _Dynamics:
             found = self._rules[key] = self._rules_of(states)
         return found
 
-    def rule_entries(self, states: np.ndarray, per_state: np.ndarray
-                     ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`rules` at a vertex on ``states`` as sparse entries (once per support): the
-        number of rules k, and per entry its rule, its global choice, its probability and the
-        index in ``states`` of the choice's state (``per_state``: each model state's choice
-        count)."""
-        key = states.tobytes()
-        found = self._entries.get(key)
-        if found is None:
-            cols, probs = self.rules(states)
-            r, c = np.nonzero(probs)
-            at = np.repeat(np.arange(states.size), per_state[states])[c]
-            found = self._entries[key] = (probs.shape[0], r, cols[c], probs[r, c], at)
-        return found
-
     def _rules_of(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rg = self.model.row_groups
         lo, hi = rg[states], rg[states + 1]
         n = hi - lo
         cols = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())])
         offset = np.r_[0, np.cumsum(n)[:-1]]
-        varying = np.flatnonzero(n > 1)
-        if float(np.prod(n[varying].astype(np.float64))) <= RULE_CAP:
-            picks = list(itertools.product(*[range(int(n[i])) for i in varying.tolist()]))
-            det = np.tile(lo, (len(picks), 1))
-            if varying.size:
-                det[:, varying] += np.asarray(picks, dtype=np.int64)
-        else:
-            base = lo.copy() if self.preferred is None else np.where(
-                (self.preferred[states] >= lo) & (self.preferred[states] < hi),
-                self.preferred[states], lo)
-            out = [base]
-            for i in varying.tolist():
-                for c in range(int(lo[i]), int(hi[i])):
-                    if c != base[i] and len(out) < RULE_CAP:
-                        rule = base.copy()
-                        rule[i] = c
-                        out.append(rule)
-            det = np.stack(out)
+        det = _deterministic_picks(n, self._base(states, lo, hi)[None])[0]
         k = det.shape[0]
-        local = det - lo + offset  # column of each state's chosen choice
-        probs = np.zeros((k + (1 if varying.size else 0), cols.size))
-        probs[np.repeat(np.arange(k), states.size), local.ravel()] = 1.0
-        if varying.size:
+        varying = n > 1
+        probs = np.zeros((k + (1 if varying.any() else 0), cols.size))
+        probs[np.repeat(np.arange(k), states.size), (det + offset).ravel()] = 1.0
+        if varying.any():
             probs[k] = np.repeat(1.0 / n, n)
         return cols, probs
+
+    def _base(self, states: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """The local index of each state's preferred choice (its first where none is given),
+        elementwise for ``states`` of any shape."""
+        if self.preferred is None:
+            return np.zeros(states.shape, dtype=np.int64)
+        pref = self.preferred[states]
+        out: np.ndarray = np.where((pref >= lo) & (pref < hi), pref - lo, 0)
+        return out
+
+
+def _deterministic_picks(n: np.ndarray, base: np.ndarray) -> np.ndarray:
+    """The adversary's deterministic rules (:meth:`_Dynamics.rules`) at vertices whose support
+    states offer ``n`` (int64[m]) choices each: int64[g, k, m], rule r's local choice per state
+    at each of the g vertices. All combinations when there are at most :data:`RULE_CAP` (the
+    same at every vertex, in lexicographic order over the states with a choice); else the
+    preferred rule ``base`` (int64[g, m], local indices) and its one-state deviations, state by
+    state, each state's other choices in their order, the first RULE_CAP in all."""
+    g, m = base.shape
+    varying = np.flatnonzero(n > 1)
+    if float(np.prod(n[varying].astype(np.float64))) <= RULE_CAP:
+        combos = list(itertools.product(*[range(int(n[i])) for i in varying.tolist()]))
+        picks = np.asarray(combos, dtype=np.int64).reshape(len(combos), varying.size)
+        det = np.zeros((picks.shape[0], m), dtype=np.int64)
+        det[:, varying] = picks
+        return np.broadcast_to(det, (g,) + det.shape).copy()
+    # deviation j sets state who[j] to its alt[j]-th choice other than the preferred one
+    who = np.repeat(varying, n[varying] - 1)[:RULE_CAP - 1]
+    alt = np.concatenate([np.arange(int(n[i]) - 1) for i in varying.tolist()])[:RULE_CAP - 1]
+    det = np.repeat(base[:, None, :], 1 + who.size, axis=1)
+    at = base[:, who]
+    det[:, 1 + np.arange(who.size), who] = alt + (alt >= at)
+    return det
 
 
 class _Grid:
@@ -534,7 +535,8 @@ def _up(v: np.ndarray) -> np.ndarray:
 def _entry_rounding(terms: np.ndarray, input_rel: float) -> np.ndarray:
     """A bound, relative to the computed value, on how far a continuing successor entry (or a
     stop mass, or a reward) of the exact model lies from its float: the float sum's own
-    rounding (:func:`_rounding`, doubled for the adversary's rules, a product more), the
+    rounding (:func:`_rounding`, doubled for the adversary's rules: a product more, and the
+    exact rule's distance to the stored one, :func:`_rational_rule`), the
     stored rows' distance to the exact ones (``input_rel``), and the vertex belief's (counts/N
     is exact for N a power of two, one rounding otherwise)."""
     return 2.0 * _rounding(terms) + input_rel + 2.0 * _UNIT
@@ -616,21 +618,71 @@ def _dominate(E: sp.csr_matrix, G: sp.csr_matrix, Y: sp.csr_matrix,
     return sp.csr_matrix(sp.diags(kappa) @ E)
 
 
-def _exact_part(B: sp.csr_matrix, r: int, choice_of: np.ndarray, states: list[int],
-                dyn: _Dynamics) -> list[int]:
-    """The exact continuing vector y*_s = Σ_k B_rk T*_k(s) on ``states`` (the exact model's
-    rows :meth:`_Dynamics.integer_row`, B's entries as the rationals they are), as integer
+@dataclass(frozen=True, eq=False)
+class _Source:
+    """What a maximiser's choices' successors are made of, for :func:`_resolve_exactly`: the
+    rows D = B T with ``B`` csr float64[rows, columns], ``choice_of`` the model choice of each
+    column. Without ``rule`` B's entries are exact as stored (vertex beliefs counts/N, N a
+    power of two). With it (an adversary's rows: ``rule`` and ``mass`` csr in B's layout, B
+    = rule · mass entrywise, rounded) the exact row is the rational rule of
+    :func:`_rational_rule` (each state's probabilities normalised to sum to 1 exactly) times
+    the states' exact masses: a rule the adversary may play, so offering it only restricts the
+    minimising adversary; its entries lie within a few units of roundoff of B's (covered by the
+    doubled rounding of :func:`_entry_rounding`)."""
+
+    B: sp.csr_matrix
+    choice_of: np.ndarray
+    mass: sp.csr_matrix | None = None
+    rule: sp.csr_matrix | None = None
+
+    def entries(self, r: int, dyn: _Dynamics) -> list[tuple[int, Fraction]]:
+        """Row ``r``'s exact entries: (column, its exact rational weight)."""
+        B = self.B
+        lo, hi = B.indptr[r], B.indptr[r + 1]
+        cols = B.indices[lo:hi].tolist()
+        if self.rule is None or self.mass is None:
+            return [(k, Fraction(b)) for k, b in zip(cols, B.data[lo:hi].tolist())]
+        states = dyn.model.choice_states[self.choice_of[B.indices[lo:hi]]].tolist()
+        probs = _rational_rule(self.rule.data[lo:hi].tolist(), states)
+        return [(k, Fraction(p) * q)
+                for k, p, q in zip(cols, self.mass.data[lo:hi].tolist(), probs)]
+
+
+_SIMPLE_DENOMINATOR = 1000
+"""Rule probabilities within a few units of roundoff of a fraction with at most this
+denominator are taken as that fraction (a grid rule's are such fractions: its posterior is then
+the grid vertex exactly, not a hair off it)."""
+
+
+def _rational_rule(probs: list[float], states: list[int]) -> list[Fraction]:
+    """A randomised rule's stored probabilities (each state's summing to 1 up to a few units of
+    roundoff: every rule here is normalised by its float sum) as an exact rule: each
+    probability the simple fraction it rounds (:data:`_SIMPLE_DENOMINATOR`) or else its float's
+    own value, then divided by its state's sum, so that each state's probabilities sum to 1
+    exactly and each lies within (n + 4) u of the float (n the state's choices)."""
+    near: list[Fraction] = []
+    for x in probs:
+        q = Fraction(x)
+        simple = q.limit_denominator(_SIMPLE_DENOMINATOR)
+        near.append(simple if abs(simple - q) <= q * 4 * Fraction(_UNIT) else q)
+    total: dict[int, Fraction] = {}
+    for s, q in zip(states, near):
+        total[s] = total.get(s, Fraction(0)) + q
+    return [q / total[s] for s, q in zip(states, near)]
+
+
+def _exact_part(source: _Source, r: int, states: list[int], dyn: _Dynamics) -> list[int]:
+    """The exact continuing vector y*_s = Σ_k B*_rk T*_k(s) on ``states`` (the exact model's
+    rows :meth:`_Dynamics.integer_row`, B*'s entries :meth:`_Source.entries`), as integer
     numerators over one common denominator (a positive factor the triangulation ignores)."""
-    lo, hi = B.indptr[r], B.indptr[r + 1]
     terms: list[tuple[int, int, int]] = []  # (state index, numerator, denominator)
     at = {s: j for j, s in enumerate(states)}
-    for k, bk in zip(B.indices[lo:hi].tolist(), B.data[lo:hi].tolist()):
-        row, total = dyn.integer_row(int(choice_of[k]))
-        bn, bd = float(bk).as_integer_ratio()
+    for k, bk in source.entries(r, dyn):
+        row, total = dyn.integer_row(int(source.choice_of[k]))
         for s, j in at.items():
             n = row.get(s)
             if n is not None:
-                terms.append((j, bn * n, bd * total))
+                terms.append((j, bk.numerator * n, bk.denominator * total))
     den = math.lcm(*(d for _, _, d in terms)) if terms else 1
     out = [0] * len(states)
     for j, n, d in terms:
@@ -640,24 +692,18 @@ def _exact_part(B: sp.csr_matrix, r: int, choice_of: np.ndarray, states: list[in
 
 def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
                      lam: np.ndarray, eta: np.ndarray, amb: np.ndarray, rel: np.ndarray,
-                     source: tuple[sp.csr_matrix, np.ndarray, np.ndarray], dyn: _Dynamics,
-                     N: int) -> None:
+                     source: _Source, dyn: _Dynamics, N: int) -> None:
     """Ambiguous parts (near a face of the triangulation: the float simplex may not hold the
     exact posterior) triangulated in exact rational arithmetic instead, in place: the exact
     continuing vector y*_s = Σ_k B_k T*_k(s) in integers (:func:`_exact_part`,
-    B's entries exact: the vertex belief counts/N with N a power of two, or a deterministic
-    rule's state masses), its Freudenthal simplex and weights (the same construction as
-    :func:`freudenthal`, ties broken alike), so the part's vertices are the exact
-    decomposition's and each weight is the float of the exact one. Rows whose B is not exact
-    (a randomised rule's products) stay ambiguous."""
-    B, choice_of, exact_rows = source
+    B*'s entries exact: the vertex belief counts/N with N a power of two, times an adversary's
+    rule as the rational rule it stands for, :class:`_Source`), its Freudenthal simplex and
+    weights (the same construction as :func:`freudenthal`, ties broken alike), so the part's
+    vertices are the exact decomposition's and each weight is the float of the exact one."""
     m = cols.shape[1]
     for i in parts.tolist():
-        r = int(rows[i])
-        if not exact_rows[r]:
-            continue
         states = cols[i].tolist()
-        ys = _exact_part(B, r, choice_of, states, dyn)
+        ys = _exact_part(source, int(rows[i]), states, dyn)
         total = sum(ys)
         if total <= 0:
             continue
@@ -716,7 +762,7 @@ class _Choices:
     def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, lost: np.ndarray,
             reward: np.ndarray, D: sp.csr_matrix, terms: np.ndarray, dyn: _Dynamics, grid: _Grid,
             block: np.ndarray | None = None,
-            source: tuple[sp.csr_matrix, np.ndarray, np.ndarray] | None = None) -> None:
+            source: _Source | None = None) -> None:
         """Choices ``keys`` whose continuing successor distributions are the rows of ``D``:
         each row split into its groups (one per observation of the decision maker's states, one
         for the others; a convex decomposition, so the bound stays sound), each part normalised
@@ -726,8 +772,7 @@ class _Choices:
         ``D`` is kept as the successors the abstraction must dominate. ``block`` (int64 per
         row, ascending; default all 0): rows of different blocks are as if added by separate
         calls, one block after the other (the order new grid vertices are numbered in).
-        ``source`` (a maximiser's, for :func:`_resolve_exactly`): ``D`` = B T as (csr B, the
-        model choice of each column of B, bool per row: B's entries are exact)."""
+        ``source`` (a maximiser's, for :func:`_resolve_exactly`): what ``D`` is made of."""
         self.key.append(keys)
         self.action.append(action)
         self.stop.append(stop)
@@ -987,7 +1032,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                         np.asarray(Ba @ dyn.stop[a]).ravel(), np.asarray(Ba @ dyn.lost[a]).ravel(),
                         np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a],
                         np.diff(Ba.indptr) + dyn.row_terms, dyn, grid,
-                        source=(Ba, dyn.choice_of[a], np.ones(sel.size, dtype=bool)))
+                        source=_Source(Ba, dyn.choice_of[a]))
         theirs = done + np.flatnonzero(~mine)
         if theirs.size and deadline is not None and time.perf_counter() > deadline:
             skipped.extend(theirs.tolist())  # the adversary's vertices are cut off
@@ -1004,42 +1049,72 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
                        first_local: int, mixtures: Mixtures | None = None) -> None:
     """The choices of the adversary's ``vertices`` (one per decision rule :meth:`_Dynamics.rules`
     tries there, then the randomised rules ``mixtures`` offers there), added to ``choices``
-    together: one block per vertex."""
-    per_state = np.diff(dyn.model.row_groups)
-    keys, block, r_parts, c_parts, v_parts, probs = [], [], [], [], [], []
-    n_rows = 0
-    for v in vertices.tolist():
-        states, p = grid.rows[v], grid.vals[v]
-        k, r, c, prob, at = dyn.rule_entries(states, per_state)
-        extra = None if mixtures is None else mixtures.at(states, p, grid.N)
-        if extra is not None:
+    together: one block per vertex, the vertices in the given order and each one's rules in the
+    order of :meth:`_Dynamics.rules`.
+
+    Vertices whose support states offer the same numbers of choices share the structure of their
+    rules, so the entries are laid out for each such group at once (:func:`_rule_entries`);
+    only the randomised rules of ``mixtures`` are looked up vertex by vertex."""
+    rg = dyn.model.row_groups
+    per_state = np.diff(rg)
+    states_of = [grid.rows[v] for v in vertices.tolist()]
+    mass_of = [grid.vals[v] for v in vertices.tolist()]
+    sizes = np.fromiter((s.size for s in states_of), dtype=np.int64, count=len(states_of))
+    # per group of vertices: each entry's vertex (its position), rule, global choice, the rule's
+    # probability of the choice and its state's belief mass
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+    rules_at = np.zeros(vertices.size, dtype=np.int64)
+    for m in np.unique(sizes).tolist():
+        at_m = np.flatnonzero(sizes == m)
+        St = np.stack([states_of[i] for i in at_m.tolist()]).astype(np.int64)
+        Pm = np.stack([mass_of[i] for i in at_m.tolist()])
+        n_all = per_state[St]
+        shapes, which = np.unique(n_all, axis=0, return_inverse=True)
+        for j in range(shapes.shape[0]):
+            sel = np.flatnonzero(which.ravel() == j)
+            k, vi, r, col, prob, p_s = _rule_layout(dyn, shapes[j], St[sel], Pm[sel])
+            parts.append((at_m[sel][vi], r, col, prob, p_s))
+            rules_at[at_m[sel]] = k
+    extras: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+    if mixtures is not None:
+        for i, (states, p) in enumerate(zip(states_of, mass_of)):
+            extra = mixtures.at(states, p, grid.N)
+            if extra is None:
+                continue
             cols, _ = dyn.rules(states)
             owner = np.repeat(np.arange(states.size), per_state[states])
             r2, c2 = np.nonzero(extra[:MIX_CAP])
-            r = np.r_[r, k + r2]
-            c = np.r_[c, cols[c2]]
-            prob = np.r_[prob, extra[r2, c2]]
-            at = np.r_[at, owner[c2]]
-            k += min(extra.shape[0], MIX_CAP)
-        r_parts.append(r + n_rows)
-        probs.append(prob)
-        c_parts.append(c)
-        v_parts.append(prob * p[at])  # a rule's weight times the state's mass
-        keys.append(v * choices.span + first_local + np.arange(k))
-        block.append(np.full(k, v, dtype=np.int64))
-        n_rows += k
-    W_all = sp.csr_matrix((np.concatenate(v_parts), (np.concatenate(r_parts),
-                                                      np.concatenate(c_parts))),
+            extras.append((i, r2 + rules_at[i], cols[c2], extra[r2, c2], p[owner[c2]]))
+            rules_at[i] += min(extra.shape[0], MIX_CAP)
+    # each vertex's rows in the given order of the vertices
+    first_row = np.r_[0, np.cumsum(rules_at)[:-1]]
+    n_rows = int(rules_at.sum())
+    rows = [first_row[pos] + r for pos, r, _, _, _ in parts]
+    cols_ = [c for _, _, c, _, _ in parts]
+    probs = [q for _, _, _, q, _ in parts]
+    masses = [p_s for _, _, _, _, p_s in parts]
+    for i, r2, c2, q2, p2 in extras:
+        rows.append(first_row[i] + r2)
+        cols_.append(c2)
+        probs.append(q2)
+        masses.append(p2)
+    # the same layout three times: each entry's weight, its rule's probability, its state's mass
+    r_all, c_all = np.concatenate(rows), np.concatenate(cols_)
+    where = sp.csr_matrix((np.arange(1, r_all.size + 1, dtype=np.float64), (r_all, c_all)),
                           shape=(n_rows, dyn.model.num_choices))
-    # a row's state masses are exact where its rule is deterministic (each factor 1)
-    rule_rows = np.concatenate(r_parts)
-    exact = np.ones(n_rows, dtype=bool)
-    np.logical_and.at(exact, rule_rows, np.concatenate(probs) == 1.0)
-    choices.add(np.concatenate(keys), np.full(n_rows, -1, dtype=np.int64),
+    perm = where.data.astype(np.int64) - 1
+    q_all, p_all = np.concatenate(probs)[perm], np.concatenate(masses)[perm]
+    W_all = sp.csr_matrix((q_all * p_all, where.indices, where.indptr), shape=where.shape)
+    rule = sp.csr_matrix((q_all, where.indices, where.indptr), shape=where.shape)
+    mass = sp.csr_matrix((p_all, where.indices, where.indptr), shape=where.shape)
+    owner_row = np.repeat(np.arange(vertices.size), rules_at)
+    local = np.arange(n_rows) - first_row[owner_row]
+    choices.add(vertices[owner_row] * choices.span + first_local + local,
+                np.full(n_rows, -1, dtype=np.int64),
                 np.asarray(W_all @ dyn.T_stop).ravel(), np.asarray(W_all @ dyn.T_lost).ravel(),
                 np.asarray(W_all @ dyn.choice_reward).ravel(), W_all @ dyn.T_cont,
-                np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=np.concatenate(block),
-                source=(W_all, np.arange(dyn.model.num_choices), exact))
+                np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=vertices[owner_row],
+                source=_Source(W_all, np.arange(dyn.model.num_choices), mass, rule))
 
 
 def _caps(cutoff: np.ndarray, probability: bool) -> np.ndarray:
@@ -1105,6 +1180,49 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
         clean=np.r_[~amb_row & (lost == 0), np.zeros(n_cut, dtype=bool)],
         infinite=np.r_[np.zeros(n_exp, dtype=bool), cut_infinite],
         adversary=adversary, probability=probability, discount=discount)
+
+
+def _rule_entries(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
+                  ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The rules of :meth:`_Dynamics.rules` at g vertices whose supports ``states`` (int64[g, m])
+    offer ``n`` (int64[m]) choices per state, with belief masses ``mass`` (float64[g, m]), as
+    entries: the number of rules k per vertex, then per entry (vertex by vertex, rule by rule,
+    each rule's choices in their order) its vertex (0..g-1), its rule, its global choice and its
+    weight (the rule's probability of the choice times its state's mass)."""
+    k, vi, r, col, prob, p_s = _rule_layout(dyn, n, states, mass)
+    return k, vi, r, col, prob * p_s
+
+
+def _rule_layout(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
+                 ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_rule_entries` with each entry's weight as its two factors: the rule's
+    probability of the choice and the belief mass of the choice's state."""
+    rg = dyn.model.row_groups
+    g, m = states.shape
+    lo = rg[states]
+    det = _deterministic_picks(n, dyn._base(states, lo, rg[states + 1]))  # [g, k, m]
+    k_det = det.shape[1]
+    varying = bool((n > 1).any())
+    k = k_det + (1 if varying else 0)
+    e = int(n.sum()) if varying else m  # entries per rule at most: the uniform mixture's
+    col = np.zeros((g, k, e), dtype=np.int64)
+    prob = np.zeros((g, k, e))
+    w = np.zeros((g, k, e))
+    real = np.zeros((k, e), dtype=bool)
+    col[:, :k_det, :m] = lo[:, None, :] + det
+    prob[:, :k_det, :m] = 1.0
+    w[:, :k_det, :m] = mass[:, None, :]
+    real[:k_det, :m] = True
+    if varying:
+        owner = np.repeat(np.arange(m), n)
+        within = np.arange(e) - np.r_[0, np.cumsum(n)[:-1]][owner]
+        col[:, k_det, :] = lo[:, owner] + within
+        prob[:, k_det, :] = (1.0 / n)[owner]
+        w[:, k_det, :] = mass[:, owner]
+        real[k_det, :] = True
+    vi, r, _ = np.nonzero(np.broadcast_to(real, (g, k, e)))
+    keep = np.broadcast_to(real, (g, k, e))
+    return k, vi, r, col[keep], prob[keep], w[keep]
 
 
 def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarray,
@@ -1264,7 +1382,9 @@ def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.nd
     bound side per state) and the per-state ``cutoff`` bounds at the unit beliefs
     (:func:`posgmc.synthesis.stage_lp.stage_rule`), and against the one-step estimate from the
     same bounds (:func:`posgmc.synthesis.stage_lp.one_step_rule`: it reaches posteriors the
-    abstraction has not explored yet). In breadth-first order until ``deadline`` or ``limit``
+    abstraction has not explored yet), and the rules whose posterior is a grid vertex itself
+    (:func:`_grid_rules`: nothing leaks to the decision maker through a decomposition, where
+    both estimates are flat). In breadth-first order until ``deadline`` or ``limit``
     vertices. Returns how many new rules were added and at how many vertices LPs were solved."""
     dyn = _Dynamics(problem, None)
     V = abstraction.vertices
@@ -1293,11 +1413,46 @@ def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.nd
         if (rg[states + 1] - rg[states]).max() <= 1:
             continue  # nothing to randomise
         solved += 1
-        for rule in (stage_lp.one_step_rule(data, step, p, cols, owner),
+        for rule in (*_grid_rules(dyn, cols, owner, p, abstraction.resolution),
+                     stage_lp.one_step_rule(data, step, p, cols, owner),
                      stage_lp.stage_rule(data, states, p, cols, owner)):
             if rule is not None and mixtures.add(states, p, abstraction.resolution, rule):
                 added += 1
     return added, solved
+
+
+GRID_TARGETS = 8
+"""Combinations of target vertices tried for one adversary vertex's grid rules at most."""
+
+
+def _grid_rules(dyn: _Dynamics, cols: np.ndarray, owner: np.ndarray, p: np.ndarray,
+                resolution: int) -> list[np.ndarray | None]:
+    """Randomised rules at an adversary vertex (belief ``p`` over the states owning ``cols``)
+    whose posterior is a grid vertex in every observation group of the successors
+    (:func:`posgmc.synthesis.stage_lp.grid_rule`): the targets are the vertices of the simplex
+    around the uniform mixture's posterior (the grid beliefs near what randomising gives), the
+    combinations over the groups in the order of their weights, at most :data:`GRID_TARGETS`."""
+    if resolution <= 0:
+        return []
+    J = sp.csr_matrix(sp.diags(p[owner]) @ dyn.T_cont[cols])
+    n = np.bincount(owner)
+    y = np.asarray(J.T @ (1.0 / n[owner])).ravel()
+    succ = np.flatnonzero(y > 0)
+    if not succ.size:
+        return []
+    groups: list[list[tuple[float, np.ndarray, np.ndarray]]] = []
+    for g in np.unique(dyn.group[succ]).tolist():
+        states = succ[dyn.group[succ] == g]
+        part = y[states] / y[states].sum()
+        counts, lam = freudenthal(part, resolution)
+        order = np.argsort(-lam, kind="stable")
+        # the whole group's states: those outside the vertex's support must get no mass
+        groups.append([(float(lam[i]), states, counts[i] / resolution) for i in order.tolist()])
+    out: list[np.ndarray | None] = []
+    for combo in itertools.islice(itertools.product(*groups), GRID_TARGETS):
+        targets = [(states, belief) for _, states, belief in combo]
+        out.append(stage_lp.grid_rule(J, owner, targets))
+    return out
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.observables import with_boolean_observables
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
-from posgmc.synthesis import progress
+from posgmc.synthesis import lower_side, progress
 from posgmc.synthesis.bracket import (
     DEFAULT_VERTICES,
     GAP_SHARE,
@@ -308,7 +308,8 @@ class SynthesisChecker:
         full-observation value cannot, and is unknown in between.
 
         The phases, in order: the search and the adversary phases (:meth:`_search_phase`), the
-        optimum bracket (:func:`_bracket_phase`), the reported numbers (:func:`_shown_numbers`),
+        optimum bracket (:func:`_bracket_phase`), under ``--gap`` its achievable side refined
+        (:meth:`_lower_phase`), the reported numbers (:func:`_shown_numbers`),
         the answer (:meth:`_answer`), then the note and the statistics that explain it."""
         if not isinstance(expr, (ProbQuery, RewardQuery)):
             raise UnsupportedError(
@@ -322,6 +323,7 @@ class SynthesisChecker:
         run = self._check_run(expr, player, text)
         searched = self._search_phase(run)
         bracket = _bracket_phase(run, searched)
+        searched, bracket = self._lower_phase(run, searched, bracket)
         shown = _shown_numbers(run, searched)
         answer = self._answer(expr, shown, bracket.optimum)
         result, adversaries = searched.result, searched.adversaries
@@ -425,6 +427,53 @@ class SynthesisChecker:
             result.phases.update(adversaries.phases)
         return _Searched(result, search_sharpening, adversaries, where, cut)
 
+    def _lower_phase(self, run: _CheckRun, searched: _Searched, bracket: _Bracket
+                     ) -> tuple[_Searched, _Bracket]:
+        """Under ``--gap``, when the bracket is still wider: strategies with more memory over
+        the reported defence (:mod:`posgmc.synthesis.lower_side`: policy graphs, on a POMDP
+        belief controllers) until the rest of the budget; one
+        whose sound check against every adversary proves more becomes the reported defence (the
+        numbers about the old one against the enumerated adversaries are dropped, not
+        carried over), and the bracket's achievable side moves with it."""
+        optimum, gap = bracket.optimum, run.settings.gap
+        if gap is None or optimum is None or gap.met(optimum.lower, optimum.upper) \
+                or not lower_side.applies(run.problem):
+            return searched, bracket
+        result, adversaries = searched.result, searched.adversaries
+        defence = adversaries.defence if adversaries else result.strategy
+        g = adversaries.guaranteed if adversaries else result.guaranteed
+        if not g.sound or not optimum.sound:
+            return searched, bracket
+        maximize = run.problem.maximize
+        t0 = time.perf_counter()
+        progress.report("lower side")
+        clock = run.clock
+        found = lower_side.close_from_below(
+            run.problem, defence, g, bound=optimum.upper if maximize else optimum.lower,
+            gap=gap, nodes=run.settings.budget.default("belief_nodes"), deadline=clock.end,
+            verify=lambda f: _proven(StrategyChecker(
+                self.model, {f.player: f}, coalition_of=self.coalition_of, scalar=self.scalar,
+                options=_until(self.options, clock.end)).check(run.bare, text="synthesis")
+                .guaranteed))
+        result.phases["lower side"] = time.perf_counter() - t0
+        stats = dict(bracket.stats, lower_side=found.to_json())
+        if found.strategy is None or found.guaranteed is None:
+            return searched, _Bracket(optimum, stats)
+        new, g_new = found.strategy, found.guaranteed
+        result = dataclasses.replace(result, strategy=new, guaranteed=g_new)
+        if adversaries is not None:
+            adversaries = dataclasses.replace(
+                adversaries, defence=new, guaranteed=g_new, vs=None, worst=None, composed=None,
+                vs_from_composed=False,
+                stats=dict(adversaries.stats, defence="belief", vs_fss_defence="belief",
+                           composed_sharpening=None))
+        optimum = dataclasses.replace(
+            optimum, lower=g_new.lower if maximize else optimum.lower,
+            upper=optimum.upper if maximize else g_new.upper, sound=optimum.sound and g_new.sound)
+        searched = dataclasses.replace(searched, result=result, adversaries=adversaries,
+                                       search_sharpening=None)
+        return searched, _Bracket(optimum, stats)
+
     def _answer(self, expr: ProbQuery | RewardQuery, shown: _ShownNumbers,
                 optimum: Optimum | None) -> _Answer:
         """The property's answer: ``guaranteed`` for a query; for a threshold, true when
@@ -527,6 +576,9 @@ class SynthesisChecker:
                                                         bracket.optimum.upper)
         if adversaries is not None:
             stats.update(adversaries.stats)
+        lower = bracket.stats.get("lower_side")
+        if isinstance(lower, dict) and lower.get("improved"):
+            stats["defence"] = "belief"  # the lower side's controller replaced the defence
         # what was sharpened of the reported defence (the composed one's, when it is reported)
         composed_sharpening = stats.pop("composed_sharpening", None)
         sharpening = composed_sharpening if stats.get("defence") == "composed" else \
@@ -553,6 +605,12 @@ class _AdversaryOutcome:
     partial: bool
     phases: dict[str, float]
     stats: dict[str, object]
+
+
+def _proven(bound: Bound | None) -> Bound:
+    """A check's ``guaranteed`` (the decision maker's strategy is given, so it has one)."""
+    assert bound is not None  # noqa: S101 - the decision maker's strategy is given
+    return bound
 
 
 def _without_threshold(expr: ProbQuery | RewardQuery) -> ProbQuery | RewardQuery:
@@ -613,8 +671,11 @@ def _bracket_phase(run: _CheckRun, searched: _Searched) -> _Bracket:
     ub = adversaries.ub if adversaries is not None else None
     now = time.perf_counter()
     vertices = GAP_VERTICES if run.settings.gap is not None else DEFAULT_VERTICES
+    # with --gap the lower side (:meth:`SynthesisChecker._lower_phase`) keeps the end of the cap
+    end = run.clock.at(1.0 - lower_side.SHARE) if run.settings.gap is not None \
+        and lower_side.applies(run.problem) else run.clock.end
     optimum, stats = optimum_of(run.problem, g, result.full_observation, ub,
-                                deadline=run.clock.end, gap=run.settings.gap,
+                                deadline=end, gap=run.settings.gap,
                                 vertices=int(vertices * run.settings.effort))
     result.phases["optimum bound"] = time.perf_counter() - now
     return _Bracket(optimum, stats)
@@ -653,7 +714,7 @@ def _shown_numbers(run: _CheckRun, searched: _Searched) -> _ShownNumbers:
         maximizing=run.bare.direction is Direction.MAX)
     g = ordered["guaranteed"] or g
     maximize = run.bare.direction is Direction.MAX
-    progress.report("done", best=g.lower if maximize else g.upper, proven=g.sound)
+    progress.report("done", best=g.lower if maximize else g.upper, proven=g.sound, bound=g)
     return _ShownNumbers(g, ordered["vs_fss_adversary"], ordered["upper_bound"],
                          ordered["full_observation"], defence, worst)
 

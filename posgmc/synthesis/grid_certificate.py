@@ -32,7 +32,10 @@ the n-step values V*_n of the belief MDP satisfy V*_n <= W at every vertex by in
 (V*_{n+1}(v) <= exact operator at V*_n <= R(W) <= W, with V*_n <= cap at the unit beliefs), and
 V* = lim V*_n <= W: the grid's bound for the exact POMDP.
 
-W is built from the engine's upper values U: on every end component made of *clean* rows
+W is built from the engine's upper values U (on a game, for the maximiser's rows and one
+least row per adversary vertex: the adversary needs only one row to pass, and its other rules
+would merge end components across beliefs of different values): on every end component made
+of *clean* rows
 (certified parts only, nothing to the target) W is the largest U over it, so that the rows that
 stay inside give R(W) = m = W exactly (no rounding: m plus an exact zero); elsewhere
 W = U + d h, with h the largest expected number of steps before the target, the sink or such an
@@ -155,18 +158,41 @@ def _per_state(enc: Enclosure, R: np.ndarray) -> np.ndarray:
     return np.where(enc.adversary, lo, hi)
 
 
-def _components(enc: Enclosure) -> tuple[np.ndarray, int]:
-    """The end components the clean rows can keep to: (int64[vertices] component or -1, count)."""
+def _usable_rows(enc: Enclosure, U: np.ndarray) -> np.ndarray:
+    """The rows W is built for (bool[rows]): every row of the maximiser, and at each of the
+    adversary's vertices one row least at the engine's values U (R(U) rounded as checked). The
+    adversary needs only one row with R(W) <= W, so building W for its best one suffices, and
+    its other rules (a deterministic one that tells the decision maker everything) neither join
+    the end components W is levelled on nor lengthen the steps its raise is scaled by."""
+    usable = ~enc.adversary[enc.state]
+    theirs = np.flatnonzero(~usable)
+    if not theirs.size:
+        return usable
+    with np.errstate(invalid="ignore"):
+        R = bellman_upper(enc, np.where(np.isfinite(U), U, np.inf))
+    R = np.where(np.isnan(R), np.inf, R)
+    # per adversary vertex the first of its least rows (rows of a vertex in ascending order)
+    order = theirs[np.lexsort((theirs, R[theirs], enc.state[theirs]))]
+    first = np.r_[True, enc.state[order][1:] != enc.state[order][:-1]]
+    usable[order[first]] = True
+    return usable
+
+
+def _components(enc: Enclosure, usable: np.ndarray) -> tuple[np.ndarray, int]:
+    """The end components the clean ``usable`` rows can keep to: (int64[vertices] component or
+    -1, count)."""
     V = enc.vertices
-    if not enc.clean.any():
+    rows = enc.clean & usable
+    if not rows.any():
         return np.full(V, -1, dtype=np.int64), 0
-    mec_of, count, _ = end_components(enc.coef, enc.state, enc.clean)
+    mec_of, count, _ = end_components(enc.coef, enc.state, rows)
     return np.asarray(mec_of, dtype=np.int64), int(count)
 
 
-def _steps(enc: Enclosure, mec_of: np.ndarray, count: int) -> np.ndarray | None:
-    """h per vertex: the largest expected number of rows taken (either player maximising it)
-    before a row without vertices, or an end component of ``mec_of``, is reached; those count 0
+def _steps(enc: Enclosure, mec_of: np.ndarray, count: int, usable: np.ndarray
+           ) -> np.ndarray | None:
+    """h per vertex: the largest expected number of ``usable`` rows taken (either player
+    maximising it) before a row without vertices, or an end component of ``mec_of``, is reached; those count 0
     (an end component's vertices share its own exits' count, found on the quotient where it is
     one state whose rows are its members' rows that leave it)."""
     V = enc.vertices
@@ -181,7 +207,7 @@ def _steps(enc: Enclosure, mec_of: np.ndarray, count: int) -> np.ndarray | None:
         leaves = np.zeros(enc.state.size, dtype=bool)
         np.logical_or.at(leaves, coef.row, col != owner[coef.row])
         inside = (mec_of[enc.state] >= 0) & ~leaves & enc.clean
-    keep = ~inside
+    keep = ~inside & usable
     kept = np.flatnonzero(keep)
     new_row = np.full(enc.state.size, -1, dtype=np.int64)
     new_row[kept] = np.arange(kept.size)
@@ -240,7 +266,8 @@ def certified_upper(enc: Enclosure, upper: np.ndarray) -> np.ndarray | None:
     U = np.where(np.isnan(U), np.inf, U)
     if enc.probability:
         U = np.maximum(U, 0.0)
-    mec_of, count = _components(enc)
+    usable = _usable_rows(enc, U)
+    mec_of, count = _components(enc, usable)
     if count:
         best = np.full(count, -np.inf)
         inn = mec_of >= 0
@@ -253,7 +280,7 @@ def certified_upper(enc: Enclosure, upper: np.ndarray) -> np.ndarray | None:
     over = np.where(np.isnan(over), np.inf, over)
     if not (over > 0).any():
         return U
-    h = _steps(enc, mec_of, count)
+    h = _steps(enc, mec_of, count, usable)
     if h is None:
         return None
     d0 = float(over.max())

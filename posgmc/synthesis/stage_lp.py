@@ -27,12 +27,13 @@ whatever the LP returns.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
 
-__all__ = ["StageData", "OneStep", "stage_rule", "one_step_rule", "MAX_POINTS"]
+__all__ = ["StageData", "OneStep", "stage_rule", "one_step_rule", "grid_rule", "MAX_POINTS"]
 
 MAX_POINTS = 4_000
 """Abstraction vertices offered to one LP at most (the nearest are not chosen: the first found;
@@ -185,6 +186,70 @@ def one_step_rule(data: StageData, step: OneStep, p: np.ndarray, cols: np.ndarra
     if res.status != 0 or res.x is None:
         return None
     return _rule(np.asarray(res.x[:k], dtype=np.float64), owner, n_states)
+
+
+def grid_rule(J: sp.csr_matrix, owner: np.ndarray, targets: list[tuple[np.ndarray, np.ndarray]]
+              ) -> np.ndarray | None:
+    """A randomised rule of the adversary whose posterior is exactly on the grid: float64
+    [J.shape[0]] (the same form as :func:`stage_rule`), or None when none exists or it is
+    deterministic. ``J`` csr float64[choices, S]: each choice's continuing successors weighted
+    by its state's belief mass; ``owner[j]``: the index of choice j's state; ``targets``: per
+    observation group of the successors, (int64 state ids, float64 belief on them), and the rule
+    must put the group's mass on the states in exactly those proportions (any total mass).
+
+    A successor belief that is a grid vertex itself is not decomposed, so the decision maker
+    learns nothing from the abstraction that it would not learn in the game: an adversary that
+    keeps the decision maker guessing (a guard that re-randomises its lane after every peek)
+    needs such rules, or every decomposition hands the decision maker a little information, and
+    a decision maker that may wait collects it all. Found by a feasibility LP (HiGHS); whether
+    the rule helps is for the sound solve of the abstraction to say."""
+    k = J.shape[0]
+    n_states = int(owner.max()) + 1
+    Jd = J.tocsc()
+    rows: list[np.ndarray] = []
+    for g, (states, belief) in enumerate(targets):
+        # Σ_c J[c, s] π_c - t_g belief(s) = 0 for every state s of the group
+        block = np.zeros((states.size, k + len(targets)))
+        block[:, :k] = Jd[:, states].toarray().T
+        block[:, k + g] = -belief
+        rows.append(block)
+    A_rule = np.zeros((n_states, k + len(targets)))
+    A_rule[owner, np.arange(k)] = 1.0
+    A = np.vstack(rows + [A_rule])
+    b = np.r_[np.zeros(A.shape[0] - n_states), np.ones(n_states)]
+    try:
+        res = linprog(np.zeros(A.shape[1]), A_eq=A, b_eq=b, bounds=(0, None), method="highs")
+    except ValueError:
+        return None
+    if res.status != 0 or res.x is None:
+        return None
+    rule = _rule(np.asarray(res.x[:k], dtype=np.float64), owner, n_states)
+    if rule is None:
+        return None
+    # HiGHS meets the equations to its tolerance (~1e-9), which would leave the posterior just
+    # off the vertex (decomposed, a tiny leak, and a decision maker that may wait collects every
+    # leak); the nearest simple fractions usually meet them exactly in floating point
+    for denominator in (8, 64, 1000):
+        simple = np.asarray([float(Fraction(x).limit_denominator(denominator)) for x in rule])
+        total = np.bincount(owner, weights=simple, minlength=n_states)
+        if (total <= 0).any():
+            continue
+        exact: np.ndarray = simple / total[owner]
+        if _on_target(np.asarray(J.T @ exact).ravel(), targets):
+            return exact
+    return rule
+
+
+def _on_target(y: np.ndarray, targets: list[tuple[np.ndarray, np.ndarray]]) -> bool:
+    """Whether the successor mass ``y`` (float64[S]) is, group by group, proportional to the
+    target beliefs up to float noise (well inside the grid's snapping of near-integer
+    coordinates, so that the posterior is taken as the vertex itself)."""
+    for states, belief in targets:
+        part = y[states]
+        mass = part.sum()
+        if mass > 0 and np.abs(part / mass - belief).max() > 1e-14:
+            return False
+    return True
 
 
 def _rule(x: np.ndarray, owner: np.ndarray, n_states: int) -> np.ndarray | None:

@@ -266,8 +266,8 @@ def defence_front(
             if strategy_dir is not None and done.strategy is not None:
                 done = _written(done, strategy_dir, write_strategy)
             points.append(done)
-            progress.point_done(f"w={_fmt_weight(done.weight)}", None if done.mission is None
-                                else float(done.mission.value), len(points), len(every))
+            progress.point_done(f"w={_fmt_weight(done.weight)}", done.mission, len(points),
+                                len(every))
     finally:
         results.close()
         _BUILT.clear()

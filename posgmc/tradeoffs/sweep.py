@@ -57,12 +57,15 @@ class SweepPoint:
 
 @dataclass(frozen=True, eq=False)
 class Sweep:
-    """The points of one property over one swept constant, in sweep order."""
+    """The points of one property over one swept constant, in sweep order; ``cancelled``: the
+    settings an interrupt (Ctrl-C) left without a point (not started, or cut on Ray), after
+    ``points``."""
 
     constant: str
     property: str
     points: tuple[SweepPoint, ...]
     also: tuple[str, ...] = ()
+    cancelled: tuple[str, ...] = ()
 
 
 def sweep(
@@ -99,7 +102,7 @@ def sweep(
         The sweep; a point whose property fails keeps its error (the others go on, as in PRISM).
     """
     from posgmc import api
-    from posgmc.synthesis.fanout import each_result
+    from posgmc.synthesis.fanout import Spread, each_result
     from posgmc.synthesis.tasks import Placement
 
     # the model's text travels to the workers (a cluster's nodes need not see the file); a
@@ -108,8 +111,9 @@ def sweep(
     calls = [(str(path), text, prop, constant, setting, dict(constants or {}), synthesis,
               full_observation, zero_based_players, tuple(also)) for setting in settings]
     points: list[SweepPoint] = []
+    spread = Spread()
     results = each_result(sweep_point, calls, placement or Placement(),
-                          labels=[f"{constant}={s}" for s in settings])
+                          labels=[f"{constant}={s}" for s in settings], spread=spread)
     try:
         for point in results:
             if strategy_dir is not None and point.result is not None and point.result.strategies:
@@ -121,7 +125,8 @@ def sweep(
     finally:
         results.close()
     _raise_common_error(points)
-    return Sweep(constant, prop, tuple(points), tuple(also))
+    cancelled = tuple(str(settings[len(points) + i]) for i in range(len(spread.cancelled)))
+    return Sweep(constant, prop, tuple(points), tuple(also), cancelled)
 
 
 def sweep_point(path: str, text: str, prop: str, constant: str, setting: Any,

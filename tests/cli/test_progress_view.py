@@ -16,6 +16,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from posgmc.cli import main
@@ -140,3 +141,147 @@ def test_a_check_sweep_reports_each_point_as_it_completes(tmp_path: Path) -> Non
                                                                     for i in (1, 2, 3)]
     assert [round(e["best"], 9) for e in events] == [0.1, 0.5, 0.9]
     assert "runs" in objects[-1]  # then the sweep's one JSON object, as --json prints it
+
+
+# by hand: x=0 stays with probability q, reaches x=1 with 0.375, else x=2: P(F x=1) = 0.375/(1-q),
+# 0.5 at q=0.25 and 0.75 at q=0.5; interval iteration stops near, not at, those values
+LOOP = """dtmc
+const double q;
+module m x : [0..2] init 0;
+  [] x=0 -> q:(x'=0) + 0.375:(x'=1) + 0.625-q:(x'=2); [] x>0 -> true;
+endmodule
+"""
+
+
+def test_a_sweep_point_prints_its_number_as_the_table_does(tmp_path: Path) -> None:
+    """A point's progress line shows the shortest decimal inside the proven interval, the same
+    text as the sweep's table, not the iteration's raw point (e.g. 0.7499998924)."""
+    path = tmp_path / "loop.prism"
+    path.write_text(LOOP)
+    args = ["check", str(path), "--prop", "P=? [ F x=1 ]", "--const", "q=0.25:0.25:0.5"]
+    raw = json.loads(CliRunner().invoke(main, [*args, "--json"]).stdout)
+    values = [run["results"][0]["value"] for run in raw["runs"]]
+    assert values != [0.5, 0.75]  # the raw numbers are not the short ones: the test can fail
+    r = CliRunner().invoke(main, [*args, "--progress"])
+    assert r.exit_code == 0, r.output
+    table = [line.split("\t")[1] for line in r.stdout.splitlines() if line.startswith("0.")]
+    assert table == ["0.5", "0.75"]
+    done = [x for x in r.stderr.splitlines() if x.startswith("sweep: point ")]
+    assert [x.split(" | ")[1] for x in done] == [f"guaranteed {t}" for t in table]
+    r = CliRunner().invoke(main, [*args, "--json-lines"])
+    events = [json.loads(x)["progress"] for x in r.stdout.splitlines() if '"progress"' in x]
+    # JSON keeps full precision, with the proven bounds the text was shortened within
+    assert [e["best"] for e in events] == values
+    assert all(e["bound"]["lower"] <= e["best"] <= e["bound"]["upper"] for e in events)
+
+
+def _children(pid: int) -> list[int]:
+    """The child processes of ``pid`` (forked by any of its threads)."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            found += [int(c) for c in (task / "children").read_text().split()]
+        except OSError:  # the thread ended
+            pass
+    return found
+
+
+@pytest.mark.parametrize(("command", "jobs"), [("check", 1), ("check", 2), ("pareto", 2)])
+def test_ctrl_c_during_a_sweep_reports_finished_cut_and_cancelled_points(
+        tmp_path: Path, command: str, jobs: int) -> None:
+    """SIGINT to the process group (as a terminal's Ctrl-C) during a check --const or a pareto
+    --sweep, in one process or on a local pool: exit 130; each point cut short reports its best
+    verified defence in the table; a line on stderr names the points finished, cut short and
+    cancelled, which together are the sweep's four points (models/beacon with its budget B left
+    open)."""
+    if not Path("/proc/self/task").exists():
+        pytest.skip("finds the pool's workers through /proc")
+    model = tmp_path / "budget.posg"
+    text = (ROOT / "models" / "beacon" / "beacon.posg").read_text()
+    assert "const int B = 1;" in text
+    model.write_text(text.replace("const int B = 1;", "const int B;"))
+    out, err = tmp_path / "out.txt", tmp_path / "err.txt"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    with out.open("w") as o, err.open("w") as e:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "posgmc", command, str(model), "--prop",
+             '<<rover>> Pmax=? [ F "safe" ]', "--const" if command == "check" else "--sweep",
+             "B=0:3", "--memory", "1",
+             "--effort", "500", "--jobs", str(jobs), "--progress"],
+            stdout=o, stderr=e, env=env, start_new_session=True)
+        try:
+            if jobs == 1:
+                _wait_for(err, "gradient search", 60)
+            else:
+                end = time.monotonic() + 60
+                while len(_children(proc.pid)) < jobs and time.monotonic() < end:
+                    time.sleep(0.05)
+                assert len(_children(proc.pid)) == jobs
+                time.sleep(1.0)  # the workers are into their points' searches
+            os.killpg(proc.pid, signal.SIGINT)
+            code = proc.wait(timeout=120)
+        finally:
+            # the whole group: a pool's workers must not outlive a failed test
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+    assert code == 130, err.read_text()
+    summary = [x for x in err.read_text().splitlines() if x.startswith("interrupted: ")]
+    assert len(summary) == 1, err.read_text()
+    line = summary[0]
+    finished = line.split(" points finished (")[1].split(")")[0].split("; ")
+    cut = line.split("defence reported: ")[1].split("; cancelled")[0].split("; ")
+    cancelled = line.split("cancelled: ")[1].split("; ") if "cancelled: " in line else []
+    # the points running when interrupted (one per job) were cut short and still reported
+    assert finished == [f"B={b}" for b in range(len(finished))] and len(finished) >= jobs
+    assert cut == finished[:len(cut)] and len(cut) >= jobs
+    assert finished + cancelled == [f"B={b}" for b in range(4)] and cancelled
+    assert f"{len(finished)} of 4 points finished" in line
+    rows = [x.split() for x in out.read_text().splitlines() if x[:1].isdigit()]
+    assert [r[0] for r in rows] == [f.split("=")[1] for f in finished]
+    # every reported number is proven: a memoryless rover guesses the exit, 0.5 (beacon's README)
+    assert all(r[1] == "0.5" for r in rows)
+
+
+def test_ctrl_c_during_a_defence_front_reports_its_weights_and_writes_no_csv(
+        tmp_path: Path) -> None:
+    """SIGINT to the process group during pareto --cost on a pool of two: exit 130, the weights
+    that finished are printed (the running ones wound down: "(partial)"), the last line names
+    the cancelled ones, and no CSV of half a front is written."""
+    if not Path("/proc/self/task").exists():
+        pytest.skip("finds the pool's workers through /proc")
+    model = tmp_path / "budget.posg"
+    text = (ROOT / "models" / "beacon" / "beacon.posg").read_text()
+    model.write_text(text + '\nrewards "time"\n  true : 1;\nendrewards\n')
+    out, err, table = tmp_path / "out.txt", tmp_path / "err.txt", tmp_path / "front.csv"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    with out.open("w") as o, err.open("w") as e:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "posgmc", "pareto", str(model), "--prop",
+             '<<rover>> Pmax=? [ F "safe" ]', "--cost", '<<rover>> R{"time"}min=? [ F "over" ]',
+             "--weights", "0,1,2,5", "--memory", "1", "--effort", "500", "--jobs", "2",
+             "--csv", str(table)],
+            stdout=o, stderr=e, env=env, start_new_session=True)
+        try:
+            end = time.monotonic() + 60
+            while len(_children(proc.pid)) < 2 and time.monotonic() < end:
+                time.sleep(0.05)
+            assert len(_children(proc.pid)) == 2
+            time.sleep(1.0)
+            os.killpg(proc.pid, signal.SIGINT)
+            code = proc.wait(timeout=120)
+        finally:
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+    assert code == 130, err.read_text()
+    line = [x for x in err.read_text().splitlines() if x.startswith("interrupted: ")][-1]
+    finished = line.split(" points finished (")[1].split(")")[0].split("; ")
+    cancelled = line.split("cancelled: ")[1].split("; ")
+    assert finished + cancelled == ["w=0", "w=1", "w=2", "w=5", "w=inf"]
+    assert len(finished) >= 2 and "of 5 points finished" in line
+    rows = [x.split()[0] for x in out.read_text().splitlines() if x[:1].isdigit()]
+    assert rows == [w.split("=")[1] for w in finished]
+    assert not table.exists()

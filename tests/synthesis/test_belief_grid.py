@@ -487,3 +487,97 @@ def test_a_leak_in_a_loop_is_not_ignored() -> None:
     anywhere in the long run: no bound below 1 holds for it, so none is proven."""
     W = grid_certificate.certified_upper(_one_vertex(1e-16), np.array([0.5, 1.0, 0.0]))
     assert W is None or W[0] >= 1.0
+
+
+DODGE = ROOT / "tests" / "data" / "benchmarks" / "posmg" / "dodge-6-lines" / "sketch.templ"
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2 ** 32 - 1), preferred=st.booleans())
+def test_the_batched_rules_are_each_vertexs_rules(seed: int, preferred: bool) -> None:
+    """The adversary's rules laid out for a group of vertices at once (_rule_entries) are, vertex
+    by vertex, the rules _Dynamics.rules gives for that vertex alone (weighted by the belief),
+    in the same order: all deterministic rules where there are at most RULE_CAP (supports of
+    up to three 4-choice states of PAYNT's dodge-6-lines), the preferred rule and its one-state
+    deviations beyond (four states or more: 256 combinations), then the uniform mixture."""
+    model = _built(DODGE)
+    # PAYNT's DRN: 331 states of the decision maker and 308 of the adversary
+    assert model.num_states == 639
+    coalition = api._resolver(model, True).coalition_of
+    problem = problem_of(model, parser.parse_property('<<0>> Pmax=? [F "goal"]').expr,
+                         player=0, adversary=1, coalition_of=coalition, scalar=api._scalar)
+    rng = np.random.default_rng(seed)
+    rg = model.row_groups
+    rules = None
+    if preferred:  # a random choice of each state, sometimes outside the state (ignored then)
+        rules = rng.integers(0, model.num_choices, model.num_states)
+    dyn = belief_grid._Dynamics(problem, rules)
+    theirs = np.flatnonzero(~dyn.owned)
+    per_state = np.diff(rg)
+    for m in (1, 2, 3, 4, 5):
+        # supports of one shape: states offering the same numbers of choices
+        n = per_state[theirs]
+        pool = theirs[n == 4] if m > 1 else theirs
+        g = 3
+        states = np.stack([np.sort(rng.choice(pool, m, replace=False)) for _ in range(g)])
+        shape = per_state[states]
+        keep = (shape == shape[0]).all(axis=1)
+        states = states[keep]
+        mass = rng.random(states.shape) + 0.1
+        mass /= mass.sum(axis=1, keepdims=True)
+        k, vi, r, col, w = belief_grid._rule_entries(dyn, per_state[states[0]], states, mass)
+        for j in range(states.shape[0]):
+            cols, probs = dyn.rules(states[j])
+            assert np.array_equal(probs, _reference_rules(states[j], rg, rules))
+            assert probs.shape[0] == k
+            owner = np.repeat(np.arange(m), per_state[states[j]])
+            dense = np.zeros((k, model.num_choices))
+            at = vi == j
+            np.add.at(dense, (r[at], col[at]), w[at])
+            expected = np.zeros((k, model.num_choices))
+            expected[:, cols] = probs * mass[j][owner]
+            assert np.array_equal(dense, expected)
+            # each rule's entries in the order of its choices
+            for rule in range(k):
+                c = col[at & (r == rule)]
+                assert np.all(np.diff(c) > 0)
+
+
+def _reference_rules(states: np.ndarray, rg: np.ndarray, preferred: np.ndarray | None
+                     ) -> np.ndarray:
+    """The adversary's rules at a support, one state and one choice at a time: every
+    deterministic rule when there are at most RULE_CAP (lexicographic), else the preferred rule
+    (each state's first choice where its preferred one is not its own) and its one-state
+    deviations in state and choice order, the first RULE_CAP in all; then the uniform mixture
+    when some state has a choice. float64[rules, the support's choices]."""
+    n = [int(rg[s + 1] - rg[s]) for s in states.tolist()]
+    offset = [sum(n[:i]) for i in range(len(n))]
+    varying = [i for i in range(len(n)) if n[i] > 1]
+    combos = 1
+    for i in varying:
+        combos *= n[i]
+    det: list[list[int]] = []
+    if combos <= belief_grid.RULE_CAP:
+        for pick in itertools.product(*[range(n[i]) for i in varying]):
+            rule = [0] * len(n)
+            for i, c in zip(varying, pick):
+                rule[i] = c
+            det.append(rule)
+    else:
+        base = []
+        for s, ni in zip(states.tolist(), n):
+            p = -1 if preferred is None else int(preferred[s]) - int(rg[s])
+            base.append(p if 0 <= p < ni else 0)
+        det.append(base)
+        for i in varying:
+            for c in range(n[i]):
+                if c != base[i] and len(det) < belief_grid.RULE_CAP:
+                    det.append(base[:i] + [c] + base[i + 1:])
+    out = np.zeros((len(det) + (1 if varying else 0), sum(n)))
+    for r, rule in enumerate(det):
+        for i, c in enumerate(rule):
+            out[r, offset[i] + c] = 1.0
+    if varying:
+        for i in range(len(n)):
+            out[-1, offset[i]:offset[i] + n[i]] = 1.0 / n[i]
+    return out

@@ -128,13 +128,14 @@ def test_any_offered_rule_keeps_the_bound_sound(seed: int) -> None:
         out: np.ndarray = x / np.bincount(owner, weights=x)[owner]
         return out
 
-    original = (stage_lp.stage_rule, stage_lp.one_step_rule)
+    original = (stage_lp.stage_rule, stage_lp.one_step_rule, stage_lp.grid_rule)
     stage_lp.stage_rule = random_rule  # type: ignore[assignment]
     stage_lp.one_step_rule = random_rule  # type: ignore[assignment]
+    stage_lp.grid_rule = lambda J, owner, targets: random_rule(owner)  # type: ignore[assignment]
     try:
         found = _bound(_hide(), seconds=2.0)
     finally:
-        stage_lp.stage_rule, stage_lp.one_step_rule = original
+        stage_lp.stage_rule, stage_lp.one_step_rule, stage_lp.grid_rule = original
     assert found.value >= 1 / 3
 
 
@@ -166,3 +167,69 @@ def test_random_game_bounds_hold_against_memoryless_defences(seed: int, maximize
 @given(seed=st.integers(0, 10_000), maximize=st.booleans())
 def test_random_game_bounds_hold_against_two_node_defences(seed: int, maximize: bool) -> None:
     _contains_every_deterministic_fss(seed, maximize, (1, 2))
+
+
+LANES = ROOT / "tests" / "data" / "games" / "dodge_lanes.posg"
+
+
+def _lanes():  # type: ignore[no-untyped-def]
+    model = api.build(api.load(LANES)).model
+    # the guard's first move (lane 0 kept or left), then per round: the runner's turn (lane x
+    # what it saw), the guard's (lane x crossing or not x seen), and the outcomes
+    assert (model.num_states, model.num_choices) == (18, 44)
+    return _game(model, '<<runner>> Pmax=? [ F "won" ]')
+
+
+def test_a_guard_that_keeps_the_runner_guessing_is_found_on_the_grid() -> None:
+    """dodge_lanes.posg (a runner that may peek and wait for ever against a guard that must
+    re-randomise its lane with a slipping move): the optimum is 1/10 and full observation 1/5
+    (both derived in the model's comment). With the guard's deterministic rules and the uniform
+    mixture the resolution-2 grid leaks information at every peek and stays at full observation;
+    the exact belief unfolding of those rules gives 0.12 (the uniform mixture's lane odds 3/5 :
+    2/5); the rules that keep the posterior on the grid (stage_lp.grid_rule: switch with
+    probability 5/8) bring the bound to the optimum, and never below what a memoryless runner
+    crossing left or right at random is verified to ensure."""
+    problem = _lanes()
+    cutoff, _ = belief_grid.full_observation_bounds(problem)
+    assert cutoff[problem.model.initial_states[0]] == pytest.approx(0.2, abs=1e-5)
+    plain = belief_grid.grid_bound(problem, deadline=None, vertices=5_000, mix=False)
+    assert plain is not None
+    assert dict(plain.tried)[0] == pytest.approx(0.12, abs=1e-6)
+    assert dict(plain.tried)[2] == pytest.approx(0.2, abs=1e-6)
+    mixed = belief_grid.grid_bound(problem, deadline=None, vertices=20_000, mix=True)
+    assert mixed is not None
+    assert 0.1 <= mixed.value <= 0.1 + 1e-6
+    # the runner that crosses at once, left or right with probability 1/2 (memoryless)
+    dyn = belief_grid._Dynamics(problem, None)
+    names = [problem.model.action_names[a] for a in dyn.actions.tolist()]
+    gamma = np.zeros((1,) + dyn.mask.shape)
+    for z in range(dyn.mask.shape[0]):
+        cross = [a for a, name in enumerate(names) if name in ("left", "right") and dyn.mask[z, a]]
+        for a in cross or np.flatnonzero(dyn.mask[z]).tolist()[:1]:
+            gamma[0, z, a] = 1.0 / max(1, len(cross))
+    delta = np.ones(gamma.shape + (1,))
+    guaranteed = fss_guaranteed(problem, 1, gamma, delta)
+    assert guaranteed == pytest.approx(0.1, abs=1e-6)
+    assert mixed.value >= guaranteed - 1e-9
+
+
+def test_a_grid_rule_lands_on_its_target() -> None:
+    """A guard known to be in lane 0 that switches with a slip of 1/5 reaches the posterior
+    (1/2, 1/2), a resolution-2 grid belief, only by switching with probability 5/8; grid_rule
+    finds that rule, in simple fractions so that floating point lands on the vertex itself."""
+    problem = _lanes()
+    dyn = belief_grid._Dynamics(problem, None)
+    s0 = int(problem.model.initial_states[0])  # the guard's first move, lane 0
+    states = np.array([s0])
+    cols, _ = dyn.rules(states)
+    owner = np.zeros(cols.size, dtype=np.int64)
+    J = dyn.T_cont[cols].tocsr()
+    succ = np.unique(J.indices)
+    assert succ.size == 2  # the runner's turn with the guard in lane 0 or 1
+    rule = stage_lp.grid_rule(J, owner, [(succ, np.array([0.5, 0.5]))])
+    assert rule is not None
+    switch = [problem.model.action_names[a] for a in
+              problem.model.choice_actions[cols].tolist()].index("switch")
+    assert rule[switch] == 5 / 8
+    y = np.asarray(J.T @ rule).ravel()[succ]
+    assert np.array_equal(y / y.sum(), np.array([0.5, 0.5]))

@@ -24,6 +24,14 @@ const double p;
 module m x : [0..2] init 0; [] x=0 -> p:(x'=1) + 1-p:(x'=2); [] x>0 -> true; endmodule
 """
 
+# by hand: x=0 stays with probability q, reaches x=1 with 0.375, else x=2: P(F x=1) = 0.375/(1-q)
+LOOP = """dtmc
+const double q;
+module m x : [0..2] init 0;
+  [] x=0 -> q:(x'=0) + 0.375:(x'=1) + 0.625-q:(x'=2); [] x>0 -> true;
+endmodule
+"""
+
 
 @pytest.fixture()
 def budget_model(tmp_path: Path) -> Path:
@@ -60,6 +68,22 @@ def test_pareto_reports_each_point_as_it_completes(tmp_path: Path) -> None:
     assert [x.split("point ")[1].split(" done")[0] for x in done] == ["p=0.1", "p=0.5", "p=0.9"]
     for line, want in zip(done, ("0.1", "0.5", "0.9")):
         assert f"guaranteed {want}" in line and "point " in line
+
+
+def test_pareto_prints_a_point_as_its_table_does(tmp_path: Path) -> None:
+    """A point's progress line shows the shortest decimal inside its proven interval, as the
+    table does: P(F x=1) = 0.375/(1-q) by hand, 0.75 at q=0.5, where interval iteration stops at
+    about 0.7499998924 (tests/cli/test_progress_view.py pins that)."""
+    path = tmp_path / "loop.prism"
+    path.write_text(LOOP)
+    r = CliRunner().invoke(main, ["pareto", str(path), "--prop", "P=? [ F x=1 ]", "--sweep",
+                                  "q=0.25:0.25:0.5", "--progress"])
+    assert r.exit_code == 0, r.output
+    done = [x for x in r.stderr.splitlines() if " done" in x]
+    assert [x.split(" | ")[1] for x in done] == ["guaranteed 0.5", "guaranteed 0.75"]
+    rows = [line.split()[:2] for line in r.stdout.splitlines()[2:]]
+    assert rows == [["0.25", "0.5"], ["0.5", "0.75"]]  # the table's value column
+    assert "0.7499998924" not in r.stderr  # the raw point (the bounds are printed as they are)
 
 # the guaranteed front over B = 0, 1 per memory size (models/beacon/README.md): a memoryless rover
 # reaches the exits not knowing which is safe, a coin flip whatever the budget; with two nodes
