@@ -380,6 +380,22 @@ class _Grid:
         self.key: dict[bytes, int] = {}
         self.rows: list[np.ndarray] = []
         self.vals: list[np.ndarray] = []
+        # the unfolding's exact beliefs (state -> probability) where known, else None
+        self.exact: list[dict[int, Fraction] | None] = []
+
+    def exact_belief(self, idx: np.ndarray, nums: list[int], den: int) -> int:
+        """The vertex of the exact rational belief nums/den on states ``idx`` (resolution 0;
+        nums and den without a common divisor): identified by its exact value, so paths that
+        reach one belief share it; its float64 values are the correctly rounded quotients."""
+        k = b"=" + idx.tobytes() + repr((nums, den)).encode()
+        found = self.key.get(k)
+        if found is None:
+            found = len(self.rows)
+            self.key[k] = found
+            self.rows.append(idx)
+            self.vals.append(np.asarray([n / den for n in nums], dtype=np.float64))
+            self.exact.append({s: Fraction(n, den) for s, n in zip(idx.tolist(), nums)})
+        return found
 
     def belief(self, idx: np.ndarray, p: np.ndarray) -> int:
         """The vertex of belief ``p`` on states ``idx`` itself (resolution 0: the belief
@@ -392,6 +408,7 @@ class _Grid:
             self.key[k] = found
             self.rows.append(idx)
             self.vals.append(p)
+            self.exact.append(None)
         return found
 
     def vertex(self, idx: np.ndarray, counts: np.ndarray) -> int:
@@ -408,6 +425,7 @@ class _Grid:
         self.key[key] = len(self.rows)
         self.rows.append(idx)
         self.vals.append(counts / self.N)
+        self.exact.append(None)
 
     def lookup(self, parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
                total: int) -> np.ndarray:
@@ -634,16 +652,27 @@ class _Source:
     choice_of: np.ndarray
     mass: sp.csr_matrix | None = None
     rule: sp.csr_matrix | None = None
+    beliefs: list[dict[int, Fraction] | None] | None = None
+
+    def known(self, r: int) -> bool:
+        """Whether row ``r``'s exact entries are known: always on a grid; on the unfolding
+        when its vertex's belief is an exact one (:meth:`_Grid.exact_belief`)."""
+        return self.beliefs is None or self.beliefs[r] is not None
 
     def entries(self, r: int, dyn: _Dynamics) -> list[tuple[int, Fraction]]:
         """Row ``r``'s exact entries: (column, its exact rational weight)."""
         B = self.B
         lo, hi = B.indptr[r], B.indptr[r + 1]
         cols = B.indices[lo:hi].tolist()
+        belief = None if self.beliefs is None else self.beliefs[r]
         if self.rule is None or self.mass is None:
+            if belief is not None:  # columns are the belief's states
+                return [(k, belief[k]) for k in cols]
             return [(k, Fraction(b)) for k, b in zip(cols, B.data[lo:hi].tolist())]
         states = dyn.model.choice_states[self.choice_of[B.indices[lo:hi]]].tolist()
         probs = _rational_rule(self.rule.data[lo:hi].tolist(), states)
+        if belief is not None:
+            return [(k, belief[s] * q) for k, s, q in zip(cols, states, probs)]
         return [(k, Fraction(p) * q)
                 for k, p, q in zip(cols, self.mass.data[lo:hi].tolist(), probs)]
 
@@ -688,6 +717,27 @@ def _exact_part(source: _Source, r: int, states: list[int], dyn: _Dynamics) -> l
     for j, n, d in terms:
         out[j] += n * (den // d)
     return out
+
+
+_EXACT_BITS = 512
+"""The unfolding keeps a posterior exact while its common denominator has at most this many
+bits (long paths multiply denominators); beyond, the float posterior with a leak."""
+
+
+def _exact_posterior(source: _Source, r: int, idx: np.ndarray, dyn: _Dynamics,
+                     grid: _Grid) -> int | None:
+    """The unfolding's vertex of row ``r``'s exact posterior on states ``idx`` (one part: the
+    continuing states of one observation group; :func:`_exact_part`), None when it is zero or
+    too long to keep (:data:`_EXACT_BITS`)."""
+    ys = _exact_part(source, r, idx.tolist(), dyn)
+    total = sum(ys)
+    if total <= 0 or min(ys) <= 0:
+        return None
+    g = math.gcd(*ys)
+    den = total // g
+    if den.bit_length() > _EXACT_BITS:
+        return None
+    return grid.exact_belief(idx, [y // g for y in ys], den)
 
 
 def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
@@ -796,21 +846,35 @@ class _Choices:
         N = grid.N
         rel = _entry_rounding(np.asarray(terms, dtype=np.int64), dyn.input_rel)
         if N == 0:  # the belief unfolding: each posterior is a vertex itself
-            vs = [grid.belief(col[a:a + k], data[a:a + k] / w)
-                  for a, k, w in zip(starts.tolist(), sizes.tolist(), mass.tolist())]
+            exact = self.cap is not None and source is not None and \
+                source.beliefs is not None and not dyn.owned.all()
+            vs: list[int] = []
+            amb = np.ones(rows.size, dtype=bool)
+            for j, (a, k, w) in enumerate(zip(starts.tolist(), sizes.tolist(), mass.tolist())):
+                if exact and source is not None and source.known(int(rows[j])):
+                    v = _exact_posterior(source, int(rows[j]), col[a:a + k], dyn, grid)
+                    if v is not None:
+                        vs.append(v)
+                        amb[j] = False
+                        continue
+                vs.append(grid.belief(col[a:a + k], data[a:a + k] / w))
             self.e_key.append(keys[rows].astype(np.int64))
             self.e_vertex.append(np.asarray(vs, dtype=np.int64))
             self.e_prob.append(mass)
             if self.cap is not None:
-                # the vertex is the float posterior itself, not the exact one: every part is
-                # ambiguous; |y*_s - w fl(y_s / w)| <= y_s (rel + 2u)
+                # an exact posterior's part weighs its float mass, within rel of the exact one;
+                # a float posterior is not the exact one: the part is ambiguous,
+                # |y*_s - w fl(y_s / w)| <= y_s (rel + 2u)
                 r = rel[rows]
-                self.e_eta.append(np.full(rows.size, np.inf))
-                self.a_key.append(keys[rows].astype(np.int64))
-                self.a_leak.append(_up(np.add.reduceat(
-                    data * self.cap[col] * (rel[pair // (dyn.Z + 1)] + 2.0 * _UNIT) * 1.02,
-                    starts)))
-                self.a_slack.append(_up(mass * (r + (sizes + 2) * _UNIT) * 1.02))
+                self.e_eta.append(np.where(amb, np.inf,
+                                           (r + (sizes + 4) * _UNIT) * 1.02 + 4.0 * _UNIT))
+                loose = np.flatnonzero(amb)
+                if loose.size:
+                    self.a_key.append(keys[rows[loose]].astype(np.int64))
+                    self.a_leak.append(_up(np.add.reduceat(
+                        data * self.cap[col] * (rel[pair // (dyn.Z + 1)] + 2.0 * _UNIT) * 1.02,
+                        starts)[loose]))
+                    self.a_slack.append(_up(mass * (r + (sizes + 2) * _UNIT) * 1.02)[loose])
             return
         # the parts of one support size together: one vectorised triangulation each; the
         # references to grid vertices are then taken in the order of one call per block, per
@@ -997,7 +1061,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
         return None
     grid = _Grid(dyn.S, resolution)
     if resolution == 0:
-        grid.belief(np.array([s0], dtype=np.int64), np.ones(1))
+        grid.exact_belief(np.array([s0], dtype=np.int64), [1], 1)
     else:
         grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
     Au = dyn.actions.size
@@ -1032,7 +1096,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                         np.asarray(Ba @ dyn.stop[a]).ravel(), np.asarray(Ba @ dyn.lost[a]).ravel(),
                         np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a],
                         np.diff(Ba.indptr) + dyn.row_terms, dyn, grid,
-                        source=_Source(Ba, dyn.choice_of[a]))
+                        source=_Source(Ba, dyn.choice_of[a], beliefs=None if resolution else
+                                       [grid.exact[v] for v in ids[sel].tolist()]))
         theirs = done + np.flatnonzero(~mine)
         if theirs.size and deadline is not None and time.perf_counter() > deadline:
             skipped.extend(theirs.tolist())  # the adversary's vertices are cut off
@@ -1114,7 +1179,9 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
                 np.asarray(W_all @ dyn.T_stop).ravel(), np.asarray(W_all @ dyn.T_lost).ravel(),
                 np.asarray(W_all @ dyn.choice_reward).ravel(), W_all @ dyn.T_cont,
                 np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=vertices[owner_row],
-                source=_Source(W_all, np.arange(dyn.model.num_choices), mass, rule))
+                source=_Source(W_all, np.arange(dyn.model.num_choices), mass, rule,
+                               None if grid.N else
+                               [grid.exact[v] for v in vertices[owner_row].tolist()]))
 
 
 def _caps(cutoff: np.ndarray, probability: bool) -> np.ndarray:

@@ -164,7 +164,7 @@ def _usable_rows(enc: Enclosure, U: np.ndarray) -> np.ndarray:
     adversary needs only one row with R(W) <= W, so building W for its best one suffices, and
     its other rules (a deterministic one that tells the decision maker everything) neither join
     the end components W is levelled on nor lengthen the steps its raise is scaled by."""
-    usable = ~enc.adversary[enc.state]
+    usable: np.ndarray = ~enc.adversary[enc.state]
     theirs = np.flatnonzero(~usable)
     if not theirs.size:
         return usable
@@ -192,9 +192,9 @@ def _components(enc: Enclosure, usable: np.ndarray) -> tuple[np.ndarray, int]:
 def _steps(enc: Enclosure, mec_of: np.ndarray, count: int, usable: np.ndarray
            ) -> np.ndarray | None:
     """h per vertex: the largest expected number of ``usable`` rows taken (either player
-    maximising it) before a row without vertices, or an end component of ``mec_of``, is reached; those count 0
-    (an end component's vertices share its own exits' count, found on the quotient where it is
-    one state whose rows are its members' rows that leave it)."""
+    maximising it) before a row without vertices, or an end component of ``mec_of``, is
+    reached; those count 0 (an end component's vertices share its own exits' count, found on
+    the quotient where it is one state whose rows are its members' rows that leave it)."""
     V = enc.vertices
     rep = np.where(mec_of >= 0, V + mec_of, np.arange(V))  # quotient state of each vertex
     n_q = V + count

@@ -17,6 +17,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from posgmc import api
+from posgmc.engines.options import SolverOptions
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
@@ -581,3 +582,70 @@ def _reference_rules(states: np.ndarray, rg: np.ndarray, preferred: np.ndarray |
         for i in range(len(n)):
             out[-1, offset[i]:offset[i] + n[i]] = 1.0 / n[i]
     return out
+
+
+@settings(max_examples=200, deadline=None)
+@given(weights=st.lists(st.lists(st.floats(0.0, 1.0), min_size=1, max_size=6),
+                        min_size=1, max_size=4),
+       simple=st.booleans())
+def test_a_randomised_rule_is_read_as_an_exact_rule(weights: list[list[float]],
+                                                    simple: bool) -> None:
+    """A randomised rule stored in floats (per state normalised by its float sum, as every rule
+    offered is) stands for an exact rule (_rational_rule): per state its probabilities sum to 1
+    exactly and each lies within (n + 4) u of its float, the bound the doubled rounding of
+    _entry_rounding covers; a rule of simple fractions (a grid rule's, denominators up to
+    1000) is read as those fractions themselves."""
+    probs: list[float] = []
+    states: list[int] = []
+    exact: list[Fraction] = []
+    for s, w in enumerate(weights):
+        if simple:
+            q = [Fraction(round(x * 40) + 1, 1) for x in w]
+            total = sum(q, Fraction(0))
+            exact.extend(x / total for x in q)  # denominators at most 6 * 41
+            row = np.asarray([float(x / total) for x in q])
+        else:
+            row = np.asarray(w) + 1e-3
+            row = row / row.sum()
+        probs.extend(row.tolist())
+        states.extend([s] * len(w))
+    rule = belief_grid._rational_rule(probs, states)
+    u = Fraction(2) ** -53
+    for s, w in enumerate(weights):
+        mine = [q for q, t in zip(rule, states) if t == s]
+        assert sum(mine, Fraction(0)) == 1
+        for q, x in zip(mine, [x for x, t in zip(probs, states) if t == s]):
+            assert abs(q - Fraction(x)) <= (len(w) + 4) * u * q
+    if simple:
+        assert rule == exact
+
+
+def test_the_unfolding_of_a_game_keeps_exact_posteriors() -> None:
+    """On a one-sided game the maximiser's belief unfolding keys each posterior by its exact
+    rational value (the adversary's uniform mixture read as the exact rule): on dodge_lanes.posg
+    (18 states and 44 choices, from the model's own text) every vertex's floats sum to 1 up to
+    their rounding and no row leaks, so the runner's peeking loop is certified (0.12, the value
+    of those rules derived in
+    test_stage_lp.test_a_guard_that_keeps_the_runner_guessing_is_found_on_the_grid)."""
+    model = _built(ROOT / "tests" / "data" / "games" / "dodge_lanes.posg")
+    assert (model.num_states, model.num_choices) == (18, 44)
+    coalition = api._resolver(model, False).coalition_of
+    problem = problem_of(model, parser.parse_property('<<runner>> Pmax=? [ F "won" ]').expr,
+                         player=0, adversary=1, coalition_of=coalition, scalar=api._scalar)
+    cutoff, rules = belief_grid.full_observation_bounds(problem)
+    abstraction = belief_grid.grid_abstraction(problem, 0, cutoff=cutoff,
+                                               adversary_rules=rules, max_vertices=5_000)
+    assert abstraction is not None
+    enc = abstraction.enclosure
+    assert enc is not None
+    B = abstraction.beliefs
+    sums = np.asarray(B.sum(axis=1)).ravel()
+    assert np.abs(sums - 1.0).max() <= 1e-15 * 8
+    # the reachable beliefs are infinitely many (the odds change every round); the 5,000
+    # vertices explored are cut off, and none of their rows leaks
+    assert abstraction.vertices > 5_000 and not abstraction.complete
+    assert not (enc.leak > 0).any() and not (enc.slack > 0).any()
+    result = abstraction.solve(SolverOptions(precision=1e-6, relative=True,
+                                             want_strategy=False, stiff_certificate=True))
+    proven = belief_grid._proven_side(abstraction, result)
+    assert proven is not None and 0.12 <= proven[0] <= 0.12 + 1e-6
