@@ -37,6 +37,7 @@ proven for the exact belief MDP by :func:`~posgmc.synthesis.grid_certificate.cer
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import time
@@ -646,35 +647,42 @@ class _Source:
     :func:`_rational_rule` (each state's probabilities normalised to sum to 1 exactly) times
     the states' exact masses: a rule the adversary may play, so offering it only restricts the
     minimising adversary; its entries lie within a few units of roundoff of B's (covered by the
-    doubled rounding of :func:`_entry_rounding`)."""
+    doubled rounding of :func:`_entry_rounding`). ``beliefs``: on the unfolding, each row's
+    vertex's exact belief (None where only its float is known); ``resolve``: bool per row, the
+    rows whose ambiguous grid parts :func:`_resolve_exactly` may triangulate again (None: all)."""
 
     B: sp.csr_matrix
     choice_of: np.ndarray
     mass: sp.csr_matrix | None = None
     rule: sp.csr_matrix | None = None
     beliefs: list[dict[int, Fraction] | None] | None = None
+    resolve: np.ndarray | None = None
 
     def known(self, r: int) -> bool:
         """Whether row ``r``'s exact entries are known: always on a grid; on the unfolding
         when its vertex's belief is an exact one (:meth:`_Grid.exact_belief`)."""
         return self.beliefs is None or self.beliefs[r] is not None
 
-    def entries(self, r: int, dyn: _Dynamics) -> list[tuple[int, Fraction]]:
-        """Row ``r``'s exact entries: (column, its exact rational weight)."""
+    def entries(self, r: int, dyn: _Dynamics) -> list[tuple[int, int, int]]:
+        """Row ``r``'s exact entries: (column, its exact rational weight as numerator and
+        denominator)."""
         B = self.B
         lo, hi = B.indptr[r], B.indptr[r + 1]
         cols = B.indices[lo:hi].tolist()
         belief = None if self.beliefs is None else self.beliefs[r]
         if self.rule is None or self.mass is None:
             if belief is not None:  # columns are the belief's states
-                return [(k, belief[k]) for k in cols]
-            return [(k, Fraction(b)) for k, b in zip(cols, B.data[lo:hi].tolist())]
+                return [(k, belief[k].numerator, belief[k].denominator) for k in cols]
+            return [(k, *b.as_integer_ratio()) for k, b in zip(cols, B.data[lo:hi].tolist())]
+        if belief is None and bool((self.rule.data[lo:hi] == 1.0).all()):
+            # a deterministic rule: each entry is its state's mass, exact as stored
+            return [(k, *p.as_integer_ratio())
+                    for k, p in zip(cols, self.mass.data[lo:hi].tolist())]
         states = dyn.model.choice_states[self.choice_of[B.indices[lo:hi]]].tolist()
         probs = _rational_rule(self.rule.data[lo:hi].tolist(), states)
-        if belief is not None:
-            return [(k, belief[s] * q) for k, s, q in zip(cols, states, probs)]
-        return [(k, Fraction(p) * q)
-                for k, p, q in zip(cols, self.mass.data[lo:hi].tolist(), probs)]
+        weights = [belief[s] * q for s, q in zip(states, probs)] if belief is not None else \
+            [Fraction(p) * q for p, q in zip(self.mass.data[lo:hi].tolist(), probs)]
+        return [(k, w.numerator, w.denominator) for k, w in zip(cols, weights)]
 
 
 _SIMPLE_DENOMINATOR = 1000
@@ -689,15 +697,20 @@ def _rational_rule(probs: list[float], states: list[int]) -> list[Fraction]:
     probability the simple fraction it rounds (:data:`_SIMPLE_DENOMINATOR`) or else its float's
     own value, then divided by its state's sum, so that each state's probabilities sum to 1
     exactly and each lies within (n + 4) u of the float (n the state's choices)."""
-    near: list[Fraction] = []
-    for x in probs:
-        q = Fraction(x)
-        simple = q.limit_denominator(_SIMPLE_DENOMINATOR)
-        near.append(simple if abs(simple - q) <= q * 4 * Fraction(_UNIT) else q)
+    near = [_rational_probability(x) for x in probs]
     total: dict[int, Fraction] = {}
     for s, q in zip(states, near):
         total[s] = total.get(s, Fraction(0)) + q
     return [q / total[s] for s, q in zip(states, near)]
+
+
+@functools.lru_cache(maxsize=4096)
+def _rational_probability(x: float) -> Fraction:
+    """The simple fraction (:data:`_SIMPLE_DENOMINATOR`) within 4 u of ``x``, else ``x``'s own
+    value (cached: the same few probabilities recur in every rule)."""
+    q = Fraction(x)
+    simple = q.limit_denominator(_SIMPLE_DENOMINATOR)
+    return simple if abs(simple - q) <= q * 4 * Fraction(_UNIT) else q
 
 
 def _exact_part(source: _Source, r: int, states: list[int], dyn: _Dynamics) -> list[int]:
@@ -706,12 +719,12 @@ def _exact_part(source: _Source, r: int, states: list[int], dyn: _Dynamics) -> l
     numerators over one common denominator (a positive factor the triangulation ignores)."""
     terms: list[tuple[int, int, int]] = []  # (state index, numerator, denominator)
     at = {s: j for j, s in enumerate(states)}
-    for k, bk in source.entries(r, dyn):
+    for k, bn, bd in source.entries(r, dyn):
         row, total = dyn.integer_row(int(source.choice_of[k]))
         for s, j in at.items():
             n = row.get(s)
             if n is not None:
-                terms.append((j, bk.numerator * n, bk.denominator * total))
+                terms.append((j, bn * n, bd * total))
     den = math.lcm(*(d for _, _, d in terms)) if terms else 1
     out = [0] * len(states)
     for j, n, d in terms:
@@ -719,7 +732,7 @@ def _exact_part(source: _Source, r: int, states: list[int], dyn: _Dynamics) -> l
     return out
 
 
-_EXACT_BITS = 512
+_EXACT_BITS = 128
 """The unfolding keeps a posterior exact while its common denominator has at most this many
 bits (long paths multiply denominators); beyond, the float posterior with a leak."""
 
@@ -752,6 +765,8 @@ def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, coun
     vertices are the exact decomposition's and each weight is the float of the exact one."""
     m = cols.shape[1]
     for i in parts.tolist():
+        if source.resolve is not None and not source.resolve[int(rows[i])]:
+            continue
         states = cols[i].tolist()
         ys = _exact_part(source, int(rows[i]), states, dyn)
         total = sum(ys)
@@ -851,7 +866,10 @@ class _Choices:
             vs: list[int] = []
             amb = np.ones(rows.size, dtype=bool)
             for j, (a, k, w) in enumerate(zip(starts.tolist(), sizes.tolist(), mass.tolist())):
-                if exact and source is not None and source.known(int(rows[j])):
+                # only where the row loses nothing (as on the grids: a row that does is in no
+                # end component, and its leak costs at most the expected steps times itself)
+                if exact and source is not None and lost[rows[j]] == 0 and \
+                        source.known(int(rows[j])):
                     v = _exact_posterior(source, int(rows[j]), col[a:a + k], dyn, grid)
                     if v is not None:
                         vs.append(v)
@@ -1172,6 +1190,13 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
     W_all = sp.csr_matrix((q_all * p_all, where.indices, where.indptr), shape=where.shape)
     rule = sp.csr_matrix((q_all, where.indices, where.indptr), shape=where.shape)
     mass = sp.csr_matrix((p_all, where.indices, where.indptr), shape=where.shape)
+    # the rows triangulated again in exact arithmetic on a grid: deterministic rules and the
+    # offered mixtures (a grid rule's posterior is a vertex, and a leak in a cycle the decision
+    # maker keeps to proves nothing); not the uniform mixture of every vertex, which would
+    # multiply the exact work (rover's default bracket 70 % slower) and stays ambiguous
+    resolve = np.ones(n_rows, dtype=bool)
+    n_parts = sum(r.size for r in rows[:len(parts)])
+    np.logical_and.at(resolve, r_all[:n_parts], np.concatenate(probs[:len(parts)]) == 1.0)
     owner_row = np.repeat(np.arange(vertices.size), rules_at)
     local = np.arange(n_rows) - first_row[owner_row]
     choices.add(vertices[owner_row] * choices.span + first_local + local,
@@ -1181,7 +1206,8 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
                 np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=vertices[owner_row],
                 source=_Source(W_all, np.arange(dyn.model.num_choices), mass, rule,
                                None if grid.N else
-                               [grid.exact[v] for v in vertices[owner_row].tolist()]))
+                               [grid.exact[v] for v in vertices[owner_row].tolist()],
+                               resolve))
 
 
 def _caps(cutoff: np.ndarray, probability: bool) -> np.ndarray:
