@@ -25,10 +25,14 @@ fall in different halves. Families are explored best bound first (the most recen
 good members come early; when no family is left the search is *exhaustive*: the result is an
 optimal deterministic k-FSS (up to the float tolerance of the solves).
 
-Every solve is vectorised value iteration on the quotient (floats; a family starts from its
-parent's values, which lie on the decision maker's good side of its own, so that the iteration
-can stop as soon as the family provably cannot beat the incumbent); σ breaks ties between
-equally good options towards the option its hole uses in the most states, so that choices that
+Every solve is value iteration on the quotient: vectorised Jacobi sweeps, or on a large quotient
+with the compiled kernels the Gauss-Seidel kernel of :mod:`posgmc.engines.kernels.ordered_sweeps`
+in the order of the quotient's strongly connected components (:attr:`Quotient.solving_order`,
+computed once per quotient: most states are then final after one step). Floats; a family starts
+from its parent's values, which lie on the decision maker's good side of its own, so that a
+family that provably cannot beat the incumbent is cut (the Jacobi sweeps stop as soon as that
+shows, the kernel's result is compared once); σ breaks ties between equally good options towards
+the option its hole uses in the most states, so that choices that
 do not matter cause no split. This ranks and prunes; the defence it returns is verified
 afterwards like every other candidate (:mod:`posgmc.synthesis.search`). The search is deterministic:
 no randomness, the order fixed by the bounds and a counter, its extent a number of families
@@ -38,6 +42,7 @@ solved (the work budget); only the wall-clock cap can cut it short.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from dataclasses import dataclass
 from typing import ClassVar
@@ -47,6 +52,8 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from posgmc.engines import objectives as obj
+from posgmc.engines import scc
+from posgmc.engines.kernels.ordered_sweeps import solve_ordered
 from posgmc.engines.options import Method, SolverOptions
 from posgmc.engines.row_slots import RowSlots
 from posgmc.engines.system import HAVE_KERNELS, accumulate_rows
@@ -56,6 +63,7 @@ from posgmc.resources import check_allocation
 from posgmc.strategies.binding import player_view
 from posgmc.syntax.ast import ModelType
 from posgmc.synthesis.executors import Executor
+from posgmc.synthesis.ordered_evaluation import solving_order
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem, expired
 
@@ -88,6 +96,19 @@ class Quotient:
     maximize: np.ndarray
     initial: int
     offered: np.ndarray
+
+    @functools.cached_property
+    def solving_order(self) -> tuple[np.ndarray, np.ndarray]:
+        """(order, comp_ptr): the states outside the target and the avoided states (those whose
+        value is not fixed by :func:`_bellman_parts` for either objective: the target of a
+        discounted cost, the target or a state leaving ``remain`` of a probability, all values
+        the rows only read) by strongly connected component of the quotient with all options,
+        successors first, inside a component in descending state index (explored from the
+        initial state: the later states lie nearer the exits). A family's graph is a subgraph,
+        so the order holds for every family (:mod:`posgmc.engines.scc`)."""
+        free = ~(self.target | (~self.remain if self.rewards is None else False))
+        order, comp_ptr = solving_order(self.model.transitions, self.model.row_groups, free)
+        return np.flatnonzero(free)[order], comp_ptr
 
     @property
     def num_holes(self) -> int:
@@ -228,7 +249,7 @@ def _fits(problem: Problem, k: int) -> bool:
 
 def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: Problem, *,
            cutoff: float | None = None, precision: float = 1e-10,
-           deadline: float | None = None) -> _Solved:
+           deadline: float | None = None, ordered: bool = False) -> _Solved:
     """The quotient game restricted to the ``allowed`` options. Probabilities and discounted
     costs by vectorised value iteration from ``start`` (values of all states; None: from the
     fixed values, 0 elsewhere); other objectives by the engines' policy iteration.
@@ -238,7 +259,11 @@ def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: 
     on the decision maker's good side of the restricted game's value, so that every iterate
     does too: a parent family's values (a sub-family is no better; the iterates move
     monotonically towards the value), or the optimistic start of :func:`_optimistic`. At
-    ``deadline`` the iteration is abandoned (``cut``, the value unusable)."""
+    ``deadline`` the iteration is abandoned (``cut``, the value unusable). ``ordered``: on a
+    large quotient with the compiled kernels, the ordered Gauss-Seidel kernel instead of the
+    Jacobi sweeps (the search's own solves; the observation-level policy iteration of
+    :mod:`posgmc.synthesis.improvement` keeps the sweeps: its greedy step breaks ties on values
+    that the two iterations give differently in the last digits, about 1e-11)."""
     enabled = (q.hole < 0) | allowed[np.maximum(q.hole, 0), np.maximum(q.option, 0)]
     rows = np.flatnonzero(enabled)
     Q = q.model.num_states
@@ -269,7 +294,31 @@ def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: 
         out: np.ndarray = offset + A @ x
         return out
 
-    free = ~fixed
+    sign = problem.sign
+    init = q.initial
+    if ordered and scc.compiled_at(Q):
+        x = _solve_ordered(q, T, rg, x, base, gamma, precision)
+        cut = cutoff is not None and sign * x[init] <= sign * cutoff + 1e-12
+    else:
+        x, cut = _jacobi(A, offset, starts, counts, ~fixed, state_flip, x, init, sign, cutoff,
+                         precision, deadline)
+    v = row_values(x).copy()
+    best = np.maximum.reduceat(v, starts)
+    # among the rows within the precision of the optimum, the one whose (hole, option) is
+    # optimal in the most states of its hole (ties: the first row), so that σ is consistent
+    # wherever the choice does not matter
+    good = v >= np.repeat(best, counts) - 1e2 * precision
+    strategy = np.where(fixed, -1, rows[_consistent_choice(q, rows, good, starts)])
+    return _Solved(float(x[init]), x, strategy, cut)
+
+
+def _jacobi(A: sp.csr_matrix, offset: np.ndarray, starts: np.ndarray, counts: np.ndarray,
+            free: np.ndarray, state_flip: np.ndarray, x: np.ndarray, init: int, sign: float,
+            cutoff: float | None, precision: float, deadline: float | None
+            ) -> tuple[np.ndarray, bool]:
+    """The value iteration of :func:`_solve` by vectorised Jacobi sweeps over the family's rows
+    ``A`` (every state maximises: the minimising states' rows negated, the discount folded in;
+    ``offset`` the rows' constants): (the values, whether cut at ``cutoff`` or ``deadline``)."""
     # the sweeps take the free states' rows only (the fixed states keep their values), laid out
     # by slot (:mod:`posgmc.engines.row_slots`: no reduceat over 10^5 groups per sweep)
     F = np.flatnonzero(free)
@@ -291,8 +340,6 @@ def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: 
         y[F] = by_slot.best(values, np.maximum) * flip_free
         return y
 
-    sign = problem.sign
-    init = q.initial
     cut = False
     for sweep in range(_MAX_SWEEPS):
         y = optimum(x)
@@ -306,14 +353,25 @@ def _solve(q: Quotient, allowed: np.ndarray, start: np.ndarray | None, problem: 
         if expired(deadline):  # every sweep: one sweep of a quotient with large memory is long
             cut = True
             break
-    v = row_values(x).copy()
-    best = np.maximum.reduceat(v, starts)
-    # among the rows within the precision of the optimum, the one whose (hole, option) is
-    # optimal in the most states of its hole (ties: the first row), so that σ is consistent
-    # wherever the choice does not matter
-    good = v >= np.repeat(best, counts) - 1e2 * precision
-    strategy = np.where(fixed, -1, rows[_consistent_choice(q, rows, good, starts)])
-    return _Solved(float(x[init]), x, strategy, cut)
+    return x, cut
+
+
+def _solve_ordered(q: Quotient, T: sp.csr_matrix, rg: np.ndarray, x: np.ndarray,
+                   base: np.ndarray, gamma: float, precision: float) -> np.ndarray:
+    """The value iteration of :func:`_solve` on a large quotient: the compiled Gauss-Seidel
+    kernel (:mod:`posgmc.engines.kernels.ordered_sweeps`) over the family's rows ``T`` (grouped
+    by ``rg``) in the quotient's component order, from ``x`` (updated in place and returned), a
+    component done when no value moves by more than ``precision`` (relative to values above 1).
+    From a start on one side of the value the iterates stay there, as the Jacobi sweeps' do
+    (both apply the same monotone operator, the self-loops eliminated as in
+    :mod:`posgmc.engines.topological`): a cutoff applied to the result means the same."""
+    order, comp_ptr = q.solving_order
+    Q = q.model.num_states
+    solve_ordered(T.indptr.astype(np.int64), T.indices.astype(np.int64), T.data,
+                  rg.astype(np.int64), np.arange(Q, dtype=np.int64), order, comp_ptr,
+                  base.astype(np.float64), float(gamma), ~q.maximize, float(precision), 1.0,
+                  _MAX_SWEEPS, x)
+    return x
 
 
 def _consistent_choice(
@@ -532,6 +590,7 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
         problem,
         precision=_FAMILY_PRECISION,
         deadline=deadline,
+        ordered=True,
     )
     if top.cut:  # out of time before the first bound
         return None if incumbent is None else dataclasses.replace(incumbent, exhaustive=False)
@@ -567,7 +626,8 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
         # cannot beat the incumbent), except for a maximiser, whose iterates from above may stop
         # at a fixed point above the member's value (end components): from below for it
         checked = _solve(q, member, None if problem.maximize else solved.values, problem,
-                         cutoff=None if problem.maximize else cutoff(), deadline=deadline)
+                         cutoff=None if problem.maximize else cutoff(), deadline=deadline,
+                         ordered=True)
         families += 1
         if not checked.cut and better(checked.value):
             best = (checked.value, member)
@@ -585,7 +645,7 @@ def search(problem: Problem, memory: int, *, deadline: float | None,
         for half in reversed(halves):
             child = _solve(q, half, solved.values if warm else None, problem,
                            cutoff=cutoff() if warm else None,
-                           precision=_FAMILY_PRECISION, deadline=deadline)
+                           precision=_FAMILY_PRECISION, deadline=deadline, ordered=True)
             families += 1
             if child.cut and expired(deadline):
                 exhaustive = False

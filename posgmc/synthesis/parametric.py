@@ -43,6 +43,7 @@ from posgmc.checking.property_checker import (
     PropertyChecker,
     ScalarEvaluator,
 )
+from posgmc.engines import kernels
 from posgmc.engines.graph import (
     Structure,
     almost_sure_reach,
@@ -58,6 +59,7 @@ from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import StrategyProduct, strategy_product
 from posgmc.syntax.ast import ProbQuery, RewardQuery
+from posgmc.synthesis.ordered_evaluation import OrderedPlan
 from posgmc.synthesis.product_template import ProductTemplate, support_key
 
 __all__ = ["Parametrisation", "Evaluation", "Layout", "game_views", "ITERATIVE_STATES"]
@@ -75,6 +77,11 @@ ITERATIVE_SWEEPS = 20_000
 
 ITERATIVE_TOLERANCE = 1e-9
 """An iterative solve stops when a sweep changes no value by more than this (relative)."""
+
+
+_WarmStart = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]
+"""(state_of, memory_of, undecided states, values, adjoint or None) of the last iterative
+evaluation."""
 
 
 def game_views(model: ExplicitModel, product: ExplicitModel, state_of: np.ndarray) -> ExplicitModel:
@@ -194,9 +201,9 @@ class Parametrisation:
         self._last_response: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         # (state_of, memory_of, undecided states, values, adjoint) of the last iterative
         # evaluation: the next one's warm start on the same product structure
-        self._warm: (
-            tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None] | None
-        ) = None
+        self._warm: _WarmStart | None = None
+        # the component order of the last product structure evaluated by the compiled kernel
+        self._plan: OrderedPlan | None = None
 
     def forget_response(self) -> None:
         """Drop the warm start: the next evaluation solves the adversary's MDP from scratch."""
@@ -379,13 +386,19 @@ class Parametrisation:
         yc = y[defend][q_of_c]
         Wc = W[c]  # [E, k]
         d = delta[ni, zi, ai]  # [E, k]
-        grad_a = np.zeros(self.shapes[0])
         own = np.sum(d * Wc, axis=1)
         if self.rewards is not None:
             own = own + self.rewards[c]  # the action's own cost
-        np.add.at(grad_a, (ni, zi, ai), yc * own)
-        grad_d = np.zeros(self.shapes[1])
-        np.add.at(grad_d, (ni, zi, ai), (yc * gamma[ni, zi, ai])[:, None] * Wc)
+        # sums per parameter by bincount (in entry order, as np.add.at adds, at a fraction of
+        # its cost)
+        shape_a = self.shapes[0]
+        size_a = int(np.prod(shape_a))
+        flat = np.ravel_multi_index((ni, zi, ai), shape_a)
+        grad_a = np.bincount(flat, weights=yc * own, minlength=size_a).reshape(shape_a)
+        k = self.k
+        weights = ((yc * gamma[ni, zi, ai])[:, None] * Wc).ravel()
+        grad_d = np.bincount((flat[:, None] * k + np.arange(k)).ravel(), weights=weights,
+                             minlength=size_a * k).reshape(self.shapes[1])
         return Evaluation(value, grad_a, grad_d)
 
     # -- large products: warm-started value iteration ---------------------------------------------
@@ -417,7 +430,7 @@ class Parametrisation:
         tgt = self.target[prod.state_of]
         choosing = np.diff(rg) > 1
         warm = self._warm
-        same = warm is not None and np.array_equal(warm[0], prod.state_of) and np.array_equal(
+        same = warm is not None and _equal(warm[0], prod.state_of) and _equal(
             warm[1], prod.memory_of)
         if same and warm is not None:
             unknown = warm[2]
@@ -435,6 +448,9 @@ class Parametrisation:
             offset = pm.reward_model(self.query.reward).choice_rewards(rg)  # type: ignore[union-attr]
         if same and warm is not None:
             x[unknown] = warm[3][unknown]
+        if kernels.enabled():
+            return self._evaluate_ordered(prod, T, unknown, x, offset, gamma, delta,
+                                          warm if same else None, gradient=gradient)
         reduce = np.minimum if self.maximize else np.maximum  # the adversary's side
         any_choice = bool(T.shape[0] > S)
         # only the undecided states U are iterated (the others keep their fixed values). One
@@ -517,6 +533,44 @@ class Parametrisation:
         self._warm = (prod.state_of, prod.memory_of, unknown, x, y)
         return self._gradient(prod, x, y, gamma, delta, value)
 
+    def _evaluate_ordered(self, prod, T: sp.csr_matrix, unknown: np.ndarray,  # type: ignore[no-untyped-def]
+                          x: np.ndarray, offset: np.ndarray | None, gamma: np.ndarray,
+                          delta: np.ndarray, warm: _WarmStart | None, *,
+                          gradient: bool) -> Evaluation:
+        """:meth:`_evaluate_iterative` by the compiled Gauss-Seidel kernel in the order of the
+        product's strongly connected components (:mod:`~posgmc.synthesis.ordered_evaluation`),
+        its plan built once per product structure; ``x`` holds the fixed values outside the
+        undecided states and the start on them."""
+        plan = self._plan
+        if plan is None or not plan.fits(T, unknown):
+            plan = OrderedPlan.of(T, prod.model.row_groups, unknown)
+            self._plan = plan
+        U = plan.U
+        g_disc = self.discount
+        fixed_scale = max(1.0, float(np.abs(x[~unknown]).max(initial=0.0)))
+        plan.values(T, x, offset, discount=g_disc, minimize=self.maximize,
+                    tol=ITERATIVE_TOLERANCE, scale=fixed_scale, max_sweeps=ITERATIVE_SWEEPS)
+        init = int(prod.initial_map[0])
+        value = float(x[init])
+        y_warm = warm[4] if warm is not None else None
+        if not gradient or not unknown[init]:
+            self._warm = (prod.state_of, prod.memory_of, unknown, x, y_warm)
+            return Evaluation(value, np.zeros(self.shapes[0]), np.zeros(self.shapes[1]))
+        pick = plan.best_rows(T, x, offset, discount=g_disc, minimize=self.maximize)
+        rg = prod.model.row_groups
+        chain_t = T[rg[U] + pick][:, U].T.tocsr()
+        at = int(np.searchsorted(U, init))
+        if y_warm is not None:
+            y_u = y_warm[U].copy()
+        else:
+            y_u = np.zeros(U.size)
+        plan.adjoint(chain_t, y_u, at, discount=g_disc, tol=ITERATIVE_TOLERANCE,
+                     max_sweeps=ITERATIVE_SWEEPS)
+        y = np.zeros(prod.model.num_states)
+        y[U] = y_u
+        self._warm = (prod.state_of, prod.memory_of, unknown, x, y)
+        return self._gradient(prod, x, y, gamma, delta, value)
+
     def logit_gradient(
         self, ev: Evaluation, gamma: np.ndarray, delta: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -535,6 +589,11 @@ def _row_values(A: sp.csr_matrix, x: np.ndarray, out: np.ndarray) -> None:
         accumulate_rows(A, 0, A.shape[0], x, out)
     else:  # pragma: no cover - depends on the scipy build
         out += A @ x
+
+
+def _equal(a: np.ndarray, b: np.ndarray) -> bool:
+    """The same array (a refilled product shares its template's) or equal contents."""
+    return a is b or bool(np.array_equal(a, b))
 
 
 def _ranges(counts: np.ndarray) -> np.ndarray:

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from posgmc import api
+from posgmc.engines import kernels, scc
 from posgmc.syntax import parser
 from posgmc.synthesis.adversaries import _forward
 from posgmc.synthesis.deterministic import DeterministicJob, quotient_of, search
@@ -22,9 +23,18 @@ def _problem(model, prop: str):  # type: ignore[no-untyped-def]
                       coalition_of=coalition, scalar=api._scalar)
 
 
+@pytest.mark.parametrize("ordered", [False, True], ids=["jacobi", "ordered kernel"])
 @pytest.mark.parametrize("prop", ['<<p0>> Pmax=? [ F "goal" ]', '<<p0>> Pmin=? [ F "goal" ]'])
 @pytest.mark.parametrize("seed", [0, 1, 2, 3, 4, 5])
-def test_exhaustive_search_finds_the_brute_force_optimum(seed: int, prop: str) -> None:
+def test_exhaustive_search_finds_the_brute_force_optimum(
+    seed: int, prop: str, ordered: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Both ways of solving a family's quotient (vectorised Jacobi sweeps; on large quotients
+    with numba the compiled Gauss-Seidel kernel in component order, here forced at any size) find
+    the optimum."""
+    if ordered and not kernels.available():
+        pytest.skip("numba is not installed")
+    monkeypatch.setattr(scc, "COMPILED_MIN_SIZE", 0 if ordered else 10**12)
     model = random_posg(seed)
     problem = _problem(model, prop)
     sign = problem.sign

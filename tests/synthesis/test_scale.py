@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from posgmc import api
+from posgmc.engines import kernels
 from posgmc.syntax import parser
 from posgmc.synthesis import parametric
 from posgmc.synthesis.options import SynthesisOptions
@@ -46,14 +47,19 @@ def _problem(path: Path, prop: str, constants: dict[str, str] | None = None,
     )
 
 
+@pytest.mark.parametrize("compiled", [True, False], ids=["ordered kernel", "numpy sweeps"])
 @pytest.mark.parametrize("prop", ['<<planner>> Pmax=? [ F "retrieved" ]',
                                   '<<planner>> R{"time"}min=? [ Fdiscount=0.95 "retrieved" ]'])
 def test_iterative_evaluation_agrees_with_the_exact_one(
-    prop: str, monkeypatch: pytest.MonkeyPatch
+    prop: str, compiled: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Value iteration for the adversary's best response and the adjoint (large products) gives
     the value and gradient of the sparse LU path to the iterations' tolerance, also when
-    warm-started from the previous evaluation."""
+    warm-started from the previous evaluation: by the compiled Gauss-Seidel kernel in the
+    product's component order, and by the numpy sweeps that replace it without numba."""
+    if compiled and not kernels.available():
+        pytest.skip("numba is not installed")
+    monkeypatch.setattr(kernels.STATE, "use", compiled)
     model, _, _, _, problem = _problem(SECURE, prop, {"N": "3", "flash": "false", "B": "1"})
     assert model.num_states == 16_609  # models/secure_autonomy/README.md (equal to Storm's)
     rng = np.random.default_rng(3)
@@ -66,6 +72,7 @@ def test_iterative_evaluation_agrees_with_the_exact_one(
         monkeypatch.setattr(parametric, "ITERATIVE_STATES", 0)
         got = iterative.evaluate(g, d)
         assert iterative._warm is not None and (step == 0 or iterative._warm[4] is not None)
+        assert (iterative._plan is not None) == compiled
         scale = max(1.0, abs(ref.value))
         assert abs(got.value - ref.value) <= 1e-7 * scale
         for a, b in ((got.grad_action, ref.grad_action), (got.grad_update, ref.grad_update)):
