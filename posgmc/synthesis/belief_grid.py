@@ -28,18 +28,21 @@ per vertex, then a target and a sink), so it is checked with the same sound engi
 (interval iteration, end components handled) and the bound side of their result is the reported
 bound. Its transition probabilities are computed in float64 (posterior beliefs, the weights λ).
 A minimiser's choices are scaled below the exact belief successors (:func:`_dominate`), and stop
-masses, rewards and cut-off values are rounded to the optimistic side; a maximiser's continuing
-weights are the float decomposition (relative rounding ~1e-15 per step, not absorbed:
-docs/synthesis.md, "Floating point", says why a single dominating row cannot absorb it in a cycle
-of beliefs).
+masses, rewards and cut-off values are rounded to the optimistic side. A maximiser's rows cannot
+dominate the exact ones one by one in a cycle of beliefs (docs/synthesis.md, "Floating point"):
+its abstraction carries an enclosure of the exact rows (certified weights, parts near a face
+triangulated in exact arithmetic, :func:`_resolve_exactly`), and the engine's upper values are
+proven for the exact belief MDP by :func:`~posgmc.synthesis.grid_certificate.certified_upper`.
 """
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import time
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 import scipy.sparse as sp
@@ -56,6 +59,7 @@ from posgmc.strategies.binding import player_view
 from posgmc.synthesis import belief, stage_lp
 from posgmc.synthesis.belief import can_reach
 from posgmc.synthesis.budget import interrupted
+from posgmc.synthesis.grid_certificate import Enclosure, certified_upper
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
 
@@ -188,6 +192,9 @@ class GridAbstraction:
     reachable belief MDP, so its optimum is the POMDP's (no finer grid can tighten it)."""
     adversary: np.ndarray
     """bool[states]: the adversary's vertices (a game's; none on a POMDP)."""
+    enclosure: Enclosure | None = None
+    """A maximiser's: the exact belief MDP's rows enclosed, to prove the bound for it
+    (:func:`~posgmc.synthesis.grid_certificate.certified_upper`)."""
 
     @property
     def vertices(self) -> int:
@@ -248,17 +255,34 @@ class _Dynamics:
         self.P: list[sp.csr_matrix] = []
         self.stop: list[np.ndarray] = []
         self.reward: list[np.ndarray] = []
+        self.choice_of: list[np.ndarray] = []  # per action: each state's choice (-1: none)
+        # per action, the mass a state's choice sends to states that do not continue (the
+        # target, or no way to it): exactly 0 where the float is (sums of nonnegative products)
+        self.lost: list[np.ndarray] = []
+        gone = (~self.cont).astype(np.float64)
+        # the exact model is the stored one with every row scaled to sum to 1 (rows are checked
+        # to within 1e-9): how far a stored probability lies from it, relatively
+        sums = np.asarray(model.transitions.sum(axis=1)).ravel()
+        k = np.diff(model.transitions.indptr).astype(np.float64)
+        dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * _UNIT, initial=0.0))
+        self.input_rel = 2.0 * dev / max(1.0 - dev, 0.5)
+        self._integer_rows: dict[int, tuple[dict[int, int], int]] = {}
         for a in range(layout.used_actions.size):
             c = np.flatnonzero(c_act == a)
+            at = np.full(S, -1, dtype=np.int64)
+            at[cs[c]] = c
+            self.choice_of.append(at)
             T = model.transitions[c].tocoo()
             Pa = sp.csr_matrix((T.data, (cs[c][T.row], T.col)), shape=(S, S))
             self.stop.append(np.asarray(Pa @ self.target).ravel())
+            self.lost.append(np.asarray(Pa @ gone).ravel())
             self.P.append(sp.csr_matrix(Pa @ keep))
             r = np.zeros(S)
             if problem.rewards is not None:
                 r[cs[c]] = problem.rewards[c]
             self.reward.append(r)
         self.T_cont = sp.csr_matrix(model.transitions @ keep)
+        self.T_lost = np.asarray(model.transitions @ gone).ravel()
         # per choice: the reward of taking it (the adversary's rules pay theirs), and what the
         # target is worth when reached (1 for a probability, 0 for a reward: nothing more)
         self.choice_reward = np.zeros(model.num_choices) if problem.rewards is None else \
@@ -269,6 +293,20 @@ class _Dynamics:
         # a transition row: the longest such row bounds the inner sum's length
         self.row_terms = int(np.diff(model.transitions.indptr).max(initial=0)) + 3
         self.T_stop = np.asarray(model.transitions @ self.target).ravel()
+
+    def integer_row(self, choice: int) -> tuple[dict[int, int], int]:
+        """The exact model's row of ``choice`` (its stored probabilities scaled to sum to 1) as
+        integer numerators per column over one integer denominator (cached)."""
+        found = self._integer_rows.get(choice)
+        if found is None:
+            T = self.model.transitions
+            lo, hi = T.indptr[choice], T.indptr[choice + 1]
+            ratios = [float(p).as_integer_ratio() for p in T.data[lo:hi]]
+            den = max((d for _, d in ratios), default=1)  # powers of two: the largest is a
+            nums = [n * (den // d) for n, d in ratios]    # common multiple
+            found = self._integer_rows[choice] = (
+                dict(zip(T.indices[lo:hi].tolist(), nums)), sum(nums))
+        return found
 
     def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The adversary's decision rules tried at a vertex on ``states``: (int64[m], the global
@@ -343,6 +381,22 @@ class _Grid:
         self.key: dict[bytes, int] = {}
         self.rows: list[np.ndarray] = []
         self.vals: list[np.ndarray] = []
+        # the unfolding's exact beliefs (state -> probability) where known, else None
+        self.exact: list[dict[int, Fraction] | None] = []
+
+    def exact_belief(self, idx: np.ndarray, nums: list[int], den: int) -> int:
+        """The vertex of the exact rational belief nums/den on states ``idx`` (resolution 0;
+        nums and den without a common divisor): identified by its exact value, so paths that
+        reach one belief share it; its float64 values are the correctly rounded quotients."""
+        k = b"=" + idx.tobytes() + repr((nums, den)).encode()
+        found = self.key.get(k)
+        if found is None:
+            found = len(self.rows)
+            self.key[k] = found
+            self.rows.append(idx)
+            self.vals.append(np.asarray([n / den for n in nums], dtype=np.float64))
+            self.exact.append({s: Fraction(n, den) for s, n in zip(idx.tolist(), nums)})
+        return found
 
     def belief(self, idx: np.ndarray, p: np.ndarray) -> int:
         """The vertex of belief ``p`` on states ``idx`` itself (resolution 0: the belief
@@ -355,6 +409,7 @@ class _Grid:
             self.key[k] = found
             self.rows.append(idx)
             self.vals.append(p)
+            self.exact.append(None)
         return found
 
     def vertex(self, idx: np.ndarray, counts: np.ndarray) -> int:
@@ -371,6 +426,7 @@ class _Grid:
         self.key[key] = len(self.rows)
         self.rows.append(idx)
         self.vals.append(counts / self.N)
+        self.exact.append(None)
 
     def lookup(self, parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
                total: int) -> np.ndarray:
@@ -495,6 +551,56 @@ def _up(v: np.ndarray) -> np.ndarray:
     return np.where(v > 0, np.nextafter(v, np.inf), v)
 
 
+def _entry_rounding(terms: np.ndarray, input_rel: float) -> np.ndarray:
+    """A bound, relative to the computed value, on how far a continuing successor entry (or a
+    stop mass, or a reward) of the exact model lies from its float: the float sum's own
+    rounding (:func:`_rounding`, doubled for the adversary's rules: a product more, and the
+    exact rule's distance to the stored one, :func:`_rational_rule`), the
+    stored rows' distance to the exact ones (``input_rel``), and the vertex belief's (counts/N
+    is exact for N a power of two, one rounding otherwise)."""
+    return 2.0 * _rounding(terms) + input_rel + 2.0 * _UNIT
+
+
+def _weight_errors(P: np.ndarray, lam: np.ndarray, rel: np.ndarray, resolution: int
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """How far the exact decomposition of each part may lie from the float one.
+
+    ``P``: float64[n, m], the parts' float posteriors (as triangulated by
+    :func:`freudenthal_batch`, weights ``lam``); ``rel``: float64[n], the relative bound on each
+    part's continuing entries (:func:`_entry_rounding`). The exact posterior's cumulative
+    coordinates x*_i = N Σ_{j>=i} y*_j / Σ_j y*_j lie within Δ_i = N (3 rel + 4 (m + 4) u) of
+    the float ones (a ratio of sums of nonnegative terms, each within ``rel``, and the float
+    division and cumulative sum), plus the snap's displacement; the barycentric weight of each
+    vertex of the float simplex is a difference of two sorted fractional parts (one rounding), so
+    the exact weights in that simplex are within ε = 2 max Δ + 2u of ``lam``.
+
+    Returns:
+        (float64[n, m] η, bool[n] ambiguous, float64[n] Δ'): where every weight exceeds ε the
+        exact posterior lies in the float simplex with the same vertices and each exact vertex
+        weight e* = w* λ* is at most (1 + η) times the float one (w* the exact part mass);
+        elsewhere the part is *ambiguous* (near a face: the exact simplex may differ). Δ' bounds
+        |x* - x̃| for the exact combination x̃ of the float weights (for the leak).
+    """
+    n, m = P.shape
+    u = _UNIT
+    if m == 1:
+        return np.full((n, 1), (rel[:, None] + 4.0 * u) * 1.02), np.zeros(n, dtype=bool), \
+            np.zeros(n)
+    N = float(resolution)
+    x = N * np.cumsum(P[:, ::-1], axis=1)[:, ::-1]
+    x[:, 0] = N
+    dist = np.abs(x - np.rint(x))
+    snap = np.where(dist <= _SNAP * N, dist, 0.0)
+    delta = N * (3.0 * rel[:, None] + 4.0 * (m + 4) * u) + snap
+    dmax = delta.max(axis=1) + (m + 2) * u * N
+    eps = 2.0 * dmax + 2.0 * u
+    ambiguous = (lam <= eps[:, None]).any(axis=1)
+    with np.errstate(divide="ignore"):
+        eta = (rel[:, None] + (m + 3) * u + eps[:, None] / np.where(lam > 0, lam, 0.0)) * 1.02 \
+            + 4.0 * u
+    return eta, ambiguous, dmax
+
+
 def _dominate(E: sp.csr_matrix, G: sp.csr_matrix, Y: sp.csr_matrix,
               terms: np.ndarray) -> sp.csr_matrix:
     """The vertex weights of a minimiser's choices, scaled so that they stay below the exact
@@ -531,15 +637,185 @@ def _dominate(E: sp.csr_matrix, G: sp.csr_matrix, Y: sp.csr_matrix,
     return sp.csr_matrix(sp.diags(kappa) @ E)
 
 
+@dataclass(frozen=True, eq=False)
+class _Source:
+    """What a maximiser's choices' successors are made of, for :func:`_resolve_exactly`: the
+    rows D = B T with ``B`` csr float64[rows, columns], ``choice_of`` the model choice of each
+    column. Without ``rule`` B's entries are exact as stored (vertex beliefs counts/N, N a
+    power of two). With it (an adversary's rows: ``rule`` and ``mass`` csr in B's layout, B
+    = rule · mass entrywise, rounded) the exact row is the rational rule of
+    :func:`_rational_rule` (each state's probabilities normalised to sum to 1 exactly) times
+    the states' exact masses: a rule the adversary may play, so offering it only restricts the
+    minimising adversary; its entries lie within a few units of roundoff of B's (covered by the
+    doubled rounding of :func:`_entry_rounding`). ``beliefs``: on the unfolding, each row's
+    vertex's exact belief (None where only its float is known); ``resolve``: bool per row, the
+    rows whose ambiguous grid parts :func:`_resolve_exactly` may triangulate again (None: all)."""
+
+    B: sp.csr_matrix
+    choice_of: np.ndarray
+    mass: sp.csr_matrix | None = None
+    rule: sp.csr_matrix | None = None
+    beliefs: list[dict[int, Fraction] | None] | None = None
+    resolve: np.ndarray | None = None
+
+    def known(self, r: int) -> bool:
+        """Whether row ``r``'s exact entries are known: always on a grid; on the unfolding
+        when its vertex's belief is an exact one (:meth:`_Grid.exact_belief`)."""
+        return self.beliefs is None or self.beliefs[r] is not None
+
+    def entries(self, r: int, dyn: _Dynamics) -> list[tuple[int, int, int]]:
+        """Row ``r``'s exact entries: (column, its exact rational weight as numerator and
+        denominator)."""
+        B = self.B
+        lo, hi = B.indptr[r], B.indptr[r + 1]
+        cols = B.indices[lo:hi].tolist()
+        belief = None if self.beliefs is None else self.beliefs[r]
+        if self.rule is None or self.mass is None:
+            if belief is not None:  # columns are the belief's states
+                return [(k, belief[k].numerator, belief[k].denominator) for k in cols]
+            return [(k, *b.as_integer_ratio()) for k, b in zip(cols, B.data[lo:hi].tolist())]
+        if belief is None and bool((self.rule.data[lo:hi] == 1.0).all()):
+            # a deterministic rule: each entry is its state's mass, exact as stored
+            return [(k, *p.as_integer_ratio())
+                    for k, p in zip(cols, self.mass.data[lo:hi].tolist())]
+        states = dyn.model.choice_states[self.choice_of[B.indices[lo:hi]]].tolist()
+        probs = _rational_rule(self.rule.data[lo:hi].tolist(), states)
+        weights = [belief[s] * q for s, q in zip(states, probs)] if belief is not None else \
+            [Fraction(p) * q for p, q in zip(self.mass.data[lo:hi].tolist(), probs)]
+        return [(k, w.numerator, w.denominator) for k, w in zip(cols, weights)]
+
+
+_SIMPLE_DENOMINATOR = 1000
+"""Rule probabilities within a few units of roundoff of a fraction with at most this
+denominator are taken as that fraction (a grid rule's are such fractions: its posterior is then
+the grid vertex exactly, not a hair off it)."""
+
+
+def _rational_rule(probs: list[float], states: list[int]) -> list[Fraction]:
+    """A randomised rule's stored probabilities (each state's summing to 1 up to a few units of
+    roundoff: every rule here is normalised by its float sum) as an exact rule: each
+    probability the simple fraction it rounds (:data:`_SIMPLE_DENOMINATOR`) or else its float's
+    own value, then divided by its state's sum, so that each state's probabilities sum to 1
+    exactly and each lies within (n + 4) u of the float (n the state's choices)."""
+    near = [_rational_probability(x) for x in probs]
+    total: dict[int, Fraction] = {}
+    for s, q in zip(states, near):
+        total[s] = total.get(s, Fraction(0)) + q
+    return [q / total[s] for s, q in zip(states, near)]
+
+
+@functools.lru_cache(maxsize=4096)
+def _rational_probability(x: float) -> Fraction:
+    """The simple fraction (:data:`_SIMPLE_DENOMINATOR`) within 4 u of ``x``, else ``x``'s own
+    value (cached: the same few probabilities recur in every rule)."""
+    q = Fraction(x)
+    simple = q.limit_denominator(_SIMPLE_DENOMINATOR)
+    return simple if abs(simple - q) <= q * 4 * Fraction(_UNIT) else q
+
+
+def _exact_part(source: _Source, r: int, states: list[int], dyn: _Dynamics) -> list[int]:
+    """The exact continuing vector y*_s = Σ_k B*_rk T*_k(s) on ``states`` (the exact model's
+    rows :meth:`_Dynamics.integer_row`, B*'s entries :meth:`_Source.entries`), as integer
+    numerators over one common denominator (a positive factor the triangulation ignores)."""
+    terms: list[tuple[int, int, int]] = []  # (state index, numerator, denominator)
+    at = {s: j for j, s in enumerate(states)}
+    for k, bn, bd in source.entries(r, dyn):
+        row, total = dyn.integer_row(int(source.choice_of[k]))
+        for s, j in at.items():
+            n = row.get(s)
+            if n is not None:
+                terms.append((j, bn * n, bd * total))
+    den = math.lcm(*(d for _, _, d in terms)) if terms else 1
+    out = [0] * len(states)
+    for j, n, d in terms:
+        out[j] += n * (den // d)
+    return out
+
+
+_EXACT_BITS = 128
+"""The unfolding keeps a posterior exact while its common denominator has at most this many
+bits (long paths multiply denominators); beyond, the float posterior with a leak."""
+
+
+def _exact_posterior(source: _Source, r: int, idx: np.ndarray, dyn: _Dynamics,
+                     grid: _Grid) -> int | None:
+    """The unfolding's vertex of row ``r``'s exact posterior on states ``idx`` (one part: the
+    continuing states of one observation group; :func:`_exact_part`), None when it is zero or
+    too long to keep (:data:`_EXACT_BITS`)."""
+    ys = _exact_part(source, r, idx.tolist(), dyn)
+    total = sum(ys)
+    if total <= 0 or min(ys) <= 0:
+        return None
+    g = math.gcd(*ys)
+    den = total // g
+    if den.bit_length() > _EXACT_BITS:
+        return None
+    return grid.exact_belief(idx, [y // g for y in ys], den)
+
+
+def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
+                     lam: np.ndarray, eta: np.ndarray, amb: np.ndarray, rel: np.ndarray,
+                     source: _Source, dyn: _Dynamics, N: int) -> None:
+    """Ambiguous parts (near a face of the triangulation: the float simplex may not hold the
+    exact posterior) triangulated in exact rational arithmetic instead, in place: the exact
+    continuing vector y*_s = Σ_k B_k T*_k(s) in integers (:func:`_exact_part`,
+    B*'s entries exact: the vertex belief counts/N with N a power of two, times an adversary's
+    rule as the rational rule it stands for, :class:`_Source`), its Freudenthal simplex and
+    weights (the same construction as :func:`freudenthal`, ties broken alike), so the part's
+    vertices are the exact decomposition's and each weight is the float of the exact one."""
+    m = cols.shape[1]
+    for i in parts.tolist():
+        if source.resolve is not None and not source.resolve[int(rows[i])]:
+            continue
+        states = cols[i].tolist()
+        ys = _exact_part(source, int(rows[i]), states, dyn)
+        total = sum(ys)
+        if total <= 0:
+            continue
+        # x_j = N Y_j / Y_0 (Y_j the tail sums): floor and remainder in the numerators' ring
+        # (integers, or rationals when a row needed scaling), the weights their differences
+        tails = [total] * m
+        acc = 0
+        for j in range(m - 1, 0, -1):
+            acc += ys[j]
+            tails[j] = acc
+        v = [N] + [(N * tails[j]) // total for j in range(1, m)]
+        rem = [0] + [N * tails[j] - v[j] * total for j in range(1, m)]
+        order = sorted(range(1, m), key=lambda j: -rem[j])
+        dd = [rem[j] for j in order]
+        # each weight a quotient of integers, rounded once (int / int is correctly rounded)
+        nums = [total - dd[0]] + [dd[q - 1] - dd[q] for q in range(1, m - 1)] + [dd[-1]]
+        # vertex q adds the unit vectors of the first q coordinates in the order
+        first = [0] * m  # the vertex from which each coordinate has its unit added
+        for q, j in enumerate(order):
+            first[j] = q + 1
+        rows_q = []
+        for q in range(m):
+            Y = [vj + (1 if 0 < first[j] <= q else 0) for j, vj in enumerate(v)]
+            rows_q.append([Y[j] - Y[j + 1] for j in range(m - 1)] + [Y[m - 1]])
+        counts[i] = rows_q
+        lam[i] = [a / total for a in nums]
+        amb[i] = False
+        eta[i] = (rel[i] + (m + 4) * _UNIT) * 1.02 + 4.0 * _UNIT
+
+
 class _Choices:
     """The abstraction's choices while exploring: a key (vertex · span + local index) each, its
     target mass and reward, and its successor entries (by key)."""
 
-    def __init__(self, span: int) -> None:
+    def __init__(self, span: int, cap: np.ndarray | None = None) -> None:
         self.span = span
+        # the full-observation bound per state (what an ambiguous part's uncovered mass is worth
+        # at most); None: not tracked (a minimiser's abstraction)
+        self.cap = cap
+        self.e_eta: list[np.ndarray] = []  # per entry: η (inf: an ambiguous part's)
+        self.a_key: list[np.ndarray] = []  # per ambiguous part: its choice, leak and slack
+        self.a_leak: list[np.ndarray] = []
+        self.a_slack: list[np.ndarray] = []
         self.key: list[np.ndarray] = []
         self.action: list[np.ndarray] = []
         self.stop: list[np.ndarray] = []
+        self.lost: list[np.ndarray] = []
         self.reward: list[np.ndarray] = []
         self.e_key: list[np.ndarray] = []
         self.e_vertex: list[np.ndarray] = []
@@ -548,9 +824,10 @@ class _Choices:
         self.terms: list[np.ndarray] = []
         self.on_grid = True  # every successor part so far is a vertex itself
 
-    def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, reward: np.ndarray,
-            D: sp.csr_matrix, terms: np.ndarray, dyn: _Dynamics, grid: _Grid,
-            block: np.ndarray | None = None) -> None:
+    def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, lost: np.ndarray,
+            reward: np.ndarray, D: sp.csr_matrix, terms: np.ndarray, dyn: _Dynamics, grid: _Grid,
+            block: np.ndarray | None = None,
+            source: _Source | None = None) -> None:
         """Choices ``keys`` whose continuing successor distributions are the rows of ``D``:
         each row split into its groups (one per observation of the decision maker's states, one
         for the others; a convex decomposition, so the bound stays sound), each part normalised
@@ -559,10 +836,12 @@ class _Choices:
         ``D`` (and its stop mass and reward) at most, for the rounding bound (:func:`_dominate`);
         ``D`` is kept as the successors the abstraction must dominate. ``block`` (int64 per
         row, ascending; default all 0): rows of different blocks are as if added by separate
-        calls, one block after the other (the order new grid vertices are numbered in)."""
+        calls, one block after the other (the order new grid vertices are numbered in).
+        ``source`` (a maximiser's, for :func:`_resolve_exactly`): what ``D`` is made of."""
         self.key.append(keys)
         self.action.append(action)
         self.stop.append(stop)
+        self.lost.append(lost)
         self.reward.append(reward)
         D = sp.csr_matrix(D)
         self.successors.append(D)
@@ -580,12 +859,40 @@ class _Choices:
         row_block = np.zeros(D.shape[0], dtype=np.int64) if block is None else block
         mass = np.add.reduceat(data, starts)
         N = grid.N
+        rel = _entry_rounding(np.asarray(terms, dtype=np.int64), dyn.input_rel)
         if N == 0:  # the belief unfolding: each posterior is a vertex itself
-            vs = [grid.belief(col[a:a + k], data[a:a + k] / w)
-                  for a, k, w in zip(starts.tolist(), sizes.tolist(), mass.tolist())]
+            exact = self.cap is not None and source is not None and \
+                source.beliefs is not None and not dyn.owned.all()
+            vs: list[int] = []
+            amb = np.ones(rows.size, dtype=bool)
+            for j, (a, k, w) in enumerate(zip(starts.tolist(), sizes.tolist(), mass.tolist())):
+                # only where the row loses nothing (as on the grids: a row that does is in no
+                # end component, and its leak costs at most the expected steps times itself)
+                if exact and source is not None and lost[rows[j]] == 0 and \
+                        source.known(int(rows[j])):
+                    v = _exact_posterior(source, int(rows[j]), col[a:a + k], dyn, grid)
+                    if v is not None:
+                        vs.append(v)
+                        amb[j] = False
+                        continue
+                vs.append(grid.belief(col[a:a + k], data[a:a + k] / w))
             self.e_key.append(keys[rows].astype(np.int64))
             self.e_vertex.append(np.asarray(vs, dtype=np.int64))
             self.e_prob.append(mass)
+            if self.cap is not None:
+                # an exact posterior's part weighs its float mass, within rel of the exact one;
+                # a float posterior is not the exact one: the part is ambiguous,
+                # |y*_s - w fl(y_s / w)| <= y_s (rel + 2u)
+                r = rel[rows]
+                self.e_eta.append(np.where(amb, np.inf,
+                                           (r + (sizes + 4) * _UNIT) * 1.02 + 4.0 * _UNIT))
+                loose = np.flatnonzero(amb)
+                if loose.size:
+                    self.a_key.append(keys[rows[loose]].astype(np.int64))
+                    self.a_leak.append(_up(np.add.reduceat(
+                        data * self.cap[col] * (rel[pair // (dyn.Z + 1)] + 2.0 * _UNIT) * 1.02,
+                        starts)[loose]))
+                    self.a_slack.append(_up(mass * (r + (sizes + 2) * _UNIT) * 1.02)[loose])
             return
         # the parts of one support size together: one vectorised triangulation each; the
         # references to grid vertices are then taken in the order of one call per block, per
@@ -594,12 +901,25 @@ class _Choices:
         refs: list[tuple[np.ndarray, np.ndarray]] = []
         e_key: list[np.ndarray] = []
         e_prob: list[np.ndarray] = []
+        e_eta: list[np.ndarray] = []
         for m, sel in _chunks(sizes):
             at = starts[sel][:, None] + np.arange(m)[None, :]
             w = mass[sel]
-            counts, lam = freudenthal_batch(data[at] / w[:, None], N)
+            P = data[at] / w[:, None]
+            counts, lam = freudenthal_batch(P, N)
             cols = col[at]
             keep = lam > 0
+            if self.cap is not None:
+                eta, amb, dmax = _weight_errors(P, lam, rel[rows[sel]], N)
+                # only where the row loses nothing: a row that does is in no end component, and
+                # a leak there costs at most the expected number of steps times itself
+                todo = np.flatnonzero(amb & (lost[rows[sel]] == 0))
+                if todo.size and source is not None and N & (N - 1) == 0:
+                    _resolve_exactly(todo, rows[sel], cols, counts, lam, eta, amb,
+                                     rel[rows[sel]], source, dyn, N)
+                    keep = lam > 0
+                self._enclose(P, w, cols, rel[rows[sel]], keys[rows[sel]], N, keep, e_eta,
+                              eta, amb, dmax)
             self.on_grid = self.on_grid and bool((keep.sum(axis=1) == 1).all())
             i, k = np.nonzero(keep)
             r = rows[sel][i]
@@ -618,6 +938,36 @@ class _Choices:
         self.e_key.append(np.concatenate(e_key)[seq])
         self.e_vertex.append(grid.lookup(parts, total))  # in rank order
         self.e_prob.append(np.concatenate(e_prob)[seq])
+        if self.cap is not None:
+            self.e_eta.append(np.concatenate(e_eta)[seq])
+
+    def _enclose(self, P: np.ndarray, w: np.ndarray, cols: np.ndarray,
+                 rel: np.ndarray, keys: np.ndarray, N: int, keep: np.ndarray,
+                 e_eta: list[np.ndarray], eta: np.ndarray, amb: np.ndarray,
+                 dmax: np.ndarray) -> None:
+        """The exact weights' enclosure of triangulated parts (:func:`_weight_errors`): η per
+        kept vertex (inf in an ambiguous part), and per ambiguous part its leak
+        Σ_s cap(s) |y*_s - x_s| and slack (how much its float weights may exceed its exact
+        mass), x = Σ_k e_k u_k the float weights' combination:
+        |y*_s - x_s| <= w ((rel + (m + 1) u) (P_s + 2Δ'/N) + 2Δ'/N), and
+        Σ_k e_k - w* <= w (rel + (2m + 2) u)."""
+        u = _UNIT
+        m = P.shape[1]
+        assert self.cap is not None
+        i, k = np.nonzero(keep)
+        e_eta.append(np.where(amb[i], np.inf, eta[i, k]))
+        if not amb.any():
+            return
+        a = np.flatnonzero(amb)
+        shift = 2.0 * dmax[a, None] / N
+        r = (rel[a, None] + (m + 1) * u) * 1.02
+        c = self.cap[cols[a]]
+        per = (r * (P[a] + shift) + shift) * 1.02
+        with np.errstate(invalid="ignore"):
+            leak = np.where(per > 0, per * c, 0.0).sum(axis=1)
+        self.a_key.append(keys[a].astype(np.int64))
+        self.a_leak.append(_up(w[a] * leak * (1.0 + 2.0 * (m + 2) * u)))
+        self.a_slack.append(_up(w[a] * (rel[a] + (2 * m + 2) * u) * 1.02))
 
 
 @dataclass(frozen=True, eq=False)
@@ -729,11 +1079,20 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
         return None
     grid = _Grid(dyn.S, resolution)
     if resolution == 0:
-        grid.belief(np.array([s0], dtype=np.int64), np.ones(1))
+        grid.exact_belief(np.array([s0], dtype=np.int64), [1], 1)
     else:
         grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
     Au = dyn.actions.size
-    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP)
+    cap = None
+    if problem.maximize:
+        # an ambiguous part's uncovered mass is worth at most cap(s) per state; with negative
+        # rewards what it covers in excess may be worth less than nothing, unbounded: no leak
+        # is finite then
+        negative = problem.rewards is not None and bool((np.asarray(problem.rewards) < 0).any())
+        cap = _caps(cutoff, problem.rewards is None)
+        if negative:
+            cap = np.full_like(cap, np.inf)
+    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP, cap)
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
     skipped: list[int] = []
     while done < len(grid.rows) and done < max_vertices:
@@ -752,9 +1111,11 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                 continue
             Ba = B[sel]
             choices.add(ids[sel] * choices.span + a, np.full(sel.size, a, dtype=np.int64),
-                        np.asarray(Ba @ dyn.stop[a]).ravel(),
+                        np.asarray(Ba @ dyn.stop[a]).ravel(), np.asarray(Ba @ dyn.lost[a]).ravel(),
                         np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a],
-                        np.diff(Ba.indptr) + dyn.row_terms, dyn, grid)
+                        np.diff(Ba.indptr) + dyn.row_terms, dyn, grid,
+                        source=_Source(Ba, dyn.choice_of[a], beliefs=None if resolution else
+                                       [grid.exact[v] for v in ids[sel].tolist()]))
         theirs = done + np.flatnonzero(~mine)
         if theirs.size and deadline is not None and time.perf_counter() > deadline:
             skipped.extend(theirs.tolist())  # the adversary's vertices are cut off
@@ -782,8 +1143,9 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
     states_of = [grid.rows[v] for v in vertices.tolist()]
     mass_of = [grid.vals[v] for v in vertices.tolist()]
     sizes = np.fromiter((s.size for s in states_of), dtype=np.int64, count=len(states_of))
-    # per group of vertices: each entry's vertex (its position), rule, global choice, weight
-    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+    # per group of vertices: each entry's vertex (its position), rule, global choice, the rule's
+    # probability of the choice and its state's belief mass
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
     rules_at = np.zeros(vertices.size, dtype=np.int64)
     for m in np.unique(sizes).tolist():
         at_m = np.flatnonzero(sizes == m)
@@ -793,10 +1155,10 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
         shapes, which = np.unique(n_all, axis=0, return_inverse=True)
         for j in range(shapes.shape[0]):
             sel = np.flatnonzero(which.ravel() == j)
-            k, vi, r, col, w = _rule_entries(dyn, shapes[j], St[sel], Pm[sel])
-            parts.append((at_m[sel][vi], r, col, w))
+            k, vi, r, col, prob, p_s = _rule_layout(dyn, shapes[j], St[sel], Pm[sel])
+            parts.append((at_m[sel][vi], r, col, prob, p_s))
             rules_at[at_m[sel]] = k
-    extras: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
+    extras: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
     if mixtures is not None:
         for i, (states, p) in enumerate(zip(states_of, mass_of)):
             extra = mixtures.at(states, p, grid.N)
@@ -805,27 +1167,112 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
             cols, _ = dyn.rules(states)
             owner = np.repeat(np.arange(states.size), per_state[states])
             r2, c2 = np.nonzero(extra[:MIX_CAP])
-            extras.append((i, r2 + rules_at[i], cols[c2], extra[r2, c2] * p[owner[c2]]))
+            extras.append((i, r2 + rules_at[i], cols[c2], extra[r2, c2], p[owner[c2]]))
             rules_at[i] += min(extra.shape[0], MIX_CAP)
     # each vertex's rows in the given order of the vertices
     first_row = np.r_[0, np.cumsum(rules_at)[:-1]]
     n_rows = int(rules_at.sum())
-    rows = [first_row[pos] + r for pos, r, _, _ in parts]
-    cols_ = [c for _, _, c, _ in parts]
-    weights = [w for _, _, _, w in parts]
-    for i, r2, c2, w2 in extras:
+    rows = [first_row[pos] + r for pos, r, _, _, _ in parts]
+    cols_ = [c for _, _, c, _, _ in parts]
+    probs = [q for _, _, _, q, _ in parts]
+    masses = [p_s for _, _, _, _, p_s in parts]
+    for i, r2, c2, q2, p2 in extras:
         rows.append(first_row[i] + r2)
         cols_.append(c2)
-        weights.append(w2)
-    W_all = sp.csr_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols_))),
+        probs.append(q2)
+        masses.append(p2)
+    # the same layout three times: each entry's weight, its rule's probability, its state's mass
+    r_all, c_all = np.concatenate(rows), np.concatenate(cols_)
+    where = sp.csr_matrix((np.arange(1, r_all.size + 1, dtype=np.float64), (r_all, c_all)),
                           shape=(n_rows, dyn.model.num_choices))
+    perm = where.data.astype(np.int64) - 1
+    q_all, p_all = np.concatenate(probs)[perm], np.concatenate(masses)[perm]
+    W_all = sp.csr_matrix((q_all * p_all, where.indices, where.indptr), shape=where.shape)
+    rule = sp.csr_matrix((q_all, where.indices, where.indptr), shape=where.shape)
+    mass = sp.csr_matrix((p_all, where.indices, where.indptr), shape=where.shape)
+    # the rows triangulated again in exact arithmetic on a grid: deterministic rules and the
+    # offered mixtures (a grid rule's posterior is a vertex, and a leak in a cycle the decision
+    # maker keeps to proves nothing); not the uniform mixture of every vertex, which would
+    # multiply the exact work (rover's default bracket 70 % slower) and stays ambiguous
+    resolve = np.ones(n_rows, dtype=bool)
+    n_parts = sum(r.size for r in rows[:len(parts)])
+    np.logical_and.at(resolve, r_all[:n_parts], np.concatenate(probs[:len(parts)]) == 1.0)
     owner_row = np.repeat(np.arange(vertices.size), rules_at)
     local = np.arange(n_rows) - first_row[owner_row]
     choices.add(vertices[owner_row] * choices.span + first_local + local,
                 np.full(n_rows, -1, dtype=np.int64),
-                np.asarray(W_all @ dyn.T_stop).ravel(),
+                np.asarray(W_all @ dyn.T_stop).ravel(), np.asarray(W_all @ dyn.T_lost).ravel(),
                 np.asarray(W_all @ dyn.choice_reward).ravel(), W_all @ dyn.T_cont,
-                np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=vertices[owner_row])
+                np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=vertices[owner_row],
+                source=_Source(W_all, np.arange(dyn.model.num_choices), mass, rule,
+                               None if grid.N else
+                               [grid.exact[v] for v in vertices[owner_row].tolist()],
+                               resolve))
+
+
+def _caps(cutoff: np.ndarray, probability: bool) -> np.ndarray:
+    """The proven bound per state used where a belief's value is bounded state by state: the
+    cut-off bound, +inf where none; a probability's clipped to [0, 1]."""
+    finite = np.isfinite(cutoff)
+    cap = np.where(finite, cutoff, np.inf)
+    if probability:
+        cap = np.clip(np.where(finite, cap, 1.0), 0.0, 1.0)
+    return np.asarray(cap, dtype=np.float64)
+
+
+def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matrix,
+               ech: np.ndarray, ev: np.ndarray, ep: np.ndarray, lost: np.ndarray,
+               top: np.ndarray, top_rel: np.ndarray, cut_ids: np.ndarray, cut_top: np.ndarray,
+               cut_infinite: np.ndarray, adversary: np.ndarray, probability: bool,
+               discount: float, input_rel: float) -> Enclosure:
+    """The exact abstraction's rows enclosed (:class:`~posgmc.synthesis.grid_certificate.
+    Enclosure`) for a maximiser: each expanded choice's vertex weights raised by their η (the
+    float weights where the part is ambiguous), its ``top`` (the stop mass or reward, already
+    rounded up for float sums) raised by input rounding, its ambiguous parts' leak and slack;
+    then the cut-off rows."""
+    n_exp, V = E.shape
+    eta = np.concatenate(ch.e_eta) if ch.e_eta else np.zeros(0)
+    hi = np.where(np.isfinite(eta), _up(ep * (1.0 + eta)), ep)
+    coef = sp.csr_matrix((hi, (ech, ev)), shape=(n_exp, V))
+    coef.sum_duplicates()
+    amb_row = np.zeros(n_exp, dtype=bool)
+    leak = np.zeros(n_exp)
+    slack = np.zeros(n_exp)
+    if ch.a_key:
+        at = np.searchsorted(keys, np.concatenate(ch.a_key))
+        amb_row[at] = True
+        np.add.at(leak, at, np.concatenate(ch.a_leak))
+        np.add.at(slack, at, np.concatenate(ch.a_slack))
+        leak, slack = _up(leak * (1.0 + 4.0 * _UNIT)), _up(slack * (1.0 + 4.0 * _UNIT))
+    # a lower bound on the exact mass that does not continue (t* + sink*): the exact masses
+    # sum to 1, each part's at most its enclosure (certified: coef; ambiguous: its float
+    # weights plus slack), and t* <= t for a probability (whose t is counted apart)
+    # the stop mass or reward (either sign) within 2 top_rel of its float (rounded already, and
+    # the exact model's rows)
+    spread = 2.0 * top_rel + input_rel + 4.0 * _UNIT
+    top_hi = top + np.abs(top) * spread
+    top_hi = np.where(top_hi != 0, np.nextafter(top_hi, np.inf), top_hi)
+    k = np.diff(coef.indptr).astype(np.float64)
+    covered = np.asarray(coef.sum(axis=1)).ravel() + slack
+    if probability:
+        covered = covered + np.maximum(top_hi, 0.0)
+    covered = covered * (1.0 + 2.0 * (k + 4.0) * _UNIT)
+    gone = np.where(lost > 0, np.maximum(0.0, (1.0 - covered) - 4.0 * _UNIT), 0.0)
+    # and a lower bound on the exact continuing mass (for a negative value per unit of it)
+    lost_hi = _up(lost * (1.0 + spread) * (1.0 + 4.0 * _UNIT))
+    kept_lo = np.where((lost > 0) | (slack > 0),
+                       np.maximum(0.0, (1.0 - (lost_hi + slack) * (1.0 + 4.0 * _UNIT))
+                                  - 4.0 * _UNIT), 1.0)
+    n_cut = cut_ids.size
+    state = np.r_[keys // ch.span, cut_ids].astype(np.int64)
+    coef = sp.vstack([coef, sp.csr_matrix((n_cut, V))], format="csr")
+    return Enclosure(
+        state=state, coef=coef, top=np.r_[top_hi, cut_top], kept_lo=np.r_[kept_lo, np.ones(n_cut)],
+        slack=np.r_[slack, np.zeros(n_cut)], leak=np.r_[leak, np.zeros(n_cut)],
+        gone=np.r_[gone, np.zeros(n_cut)],
+        clean=np.r_[~amb_row & (lost == 0), np.zeros(n_cut, dtype=bool)],
+        infinite=np.r_[np.zeros(n_exp, dtype=bool), cut_infinite],
+        adversary=adversary, probability=probability, discount=discount)
 
 
 def _rule_entries(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
@@ -835,6 +1282,14 @@ def _rule_entries(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.nd
     entries: the number of rules k per vertex, then per entry (vertex by vertex, rule by rule,
     each rule's choices in their order) its vertex (0..g-1), its rule, its global choice and its
     weight (the rule's probability of the choice times its state's mass)."""
+    k, vi, r, col, prob, p_s = _rule_layout(dyn, n, states, mass)
+    return k, vi, r, col, prob * p_s
+
+
+def _rule_layout(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
+                 ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_rule_entries` with each entry's weight as its two factors: the rule's
+    probability of the choice and the belief mass of the choice's state."""
     rg = dyn.model.row_groups
     g, m = states.shape
     lo = rg[states]
@@ -844,20 +1299,23 @@ def _rule_entries(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.nd
     k = k_det + (1 if varying else 0)
     e = int(n.sum()) if varying else m  # entries per rule at most: the uniform mixture's
     col = np.zeros((g, k, e), dtype=np.int64)
+    prob = np.zeros((g, k, e))
     w = np.zeros((g, k, e))
     real = np.zeros((k, e), dtype=bool)
     col[:, :k_det, :m] = lo[:, None, :] + det
+    prob[:, :k_det, :m] = 1.0
     w[:, :k_det, :m] = mass[:, None, :]
     real[:k_det, :m] = True
     if varying:
         owner = np.repeat(np.arange(m), n)
         within = np.arange(e) - np.r_[0, np.cumsum(n)[:-1]][owner]
         col[:, k_det, :] = lo[:, owner] + within
-        w[:, k_det, :] = (1.0 / n)[owner] * mass[:, owner]
+        prob[:, k_det, :] = (1.0 / n)[owner]
+        w[:, k_det, :] = mass[:, owner]
         real[k_det, :] = True
     vi, r, _ = np.nonzero(np.broadcast_to(real, (g, k, e)))
     keep = np.broadcast_to(real, (g, k, e))
-    return k, vi, r, col[keep], w[keep]
+    return k, vi, r, col[keep], prob[keep], w[keep]
 
 
 def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarray,
@@ -879,6 +1337,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     cv = keys // ch.span
     ca = cat(ch.action, np.int64)[order]
     stop, rew = cat(ch.stop)[order], cat(ch.reward)[order]
+    lost = cat(ch.lost)[order]
     n_exp = keys.size  # the expanded choices, numbered 0..n_exp-1 in key (= vertex) order
     ech = np.searchsorted(keys, cat(ch.e_key, np.int64))
     ev, ep = cat(ch.e_vertex, np.int64), cat(ch.e_prob)
@@ -966,9 +1425,16 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
         rewards = np.r_[rew_exp, r_cut, np.zeros(2)][perm]
     target = np.zeros(S_abs, dtype=bool)
     target[TARGET] = True
+    enclosure = None
+    if problem.maximize:
+        enclosure = _enclosure(
+            ch, order, keys, E, ech, ev, ep, lost, t if prob else rew_exp, _rounding(terms),
+            cut_ids,
+            u if prob else r_cut, np.zeros(n_cut, dtype=bool) if prob else unbounded,
+            theirs[:V], prob, problem.discount, dyn.input_rel)
     return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,
                            problem.discount, problem.maximize, resolution,
-                           ch.on_grid and bool(expanded.all()), theirs)
+                           ch.on_grid and bool(expanded.all()), theirs, enclosure)
 
 
 class Mixtures:
@@ -1099,6 +1565,21 @@ class GridBound:
     seconds: float
 
 
+def _proven_side(abstraction: GridAbstraction, result: EngineResult) -> np.ndarray | None:
+    """The bound side per vertex, proven for the exact belief MDP: a minimiser's lower values
+    (its rows are scaled below the exact ones, :func:`_dominate`); a maximiser's upper values
+    raised until the exact operator's enclosure is below them
+    (:func:`~posgmc.synthesis.grid_certificate.certified_upper`), None when that fails. A
+    probability's bound is clipped to 1."""
+    if not abstraction.maximize:
+        return np.asarray(result.lower, dtype=np.float64)[:abstraction.vertices]
+    assert abstraction.enclosure is not None
+    W = certified_upper(abstraction.enclosure, np.asarray(result.upper, dtype=np.float64))
+    if W is None:
+        return None
+    return np.minimum(W, 1.0) if abstraction.rewards is None else W
+
+
 def grid_bound(problem: Problem, *, deadline: float | None, target: float | None = None,
                resolutions: tuple[int, ...] = RESOLUTIONS,
                cutoff: np.ndarray | None = None,
@@ -1170,9 +1651,20 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
                                                      stiff_certificate=deadline is None))
             if not result.sound:
                 break
-            value = float(result.upper[0] if problem.maximize else result.lower[0])
+            proven = _proven_side(abstraction, result)
+            if proven is None:
+                break
+            value = float(proven[0])
+            solved_at = float(result.upper[0] if problem.maximize else result.lower[0])
+            # the initial state's own cut-off bound holds too (a certificate may be looser)
+            s0 = int(problem.model.initial_states[0])
+            if problem.maximize and np.isfinite(cutoff[s0]):
+                value = min(value, float(cutoff[s0]))
             tried.append((N, value))
-            exact = abstraction.exact and not abstraction.adversary.any()
+            # the belief MDP itself, and its solution proven as it is (a certificate that had
+            # to raise it, or fell back to the cut-off, leaves finer grids something to do)
+            exact = abstraction.exact and not abstraction.adversary.any() and \
+                sign * value <= sign * solved_at + 1e-9 * max(1.0, abs(solved_at))
             if best is None or sign * value < sign * best.value:
                 best = GridBound(value, N, abstraction.vertices, abstraction.complete, exact, (),
                                  0.0)
@@ -1180,8 +1672,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
                 break
             if at_n is None or sign * value < sign * at_n:
                 at_n, solved = value, abstraction
-                side = np.asarray(result.upper if problem.maximize else result.lower,
-                                  dtype=np.float64)
+                side = proven
             elif at_n is not None and sign * value >= sign * at_n - 1e-9 * max(1.0, abs(at_n)):
                 break  # the last rules did not tighten the bound
             # the stage LPs get at most a third of what is left (a finer grid may need the rest)
@@ -1189,10 +1680,8 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
                 time.perf_counter() + (deadline - time.perf_counter()) / 3
             if mixing is None or not abstraction.adversary.any() or lps_left <= 0:
                 break
-            added, used = stage_mixtures(
-                problem, abstraction, np.asarray(
-                    result.upper if problem.maximize else result.lower, dtype=np.float64),
-                cutoff, mixing, deadline=lp_until, limit=lps_left)
+            added, used = stage_mixtures(problem, abstraction, proven, cutoff, mixing,
+                                         deadline=lp_until, limit=lps_left)
             lps_left -= used
             if added == 0:
                 break
