@@ -713,23 +713,65 @@ def _rational_probability(x: float) -> Fraction:
     return simple if abs(simple - q) <= q * 4 * Fraction(_UNIT) else q
 
 
-def _exact_part(source: _Source, r: int, states: list[int], dyn: _Dynamics) -> list[int]:
-    """The exact continuing vector y*_s = Σ_k B*_rk T*_k(s) on ``states`` (the exact model's
-    rows :meth:`_Dynamics.integer_row`, B*'s entries :meth:`_Source.entries`), as integer
-    numerators over one common denominator (a positive factor the triangulation ignores)."""
-    terms: list[tuple[int, int, int]] = []  # (state index, numerator, denominator)
-    at = {s: j for j, s in enumerate(states)}
-    for k, bn, bd in source.entries(r, dyn):
-        row, total = dyn.integer_row(int(source.choice_of[k]))
-        for s, j in at.items():
-            n = row.get(s)
-            if n is not None:
-                terms.append((j, bn * n, bd * total))
-    den = math.lcm(*(d for _, _, d in terms)) if terms else 1
-    out = [0] * len(states)
-    for j, n, d in terms:
-        out[j] += n * (den // d)
+def _exact_row(source: _Source, r: int, dyn: _Dynamics) -> dict[int, int]:
+    """Row ``r``'s exact continuing vector (:func:`_exact_rows`)."""
+    return _exact_rows(source, np.asarray([r], dtype=np.int64), dyn)[r]
+
+
+def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, dict[int, int]]:
+    """Each of ``rows``' (distinct) exact continuing vector y*_s = Σ_k B*_rk T*_k(s) on all its
+    successor states (the exact model's rows :meth:`_Dynamics.integer_row`, B*'s entries
+    :meth:`_Source.entries`), as integer numerators (state -> numerator, zeros left out) over
+    one common denominator per row, a positive factor the triangulation ignores (the parts of
+    one row share it). The rows' columns, choices and stored weights are gathered in one
+    vectorised step; rows whose entries are their stored floats (no rule, or a deterministic
+    one, and no exact belief) read them from it, the others ask :meth:`_Source.entries`."""
+    B = source.B
+    lo, hi = B.indptr[rows].astype(np.int64), B.indptr[rows + 1].astype(np.int64)
+    n = hi - lo
+    ends = np.cumsum(n)
+    flat = np.repeat(lo - (ends - n), n) + np.arange(int(ends[-1]) if n.size else 0)
+    cols = B.indices[flat]
+    choices = source.choice_of[cols].tolist()
+    if source.rule is None or source.mass is None:
+        stored, plain = B.data[flat], np.ones(rows.size, dtype=bool)
+    else:
+        stored = source.mass.data[flat]
+        # a deterministic rule (every probability 1): each entry is its state's mass, exact
+        # as stored
+        owner = np.repeat(np.arange(rows.size), n)
+        plain = np.bincount(owner[source.rule.data[flat] != 1.0], minlength=rows.size) == 0
+    if source.beliefs is not None:
+        plain &= np.asarray([source.beliefs[r] is None for r in rows.tolist()], dtype=bool)
+    weights = stored.tolist()
+    cols_l = cols.tolist()
+    out: dict[int, dict[int, int]] = {}
+    start = 0
+    for r, end, simple in zip(rows.tolist(), ends.tolist(), plain.tolist()):
+        if simple:
+            entries = [(k, *w.as_integer_ratio())
+                       for k, w in zip(cols_l[start:end], weights[start:end])]
+        else:
+            entries = source.entries(r, dyn)
+        exact = [dyn.integer_row(c) for c in choices[start:end]]
+        start = end
+        dens = [bd * total for (_, _, bd), (_, total) in zip(entries, exact)]
+        den = math.lcm(*dens) if dens else 1
+        y: dict[int, int] = {}
+        get = y.get
+        for (_, bn, _), (row, _), d in zip(entries, exact, dens):
+            f = bn * (den // d)
+            for s, c in row.items():
+                y[s] = get(s, 0) + f * c
+        out[r] = y
     return out
+
+
+def _exact_part(source: _Source, r: int, states: list[int], dyn: _Dynamics) -> list[int]:
+    """The exact continuing vector of row ``r`` (:func:`_exact_row`) on ``states``, as integer
+    numerators over one common denominator (a positive factor the triangulation ignores)."""
+    y = _exact_row(source, r, dyn)
+    return [y.get(s, 0) for s in states]
 
 
 _EXACT_BITS = 128
@@ -764,11 +806,17 @@ def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, coun
     weights (the same construction as :func:`freudenthal`, ties broken alike), so the part's
     vertices are the exact decomposition's and each weight is the float of the exact one."""
     m = cols.shape[1]
+    if source.resolve is not None:
+        parts = parts[source.resolve[rows[parts]]]
+    # per row, its exact vector (rows may have several parts)
+    exact = _exact_rows(source, np.unique(rows[parts]).astype(np.int64), dyn)
+    done: list[int] = []  # the parts resolved, and per part: v, each coordinate's first
+    base: list[list[int]] = []  # vertex with its unit added, the exact weights' floats
+    step: list[list[int]] = []
+    weights: list[list[float]] = []
     for i in parts.tolist():
-        if source.resolve is not None and not source.resolve[int(rows[i])]:
-            continue
-        states = cols[i].tolist()
-        ys = _exact_part(source, int(rows[i]), states, dyn)
+        y = exact[int(rows[i])]
+        ys = [y.get(s, 0) for s in cols[i].tolist()]
         total = sum(ys)
         if total <= 0:
             continue
@@ -789,14 +837,21 @@ def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, coun
         first = [0] * m  # the vertex from which each coordinate has its unit added
         for q, j in enumerate(order):
             first[j] = q + 1
-        rows_q = []
-        for q in range(m):
-            Y = [vj + (1 if 0 < first[j] <= q else 0) for j, vj in enumerate(v)]
-            rows_q.append([Y[j] - Y[j + 1] for j in range(m - 1)] + [Y[m - 1]])
-        counts[i] = rows_q
-        lam[i] = [a / total for a in nums]
-        amb[i] = False
-        eta[i] = (rel[i] + (m + 4) * _UNIT) * 1.02 + 4.0 * _UNIT
+        done.append(i)
+        base.append(v)
+        step.append(first)
+        weights.append([x / total for x in nums])
+    if not done:
+        return
+    # the simplices' vertices and the records, written for all resolved parts at once
+    at = np.asarray(done, dtype=np.int64)
+    F = np.asarray(step, dtype=np.int64)[:, None, :]
+    vertex = np.arange(m)[None, :, None]
+    Y = np.asarray(base, dtype=np.int64)[:, None, :] + ((F > 0) & (F <= vertex))  # [part, q, j]
+    counts[at] = np.concatenate([Y[:, :, :-1] - Y[:, :, 1:], Y[:, :, -1:]], axis=2)
+    lam[at] = np.asarray(weights, dtype=np.float64)
+    amb[at] = False
+    eta[at] = ((rel[at] + (m + 4) * _UNIT) * 1.02 + 4.0 * _UNIT)[:, None]
 
 
 class _Choices:
