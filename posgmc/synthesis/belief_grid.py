@@ -713,11 +713,6 @@ def _rational_probability(x: float) -> Fraction:
     return simple if abs(simple - q) <= q * 4 * Fraction(_UNIT) else q
 
 
-def _exact_row(source: _Source, r: int, dyn: _Dynamics) -> dict[int, int]:
-    """Row ``r``'s exact continuing vector (:func:`_exact_rows`)."""
-    return _exact_rows(source, np.asarray([r], dtype=np.int64), dyn)[r]
-
-
 def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, dict[int, int]]:
     """Each of ``rows``' (distinct) exact continuing vector y*_s = Σ_k B*_rk T*_k(s) on all its
     successor states (the exact model's rows :meth:`_Dynamics.integer_row`, B*'s entries
@@ -767,24 +762,16 @@ def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, 
     return out
 
 
-def _exact_part(source: _Source, r: int, states: list[int], dyn: _Dynamics) -> list[int]:
-    """The exact continuing vector of row ``r`` (:func:`_exact_row`) on ``states``, as integer
-    numerators over one common denominator (a positive factor the triangulation ignores)."""
-    y = _exact_row(source, r, dyn)
-    return [y.get(s, 0) for s in states]
-
-
 _EXACT_BITS = 128
 """The unfolding keeps a posterior exact while its common denominator has at most this many
 bits (long paths multiply denominators); beyond, the float posterior with a leak."""
 
 
-def _exact_posterior(source: _Source, r: int, idx: np.ndarray, dyn: _Dynamics,
-                     grid: _Grid) -> int | None:
-    """The unfolding's vertex of row ``r``'s exact posterior on states ``idx`` (one part: the
-    continuing states of one observation group; :func:`_exact_part`), None when it is zero or
-    too long to keep (:data:`_EXACT_BITS`)."""
-    ys = _exact_part(source, r, idx.tolist(), dyn)
+def _exact_posterior(y: dict[int, int], idx: np.ndarray, grid: _Grid) -> int | None:
+    """The unfolding's vertex of a row's exact posterior on states ``idx`` (one part: the
+    continuing states of one observation group; ``y`` the row's exact vector,
+    :func:`_exact_rows`), None when it is zero or too long to keep (:data:`_EXACT_BITS`)."""
+    ys = [y.get(s, 0) for s in idx.tolist()]
     total = sum(ys)
     if total <= 0 or min(ys) <= 0:
         return None
@@ -800,7 +787,7 @@ def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, coun
                      source: _Source, dyn: _Dynamics, N: int) -> None:
     """Ambiguous parts (near a face of the triangulation: the float simplex may not hold the
     exact posterior) triangulated in exact rational arithmetic instead, in place: the exact
-    continuing vector y*_s = Σ_k B_k T*_k(s) in integers (:func:`_exact_part`,
+    continuing vector y*_s = Σ_k B_k T*_k(s) in integers (:func:`_exact_rows`,
     B*'s entries exact: the vertex belief counts/N with N a power of two, times an adversary's
     rule as the rational rule it stands for, :class:`_Source`), its Freudenthal simplex and
     weights (the same construction as :func:`freudenthal`, ties broken alike), so the part's
@@ -920,12 +907,17 @@ class _Choices:
                 source.beliefs is not None and not dyn.owned.all()
             vs: list[int] = []
             amb = np.ones(rows.size, dtype=bool)
+            # only where the row loses nothing (as on the grids: a row that does is in no
+            # end component, and its leak costs at most the expected steps times itself)
+            ys: dict[int, dict[int, int]] = {}
+            if exact and source is not None:
+                live = np.unique(rows[lost[rows] == 0]).astype(np.int64)
+                ys = _exact_rows(source, live[[source.known(r) for r in live.tolist()]]
+                                 if live.size else live, dyn)
             for j, (a, k, w) in enumerate(zip(starts.tolist(), sizes.tolist(), mass.tolist())):
-                # only where the row loses nothing (as on the grids: a row that does is in no
-                # end component, and its leak costs at most the expected steps times itself)
-                if exact and source is not None and lost[rows[j]] == 0 and \
-                        source.known(int(rows[j])):
-                    v = _exact_posterior(source, int(rows[j]), col[a:a + k], dyn, grid)
+                y = ys.get(int(rows[j]))
+                if y is not None:
+                    v = _exact_posterior(y, col[a:a + k], grid)
                     if v is not None:
                         vs.append(v)
                         amb[j] = False
