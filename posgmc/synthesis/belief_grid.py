@@ -266,7 +266,7 @@ class _Dynamics:
         k = np.diff(model.transitions.indptr).astype(np.float64)
         dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * _UNIT, initial=0.0))
         self.input_rel = 2.0 * dev / max(1.0 - dev, 0.5)
-        self._integer_rows: dict[int, tuple[dict[int, int], int]] = {}
+        self._integer_rows: dict[int, tuple[tuple[tuple[int, int], ...], int]] = {}
         for a in range(layout.used_actions.size):
             c = np.flatnonzero(c_act == a)
             at = np.full(S, -1, dtype=np.int64)
@@ -294,9 +294,9 @@ class _Dynamics:
         self.row_terms = int(np.diff(model.transitions.indptr).max(initial=0)) + 3
         self.T_stop = np.asarray(model.transitions @ self.target).ravel()
 
-    def integer_row(self, choice: int) -> tuple[dict[int, int], int]:
+    def integer_row(self, choice: int) -> tuple[tuple[tuple[int, int], ...], int]:
         """The exact model's row of ``choice`` (its stored probabilities scaled to sum to 1) as
-        integer numerators per column over one integer denominator (cached)."""
+        (column, integer numerator) pairs over one integer denominator (cached)."""
         found = self._integer_rows.get(choice)
         if found is None:
             T = self.model.transitions
@@ -305,7 +305,7 @@ class _Dynamics:
             den = max((d for _, d in ratios), default=1)  # powers of two: the largest is a
             nums = [n * (den // d) for n, d in ratios]    # common multiple
             found = self._integer_rows[choice] = (
-                dict(zip(T.indices[lo:hi].tolist(), nums)), sum(nums))
+                tuple(zip(T.indices[lo:hi].tolist(), nums)), sum(nums))
         return found
 
     def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -756,7 +756,7 @@ def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, 
         get = y.get
         for (_, bn, _), (row, _), d in zip(entries, exact, dens):
             f = bn * (den // d)
-            for s, c in row.items():
+            for s, c in row:
                 y[s] = get(s, 0) + f * c
         out[r] = y
     return out
