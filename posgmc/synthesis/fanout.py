@@ -169,7 +169,9 @@ def _pool_results(function: Callable[..., Any], arguments: Sequence[tuple[Any, .
     stopped = False
 
     def submit() -> None:
-        while (not stopped and len(futures) < len(arguments)
+        # the stop is read here too: a call that wound down on the interrupt may return before
+        # the loop below has seen it, and its freed worker must not take the next call
+        while (not stopped and not interrupted() and len(futures) < len(arguments)
                and sum(not f.done() for f in futures) < workers):
             try:
                 futures.append(pool.submit(function, *arguments[len(futures)]))
@@ -185,7 +187,7 @@ def _pool_results(function: Callable[..., Any], arguments: Sequence[tuple[Any, .
     try:
         for i, name in enumerate(names):
             submit()
-            if i >= len(futures) and stopped:
+            if i >= len(futures) and (stopped or interrupted()):
                 break  # an interrupt: this call and those after it are not run
             try:
                 if i >= len(futures):  # not submitted: the pool broke
