@@ -649,3 +649,48 @@ def test_the_unfolding_of_a_game_keeps_exact_posteriors() -> None:
                                              want_strategy=False, stiff_certificate=True))
     proven = belief_grid._proven_side(abstraction, result)
     assert proven is not None and 0.12 <= proven[0] <= 0.12 + 1e-6
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), deterministic=st.booleans())
+def test_the_exact_rows_are_the_rational_successor_vectors(seed: int,
+                                                           deterministic: bool) -> None:
+    """_exact_rows (the exact re-triangulation's input, batched over rows) gives each row's
+    continuing vector Σ_k B_rk T*_k up to one positive factor, T* the stored rows scaled to
+    sum to 1, checked against Fractions on random POMDPs: with stored weights counts/N (no
+    rule), and as a deterministic adversary rule's masses (rule 1 everywhere, mass = B)."""
+    model = random_pomdp(seed)
+    problem = _problem(model, 'Pmax=? [ F "goal" ]')
+    dyn = belief_grid._Dynamics(problem, None)
+    rng = np.random.default_rng(seed)
+    choice_of = dyn.choice_of[0]
+    live = np.flatnonzero(choice_of >= 0)
+    if live.size == 0:
+        return
+    N, R = 8, 5
+    dense = np.zeros((R, model.num_states))
+    for r in range(R - 1):  # the last row empty
+        on = rng.choice(live, min(live.size, int(rng.integers(1, 4))), replace=False)
+        dense[r, on] = rng.integers(1, N + 1, on.size) / N
+    B = sp.csr_matrix(dense)
+    source = belief_grid._Source(B, choice_of) if not deterministic else belief_grid._Source(
+        B, choice_of, mass=B, rule=sp.csr_matrix((np.ones(B.nnz), B.indices, B.indptr),
+                                                 shape=B.shape))
+    rows = np.arange(R, dtype=np.int64)
+    got = belief_grid._exact_rows(source, rows, dyn)
+    assert sorted(got) == rows.tolist()
+    assert got[R - 1] == {}
+    T = model.transitions
+    for r in range(R - 1):
+        want: dict[int, Fraction] = {}
+        for k in np.flatnonzero(dense[r]).tolist():
+            c = int(choice_of[k])
+            data = T.data[T.indptr[c]:T.indptr[c + 1]].tolist()
+            total = sum((Fraction(p) for p in data), Fraction(0))
+            for t, p in zip(T.indices[T.indptr[c]:T.indptr[c + 1]].tolist(), data):
+                want[t] = want.get(t, Fraction(0)) + Fraction(dense[r, k]) * Fraction(p) / total
+        y = {s: n for s, n in got[r].items() if n}
+        assert set(y) == {s for s, q in want.items() if q}
+        scale = Fraction(sum(y.values())) / sum(want.values(), Fraction(0))
+        assert scale > 0
+        assert all(Fraction(n) == scale * want[s] for s, n in y.items())
