@@ -1612,7 +1612,8 @@ class GridBound:
     seconds: float
 
 
-def _proven_side(abstraction: GridAbstraction, result: EngineResult) -> np.ndarray | None:
+def _proven_side(abstraction: GridAbstraction, result: EngineResult,
+                 deadline: float | None = None) -> np.ndarray | None:
     """The bound side per vertex, proven for the exact belief MDP: a minimiser's lower values
     (its rows are scaled below the exact ones, :func:`_dominate`); a maximiser's upper values
     raised until the exact operator's enclosure is below them
@@ -1621,7 +1622,8 @@ def _proven_side(abstraction: GridAbstraction, result: EngineResult) -> np.ndarr
     if not abstraction.maximize:
         return np.asarray(result.lower, dtype=np.float64)[:abstraction.vertices]
     assert abstraction.enclosure is not None
-    W = certified_upper(abstraction.enclosure, np.asarray(result.upper, dtype=np.float64))
+    W = certified_upper(abstraction.enclosure, np.asarray(result.upper, dtype=np.float64),
+                        deadline=deadline)
     if W is None:
         return None
     return np.minimum(W, 1.0) if abstraction.rewards is None else W
@@ -1698,7 +1700,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
                                                      stiff_certificate=deadline is None))
             if not result.sound:
                 break
-            proven = _proven_side(abstraction, result)
+            proven = _proven_side(abstraction, result, deadline)
             if proven is None:
                 break
             value = float(proven[0])

@@ -189,8 +189,8 @@ def _components(enc: Enclosure, usable: np.ndarray) -> tuple[np.ndarray, int]:
     return np.asarray(mec_of, dtype=np.int64), int(count)
 
 
-def _steps(enc: Enclosure, mec_of: np.ndarray, count: int, usable: np.ndarray
-           ) -> np.ndarray | None:
+def _steps(enc: Enclosure, mec_of: np.ndarray, count: int, usable: np.ndarray,
+           deadline: float | None = None) -> np.ndarray | None:
     """h per vertex: the largest expected number of ``usable`` rows taken (either player
     maximising it) before a row without vertices, or an end component of ``mec_of``, is
     reached; those count 0 (an end component's vertices share its own exits' count, found on
@@ -240,8 +240,13 @@ def _steps(enc: Enclosure, mec_of: np.ndarray, count: int, usable: np.ndarray
     model = make_model(ModelType.MDP, groups, T, initial_states=(0,))
     target = np.zeros(n_states, dtype=bool)
     target[DONE] = True
+    # by the caller's deadline the iteration stops with its upper values as far as they got,
+    # still proven (a looser h, so a larger W, or none); policy iteration (the stiff
+    # iteration's certificate) has no deadline, so it runs only without one
     result = expected_reach_reward(model, reward, target, maximize=np.ones(n_states, dtype=bool),
-                                   options=SolverOptions(precision=1e-3, relative=True))
+                                   options=SolverOptions(precision=1e-3, relative=True,
+                                                         deadline=deadline,
+                                                         stiff_certificate=deadline is None))
     h = np.asarray(result.upper, dtype=np.float64)
     if not result.sound:
         return None
@@ -256,11 +261,13 @@ def _capped(enc: Enclosure, W: np.ndarray) -> np.ndarray:
     return np.zeros(W.shape, dtype=bool)
 
 
-def certified_upper(enc: Enclosure, upper: np.ndarray) -> np.ndarray | None:
+def certified_upper(enc: Enclosure, upper: np.ndarray, *, deadline: float | None = None
+                    ) -> np.ndarray | None:
     """A vector W >= ``upper`` (float64[>= vertices], the engine's upper values of the float
     abstraction) over the vertices with R(W) <= W checked (the module docstring): W bounds the
     exact belief MDP's optimum at every vertex. None when no such W was found (a cycle of
-    ambiguous rows, or non-finite values where they matter)."""
+    ambiguous rows, or non-finite values where they matter, or ``deadline``, a
+    ``time.perf_counter()`` value, passed before the steps h were bounded)."""
     V = enc.vertices
     U = np.asarray(upper, dtype=np.float64)[:V].copy()
     U = np.where(np.isnan(U), np.inf, U)
@@ -280,7 +287,7 @@ def certified_upper(enc: Enclosure, upper: np.ndarray) -> np.ndarray | None:
     over = np.where(np.isnan(over), np.inf, over)
     if not (over > 0).any():
         return U
-    h = _steps(enc, mec_of, count, usable)
+    h = _steps(enc, mec_of, count, usable, deadline)
     if h is None:
         return None
     d0 = float(over.max())
