@@ -493,14 +493,15 @@ def test_a_leak_in_a_loop_is_not_ignored() -> None:
 def test_a_deadline_passed_before_the_steps_are_bounded_proves_nothing_lower() -> None:
     """The steps h of the raise are solved by the caller's deadline: when it has passed, the
     iteration stops where it is, and the bound it then proves is no lower than without the
-    deadline (here: none below 1 for the leaking loop; the clean loop needs no h at all)."""
+    deadline (here: none below 1 for the leaking loop, none below its exit's 1/2 for the clean
+    loop)."""
     late = time.perf_counter() - 1.0
     W = grid_certificate.certified_upper(_one_vertex(1e-16), np.array([0.5, 1.0, 0.0]),
                                          deadline=late)
     assert W is None or W[0] >= 1.0
     W = grid_certificate.certified_upper(_one_vertex(0.0), np.array([0.5, 1.0, 0.0]),
                                          deadline=late)
-    assert W is not None and 0.5 <= W[0] <= 0.5 + 1e-14
+    assert W is None or W[0] >= 0.5
 
 
 DODGE = ROOT / "tests" / "data" / "benchmarks" / "posmg" / "dodge-6-lines" / "sketch.templ"
