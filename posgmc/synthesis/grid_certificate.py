@@ -64,6 +64,13 @@ __all__ = ["Enclosure", "certified_upper"]
 
 _UNIT = 2.0 ** -53
 
+STEP_ITERATIONS = 20_000
+"""The iterations of the steps h (interval iteration, stopped there with its upper values, which
+still bound h). h is stiff exactly where it is useless: a loop of ambiguous rows that the
+maximiser can keep to leaks only rounding-sized mass, so h is of the order of 1e16 steps and the
+raise d h reaches the cap anyway; without this count such a loop kept the bracket iterating for
+minutes (a 68,000-vertex grid of the case study)."""
+
 _RAISES = (1.0, 4.0, 64.0, 4096.0)
 """The factors tried on the raise d (the largest violation) before the check is given up."""
 
@@ -245,6 +252,7 @@ def _steps(enc: Enclosure, mec_of: np.ndarray, count: int, usable: np.ndarray,
     # iteration's certificate) has no deadline, so it runs only without one
     result = expected_reach_reward(model, reward, target, maximize=np.ones(n_states, dtype=bool),
                                    options=SolverOptions(precision=1e-3, relative=True,
+                                                         max_iterations=STEP_ITERATIONS,
                                                          deadline=deadline,
                                                          stiff_certificate=deadline is None))
     h = np.asarray(result.upper, dtype=np.float64)
