@@ -112,10 +112,9 @@ def test_ranking_milp_is_the_brute_force_max_min(seed: int, full_observation: bo
     _achieves(found, problem, adversaries, best)
 
 
-def test_ranking_is_needed_on_a_loop() -> None:
-    """A hand-made game where the greatest fixed point alone is wrong: from state 0 the defender
-    plays "a" (stay forever: value 0, but x = 1 solves x <= P x) or "b" (reach the goal with
-    probability 1/2). The exact max-min is 1/2 (hand derivation)."""
+def _loop_game():  # type: ignore[no-untyped-def]
+    """State 0: the defender plays "a" (stay forever) or "b" (reach "goal" with probability
+    1/2); states 1 and 2 are the adversary's, one choice each."""
     rows = [[1, 0, 0], [0, 0.5, 0.5], [0, 1, 0], [0, 0, 1]]
     model = make_model(ModelType.POSG, [0, 2, 3, 4], np.array(rows, dtype=float),
                        choice_actions=[1, 2, 3, 3], action_names=("", "a", "b", "x"),
@@ -123,6 +122,14 @@ def test_ranking_is_needed_on_a_loop() -> None:
                        labels={"goal": np.array([False, True, False])},
                        variable_names=("s",), state_values=np.arange(3)[:, None])
     assert (model.num_states, model.num_choices) == (3, 4)
+    return model
+
+
+def test_ranking_is_needed_on_a_loop() -> None:
+    """A hand-made game where the greatest fixed point alone is wrong: from state 0 the defender
+    plays "a" (stay forever: value 0, but x = 1 solves x <= P x) or "b" (reach the goal with
+    probability 1/2). The exact max-min is 1/2 (hand derivation)."""
+    model = _loop_game()
     problem = _problem(model, '<<p0>> Pmax=? [ F "goal" ]')
     adversaries = enumerate_adversaries(model, 1, memory=1, limit=4).strategies
     found = compose_milp(problem, adversaries)
@@ -292,13 +299,7 @@ def test_the_probe_skips_the_branching_when_nothing_wins(monkeypatch: pytest.Mon
     full solve runs and finds the 1/2."""
     from posgmc.synthesis import milp as milp_module
 
-    rows = [[1, 0, 0], [0, 0.5, 0.5], [0, 1, 0], [0, 0, 1]]
-    model = make_model(ModelType.POSG, [0, 2, 3, 4], np.array(rows, dtype=float),
-                       choice_actions=[1, 2, 3, 3], action_names=("", "a", "b", "x"),
-                       state_players=[0, 1, 1], player_names=("p0", "p1"),
-                       labels={"goal": np.array([False, True, False])},
-                       variable_names=("s",), state_values=np.arange(3)[:, None])
-    assert (model.num_states, model.num_choices) == (3, 4)
+    model = _loop_game()
     problem = _problem(model, '<<p0>> Pmax=? [ F "goal" ]')
     adversaries = enumerate_adversaries(model, 1, memory=1, limit=4).strategies
     calls = []
