@@ -62,6 +62,7 @@ from posgmc.synthesis.budget import interrupted
 from posgmc.synthesis.grid_certificate import Enclosure, certified_upper
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
+from posgmc.synthesis.target_rules import TARGET_CAP, Targets, target_rules
 
 __all__ = ["GridAbstraction", "GridBound", "CoarseBounds", "applies", "freudenthal",
            "UNFOLD_SHARE",
@@ -383,6 +384,12 @@ class _Grid:
         self.vals: list[np.ndarray] = []
         # the unfolding's exact beliefs (state -> probability) where known, else None
         self.exact: list[dict[int, Fraction] | None] = []
+        # the unfolding's explored beliefs as targets of the adversary's rules (None: not
+        # tracked); ``origin``: the vertex whose choice is being added; ``owner_group``: per
+        # state its decision maker's observation group, -1 for the adversary's
+        self.targets: Targets | None = None
+        self.origin = -1
+        self.owner_group = np.zeros(0, dtype=np.int64)
 
     def exact_belief(self, idx: np.ndarray, nums: list[int], den: int) -> int:
         """The vertex of the exact rational belief nums/den on states ``idx`` (resolution 0;
@@ -396,6 +403,9 @@ class _Grid:
             self.rows.append(idx)
             self.vals.append(np.asarray([n / den for n in nums], dtype=np.float64))
             self.exact.append({s: Fraction(n, den) for s, n in zip(idx.tolist(), nums)})
+            if self.targets is not None:
+                self.targets.found(found, self.origin, int(self.owner_group[idx[0]]),
+                                   self.exact[found])
         return found
 
     def belief(self, idx: np.ndarray, p: np.ndarray) -> int:
@@ -410,6 +420,8 @@ class _Grid:
             self.rows.append(idx)
             self.vals.append(p)
             self.exact.append(None)
+            if self.targets is not None:
+                self.targets.found(found, self.origin, -1, None)
         return found
 
     def vertex(self, idx: np.ndarray, counts: np.ndarray) -> int:
@@ -657,6 +669,9 @@ class _Source:
     rule: sp.csr_matrix | None = None
     beliefs: list[dict[int, Fraction] | None] | None = None
     resolve: np.ndarray | None = None
+    exact_rules: dict[int, dict[int, Fraction]] | None = None
+    """Rows whose rule is given exactly (global choice -> probability): the unfolding's rules
+    that land on an explored belief (:mod:`posgmc.synthesis.target_rules`)."""
 
     def known(self, r: int) -> bool:
         """Whether row ``r``'s exact entries are known: always on a grid; on the unfolding
@@ -678,8 +693,11 @@ class _Source:
             # a deterministic rule: each entry is its state's mass, exact as stored
             return [(k, *p.as_integer_ratio())
                     for k, p in zip(cols, self.mass.data[lo:hi].tolist())]
-        states = dyn.model.choice_states[self.choice_of[B.indices[lo:hi]]].tolist()
-        probs = _rational_rule(self.rule.data[lo:hi].tolist(), states)
+        chosen = self.choice_of[B.indices[lo:hi]]
+        states = dyn.model.choice_states[chosen].tolist()
+        given = None if self.exact_rules is None else self.exact_rules.get(r)
+        probs = _rational_rule(self.rule.data[lo:hi].tolist(), states) if given is None else \
+            [given[c] for c in chosen.tolist()]
         weights = [belief[s] * q for s, q in zip(states, probs)] if belief is not None else \
             [Fraction(p) * q for p, q in zip(self.mass.data[lo:hi].tolist(), probs)]
         return [(k, w.numerator, w.denominator) for k, w in zip(cols, weights)]
@@ -911,10 +929,15 @@ class _Choices:
             # end component, and its leak costs at most the expected steps times itself)
             ys: dict[int, dict[int, int]] = {}
             if exact and source is not None:
-                live = np.unique(rows[lost[rows] == 0]).astype(np.int64)
+                # and the rows whose exact rule lands on an explored belief, lossy or not
+                given = np.zeros(D.shape[0], dtype=bool)
+                if source.exact_rules:
+                    given[np.fromiter(source.exact_rules, dtype=np.int64)] = True
+                live = np.unique(rows[(lost[rows] == 0) | given[rows]]).astype(np.int64)
                 ys = _exact_rows(source, live[[source.known(r) for r in live.tolist()]]
                                  if live.size else live, dyn)
             for j, (a, k, w) in enumerate(zip(starts.tolist(), sizes.tolist(), mass.tolist())):
+                grid.origin = int(keys[rows[j]]) // self.span
                 y = ys.get(int(rows[j]))
                 if y is not None:
                     v = _exact_posterior(y, col[a:a + k], grid)
@@ -1086,7 +1109,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                      deadline: float | None = None, max_vertices: int = MAX_VERTICES,
                      adversary_rules: np.ndarray | None = None,
                      coarse: CoarseBounds | None = None,
-                     mixtures: Mixtures | None = None) -> GridAbstraction | None:
+                     mixtures: Mixtures | None = None,
+                     targets: bool = False) -> GridAbstraction | None:
     """The abstraction of ``problem`` at ``resolution``, explored breadth first from the initial
     belief until ``max_vertices`` or ``deadline``.
 
@@ -1113,6 +1137,10 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             full-observation bound and its coarse simplex's interpolated bound.
         mixtures: randomised rules offered to the adversary at some of its vertices besides
             the deterministic ones (:func:`stage_mixtures`).
+        targets: on a game's unfolding (resolution 0), also offer the adversary the randomised
+            rules whose posterior is exactly a belief already explored
+            (:mod:`posgmc.synthesis.target_rules`), so that the unfolding may close where the
+            adversary keeps the decision maker guessing.
 
     Returns:
         The abstraction, or None when it does not apply (:func:`applies`) or the initial state
@@ -1125,6 +1153,9 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     if not dyn.cont[s0] or (dyn.owned[s0] and dyn.group[s0] < 0):
         return None
     grid = _Grid(dyn.S, resolution)
+    if resolution == 0 and targets and not dyn.owned.all():
+        grid.targets = Targets()
+        grid.owner_group = np.where(dyn.owned, dyn.group, -1)
     if resolution == 0:
         grid.exact_belief(np.array([s0], dtype=np.int64), [1], 1)
     else:
@@ -1139,7 +1170,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
         cap = _caps(cutoff, problem.rewards is None)
         if negative:
             cap = np.full_like(cap, np.inf)
-    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP, cap)
+    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP + TARGET_CAP, cap)
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
     skipped: list[int] = []
     while done < len(grid.rows) and done < max_vertices:
@@ -1216,8 +1247,33 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
             r2, c2 = np.nonzero(extra[:MIX_CAP])
             extras.append((i, r2 + rules_at[i], cols[c2], extra[r2, c2], p[owner[c2]]))
             rules_at[i] += min(extra.shape[0], MIX_CAP)
+    # the unfolding's rules that land on explored beliefs, each kept exact (row -> its rule)
+    exact_rules: dict[int, dict[int, Fraction]] = {}
+    at_row: list[tuple[int, int, dict[int, Fraction]]] = []
+    if grid.targets is not None and dyn.cont.any():
+        for i, v in enumerate(vertices.tolist()):
+            belief_v = grid.exact[v]
+            states = states_of[i]
+            if belief_v is None or per_state[states].max() <= 1:
+                continue
+            cols, _ = dyn.rules(states)
+            owner = np.repeat(np.arange(states.size), per_state[states])
+            found = target_rules(v, belief_v, cols, owner, states, dyn.integer_row, dyn.cont,
+                                 grid.owner_group, grid.targets,
+                                 lambda u: grid.exact[u] if u < len(grid.exact) else None,
+                                 _near_grid)
+            for rule in found[:TARGET_CAP]:
+                c2 = np.fromiter(sorted(rule), dtype=np.int64)
+                q2 = np.asarray([float(rule[c]) for c in c2.tolist()])
+                p2 = np.asarray([float(belief_v[int(s)]) for s in
+                                 dyn.model.choice_states[c2].tolist()])
+                extras.append((i, np.full(c2.size, rules_at[i]), c2, q2, p2))
+                at_row.append((i, int(rules_at[i]), rule))
+                rules_at[i] += 1
     # each vertex's rows in the given order of the vertices
     first_row = np.r_[0, np.cumsum(rules_at)[:-1]]
+    for pos, local, rule in at_row:
+        exact_rules[int(first_row[pos]) + local] = rule
     n_rows = int(rules_at.sum())
     rows = [first_row[pos] + r for pos, r, _, _, _ in parts]
     cols_ = [c for _, _, c, _, _ in parts]
@@ -1254,7 +1310,27 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
                 source=_Source(W_all, np.arange(dyn.model.num_choices), mass, rule,
                                None if grid.N else
                                [grid.exact[v] for v in vertices[owner_row].tolist()],
-                               resolve))
+                               resolve, exact_rules or None))
+
+
+TARGET_RESOLUTION = 2
+"""The grid whose vertices around the uniform mixture's posterior the unfolding's adversary may
+also aim at exactly (:func:`_near_grid`)."""
+
+
+def _near_grid(states: np.ndarray, y: np.ndarray) -> list[dict[int, Fraction]]:
+    """The vertices of the :data:`TARGET_RESOLUTION` grid's simplex around the posterior ``y``
+    (a mass on ``states``) as exact beliefs, heaviest weight first."""
+    if y.sum() <= 0:
+        return []
+    counts, lam = freudenthal(y / y.sum(), TARGET_RESOLUTION)
+    out: list[dict[int, Fraction]] = []
+    for i in np.argsort(-lam, kind="stable").tolist():
+        if lam[i] <= 0:
+            continue
+        out.append({int(s): Fraction(int(c), TARGET_RESOLUTION)
+                    for s, c in zip(states.tolist(), counts[i].tolist()) if c > 0})
+    return out
 
 
 def _caps(cutoff: np.ndarray, probability: bool) -> np.ndarray:
@@ -1689,7 +1765,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
                                            adversary_rules=rules, coarse=coarse,
                                            max_vertices=max(1, int(share * left)),
-                                           mixtures=mixing)
+                                           mixtures=mixing, targets=N == 0 and game and mix)
             if abstraction is None:
                 return None
             left -= int(abstraction.expanded.sum())
