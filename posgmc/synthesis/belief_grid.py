@@ -53,6 +53,7 @@ from posgmc.engines.options import SolverOptions
 from posgmc.engines.reach import reach_probability
 from posgmc.engines.result import EngineResult
 from posgmc.engines.rewards import expected_reach_reward
+from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
 from posgmc.strategies.binding import player_view
@@ -66,7 +67,8 @@ from posgmc.synthesis.problem import Problem
 __all__ = ["GridAbstraction", "GridBound", "CoarseBounds", "applies", "freudenthal",
            "UNFOLD_SHARE",
            "freudenthal_batch",
-           "grid_abstraction", "grid_bound", "full_observation_bounds", "RESOLUTIONS",
+           "grid_abstraction", "grid_bound", "full_observation_bounds", "full_observation_floor",
+           "RESOLUTIONS",
            "MAX_VERTICES", "PRECISION", "RULE_CAP"]
 
 RESOLUTIONS = tuple(2 ** i for i in range(1, 11))
@@ -507,6 +509,38 @@ def full_observation_bounds(problem: Problem,
     return np.asarray(r.upper if problem.maximize else r.lower, dtype=np.float64), strategy
 
 
+def _signed(problem: Problem) -> bool:
+    """Whether the objective's rewards take both signs (some negative)."""
+    return problem.rewards is not None and bool((np.asarray(problem.rewards) < 0).any())
+
+
+def full_observation_floor(problem: Problem, deadline: float | None = None) -> np.ndarray:
+    """A proven lower bound per state on the value of every strategy profile — float64[S], the
+    lower end of the full-observation value when *both* players minimise (a strategy of the
+    partially observing decision maker, started in state s, is one of the full-observation
+    model's history-dependent randomised strategies, so its value from s is at least that
+    minimum); -inf where none was proven (no finite bound, or the solve is unsupported)."""
+    S = problem.model.num_states
+    nowhere = np.zeros(S, dtype=bool)
+    options = SolverOptions(deadline=deadline, want_strategy=False,
+                            stiff_certificate=deadline is None)
+    rewards = np.asarray(problem.rewards, dtype=np.float64)
+    try:
+        if problem.discount < 1.0:
+            r = discounted_reach_reward(problem.model, rewards, problem.target,
+                                        discount=problem.discount, maximize=nowhere,
+                                        options=options)
+        else:
+            r = expected_reach_reward(problem.model, rewards, problem.target, maximize=nowhere,
+                                      options=options)
+    except UnsupportedError:
+        return np.full(S, -np.inf)
+    if not r.sound:
+        return np.full(S, -np.inf)
+    lower = np.asarray(r.lower, dtype=np.float64)
+    return np.where(np.isnan(lower), -np.inf, lower)
+
+
 def applies(problem: Problem) -> bool:
     """Whether the grid abstraction covers ``problem``: a POMDP, or a game of the decision maker
     against one omniscient adversary (any objective here: a probability, an expected reward until
@@ -549,6 +583,25 @@ def _up(v: np.ndarray) -> np.ndarray:
     """``v`` rounded up to the next float, zeros kept (a zero is exact: a structural zero
     must not become an edge)."""
     return np.where(v > 0, np.nextafter(v, np.inf), v)
+
+
+def _outward(v: np.ndarray, err: np.ndarray, up: bool) -> np.ndarray:
+    """``v + err`` rounded up (``up``) or ``v - err`` rounded down, for values of either sign
+    (``err`` >= 0); exact where ``err`` is 0 (a structural zero stays one)."""
+    moved = v + err if up else v - err
+    out: np.ndarray = np.where(err > 0, np.nextafter(moved, np.inf if up else -np.inf), moved)
+    return out
+
+
+def _reward_magnitude(rew: np.ndarray, rewards: np.ndarray) -> np.ndarray:
+    """What the rounding of a belief's reward (a float sum of belief mass times reward) is
+    relative to: the computed sum's magnitude when the model's rewards have one sign (the
+    products then share it), else the largest |reward| (the products' magnitudes sum to at
+    most that, the masses summing to at most one, rounding aside)."""
+    mag = np.abs(rew)
+    if rewards.size and bool((rewards < 0).any()) and bool((rewards > 0).any()):
+        mag = np.maximum(mag, _up(np.asarray(float(np.max(np.abs(rewards))) * (1.0 + 4.0 * _UNIT))))
+    return np.asarray(mag, dtype=np.float64)
 
 
 def _entry_rounding(terms: np.ndarray, input_rel: float) -> np.ndarray:
@@ -1086,7 +1139,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                      deadline: float | None = None, max_vertices: int = MAX_VERTICES,
                      adversary_rules: np.ndarray | None = None,
                      coarse: CoarseBounds | None = None,
-                     mixtures: Mixtures | None = None) -> GridAbstraction | None:
+                     mixtures: Mixtures | None = None,
+                     floor: np.ndarray | None = None) -> GridAbstraction | None:
     """The abstraction of ``problem`` at ``resolution``, explored breadth first from the initial
     belief until ``max_vertices`` or ``deadline``.
 
@@ -1113,6 +1167,9 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             full-observation bound and its coarse simplex's interpolated bound.
         mixtures: randomised rules offered to the adversary at some of its vertices besides
             the deterministic ones (:func:`stage_mixtures`).
+        floor: float64[S], a maximiser's proven lower bound per state on every strategy's
+            value (:func:`full_observation_floor`), needed with rewards of both signs only
+            (computed when None).
 
     Returns:
         The abstraction, or None when it does not apply (:func:`applies`) or the initial state
@@ -1135,10 +1192,13 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
         # an ambiguous part's uncovered mass is worth at most cap(s) per state; with negative
         # rewards what it covers in excess may be worth less than nothing, unbounded: no leak
         # is finite then
-        negative = problem.rewards is not None and bool((np.asarray(problem.rewards) < 0).any())
         cap = _caps(cutoff, problem.rewards is None)
-        if negative:
-            cap = np.full_like(cap, np.inf)
+        if _signed(problem):
+            # with rewards of both signs what it covers in excess is worth at least floor(s)
+            # per state, so |y*_s - x_s| is worth max(cap(s), -floor(s), 0)
+            if floor is None:
+                floor = full_observation_floor(problem)
+            cap = np.maximum(np.maximum(cap, -floor), 0.0)
     choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP, cap)
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
     skipped: list[int] = []
@@ -1269,14 +1329,16 @@ def _caps(cutoff: np.ndarray, probability: bool) -> np.ndarray:
 
 def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matrix,
                ech: np.ndarray, ev: np.ndarray, ep: np.ndarray, lost: np.ndarray,
-               top: np.ndarray, top_rel: np.ndarray, cut_ids: np.ndarray, cut_top: np.ndarray,
-               cut_infinite: np.ndarray, adversary: np.ndarray, probability: bool,
-               discount: float, input_rel: float) -> Enclosure:
+               top: np.ndarray, top_mag: np.ndarray, top_rel: np.ndarray, cut_ids: np.ndarray,
+               cut_top: np.ndarray, cut_infinite: np.ndarray, adversary: np.ndarray,
+               probability: bool, discount: float, input_rel: float,
+               signed: bool = False) -> Enclosure:
     """The exact abstraction's rows enclosed (:class:`~posgmc.synthesis.grid_certificate.
     Enclosure`) for a maximiser: each expanded choice's vertex weights raised by their η (the
     float weights where the part is ambiguous), its ``top`` (the stop mass or reward, already
     rounded up for float sums) raised by input rounding, its ambiguous parts' leak and slack;
-    then the cut-off rows."""
+    then the cut-off rows. ``top_mag``: at least |top| and the magnitude the top's rounding is
+    relative to (a reward summed from products of both signs: the largest |reward|)."""
     n_exp, V = E.shape
     eta = np.concatenate(ch.e_eta) if ch.e_eta else np.zeros(0)
     hi = np.where(np.isfinite(eta), _up(ep * (1.0 + eta)), ep)
@@ -1297,7 +1359,7 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
     # the stop mass or reward (either sign) within 2 top_rel of its float (rounded already, and
     # the exact model's rows)
     spread = 2.0 * top_rel + input_rel + 4.0 * _UNIT
-    top_hi = top + np.abs(top) * spread
+    top_hi = top + top_mag * spread
     top_hi = np.where(top_hi != 0, np.nextafter(top_hi, np.inf), top_hi)
     k = np.diff(coef.indptr).astype(np.float64)
     covered = np.asarray(coef.sum(axis=1)).ravel() + slack
@@ -1319,7 +1381,7 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
         gone=np.r_[gone, np.zeros(n_cut)],
         clean=np.r_[~amb_row & (lost == 0), np.zeros(n_cut, dtype=bool)],
         infinite=np.r_[np.zeros(n_exp, dtype=bool), cut_infinite],
-        adversary=adversary, probability=probability, discount=discount)
+        adversary=adversary, probability=probability, discount=discount, signed=signed)
 
 
 def _rule_entries(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
@@ -1407,8 +1469,15 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
         # a reward's stop mass is worth nothing more: what the vertices leave reaches the target
         t = np.maximum(0.0, 1.0 - kept)
         sink = np.zeros(n_exp)
-    rew_exp = (_up(rew * grow) if problem.maximize else np.maximum(0.0, rew * (2.0 - grow))) \
-        if not prob else np.zeros(n_exp)
+    # a reward (a float sum of products of either sign) moved outward by its rounding bound,
+    # relative to the sum of the products' magnitudes (at most the largest |reward| when the
+    # rewards take both signs, the sum itself otherwise): up for a maximiser, down for a
+    # minimiser, whatever the reward's sign
+    rew_mag = np.zeros(n_exp)
+    rew_exp = np.zeros(n_exp)
+    if not prob:
+        rew_mag = _reward_magnitude(rew, np.asarray(problem.rewards, dtype=np.float64))
+        rew_exp = _outward(rew, (grow - 1.0) * rew_mag, problem.maximize)
     Ec = E.tocoo()
     T_exp = sp.csr_matrix(
         (np.r_[Ec.data, t, sink],
@@ -1475,10 +1544,10 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     enclosure = None
     if problem.maximize:
         enclosure = _enclosure(
-            ch, order, keys, E, ech, ev, ep, lost, t if prob else rew_exp, _rounding(terms),
-            cut_ids,
+            ch, order, keys, E, ech, ev, ep, lost, t if prob else rew_exp,
+            t if prob else np.maximum(np.abs(rew_exp), rew_mag), _rounding(terms), cut_ids,
             u if prob else r_cut, np.zeros(n_cut, dtype=bool) if prob else unbounded,
-            theirs[:V], prob, problem.discount, dyn.input_rel)
+            theirs[:V], prob, problem.discount, dyn.input_rel, _signed(problem))
     return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,
                            problem.discount, problem.maximize, resolution,
                            ch.on_grid and bool(expanded.all()), theirs, enclosure)
@@ -1661,6 +1730,8 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     rules = None
     if cutoff is None:
         cutoff, rules = full_observation_bounds(problem, deadline)
+    floor = full_observation_floor(problem, deadline) if problem.maximize and _signed(problem) \
+        else None
     best: GridBound | None = None
     tried: list[tuple[int, float]] = []
     coarse: CoarseBounds | None = None
@@ -1689,7 +1760,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
                                            adversary_rules=rules, coarse=coarse,
                                            max_vertices=max(1, int(share * left)),
-                                           mixtures=mixing)
+                                           mixtures=mixing, floor=floor)
             if abstraction is None:
                 return None
             left -= int(abstraction.expanded.sum())

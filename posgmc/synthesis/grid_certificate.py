@@ -60,7 +60,7 @@ from posgmc.engines.rewards import expected_reach_reward
 from posgmc.model.explicit import make_model
 from posgmc.model.types import ModelType
 
-__all__ = ["Enclosure", "certified_upper"]
+__all__ = ["Enclosure", "certified_upper", "contracts"]
 
 _UNIT = 2.0 ** -53
 
@@ -83,7 +83,8 @@ class Enclosure:
     bool[rows], every part certified and nothing to the target (rows an end component may keep
     to); ``infinite``: bool[rows], rows worth +inf (an unbounded reward cut-off); ``adversary``:
     bool[vertices]; ``probability``: the objective is a probability (else an expected reward);
-    ``discount``."""
+    ``discount``; ``signed``: rewards of both signs (``leak`` then priced at
+    max(cap, -floor, 0) per state)."""
 
     state: np.ndarray
     coef: sp.csr_matrix
@@ -97,6 +98,9 @@ class Enclosure:
     adversary: np.ndarray
     probability: bool
     discount: float
+    signed: bool = False
+    """The rewards take both signs: W is proven by the contraction argument (the module
+    docstring), which needs no W >= 0 and no collapsed end component."""
 
     @property
     def vertices(self) -> int:
@@ -261,6 +265,23 @@ def _steps(enc: Enclosure, mec_of: np.ndarray, count: int, usable: np.ndarray,
     return h[rep]
 
 
+def contracts(enc: Enclosure, usable: np.ndarray, h: np.ndarray) -> bool:
+    """Whether h (float64[vertices]) proves the rows ``usable`` (bool[rows]) a contraction in
+    the h-weighted sup norm: h > 0 at every vertex and Σ_k coef_k h_k < h_v on every usable row
+    of every vertex v, evaluated with rounding to +inf (the module docstring, "Rewards of both
+    signs")."""
+    h = np.asarray(h, dtype=np.float64)
+    if h.size != enc.vertices or not bool((np.isfinite(h) & (h > 0)).all()):
+        return False
+    coef = enc.coef
+    k = np.diff(coef.indptr).astype(np.float64)
+    S = np.asarray(coef @ h).ravel()
+    S = np.where(S > 0, np.nextafter(S * (1.0 + 2.0 * (k + 2.0) * _UNIT), np.inf), S)
+    if enc.discount < 1.0:
+        S = np.where(S > 0, np.nextafter(S * enc.discount, np.inf), S)
+    return bool((S[usable] < h[enc.state[usable]]).all())
+
+
 def _capped(enc: Enclosure, W: np.ndarray) -> np.ndarray:
     """Where W needs no check: a probability's 1 (V*_n <= 1 holds anyway, so the induction
     only needs min(1, R(W)) <= W)."""
@@ -282,7 +303,12 @@ def certified_upper(enc: Enclosure, upper: np.ndarray, *, deadline: float | None
     if enc.probability:
         U = np.maximum(U, 0.0)
     usable = _usable_rows(enc, U)
-    mec_of, count = _components(enc, usable)
+    if enc.signed:
+        # the contraction argument collapses nothing (a clean loop that never stops has no
+        # finite steps, and then no bound is proven)
+        mec_of, count = np.full(V, -1, dtype=np.int64), 0
+    else:
+        mec_of, count = _components(enc, usable)
     if count:
         best = np.full(count, -np.inf)
         inn = mec_of >= 0
@@ -293,11 +319,13 @@ def certified_upper(enc: Enclosure, upper: np.ndarray, *, deadline: float | None
     R = _per_state(enc, bellman_upper(enc, U))
     over = np.where((R > U) & ~_capped(enc, U), R - U, 0.0)
     over = np.where(np.isnan(over), np.inf, over)
-    if not (over > 0).any():
+    if not enc.signed and not (over > 0).any():
         return U
     h = _steps(enc, mec_of, count, usable, deadline)
-    if h is None:
+    if h is None or (enc.signed and not contracts(enc, usable, h)):
         return None
+    if not (over > 0).any():
+        return U
     d0 = float(over.max())
     for factor in _RAISES:
         d = d0 * factor * (1.0 + 1e-6) + 4.0 * _UNIT * float(np.max(np.where(
