@@ -544,8 +544,12 @@ def full_observation_floor(problem: Problem, deadline: float | None = None) -> n
 def applies(problem: Problem) -> bool:
     """Whether the grid abstraction covers ``problem``: a POMDP, or a game of the decision maker
     against one omniscient adversary (any objective here: a probability, an expected reward until
-    a target, a discounted cost)."""
+    a target, a discounted cost), except a minimiser's rewards of both signs (its rows are
+    scaled below the exact ones and the mass given up is priced at 0, which bounds V* from below
+    only where V* >= 0: :func:`_dominate`)."""
     if problem.model.initial_states.size != 1:
+        return False
+    if not problem.maximize and _signed(problem):
         return False
     if belief.applies(problem):
         return True
@@ -1489,10 +1493,11 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     cut_ids = np.flatnonzero(~expanded)
     Bc = grid.matrix()[cut_ids]
     # Σ_s b(s) cutoff(s) rounded outward (a sum of nonnegative products)
+    # (products of either sign: the rounding is relative to the sum of their magnitudes)
     u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
+    u_mag = np.asarray(Bc @ np.where(finite, np.abs(cutoff), 0.0)).ravel()
     slack = _rounding(np.diff(Bc.indptr))
-    u = _up(u * (1.0 + slack)) if problem.maximize else \
-        np.maximum(0.0, u * (1.0 - slack))
+    u = _outward(u, _up(u_mag * slack * (1.0 + 4.0 * _UNIT)), problem.maximize)
     unbounded = np.asarray(Bc @ (~finite).astype(np.float64)).ravel() > 0
     n_cut = cut_ids.size
     if coarse is not None and n_cut:
