@@ -28,7 +28,8 @@ per vertex, then a target and a sink), so it is checked with the same sound engi
 (interval iteration, end components handled) and the bound side of their result is the reported
 bound. Its transition probabilities are computed in float64 (posterior beliefs, the weights λ).
 A minimiser's choices are scaled below the exact belief successors (:func:`_dominate`), and stop
-masses, rewards and cut-off values are rounded to the optimistic side. A maximiser's rows cannot
+masses, rewards and cut-off values are rounded to the optimistic side (outward for either sign;
+a minimiser whose rewards take both signs gets no grid, :func:`applies`). A maximiser's rows cannot
 dominate the exact ones one by one in a cycle of beliefs (docs/synthesis.md, "Floating point"):
 its abstraction carries an enclosure of the exact rows (certified weights, parts near a face
 triangulated in exact arithmetic, :func:`_resolve_exactly`), and the engine's upper values are
