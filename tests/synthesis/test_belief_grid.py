@@ -393,8 +393,24 @@ def test_a_maximisers_enclosure_holds_the_exact_belief_successors(seed: int,
     full-observation bound per state, is at most the row's leak, and their float weights exceed
     their exact mass by at most its slack. A float decomposition that only approximates the
     exact one (a vertex missing, a weight below the exact one, no leak) fails it."""
-    model = random_pomdp(seed)
-    problem = _problem(model, 'Pmax=? [ F "goal" ]')
+    _check_enclosure(random_pomdp(seed), 'Pmax=? [ F "goal" ]', resolution)
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), resolution=st.sampled_from([2, 3, 4, 8]))
+@example(seed=0, resolution=2)
+def test_a_signed_enclosure_holds_the_exact_belief_successors(seed: int,
+                                                               resolution: int) -> None:
+    """The same claims with rewards of both signs (random POMDPs that stop with 1/10 a step):
+    the top is at least the exact reward, and the leak prices each |y*_s - x_s| at
+    max(cap(s), -floor(s), 0), the floor being the full-observation minimum
+    (posgmc/synthesis/grid_certificate.py, "Rewards of both signs")."""
+    _check_enclosure(random_signed_pomdp(seed), 'R{"r"}max=? [ F "goal" ]', resolution)
+
+
+def _check_enclosure(model, prop: str, resolution: int) -> None:  # type: ignore[no-untyped-def]
+    problem = _problem(model, prop)
+    signed = problem.rewards is not None and bool((problem.rewards < 0).any())
     cutoff = belief_grid.full_observation_bounds(problem)[0]
     abstraction = belief_grid.grid_abstraction(problem, resolution, cutoff=cutoff,
                                                max_vertices=200)
@@ -410,7 +426,12 @@ def test_a_maximisers_enclosure_holds_the_exact_belief_successors(seed: int,
               for v in range(V)]
     vertex_of = {tuple(sorted(c.items())): v for v, c in enumerate(counts)}
     dyn = belief_grid._Dynamics(problem, None)
-    cap = np.clip(np.where(np.isfinite(cutoff), cutoff, 1.0), 0.0, 1.0)
+    if problem.rewards is None:
+        cap = np.clip(np.where(np.isfinite(cutoff), cutoff, 1.0), 0.0, 1.0)
+    else:
+        cap = cutoff
+        if signed:
+            cap = np.maximum(np.maximum(cap, -belief_grid.full_observation_floor(problem)), 0.0)
     used = np.flatnonzero(np.isin(np.arange(len(model.action_names)), model.choice_actions))
     rg = abstraction.model.row_groups
     coef = enc.coef
@@ -421,10 +442,12 @@ def test_a_maximisers_enclosure_holds_the_exact_belief_successors(seed: int,
         for j, row in zip(rows.tolist(), range(rg[v], rg[v + 1])):
             a = int(used[abstraction.action[row]])
             y: dict[int, Fraction] = {}
-            stop = Fraction(0)
+            stop, reward = Fraction(0), Fraction(0)
             for s, c in counts[v].items():
                 ch = [i for i in range(model.row_groups[s], model.row_groups[s + 1])
                       if model.choice_actions[i] == a]
+                if problem.rewards is not None:
+                    reward += Fraction(c, N) * Fraction(float(problem.rewards[ch[0]]))
                 r = model.transitions[ch[0]]
                 total = sum((Fraction(p) for p in r.data.tolist()), Fraction(0))
                 for t, p in zip(r.indices.tolist(), r.data.tolist()):
@@ -433,7 +456,7 @@ def test_a_maximisers_enclosure_holds_the_exact_belief_successors(seed: int,
                         stop += mass
                     elif dyn.cont[t]:
                         y[t] = y.get(t, Fraction(0)) + mass
-            assert Fraction(enc.top[j]) >= stop
+            assert Fraction(enc.top[j]) >= (stop if problem.rewards is None else reward)
             assert Fraction(enc.gone[j]) <= 1 - sum(y.values(), Fraction(0))
             entries = dict(zip(coef.indices[coef.indptr[j]:coef.indptr[j + 1]].tolist(),
                                coef.data[coef.indptr[j]:coef.indptr[j + 1]].tolist()))
@@ -454,8 +477,9 @@ def test_a_maximisers_enclosure_holds_the_exact_belief_successors(seed: int,
                 for i, e in mine.items():
                     for s, c in counts[i].items():
                         x[s] += e * Fraction(c, N)
-                leak += sum((max(y[s] - x[s], Fraction(0)) * Fraction(float(cap[s]))
-                             for s in states), Fraction(0))
+                # (with rewards of both signs the excess is priced too)
+                leak += sum(((abs(y[s] - x[s]) if signed else max(y[s] - x[s], Fraction(0)))
+                             * Fraction(float(cap[s])) for s in states), Fraction(0))
                 slack += max(sum(mine.values(), Fraction(0)) - w, Fraction(0))
             assert leak <= Fraction(enc.leak[j])
             assert slack <= Fraction(enc.slack[j])
