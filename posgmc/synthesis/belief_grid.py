@@ -249,7 +249,7 @@ class _Dynamics:
         self.target = problem.target.astype(np.float64)
         act_index = np.full(len(model.action_names), -1, dtype=np.int64)
         act_index[layout.used_actions] = np.arange(layout.used_actions.size)
-        cs = model.choice_states
+        self.choice_states = cs = model.choice_states  # computed once (a property)
         c_act = np.where(self.owned[cs], act_index[model.choice_actions], -1)
         keep = sp.diags(self.cont.astype(np.float64))
         self.P: list[sp.csr_matrix] = []
@@ -678,10 +678,14 @@ class _Source:
             # a deterministic rule: each entry is its state's mass, exact as stored
             return [(k, *p.as_integer_ratio())
                     for k, p in zip(cols, self.mass.data[lo:hi].tolist())]
-        states = dyn.model.choice_states[self.choice_of[B.indices[lo:hi]]].tolist()
-        probs = _rational_rule(self.rule.data[lo:hi].tolist(), states)
-        weights = [belief[s] * q for s, q in zip(states, probs)] if belief is not None else \
-            [Fraction(p) * q for p, q in zip(self.mass.data[lo:hi].tolist(), probs)]
+        states = dyn.choice_states[self.choice_of[B.indices[lo:hi]]].tolist()
+        probs = _rational_rule(tuple(self.rule.data[lo:hi].tolist()), tuple(states))
+        if belief is not None:
+            # numerator and denominator multiplied, not reduced: the row's common denominator
+            # absorbs any common factor (:func:`_exact_rows` scales the row as a whole)
+            return [(k, belief[s].numerator * q.numerator, belief[s].denominator * q.denominator)
+                    for k, s, q in zip(cols, states, probs)]
+        weights = [Fraction(p) * q for p, q in zip(self.mass.data[lo:hi].tolist(), probs)]
         return [(k, w.numerator, w.denominator) for k, w in zip(cols, weights)]
 
 
@@ -691,17 +695,19 @@ denominator are taken as that fraction (a grid rule's are such fractions: its po
 the grid vertex exactly, not a hair off it)."""
 
 
-def _rational_rule(probs: list[float], states: list[int]) -> list[Fraction]:
+@functools.lru_cache(maxsize=65536)
+def _rational_rule(probs: tuple[float, ...], states: tuple[int, ...]) -> tuple[Fraction, ...]:
     """A randomised rule's stored probabilities (each state's summing to 1 up to a few units of
     roundoff: every rule here is normalised by its float sum) as an exact rule: each
     probability the simple fraction it rounds (:data:`_SIMPLE_DENOMINATOR`) or else its float's
     own value, then divided by its state's sum, so that each state's probabilities sum to 1
-    exactly and each lies within (n + 4) u of the float (n the state's choices)."""
+    exactly and each lies within (n + 4) u of the float (n the state's choices). Cached: the
+    same rules recur at every vertex on the same support."""
     near = [_rational_probability(x) for x in probs]
     total: dict[int, Fraction] = {}
     for s, q in zip(states, near):
         total[s] = total.get(s, Fraction(0)) + q
-    return [q / total[s] for s, q in zip(states, near)]
+    return tuple(q / total[s] for s, q in zip(states, near))
 
 
 @functools.lru_cache(maxsize=4096)
@@ -1633,7 +1639,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
                resolutions: tuple[int, ...] = RESOLUTIONS,
                cutoff: np.ndarray | None = None,
                vertices: int = MAX_VERTICES, unfold: bool = True,
-               mix: bool = True) -> GridBound | None:
+               mix: bool = True, settle: bool = False) -> GridBound | None:
     """Abstractions of growing resolution while time remains; the tightest proven bound.
 
     Args:
@@ -1650,6 +1656,11 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
         mix: on a game, offer the adversary randomised rules from stage LPs
             (:func:`stage_mixtures`) in rounds of re-solving; False: its deterministic rules and
             the uniform mixture only (one solve per resolution).
+        settle: also stop refining once it has stopped paying: two grids of consecutive
+            resolutions both complete (no cut-offs) and the finer one not tighter than the
+            coarser beyond :data:`PRECISION` (relative). A budget rule (the bound stays what the
+            grids solved prove), deterministic, for the default bracket; False: the refinement
+            goes on until the budget, the deadline or the target stops it.
 
     Returns:
         The bound, or None when no abstraction applies or none was solved soundly in time.
@@ -1670,6 +1681,8 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     # the stage LPs' work budget, in vertices solved over all rounds (deterministic, like the
     # grid's): one per LP_SHARE vertices of the grid's budget
     lps_left = vertices // LP_SHARE
+    # the previous grid resolution's bound, when its abstraction was complete (for ``settle``)
+    settled_at: float | None = None
     for N in ((0,) if unfold else ()) + tuple(resolutions):
         side: np.ndarray | None = None
         solved: GridAbstraction | None = None
@@ -1739,6 +1752,11 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             break
         if solved is None or side is None or N == 0:
             continue
+        if settle and at_n is not None:
+            if solved.complete and settled_at is not None and sign * at_n >= \
+                    sign * settled_at - PRECISION * max(1.0, abs(settled_at)):
+                break  # a complete grid refined without tightening: finer ones hardly would
+            settled_at = at_n if solved.complete else None
         # the next resolution doubles this one: its cut-offs interpolate these values (the
         # grids nest, so a fine vertex's coarse simplex has vertices this abstraction holds
         # wherever it explored that far)

@@ -69,7 +69,8 @@ def optimum_of(problem: Problem, guaranteed: Bound, full_observation: Bound,
         # the adversary's randomised rules (stage LPs, re-solves) only when a gap is asked for:
         # the default bracket must stay cheap
         found = belief_grid.grid_bound(problem, deadline=deadline, target=stop_at,
-                                       vertices=vertices, mix=gap is not None)
+                                       vertices=vertices, mix=gap is not None,
+                                       settle=gap is None)
         if found is not None:
             kind = "exact belief MDP" if found.exact else "complete" if found.complete else \
                 "frontier cut off at full observation"
