@@ -381,8 +381,9 @@ class _Grid:
         self.key: dict[bytes, int] = {}
         self.rows: list[np.ndarray] = []
         self.vals: list[np.ndarray] = []
-        # the unfolding's exact beliefs (state -> probability) where known, else None
-        self.exact: list[dict[int, Fraction] | None] = []
+        # the unfolding's exact beliefs where known (state -> numerator, and the common
+        # denominator), else None
+        self.exact: list[tuple[dict[int, int], int] | None] = []
 
     def exact_belief(self, idx: np.ndarray, nums: list[int], den: int) -> int:
         """The vertex of the exact rational belief nums/den on states ``idx`` (resolution 0;
@@ -395,20 +396,21 @@ class _Grid:
             self.key[k] = found
             self.rows.append(idx)
             self.vals.append(np.asarray([n / den for n in nums], dtype=np.float64))
-            self.exact.append({s: Fraction(n, den) for s, n in zip(idx.tolist(), nums)})
+            self.exact.append((dict(zip(idx.tolist(), nums)), den))
         return found
 
-    def belief(self, idx: np.ndarray, p: np.ndarray) -> int:
-        """The vertex of belief ``p`` on states ``idx`` itself (resolution 0: the belief
-        unfolding), identified by its float64 bits: beliefs equal up to rounding but reached
-        along different paths stay apart (no merging, so no belief is replaced by another)."""
-        k = idx.tobytes() + p.tobytes()
-        found = self.key.get(k)
+    def belief(self, key: bytes, idx: np.ndarray, p: np.ndarray, lo: int, hi: int) -> int:
+        """The vertex of belief ``p[lo:hi]`` on states ``idx[lo:hi]`` (float64 and int64 arrays)
+        itself (resolution 0: the belief unfolding), identified by its float64 bits: beliefs
+        equal up to rounding but reached along different paths stay apart (no merging, so no
+        belief is replaced by another). ``key``: the states' bytes then the posterior's, as the
+        caller sliced them from the arrays' bytes (arrays are sliced only for a new vertex)."""
+        found = self.key.get(key)
         if found is None:
             found = len(self.rows)
-            self.key[k] = found
-            self.rows.append(idx)
-            self.vals.append(p)
+            self.key[key] = found
+            self.rows.append(idx[lo:hi])
+            self.vals.append(p[lo:hi].copy())
             self.exact.append(None)
         return found
 
@@ -655,7 +657,7 @@ class _Source:
     choice_of: np.ndarray
     mass: sp.csr_matrix | None = None
     rule: sp.csr_matrix | None = None
-    beliefs: list[dict[int, Fraction] | None] | None = None
+    beliefs: list[tuple[dict[int, int], int] | None] | None = None
     resolve: np.ndarray | None = None
 
     def known(self, r: int) -> bool:
@@ -670,23 +672,24 @@ class _Source:
         lo, hi = B.indptr[r], B.indptr[r + 1]
         cols = B.indices[lo:hi].tolist()
         belief = None if self.beliefs is None else self.beliefs[r]
+        # an exact belief's numerator and a rule's multiplied, not reduced: the row's common
+        # denominator absorbs any common factor (:func:`_exact_rows` scales the row as a whole)
         if self.rule is None or self.mass is None:
             if belief is not None:  # columns are the belief's states
-                return [(k, belief[k].numerator, belief[k].denominator) for k in cols]
+                nums, den = belief
+                return [(k, nums[k], den) for k in cols]
             return [(k, *b.as_integer_ratio()) for k, b in zip(cols, B.data[lo:hi].tolist())]
         if belief is None and bool((self.rule.data[lo:hi] == 1.0).all()):
             # a deterministic rule: each entry is its state's mass, exact as stored
             return [(k, *p.as_integer_ratio())
                     for k, p in zip(cols, self.mass.data[lo:hi].tolist())]
         states = dyn.choice_states[self.choice_of[B.indices[lo:hi]]].tolist()
-        probs = _rational_rule(tuple(self.rule.data[lo:hi].tolist()), tuple(states))
+        ratios = _rule_ratios(tuple(self.rule.data[lo:hi].tolist()), tuple(states))
         if belief is not None:
-            # numerator and denominator multiplied, not reduced: the row's common denominator
-            # absorbs any common factor (:func:`_exact_rows` scales the row as a whole)
-            return [(k, belief[s].numerator * q.numerator, belief[s].denominator * q.denominator)
-                    for k, s, q in zip(cols, states, probs)]
-        weights = [Fraction(p) * q for p, q in zip(self.mass.data[lo:hi].tolist(), probs)]
-        return [(k, w.numerator, w.denominator) for k, w in zip(cols, weights)]
+            nums, den = belief
+            return [(k, nums[s] * qn, den * qd) for k, s, (qn, qd) in zip(cols, states, ratios)]
+        masses = [p.as_integer_ratio() for p in self.mass.data[lo:hi].tolist()]
+        return [(k, pn * qn, pd * qd) for k, (pn, pd), (qn, qd) in zip(cols, masses, ratios)]
 
 
 _SIMPLE_DENOMINATOR = 1000
@@ -695,19 +698,24 @@ denominator are taken as that fraction (a grid rule's are such fractions: its po
 the grid vertex exactly, not a hair off it)."""
 
 
-@functools.lru_cache(maxsize=65536)
-def _rational_rule(probs: tuple[float, ...], states: tuple[int, ...]) -> tuple[Fraction, ...]:
+def _rational_rule(probs: list[float], states: list[int]) -> list[Fraction]:
     """A randomised rule's stored probabilities (each state's summing to 1 up to a few units of
     roundoff: every rule here is normalised by its float sum) as an exact rule: each
     probability the simple fraction it rounds (:data:`_SIMPLE_DENOMINATOR`) or else its float's
     own value, then divided by its state's sum, so that each state's probabilities sum to 1
-    exactly and each lies within (n + 4) u of the float (n the state's choices). Cached: the
-    same rules recur at every vertex on the same support."""
+    exactly and each lies within (n + 4) u of the float (n the state's choices)."""
     near = [_rational_probability(x) for x in probs]
     total: dict[int, Fraction] = {}
     for s, q in zip(states, near):
         total[s] = total.get(s, Fraction(0)) + q
-    return tuple(q / total[s] for s, q in zip(states, near))
+    return [q / total[s] for s, q in zip(states, near)]
+
+
+@functools.lru_cache(maxsize=65536)
+def _rule_ratios(probs: tuple[float, ...], states: tuple[int, ...]) -> tuple[tuple[int, int], ...]:
+    """:func:`_rational_rule` as (numerator, denominator) pairs, cached: the same rules recur at
+    every vertex on the same support."""
+    return tuple((q.numerator, q.denominator) for q in _rational_rule(list(probs), list(states)))
 
 
 @functools.lru_cache(maxsize=4096)
@@ -920,15 +928,20 @@ class _Choices:
                 live = np.unique(rows[lost[rows] == 0]).astype(np.int64)
                 ys = _exact_rows(source, live[[source.known(r) for r in live.tolist()]]
                                  if live.size else live, dyn)
-            for j, (a, k, w) in enumerate(zip(starts.tolist(), sizes.tolist(), mass.tolist())):
-                y = ys.get(int(rows[j]))
+            # the float posteriors of all parts at once, and their keys as byte slices (a part's
+            # key is its states' and posterior's bytes, :meth:`_Grid.belief`)
+            post = data / np.repeat(mass, sizes)
+            col_b, post_b = col.tobytes(), post.tobytes()
+            for j, (a, k, r) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist())):
+                y = ys.get(r)
                 if y is not None:
                     v = _exact_posterior(y, col[a:a + k], grid)
                     if v is not None:
                         vs.append(v)
                         amb[j] = False
                         continue
-                vs.append(grid.belief(col[a:a + k], data[a:a + k] / w))
+                b, e = 8 * a, 8 * (a + k)
+                vs.append(grid.belief(col_b[b:e] + post_b[b:e], col, post, a, a + k))
             self.e_key.append(keys[rows].astype(np.int64))
             self.e_vertex.append(np.asarray(vs, dtype=np.int64))
             self.e_prob.append(mass)
@@ -1657,10 +1670,12 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             (:func:`stage_mixtures`) in rounds of re-solving; False: its deterministic rules and
             the uniform mixture only (one solve per resolution).
         settle: also stop refining once it has stopped paying: two grids of consecutive
-            resolutions both complete (no cut-offs) and the finer one not tighter than the
-            coarser beyond :data:`PRECISION` (relative). A budget rule (the bound stays what the
-            grids solved prove), deterministic, for the default bracket; False: the refinement
-            goes on until the budget, the deadline or the target stops it.
+            resolutions both complete (no cut-offs), the coarser one's bound the best found
+            (within :data:`PRECISION`, relative) and the finer one not tighter than it beyond
+            that. A budget rule for the default bracket (the bound printed is still what the
+            abstractions solved prove), deterministic; a plateau that later refinement would
+            leave is possible, so ``--gap`` runs do not use it. False: the refinement goes on
+            until the budget, the deadline or the target stops it.
 
     Returns:
         The bound, or None when no abstraction applies or none was solved soundly in time.
@@ -1752,10 +1767,12 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             break
         if solved is None or side is None or N == 0:
             continue
-        if settle and at_n is not None:
-            if solved.complete and settled_at is not None and sign * at_n >= \
-                    sign * settled_at - PRECISION * max(1.0, abs(settled_at)):
-                break  # a complete grid refined without tightening: finer ones hardly would
+        if settle and at_n is not None and best is not None:
+            slack = PRECISION * max(1.0, abs(best.value))
+            if solved.complete and settled_at is not None and \
+                    sign * at_n >= sign * settled_at - slack and \
+                    sign * settled_at <= sign * best.value + slack:
+                break  # the best grid refined completely without tightening
             settled_at = at_n if solved.complete else None
         # the next resolution doubles this one: its cut-offs interpolate these values (the
         # grids nest, so a fine vertex's coarse simplex has vertices this abstraction holds

@@ -623,7 +623,7 @@ def test_a_randomised_rule_is_read_as_an_exact_rule(weights: list[list[float]],
             row = row / row.sum()
         probs.extend(row.tolist())
         states.extend([s] * len(w))
-    rule = belief_grid._rational_rule(tuple(probs), tuple(states))
+    rule = belief_grid._rational_rule(probs, states)
     u = Fraction(2) ** -53
     for s, w in enumerate(weights):
         mine = [q for q, t in zip(rule, states) if t == s]
@@ -631,7 +631,7 @@ def test_a_randomised_rule_is_read_as_an_exact_rule(weights: list[list[float]],
         for q, x in zip(mine, [x for x, t in zip(probs, states) if t == s]):
             assert abs(q - Fraction(x)) <= (len(w) + 4) * u * q
     if simple:
-        assert list(rule) == exact
+        assert rule == exact
 
 
 def test_the_unfolding_of_a_game_keeps_exact_posteriors() -> None:
