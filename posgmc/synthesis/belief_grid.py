@@ -266,7 +266,7 @@ class _Dynamics:
         k = np.diff(model.transitions.indptr).astype(np.float64)
         dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * _UNIT, initial=0.0))
         self.input_rel = 2.0 * dev / max(1.0 - dev, 0.5)
-        self._integer_rows: dict[int, tuple[tuple[tuple[int, int], ...], int]] = {}
+        self.integer_rows: dict[int, tuple[tuple[tuple[int, int], ...], int]] = {}
         for a in range(layout.used_actions.size):
             c = np.flatnonzero(c_act == a)
             at = np.full(S, -1, dtype=np.int64)
@@ -297,14 +297,14 @@ class _Dynamics:
     def integer_row(self, choice: int) -> tuple[tuple[tuple[int, int], ...], int]:
         """The exact model's row of ``choice`` (its stored probabilities scaled to sum to 1) as
         (column, integer numerator) pairs over one integer denominator (cached)."""
-        found = self._integer_rows.get(choice)
+        found = self.integer_rows.get(choice)
         if found is None:
             T = self.model.transitions
             lo, hi = T.indptr[choice], T.indptr[choice + 1]
             ratios = [float(p).as_integer_ratio() for p in T.data[lo:hi]]
             den = max((d for _, d in ratios), default=1)  # powers of two: the largest is a
             nums = [n * (den // d) for n, d in ratios]    # common multiple
-            found = self._integer_rows[choice] = (
+            found = self.integer_rows[choice] = (
                 tuple(zip(T.indices[lo:hi].tolist(), nums)), sum(nums))
         return found
 
@@ -378,18 +378,20 @@ class _Grid:
 
     def __init__(self, S: int, resolution: int) -> None:
         self.S, self.N = S, resolution
-        self.key: dict[bytes, int] = {}
+        # grid vertices and float beliefs by bytes, exact beliefs by (states' bytes,
+        # numerators, denominator)
+        self.key: dict[bytes | tuple[bytes, tuple[int, ...], int], int] = {}
         self.rows: list[np.ndarray] = []
         self.vals: list[np.ndarray] = []
         # the unfolding's exact beliefs where known (state -> numerator, and the common
         # denominator), else None
         self.exact: list[tuple[dict[int, int], int] | None] = []
 
-    def exact_belief(self, idx: np.ndarray, nums: list[int], den: int) -> int:
+    def exact_belief(self, idx: np.ndarray, nums: tuple[int, ...], den: int) -> int:
         """The vertex of the exact rational belief nums/den on states ``idx`` (resolution 0;
         nums and den without a common divisor): identified by its exact value, so paths that
         reach one belief share it; its float64 values are the correctly rounded quotients."""
-        k = b"=" + idx.tobytes() + repr((nums, den)).encode()
+        k = (idx.tobytes(), nums, den)
         found = self.key.get(k)
         if found is None:
             found = len(self.rows)
@@ -660,11 +662,6 @@ class _Source:
     beliefs: list[tuple[dict[int, int], int] | None] | None = None
     resolve: np.ndarray | None = None
 
-    def known(self, r: int) -> bool:
-        """Whether row ``r``'s exact entries are known: always on a grid; on the unfolding
-        when its vertex's belief is an exact one (:meth:`_Grid.exact_belief`)."""
-        return self.beliefs is None or self.beliefs[r] is not None
-
     def entries(self, r: int, dyn: _Dynamics) -> list[tuple[int, int, int]]:
         """Row ``r``'s exact entries: (column, its exact rational weight as numerator and
         denominator)."""
@@ -756,13 +753,14 @@ def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, 
     cols_l = cols.tolist()
     out: dict[int, dict[int, int]] = {}
     start = 0
+    made = dyn.integer_rows  # the exact rows already made
     for r, end, simple in zip(rows.tolist(), ends.tolist(), plain.tolist()):
         if simple:
             entries = [(k, *w.as_integer_ratio())
                        for k, w in zip(cols_l[start:end], weights[start:end])]
         else:
             entries = source.entries(r, dyn)
-        exact = [dyn.integer_row(c) for c in choices[start:end]]
+        exact = [made.get(c) or dyn.integer_row(c) for c in choices[start:end]]
         start = end
         dens = [bd * total for (_, _, bd), (_, total) in zip(entries, exact)]
         den = math.lcm(*dens) if dens else 1
@@ -781,11 +779,14 @@ _EXACT_BITS = 128
 bits (long paths multiply denominators); beyond, the float posterior with a leak."""
 
 
-def _exact_posterior(y: dict[int, int], idx: np.ndarray, grid: _Grid) -> int | None:
-    """The unfolding's vertex of a row's exact posterior on states ``idx`` (one part: the
-    continuing states of one observation group; ``y`` the row's exact vector,
-    :func:`_exact_rows`), None when it is zero or too long to keep (:data:`_EXACT_BITS`)."""
-    ys = [y.get(s, 0) for s in idx.tolist()]
+def _exact_posterior(y: dict[int, int], states: list[int], col: np.ndarray, at: int,
+                     grid: _Grid) -> int | None:
+    """The unfolding's vertex of a row's exact posterior on ``states`` (one part: the
+    continuing states of one observation group, ``col[at:at + len(states)]``; ``y`` the row's
+    exact vector, :func:`_exact_rows`), None when it is zero or too long to keep
+    (:data:`_EXACT_BITS`)."""
+    get = y.get
+    ys = [get(s, 0) for s in states]
     total = sum(ys)
     if total <= 0 or min(ys) <= 0:
         return None
@@ -793,7 +794,7 @@ def _exact_posterior(y: dict[int, int], idx: np.ndarray, grid: _Grid) -> int | N
     den = total // g
     if den.bit_length() > _EXACT_BITS:
         return None
-    return grid.exact_belief(idx, [y // g for y in ys], den)
+    return grid.exact_belief(col[at:at + len(states)], tuple([y // g for y in ys]), den)
 
 
 def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
@@ -924,24 +925,29 @@ class _Choices:
             # only where the row loses nothing (as on the grids: a row that does is in no
             # end component, and its leak costs at most the expected steps times itself)
             ys: dict[int, dict[int, int]] = {}
-            if exact and source is not None:
+            if exact and source is not None and source.beliefs is not None:
                 live = np.unique(rows[lost[rows] == 0]).astype(np.int64)
-                ys = _exact_rows(source, live[[source.known(r) for r in live.tolist()]]
-                                 if live.size else live, dyn)
+                beliefs = source.beliefs
+                known = [beliefs[r] is not None for r in live.tolist()]
+                ys = _exact_rows(source, live[known] if live.size else live, dyn)
             # the float posteriors of all parts at once, and their keys as byte slices (a part's
             # key is its states' and posterior's bytes, :meth:`_Grid.belief`)
             post = data / np.repeat(mass, sizes)
             col_b, post_b = col.tobytes(), post.tobytes()
+            col_l = col.tolist()
+            settled: list[int] = []  # the parts whose posterior is exact
+            add_vertex, add_float, find = vs.append, grid.belief, ys.get
             for j, (a, k, r) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist())):
-                y = ys.get(r)
+                y = find(r)
                 if y is not None:
-                    v = _exact_posterior(y, col[a:a + k], grid)
+                    v = _exact_posterior(y, col_l[a:a + k], col, a, grid)
                     if v is not None:
-                        vs.append(v)
-                        amb[j] = False
+                        add_vertex(v)
+                        settled.append(j)
                         continue
-                b, e = 8 * a, 8 * (a + k)
-                vs.append(grid.belief(col_b[b:e] + post_b[b:e], col, post, a, a + k))
+                add_vertex(add_float(col_b[8 * a:8 * (a + k)] + post_b[8 * a:8 * (a + k)], col,
+                                     post, a, a + k))
+            amb[settled] = False
             self.e_key.append(keys[rows].astype(np.int64))
             self.e_vertex.append(np.asarray(vs, dtype=np.int64))
             self.e_prob.append(mass)
@@ -1145,7 +1151,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
         return None
     grid = _Grid(dyn.S, resolution)
     if resolution == 0:
-        grid.exact_belief(np.array([s0], dtype=np.int64), [1], 1)
+        grid.exact_belief(np.array([s0], dtype=np.int64), (1,), 1)
     else:
         grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
     Au = dyn.actions.size
