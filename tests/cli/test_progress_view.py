@@ -186,6 +186,36 @@ def _children(pid: int) -> list[int]:
     return found
 
 
+def _interrupt_group(args: list[str], tmp_path: Path, *, jobs: int) -> tuple[int, str, str]:
+    """Run ``posgmc ARGS`` in its own process group, send SIGINT to the group (as a terminal's
+    Ctrl-C) once the run is into its search (one job: the "gradient search" progress line; a
+    pool: its ``jobs`` workers started and a second into their points), and return the exit
+    code, stdout and stderr. The whole group is killed afterwards: a pool's workers must not
+    outlive a failed test."""
+    out, err = tmp_path / "out.txt", tmp_path / "err.txt"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    with out.open("w") as o, err.open("w") as e:
+        proc = subprocess.Popen([sys.executable, "-m", "posgmc", *args], stdout=o, stderr=e,
+                                env=env, start_new_session=True)
+        try:
+            if jobs == 1:
+                _wait_for(err, "gradient search", 60)
+            else:
+                end = time.monotonic() + 60
+                while len(_children(proc.pid)) < jobs and time.monotonic() < end:
+                    time.sleep(0.05)
+                assert len(_children(proc.pid)) == jobs
+                time.sleep(1.0)  # the workers are into their points' searches
+            os.killpg(proc.pid, signal.SIGINT)
+            code = proc.wait(timeout=120)
+        finally:
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+    return code, out.read_text(), err.read_text()
+
+
 @pytest.mark.parametrize(("command", "jobs"), [("check", 1), ("check", 2), ("pareto", 2)])
 def test_ctrl_c_during_a_sweep_reports_finished_cut_and_cancelled_points(
         tmp_path: Path, command: str, jobs: int) -> None:
@@ -200,35 +230,14 @@ def test_ctrl_c_during_a_sweep_reports_finished_cut_and_cancelled_points(
     text = (ROOT / "models" / "beacon" / "beacon.posg").read_text()
     assert "const int B = 1;" in text
     model.write_text(text.replace("const int B = 1;", "const int B;"))
-    out, err = tmp_path / "out.txt", tmp_path / "err.txt"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    with out.open("w") as o, err.open("w") as e:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "posgmc", command, str(model), "--prop",
-             '<<rover>> Pmax=? [ F "safe" ]', "--const" if command == "check" else "--sweep",
-             "B=0:3", "--memory", "1",
-             "--effort", "500", "--jobs", str(jobs), "--progress"],
-            stdout=o, stderr=e, env=env, start_new_session=True)
-        try:
-            if jobs == 1:
-                _wait_for(err, "gradient search", 60)
-            else:
-                end = time.monotonic() + 60
-                while len(_children(proc.pid)) < jobs and time.monotonic() < end:
-                    time.sleep(0.05)
-                assert len(_children(proc.pid)) == jobs
-                time.sleep(1.0)  # the workers are into their points' searches
-            os.killpg(proc.pid, signal.SIGINT)
-            code = proc.wait(timeout=120)
-        finally:
-            # the whole group: a pool's workers must not outlive a failed test
-            try:
-                os.killpg(proc.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-    assert code == 130, err.read_text()
-    summary = [x for x in err.read_text().splitlines() if x.startswith("interrupted: ")]
-    assert len(summary) == 1, err.read_text()
+    code, out, err = _interrupt_group(
+        [command, str(model), "--prop", '<<rover>> Pmax=? [ F "safe" ]',
+         "--const" if command == "check" else "--sweep", "B=0:3", "--memory", "1",
+         "--effort", "500", "--jobs", str(jobs), "--progress"],
+        tmp_path, jobs=jobs)
+    assert code == 130, err
+    summary = [x for x in err.splitlines() if x.startswith("interrupted: ")]
+    assert len(summary) == 1, err
     line = summary[0]
     finished = line.split(" points finished (")[1].split(")")[0].split("; ")
     cut = line.split("defence reported: ")[1].split("; cancelled")[0].split("; ")
@@ -238,7 +247,7 @@ def test_ctrl_c_during_a_sweep_reports_finished_cut_and_cancelled_points(
     assert cut == finished[:len(cut)] and len(cut) >= jobs
     assert finished + cancelled == [f"B={b}" for b in range(4)] and cancelled
     assert f"{len(finished)} of 4 points finished" in line
-    rows = [x.split() for x in out.read_text().splitlines() if x[:1].isdigit()]
+    rows = [x.split() for x in out.splitlines() if x[:1].isdigit()]
     assert [r[0] for r in rows] == [f.split("=")[1] for f in finished]
     # every reported number is proven: a memoryless rover guesses the exit, 0.5 (beacon's README)
     assert all(r[1] == "0.5" for r in rows)
@@ -254,34 +263,18 @@ def test_ctrl_c_during_a_defence_front_reports_its_weights_and_writes_no_csv(
     model = tmp_path / "budget.posg"
     text = (ROOT / "models" / "beacon" / "beacon.posg").read_text()
     model.write_text(text + '\nrewards "time"\n  true : 1;\nendrewards\n')
-    out, err, table = tmp_path / "out.txt", tmp_path / "err.txt", tmp_path / "front.csv"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    with out.open("w") as o, err.open("w") as e:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "posgmc", "pareto", str(model), "--prop",
-             '<<rover>> Pmax=? [ F "safe" ]', "--cost", '<<rover>> R{"time"}min=? [ F "over" ]',
-             "--weights", "0,1,2,5", "--memory", "1", "--effort", "500", "--jobs", "2",
-             "--csv", str(table)],
-            stdout=o, stderr=e, env=env, start_new_session=True)
-        try:
-            end = time.monotonic() + 60
-            while len(_children(proc.pid)) < 2 and time.monotonic() < end:
-                time.sleep(0.05)
-            assert len(_children(proc.pid)) == 2
-            time.sleep(1.0)
-            os.killpg(proc.pid, signal.SIGINT)
-            code = proc.wait(timeout=120)
-        finally:
-            try:
-                os.killpg(proc.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-    assert code == 130, err.read_text()
-    line = [x for x in err.read_text().splitlines() if x.startswith("interrupted: ")][-1]
+    table = tmp_path / "front.csv"
+    code, out, err = _interrupt_group(
+        ["pareto", str(model), "--prop", '<<rover>> Pmax=? [ F "safe" ]', "--cost",
+         '<<rover>> R{"time"}min=? [ F "over" ]', "--weights", "0,1,2,5", "--memory", "1",
+         "--effort", "500", "--jobs", "2", "--csv", str(table)],
+        tmp_path, jobs=2)
+    assert code == 130, err
+    line = [x for x in err.splitlines() if x.startswith("interrupted: ")][-1]
     finished = line.split(" points finished (")[1].split(")")[0].split("; ")
     cancelled = line.split("cancelled: ")[1].split("; ")
     assert finished + cancelled == ["w=0", "w=1", "w=2", "w=5", "w=inf"]
     assert len(finished) >= 2 and "of 5 points finished" in line
-    rows = [x.split()[0] for x in out.read_text().splitlines() if x[:1].isdigit()]
+    rows = [x.split()[0] for x in out.splitlines() if x[:1].isdigit()]
     assert rows == [w.split("=")[1] for w in finished]
     assert not table.exists()
