@@ -252,7 +252,7 @@ class _Dynamics:
         self.target = problem.target.astype(np.float64)
         act_index = np.full(len(model.action_names), -1, dtype=np.int64)
         act_index[layout.used_actions] = np.arange(layout.used_actions.size)
-        cs = model.choice_states
+        self.choice_states = cs = model.choice_states  # computed once (a property)
         c_act = np.where(self.owned[cs], act_index[model.choice_actions], -1)
         keep = sp.diags(self.cont.astype(np.float64))
         self.P: list[sp.csr_matrix] = []
@@ -269,7 +269,7 @@ class _Dynamics:
         k = np.diff(model.transitions.indptr).astype(np.float64)
         dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * _UNIT, initial=0.0))
         self.input_rel = 2.0 * dev / max(1.0 - dev, 0.5)
-        self._integer_rows: dict[int, tuple[tuple[tuple[int, int], ...], int]] = {}
+        self.integer_rows: dict[int, tuple[tuple[tuple[int, int], ...], int]] = {}
         for a in range(layout.used_actions.size):
             c = np.flatnonzero(c_act == a)
             at = np.full(S, -1, dtype=np.int64)
@@ -300,14 +300,14 @@ class _Dynamics:
     def integer_row(self, choice: int) -> tuple[tuple[tuple[int, int], ...], int]:
         """The exact model's row of ``choice`` (its stored probabilities scaled to sum to 1) as
         (column, integer numerator) pairs over one integer denominator (cached)."""
-        found = self._integer_rows.get(choice)
+        found = self.integer_rows.get(choice)
         if found is None:
             T = self.model.transitions
             lo, hi = T.indptr[choice], T.indptr[choice + 1]
             ratios = [float(p).as_integer_ratio() for p in T.data[lo:hi]]
             den = max((d for _, d in ratios), default=1)  # powers of two: the largest is a
             nums = [n * (den // d) for n, d in ratios]    # common multiple
-            found = self._integer_rows[choice] = (
+            found = self.integer_rows[choice] = (
                 tuple(zip(T.indices[lo:hi].tolist(), nums)), sum(nums))
         return found
 
@@ -381,37 +381,41 @@ class _Grid:
 
     def __init__(self, S: int, resolution: int) -> None:
         self.S, self.N = S, resolution
-        self.key: dict[bytes, int] = {}
+        # grid vertices and float beliefs by bytes, exact beliefs by (states' bytes,
+        # numerators, denominator)
+        self.key: dict[bytes | tuple[bytes, tuple[int, ...], int], int] = {}
         self.rows: list[np.ndarray] = []
         self.vals: list[np.ndarray] = []
-        # the unfolding's exact beliefs (state -> probability) where known, else None
-        self.exact: list[dict[int, Fraction] | None] = []
+        # the unfolding's exact beliefs where known (state -> numerator, and the common
+        # denominator), else None
+        self.exact: list[tuple[dict[int, int], int] | None] = []
 
-    def exact_belief(self, idx: np.ndarray, nums: list[int], den: int) -> int:
+    def exact_belief(self, idx: np.ndarray, nums: tuple[int, ...], den: int) -> int:
         """The vertex of the exact rational belief nums/den on states ``idx`` (resolution 0;
         nums and den without a common divisor): identified by its exact value, so paths that
         reach one belief share it; its float64 values are the correctly rounded quotients."""
-        k = b"=" + idx.tobytes() + repr((nums, den)).encode()
+        k = (idx.tobytes(), nums, den)
         found = self.key.get(k)
         if found is None:
             found = len(self.rows)
             self.key[k] = found
             self.rows.append(idx)
             self.vals.append(np.asarray([n / den for n in nums], dtype=np.float64))
-            self.exact.append({s: Fraction(n, den) for s, n in zip(idx.tolist(), nums)})
+            self.exact.append((dict(zip(idx.tolist(), nums)), den))
         return found
 
-    def belief(self, idx: np.ndarray, p: np.ndarray) -> int:
-        """The vertex of belief ``p`` on states ``idx`` itself (resolution 0: the belief
-        unfolding), identified by its float64 bits: beliefs equal up to rounding but reached
-        along different paths stay apart (no merging, so no belief is replaced by another)."""
-        k = idx.tobytes() + p.tobytes()
-        found = self.key.get(k)
+    def belief(self, key: bytes, idx: np.ndarray, p: np.ndarray, lo: int, hi: int) -> int:
+        """The vertex of belief ``p[lo:hi]`` on states ``idx[lo:hi]`` (float64 and int64 arrays)
+        itself (resolution 0: the belief unfolding), identified by its float64 bits: beliefs
+        equal up to rounding but reached along different paths stay apart (no merging, so no
+        belief is replaced by another). ``key``: the states' bytes then the posterior's, as the
+        caller sliced them from the arrays' bytes (arrays are sliced only for a new vertex)."""
+        found = self.key.get(key)
         if found is None:
             found = len(self.rows)
-            self.key[k] = found
-            self.rows.append(idx)
-            self.vals.append(p)
+            self.key[key] = found
+            self.rows.append(idx[lo:hi])
+            self.vals.append(p[lo:hi].copy())
             self.exact.append(None)
         return found
 
@@ -713,13 +717,8 @@ class _Source:
     choice_of: np.ndarray
     mass: sp.csr_matrix | None = None
     rule: sp.csr_matrix | None = None
-    beliefs: list[dict[int, Fraction] | None] | None = None
+    beliefs: list[tuple[dict[int, int], int] | None] | None = None
     resolve: np.ndarray | None = None
-
-    def known(self, r: int) -> bool:
-        """Whether row ``r``'s exact entries are known: always on a grid; on the unfolding
-        when its vertex's belief is an exact one (:meth:`_Grid.exact_belief`)."""
-        return self.beliefs is None or self.beliefs[r] is not None
 
     def entries(self, r: int, dyn: _Dynamics) -> list[tuple[int, int, int]]:
         """Row ``r``'s exact entries: (column, its exact rational weight as numerator and
@@ -728,19 +727,24 @@ class _Source:
         lo, hi = B.indptr[r], B.indptr[r + 1]
         cols = B.indices[lo:hi].tolist()
         belief = None if self.beliefs is None else self.beliefs[r]
+        # an exact belief's numerator and a rule's multiplied, not reduced: the row's common
+        # denominator absorbs any common factor (:func:`_exact_rows` scales the row as a whole)
         if self.rule is None or self.mass is None:
             if belief is not None:  # columns are the belief's states
-                return [(k, belief[k].numerator, belief[k].denominator) for k in cols]
+                nums, den = belief
+                return [(k, nums[k], den) for k in cols]
             return [(k, *b.as_integer_ratio()) for k, b in zip(cols, B.data[lo:hi].tolist())]
         if belief is None and bool((self.rule.data[lo:hi] == 1.0).all()):
             # a deterministic rule: each entry is its state's mass, exact as stored
             return [(k, *p.as_integer_ratio())
                     for k, p in zip(cols, self.mass.data[lo:hi].tolist())]
-        states = dyn.model.choice_states[self.choice_of[B.indices[lo:hi]]].tolist()
-        probs = _rational_rule(self.rule.data[lo:hi].tolist(), states)
-        weights = [belief[s] * q for s, q in zip(states, probs)] if belief is not None else \
-            [Fraction(p) * q for p, q in zip(self.mass.data[lo:hi].tolist(), probs)]
-        return [(k, w.numerator, w.denominator) for k, w in zip(cols, weights)]
+        states = dyn.choice_states[self.choice_of[B.indices[lo:hi]]].tolist()
+        ratios = _rule_ratios(tuple(self.rule.data[lo:hi].tolist()), tuple(states))
+        if belief is not None:
+            nums, den = belief
+            return [(k, nums[s] * qn, den * qd) for k, s, (qn, qd) in zip(cols, states, ratios)]
+        masses = [p.as_integer_ratio() for p in self.mass.data[lo:hi].tolist()]
+        return [(k, pn * qn, pd * qd) for k, (pn, pd), (qn, qd) in zip(cols, masses, ratios)]
 
 
 _SIMPLE_DENOMINATOR = 1000
@@ -760,6 +764,13 @@ def _rational_rule(probs: list[float], states: list[int]) -> list[Fraction]:
     for s, q in zip(states, near):
         total[s] = total.get(s, Fraction(0)) + q
     return [q / total[s] for s, q in zip(states, near)]
+
+
+@functools.lru_cache(maxsize=65536)
+def _rule_ratios(probs: tuple[float, ...], states: tuple[int, ...]) -> tuple[tuple[int, int], ...]:
+    """:func:`_rational_rule` as (numerator, denominator) pairs, cached: the same rules recur at
+    every vertex on the same support."""
+    return tuple((q.numerator, q.denominator) for q in _rational_rule(list(probs), list(states)))
 
 
 @functools.lru_cache(maxsize=4096)
@@ -800,13 +811,14 @@ def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, 
     cols_l = cols.tolist()
     out: dict[int, dict[int, int]] = {}
     start = 0
+    made = dyn.integer_rows  # the exact rows already made
     for r, end, simple in zip(rows.tolist(), ends.tolist(), plain.tolist()):
         if simple:
             entries = [(k, *w.as_integer_ratio())
                        for k, w in zip(cols_l[start:end], weights[start:end])]
         else:
             entries = source.entries(r, dyn)
-        exact = [dyn.integer_row(c) for c in choices[start:end]]
+        exact = [made.get(c) or dyn.integer_row(c) for c in choices[start:end]]
         start = end
         dens = [bd * total for (_, _, bd), (_, total) in zip(entries, exact)]
         den = math.lcm(*dens) if dens else 1
@@ -825,11 +837,14 @@ _EXACT_BITS = 128
 bits (long paths multiply denominators); beyond, the float posterior with a leak."""
 
 
-def _exact_posterior(y: dict[int, int], idx: np.ndarray, grid: _Grid) -> int | None:
-    """The unfolding's vertex of a row's exact posterior on states ``idx`` (one part: the
-    continuing states of one observation group; ``y`` the row's exact vector,
-    :func:`_exact_rows`), None when it is zero or too long to keep (:data:`_EXACT_BITS`)."""
-    ys = [y.get(s, 0) for s in idx.tolist()]
+def _exact_posterior(y: dict[int, int], states: list[int], col: np.ndarray, at: int,
+                     grid: _Grid) -> int | None:
+    """The unfolding's vertex of a row's exact posterior on ``states`` (one part: the
+    continuing states of one observation group, ``col[at:at + len(states)]``; ``y`` the row's
+    exact vector, :func:`_exact_rows`), None when it is zero or too long to keep
+    (:data:`_EXACT_BITS`)."""
+    get = y.get
+    ys = [get(s, 0) for s in states]
     total = sum(ys)
     if total <= 0 or min(ys) <= 0:
         return None
@@ -837,7 +852,7 @@ def _exact_posterior(y: dict[int, int], idx: np.ndarray, grid: _Grid) -> int | N
     den = total // g
     if den.bit_length() > _EXACT_BITS:
         return None
-    return grid.exact_belief(idx, [y // g for y in ys], den)
+    return grid.exact_belief(col[at:at + len(states)], tuple([y // g for y in ys]), den)
 
 
 def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
@@ -968,19 +983,29 @@ class _Choices:
             # only where the row loses nothing (as on the grids: a row that does is in no
             # end component, and its leak costs at most the expected steps times itself)
             ys: dict[int, dict[int, int]] = {}
-            if exact and source is not None:
+            if exact and source is not None and source.beliefs is not None:
                 live = np.unique(rows[lost[rows] == 0]).astype(np.int64)
-                ys = _exact_rows(source, live[[source.known(r) for r in live.tolist()]]
-                                 if live.size else live, dyn)
-            for j, (a, k, w) in enumerate(zip(starts.tolist(), sizes.tolist(), mass.tolist())):
-                y = ys.get(int(rows[j]))
+                beliefs = source.beliefs
+                known = [beliefs[r] is not None for r in live.tolist()]
+                ys = _exact_rows(source, live[known] if live.size else live, dyn)
+            # the float posteriors of all parts at once, and their keys as byte slices (a part's
+            # key is its states' and posterior's bytes, :meth:`_Grid.belief`)
+            post = data / np.repeat(mass, sizes)
+            col_b, post_b = col.tobytes(), post.tobytes()
+            col_l = col.tolist()
+            settled: list[int] = []  # the parts whose posterior is exact
+            add_vertex, add_float, find = vs.append, grid.belief, ys.get
+            for j, (a, k, r) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist())):
+                y = find(r)
                 if y is not None:
-                    v = _exact_posterior(y, col[a:a + k], grid)
+                    v = _exact_posterior(y, col_l[a:a + k], col, a, grid)
                     if v is not None:
-                        vs.append(v)
-                        amb[j] = False
+                        add_vertex(v)
+                        settled.append(j)
                         continue
-                vs.append(grid.belief(col[a:a + k], data[a:a + k] / w))
+                add_vertex(add_float(col_b[8 * a:8 * (a + k)] + post_b[8 * a:8 * (a + k)], col,
+                                     post, a, a + k))
+            amb[settled] = False
             self.e_key.append(keys[rows].astype(np.int64))
             self.e_vertex.append(np.asarray(vs, dtype=np.int64))
             self.e_prob.append(mass)
@@ -1188,7 +1213,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
         return None
     grid = _Grid(dyn.S, resolution)
     if resolution == 0:
-        grid.exact_belief(np.array([s0], dtype=np.int64), [1], 1)
+        grid.exact_belief(np.array([s0], dtype=np.int64), (1,), 1)
     else:
         grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
     Au = dyn.actions.size
@@ -1708,7 +1733,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
                resolutions: tuple[int, ...] = RESOLUTIONS,
                cutoff: np.ndarray | None = None,
                vertices: int = MAX_VERTICES, unfold: bool = True,
-               mix: bool = True) -> GridBound | None:
+               mix: bool = True, settle: bool = False) -> GridBound | None:
     """Abstractions of growing resolution while time remains; the tightest proven bound.
 
     Args:
@@ -1725,6 +1750,13 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
         mix: on a game, offer the adversary randomised rules from stage LPs
             (:func:`stage_mixtures`) in rounds of re-solving; False: its deterministic rules and
             the uniform mixture only (one solve per resolution).
+        settle: also stop refining once it has stopped paying: two grids of consecutive
+            resolutions both complete (no cut-offs), the coarser one's bound the best found
+            (within :data:`PRECISION`, relative) and the finer one not tighter than it beyond
+            that. A budget rule for the default bracket (the bound printed is still what the
+            abstractions solved prove), deterministic; a plateau that later refinement would
+            leave is possible, so ``--gap`` runs do not use it. False: the refinement goes on
+            until the budget, the deadline or the target stops it.
 
     Returns:
         The bound, or None when no abstraction applies or none was solved soundly in time.
@@ -1747,6 +1779,8 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     # the stage LPs' work budget, in vertices solved over all rounds (deterministic, like the
     # grid's): one per LP_SHARE vertices of the grid's budget
     lps_left = vertices // LP_SHARE
+    # the previous grid resolution's bound, when its abstraction was complete (for ``settle``)
+    settled_at: float | None = None
     for N in ((0,) if unfold else ()) + tuple(resolutions):
         side: np.ndarray | None = None
         solved: GridAbstraction | None = None
@@ -1816,6 +1850,13 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             break
         if solved is None or side is None or N == 0:
             continue
+        if settle and at_n is not None and best is not None:
+            slack = PRECISION * max(1.0, abs(best.value))
+            if solved.complete and settled_at is not None and \
+                    sign * at_n >= sign * settled_at - slack and \
+                    sign * settled_at <= sign * best.value + slack:
+                break  # the best grid refined completely without tightening
+            settled_at = at_n if solved.complete else None
         # the next resolution doubles this one: its cut-offs interpolate these values (the
         # grids nest, so a fine vertex's coarse simplex has vertices this abstraction holds
         # wherever it explored that far)

@@ -837,3 +837,40 @@ def test_signed_grid_is_proven_below_full_observation() -> None:
         r = StrategyChecker(model, {0: fss}, coalition_of=problem.coalition_of,
                             scalar=api._scalar).check(problem.query, text="t").guaranteed
         assert r is not None and r.sound and r.lower <= found.value
+
+
+def _game(path: Path, prop: str):  # type: ignore[no-untyped-def]
+    model = _built(path)
+    coalition = api._resolver(model, False).coalition_of
+    return model, problem_of(model, parser.parse_property(prop).expr, player=0, adversary=1,
+                             coalition_of=coalition, scalar=api._scalar)
+
+
+def test_the_default_refinement_settles_once_a_complete_grid_stops_tightening() -> None:
+    """``settle`` (the default bracket's budget rule, docs/synthesis.md "Budget"): on
+    models/rover.posg the complete grids of resolution 2 and 4 prove the same bound (0.98765618,
+    the full-observation value 0.9876561794 of models/README.md within the solve's precision),
+    so refinement stops there; without the rule the same budget buys resolutions 8 and 16 and
+    proves nothing tighter. On dodge_lanes.posg the grids plateau at 0.125 (resolutions 8 to 32)
+    above the unfolding's 0.12 and descend again from resolution 64: the rule does not stop a
+    plateau that is not the best bound, so both runs try the same resolutions."""
+    model, rover = _game(ROOT / "models" / "rover.posg", '<<rover>> Pmax=? [ !"crash" U "goal" ]')
+    assert (model.num_states, model.num_choices) == (60, 100)
+    settled = belief_grid.grid_bound(rover, deadline=None, vertices=20_000, mix=False,
+                                     settle=True)
+    full = belief_grid.grid_bound(rover, deadline=None, vertices=20_000, mix=False)
+    assert settled is not None and full is not None
+    assert [n for n, _ in settled.tried] == [0, 2, 4]
+    assert [n for n, _ in full.tried] == [0, 2, 4, 8, 16]
+    assert settled.value == full.value and settled.resolution == 2 and settled.complete
+    assert 0.9876561794 <= settled.value <= 0.9876561794 * (1 + 1e-8)
+    model, lanes = _game(ROOT / "tests" / "data" / "games" / "dodge_lanes.posg",
+                         '<<runner>> Pmax=? [ F "won" ]')
+    assert (model.num_states, model.num_choices) == (18, 44)
+    settled = belief_grid.grid_bound(lanes, deadline=None, vertices=20_000, mix=False,
+                                     settle=True)
+    full = belief_grid.grid_bound(lanes, deadline=None, vertices=20_000, mix=False)
+    assert settled is not None and full is not None
+    assert settled.tried == full.tried
+    assert all(dict(full.tried)[n] == pytest.approx(0.125, abs=1e-8) for n in (8, 16, 32))
+    assert dict(full.tried)[64] < 0.125 - 1e-3
