@@ -223,3 +223,40 @@ def random_pomdp(seed: int) -> ExplicitModel:
         labels={"goal": np.arange(S) == goal}, variable_names=("s",),
         state_values=np.arange(S)[:, None],
     )
+
+
+def random_signed_pomdp(seed: int) -> ExplicitModel:
+    """A random POMDP whose every choice stops with probability 1/10 (to an absorbing goal, as a
+    discount of 0.9 written into the model) and pays a reward in [-1, 1] of either sign: 3-6
+    states besides the goal, two observations (the goal a third), labels a and b everywhere,
+    the continuing 9/10 spread over 1-3 random states. Every strategy reaches the goal almost
+    surely, so ``R{"r"}max=? [ F "goal" ]`` is finite."""
+    rng = np.random.default_rng(seed)
+    S = int(rng.integers(3, 7)) + 1
+    goal = S - 1
+    obs = rng.integers(0, 2, size=S)
+    obs[goal] = 2
+    rows, actions, rewards, row_groups = [], [], [], [0]
+    for s in range(S):
+        for a in (1, 2):
+            row = np.zeros(S)
+            if s == goal:
+                row[s] = 1.0
+                rewards.append(0.0)
+            else:
+                succ = rng.choice(goal, size=int(rng.integers(1, 4)), replace=False)
+                row[succ] = rng.random(succ.size) + 0.1
+                row *= 0.9 / row.sum()
+                row[goal] = 0.1
+                rewards.append(float(np.round(rng.uniform(-1.0, 1.0), 2)))
+            rows.append(row)
+            actions.append(a)
+        row_groups.append(len(rows))
+    return make_model(
+        ModelType.POMDP, row_groups, np.array(rows), choice_actions=actions,
+        action_names=("", "a", "b"),
+        observations=(Observation(0, obs.astype(np.int32), ("o",), np.array([[0], [1], [2]])),),
+        labels={"goal": np.arange(S) == goal}, variable_names=("s",),
+        state_values=np.arange(S)[:, None],
+        reward_models=(RewardModel("r", choice=np.array(rewards)),),
+    )

@@ -28,7 +28,8 @@ per vertex, then a target and a sink), so it is checked with the same sound engi
 (interval iteration, end components handled) and the bound side of their result is the reported
 bound. Its transition probabilities are computed in float64 (posterior beliefs, the weights λ).
 A minimiser's choices are scaled below the exact belief successors (:func:`_dominate`), and stop
-masses, rewards and cut-off values are rounded to the optimistic side. A maximiser's rows cannot
+masses, rewards and cut-off values are rounded to the optimistic side (outward for either sign;
+a minimiser whose rewards take both signs gets no grid, :func:`applies`). A maximiser's rows cannot
 dominate the exact ones one by one in a cycle of beliefs (docs/synthesis.md, "Floating point"):
 its abstraction carries an enclosure of the exact rows (certified weights, parts near a face
 triangulated in exact arithmetic, :func:`_resolve_exactly`), and the engine's upper values are
@@ -53,6 +54,7 @@ from posgmc.engines.options import SolverOptions
 from posgmc.engines.reach import reach_probability
 from posgmc.engines.result import EngineResult
 from posgmc.engines.rewards import expected_reach_reward
+from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
 from posgmc.strategies.binding import player_view
@@ -67,7 +69,8 @@ from posgmc.synthesis.target_rules import TARGET_CAP, Targets, target_rules
 __all__ = ["GridAbstraction", "GridBound", "CoarseBounds", "applies", "freudenthal",
            "UNFOLD_SHARE",
            "freudenthal_batch",
-           "grid_abstraction", "grid_bound", "full_observation_bounds", "RESOLUTIONS",
+           "grid_abstraction", "grid_bound", "full_observation_bounds", "full_observation_floor",
+           "RESOLUTIONS",
            "MAX_VERTICES", "PRECISION", "RULE_CAP"]
 
 RESOLUTIONS = tuple(2 ** i for i in range(1, 11))
@@ -250,7 +253,7 @@ class _Dynamics:
         self.target = problem.target.astype(np.float64)
         act_index = np.full(len(model.action_names), -1, dtype=np.int64)
         act_index[layout.used_actions] = np.arange(layout.used_actions.size)
-        cs = model.choice_states
+        self.choice_states = cs = model.choice_states  # computed once (a property)
         c_act = np.where(self.owned[cs], act_index[model.choice_actions], -1)
         keep = sp.diags(self.cont.astype(np.float64))
         self.P: list[sp.csr_matrix] = []
@@ -267,7 +270,7 @@ class _Dynamics:
         k = np.diff(model.transitions.indptr).astype(np.float64)
         dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * _UNIT, initial=0.0))
         self.input_rel = 2.0 * dev / max(1.0 - dev, 0.5)
-        self._integer_rows: dict[int, tuple[tuple[tuple[int, int], ...], int]] = {}
+        self.integer_rows: dict[int, tuple[tuple[tuple[int, int], ...], int]] = {}
         for a in range(layout.used_actions.size):
             c = np.flatnonzero(c_act == a)
             at = np.full(S, -1, dtype=np.int64)
@@ -298,14 +301,14 @@ class _Dynamics:
     def integer_row(self, choice: int) -> tuple[tuple[tuple[int, int], ...], int]:
         """The exact model's row of ``choice`` (its stored probabilities scaled to sum to 1) as
         (column, integer numerator) pairs over one integer denominator (cached)."""
-        found = self._integer_rows.get(choice)
+        found = self.integer_rows.get(choice)
         if found is None:
             T = self.model.transitions
             lo, hi = T.indptr[choice], T.indptr[choice + 1]
             ratios = [float(p).as_integer_ratio() for p in T.data[lo:hi]]
             den = max((d for _, d in ratios), default=1)  # powers of two: the largest is a
             nums = [n * (den // d) for n, d in ratios]    # common multiple
-            found = self._integer_rows[choice] = (
+            found = self.integer_rows[choice] = (
                 tuple(zip(T.indices[lo:hi].tolist(), nums)), sum(nums))
         return found
 
@@ -379,11 +382,14 @@ class _Grid:
 
     def __init__(self, S: int, resolution: int) -> None:
         self.S, self.N = S, resolution
-        self.key: dict[bytes, int] = {}
+        # grid vertices and float beliefs by bytes, exact beliefs by (states' bytes,
+        # numerators, denominator)
+        self.key: dict[bytes | tuple[bytes, tuple[int, ...], int], int] = {}
         self.rows: list[np.ndarray] = []
         self.vals: list[np.ndarray] = []
-        # the unfolding's exact beliefs (state -> probability) where known, else None
-        self.exact: list[dict[int, Fraction] | None] = []
+        # the unfolding's exact beliefs where known (state -> numerator, and the common
+        # denominator), else None
+        self.exact: list[tuple[dict[int, int], int] | None] = []
         # the unfolding's explored beliefs as targets of the adversary's rules (None: not
         # tracked); ``origin``: the vertex whose choice is being added; ``owner_group``: per
         # state its decision maker's observation group, -1 for the adversary's
@@ -391,34 +397,43 @@ class _Grid:
         self.origin = -1
         self.owner_group = np.zeros(0, dtype=np.int64)
 
-    def exact_belief(self, idx: np.ndarray, nums: list[int], den: int) -> int:
+    def exact_belief(self, idx: np.ndarray, nums: tuple[int, ...], den: int) -> int:
         """The vertex of the exact rational belief nums/den on states ``idx`` (resolution 0;
         nums and den without a common divisor): identified by its exact value, so paths that
         reach one belief share it; its float64 values are the correctly rounded quotients."""
-        k = b"=" + idx.tobytes() + repr((nums, den)).encode()
+        k = (idx.tobytes(), nums, den)
         found = self.key.get(k)
         if found is None:
             found = len(self.rows)
             self.key[k] = found
             self.rows.append(idx)
             self.vals.append(np.asarray([n / den for n in nums], dtype=np.float64))
-            self.exact.append({s: Fraction(n, den) for s, n in zip(idx.tolist(), nums)})
+            self.exact.append((dict(zip(idx.tolist(), nums)), den))
             if self.targets is not None:
                 self.targets.found(found, self.origin, int(self.owner_group[idx[0]]),
-                                   self.exact[found])
+                                   idx.tolist())
         return found
 
-    def belief(self, idx: np.ndarray, p: np.ndarray) -> int:
-        """The vertex of belief ``p`` on states ``idx`` itself (resolution 0: the belief
-        unfolding), identified by its float64 bits: beliefs equal up to rounding but reached
-        along different paths stay apart (no merging, so no belief is replaced by another)."""
-        k = idx.tobytes() + p.tobytes()
-        found = self.key.get(k)
+    def fractions(self, vertex: int) -> dict[int, Fraction] | None:
+        """The unfolding's exact belief of ``vertex`` as fractions (None: not known exactly)."""
+        e = self.exact[vertex] if vertex < len(self.exact) else None
+        if e is None:
+            return None
+        nums, den = e
+        return {s: Fraction(n, den) for s, n in nums.items()}
+
+    def belief(self, key: bytes, idx: np.ndarray, p: np.ndarray, lo: int, hi: int) -> int:
+        """The vertex of belief ``p[lo:hi]`` on states ``idx[lo:hi]`` (float64 and int64 arrays)
+        itself (resolution 0: the belief unfolding), identified by its float64 bits: beliefs
+        equal up to rounding but reached along different paths stay apart (no merging, so no
+        belief is replaced by another). ``key``: the states' bytes then the posterior's, as the
+        caller sliced them from the arrays' bytes (arrays are sliced only for a new vertex)."""
+        found = self.key.get(key)
         if found is None:
             found = len(self.rows)
-            self.key[k] = found
-            self.rows.append(idx)
-            self.vals.append(p)
+            self.key[key] = found
+            self.rows.append(idx[lo:hi])
+            self.vals.append(p[lo:hi].copy())
             self.exact.append(None)
             if self.targets is not None:
                 self.targets.found(found, self.origin, -1, None)
@@ -519,11 +534,47 @@ def full_observation_bounds(problem: Problem,
     return np.asarray(r.upper if problem.maximize else r.lower, dtype=np.float64), strategy
 
 
+def _signed(problem: Problem) -> bool:
+    """Whether the objective's rewards take both signs (some negative)."""
+    return problem.rewards is not None and bool((np.asarray(problem.rewards) < 0).any())
+
+
+def full_observation_floor(problem: Problem, deadline: float | None = None) -> np.ndarray:
+    """A proven lower bound per state on the value of every strategy profile — float64[S], the
+    lower end of the full-observation value when *both* players minimise (a strategy of the
+    partially observing decision maker, started in state s, is one of the full-observation
+    model's history-dependent randomised strategies, so its value from s is at least that
+    minimum); -inf where none was proven (no finite bound, or the solve is unsupported)."""
+    S = problem.model.num_states
+    nowhere = np.zeros(S, dtype=bool)
+    options = SolverOptions(deadline=deadline, want_strategy=False,
+                            stiff_certificate=deadline is None)
+    rewards = np.asarray(problem.rewards, dtype=np.float64)
+    try:
+        if problem.discount < 1.0:
+            r = discounted_reach_reward(problem.model, rewards, problem.target,
+                                        discount=problem.discount, maximize=nowhere,
+                                        options=options)
+        else:
+            r = expected_reach_reward(problem.model, rewards, problem.target, maximize=nowhere,
+                                      options=options)
+    except UnsupportedError:
+        return np.full(S, -np.inf)
+    if not r.sound:
+        return np.full(S, -np.inf)
+    lower = np.asarray(r.lower, dtype=np.float64)
+    return np.where(np.isnan(lower), -np.inf, lower)
+
+
 def applies(problem: Problem) -> bool:
     """Whether the grid abstraction covers ``problem``: a POMDP, or a game of the decision maker
     against one omniscient adversary (any objective here: a probability, an expected reward until
-    a target, a discounted cost)."""
+    a target, a discounted cost), except a minimiser's rewards of both signs (its rows are
+    scaled below the exact ones and the mass given up is priced at 0, which bounds V* from below
+    only where V* >= 0: :func:`_dominate`)."""
     if problem.model.initial_states.size != 1:
+        return False
+    if not problem.maximize and _signed(problem):
         return False
     if belief.applies(problem):
         return True
@@ -561,6 +612,25 @@ def _up(v: np.ndarray) -> np.ndarray:
     """``v`` rounded up to the next float, zeros kept (a zero is exact: a structural zero
     must not become an edge)."""
     return np.where(v > 0, np.nextafter(v, np.inf), v)
+
+
+def _outward(v: np.ndarray, err: np.ndarray, up: bool) -> np.ndarray:
+    """``v + err`` rounded up (``up``) or ``v - err`` rounded down, for values of either sign
+    (``err`` >= 0); exact where ``err`` is 0 (a structural zero stays one)."""
+    moved = v + err if up else v - err
+    out: np.ndarray = np.where(err > 0, np.nextafter(moved, np.inf if up else -np.inf), moved)
+    return out
+
+
+def _reward_magnitude(rew: np.ndarray, rewards: np.ndarray) -> np.ndarray:
+    """What the rounding of a belief's reward (a float sum of belief mass times reward) is
+    relative to: the computed sum's magnitude when the model's rewards have one sign (the
+    products then share it), else the largest |reward| (the products' magnitudes sum to at
+    most that, the masses summing to at most one, rounding aside)."""
+    mag = np.abs(rew)
+    if rewards.size and bool((rewards < 0).any()) and bool((rewards > 0).any()):
+        mag = np.maximum(mag, _up(np.asarray(float(np.max(np.abs(rewards))) * (1.0 + 4.0 * _UNIT))))
+    return np.asarray(mag, dtype=np.float64)
 
 
 def _entry_rounding(terms: np.ndarray, input_rel: float) -> np.ndarray:
@@ -667,16 +737,11 @@ class _Source:
     choice_of: np.ndarray
     mass: sp.csr_matrix | None = None
     rule: sp.csr_matrix | None = None
-    beliefs: list[dict[int, Fraction] | None] | None = None
+    beliefs: list[tuple[dict[int, int], int] | None] | None = None
     resolve: np.ndarray | None = None
     exact_rules: dict[int, dict[int, Fraction]] | None = None
     """Rows whose rule is given exactly (global choice -> probability): the unfolding's rules
     that land on an explored belief (:mod:`posgmc.synthesis.target_rules`)."""
-
-    def known(self, r: int) -> bool:
-        """Whether row ``r``'s exact entries are known: always on a grid; on the unfolding
-        when its vertex's belief is an exact one (:meth:`_Grid.exact_belief`)."""
-        return self.beliefs is None or self.beliefs[r] is not None
 
     def entries(self, r: int, dyn: _Dynamics) -> list[tuple[int, int, int]]:
         """Row ``r``'s exact entries: (column, its exact rational weight as numerator and
@@ -685,22 +750,28 @@ class _Source:
         lo, hi = B.indptr[r], B.indptr[r + 1]
         cols = B.indices[lo:hi].tolist()
         belief = None if self.beliefs is None else self.beliefs[r]
+        # an exact belief's numerator and a rule's multiplied, not reduced: the row's common
+        # denominator absorbs any common factor (:func:`_exact_rows` scales the row as a whole)
         if self.rule is None or self.mass is None:
             if belief is not None:  # columns are the belief's states
-                return [(k, belief[k].numerator, belief[k].denominator) for k in cols]
+                nums, den = belief
+                return [(k, nums[k], den) for k in cols]
             return [(k, *b.as_integer_ratio()) for k, b in zip(cols, B.data[lo:hi].tolist())]
         if belief is None and bool((self.rule.data[lo:hi] == 1.0).all()):
             # a deterministic rule: each entry is its state's mass, exact as stored
             return [(k, *p.as_integer_ratio())
                     for k, p in zip(cols, self.mass.data[lo:hi].tolist())]
         chosen = self.choice_of[B.indices[lo:hi]]
-        states = dyn.model.choice_states[chosen].tolist()
+        states = dyn.choice_states[chosen].tolist()
         given = None if self.exact_rules is None else self.exact_rules.get(r)
-        probs = _rational_rule(self.rule.data[lo:hi].tolist(), states) if given is None else \
-            [given[c] for c in chosen.tolist()]
-        weights = [belief[s] * q for s, q in zip(states, probs)] if belief is not None else \
-            [Fraction(p) * q for p, q in zip(self.mass.data[lo:hi].tolist(), probs)]
-        return [(k, w.numerator, w.denominator) for k, w in zip(cols, weights)]
+        ratios = _rule_ratios(tuple(self.rule.data[lo:hi].tolist()), tuple(states)) \
+            if given is None else [(given[c].numerator, given[c].denominator)
+                                   for c in chosen.tolist()]
+        if belief is not None:
+            nums, den = belief
+            return [(k, nums[s] * qn, den * qd) for k, s, (qn, qd) in zip(cols, states, ratios)]
+        masses = [p.as_integer_ratio() for p in self.mass.data[lo:hi].tolist()]
+        return [(k, pn * qn, pd * qd) for k, (pn, pd), (qn, qd) in zip(cols, masses, ratios)]
 
 
 _SIMPLE_DENOMINATOR = 1000
@@ -720,6 +791,13 @@ def _rational_rule(probs: list[float], states: list[int]) -> list[Fraction]:
     for s, q in zip(states, near):
         total[s] = total.get(s, Fraction(0)) + q
     return [q / total[s] for s, q in zip(states, near)]
+
+
+@functools.lru_cache(maxsize=65536)
+def _rule_ratios(probs: tuple[float, ...], states: tuple[int, ...]) -> tuple[tuple[int, int], ...]:
+    """:func:`_rational_rule` as (numerator, denominator) pairs, cached: the same rules recur at
+    every vertex on the same support."""
+    return tuple((q.numerator, q.denominator) for q in _rational_rule(list(probs), list(states)))
 
 
 @functools.lru_cache(maxsize=4096)
@@ -760,13 +838,14 @@ def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, 
     cols_l = cols.tolist()
     out: dict[int, dict[int, int]] = {}
     start = 0
+    made = dyn.integer_rows  # the exact rows already made
     for r, end, simple in zip(rows.tolist(), ends.tolist(), plain.tolist()):
         if simple:
             entries = [(k, *w.as_integer_ratio())
                        for k, w in zip(cols_l[start:end], weights[start:end])]
         else:
             entries = source.entries(r, dyn)
-        exact = [dyn.integer_row(c) for c in choices[start:end]]
+        exact = [made.get(c) or dyn.integer_row(c) for c in choices[start:end]]
         start = end
         dens = [bd * total for (_, _, bd), (_, total) in zip(entries, exact)]
         den = math.lcm(*dens) if dens else 1
@@ -785,11 +864,14 @@ _EXACT_BITS = 128
 bits (long paths multiply denominators); beyond, the float posterior with a leak."""
 
 
-def _exact_posterior(y: dict[int, int], idx: np.ndarray, grid: _Grid) -> int | None:
-    """The unfolding's vertex of a row's exact posterior on states ``idx`` (one part: the
-    continuing states of one observation group; ``y`` the row's exact vector,
-    :func:`_exact_rows`), None when it is zero or too long to keep (:data:`_EXACT_BITS`)."""
-    ys = [y.get(s, 0) for s in idx.tolist()]
+def _exact_posterior(y: dict[int, int], states: list[int], col: np.ndarray, at: int,
+                     grid: _Grid) -> int | None:
+    """The unfolding's vertex of a row's exact posterior on ``states`` (one part: the
+    continuing states of one observation group, ``col[at:at + len(states)]``; ``y`` the row's
+    exact vector, :func:`_exact_rows`), None when it is zero or too long to keep
+    (:data:`_EXACT_BITS`)."""
+    get = y.get
+    ys = [get(s, 0) for s in states]
     total = sum(ys)
     if total <= 0 or min(ys) <= 0:
         return None
@@ -797,7 +879,7 @@ def _exact_posterior(y: dict[int, int], idx: np.ndarray, grid: _Grid) -> int | N
     den = total // g
     if den.bit_length() > _EXACT_BITS:
         return None
-    return grid.exact_belief(idx, [y // g for y in ys], den)
+    return grid.exact_belief(col[at:at + len(states)], tuple([y // g for y in ys]), den)
 
 
 def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
@@ -928,24 +1010,36 @@ class _Choices:
             # only where the row loses nothing (as on the grids: a row that does is in no
             # end component, and its leak costs at most the expected steps times itself)
             ys: dict[int, dict[int, int]] = {}
-            if exact and source is not None:
+            if exact and source is not None and source.beliefs is not None:
                 # and the rows whose exact rule lands on an explored belief, lossy or not
                 given = np.zeros(D.shape[0], dtype=bool)
                 if source.exact_rules:
                     given[np.fromiter(source.exact_rules, dtype=np.int64)] = True
                 live = np.unique(rows[(lost[rows] == 0) | given[rows]]).astype(np.int64)
-                ys = _exact_rows(source, live[[source.known(r) for r in live.tolist()]]
-                                 if live.size else live, dyn)
-            for j, (a, k, w) in enumerate(zip(starts.tolist(), sizes.tolist(), mass.tolist())):
-                grid.origin = int(keys[rows[j]]) // self.span
-                y = ys.get(int(rows[j]))
+                beliefs = source.beliefs
+                known = [beliefs[r] is not None for r in live.tolist()]
+                ys = _exact_rows(source, live[known] if live.size else live, dyn)
+            # the float posteriors of all parts at once, and their keys as byte slices (a part's
+            # key is its states' and posterior's bytes, :meth:`_Grid.belief`)
+            post = data / np.repeat(mass, sizes)
+            col_b, post_b = col.tobytes(), post.tobytes()
+            col_l = col.tolist()
+            settled: list[int] = []  # the parts whose posterior is exact
+            add_vertex, add_float, find = vs.append, grid.belief, ys.get
+            tracked = grid.targets is not None
+            for j, (a, k, r) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist())):
+                if tracked:
+                    grid.origin = int(keys[r]) // self.span
+                y = find(r)
                 if y is not None:
-                    v = _exact_posterior(y, col[a:a + k], grid)
+                    v = _exact_posterior(y, col_l[a:a + k], col, a, grid)
                     if v is not None:
-                        vs.append(v)
-                        amb[j] = False
+                        add_vertex(v)
+                        settled.append(j)
                         continue
-                vs.append(grid.belief(col[a:a + k], data[a:a + k] / w))
+                add_vertex(add_float(col_b[8 * a:8 * (a + k)] + post_b[8 * a:8 * (a + k)], col,
+                                     post, a, a + k))
+            amb[settled] = False
             self.e_key.append(keys[rows].astype(np.int64))
             self.e_vertex.append(np.asarray(vs, dtype=np.int64))
             self.e_prob.append(mass)
@@ -1110,6 +1204,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                      adversary_rules: np.ndarray | None = None,
                      coarse: CoarseBounds | None = None,
                      mixtures: Mixtures | None = None,
+                     floor: np.ndarray | None = None,
                      targets: bool = False) -> GridAbstraction | None:
     """The abstraction of ``problem`` at ``resolution``, explored breadth first from the initial
     belief until ``max_vertices`` or ``deadline``.
@@ -1137,6 +1232,9 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             full-observation bound and its coarse simplex's interpolated bound.
         mixtures: randomised rules offered to the adversary at some of its vertices besides
             the deterministic ones (:func:`stage_mixtures`).
+        floor: float64[S], a maximiser's proven lower bound per state on every strategy's
+            value (:func:`full_observation_floor`), needed with rewards of both signs only
+            (computed when None).
         targets: on a game's unfolding (resolution 0), also offer the adversary the randomised
             rules whose posterior is exactly a belief already explored
             (:mod:`posgmc.synthesis.target_rules`), so that the unfolding may close where the
@@ -1157,7 +1255,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
         grid.targets = Targets()
         grid.owner_group = np.where(dyn.owned, dyn.group, -1)
     if resolution == 0:
-        grid.exact_belief(np.array([s0], dtype=np.int64), [1], 1)
+        grid.exact_belief(np.array([s0], dtype=np.int64), (1,), 1)
     else:
         grid.vertex(np.array([s0], dtype=np.int64), np.array([resolution], dtype=np.int64))
     Au = dyn.actions.size
@@ -1166,10 +1264,13 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
         # an ambiguous part's uncovered mass is worth at most cap(s) per state; with negative
         # rewards what it covers in excess may be worth less than nothing, unbounded: no leak
         # is finite then
-        negative = problem.rewards is not None and bool((np.asarray(problem.rewards) < 0).any())
         cap = _caps(cutoff, problem.rewards is None)
-        if negative:
-            cap = np.full_like(cap, np.inf)
+        if _signed(problem):
+            # with rewards of both signs what it covers in excess is worth at least floor(s)
+            # per state, so |y*_s - x_s| is worth max(cap(s), -floor(s), 0)
+            if floor is None:
+                floor = full_observation_floor(problem)
+            cap = np.maximum(np.maximum(cap, -floor), 0.0)
     choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP + TARGET_CAP, cap)
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
     skipped: list[int] = []
@@ -1252,21 +1353,19 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
     at_row: list[tuple[int, int, dict[int, Fraction]]] = []
     if grid.targets is not None and dyn.cont.any():
         for i, v in enumerate(vertices.tolist()):
-            belief_v = grid.exact[v]
+            belief_v = grid.fractions(v)
             states = states_of[i]
             if belief_v is None or per_state[states].max() <= 1:
                 continue
             cols, _ = dyn.rules(states)
             owner = np.repeat(np.arange(states.size), per_state[states])
             found = target_rules(v, belief_v, cols, owner, states, dyn.integer_row, dyn.cont,
-                                 grid.owner_group, grid.targets,
-                                 lambda u: grid.exact[u] if u < len(grid.exact) else None,
-                                 _near_grid)
+                                 grid.owner_group, grid.targets, grid.fractions, _near_grid)
             for rule in found[:TARGET_CAP]:
                 c2 = np.fromiter(sorted(rule), dtype=np.int64)
                 q2 = np.asarray([float(rule[c]) for c in c2.tolist()])
                 p2 = np.asarray([float(belief_v[int(s)]) for s in
-                                 dyn.model.choice_states[c2].tolist()])
+                                 dyn.choice_states[c2].tolist()])
                 extras.append((i, np.full(c2.size, rules_at[i]), c2, q2, p2))
                 at_row.append((i, int(rules_at[i]), rule))
                 rules_at[i] += 1
@@ -1345,14 +1444,16 @@ def _caps(cutoff: np.ndarray, probability: bool) -> np.ndarray:
 
 def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matrix,
                ech: np.ndarray, ev: np.ndarray, ep: np.ndarray, lost: np.ndarray,
-               top: np.ndarray, top_rel: np.ndarray, cut_ids: np.ndarray, cut_top: np.ndarray,
-               cut_infinite: np.ndarray, adversary: np.ndarray, probability: bool,
-               discount: float, input_rel: float) -> Enclosure:
+               top: np.ndarray, top_mag: np.ndarray, top_rel: np.ndarray, cut_ids: np.ndarray,
+               cut_top: np.ndarray, cut_infinite: np.ndarray, adversary: np.ndarray,
+               probability: bool, discount: float, input_rel: float,
+               signed: bool = False) -> Enclosure:
     """The exact abstraction's rows enclosed (:class:`~posgmc.synthesis.grid_certificate.
     Enclosure`) for a maximiser: each expanded choice's vertex weights raised by their η (the
     float weights where the part is ambiguous), its ``top`` (the stop mass or reward, already
     rounded up for float sums) raised by input rounding, its ambiguous parts' leak and slack;
-    then the cut-off rows."""
+    then the cut-off rows. ``top_mag``: at least |top| and the magnitude the top's rounding is
+    relative to (a reward summed from products of both signs: the largest |reward|)."""
     n_exp, V = E.shape
     eta = np.concatenate(ch.e_eta) if ch.e_eta else np.zeros(0)
     hi = np.where(np.isfinite(eta), _up(ep * (1.0 + eta)), ep)
@@ -1373,7 +1474,7 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
     # the stop mass or reward (either sign) within 2 top_rel of its float (rounded already, and
     # the exact model's rows)
     spread = 2.0 * top_rel + input_rel + 4.0 * _UNIT
-    top_hi = top + np.abs(top) * spread
+    top_hi = top + top_mag * spread
     top_hi = np.where(top_hi != 0, np.nextafter(top_hi, np.inf), top_hi)
     k = np.diff(coef.indptr).astype(np.float64)
     covered = np.asarray(coef.sum(axis=1)).ravel() + slack
@@ -1395,7 +1496,7 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
         gone=np.r_[gone, np.zeros(n_cut)],
         clean=np.r_[~amb_row & (lost == 0), np.zeros(n_cut, dtype=bool)],
         infinite=np.r_[np.zeros(n_exp, dtype=bool), cut_infinite],
-        adversary=adversary, probability=probability, discount=discount)
+        adversary=adversary, probability=probability, discount=discount, signed=signed)
 
 
 def _rule_entries(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
@@ -1483,8 +1584,15 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
         # a reward's stop mass is worth nothing more: what the vertices leave reaches the target
         t = np.maximum(0.0, 1.0 - kept)
         sink = np.zeros(n_exp)
-    rew_exp = (_up(rew * grow) if problem.maximize else np.maximum(0.0, rew * (2.0 - grow))) \
-        if not prob else np.zeros(n_exp)
+    # a reward (a float sum of products of either sign) moved outward by its rounding bound,
+    # relative to the sum of the products' magnitudes (at most the largest |reward| when the
+    # rewards take both signs, the sum itself otherwise): up for a maximiser, down for a
+    # minimiser, whatever the reward's sign
+    rew_mag = np.zeros(n_exp)
+    rew_exp = np.zeros(n_exp)
+    if not prob:
+        rew_mag = _reward_magnitude(rew, np.asarray(problem.rewards, dtype=np.float64))
+        rew_exp = _outward(rew, (grow - 1.0) * rew_mag, problem.maximize)
     Ec = E.tocoo()
     T_exp = sp.csr_matrix(
         (np.r_[Ec.data, t, sink],
@@ -1496,10 +1604,11 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     cut_ids = np.flatnonzero(~expanded)
     Bc = grid.matrix()[cut_ids]
     # Σ_s b(s) cutoff(s) rounded outward (a sum of nonnegative products)
+    # (products of either sign: the rounding is relative to the sum of their magnitudes)
     u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
+    u_mag = np.asarray(Bc @ np.where(finite, np.abs(cutoff), 0.0)).ravel()
     slack = _rounding(np.diff(Bc.indptr))
-    u = _up(u * (1.0 + slack)) if problem.maximize else \
-        np.maximum(0.0, u * (1.0 - slack))
+    u = _outward(u, _up(u_mag * slack * (1.0 + 4.0 * _UNIT)), problem.maximize)
     unbounded = np.asarray(Bc @ (~finite).astype(np.float64)).ravel() > 0
     n_cut = cut_ids.size
     if coarse is not None and n_cut:
@@ -1551,10 +1660,10 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     enclosure = None
     if problem.maximize:
         enclosure = _enclosure(
-            ch, order, keys, E, ech, ev, ep, lost, t if prob else rew_exp, _rounding(terms),
-            cut_ids,
+            ch, order, keys, E, ech, ev, ep, lost, t if prob else rew_exp,
+            t if prob else np.maximum(np.abs(rew_exp), rew_mag), _rounding(terms), cut_ids,
             u if prob else r_cut, np.zeros(n_cut, dtype=bool) if prob else unbounded,
-            theirs[:V], prob, problem.discount, dyn.input_rel)
+            theirs[:V], prob, problem.discount, dyn.input_rel, _signed(problem))
     return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,
                            problem.discount, problem.maximize, resolution,
                            ch.on_grid and bool(expanded.all()), theirs, enclosure)
@@ -1709,7 +1818,7 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
                resolutions: tuple[int, ...] = RESOLUTIONS,
                cutoff: np.ndarray | None = None,
                vertices: int = MAX_VERTICES, unfold: bool = True,
-               mix: bool = True) -> GridBound | None:
+               mix: bool = True, settle: bool = False) -> GridBound | None:
     """Abstractions of growing resolution while time remains; the tightest proven bound.
 
     Args:
@@ -1726,6 +1835,13 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
         mix: on a game, offer the adversary randomised rules from stage LPs
             (:func:`stage_mixtures`) in rounds of re-solving; False: its deterministic rules and
             the uniform mixture only (one solve per resolution).
+        settle: also stop refining once it has stopped paying: two grids of consecutive
+            resolutions both complete (no cut-offs), the coarser one's bound the best found
+            (within :data:`PRECISION`, relative) and the finer one not tighter than it beyond
+            that. A budget rule for the default bracket (the bound printed is still what the
+            abstractions solved prove), deterministic; a plateau that later refinement would
+            leave is possible, so ``--gap`` runs do not use it. False: the refinement goes on
+            until the budget, the deadline or the target stops it.
 
     Returns:
         The bound, or None when no abstraction applies or none was solved soundly in time.
@@ -1737,6 +1853,8 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     rules = None
     if cutoff is None:
         cutoff, rules = full_observation_bounds(problem, deadline)
+    floor = full_observation_floor(problem, deadline) if problem.maximize and _signed(problem) \
+        else None
     best: GridBound | None = None
     tried: list[tuple[int, float]] = []
     coarse: CoarseBounds | None = None
@@ -1746,6 +1864,8 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
     # the stage LPs' work budget, in vertices solved over all rounds (deterministic, like the
     # grid's): one per LP_SHARE vertices of the grid's budget
     lps_left = vertices // LP_SHARE
+    # the previous grid resolution's bound, when its abstraction was complete (for ``settle``)
+    settled_at: float | None = None
     for N in ((0,) if unfold else ()) + tuple(resolutions):
         side: np.ndarray | None = None
         solved: GridAbstraction | None = None
@@ -1765,7 +1885,8 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
                                            adversary_rules=rules, coarse=coarse,
                                            max_vertices=max(1, int(share * left)),
-                                           mixtures=mixing, targets=N == 0 and game and mix)
+                                           mixtures=mixing, floor=floor,
+                                           targets=N == 0 and game and mix)
             if abstraction is None:
                 return None
             left -= int(abstraction.expanded.sum())
@@ -1815,6 +1936,13 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             break
         if solved is None or side is None or N == 0:
             continue
+        if settle and at_n is not None and best is not None:
+            slack = PRECISION * max(1.0, abs(best.value))
+            if solved.complete and settled_at is not None and \
+                    sign * at_n >= sign * settled_at - slack and \
+                    sign * settled_at <= sign * best.value + slack:
+                break  # the best grid refined completely without tightening
+            settled_at = at_n if solved.complete else None
         # the next resolution doubles this one: its cut-offs interpolate these values (the
         # grids nest, so a fine vertex's coarse simplex has vertices this abstraction holds
         # wherever it explored that far)

@@ -32,7 +32,9 @@ takes at most this much longer than the search alone)."""
 
 DEFAULT_VERTICES = 20_000
 """Without ``--gap``: the belief grid's work budget, grid vertices explored over all resolutions
-(times ``--effort``), so that the bracket depends only on model, options and seed."""
+(times ``--effort``), so that the bracket depends only on model, options and seed; the grids
+also stop once refinement stops tightening the best bound (``settle`` of
+:func:`~posgmc.synthesis.belief_grid.grid_bound`)."""
 
 GAP_VERTICES = 400_000
 """With ``--gap``: the same budget (the grid stops earlier when the gap is closed)."""
@@ -66,10 +68,12 @@ def optimum_of(problem: Problem, guaranteed: Bound, full_observation: Bound,
         want = gap if gap is not None else Gap(1e-6)
         # stop refining once the bound side is within the gap of the achieved side
         stop_at = achieved + sign * want.width(achieved, achieved)
-        # the adversary's randomised rules (stage LPs, re-solves) only when a gap is asked for:
-        # the default bracket must stay cheap
+        # the adversary's randomised rules (stage LPs, re-solves) only when a gap is asked for,
+        # and without one the grids stop once refinement stops paying: the default bracket must
+        # stay cheap
         found = belief_grid.grid_bound(problem, deadline=deadline, target=stop_at,
-                                       vertices=vertices, mix=gap is not None)
+                                       vertices=vertices, mix=gap is not None,
+                                       settle=gap is None)
         if found is not None:
             kind = "exact belief MDP" if found.exact else "complete" if found.complete else \
                 "frontier cut off at full observation"

@@ -45,6 +45,32 @@ row, the raise absorbs the violations along every path. The check R(W) <= W is t
 as stated; W is returned only when it holds. Where ambiguous rows form a cycle that the maximiser
 can keep to, h is infinite and so is the bound: no finite W passes there (a leak in a loop adds
 up), and the caller falls back to a coarser proven bound.
+
+Rewards of both signs (``signed``). Monotonicity fails (more mass may be worth less), and the
+Park induction from V*_0 = 0 fails (W may be negative, and the n-step values need not stay
+below V*). Both are replaced:
+
+* *The leak.* V*(b) = max_σ Σ_s b_s v_σ(s), and v_σ(s), the value of σ started in s, is the
+  value of a history-dependent strategy of the full-observation model, so
+  floor(s) <= v_σ(s) <= cap(s) (floor: the full-observation minimum, both players minimising).
+  With p = (y* - x)^+ and q = (y* - x)^-, V*(y*) = max_σ v_σ (x + p - q)
+  <= V*(x) + Σ_s |y*_s - x_s| max(cap(s), -floor(s), 0): the same leak, priced per state at
+  max(cap, -floor, 0) (the caller's ``leak``).
+* *A contraction instead of the induction.* Let X be V* on the vertices and, per row r,
+  ρ_r(Y) = t*_r + Σ_k ê_rk Y_k + leak_r with ê the exact weights of the certified parts and the
+  float weights of the ambiguous ones (both at most ``coef``). The Bellman equation of the belief
+  MDP and the two bounds above give X_v <= ρ_r(X) for the maximiser's best row r at v (for the
+  adversary: for every row offered, the adversary's value being a minimum over at least those;
+  its vertices are checked by their usable row only), and R(W) >= ρ_r(W) on every row (the
+  inequality above). Suppose h > 0 with
+  Σ_k coef_rk h_k < h_v on every usable row of every vertex v (checked by :func:`contracts`,
+  h from the same steps solve, without collapsing end components), so
+  β = max_r Σ_k ê_rk h_k / h_v < 1. Let δ = max_k (X_k - W_k)^+ / h_k (finite: V* lies between
+  floor and cap). If R(W) <= W, then at every vertex
+  X_v - W_v <= ρ_r(X) - ρ_r(W) = Σ_k ê_rk (X_k - W_k) <= δ Σ_k ê_rk h_k <= β δ h_v, so
+  δ <= β δ, δ = 0 and V* <= W. (Where some W_v is +inf there is nothing to prove, and a finite
+  R(W) only uses finite W.) Where no such h exists (a row keeping all its mass among vertices
+  that never stop, such as a loop on one vertex), no W is proven.
 """
 
 from __future__ import annotations
@@ -60,7 +86,7 @@ from posgmc.engines.rewards import expected_reach_reward
 from posgmc.model.explicit import make_model
 from posgmc.model.types import ModelType
 
-__all__ = ["Enclosure", "certified_upper"]
+__all__ = ["Enclosure", "certified_upper", "contracts"]
 
 _UNIT = 2.0 ** -53
 
@@ -83,7 +109,8 @@ class Enclosure:
     bool[rows], every part certified and nothing to the target (rows an end component may keep
     to); ``infinite``: bool[rows], rows worth +inf (an unbounded reward cut-off); ``adversary``:
     bool[vertices]; ``probability``: the objective is a probability (else an expected reward);
-    ``discount``."""
+    ``discount``; ``signed``: rewards of both signs (``leak`` then priced at
+    max(cap, -floor, 0) per state)."""
 
     state: np.ndarray
     coef: sp.csr_matrix
@@ -97,6 +124,9 @@ class Enclosure:
     adversary: np.ndarray
     probability: bool
     discount: float
+    signed: bool = False
+    """The rewards take both signs: W is proven by the contraction argument (the module
+    docstring), which needs no W >= 0 and no collapsed end component."""
 
     @property
     def vertices(self) -> int:
@@ -163,6 +193,15 @@ def _per_state(enc: Enclosure, R: np.ndarray) -> np.ndarray:
     lo = np.full(V, np.inf)
     np.minimum.at(lo, enc.state, R)
     return np.where(enc.adversary, lo, hi)
+
+
+def _checked(enc: Enclosure, W: np.ndarray, usable: np.ndarray) -> np.ndarray:
+    """R(W) per vertex as checked: :func:`_per_state`; with rewards of both signs the adversary
+    passes only by a ``usable`` row (the rows the contraction is checked on)."""
+    R = bellman_upper(enc, W)
+    if enc.signed:
+        R = np.where(usable, R, np.inf)
+    return _per_state(enc, R)
 
 
 def _usable_rows(enc: Enclosure, U: np.ndarray) -> np.ndarray:
@@ -261,6 +300,23 @@ def _steps(enc: Enclosure, mec_of: np.ndarray, count: int, usable: np.ndarray,
     return h[rep]
 
 
+def contracts(enc: Enclosure, usable: np.ndarray, h: np.ndarray) -> bool:
+    """Whether h (float64[vertices]) proves the rows ``usable`` (bool[rows]) a contraction in
+    the h-weighted sup norm: h > 0 at every vertex and Σ_k coef_k h_k < h_v on every usable row
+    of every vertex v, evaluated with rounding to +inf (the module docstring, "Rewards of both
+    signs")."""
+    h = np.asarray(h, dtype=np.float64)
+    if h.size != enc.vertices or not bool((np.isfinite(h) & (h > 0)).all()):
+        return False
+    coef = enc.coef
+    k = np.diff(coef.indptr).astype(np.float64)
+    S = np.asarray(coef @ h).ravel()
+    S = np.where(S > 0, np.nextafter(S * (1.0 + 2.0 * (k + 2.0) * _UNIT), np.inf), S)
+    if enc.discount < 1.0:
+        S = np.where(S > 0, np.nextafter(S * enc.discount, np.inf), S)
+    return bool((S[usable] < h[enc.state[usable]]).all())
+
+
 def _capped(enc: Enclosure, W: np.ndarray) -> np.ndarray:
     """Where W needs no check: a probability's 1 (V*_n <= 1 holds anyway, so the induction
     only needs min(1, R(W)) <= W)."""
@@ -275,14 +331,20 @@ def certified_upper(enc: Enclosure, upper: np.ndarray, *, deadline: float | None
     abstraction) over the vertices with R(W) <= W checked (the module docstring): W bounds the
     exact belief MDP's optimum at every vertex. None when no such W was found (a cycle of
     ambiguous rows, or non-finite values where they matter, or ``deadline``, a
-    ``time.perf_counter()`` value, passed before the steps h were bounded)."""
+    ``time.perf_counter()`` value, passed before the steps h were bounded; with rewards of both
+    signs also when the steps prove no contraction, :func:`contracts`)."""
     V = enc.vertices
     U = np.asarray(upper, dtype=np.float64)[:V].copy()
     U = np.where(np.isnan(U), np.inf, U)
     if enc.probability:
         U = np.maximum(U, 0.0)
     usable = _usable_rows(enc, U)
-    mec_of, count = _components(enc, usable)
+    if enc.signed:
+        # the contraction argument collapses nothing (a clean loop that never stops has no
+        # finite steps, and then no bound is proven)
+        mec_of, count = np.full(V, -1, dtype=np.int64), 0
+    else:
+        mec_of, count = _components(enc, usable)
     if count:
         best = np.full(count, -np.inf)
         inn = mec_of >= 0
@@ -290,14 +352,16 @@ def certified_upper(enc: Enclosure, upper: np.ndarray, *, deadline: float | None
         U[inn] = best[mec_of[inn]]
     if enc.probability:
         U = np.minimum(U, 1.0)
-    R = _per_state(enc, bellman_upper(enc, U))
+    R = _checked(enc, U, usable)
     over = np.where((R > U) & ~_capped(enc, U), R - U, 0.0)
     over = np.where(np.isnan(over), np.inf, over)
-    if not (over > 0).any():
+    if not enc.signed and not (over > 0).any():
         return U
     h = _steps(enc, mec_of, count, usable, deadline)
-    if h is None:
+    if h is None or (enc.signed and not contracts(enc, usable, h)):
         return None
+    if not (over > 0).any():
+        return U
     d0 = float(over.max())
     for factor in _RAISES:
         d = d0 * factor * (1.0 + 1e-6) + 4.0 * _UNIT * float(np.max(np.where(
@@ -306,7 +370,7 @@ def certified_upper(enc: Enclosure, upper: np.ndarray, *, deadline: float | None
         W = np.where(np.isnan(W), np.inf, W)
         if enc.probability:
             W = np.minimum(W, 1.0)
-        R = _per_state(enc, bellman_upper(enc, W))
+        R = _checked(enc, W, usable)
         if bool(((R <= W) | _capped(enc, W)).all()):
             return W
     return None

@@ -24,7 +24,7 @@ sound solve of the abstraction to say.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from fractions import Fraction
 
 import numpy as np
@@ -67,19 +67,19 @@ class Targets:
         # per first (least) state of a support: each support seen and its vertices in order
         self.by_first: dict[int, dict[frozenset[int], list[int]]] = {}
 
-    def found(self, vertex: int, origin: int, group: int, belief: ExactBelief | None) -> None:
+    def found(self, vertex: int, origin: int, group: int, support: Iterable[int] | None) -> None:
         """Record the new ``vertex`` (numbered in order), reached first from ``origin`` (-1:
         the initial one); a decision maker's exact belief in ``group`` (< 0: the adversary's)
-        becomes a target."""
+        on the states ``support`` (None: its belief is not exact) becomes a target."""
         while len(self.origin) <= vertex:
             self.origin.append(-1)
             self.group.append(-1)
         self.origin[vertex] = origin
-        self.group[vertex] = group if belief is not None else -1
-        if group >= 0 and belief is not None:
-            support = frozenset(belief)
-            at = self.by_first.setdefault(min(support), {})
-            known = at.setdefault(support, [])
+        self.group[vertex] = group if support is not None else -1
+        if group >= 0 and support is not None:
+            states = frozenset(support)
+            at = self.by_first.setdefault(min(states), {})
+            known = at.setdefault(states, [])
             if len(known) < GROUP_MEMORY:
                 known.append(vertex)
 

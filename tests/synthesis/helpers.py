@@ -151,3 +151,33 @@ module m
 endmodule
 label "goal" = s=5;
 """
+
+
+# rewards of both signs: every choice outside s=4 stops with 1/10 (to s=4, the target), so every
+# strategy's expected total reward is finite; s=1 and s=2 look alike, and the action that pays
+# there (a in s=1, b in s=2) is the other one's loss, so the agent that cannot tell them apart
+# earns less than full observation (7.04, the full-observation optimum from s=0)
+SIGNED = """
+pomdp
+observables o endobservables
+module m
+  s : [0..4] init 0;
+  o : [0..1] init 0;
+  [a] s=0 -> 0.3:(s'=1) + 0.7:(s'=2);
+  [b] s=0 -> 0.6:(s'=1) + 0.4:(s'=3);
+  [a] s=1 -> 0.1:(s'=4)&(o'=1) + 0.6:(s'=2) + 0.3:(s'=3);
+  [b] s=1 -> 0.1:(s'=4)&(o'=1) + 0.9:(s'=1);
+  [a] s=2 -> 0.1:(s'=4)&(o'=1) + 0.9:(s'=1);
+  [b] s=2 -> 0.1:(s'=4)&(o'=1) + 0.5:(s'=3) + 0.4:(s'=2);
+  [a] s=3 -> 0.1:(s'=4)&(o'=1) + 0.9:(s'=2);
+  [b] s=3 -> 0.1:(s'=4)&(o'=1) + 0.2:(s'=1) + 0.7:(s'=3);
+  [a] s=4 -> true;
+  [b] s=4 -> true;
+endmodule
+rewards "r"
+  [a] s=0 : 0.1; [b] s=0 : -0.2;
+  [a] s=1 : 0.7; [b] s=1 : -0.3;
+  [a] s=2 : -0.5; [b] s=2 : 0.9;
+  [a] s=3 : -0.1; [b] s=3 : 0.6;
+endrewards
+"""

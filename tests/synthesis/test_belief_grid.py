@@ -23,8 +23,8 @@ from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
 from posgmc.synthesis import belief, belief_grid, grid_certificate
 from posgmc.synthesis.search import parametrisation, problem_of
-from tests.random_games import random_pomdp
-from tests.synthesis.helpers import BLIND, GUESS
+from tests.random_games import random_pomdp, random_signed_pomdp
+from tests.synthesis.helpers import BLIND, GUESS, SIGNED
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests" / "data" / "benchmarks" / "pomdp"
@@ -393,8 +393,24 @@ def test_a_maximisers_enclosure_holds_the_exact_belief_successors(seed: int,
     full-observation bound per state, is at most the row's leak, and their float weights exceed
     their exact mass by at most its slack. A float decomposition that only approximates the
     exact one (a vertex missing, a weight below the exact one, no leak) fails it."""
-    model = random_pomdp(seed)
-    problem = _problem(model, 'Pmax=? [ F "goal" ]')
+    _check_enclosure(random_pomdp(seed), 'Pmax=? [ F "goal" ]', resolution)
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), resolution=st.sampled_from([2, 3, 4, 8]))
+@example(seed=0, resolution=2)
+def test_a_signed_enclosure_holds_the_exact_belief_successors(seed: int,
+                                                               resolution: int) -> None:
+    """The same claims with rewards of both signs (random POMDPs that stop with 1/10 a step):
+    the top is at least the exact reward, and the leak prices each |y*_s - x_s| at
+    max(cap(s), -floor(s), 0), the floor being the full-observation minimum
+    (posgmc/synthesis/grid_certificate.py, "Rewards of both signs")."""
+    _check_enclosure(random_signed_pomdp(seed), 'R{"r"}max=? [ F "goal" ]', resolution)
+
+
+def _check_enclosure(model, prop: str, resolution: int) -> None:  # type: ignore[no-untyped-def]
+    problem = _problem(model, prop)
+    signed = problem.rewards is not None and bool((problem.rewards < 0).any())
     cutoff = belief_grid.full_observation_bounds(problem)[0]
     abstraction = belief_grid.grid_abstraction(problem, resolution, cutoff=cutoff,
                                                max_vertices=200)
@@ -410,7 +426,12 @@ def test_a_maximisers_enclosure_holds_the_exact_belief_successors(seed: int,
               for v in range(V)]
     vertex_of = {tuple(sorted(c.items())): v for v, c in enumerate(counts)}
     dyn = belief_grid._Dynamics(problem, None)
-    cap = np.clip(np.where(np.isfinite(cutoff), cutoff, 1.0), 0.0, 1.0)
+    if problem.rewards is None:
+        cap = np.clip(np.where(np.isfinite(cutoff), cutoff, 1.0), 0.0, 1.0)
+    else:
+        cap = cutoff
+        if signed:
+            cap = np.maximum(np.maximum(cap, -belief_grid.full_observation_floor(problem)), 0.0)
     used = np.flatnonzero(np.isin(np.arange(len(model.action_names)), model.choice_actions))
     rg = abstraction.model.row_groups
     coef = enc.coef
@@ -421,10 +442,12 @@ def test_a_maximisers_enclosure_holds_the_exact_belief_successors(seed: int,
         for j, row in zip(rows.tolist(), range(rg[v], rg[v + 1])):
             a = int(used[abstraction.action[row]])
             y: dict[int, Fraction] = {}
-            stop = Fraction(0)
+            stop, reward = Fraction(0), Fraction(0)
             for s, c in counts[v].items():
                 ch = [i for i in range(model.row_groups[s], model.row_groups[s + 1])
                       if model.choice_actions[i] == a]
+                if problem.rewards is not None:
+                    reward += Fraction(c, N) * Fraction(float(problem.rewards[ch[0]]))
                 r = model.transitions[ch[0]]
                 total = sum((Fraction(p) for p in r.data.tolist()), Fraction(0))
                 for t, p in zip(r.indices.tolist(), r.data.tolist()):
@@ -433,7 +456,7 @@ def test_a_maximisers_enclosure_holds_the_exact_belief_successors(seed: int,
                         stop += mass
                     elif dyn.cont[t]:
                         y[t] = y.get(t, Fraction(0)) + mass
-            assert Fraction(enc.top[j]) >= stop
+            assert Fraction(enc.top[j]) >= (stop if problem.rewards is None else reward)
             assert Fraction(enc.gone[j]) <= 1 - sum(y.values(), Fraction(0))
             entries = dict(zip(coef.indices[coef.indptr[j]:coef.indptr[j + 1]].tolist(),
                                coef.data[coef.indptr[j]:coef.indptr[j + 1]].tolist()))
@@ -454,8 +477,9 @@ def test_a_maximisers_enclosure_holds_the_exact_belief_successors(seed: int,
                 for i, e in mine.items():
                     for s, c in counts[i].items():
                         x[s] += e * Fraction(c, N)
-                leak += sum((max(y[s] - x[s], Fraction(0)) * Fraction(float(cap[s]))
-                             for s in states), Fraction(0))
+                # (with rewards of both signs the excess is priced too)
+                leak += sum(((abs(y[s] - x[s]) if signed else max(y[s] - x[s], Fraction(0)))
+                             * Fraction(float(cap[s])) for s in states), Fraction(0))
                 slack += max(sum(mine.values(), Fraction(0)) - w, Fraction(0))
             assert leak <= Fraction(enc.leak[j])
             assert slack <= Fraction(enc.slack[j])
@@ -708,3 +732,145 @@ def test_the_exact_rows_are_the_rational_successor_vectors(seed: int,
         scale = Fraction(sum(y.values())) / sum(want.values(), Fraction(0))
         assert scale > 0
         assert all(Fraction(n) == scale * want[s] for s, n in y.items())
+
+
+def _exact_choice_rewards(abstraction: belief_grid.GridAbstraction, problem  # type: ignore[no-untyped-def]
+                          ) -> list[tuple[float, Fraction]]:
+    """(the abstraction's reward, the exact one) per expanded choice: Σ_s (counts_s / N) r(s, a)
+    over the vertex belief's support, the stored rewards taken as exact."""
+    model = problem.model
+    N = abstraction.resolution
+    B = abstraction.beliefs
+    used = np.flatnonzero(np.isin(np.arange(len(model.action_names)), model.choice_actions))
+    rg = abstraction.model.row_groups
+    out = []
+    for v in np.flatnonzero(abstraction.expanded).tolist():
+        support = B.indices[B.indptr[v]:B.indptr[v + 1]].tolist()
+        counts = np.rint(B.data[B.indptr[v]:B.indptr[v + 1]] * N).astype(int).tolist()
+        for row in range(rg[v], rg[v + 1]):
+            a = int(used[abstraction.action[row]])
+            exact = Fraction(0)
+            for s, c in zip(support, counts, strict=True):
+                ch = [i for i in range(model.row_groups[s], model.row_groups[s + 1])
+                      if model.choice_actions[i] == a]
+                exact += Fraction(c, N) * Fraction(float(problem.rewards[ch[0]]))
+            out.append((float(abstraction.rewards[row]), exact))
+    return out
+
+
+@pytest.mark.parametrize("resolution", [2, 4, 8])
+def test_a_negative_reward_is_rounded_up_for_a_maximiser(resolution: int) -> None:
+    """SIGNED (tests/synthesis/helpers.py): every expanded choice's reward in a maximiser's
+    abstraction is at least the exact reward of its vertex belief (exact rational arithmetic),
+    negative ones included (scaling a negative sum by 1 + γ moved it below the exact value)."""
+    model = _built(text=SIGNED)
+    assert model.num_states == 5 and model.num_choices == 10
+    problem = _problem(model, 'R{"r"}max=? [ F s=4 ]')
+    cutoff = belief_grid.full_observation_bounds(problem)[0]
+    abstraction = belief_grid.grid_abstraction(problem, resolution, cutoff=cutoff)
+    assert abstraction is not None and abstraction.rewards is not None
+    pairs = _exact_choice_rewards(abstraction, problem)
+    assert any(exact < 0 for _, exact in pairs)
+    assert all(Fraction(got) >= exact for got, exact in pairs)
+
+
+def test_outward_rounding_moves_either_sign_toward_the_bound_side() -> None:
+    """v + err rounded up, v - err rounded down, for negative and positive v alike; a zero
+    error leaves v exact."""
+    v = np.array([-0.3, 0.3, -0.3, 0.0])
+    err = np.array([1e-17, 1e-17, 0.0, 0.0])
+    up = belief_grid._outward(v, err, True)
+    down = belief_grid._outward(v, err, False)
+    for x, e, u, d in zip(v.tolist(), err.tolist(), up.tolist(), down.tolist(), strict=True):
+        assert Fraction(d) <= Fraction(x) - Fraction(e) <= Fraction(x) + Fraction(e) <= Fraction(u)
+    assert up[2] == down[2] == -0.3 and up[3] == down[3] == 0.0
+
+
+def test_a_minimisers_rewards_of_both_signs_get_no_grid() -> None:
+    """A minimiser's abstraction scales its rows below the exact ones and prices what it gives
+    up at 0, which is below V* only where V* >= 0: with rewards of both signs no grid applies
+    (the bracket keeps full observation). Before, SIGNED's Rmin got a "bound" of 0.018 while the
+    belief-based controller proves -3.24 (rewards rounded to 0 and the cut-offs clipped at 0)."""
+    model = _built(text=SIGNED)
+    problem = _problem(model, 'R{"r"}min=? [ F s=4 ]')
+    assert not belief_grid.applies(problem)
+    assert belief_grid.grid_bound(problem, deadline=None, vertices=2000) is None
+
+
+def _signed_bracket_contains_the_strategies(seed: int) -> None:
+    model = random_signed_pomdp(seed)
+    problem = _problem(model, 'R{"r"}max=? [ F "goal" ]')
+    found = belief_grid.grid_bound(problem, deadline=time.perf_counter() + 2.0, vertices=4000)
+    assert found is not None
+    s0 = int(model.initial_states[0])
+    for fss in _deterministic_memoryless(problem):
+        r = StrategyChecker(model, {0: fss}, coalition_of=problem.coalition_of,
+                            scalar=api._scalar).check(problem.query, text="t").guaranteed
+        assert r is not None and r.sound
+        assert found.value >= r.lower - 1e-9
+    full = belief_grid.full_observation_bounds(problem)[0][s0]
+    assert found.value <= full + 2 * belief_grid.PRECISION * max(1.0, abs(full))
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000))
+def test_random_signed_pomdp_bounds_contain_every_strategy(seed: int) -> None:
+    """Rewards of both signs (every choice stops with 1/10): the maximiser's grid bound, proven
+    by the contraction argument, is at least every deterministic memoryless strategy's proven
+    value and at most full observation."""
+    _signed_bracket_contains_the_strategies(seed)
+
+
+def test_signed_grid_is_proven_below_full_observation() -> None:
+    """SIGNED: the agent cannot tell s=1 from s=2, so a grid bounds its optimum below full
+    observation (7.04, helpers.py); the proven bound (resolution 8 and finer: 5.19 and below,
+    measured) stays above every deterministic memoryless strategy (0.757 at best, proven by the
+    product check). With negative rewards every ambiguous part leaked +inf before, and the bound
+    was full observation."""
+    model = _built(text=SIGNED)
+    problem = _problem(model, 'R{"r"}max=? [ F s=4 ]')
+    full = belief_grid.full_observation_bounds(problem)[0][0]
+    found = belief_grid.grid_bound(problem, deadline=None, vertices=3000)
+    assert found is not None
+    assert found.value <= 5.2 < full
+    for fss in _deterministic_memoryless(problem):
+        r = StrategyChecker(model, {0: fss}, coalition_of=problem.coalition_of,
+                            scalar=api._scalar).check(problem.query, text="t").guaranteed
+        assert r is not None and r.sound and r.lower <= found.value
+
+
+def _game(path: Path, prop: str):  # type: ignore[no-untyped-def]
+    model = _built(path)
+    coalition = api._resolver(model, False).coalition_of
+    return model, problem_of(model, parser.parse_property(prop).expr, player=0, adversary=1,
+                             coalition_of=coalition, scalar=api._scalar)
+
+
+def test_the_default_refinement_settles_once_a_complete_grid_stops_tightening() -> None:
+    """``settle`` (the default bracket's budget rule, docs/synthesis.md "Budget"): on
+    models/rover.posg the complete grids of resolution 2 and 4 prove the same bound (0.98765618,
+    the full-observation value 0.9876561794 of models/README.md within the solve's precision),
+    so refinement stops there; without the rule the same budget buys resolutions 8 and 16 and
+    proves nothing tighter. On dodge_lanes.posg the grids plateau at 0.125 (resolutions 8 to 32)
+    above the unfolding's 0.12 and descend again from resolution 64: the rule does not stop a
+    plateau that is not the best bound, so both runs try the same resolutions."""
+    model, rover = _game(ROOT / "models" / "rover.posg", '<<rover>> Pmax=? [ !"crash" U "goal" ]')
+    assert (model.num_states, model.num_choices) == (60, 100)
+    settled = belief_grid.grid_bound(rover, deadline=None, vertices=20_000, mix=False,
+                                     settle=True)
+    full = belief_grid.grid_bound(rover, deadline=None, vertices=20_000, mix=False)
+    assert settled is not None and full is not None
+    assert [n for n, _ in settled.tried] == [0, 2, 4]
+    assert [n for n, _ in full.tried] == [0, 2, 4, 8, 16]
+    assert settled.value == full.value and settled.resolution == 2 and settled.complete
+    assert 0.9876561794 <= settled.value <= 0.9876561794 * (1 + 1e-8)
+    model, lanes = _game(ROOT / "tests" / "data" / "games" / "dodge_lanes.posg",
+                         '<<runner>> Pmax=? [ F "won" ]')
+    assert (model.num_states, model.num_choices) == (18, 44)
+    settled = belief_grid.grid_bound(lanes, deadline=None, vertices=20_000, mix=False,
+                                     settle=True)
+    full = belief_grid.grid_bound(lanes, deadline=None, vertices=20_000, mix=False)
+    assert settled is not None and full is not None
+    assert settled.tried == full.tried
+    assert all(dict(full.tried)[n] == pytest.approx(0.125, abs=1e-8) for n in (8, 16, 32))
+    assert dict(full.tried)[64] < 0.125 - 1e-3
