@@ -159,3 +159,58 @@ def test_an_end_component_of_the_minimiser_gets_no_certificate() -> None:
         )
         assert res.sound and res.lower[0] <= 2.0 <= res.upper[0]
         assert res.upper[0] - res.lower[0] <= 2e-6
+
+
+def _stiff_near_tie(p_leave: float, gap: float, lead: int = 30) -> ExplicitModel:
+    """``lead`` states in a line (state i moves to i + 1 surely) end in the stiff state
+    ``s = lead``: its first choice reaches the goal (``s + 2``) at once with 1/2 (else the sink,
+    ``s + 3``); its second moves to ``s + 1`` (which returns to s surely) with probability
+    1 - p_leave and otherwise reaches the goal with 1/2 - ``gap`` (else the sink), worth 1/2 - gap
+    whatever p_leave. The line makes the system too large for the exact certificate, the
+    two-state loop one strongly connected component that the topological solver iterates."""
+    s = lead
+    n = lead + 4
+    rows: list[list[float]] = []
+    for i in range(lead):
+        rows.append([1.0 if j == i + 1 else 0.0 for j in range(n)])
+    direct = [0.0] * n
+    direct[s + 2], direct[s + 3] = 0.5, 0.5
+    loop = [0.0] * n
+    loop[s + 1] = 1.0 - p_leave
+    loop[s + 2], loop[s + 3] = (0.5 - gap) * p_leave, (0.5 + gap) * p_leave
+    back = [0.0] * n
+    back[s] = 1.0
+    goal = [0.0] * n
+    goal[s + 2] = 1.0
+    sink = [0.0] * n
+    sink[s + 3] = 1.0
+    rows += [direct, loop, back, goal, sink]
+    return make_model(
+        ModelType.MDP,
+        row_groups=list(range(lead + 1)) + [lead + 2, lead + 3, lead + 4, lead + 5],
+        transitions=rows,
+        labels={"goal": [i == s + 2 for i in range(n)]},
+    )
+
+
+def test_a_gain_below_the_switching_tolerance_is_certified() -> None:
+    """Pmin of the goal in ``_stiff_near_tie(1e-6, 1e-4)`` is 1/2 - 1e-4 = 0.4999 in the line
+    and the loop (hand derivation: the minimiser loops, since the loop is left surely and then
+    reaches the goal with 1/2 - 1e-4, against 1/2 directly). Value iteration from below needs
+    about 10^6 steps per digit here, so the stiff check's first 2,000 steps leave the loop's
+    bounds wide and the direct choice looks better; policy iteration starts there and keeps it
+    (x = 1/2): looping gains only p_leave * 1e-4 = 1e-10 in one step, below its switching
+    tolerance (1e-10 relative: 1.5e-10 here). The certificate multiplies that leftover by the
+    loop's 10^6 expected steps (1e-4, past the precision), so the iteration cap of 20,000 steps
+    used to leave the interval unconverged. The certificate's ulp-level switches prove the
+    value with one more solve; the upper bound below 1/2 shows the loop was taken."""
+    gap = 1e-4
+    model = _stiff_near_tie(1e-6, gap)
+    assert (model.num_states, model.num_choices) == (34, 35)
+    value = 0.5 - gap
+    goal = model.label("goal")
+    options = SolverOptions(max_iterations=20_000)
+    res = obj.reach_probability(model, goal, maximize=np.zeros(34, bool), options=options)
+    assert res.sound and res.converged and res.iterations < 3_000
+    assert np.all(res.lower[:32] <= value) and np.all(value <= res.upper[:32])
+    assert res.upper[0] < 0.5 and res.upper[0] - res.lower[0] <= 2e-6
