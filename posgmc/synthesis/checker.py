@@ -378,13 +378,15 @@ class SynthesisChecker:
         shared: up to 7/10 of it for the search (the deterministic search, then the gradient
         search), up to 17/20 for the adversary phases, the rest for the sound checks of the
         reported numbers, which stop at the end of the cap (interval iteration stopped early:
-        bounds still proven, only wider; the result then says partial, cut by the timeout)."""
-        settings, clock, problem = run.settings, run.clock, run.problem
+        bounds still proven, only wider; the result then says partial, cut by the timeout).
+        With ``--gap`` these fractions are of the search's part of the cap (all but
+        :data:`~posgmc.synthesis.bracket.GAP_SHARE`), so that a sound check that overruns its
+        share never eats the bound side's (:func:`search_clock`)."""
+        settings, run_clock, problem = run.settings, run.clock, run.problem
         with closing(executor_for(problem, settings.placement)) as executor:
             # with --gap the bound side has its share of the budget; without, a little on top
-            cap = self.synthesis.timeout
-            budget = None if cap is None else cap * (
-                1.0 - GAP_SHARE if settings.bracket and settings.gap is not None else 1.0)
+            clock = search_clock(run_clock, settings)
+            budget = clock.timeout
             phases_follow = run.adversary is not None and settings.adversaries > 0
             # without adversary phases the search has their time too
             search = dataclasses.replace(
@@ -658,6 +660,15 @@ class _Bracket:
 
     optimum: Optimum | None
     stats: dict[str, object]
+
+
+def search_clock(clock: Clock, settings: SynthesisOptions) -> Clock:
+    """The part of the wall-clock cap that the search, the adversary phases and their sound
+    checks share: all of it, except with ``--gap`` (and the bracket asked for), where the bound
+    side keeps :data:`~posgmc.synthesis.bracket.GAP_SHARE` of it at the end."""
+    if clock.timeout is None or not (settings.bracket and settings.gap is not None):
+        return clock
+    return Clock(clock.started, clock.timeout * (1.0 - GAP_SHARE))
 
 
 def _bracket_phase(run: _CheckRun, searched: _Searched) -> _Bracket:

@@ -7,6 +7,8 @@ budgets: wall-clock time and iteration caps of the sound checks."""
 from __future__ import annotations
 
 import dataclasses
+import time
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -18,6 +20,8 @@ from posgmc.checking.property_checker import CheckOptions
 from posgmc.checking.results import Bound, PropertyResult, ordered_numbers
 from posgmc.cli.check_command import not_passed
 from posgmc.engines.options import SolverOptions
+from posgmc.synthesis import checker
+from posgmc.synthesis.bracket import GAP_SHARE
 from posgmc.synthesis.options import SynthesisOptions
 from tests.random_games import random_posg
 
@@ -169,3 +173,33 @@ def test_ordered_numbers_on_the_rover_rounding() -> None:
     # vs_fss_adversary's point moves up to guaranteed's, which is inside its bounds
     assert out["guaranteed"] == g
     assert out["vs_fss_adversary"] == dataclasses.replace(vs, value=g.value)
+
+
+def test_the_bound_side_keeps_its_share_when_the_search_check_overruns(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Under ``--gap`` and a cap T the search, the adversary phases and their sound checks end by
+    (1 - GAP_SHARE) T, so the bound side runs even when the search's check takes all the time it
+    is given (simulated: the check's deadline is waited out). tests/data/games/hide.posg,
+    r = 1/2: the optimum is 1/3 (the model's comment), which the belief grid's bound side
+    closes to 1e-3 in well under a second, as in tests/synthesis/test_bracket.py."""
+    seen: list[float] = []
+    real = checker.synthesize
+
+    def overrunning(*args: Any, **kwargs: Any) -> Any:
+        result = real(*args, **kwargs)
+        deadline = kwargs["check_options"].solver.deadline
+        started = kwargs["options"].started
+        seen.append(deadline - started)
+        while time.perf_counter() < deadline:  # the check used all of its time
+            time.sleep(0.01)
+        return result
+
+    monkeypatch.setattr(checker, "synthesize", overrunning)
+    cap = 4.0
+    hide = Path(__file__).resolve().parents[1] / "data" / "games" / "hide.posg"
+    r = api.synthesize(api.load(hide, constants={"r": "0.5"}), '<<seeker>> Pmax=? [ F "won" ]',
+                       memory=1, effort=0.2, gap=1e-3, timeout=cap)
+    assert len(seen) == 1 and seen[0] <= (1.0 - GAP_SHARE) * cap
+    o = r.optimum
+    assert o is not None and o.sound and "belief grid" in o.method
+    assert o.lower <= 1 / 3 <= o.upper <= 1 / 3 + 1e-3
