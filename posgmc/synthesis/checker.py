@@ -681,6 +681,7 @@ def _bracket_phase(run: _CheckRun, searched: _Searched) -> _Bracket:
     g = adversaries.guaranteed if adversaries else result.guaranteed
     ub = adversaries.ub if adversaries is not None else None
     now = time.perf_counter()
+    progress.report("optimum bound")
     vertices = GAP_VERTICES if run.settings.gap is not None else DEFAULT_VERTICES
     # with --gap the lower side (:meth:`SynthesisChecker._lower_phase`) keeps the end of the cap
     end = run.clock.at(1.0 - lower_side.SHARE) if run.settings.gap is not None \
