@@ -720,32 +720,6 @@ class _Source:
     beliefs: list[tuple[dict[int, int], int] | None] | None = None
     resolve: np.ndarray | None = None
 
-    def entries(self, r: int, dyn: _Dynamics) -> list[tuple[int, int, int]]:
-        """Row ``r``'s exact entries: (column, its exact rational weight as numerator and
-        denominator)."""
-        B = self.B
-        lo, hi = B.indptr[r], B.indptr[r + 1]
-        cols = B.indices[lo:hi].tolist()
-        belief = None if self.beliefs is None else self.beliefs[r]
-        # an exact belief's numerator and a rule's multiplied, not reduced: the row's common
-        # denominator absorbs any common factor (:func:`_exact_rows` scales the row as a whole)
-        if self.rule is None or self.mass is None:
-            if belief is not None:  # columns are the belief's states
-                nums, den = belief
-                return [(k, nums[k], den) for k in cols]
-            return [(k, *b.as_integer_ratio()) for k, b in zip(cols, B.data[lo:hi].tolist())]
-        if belief is None and bool((self.rule.data[lo:hi] == 1.0).all()):
-            # a deterministic rule: each entry is its state's mass, exact as stored
-            return [(k, *p.as_integer_ratio())
-                    for k, p in zip(cols, self.mass.data[lo:hi].tolist())]
-        states = dyn.choice_states[self.choice_of[B.indices[lo:hi]]].tolist()
-        ratios = _rule_ratios(tuple(self.rule.data[lo:hi].tolist()), tuple(states))
-        if belief is not None:
-            nums, den = belief
-            return [(k, nums[s] * qn, den * qd) for k, s, (qn, qd) in zip(cols, states, ratios)]
-        masses = [p.as_integer_ratio() for p in self.mass.data[lo:hi].tolist()]
-        return [(k, pn * qn, pd * qd) for k, (pn, pd), (qn, qd) in zip(cols, masses, ratios)]
-
 
 _SIMPLE_DENOMINATOR = 1000
 """Rule probabilities within a few units of roundoff of a fraction with at most this
@@ -782,42 +756,76 @@ def _rational_probability(x: float) -> Fraction:
     return simple if abs(simple - q) <= q * 4 * Fraction(_UNIT) else q
 
 
+def _row_entries(cols: list[int], stored: list[float], states: list[int], rule: list[float],
+                 deterministic: bool, belief: tuple[dict[int, int], int] | None,
+                 has_rule: bool) -> list[tuple[int, int, int]]:
+    """One row of B*'s exact entries (:class:`_Source`): (column, its exact rational weight as
+    numerator and denominator), from the row's columns, stored weights (B's, or with a rule
+    the states' masses), the columns' states and the rule's probabilities (with ``has_rule``),
+    whether the rule is deterministic, and the row's vertex's exact belief (None: its float).
+    An exact belief's numerator and a rule's are multiplied, not reduced: the row's common
+    denominator absorbs any common factor (:func:`_exact_rows` scales the row as a whole)."""
+    if not has_rule:
+        if belief is not None:  # columns are the belief's states
+            nums, den = belief
+            return [(k, nums[k], den) for k in cols]
+        return [(k, *b.as_integer_ratio()) for k, b in zip(cols, stored)]
+    if deterministic:  # every probability 1: the rational rule is 1 too
+        if belief is not None:
+            nums, den = belief
+            return [(k, nums[s], den) for k, s in zip(cols, states)]
+        # each entry is its state's mass, exact as stored
+        return [(k, *p.as_integer_ratio()) for k, p in zip(cols, stored)]
+    ratios = _rule_ratios(tuple(rule), tuple(states))
+    if belief is not None:
+        nums, den = belief
+        return [(k, nums[s] * qn, den * qd) for k, s, (qn, qd) in zip(cols, states, ratios)]
+    return [(k, pn * qn, pd * qd)
+            for k, (pn, pd), (qn, qd) in zip(cols, [p.as_integer_ratio() for p in stored],
+                                             ratios)]
+
+
 def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, dict[int, int]]:
     """Each of ``rows``' (distinct) exact continuing vector y*_s = Σ_k B*_rk T*_k(s) on all its
     successor states (the exact model's rows :meth:`_Dynamics.integer_row`, B*'s entries
-    :meth:`_Source.entries`), as integer numerators (state -> numerator, zeros left out) over
+    :func:`_row_entries`), as integer numerators (state -> numerator, zeros left out) over
     one common denominator per row, a positive factor the triangulation ignores (the parts of
-    one row share it). The rows' columns, choices and stored weights are gathered in one
-    vectorised step; rows whose entries are their stored floats (no rule, or a deterministic
-    one, and no exact belief) read them from it, the others ask :meth:`_Source.entries`."""
+    one row share it). The rows' columns, choices, states, stored weights and rule
+    probabilities are gathered in one vectorised step, then read row by row as list slices."""
     B = source.B
     lo, hi = B.indptr[rows].astype(np.int64), B.indptr[rows + 1].astype(np.int64)
     n = hi - lo
     ends = np.cumsum(n)
     flat = np.repeat(lo - (ends - n), n) + np.arange(int(ends[-1]) if n.size else 0)
     cols = B.indices[flat]
-    choices = source.choice_of[cols].tolist()
+    choice_arr = source.choice_of[cols]
+    choices = choice_arr.tolist()
+    has_rule = source.rule is not None and source.mass is not None
+    rule_l: list[float] = []
+    states_l: list[int] = []
     if source.rule is None or source.mass is None:
-        stored, plain = B.data[flat], np.ones(rows.size, dtype=bool)
+        stored = B.data[flat]
+        deterministic = np.ones(rows.size, dtype=bool)
     else:
         stored = source.mass.data[flat]
-        # a deterministic rule (every probability 1): each entry is its state's mass, exact
-        # as stored
+        probs = source.rule.data[flat]
         owner = np.repeat(np.arange(rows.size), n)
-        plain = np.bincount(owner[source.rule.data[flat] != 1.0], minlength=rows.size) == 0
+        deterministic = np.bincount(owner[probs != 1.0], minlength=rows.size) == 0
+        rule_l = probs.tolist()
+    beliefs: list[tuple[dict[int, int], int] | None] = [None] * rows.size
     if source.beliefs is not None:
-        plain &= np.asarray([source.beliefs[r] is None for r in rows.tolist()], dtype=bool)
+        beliefs = [source.beliefs[r] for r in rows.tolist()]
+    if has_rule:
+        states_l = dyn.choice_states[choice_arr].tolist()
     weights = stored.tolist()
     cols_l = cols.tolist()
     out: dict[int, dict[int, int]] = {}
     start = 0
     made = dyn.integer_rows  # the exact rows already made
-    for r, end, simple in zip(rows.tolist(), ends.tolist(), plain.tolist()):
-        if simple:
-            entries = [(k, *w.as_integer_ratio())
-                       for k, w in zip(cols_l[start:end], weights[start:end])]
-        else:
-            entries = source.entries(r, dyn)
+    for r, end, det, known in zip(rows.tolist(), ends.tolist(), deterministic.tolist(),
+                                  beliefs):
+        entries = _row_entries(cols_l[start:end], weights[start:end], states_l[start:end],
+                               rule_l[start:end], det, known, has_rule)
         exact = [made.get(c) or dyn.integer_row(c) for c in choices[start:end]]
         start = end
         dens = [bd * total for (_, _, bd), (_, total) in zip(entries, exact)]
