@@ -243,6 +243,7 @@ class _Dynamics:
         self.preferred = adversary_rules  # int64[S]: a choice per state (the first rule tried)
         # the rules of each support seen (many vertices share one support)
         self._rules: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self._touches: dict[int, frozenset[int]] = {}
         if problem.rewards is None:
             # mass that cannot reach the target any more (within ``remain``) is worth 0
             self.cont = problem.remain & ~problem.target & can_reach(model, problem.target,
@@ -309,6 +310,15 @@ class _Dynamics:
             nums = [n * (den // d) for n, d in ratios]    # common multiple
             found = self.integer_rows[choice] = (
                 tuple(zip(T.indices[lo:hi].tolist(), nums)), sum(nums))
+        return found
+
+    def touches(self, choice: int) -> frozenset[int]:
+        """The groups (:attr:`group`) of ``choice``'s continuing successors (cached)."""
+        found = self._touches.get(choice)
+        if found is None:
+            T = self.T_cont
+            found = self._touches[choice] = frozenset(
+                self.group[T.indices[T.indptr[choice]:T.indptr[choice + 1]]].tolist())
         return found
 
     def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -845,12 +855,11 @@ _EXACT_BITS = 128
 bits (long paths multiply denominators); beyond, the float posterior with a leak."""
 
 
-def _exact_posterior(y: dict[int, int], states: list[int], col: np.ndarray, at: int,
-                     grid: _Grid) -> int | None:
-    """The unfolding's vertex of a row's exact posterior on ``states`` (one part: the
-    continuing states of one observation group, ``col[at:at + len(states)]``; ``y`` the row's
-    exact vector, :func:`_exact_rows`), None when it is zero or too long to keep
-    (:data:`_EXACT_BITS`)."""
+def _exact_posterior(y: dict[int, int], states: list[int]) -> tuple[tuple[int, ...], int] | None:
+    """A row's exact posterior on ``states`` (one part: the continuing states of one
+    observation group; ``y`` the row's exact vector, :func:`_exact_rows`) as numerators and a
+    common denominator without a common divisor (:meth:`_Grid.exact_belief`), None when it is
+    zero or too long to keep (:data:`_EXACT_BITS`). Invariant under scaling ``y``."""
     get = y.get
     ys = [get(s, 0) for s in states]
     total = sum(ys)
@@ -860,7 +869,120 @@ def _exact_posterior(y: dict[int, int], states: list[int], col: np.ndarray, at: 
     den = total // g
     if den.bit_length() > _EXACT_BITS:
         return None
-    return grid.exact_belief(col[at:at + len(states)], tuple([y // g for y in ys]), den)
+    return tuple([y // g for y in ys]), den
+
+
+def _shared_parts(source: _Source, live: np.ndarray, rows: np.ndarray, starts: np.ndarray,
+                  sizes: np.ndarray, col: np.ndarray, vertex: np.ndarray, dyn: _Dynamics
+                  ) -> tuple[list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None],
+                             np.ndarray]:
+    """The unfolding's parts whose exact posterior is computed from the few choices that reach
+    them, once per distinct signature, instead of from their row's whole exact vector: an
+    adversary's deterministic rule at a vertex with an exact belief b = nums/den puts b(s_c) on
+    one choice c per state s_c, so the row's exact vector is, up to a positive factor
+    (:func:`_exact_rows`' common denominator, which :func:`_exact_posterior` ignores),
+    Σ_c nums(s_c) T*_c / |T*_c| (|T*_c| the exact row's denominator), and on a part's states
+    (all in group z) only the choices whose continuing successors meet z add anything. The
+    parts of ``live`` rows (those :func:`_exact_rows` would compute, ascending; ``vertex``:
+    each row's vertex) with a deterministic rule get the signature (vertex, z, the states'
+    bytes, those choices with their states, in the row's order), the others None (their
+    posterior comes from their row's exact vector); returns the signatures and the live rows
+    whose exact vector is still needed (those with a randomised rule)."""
+    n = starts.size
+    sigs: list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None] = [None] * n
+    B, rule = source.B, source.rule
+    if rule is None or not live.size:
+        return sigs, live
+    lo, hi = B.indptr[live].astype(np.int64), B.indptr[live + 1].astype(np.int64)
+    k = hi - lo
+    ends = np.cumsum(k)
+    flat = np.repeat(lo - (ends - k), k) + np.arange(int(ends[-1]))
+    owner = np.repeat(np.arange(live.size), k)
+    deterministic = np.bincount(owner[rule.data[flat] != 1.0], minlength=live.size) == 0
+    choices = source.choice_of[B.indices[flat]]
+    pairs = list(zip(choices.tolist(), dyn.choice_states[choices].tolist()))
+    row_cols: dict[int, list[tuple[int, int]]] = {}
+    at = 0
+    for r, end, det in zip(live.tolist(), ends.tolist(), deterministic.tolist()):
+        if det:
+            row_cols[r] = pairs[at:end]
+        at = end
+    touch = dyn.touches
+    col_b = col.tobytes()
+    groups = dyn.group[col[starts]].tolist()
+    vertex_l = vertex.tolist()
+    for j, (a, m, r, z) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist(), groups)):
+        cs = row_cols.get(r)
+        if cs is not None:
+            sigs[j] = (vertex_l[r], z, col_b[8 * a:8 * (a + m)],
+                       tuple([cs_ for cs_ in cs if z in touch(cs_[0])]))
+    return sigs, live[~deterministic]
+
+
+def _part_posterior(reach: tuple[tuple[int, int], ...], belief: tuple[dict[int, int], int],
+                    states: list[int], dyn: _Dynamics) -> tuple[tuple[int, ...], int] | None:
+    """:func:`_exact_posterior` of a part of a deterministic rule's row from the choices that
+    reach it (:func:`_shared_parts`: (choice, its state) pairs) and the vertex's exact belief:
+    Σ_c nums(s_c) (L / |T*_c|) T*_c, L the least common multiple of the |T*_c|."""
+    nums = belief[0]
+    made = dyn.integer_rows
+    exact = [made.get(c) or dyn.integer_row(c) for c, _ in reach]
+    big = math.lcm(*[t for _, t in exact]) if exact else 1
+    y: dict[int, int] = {}
+    get = y.get
+    for (_, s), (row, t) in zip(reach, exact):
+        f = nums[s] * (big // t)
+        for q, x in row:
+            y[q] = get(q, 0) + f * x
+    return _exact_posterior(y, states)
+
+
+def _unfolded_vertices(grid: _Grid, col: np.ndarray, post: np.ndarray, starts: np.ndarray,
+                       sizes: np.ndarray, rows: np.ndarray, ys: dict[int, dict[int, int]],
+                       sigs: list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None],
+                       beliefs: list[tuple[dict[int, int], int] | None], dyn: _Dynamics
+                       ) -> tuple[list[int], list[int]]:
+    """The unfolding's vertex of every part (part j on states ``col[a:a + k]``, int64, with
+    float posterior ``post[a:a + k]``, a = ``starts[j]``, k = ``sizes[j]``, of row
+    ``rows[j]``), the new ones added in the order of the parts, and the parts whose posterior
+    is exact. A part with a signature (:func:`_shared_parts`) takes the vertex of the first
+    part with the same one (its exact posterior computed once, :func:`_part_posterior`); one
+    whose row's exact vector is in ``ys`` its exact posterior's (:func:`_exact_posterior`);
+    where none is kept, its float posterior's (:meth:`_Grid.belief`). Each part's key is looked
+    up as byte slices of the arrays' bytes: arrays are sliced only for a new vertex."""
+    col_b, post_b = col.tobytes(), post.tobytes()
+    col_l = col.tolist()
+    vs: list[int] = []
+    settled: list[int] = []  # the parts whose posterior is exact
+    add_vertex, find, known = vs.append, ys.get, grid.key.get
+    shared: dict[object, int | None] = {}  # a signature's vertex (None: its float posterior's)
+    for j, (a, k, r, sig) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist(),
+                                           sigs)):
+        if sig is not None and sig in shared:
+            v = shared[sig]
+        else:
+            if sig is None:
+                y = find(r)
+                got = None if y is None else _exact_posterior(y, col_l[a:a + k])
+            else:
+                at_vertex = beliefs[r]
+                assert at_vertex is not None  # a signature's row has an exact belief
+                got = _part_posterior(sig[3], at_vertex, col_l[a:a + k], dyn)
+            v = None
+            if got is not None:
+                v = known((col_b[8 * a:8 * (a + k)], *got))
+                if v is None:
+                    v = grid.exact_belief(col[a:a + k], *got)
+            if sig is not None:
+                shared[sig] = v
+        if v is not None:
+            add_vertex(v)
+            settled.append(j)
+            continue
+        key = col_b[8 * a:8 * (a + k)] + post_b[8 * a:8 * (a + k)]
+        v = known(key)
+        add_vertex(grid.belief(key, col, post, a, a + k) if v is None else v)
+    return vs, settled
 
 
 def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
@@ -986,33 +1108,23 @@ class _Choices:
         if N == 0:  # the belief unfolding: each posterior is a vertex itself
             exact = self.cap is not None and source is not None and \
                 source.beliefs is not None and not dyn.owned.all()
-            vs: list[int] = []
             amb = np.ones(rows.size, dtype=bool)
             # only where the row loses nothing (as on the grids: a row that does is in no
             # end component, and its leak costs at most the expected steps times itself)
             ys: dict[int, dict[int, int]] = {}
+            sigs: list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None] = \
+                [None] * starts.size
+            beliefs: list[tuple[dict[int, int], int] | None] = []
             if exact and source is not None and source.beliefs is not None:
                 live = np.unique(rows[lost[rows] == 0]).astype(np.int64)
                 beliefs = source.beliefs
                 known = [beliefs[r] is not None for r in live.tolist()]
-                ys = _exact_rows(source, live[known] if live.size else live, dyn)
-            # the float posteriors of all parts at once, and their keys as byte slices (a part's
-            # key is its states' and posterior's bytes, :meth:`_Grid.belief`)
-            post = data / np.repeat(mass, sizes)
-            col_b, post_b = col.tobytes(), post.tobytes()
-            col_l = col.tolist()
-            settled: list[int] = []  # the parts whose posterior is exact
-            add_vertex, add_float, find = vs.append, grid.belief, ys.get
-            for j, (a, k, r) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist())):
-                y = find(r)
-                if y is not None:
-                    v = _exact_posterior(y, col_l[a:a + k], col, a, grid)
-                    if v is not None:
-                        add_vertex(v)
-                        settled.append(j)
-                        continue
-                add_vertex(add_float(col_b[8 * a:8 * (a + k)] + post_b[8 * a:8 * (a + k)], col,
-                                     post, a, a + k))
+                live = live[known] if live.size else live
+                sigs, live = _shared_parts(source, live, rows, starts, sizes, col,
+                                           keys // self.span, dyn)
+                ys = _exact_rows(source, live, dyn)
+            vs, settled = _unfolded_vertices(grid, col, data / np.repeat(mass, sizes), starts,
+                                             sizes, rows, ys, sigs, beliefs, dyn)
             amb[settled] = False
             self.e_key.append(keys[rows].astype(np.int64))
             self.e_vertex.append(np.asarray(vs, dtype=np.int64))
