@@ -1357,9 +1357,9 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             break
         last = min(len(grid.rows), max_vertices, done + min(_BATCH, max(64, done)))
         ids = np.arange(done, last)
-        first = np.asarray([grid.rows[i][0] for i in range(done, last)])
-        mine = dyn.owned[first]
         B = grid.matrix(done, last)
+        first = B.indices[B.indptr[:-1]]  # each vertex's first state (its rows are not empty)
+        mine = dyn.owned[first]
         z = dyn.group[first]
         for a in range(Au):
             sel = np.flatnonzero(mine & (z >= 0))
@@ -1583,6 +1583,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     """The abstraction: expanded vertices with their choices, cut-off vertices with one choice
     worth their full-observation bound, then the target and the sink."""
     V = len(grid.rows)
+    beliefs = grid.matrix()
     TARGET, SINK = V, V + 1
     S_abs = V + 2
     prob = problem.rewards is None
@@ -1608,7 +1609,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
         cap = np.clip(np.where(finite, cap, 1.0), 0.0, 1.0)
     if not problem.maximize and n_exp:
         Y = sp.vstack(ch.successors, format="csr")[order]
-        E = _dominate(E, grid.matrix(), Y, terms)
+        E = _dominate(E, beliefs, Y, terms)
     kept = np.asarray(E.sum(axis=1)).ravel()
     grow = 1.0 + _rounding(terms)
     if prob:
@@ -1637,7 +1638,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     T_exp.eliminate_zeros()
     # cut-off vertices: one choice worth Σ_s v(s) cutoff(s)
     cut_ids = np.flatnonzero(~expanded)
-    Bc = grid.matrix()[cut_ids]
+    Bc = beliefs[cut_ids]
     # Σ_s b(s) cutoff(s) rounded outward (a sum of nonnegative products)
     # (products of either sign: the rounding is relative to the sum of their magnitudes)
     u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
@@ -1679,7 +1680,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     action = np.r_[ca, np.full(n_cut + 2, -1, dtype=np.int64)][perm]
     # the adversary's vertices (expanded ones whose support is not the decision maker's)
     theirs = np.zeros(S_abs, dtype=bool)
-    starts = np.asarray([r[0] for r in grid.rows], dtype=np.int64)
+    starts = beliefs.indices[beliefs.indptr[:-1]].astype(np.int64)  # each vertex's first state
     theirs[:V] = expanded & ~dyn.owned[starts]
     if theirs.any():
         model = make_model(ModelType.SMG, row_groups, transitions, initial_states=(0,),
@@ -1699,7 +1700,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
             t if prob else np.maximum(np.abs(rew_exp), rew_mag), _rounding(terms), cut_ids,
             u if prob else r_cut, np.zeros(n_cut, dtype=bool) if prob else unbounded,
             theirs[:V], prob, problem.discount, dyn.input_rel, _signed(problem))
-    return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,
+    return GridAbstraction(model, beliefs, expanded, action, rewards, target,
                            problem.discount, problem.maximize, resolution,
                            ch.on_grid and bool(expanded.all()), theirs, enclosure)
 
