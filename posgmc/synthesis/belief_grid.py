@@ -900,22 +900,25 @@ def _shared_parts(source: _Source, live: np.ndarray, rows: np.ndarray, starts: n
     owner = np.repeat(np.arange(live.size), k)
     deterministic = np.bincount(owner[rule.data[flat] != 1.0], minlength=live.size) == 0
     choices = source.choice_of[B.indices[flat]]
-    pairs = list(zip(choices.tolist(), dyn.choice_states[choices].tolist()))
-    row_cols: dict[int, list[tuple[int, int]]] = {}
+    choices_l = choices.tolist()
+    touch = dyn.touches
+    # each entry: (its choice, the choice's state) and the groups the choice reaches
+    pairs = list(zip(choices_l, dyn.choice_states[choices].tolist()))
+    reach = [touch(c) for c in choices_l]
+    row_cols: dict[int, tuple[list[tuple[int, int]], list[frozenset[int]]]] = {}
     at = 0
     for r, end, det in zip(live.tolist(), ends.tolist(), deterministic.tolist()):
         if det:
-            row_cols[r] = pairs[at:end]
+            row_cols[r] = (pairs[at:end], reach[at:end])
         at = end
-    touch = dyn.touches
     col_b = col.tobytes()
     groups = dyn.group[col[starts]].tolist()
     vertex_l = vertex.tolist()
     for j, (a, m, r, z) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist(), groups)):
-        cs = row_cols.get(r)
-        if cs is not None:
+        found = row_cols.get(r)
+        if found is not None:
             sigs[j] = (vertex_l[r], z, col_b[8 * a:8 * (a + m)],
-                       tuple([cs_ for cs_ in cs if z in touch(cs_[0])]))
+                       tuple([p for p, t in zip(*found) if z in t]))
     return sigs, live[~deterministic]
 
 
