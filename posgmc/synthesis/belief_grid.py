@@ -64,6 +64,7 @@ from posgmc.synthesis.budget import interrupted
 from posgmc.synthesis.grid_certificate import Enclosure, certified_upper
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
+from posgmc.synthesis.target_rules import TARGET_CAP, Targets, target_rules
 
 __all__ = ["GridAbstraction", "GridBound", "CoarseBounds", "applies", "freudenthal",
            "UNFOLD_SHARE",
@@ -399,6 +400,12 @@ class _Grid:
         # the unfolding's exact beliefs where known (state -> numerator, and the common
         # denominator), else None
         self.exact: list[tuple[dict[int, int], int] | None] = []
+        # the unfolding's explored beliefs as targets of the adversary's rules (None: not
+        # tracked); ``origin``: the vertex whose choice is being added; ``owner_group``: per
+        # state its decision maker's observation group, -1 for the adversary's
+        self.targets: Targets | None = None
+        self.origin = -1
+        self.owner_group = np.zeros(0, dtype=np.int64)
 
     def exact_belief(self, idx: np.ndarray, nums: tuple[int, ...], den: int) -> int:
         """The vertex of the exact rational belief nums/den on states ``idx`` (resolution 0;
@@ -412,7 +419,18 @@ class _Grid:
             self.rows.append(idx)
             self.vals.append(np.asarray([n / den for n in nums], dtype=np.float64))
             self.exact.append((dict(zip(idx.tolist(), nums)), den))
+            if self.targets is not None:
+                self.targets.found(found, self.origin, int(self.owner_group[idx[0]]),
+                                   idx.tolist())
         return found
+
+    def fractions(self, vertex: int) -> dict[int, Fraction] | None:
+        """The unfolding's exact belief of ``vertex`` as fractions (None: not known exactly)."""
+        e = self.exact[vertex] if vertex < len(self.exact) else None
+        if e is None:
+            return None
+        nums, den = e
+        return {s: Fraction(n, den) for s, n in nums.items()}
 
     def belief(self, key: bytes, idx: np.ndarray, p: np.ndarray, lo: int, hi: int) -> int:
         """The vertex of belief ``p[lo:hi]`` on states ``idx[lo:hi]`` (float64 and int64 arrays)
@@ -427,6 +445,8 @@ class _Grid:
             self.rows.append(idx[lo:hi])
             self.vals.append(p[lo:hi].copy())
             self.exact.append(None)
+            if self.targets is not None:
+                self.targets.found(found, self.origin, -1, None)
         return found
 
     def vertex(self, idx: np.ndarray, counts: np.ndarray) -> int:
@@ -729,6 +749,9 @@ class _Source:
     rule: sp.csr_matrix | None = None
     beliefs: list[tuple[dict[int, int], int] | None] | None = None
     resolve: np.ndarray | None = None
+    exact_rules: dict[int, dict[int, Fraction]] | None = None
+    """Rows whose rule is given exactly (global choice -> probability): the unfolding's rules
+    that land on an explored belief (:mod:`posgmc.synthesis.target_rules`)."""
 
 
 _SIMPLE_DENOMINATOR = 1000
@@ -768,11 +791,14 @@ def _rational_probability(x: float) -> Fraction:
 
 def _row_entries(cols: list[int], stored: list[float], states: list[int], rule: list[float],
                  deterministic: bool, belief: tuple[dict[int, int], int] | None,
-                 has_rule: bool) -> list[tuple[int, int, int]]:
+                 has_rule: bool, given: dict[int, Fraction] | None = None,
+                 chosen: list[int] | None = None) -> list[tuple[int, int, int]]:
     """One row of B*'s exact entries (:class:`_Source`): (column, its exact rational weight as
     numerator and denominator), from the row's columns, stored weights (B's, or with a rule
     the states' masses), the columns' states and the rule's probabilities (with ``has_rule``),
-    whether the rule is deterministic, and the row's vertex's exact belief (None: its float).
+    whether the rule is deterministic, and the row's vertex's exact belief (None: its float);
+    ``given``: the rule itself where it is given exactly (:attr:`_Source.exact_rules`, by the
+    columns' model choices ``chosen``), else it is the rational rule of the probabilities.
     An exact belief's numerator and a rule's are multiplied, not reduced: the row's common
     denominator absorbs any common factor (:func:`_exact_rows` scales the row as a whole)."""
     if not has_rule:
@@ -780,13 +806,14 @@ def _row_entries(cols: list[int], stored: list[float], states: list[int], rule: 
             nums, den = belief
             return [(k, nums[k], den) for k in cols]
         return [(k, *b.as_integer_ratio()) for k, b in zip(cols, stored)]
-    if deterministic:  # every probability 1: the rational rule is 1 too
+    if deterministic and given is None:  # every probability 1: the rational rule is 1 too
         if belief is not None:
             nums, den = belief
             return [(k, nums[s], den) for k, s in zip(cols, states)]
         # each entry is its state's mass, exact as stored
         return [(k, *p.as_integer_ratio()) for k, p in zip(cols, stored)]
-    ratios = _rule_ratios(tuple(rule), tuple(states))
+    ratios = _rule_ratios(tuple(rule), tuple(states)) if given is None or chosen is None else \
+        [(given[c].numerator, given[c].denominator) for c in chosen]
     if belief is not None:
         nums, den = belief
         return [(k, nums[s] * qn, den * qd) for k, s, (qn, qd) in zip(cols, states, ratios)]
@@ -832,10 +859,13 @@ def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, 
     out: dict[int, dict[int, int]] = {}
     start = 0
     made = dyn.integer_rows  # the exact rows already made
+    given = source.exact_rules or {}
     for r, end, det, known in zip(rows.tolist(), ends.tolist(), deterministic.tolist(),
                                   beliefs):
+        exactly = given.get(r)
         entries = _row_entries(cols_l[start:end], weights[start:end], states_l[start:end],
-                               rule_l[start:end], det, known, has_rule)
+                               rule_l[start:end], det, known, has_rule, exactly,
+                               None if exactly is None else choices[start:end])
         exact = [made.get(c) or dyn.integer_row(c) for c in choices[start:end]]
         start = end
         dens = [bd * total for (_, _, bd), (_, total) in zip(entries, exact)]
@@ -887,7 +917,7 @@ def _shared_parts(source: _Source, live: np.ndarray, rows: np.ndarray, starts: n
     each row's vertex) with a deterministic rule get the signature (vertex, z, the states'
     bytes, those choices with their states, in the row's order), the others None (their
     posterior comes from their row's exact vector); returns the signatures and the live rows
-    whose exact vector is still needed (those with a randomised rule)."""
+    whose exact vector is still needed (a randomised rule, or one given exactly)."""
     n = starts.size
     sigs: list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None] = [None] * n
     B, rule = source.B, source.rule
@@ -899,6 +929,8 @@ def _shared_parts(source: _Source, live: np.ndarray, rows: np.ndarray, starts: n
     flat = np.repeat(lo - (ends - k), k) + np.arange(int(ends[-1]))
     owner = np.repeat(np.arange(live.size), k)
     deterministic = np.bincount(owner[rule.data[flat] != 1.0], minlength=live.size) == 0
+    if source.exact_rules:  # a rule given exactly is its own (:func:`_row_entries`)
+        deterministic &= ~np.isin(live, np.fromiter(source.exact_rules, dtype=np.int64))
     choices = source.choice_of[B.indices[flat]]
     choices_l = choices.tolist()
     touch = dyn.touches
@@ -943,8 +975,8 @@ def _part_posterior(reach: tuple[tuple[int, int], ...], belief: tuple[dict[int, 
 def _unfolded_vertices(grid: _Grid, col: np.ndarray, post: np.ndarray, starts: np.ndarray,
                        sizes: np.ndarray, rows: np.ndarray, ys: dict[int, dict[int, int]],
                        sigs: list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None],
-                       beliefs: list[tuple[dict[int, int], int] | None], dyn: _Dynamics
-                       ) -> tuple[list[int], list[int]]:
+                       beliefs: list[tuple[dict[int, int], int] | None], dyn: _Dynamics,
+                       origins: list[int] | None = None) -> tuple[list[int], list[int]]:
     """The unfolding's vertex of every part (part j on states ``col[a:a + k]``, int64, with
     float posterior ``post[a:a + k]``, a = ``starts[j]``, k = ``sizes[j]``, of row
     ``rows[j]``), the new ones added in the order of the parts, and the parts whose posterior
@@ -952,7 +984,9 @@ def _unfolded_vertices(grid: _Grid, col: np.ndarray, post: np.ndarray, starts: n
     part with the same one (its exact posterior computed once, :func:`_part_posterior`); one
     whose row's exact vector is in ``ys`` its exact posterior's (:func:`_exact_posterior`);
     where none is kept, its float posterior's (:meth:`_Grid.belief`). Each part's key is looked
-    up as byte slices of the arrays' bytes: arrays are sliced only for a new vertex."""
+    up as byte slices of the arrays' bytes: arrays are sliced only for a new vertex.
+    ``origins``: each row's vertex, where the grid tracks the explored beliefs as targets
+    (:attr:`_Grid.targets`): a new vertex records the vertex whose choice reached it."""
     col_b, post_b = col.tobytes(), post.tobytes()
     col_l = col.tolist()
     vs: list[int] = []
@@ -975,6 +1009,8 @@ def _unfolded_vertices(grid: _Grid, col: np.ndarray, post: np.ndarray, starts: n
             if got is not None:
                 v = known((col_b[8 * a:8 * (a + k)], *got))
                 if v is None:
+                    if origins is not None:
+                        grid.origin = origins[r]
                     v = grid.exact_belief(col[a:a + k], *got)
             if sig is not None:
                 shared[sig] = v
@@ -984,7 +1020,11 @@ def _unfolded_vertices(grid: _Grid, col: np.ndarray, post: np.ndarray, starts: n
             continue
         key = col_b[8 * a:8 * (a + k)] + post_b[8 * a:8 * (a + k)]
         v = known(key)
-        add_vertex(grid.belief(key, col, post, a, a + k) if v is None else v)
+        if v is None:
+            if origins is not None:
+                grid.origin = origins[r]
+            v = grid.belief(key, col, post, a, a + k)
+        add_vertex(v)
     return vs, settled
 
 
@@ -1119,15 +1159,20 @@ class _Choices:
                 [None] * starts.size
             beliefs: list[tuple[dict[int, int], int] | None] = []
             if exact and source is not None and source.beliefs is not None:
-                live = np.unique(rows[lost[rows] == 0]).astype(np.int64)
+                # and the rows whose exact rule lands on an explored belief, lossy or not
+                given = np.zeros(D.shape[0], dtype=bool)
+                if source.exact_rules:
+                    given[np.fromiter(source.exact_rules, dtype=np.int64)] = True
+                live = np.unique(rows[(lost[rows] == 0) | given[rows]]).astype(np.int64)
                 beliefs = source.beliefs
                 known = [beliefs[r] is not None for r in live.tolist()]
                 live = live[known] if live.size else live
                 sigs, live = _shared_parts(source, live, rows, starts, sizes, col,
                                            keys // self.span, dyn)
                 ys = _exact_rows(source, live, dyn)
-            vs, settled = _unfolded_vertices(grid, col, data / np.repeat(mass, sizes), starts,
-                                             sizes, rows, ys, sigs, beliefs, dyn)
+            vs, settled = _unfolded_vertices(
+                grid, col, data / np.repeat(mass, sizes), starts, sizes, rows, ys, sigs, beliefs,
+                dyn, None if grid.targets is None else (keys // self.span).tolist())
             amb[settled] = False
             self.e_key.append(keys[rows].astype(np.int64))
             self.e_vertex.append(np.asarray(vs, dtype=np.int64))
@@ -1293,7 +1338,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                      adversary_rules: np.ndarray | None = None,
                      coarse: CoarseBounds | None = None,
                      mixtures: Mixtures | None = None,
-                     floor: np.ndarray | None = None) -> GridAbstraction | None:
+                     floor: np.ndarray | None = None,
+                     targets: bool = False) -> GridAbstraction | None:
     """The abstraction of ``problem`` at ``resolution``, explored breadth first from the initial
     belief until ``max_vertices`` or ``deadline``.
 
@@ -1323,6 +1369,10 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
         floor: float64[S], a maximiser's proven lower bound per state on every strategy's
             value (:func:`full_observation_floor`), needed with rewards of both signs only
             (computed when None).
+        targets: on a game's unfolding (resolution 0), also offer the adversary the randomised
+            rules whose posterior is exactly a belief already explored
+            (:mod:`posgmc.synthesis.target_rules`), so that the unfolding may close where the
+            adversary keeps the decision maker guessing.
 
     Returns:
         The abstraction, or None when it does not apply (:func:`applies`) or the initial state
@@ -1335,6 +1385,9 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     if not dyn.cont[s0] or (dyn.owned[s0] and dyn.group[s0] < 0):
         return None
     grid = _Grid(dyn.S, resolution)
+    if resolution == 0 and targets and not dyn.owned.all():
+        grid.targets = Targets()
+        grid.owner_group = np.where(dyn.owned, dyn.group, -1)
     if resolution == 0:
         grid.exact_belief(np.array([s0], dtype=np.int64), (1,), 1)
     else:
@@ -1352,7 +1405,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             if floor is None:
                 floor = full_observation_floor(problem)
             cap = np.maximum(np.maximum(cap, -floor), 0.0)
-    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP, cap)
+    choices = _Choices(Au + RULE_CAP + 1 + MIX_CAP + TARGET_CAP, cap)
     done = 0  # vertices [0, done) expanded, except those in ``skipped``
     skipped: list[int] = []
     while done < len(grid.rows) and done < max_vertices:
@@ -1429,8 +1482,31 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
             r2, c2 = np.nonzero(extra[:MIX_CAP])
             extras.append((i, r2 + rules_at[i], cols[c2], extra[r2, c2], p[owner[c2]]))
             rules_at[i] += min(extra.shape[0], MIX_CAP)
+    # the unfolding's rules that land on explored beliefs, each kept exact (row -> its rule)
+    exact_rules: dict[int, dict[int, Fraction]] = {}
+    at_row: list[tuple[int, int, dict[int, Fraction]]] = []
+    if grid.targets is not None and dyn.cont.any():
+        for i, v in enumerate(vertices.tolist()):
+            belief_v = grid.fractions(v)
+            states = states_of[i]
+            if belief_v is None or per_state[states].max() <= 1:
+                continue
+            cols, _ = dyn.rules(states)
+            owner = np.repeat(np.arange(states.size), per_state[states])
+            found = target_rules(v, belief_v, cols, owner, states, dyn.integer_row, dyn.cont,
+                                 grid.owner_group, grid.targets, grid.fractions, _near_grid)
+            for rule in found[:TARGET_CAP]:
+                c2 = np.fromiter(sorted(rule), dtype=np.int64)
+                q2 = np.asarray([float(rule[c]) for c in c2.tolist()])
+                p2 = np.asarray([float(belief_v[int(s)]) for s in
+                                 dyn.choice_states[c2].tolist()])
+                extras.append((i, np.full(c2.size, rules_at[i]), c2, q2, p2))
+                at_row.append((i, int(rules_at[i]), rule))
+                rules_at[i] += 1
     # each vertex's rows in the given order of the vertices
     first_row = np.r_[0, np.cumsum(rules_at)[:-1]]
+    for pos, local, rule in at_row:
+        exact_rules[int(first_row[pos]) + local] = rule
     n_rows = int(rules_at.sum())
     rows = [first_row[pos] + r for pos, r, _, _, _ in parts]
     cols_ = [c for _, _, c, _, _ in parts]
@@ -1467,7 +1543,27 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
                 source=_Source(W_all, np.arange(dyn.model.num_choices), mass, rule,
                                None if grid.N else
                                [grid.exact[v] for v in vertices[owner_row].tolist()],
-                               resolve))
+                               resolve, exact_rules or None))
+
+
+TARGET_RESOLUTION = 2
+"""The grid whose vertices around the uniform mixture's posterior the unfolding's adversary may
+also aim at exactly (:func:`_near_grid`)."""
+
+
+def _near_grid(states: np.ndarray, y: np.ndarray) -> list[dict[int, Fraction]]:
+    """The vertices of the :data:`TARGET_RESOLUTION` grid's simplex around the posterior ``y``
+    (a mass on ``states``) as exact beliefs, heaviest weight first."""
+    if y.sum() <= 0:
+        return []
+    counts, lam = freudenthal(y / y.sum(), TARGET_RESOLUTION)
+    out: list[dict[int, Fraction]] = []
+    for i in np.argsort(-lam, kind="stable").tolist():
+        if lam[i] <= 0:
+            continue
+        out.append({int(s): Fraction(int(c), TARGET_RESOLUTION)
+                    for s, c in zip(states.tolist(), counts[i].tolist()) if c > 0})
+    return out
 
 
 def _caps(cutoff: np.ndarray, probability: bool) -> np.ndarray:
@@ -1924,7 +2020,8 @@ def grid_bound(problem: Problem, *, deadline: float | None, target: float | None
             abstraction = grid_abstraction(problem, N, cutoff=cutoff, deadline=explore_until,
                                            adversary_rules=rules, coarse=coarse,
                                            max_vertices=max(1, int(share * left)),
-                                           mixtures=mixing, floor=floor)
+                                           mixtures=mixing, floor=floor,
+                                           targets=N == 0 and game and mix)
             if abstraction is None:
                 return None
             left -= int(abstraction.expanded.sum())
