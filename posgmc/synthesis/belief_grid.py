@@ -244,6 +244,7 @@ class _Dynamics:
         self.preferred = adversary_rules  # int64[S]: a choice per state (the first rule tried)
         # the rules of each support seen (many vertices share one support)
         self._rules: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self._touches: dict[int, frozenset[int]] = {}
         if problem.rewards is None:
             # mass that cannot reach the target any more (within ``remain``) is worth 0
             self.cont = problem.remain & ~problem.target & can_reach(model, problem.target,
@@ -310,6 +311,15 @@ class _Dynamics:
             nums = [n * (den // d) for n, d in ratios]    # common multiple
             found = self.integer_rows[choice] = (
                 tuple(zip(T.indices[lo:hi].tolist(), nums)), sum(nums))
+        return found
+
+    def touches(self, choice: int) -> frozenset[int]:
+        """The groups (:attr:`group`) of ``choice``'s continuing successors (cached)."""
+        found = self._touches.get(choice)
+        if found is None:
+            T = self.T_cont
+            found = self._touches[choice] = frozenset(
+                self.group[T.indices[T.indptr[choice]:T.indptr[choice + 1]]].tolist())
         return found
 
     def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -743,36 +753,6 @@ class _Source:
     """Rows whose rule is given exactly (global choice -> probability): the unfolding's rules
     that land on an explored belief (:mod:`posgmc.synthesis.target_rules`)."""
 
-    def entries(self, r: int, dyn: _Dynamics) -> list[tuple[int, int, int]]:
-        """Row ``r``'s exact entries: (column, its exact rational weight as numerator and
-        denominator)."""
-        B = self.B
-        lo, hi = B.indptr[r], B.indptr[r + 1]
-        cols = B.indices[lo:hi].tolist()
-        belief = None if self.beliefs is None else self.beliefs[r]
-        # an exact belief's numerator and a rule's multiplied, not reduced: the row's common
-        # denominator absorbs any common factor (:func:`_exact_rows` scales the row as a whole)
-        if self.rule is None or self.mass is None:
-            if belief is not None:  # columns are the belief's states
-                nums, den = belief
-                return [(k, nums[k], den) for k in cols]
-            return [(k, *b.as_integer_ratio()) for k, b in zip(cols, B.data[lo:hi].tolist())]
-        if belief is None and bool((self.rule.data[lo:hi] == 1.0).all()):
-            # a deterministic rule: each entry is its state's mass, exact as stored
-            return [(k, *p.as_integer_ratio())
-                    for k, p in zip(cols, self.mass.data[lo:hi].tolist())]
-        chosen = self.choice_of[B.indices[lo:hi]]
-        states = dyn.choice_states[chosen].tolist()
-        given = None if self.exact_rules is None else self.exact_rules.get(r)
-        ratios = _rule_ratios(tuple(self.rule.data[lo:hi].tolist()), tuple(states)) \
-            if given is None else [(given[c].numerator, given[c].denominator)
-                                   for c in chosen.tolist()]
-        if belief is not None:
-            nums, den = belief
-            return [(k, nums[s] * qn, den * qd) for k, s, (qn, qd) in zip(cols, states, ratios)]
-        masses = [p.as_integer_ratio() for p in self.mass.data[lo:hi].tolist()]
-        return [(k, pn * qn, pd * qd) for k, (pn, pd), (qn, qd) in zip(cols, masses, ratios)]
-
 
 _SIMPLE_DENOMINATOR = 1000
 """Rule probabilities within a few units of roundoff of a fraction with at most this
@@ -809,42 +789,83 @@ def _rational_probability(x: float) -> Fraction:
     return simple if abs(simple - q) <= q * 4 * Fraction(_UNIT) else q
 
 
+def _row_entries(cols: list[int], stored: list[float], states: list[int], rule: list[float],
+                 deterministic: bool, belief: tuple[dict[int, int], int] | None,
+                 has_rule: bool, given: dict[int, Fraction] | None = None,
+                 chosen: list[int] | None = None) -> list[tuple[int, int, int]]:
+    """One row of B*'s exact entries (:class:`_Source`): (column, its exact rational weight as
+    numerator and denominator), from the row's columns, stored weights (B's, or with a rule
+    the states' masses), the columns' states and the rule's probabilities (with ``has_rule``),
+    whether the rule is deterministic, and the row's vertex's exact belief (None: its float);
+    ``given``: the rule itself where it is given exactly (:attr:`_Source.exact_rules`, by the
+    columns' model choices ``chosen``), else it is the rational rule of the probabilities.
+    An exact belief's numerator and a rule's are multiplied, not reduced: the row's common
+    denominator absorbs any common factor (:func:`_exact_rows` scales the row as a whole)."""
+    if not has_rule:
+        if belief is not None:  # columns are the belief's states
+            nums, den = belief
+            return [(k, nums[k], den) for k in cols]
+        return [(k, *b.as_integer_ratio()) for k, b in zip(cols, stored)]
+    if deterministic and given is None:  # every probability 1: the rational rule is 1 too
+        if belief is not None:
+            nums, den = belief
+            return [(k, nums[s], den) for k, s in zip(cols, states)]
+        # each entry is its state's mass, exact as stored
+        return [(k, *p.as_integer_ratio()) for k, p in zip(cols, stored)]
+    ratios = _rule_ratios(tuple(rule), tuple(states)) if given is None or chosen is None else \
+        [(given[c].numerator, given[c].denominator) for c in chosen]
+    if belief is not None:
+        nums, den = belief
+        return [(k, nums[s] * qn, den * qd) for k, s, (qn, qd) in zip(cols, states, ratios)]
+    return [(k, pn * qn, pd * qd)
+            for k, (pn, pd), (qn, qd) in zip(cols, [p.as_integer_ratio() for p in stored],
+                                             ratios)]
+
+
 def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, dict[int, int]]:
     """Each of ``rows``' (distinct) exact continuing vector y*_s = Σ_k B*_rk T*_k(s) on all its
     successor states (the exact model's rows :meth:`_Dynamics.integer_row`, B*'s entries
-    :meth:`_Source.entries`), as integer numerators (state -> numerator, zeros left out) over
+    :func:`_row_entries`), as integer numerators (state -> numerator, zeros left out) over
     one common denominator per row, a positive factor the triangulation ignores (the parts of
-    one row share it). The rows' columns, choices and stored weights are gathered in one
-    vectorised step; rows whose entries are their stored floats (no rule, or a deterministic
-    one, and no exact belief) read them from it, the others ask :meth:`_Source.entries`."""
+    one row share it). The rows' columns, choices, states, stored weights and rule
+    probabilities are gathered in one vectorised step, then read row by row as list slices."""
     B = source.B
     lo, hi = B.indptr[rows].astype(np.int64), B.indptr[rows + 1].astype(np.int64)
     n = hi - lo
     ends = np.cumsum(n)
     flat = np.repeat(lo - (ends - n), n) + np.arange(int(ends[-1]) if n.size else 0)
     cols = B.indices[flat]
-    choices = source.choice_of[cols].tolist()
+    choice_arr = source.choice_of[cols]
+    choices = choice_arr.tolist()
+    has_rule = source.rule is not None and source.mass is not None
+    rule_l: list[float] = []
+    states_l: list[int] = []
     if source.rule is None or source.mass is None:
-        stored, plain = B.data[flat], np.ones(rows.size, dtype=bool)
+        stored = B.data[flat]
+        deterministic = np.ones(rows.size, dtype=bool)
     else:
         stored = source.mass.data[flat]
-        # a deterministic rule (every probability 1): each entry is its state's mass, exact
-        # as stored
+        probs = source.rule.data[flat]
         owner = np.repeat(np.arange(rows.size), n)
-        plain = np.bincount(owner[source.rule.data[flat] != 1.0], minlength=rows.size) == 0
+        deterministic = np.bincount(owner[probs != 1.0], minlength=rows.size) == 0
+        rule_l = probs.tolist()
+    beliefs: list[tuple[dict[int, int], int] | None] = [None] * rows.size
     if source.beliefs is not None:
-        plain &= np.asarray([source.beliefs[r] is None for r in rows.tolist()], dtype=bool)
+        beliefs = [source.beliefs[r] for r in rows.tolist()]
+    if has_rule:
+        states_l = dyn.choice_states[choice_arr].tolist()
     weights = stored.tolist()
     cols_l = cols.tolist()
     out: dict[int, dict[int, int]] = {}
     start = 0
     made = dyn.integer_rows  # the exact rows already made
-    for r, end, simple in zip(rows.tolist(), ends.tolist(), plain.tolist()):
-        if simple:
-            entries = [(k, *w.as_integer_ratio())
-                       for k, w in zip(cols_l[start:end], weights[start:end])]
-        else:
-            entries = source.entries(r, dyn)
+    given = source.exact_rules or {}
+    for r, end, det, known in zip(rows.tolist(), ends.tolist(), deterministic.tolist(),
+                                  beliefs):
+        exactly = given.get(r)
+        entries = _row_entries(cols_l[start:end], weights[start:end], states_l[start:end],
+                               rule_l[start:end], det, known, has_rule, exactly,
+                               None if exactly is None else choices[start:end])
         exact = [made.get(c) or dyn.integer_row(c) for c in choices[start:end]]
         start = end
         dens = [bd * total for (_, _, bd), (_, total) in zip(entries, exact)]
@@ -864,12 +885,11 @@ _EXACT_BITS = 128
 bits (long paths multiply denominators); beyond, the float posterior with a leak."""
 
 
-def _exact_posterior(y: dict[int, int], states: list[int], col: np.ndarray, at: int,
-                     grid: _Grid) -> int | None:
-    """The unfolding's vertex of a row's exact posterior on ``states`` (one part: the
-    continuing states of one observation group, ``col[at:at + len(states)]``; ``y`` the row's
-    exact vector, :func:`_exact_rows`), None when it is zero or too long to keep
-    (:data:`_EXACT_BITS`)."""
+def _exact_posterior(y: dict[int, int], states: list[int]) -> tuple[tuple[int, ...], int] | None:
+    """A row's exact posterior on ``states`` (one part: the continuing states of one
+    observation group; ``y`` the row's exact vector, :func:`_exact_rows`) as numerators and a
+    common denominator without a common divisor (:meth:`_Grid.exact_belief`), None when it is
+    zero or too long to keep (:data:`_EXACT_BITS`). Invariant under scaling ``y``."""
     get = y.get
     ys = [get(s, 0) for s in states]
     total = sum(ys)
@@ -879,7 +899,133 @@ def _exact_posterior(y: dict[int, int], states: list[int], col: np.ndarray, at: 
     den = total // g
     if den.bit_length() > _EXACT_BITS:
         return None
-    return grid.exact_belief(col[at:at + len(states)], tuple([y // g for y in ys]), den)
+    return tuple([y // g for y in ys]), den
+
+
+def _shared_parts(source: _Source, live: np.ndarray, rows: np.ndarray, starts: np.ndarray,
+                  sizes: np.ndarray, col: np.ndarray, vertex: np.ndarray, dyn: _Dynamics
+                  ) -> tuple[list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None],
+                             np.ndarray]:
+    """The unfolding's parts whose exact posterior is computed from the few choices that reach
+    them, once per distinct signature, instead of from their row's whole exact vector: an
+    adversary's deterministic rule at a vertex with an exact belief b = nums/den puts b(s_c) on
+    one choice c per state s_c, so the row's exact vector is, up to a positive factor
+    (:func:`_exact_rows`' common denominator, which :func:`_exact_posterior` ignores),
+    Σ_c nums(s_c) T*_c / |T*_c| (|T*_c| the exact row's denominator), and on a part's states
+    (all in group z) only the choices whose continuing successors meet z add anything. The
+    parts of ``live`` rows (those :func:`_exact_rows` would compute, ascending; ``vertex``:
+    each row's vertex) with a deterministic rule get the signature (vertex, z, the states'
+    bytes, those choices with their states, in the row's order), the others None (their
+    posterior comes from their row's exact vector); returns the signatures and the live rows
+    whose exact vector is still needed (a randomised rule, or one given exactly)."""
+    n = starts.size
+    sigs: list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None] = [None] * n
+    B, rule = source.B, source.rule
+    if rule is None or not live.size:
+        return sigs, live
+    lo, hi = B.indptr[live].astype(np.int64), B.indptr[live + 1].astype(np.int64)
+    k = hi - lo
+    ends = np.cumsum(k)
+    flat = np.repeat(lo - (ends - k), k) + np.arange(int(ends[-1]))
+    owner = np.repeat(np.arange(live.size), k)
+    deterministic = np.bincount(owner[rule.data[flat] != 1.0], minlength=live.size) == 0
+    if source.exact_rules:  # a rule given exactly is its own (:func:`_row_entries`)
+        deterministic &= ~np.isin(live, np.fromiter(source.exact_rules, dtype=np.int64))
+    choices = source.choice_of[B.indices[flat]]
+    choices_l = choices.tolist()
+    touch = dyn.touches
+    # each entry: (its choice, the choice's state) and the groups the choice reaches
+    pairs = list(zip(choices_l, dyn.choice_states[choices].tolist()))
+    reach = [touch(c) for c in choices_l]
+    row_cols: dict[int, tuple[list[tuple[int, int]], list[frozenset[int]]]] = {}
+    at = 0
+    for r, end, det in zip(live.tolist(), ends.tolist(), deterministic.tolist()):
+        if det:
+            row_cols[r] = (pairs[at:end], reach[at:end])
+        at = end
+    col_b = col.tobytes()
+    groups = dyn.group[col[starts]].tolist()
+    vertex_l = vertex.tolist()
+    for j, (a, m, r, z) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist(), groups)):
+        found = row_cols.get(r)
+        if found is not None:
+            sigs[j] = (vertex_l[r], z, col_b[8 * a:8 * (a + m)],
+                       tuple([p for p, t in zip(*found) if z in t]))
+    return sigs, live[~deterministic]
+
+
+def _part_posterior(reach: tuple[tuple[int, int], ...], belief: tuple[dict[int, int], int],
+                    states: list[int], dyn: _Dynamics) -> tuple[tuple[int, ...], int] | None:
+    """:func:`_exact_posterior` of a part of a deterministic rule's row from the choices that
+    reach it (:func:`_shared_parts`: (choice, its state) pairs) and the vertex's exact belief:
+    Σ_c nums(s_c) (L / |T*_c|) T*_c, L the least common multiple of the |T*_c|."""
+    nums = belief[0]
+    made = dyn.integer_rows
+    exact = [made.get(c) or dyn.integer_row(c) for c, _ in reach]
+    big = math.lcm(*[t for _, t in exact]) if exact else 1
+    y: dict[int, int] = {}
+    get = y.get
+    for (_, s), (row, t) in zip(reach, exact):
+        f = nums[s] * (big // t)
+        for q, x in row:
+            y[q] = get(q, 0) + f * x
+    return _exact_posterior(y, states)
+
+
+def _unfolded_vertices(grid: _Grid, col: np.ndarray, post: np.ndarray, starts: np.ndarray,
+                       sizes: np.ndarray, rows: np.ndarray, ys: dict[int, dict[int, int]],
+                       sigs: list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None],
+                       beliefs: list[tuple[dict[int, int], int] | None], dyn: _Dynamics,
+                       origins: list[int] | None = None) -> tuple[list[int], list[int]]:
+    """The unfolding's vertex of every part (part j on states ``col[a:a + k]``, int64, with
+    float posterior ``post[a:a + k]``, a = ``starts[j]``, k = ``sizes[j]``, of row
+    ``rows[j]``), the new ones added in the order of the parts, and the parts whose posterior
+    is exact. A part with a signature (:func:`_shared_parts`) takes the vertex of the first
+    part with the same one (its exact posterior computed once, :func:`_part_posterior`); one
+    whose row's exact vector is in ``ys`` its exact posterior's (:func:`_exact_posterior`);
+    where none is kept, its float posterior's (:meth:`_Grid.belief`). Each part's key is looked
+    up as byte slices of the arrays' bytes: arrays are sliced only for a new vertex.
+    ``origins``: each row's vertex, where the grid tracks the explored beliefs as targets
+    (:attr:`_Grid.targets`): a new vertex records the vertex whose choice reached it."""
+    col_b, post_b = col.tobytes(), post.tobytes()
+    col_l = col.tolist()
+    vs: list[int] = []
+    settled: list[int] = []  # the parts whose posterior is exact
+    add_vertex, find, known = vs.append, ys.get, grid.key.get
+    shared: dict[object, int | None] = {}  # a signature's vertex (None: its float posterior's)
+    for j, (a, k, r, sig) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist(),
+                                           sigs)):
+        if sig is not None and sig in shared:
+            v = shared[sig]
+        else:
+            if sig is None:
+                y = find(r)
+                got = None if y is None else _exact_posterior(y, col_l[a:a + k])
+            else:
+                at_vertex = beliefs[r]
+                assert at_vertex is not None  # a signature's row has an exact belief
+                got = _part_posterior(sig[3], at_vertex, col_l[a:a + k], dyn)
+            v = None
+            if got is not None:
+                v = known((col_b[8 * a:8 * (a + k)], *got))
+                if v is None:
+                    if origins is not None:
+                        grid.origin = origins[r]
+                    v = grid.exact_belief(col[a:a + k], *got)
+            if sig is not None:
+                shared[sig] = v
+        if v is not None:
+            add_vertex(v)
+            settled.append(j)
+            continue
+        key = col_b[8 * a:8 * (a + k)] + post_b[8 * a:8 * (a + k)]
+        v = known(key)
+        if v is None:
+            if origins is not None:
+                grid.origin = origins[r]
+            v = grid.belief(key, col, post, a, a + k)
+        add_vertex(v)
+    return vs, settled
 
 
 def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
@@ -1005,11 +1151,13 @@ class _Choices:
         if N == 0:  # the belief unfolding: each posterior is a vertex itself
             exact = self.cap is not None and source is not None and \
                 source.beliefs is not None and not dyn.owned.all()
-            vs: list[int] = []
             amb = np.ones(rows.size, dtype=bool)
             # only where the row loses nothing (as on the grids: a row that does is in no
             # end component, and its leak costs at most the expected steps times itself)
             ys: dict[int, dict[int, int]] = {}
+            sigs: list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None] = \
+                [None] * starts.size
+            beliefs: list[tuple[dict[int, int], int] | None] = []
             if exact and source is not None and source.beliefs is not None:
                 # and the rows whose exact rule lands on an explored belief, lossy or not
                 given = np.zeros(D.shape[0], dtype=bool)
@@ -1018,27 +1166,13 @@ class _Choices:
                 live = np.unique(rows[(lost[rows] == 0) | given[rows]]).astype(np.int64)
                 beliefs = source.beliefs
                 known = [beliefs[r] is not None for r in live.tolist()]
-                ys = _exact_rows(source, live[known] if live.size else live, dyn)
-            # the float posteriors of all parts at once, and their keys as byte slices (a part's
-            # key is its states' and posterior's bytes, :meth:`_Grid.belief`)
-            post = data / np.repeat(mass, sizes)
-            col_b, post_b = col.tobytes(), post.tobytes()
-            col_l = col.tolist()
-            settled: list[int] = []  # the parts whose posterior is exact
-            add_vertex, add_float, find = vs.append, grid.belief, ys.get
-            tracked = grid.targets is not None
-            for j, (a, k, r) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist())):
-                if tracked:
-                    grid.origin = int(keys[r]) // self.span
-                y = find(r)
-                if y is not None:
-                    v = _exact_posterior(y, col_l[a:a + k], col, a, grid)
-                    if v is not None:
-                        add_vertex(v)
-                        settled.append(j)
-                        continue
-                add_vertex(add_float(col_b[8 * a:8 * (a + k)] + post_b[8 * a:8 * (a + k)], col,
-                                     post, a, a + k))
+                live = live[known] if live.size else live
+                sigs, live = _shared_parts(source, live, rows, starts, sizes, col,
+                                           keys // self.span, dyn)
+                ys = _exact_rows(source, live, dyn)
+            vs, settled = _unfolded_vertices(
+                grid, col, data / np.repeat(mass, sizes), starts, sizes, rows, ys, sigs, beliefs,
+                dyn, None if grid.targets is None else (keys // self.span).tolist())
             amb[settled] = False
             self.e_key.append(keys[rows].astype(np.int64))
             self.e_vertex.append(np.asarray(vs, dtype=np.int64))
@@ -1279,9 +1413,9 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
             break
         last = min(len(grid.rows), max_vertices, done + min(_BATCH, max(64, done)))
         ids = np.arange(done, last)
-        first = np.asarray([grid.rows[i][0] for i in range(done, last)])
-        mine = dyn.owned[first]
         B = grid.matrix(done, last)
+        first = B.indices[B.indptr[:-1]]  # each vertex's first state (its rows are not empty)
+        mine = dyn.owned[first]
         z = dyn.group[first]
         for a in range(Au):
             sel = np.flatnonzero(mine & (z >= 0))
@@ -1548,6 +1682,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     """The abstraction: expanded vertices with their choices, cut-off vertices with one choice
     worth their full-observation bound, then the target and the sink."""
     V = len(grid.rows)
+    beliefs = grid.matrix()
     TARGET, SINK = V, V + 1
     S_abs = V + 2
     prob = problem.rewards is None
@@ -1573,7 +1708,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
         cap = np.clip(np.where(finite, cap, 1.0), 0.0, 1.0)
     if not problem.maximize and n_exp:
         Y = sp.vstack(ch.successors, format="csr")[order]
-        E = _dominate(E, grid.matrix(), Y, terms)
+        E = _dominate(E, beliefs, Y, terms)
     kept = np.asarray(E.sum(axis=1)).ravel()
     grow = 1.0 + _rounding(terms)
     if prob:
@@ -1602,7 +1737,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     T_exp.eliminate_zeros()
     # cut-off vertices: one choice worth Σ_s v(s) cutoff(s)
     cut_ids = np.flatnonzero(~expanded)
-    Bc = grid.matrix()[cut_ids]
+    Bc = beliefs[cut_ids]
     # Σ_s b(s) cutoff(s) rounded outward (a sum of nonnegative products)
     # (products of either sign: the rounding is relative to the sum of their magnitudes)
     u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
@@ -1644,7 +1779,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     action = np.r_[ca, np.full(n_cut + 2, -1, dtype=np.int64)][perm]
     # the adversary's vertices (expanded ones whose support is not the decision maker's)
     theirs = np.zeros(S_abs, dtype=bool)
-    starts = np.asarray([r[0] for r in grid.rows], dtype=np.int64)
+    starts = beliefs.indices[beliefs.indptr[:-1]].astype(np.int64)  # each vertex's first state
     theirs[:V] = expanded & ~dyn.owned[starts]
     if theirs.any():
         model = make_model(ModelType.SMG, row_groups, transitions, initial_states=(0,),
@@ -1664,7 +1799,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
             t if prob else np.maximum(np.abs(rew_exp), rew_mag), _rounding(terms), cut_ids,
             u if prob else r_cut, np.zeros(n_cut, dtype=bool) if prob else unbounded,
             theirs[:V], prob, problem.discount, dyn.input_rel, _signed(problem))
-    return GridAbstraction(model, grid.matrix(), expanded, action, rewards, target,
+    return GridAbstraction(model, beliefs, expanded, action, rewards, target,
                            problem.discount, problem.maximize, resolution,
                            ch.on_grid and bool(expanded.all()), theirs, enclosure)
 

@@ -874,3 +874,44 @@ def test_the_default_refinement_settles_once_a_complete_grid_stops_tightening() 
     assert settled.tried == full.tried
     assert all(dict(full.tried)[n] == pytest.approx(0.125, abs=1e-8) for n in (8, 16, 32))
     assert dict(full.tried)[64] < 0.125 - 1e-3
+
+
+@pytest.mark.parametrize(("path", "prop"), [
+    (ROOT / "models" / "rover.posg", '<<rover>> Pmax=? [ !"crash" U "goal" ]'),
+    (ROOT / "tests" / "data" / "games" / "dodge_lanes.posg", '<<runner>> Pmax=? [ F "won" ]'),
+])
+def test_shared_exact_posteriors_are_the_ones_each_row_would_give(
+        path: Path, prop: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The unfolding computes an adversary's deterministic rule's exact posteriors once per
+    signature from the choices reaching the part (belief_grid._shared_parts); with that sharing
+    switched off every part's posterior comes from its row's whole exact vector. Both must give
+    the same abstraction: the same vertices in the same order, the same exact beliefs, the
+    same enclosure (models/rover.posg: 60 states and 100 choices; dodge_lanes.posg: 18 and
+    44)."""
+    model, problem = _game(path, prop)
+    assert (model.num_states, model.num_choices) in ((60, 100), (18, 44))
+    cutoff, rules = belief_grid.full_observation_bounds(problem)
+    shared = belief_grid.grid_abstraction(problem, 0, cutoff=cutoff, adversary_rules=rules,
+                                          max_vertices=1_500)
+    called: list[int] = []
+    real = belief_grid._shared_parts
+
+    def unshared(source, live, rows, starts, sizes, col, vertex, dyn):  # type: ignore[no-untyped-def]
+        sigs, _ = real(source, live, rows, starts, sizes, col, vertex, dyn)
+        called.append(sum(s is not None for s in sigs))
+        return [None] * starts.size, live
+
+    monkeypatch.setattr(belief_grid, "_shared_parts", unshared)
+    alone = belief_grid.grid_abstraction(problem, 0, cutoff=cutoff, adversary_rules=rules,
+                                         max_vertices=1_500)
+    assert shared is not None and alone is not None
+    assert sum(called) > 0  # the sharing had parts to share
+    assert shared.vertices == alone.vertices
+    for a, b in ((shared.beliefs, alone.beliefs), (shared.model.transitions,
+                                                   alone.model.transitions)):
+        assert (a != b).nnz == 0 and a.shape == b.shape
+    ea, eb = shared.enclosure, alone.enclosure
+    assert ea is not None and eb is not None
+    assert (ea.coef != eb.coef).nnz == 0
+    for f in ("state", "top", "slack", "leak", "clean", "infinite"):
+        assert np.array_equal(getattr(ea, f), getattr(eb, f)), f
