@@ -86,6 +86,21 @@ def fss_guaranteed(problem, memory: int, gamma: np.ndarray, delta: np.ndarray) -
     return float(r.guaranteed.value)
 
 
+def runner_crossing_at_once(problem) -> float:  # type: ignore[no-untyped-def]
+    """What the memoryless runner of the lanes games (tests/data/games/dodge_lanes*.posg) that
+    crosses left or right with probability 1/2 is verified to ensure against every guard."""
+    from posgmc.synthesis import belief_grid
+
+    dyn = belief_grid._Dynamics(problem, None)
+    names = [problem.model.action_names[a] for a in dyn.actions.tolist()]
+    gamma = np.zeros((1,) + dyn.mask.shape)
+    for z in range(dyn.mask.shape[0]):
+        cross = [a for a, name in enumerate(names) if name in ("left", "right") and dyn.mask[z, a]]
+        for a in cross or np.flatnonzero(dyn.mask[z]).tolist()[:1]:
+            gamma[0, z, a] = 1.0 / max(1, len(cross))
+    return fss_guaranteed(problem, 1, gamma, np.ones(gamma.shape + (1,)))
+
+
 def every_deterministic(problem, memory: int):  # type: ignore[no-untyped-def]
     """(γ, δ) of every deterministic ``memory``-node FSS of the decision maker (node 0 initial)."""
     mask = parametrisation(problem, memory).mask

@@ -18,7 +18,7 @@ from posgmc.syntax import parser
 from posgmc.synthesis import belief_grid, stage_lp
 from posgmc.synthesis.search import problem_of
 from tests.random_games import random_posg
-from tests.synthesis.helpers import every_deterministic, fss_guaranteed
+from tests.synthesis.helpers import every_deterministic, fss_guaranteed, runner_crossing_at_once
 
 ROOT = Path(__file__).resolve().parents[2]
 HIDE = ROOT / "tests" / "data" / "games" / "hide.posg"
@@ -200,15 +200,7 @@ def test_a_guard_that_keeps_the_runner_guessing_is_found_on_the_grid() -> None:
     assert mixed is not None
     assert 0.1 <= mixed.value <= 0.1 + 1e-6
     # the runner that crosses at once, left or right with probability 1/2 (memoryless)
-    dyn = belief_grid._Dynamics(problem, None)
-    names = [problem.model.action_names[a] for a in dyn.actions.tolist()]
-    gamma = np.zeros((1,) + dyn.mask.shape)
-    for z in range(dyn.mask.shape[0]):
-        cross = [a for a, name in enumerate(names) if name in ("left", "right") and dyn.mask[z, a]]
-        for a in cross or np.flatnonzero(dyn.mask[z]).tolist()[:1]:
-            gamma[0, z, a] = 1.0 / max(1, len(cross))
-    delta = np.ones(gamma.shape + (1,))
-    guaranteed = fss_guaranteed(problem, 1, gamma, delta)
+    guaranteed = runner_crossing_at_once(problem)
     assert guaranteed == pytest.approx(0.1, abs=1e-6)
     assert mixed.value >= guaranteed - 1e-9
 

@@ -19,7 +19,7 @@ from posgmc.syntax import parser
 from posgmc.synthesis import belief_grid, target_rules
 from posgmc.synthesis.search import problem_of
 from tests.random_games import random_posg
-from tests.synthesis.helpers import every_deterministic, fss_guaranteed
+from tests.synthesis.helpers import every_deterministic, fss_guaranteed, runner_crossing_at_once
 
 ROOT = Path(__file__).resolve().parents[2]
 GAMES = ROOT / "tests" / "data" / "games"
@@ -46,19 +46,6 @@ def _unfolded(problem, targets: bool) -> float:  # type: ignore[no-untyped-def]
     return found.value
 
 
-def _runner_crossing_at_once(problem) -> float:  # type: ignore[no-untyped-def]
-    """What the memoryless runner that crosses left or right with probability 1/2 is verified
-    to ensure against every guard."""
-    dyn = belief_grid._Dynamics(problem, None)
-    names = [problem.model.action_names[a] for a in dyn.actions.tolist()]
-    gamma = np.zeros((1,) + dyn.mask.shape)
-    for z in range(dyn.mask.shape[0]):
-        cross = [a for a, name in enumerate(names) if name in ("left", "right") and dyn.mask[z, a]]
-        for a in cross or np.flatnonzero(dyn.mask[z]).tolist()[:1]:
-            gamma[0, z, a] = 1.0 / max(1, len(cross))
-    return fss_guaranteed(problem, 1, gamma, np.ones(gamma.shape + (1,)))
-
-
 def test_a_guard_holding_the_belief_closes_the_unfolding() -> None:
     """dodge_lanes_hidden.posg: the optimum is 1/10 (the model's comment). The exact belief
     unfolding with the guard's deterministic rules and the uniform mixture gives 0.12: after a
@@ -70,7 +57,7 @@ def test_a_guard_holding_the_belief_closes_the_unfolding() -> None:
     problem = _hidden()
     assert _unfolded(problem, targets=False) == pytest.approx(0.12, abs=1e-6)
     closed = _unfolded(problem, targets=True)
-    guaranteed = _runner_crossing_at_once(problem)
+    guaranteed = runner_crossing_at_once(problem)
     assert guaranteed == pytest.approx(0.1, abs=1e-6)
     assert guaranteed - 1e-9 <= closed <= 0.1 + 1e-6
 
