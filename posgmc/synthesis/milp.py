@@ -109,6 +109,7 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.synthesis.parametric import Layout, Parametrisation
 from posgmc.synthesis.problem import Problem
+from posgmc.synthesis.solver_output import c_stdout_silenced
 
 __all__ = ["MilpComposition", "Encoding", "encoding_of", "supported", "compose_milp"]
 
@@ -302,11 +303,13 @@ class _Program:
             (np.concatenate(self.vals), (np.concatenate(self.rows), np.concatenate(self.cols))),
             shape=(self.num_rows, self.num_vars),
         )
-        return milp(cost, integrality=np.concatenate(self.integer),
-                    bounds=LinearBounds(np.concatenate(self.lower), np.concatenate(self.upper)),
-                    constraints=LinearConstraint(matrix, np.concatenate(self.row_lo),
-                                                 np.concatenate(self.row_hi)),
-                    options=options)
+        with c_stdout_silenced():  # HiGHS's MIP prints a debug line to descriptor 1
+            return milp(cost, integrality=np.concatenate(self.integer),
+                        bounds=LinearBounds(np.concatenate(self.lower),
+                                            np.concatenate(self.upper)),
+                        constraints=LinearConstraint(matrix, np.concatenate(self.row_lo),
+                                                     np.concatenate(self.row_hi)),
+                        options=options)
 
 
 _SOLVE_ERROR = 4  # scipy.optimize.milp's status for HiGHS's "solve error" (_Program.solve)
