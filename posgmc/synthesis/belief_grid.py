@@ -16,20 +16,18 @@ least fixed point). Grid vertices not expanded (the exploration budget ended) ar
 they get the full-observation bound Σ_s v(s) U(s), which holds for every belief (an agent that
 sees the state does at least as well).
 
-The grid is Freudenthal's triangulation at resolution N, taken on each belief's support (states
-in their index order): in the coordinates x_i = N Σ_{j>=i} b_j the belief lies in the simplex
-whose vertices are ⌊x⌋ plus the unit vectors added in the order of decreasing fractional part;
-a vertex is an integer vector, so vertices are identified exactly (no float hashing). Any
-decomposition into beliefs would be sound (only convexity is used); this one keeps the number of
-distinct vertices small and nests for N, 2N, 4N, ...
+The grid is Freudenthal's triangulation at resolution N, taken on each belief's support
+(:mod:`posgmc.synthesis.freudenthal`): a vertex is an integer vector, so vertices are identified
+exactly (no float hashing), and the grids nest for N, 2N, 4N, ...
 
 The abstraction is an ordinary :class:`~posgmc.model.explicit.ExplicitModel` (an MDP: one state
 per vertex, then a target and a sink), so it is checked with the same sound engines as any model
 (interval iteration, end components handled) and the bound side of their result is the reported
 bound. Its transition probabilities are computed in float64 (posterior beliefs, the weights λ).
-A minimiser's choices are scaled below the exact belief successors (:func:`_dominate`), and stop
-masses, rewards and cut-off values are rounded to the optimistic side (outward for either sign;
-a minimiser whose rewards take both signs gets no grid, :func:`applies`). A maximiser's rows cannot
+A minimiser's choices are scaled below the exact belief successors, and stop masses, rewards and
+cut-off values are rounded to the optimistic side (outward for either sign; a minimiser whose
+rewards take both signs gets no grid, :func:`applies`), by the bounds of
+:mod:`posgmc.synthesis.belief_rounding`. A maximiser's rows cannot
 dominate the exact ones one by one in a cycle of beliefs (docs/synthesis.md, "Floating point"):
 its abstraction carries an enclosure of the exact rows (certified weights, parts near a face
 triangulated in exact arithmetic, :func:`_resolve_exactly`), and the engine's upper values are
@@ -60,7 +58,19 @@ from posgmc.model.types import ModelType
 from posgmc.strategies.binding import player_view
 from posgmc.synthesis import belief, stage_lp
 from posgmc.synthesis.belief import can_reach
+from posgmc.synthesis.belief_rounding import (
+    UNIT,
+    chunks,
+    dominate,
+    entry_rounding,
+    outward,
+    reward_magnitude,
+    rounding,
+    up,
+    weight_errors,
+)
 from posgmc.synthesis.budget import interrupted
+from posgmc.synthesis.freudenthal import freudenthal, freudenthal_batch
 from posgmc.synthesis.grid_certificate import Enclosure, certified_upper
 from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
@@ -104,71 +114,6 @@ the rounds stop earlier when the bound no longer moves."""
 
 _BATCH = 512
 """Vertices expanded between two looks at the clock."""
-
-_SNAP = 1e-12
-"""Cumulative coordinates within this (relative to N) of an integer are that integer: float
-noise in a posterior (~1e-15 relative) must not split a grid belief into a tiny simplex around
-it; kept small because the snap moves the decomposition off the posterior by as much."""
-
-
-def freudenthal(p: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
-    """The vertices and weights of ``p`` (float64[m], a distribution, all entries > 0) in
-    Freudenthal's triangulation of resolution N: (int64[k, m] counts, each row summing to N, so
-    that vertex i is counts[i] / N; float64[k] weights λ > 0 summing to 1) with
-    Σ_i λ_i counts[i] / N = p (up to rounding)."""
-    m = p.size
-    N = int(resolution)
-    if m == 1:
-        return np.full((1, 1), N, dtype=np.int64), np.ones(1)
-    x = N * np.cumsum(p[::-1])[::-1]
-    x[0] = N
-    near = np.rint(x)
-    x = np.where(np.abs(x - near) <= _SNAP * N, near, x)
-    v = np.floor(x)
-    d = x - v
-    order = 1 + np.argsort(-d[1:], kind="stable")
-    dd = d[order]
-    lam = np.empty(m)
-    lam[0] = 1.0 - dd[0]
-    lam[1:m - 1] = dd[:-1] - dd[1:]
-    lam[m - 1] = dd[-1]
-    Y = np.tile(v, (m, 1))
-    Y[:, order] += np.tri(m, m - 1, k=-1)
-    counts = np.empty((m, m), dtype=np.int64)
-    counts[:, :-1] = (Y[:, :-1] - Y[:, 1:]).astype(np.int64)
-    counts[:, -1] = Y[:, -1].astype(np.int64)
-    keep = lam > 0
-    return counts[keep], lam[keep]
-
-
-def freudenthal_batch(P: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`freudenthal` of every row of ``P`` (float64[n, m], distributions with all entries
-    > 0) at once: (int64[n, m, m] counts, float64[n, m] weights; a vertex of weight 0 is not
-    part of the decomposition)."""
-    n, m = P.shape
-    N = int(resolution)
-    if m == 1:
-        return np.full((n, 1, 1), N, dtype=np.int64), np.ones((n, 1))
-    x = N * np.cumsum(P[:, ::-1], axis=1)[:, ::-1]
-    x[:, 0] = N
-    near = np.rint(x)
-    x = np.where(np.abs(x - near) <= _SNAP * N, near, x)
-    v = np.floor(x)
-    d = x - v
-    order = 1 + np.argsort(-d[:, 1:], axis=1, kind="stable")
-    dd = np.take_along_axis(d, order, axis=1)
-    lam = np.empty((n, m))
-    lam[:, 0] = 1.0 - dd[:, 0]
-    lam[:, 1:m - 1] = dd[:, :-1] - dd[:, 1:]
-    lam[:, m - 1] = dd[:, -1]
-    Y = np.repeat(v[:, None, :], m, axis=1)  # [n, vertex, coordinate]
-    steps = np.tri(m, m - 1, k=-1)  # vertex k adds the first k unit vectors of the order
-    rows = np.arange(n)[:, None, None]
-    Y[rows, np.arange(m)[None, :, None], order[:, None, :]] += steps[None]
-    counts = np.empty((n, m, m), dtype=np.int64)
-    counts[:, :, :-1] = (Y[:, :, :-1] - Y[:, :, 1:]).astype(np.int64)
-    counts[:, :, -1] = Y[:, :, -1].astype(np.int64)
-    return counts, lam
 
 
 @dataclass(frozen=True, eq=False)
@@ -269,7 +214,7 @@ class _Dynamics:
         # to within 1e-9): how far a stored probability lies from it, relatively
         sums = np.asarray(model.transitions.sum(axis=1)).ravel()
         k = np.diff(model.transitions.indptr).astype(np.float64)
-        dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * _UNIT, initial=0.0))
+        dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * UNIT, initial=0.0))
         self.input_rel = 2.0 * dev / max(1.0 - dev, 0.5)
         self.integer_rows: dict[int, tuple[tuple[tuple[int, int], ...], int]] = {}
         for a in range(layout.used_actions.size):
@@ -581,7 +526,7 @@ def applies(problem: Problem) -> bool:
     against one omniscient adversary (any objective here: a probability, an expected reward until
     a target, a discounted cost), except a minimiser's rewards of both signs (its rows are
     scaled below the exact ones and the mass given up is priced at 0, which bounds V* from below
-    only where V* >= 0: :func:`_dominate`)."""
+    only where V* >= 0: :func:`~posgmc.synthesis.belief_rounding.dominate`)."""
     if problem.model.initial_states.size != 1:
         return False
     if not problem.maximize and _signed(problem):
@@ -589,144 +534,6 @@ def applies(problem: Problem) -> bool:
     if belief.applies(problem):
         return True
     return problem.adversary is not None and len(problem.model.player_names) == 2
-
-
-_BATCH_ELEMENTS = 2_000_000
-"""A vectorised triangulation lays out parts × m × m counts; kept below this many."""
-
-
-def _chunks(sizes: np.ndarray) -> list[tuple[int, np.ndarray]]:
-    """(support size m, indices of the parts of that size) in chunks of at most
-    :data:`_BATCH_ELEMENTS` counts."""
-    out: list[tuple[int, np.ndarray]] = []
-    for m in np.unique(sizes).tolist():
-        sel = np.flatnonzero(sizes == m)
-        step = max(1, _BATCH_ELEMENTS // (m * m))
-        out.extend((m, sel[i:i + step]) for i in range(0, sel.size, step))
-    return out
-
-
-_UNIT = 2.0 ** -53
-"""float64's unit roundoff u: an operation's result is the exact one times (1 + e), |e| <= u."""
-
-
-def _rounding(terms: np.ndarray | int) -> np.ndarray:
-    """A bound, relative to the computed value, on the rounding error of a float64 sum of at
-    most ``terms`` products of nonnegative rounded numbers: 2 (k + 2) u, twice the classic
-    γ_{k+2} = (k + 2) u / (1 - (k + 2) u) (Higham, "Accuracy and Stability of Numerical
-    Algorithms", §3.1; with nonnegative terms the error is relative to the sum itself)."""
-    return 2.0 * (np.asarray(terms, dtype=np.float64) + 2.0) * _UNIT
-
-
-def _up(v: np.ndarray) -> np.ndarray:
-    """``v`` rounded up to the next float, zeros kept (a zero is exact: a structural zero
-    must not become an edge)."""
-    return np.where(v > 0, np.nextafter(v, np.inf), v)
-
-
-def _outward(v: np.ndarray, err: np.ndarray, up: bool) -> np.ndarray:
-    """``v + err`` rounded up (``up``) or ``v - err`` rounded down, for values of either sign
-    (``err`` >= 0); exact where ``err`` is 0 (a structural zero stays one)."""
-    moved = v + err if up else v - err
-    out: np.ndarray = np.where(err > 0, np.nextafter(moved, np.inf if up else -np.inf), moved)
-    return out
-
-
-def _reward_magnitude(rew: np.ndarray, rewards: np.ndarray) -> np.ndarray:
-    """What the rounding of a belief's reward (a float sum of belief mass times reward) is
-    relative to: the computed sum's magnitude when the model's rewards have one sign (the
-    products then share it), else the largest |reward| (the products' magnitudes sum to at
-    most that, the masses summing to at most one, rounding aside)."""
-    mag = np.abs(rew)
-    if rewards.size and bool((rewards < 0).any()) and bool((rewards > 0).any()):
-        mag = np.maximum(mag, _up(np.asarray(float(np.max(np.abs(rewards))) * (1.0 + 4.0 * _UNIT))))
-    return np.asarray(mag, dtype=np.float64)
-
-
-def _entry_rounding(terms: np.ndarray, input_rel: float) -> np.ndarray:
-    """A bound, relative to the computed value, on how far a continuing successor entry (or a
-    stop mass, or a reward) of the exact model lies from its float: the float sum's own
-    rounding (:func:`_rounding`, doubled for the adversary's rules: a product more, and the
-    exact rule's distance to the stored one, :func:`_rational_rule`), the
-    stored rows' distance to the exact ones (``input_rel``), and the vertex belief's (counts/N
-    is exact for N a power of two, one rounding otherwise)."""
-    return 2.0 * _rounding(terms) + input_rel + 2.0 * _UNIT
-
-
-def _weight_errors(P: np.ndarray, lam: np.ndarray, rel: np.ndarray, resolution: int
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """How far the exact decomposition of each part may lie from the float one.
-
-    ``P``: float64[n, m], the parts' float posteriors (as triangulated by
-    :func:`freudenthal_batch`, weights ``lam``); ``rel``: float64[n], the relative bound on each
-    part's continuing entries (:func:`_entry_rounding`). The exact posterior's cumulative
-    coordinates x*_i = N Σ_{j>=i} y*_j / Σ_j y*_j lie within Δ_i = N (3 rel + 4 (m + 4) u) of
-    the float ones (a ratio of sums of nonnegative terms, each within ``rel``, and the float
-    division and cumulative sum), plus the snap's displacement; the barycentric weight of each
-    vertex of the float simplex is a difference of two sorted fractional parts (one rounding), so
-    the exact weights in that simplex are within ε = 2 max Δ + 2u of ``lam``.
-
-    Returns:
-        (float64[n, m] η, bool[n] ambiguous, float64[n] Δ'): where every weight exceeds ε the
-        exact posterior lies in the float simplex with the same vertices and each exact vertex
-        weight e* = w* λ* is at most (1 + η) times the float one (w* the exact part mass);
-        elsewhere the part is *ambiguous* (near a face: the exact simplex may differ). Δ' bounds
-        |x* - x̃| for the exact combination x̃ of the float weights (for the leak).
-    """
-    n, m = P.shape
-    u = _UNIT
-    if m == 1:
-        return np.full((n, 1), (rel[:, None] + 4.0 * u) * 1.02), np.zeros(n, dtype=bool), \
-            np.zeros(n)
-    N = float(resolution)
-    x = N * np.cumsum(P[:, ::-1], axis=1)[:, ::-1]
-    x[:, 0] = N
-    dist = np.abs(x - np.rint(x))
-    snap = np.where(dist <= _SNAP * N, dist, 0.0)
-    delta = N * (3.0 * rel[:, None] + 4.0 * (m + 4) * u) + snap
-    dmax = delta.max(axis=1) + (m + 2) * u * N
-    eps = 2.0 * dmax + 2.0 * u
-    ambiguous = (lam <= eps[:, None]).any(axis=1)
-    with np.errstate(divide="ignore"):
-        eta = (rel[:, None] + (m + 3) * u + eps[:, None] / np.where(lam > 0, lam, 0.0)) * 1.02 \
-            + 4.0 * u
-    return eta, ambiguous, dmax
-
-
-def _dominate(E: sp.csr_matrix, G: sp.csr_matrix, Y: sp.csr_matrix,
-              terms: np.ndarray) -> sp.csr_matrix:
-    """The vertex weights of a minimiser's choices, scaled so that they stay below the exact
-    belief successors despite floating point.
-
-    Row i of ``E`` (float64[n, V]) weighs grid vertices (``G``: float64[V, S], vertex j's belief
-    counts/N) so that x_i = E_i G approximates y_i, the exact continuing successor vector of the
-    choice (computed as ``Y``'s row with at most ``terms[i]`` products per entry). Rounding, the
-    snapping of near-integer coordinates and the weights' own rounding make x_i differ from y_i.
-    With V* the optimum as a function of an unnormalised belief — nonnegative, monotone,
-    positively homogeneous and, for a minimiser, superlinear (an infimum of linear functions:
-    one per strategy) — any κ_i <= 1 with κ_i x_i <= y_i entry by entry gives
-    V*(y) >= V*(κx) + V*(y - κx) >= κ V*(x) >= κ Σ_j E_ij V*(u_j). κ_i is the minimum over
-    x_i's support of a lower bound of y over an upper bound of x (the a-priori bounds of
-    :func:`_rounding`), rounded down; the mass given up goes to the sink (probability) or the
-    target (reward), both worth 0 to the minimiser.
-
-    Returns:
-        κ E.
-    """
-    n = E.shape[0]
-    if not n:
-        return E
-    X = sp.csr_matrix(E @ G)
-    X.sum_duplicates()
-    ax = _rounding(np.diff(E.indptr) + 1)  # the products E_ij G_js, G one rounding off counts/N
-    ay = _rounding(terms)
-    Xc = X.tocoo()
-    rows = Xc.row.astype(np.int64)
-    y_at = np.asarray(Y[rows, Xc.col]).ravel() if rows.size else np.zeros(0)
-    ratio = (y_at * (1.0 - ay[rows])) / (Xc.data * (1.0 + ax[rows])) * (1.0 - 4.0 * _UNIT)
-    kappa = np.ones(n)
-    np.minimum.at(kappa, rows, np.maximum(ratio, 0.0))
-    return sp.csr_matrix(sp.diags(kappa) @ E)
 
 
 @dataclass(frozen=True, eq=False)
@@ -739,7 +546,7 @@ class _Source:
     :func:`_rational_rule` (each state's probabilities normalised to sum to 1 exactly) times
     the states' exact masses: a rule the adversary may play, so offering it only restricts the
     minimising adversary; its entries lie within a few units of roundoff of B's (covered by the
-    doubled rounding of :func:`_entry_rounding`). ``beliefs``: on the unfolding, each row's
+    doubled rounding of :func:`entry_rounding`). ``beliefs``: on the unfolding, each row's
     vertex's exact belief (None where only its float is known); ``resolve``: bool per row, the
     rows whose ambiguous grid parts :func:`_resolve_exactly` may triangulate again (None: all)."""
 
@@ -786,7 +593,7 @@ def _rational_probability(x: float) -> Fraction:
     value (cached: the same few probabilities recur in every rule)."""
     q = Fraction(x)
     simple = q.limit_denominator(_SIMPLE_DENOMINATOR)
-    return simple if abs(simple - q) <= q * 4 * Fraction(_UNIT) else q
+    return simple if abs(simple - q) <= q * 4 * Fraction(UNIT) else q
 
 
 def _row_entries(cols: list[int], stored: list[float], states: list[int], rule: list[float],
@@ -1084,7 +891,7 @@ def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, coun
     counts[at] = np.concatenate([Y[:, :, :-1] - Y[:, :, 1:], Y[:, :, -1:]], axis=2)
     lam[at] = np.asarray(weights, dtype=np.float64)
     amb[at] = False
-    eta[at] = ((rel[at] + (m + 4) * _UNIT) * 1.02 + 4.0 * _UNIT)[:, None]
+    eta[at] = ((rel[at] + (m + 4) * UNIT) * 1.02 + 4.0 * UNIT)[:, None]
 
 
 class _Choices:
@@ -1121,7 +928,7 @@ class _Choices:
         for the others; a convex decomposition, so the bound stays sound), each part normalised
         and triangulated (on the belief unfolding, resolution 0, each part is a vertex itself).
         ``terms``: int64[len(keys)], the nonnegative products summed into each entry of a row of
-        ``D`` (and its stop mass and reward) at most, for the rounding bound (:func:`_dominate`);
+        ``D`` (and its stop mass and reward) at most, for the rounding bound (:func:`dominate`);
         ``D`` is kept as the successors the abstraction must dominate. ``block`` (int64 per
         row, ascending; default all 0): rows of different blocks are as if added by separate
         calls, one block after the other (the order new grid vertices are numbered in).
@@ -1147,7 +954,7 @@ class _Choices:
         row_block = np.zeros(D.shape[0], dtype=np.int64) if block is None else block
         mass = np.add.reduceat(data, starts)
         N = grid.N
-        rel = _entry_rounding(np.asarray(terms, dtype=np.int64), dyn.input_rel)
+        rel = entry_rounding(np.asarray(terms, dtype=np.int64), dyn.input_rel)
         if N == 0:  # the belief unfolding: each posterior is a vertex itself
             exact = self.cap is not None and source is not None and \
                 source.beliefs is not None and not dyn.owned.all()
@@ -1183,14 +990,14 @@ class _Choices:
                 # |y*_s - w fl(y_s / w)| <= y_s (rel + 2u)
                 r = rel[rows]
                 self.e_eta.append(np.where(amb, np.inf,
-                                           (r + (sizes + 4) * _UNIT) * 1.02 + 4.0 * _UNIT))
+                                           (r + (sizes + 4) * UNIT) * 1.02 + 4.0 * UNIT))
                 loose = np.flatnonzero(amb)
                 if loose.size:
                     self.a_key.append(keys[rows[loose]].astype(np.int64))
-                    self.a_leak.append(_up(np.add.reduceat(
-                        data * self.cap[col] * (rel[pair // (dyn.Z + 1)] + 2.0 * _UNIT) * 1.02,
+                    self.a_leak.append(up(np.add.reduceat(
+                        data * self.cap[col] * (rel[pair // (dyn.Z + 1)] + 2.0 * UNIT) * 1.02,
                         starts)[loose]))
-                    self.a_slack.append(_up(mass * (r + (sizes + 2) * _UNIT) * 1.02)[loose])
+                    self.a_slack.append(up(mass * (r + (sizes + 2) * UNIT) * 1.02)[loose])
             return
         # the parts of one support size together: one vectorised triangulation each; the
         # references to grid vertices are then taken in the order of one call per block, per
@@ -1200,7 +1007,7 @@ class _Choices:
         e_key: list[np.ndarray] = []
         e_prob: list[np.ndarray] = []
         e_eta: list[np.ndarray] = []
-        for m, sel in _chunks(sizes):
+        for m, sel in chunks(sizes):
             at = starts[sel][:, None] + np.arange(m)[None, :]
             w = mass[sel]
             P = data[at] / w[:, None]
@@ -1208,7 +1015,7 @@ class _Choices:
             cols = col[at]
             keep = lam > 0
             if self.cap is not None:
-                eta, amb, dmax = _weight_errors(P, lam, rel[rows[sel]], N)
+                eta, amb, dmax = weight_errors(P, lam, rel[rows[sel]], N)
                 # only where the row loses nothing: a row that does is in no end component, and
                 # a leak there costs at most the expected number of steps times itself
                 todo = np.flatnonzero(amb & (lost[rows[sel]] == 0))
@@ -1243,13 +1050,13 @@ class _Choices:
                  rel: np.ndarray, keys: np.ndarray, N: int, keep: np.ndarray,
                  e_eta: list[np.ndarray], eta: np.ndarray, amb: np.ndarray,
                  dmax: np.ndarray) -> None:
-        """The exact weights' enclosure of triangulated parts (:func:`_weight_errors`): η per
+        """The exact weights' enclosure of triangulated parts (:func:`weight_errors`): η per
         kept vertex (inf in an ambiguous part), and per ambiguous part its leak
         Σ_s cap(s) |y*_s - x_s| and slack (how much its float weights may exceed its exact
         mass), x = Σ_k e_k u_k the float weights' combination:
         |y*_s - x_s| <= w ((rel + (m + 1) u) (P_s + 2Δ'/N) + 2Δ'/N), and
         Σ_k e_k - w* <= w (rel + (2m + 2) u)."""
-        u = _UNIT
+        u = UNIT
         m = P.shape[1]
         assert self.cap is not None
         i, k = np.nonzero(keep)
@@ -1264,8 +1071,8 @@ class _Choices:
         with np.errstate(invalid="ignore"):
             leak = np.where(per > 0, per * c, 0.0).sum(axis=1)
         self.a_key.append(keys[a].astype(np.int64))
-        self.a_leak.append(_up(w[a] * leak * (1.0 + 2.0 * (m + 2) * u)))
-        self.a_slack.append(_up(w[a] * (rel[a] + (2 * m + 2) * u) * 1.02))
+        self.a_leak.append(up(w[a] * leak * (1.0 + 2.0 * (m + 2) * u)))
+        self.a_slack.append(up(w[a] * (rel[a] + (2 * m + 2) * u) * 1.02))
 
 
 @dataclass(frozen=True, eq=False)
@@ -1294,14 +1101,14 @@ class CoarseBounds:
                cap: np.ndarray | None) -> np.ndarray:
         """float64[len(idx)]: for each belief (``p[j]`` on states ``idx[j]``) a proven bound on
         its optimum by convexity over the coarse grid's simplex around it: Σ λ_i W(u_i), made to
-        hold under floating point as in :func:`_dominate` (the weights scaled so that the
+        hold under floating point as in :func:`dominate` (the weights scaled so that the
         combination stays below the belief, and when maximising what it leaves uncovered added
         at ``cap`` per state; ``cap`` None: minimising). NaN where one of the simplex's vertices
         is not in the coarse abstraction."""
         out = np.full(len(idx), np.nan)
         sizes = np.asarray([i.size for i in idx], dtype=np.int64)
         N = self.resolution
-        for m, sel in _chunks(sizes):
+        for m, sel in chunks(sizes):
             P = np.stack([p[j] for j in sel.tolist()])
             cols = np.stack([idx[j] for j in sel.tolist()])
             counts, lam = freudenthal_batch(P, N)
@@ -1314,21 +1121,21 @@ class CoarseBounds:
             vals = np.where(used, self.values[np.maximum(vid, 0)], 0.0)
             total = (lam * vals).sum(axis=1)
             x = np.einsum("nk,nks->ns", lam, counts / N)
-            grow = _rounding(used.sum(axis=1) + 1)[:, None]
+            grow = rounding(used.sum(axis=1) + 1)[:, None]
             with np.errstate(divide="ignore", invalid="ignore"):
-                ratio = np.where(x > 0, P * (1.0 - 2.0 * _UNIT) / (x * (1.0 + grow)), np.inf)
-            kappa = np.clip(ratio.min(axis=1) * (1.0 - 4.0 * _UNIT), 0.0, 1.0)
+                ratio = np.where(x > 0, P * (1.0 - 2.0 * UNIT) / (x * (1.0 + grow)), np.inf)
+            kappa = np.clip(ratio.min(axis=1) * (1.0 - 4.0 * UNIT), 0.0, 1.0)
             g = grow[:, 0]
             if cap is None:
-                bound = np.maximum(0.0, kappa * total * (1.0 - g - 4.0 * _UNIT))
+                bound = np.maximum(0.0, kappa * total * (1.0 - g - 4.0 * UNIT))
             else:
                 c = cap[cols]
-                left = np.maximum(P - kappa[:, None] * x, 0.0) * (1.0 + 2.0 * _UNIT) \
+                left = np.maximum(P - kappa[:, None] * x, 0.0) * (1.0 + 2.0 * UNIT) \
                     + grow * (x + P)
                 extra = np.where(left > 0, left * np.where(np.isfinite(c), c, 0.0), 0.0).sum(
                     axis=1)
                 extra[((left > 0) & ~np.isfinite(c)).any(axis=1)] = np.inf
-                bound = _up(kappa * total * (1.0 + g) + extra * (1.0 + _rounding(m)))
+                bound = up(kappa * total * (1.0 + g) + extra * (1.0 + rounding(m)))
             out[sel[known]] = bound[known]
         return out
 
@@ -1590,7 +1397,7 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
     relative to (a reward summed from products of both signs: the largest |reward|)."""
     n_exp, V = E.shape
     eta = np.concatenate(ch.e_eta) if ch.e_eta else np.zeros(0)
-    hi = np.where(np.isfinite(eta), _up(ep * (1.0 + eta)), ep)
+    hi = np.where(np.isfinite(eta), up(ep * (1.0 + eta)), ep)
     coef = sp.csr_matrix((hi, (ech, ev)), shape=(n_exp, V))
     coef.sum_duplicates()
     amb_row = np.zeros(n_exp, dtype=bool)
@@ -1601,26 +1408,26 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
         amb_row[at] = True
         np.add.at(leak, at, np.concatenate(ch.a_leak))
         np.add.at(slack, at, np.concatenate(ch.a_slack))
-        leak, slack = _up(leak * (1.0 + 4.0 * _UNIT)), _up(slack * (1.0 + 4.0 * _UNIT))
+        leak, slack = up(leak * (1.0 + 4.0 * UNIT)), up(slack * (1.0 + 4.0 * UNIT))
     # a lower bound on the exact mass that does not continue (t* + sink*): the exact masses
     # sum to 1, each part's at most its enclosure (certified: coef; ambiguous: its float
     # weights plus slack), and t* <= t for a probability (whose t is counted apart)
     # the stop mass or reward (either sign) within 2 top_rel of its float (rounded already, and
     # the exact model's rows)
-    spread = 2.0 * top_rel + input_rel + 4.0 * _UNIT
+    spread = 2.0 * top_rel + input_rel + 4.0 * UNIT
     top_hi = top + top_mag * spread
     top_hi = np.where(top_hi != 0, np.nextafter(top_hi, np.inf), top_hi)
     k = np.diff(coef.indptr).astype(np.float64)
     covered = np.asarray(coef.sum(axis=1)).ravel() + slack
     if probability:
         covered = covered + np.maximum(top_hi, 0.0)
-    covered = covered * (1.0 + 2.0 * (k + 4.0) * _UNIT)
-    gone = np.where(lost > 0, np.maximum(0.0, (1.0 - covered) - 4.0 * _UNIT), 0.0)
+    covered = covered * (1.0 + 2.0 * (k + 4.0) * UNIT)
+    gone = np.where(lost > 0, np.maximum(0.0, (1.0 - covered) - 4.0 * UNIT), 0.0)
     # and a lower bound on the exact continuing mass (for a negative value per unit of it)
-    lost_hi = _up(lost * (1.0 + spread) * (1.0 + 4.0 * _UNIT))
+    lost_hi = up(lost * (1.0 + spread) * (1.0 + 4.0 * UNIT))
     kept_lo = np.where((lost > 0) | (slack > 0),
-                       np.maximum(0.0, (1.0 - (lost_hi + slack) * (1.0 + 4.0 * _UNIT))
-                                  - 4.0 * _UNIT), 1.0)
+                       np.maximum(0.0, (1.0 - (lost_hi + slack) * (1.0 + 4.0 * UNIT))
+                                  - 4.0 * UNIT), 1.0)
     n_cut = cut_ids.size
     state = np.r_[keys // ch.span, cut_ids].astype(np.int64)
     coef = sp.vstack([coef, sp.csr_matrix((n_cut, V))], format="csr")
@@ -1708,12 +1515,12 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
         cap = np.clip(np.where(finite, cap, 1.0), 0.0, 1.0)
     if not problem.maximize and n_exp:
         Y = sp.vstack(ch.successors, format="csr")[order]
-        E = _dominate(E, beliefs, Y, terms)
+        E = dominate(E, beliefs, Y, terms)
     kept = np.asarray(E.sum(axis=1)).ravel()
-    grow = 1.0 + _rounding(terms)
+    grow = 1.0 + rounding(terms)
     if prob:
         # the stop mass (a sum of nonnegative products) rounded to the optimistic side
-        t = _up(stop * grow) if problem.maximize else np.maximum(0.0, stop * (2.0 - grow))
+        t = up(stop * grow) if problem.maximize else np.maximum(0.0, stop * (2.0 - grow))
         sink = np.maximum(0.0, 1.0 - t - kept)
     else:
         # a reward's stop mass is worth nothing more: what the vertices leave reaches the target
@@ -1726,8 +1533,8 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     rew_mag = np.zeros(n_exp)
     rew_exp = np.zeros(n_exp)
     if not prob:
-        rew_mag = _reward_magnitude(rew, np.asarray(problem.rewards, dtype=np.float64))
-        rew_exp = _outward(rew, (grow - 1.0) * rew_mag, problem.maximize)
+        rew_mag = reward_magnitude(rew, np.asarray(problem.rewards, dtype=np.float64))
+        rew_exp = outward(rew, (grow - 1.0) * rew_mag, problem.maximize)
     Ec = E.tocoo()
     T_exp = sp.csr_matrix(
         (np.r_[Ec.data, t, sink],
@@ -1742,8 +1549,8 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     # (products of either sign: the rounding is relative to the sum of their magnitudes)
     u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
     u_mag = np.asarray(Bc @ np.where(finite, np.abs(cutoff), 0.0)).ravel()
-    slack = _rounding(np.diff(Bc.indptr))
-    u = _outward(u, _up(u_mag * slack * (1.0 + 4.0 * _UNIT)), problem.maximize)
+    slack = rounding(np.diff(Bc.indptr))
+    u = outward(u, up(u_mag * slack * (1.0 + 4.0 * UNIT)), problem.maximize)
     unbounded = np.asarray(Bc @ (~finite).astype(np.float64)).ravel() > 0
     n_cut = cut_ids.size
     if coarse is not None and n_cut:
@@ -1796,7 +1603,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     if problem.maximize:
         enclosure = _enclosure(
             ch, order, keys, E, ech, ev, ep, lost, t if prob else rew_exp,
-            t if prob else np.maximum(np.abs(rew_exp), rew_mag), _rounding(terms), cut_ids,
+            t if prob else np.maximum(np.abs(rew_exp), rew_mag), rounding(terms), cut_ids,
             u if prob else r_cut, np.zeros(n_cut, dtype=bool) if prob else unbounded,
             theirs[:V], prob, problem.discount, dyn.input_rel, _signed(problem))
     return GridAbstraction(model, beliefs, expanded, action, rewards, target,
@@ -1935,7 +1742,7 @@ class GridBound:
 def _proven_side(abstraction: GridAbstraction, result: EngineResult,
                  deadline: float | None = None) -> np.ndarray | None:
     """The bound side per vertex, proven for the exact belief MDP: a minimiser's lower values
-    (its rows are scaled below the exact ones, :func:`_dominate`); a maximiser's upper values
+    (its rows are scaled below the exact ones, :func:`dominate`); a maximiser's upper values
     raised until the exact operator's enclosure is below them
     (:func:`~posgmc.synthesis.grid_certificate.certified_upper`), None when that fails. A
     probability's bound is clipped to 1."""

@@ -1,7 +1,7 @@
-"""The belief-grid bound (posgmc.synthesis.belief_grid): Freudenthal's decomposition is a convex
-combination of grid beliefs; the abstraction's bound is on the optimistic side of every known
-POMDP optimum (hand-derived, Storm's completed belief unfolding) and of every strategy's proven
-value on random POMDPs, and equals the optimum where the reachable belief set is on the grid."""
+"""The belief-grid bound (posgmc.synthesis.belief_grid): the abstraction's bound is on the
+optimistic side of every known POMDP optimum (hand-derived, Storm's completed belief unfolding)
+and of every strategy's proven value on random POMDPs, and equals the optimum where the
+reachable belief set is on the grid."""
 
 from __future__ import annotations
 
@@ -39,41 +39,6 @@ def _problem(model, prop: str):  # type: ignore[no-untyped-def]
 def _built(path: Path | None = None, text: str | None = None, **constants: str):  # type: ignore[no-untyped-def]
     session = api.load(path, text=text, constants=constants or None)
     return api.build(session).model
-
-
-@settings(max_examples=200, deadline=None)
-@given(weights=st.lists(st.floats(0.001, 1.0), min_size=1, max_size=12),
-       resolution=st.sampled_from([1, 2, 3, 4, 7, 16, 64]))
-def test_freudenthal_is_a_convex_combination_of_grid_beliefs(weights: list[float],
-                                                             resolution: int) -> None:
-    p = np.asarray(weights) / np.sum(weights)
-    counts, lam = belief_grid.freudenthal(p, resolution)
-    assert counts.shape == (lam.size, p.size)
-    assert np.all(lam > 0) and abs(lam.sum() - 1.0) <= 1e-12
-    assert np.all(counts >= 0) and np.all(counts.sum(axis=1) == resolution)
-    assert np.abs(lam @ (counts / resolution) - p).max() <= 1e-9
-    assert lam.size <= p.size  # the vertices of one simplex of the triangulation
-
-
-@settings(max_examples=50, deadline=None)
-@given(rows=st.integers(1, 6), m=st.integers(1, 8), seed=st.integers(0, 1000),
-       resolution=st.sampled_from([1, 2, 5, 16]))
-def test_the_batch_triangulation_is_the_single_one(rows: int, m: int, seed: int,
-                                                   resolution: int) -> None:
-    P = np.random.default_rng(seed).random((rows, m)) + 0.01
-    P /= P.sum(axis=1, keepdims=True)
-    counts, lam = belief_grid.freudenthal_batch(P, resolution)
-    for i in range(rows):
-        one_counts, one_lam = belief_grid.freudenthal(P[i], resolution)
-        keep = lam[i] > 0
-        assert np.array_equal(counts[i][keep], one_counts)
-        assert np.array_equal(lam[i][keep], one_lam)
-
-
-def test_a_grid_belief_is_its_own_vertex() -> None:
-    counts, lam = belief_grid.freudenthal(np.array([0.25, 0.5, 0.25]), 4)
-    assert counts.tolist() == [[1, 2, 1]] and lam.tolist() == [1.0]
-
 
 
 @given(seed=st.integers(0, 10_000), n_parts=st.integers(1, 4), known=st.integers(0, 6))
@@ -772,18 +737,6 @@ def test_a_negative_reward_is_rounded_up_for_a_maximiser(resolution: int) -> Non
     pairs = _exact_choice_rewards(abstraction, problem)
     assert any(exact < 0 for _, exact in pairs)
     assert all(Fraction(got) >= exact for got, exact in pairs)
-
-
-def test_outward_rounding_moves_either_sign_toward_the_bound_side() -> None:
-    """v + err rounded up, v - err rounded down, for negative and positive v alike; a zero
-    error leaves v exact."""
-    v = np.array([-0.3, 0.3, -0.3, 0.0])
-    err = np.array([1e-17, 1e-17, 0.0, 0.0])
-    up = belief_grid._outward(v, err, True)
-    down = belief_grid._outward(v, err, False)
-    for x, e, u, d in zip(v.tolist(), err.tolist(), up.tolist(), down.tolist(), strict=True):
-        assert Fraction(d) <= Fraction(x) - Fraction(e) <= Fraction(x) + Fraction(e) <= Fraction(u)
-    assert up[2] == down[2] == -0.3 and up[3] == down[3] == 0.0
 
 
 def test_a_minimisers_rewards_of_both_signs_get_no_grid() -> None:
