@@ -55,9 +55,8 @@ from posgmc.engines.rewards import expected_reach_reward
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
-from posgmc.strategies.binding import player_view
 from posgmc.synthesis import belief, stage_lp
-from posgmc.synthesis.belief import can_reach
+from posgmc.synthesis.belief_dynamics import RULE_CAP, Dynamics, deterministic_picks
 from posgmc.synthesis.belief_rounding import (
     UNIT,
     chunks,
@@ -72,7 +71,6 @@ from posgmc.synthesis.belief_rounding import (
 from posgmc.synthesis.budget import interrupted
 from posgmc.synthesis.freudenthal import freudenthal, freudenthal_batch
 from posgmc.synthesis.grid_certificate import Enclosure, certified_upper
-from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
 from posgmc.synthesis.target_rules import TARGET_CAP, Targets, target_rules
 
@@ -89,10 +87,6 @@ RESOLUTIONS = tuple(2 ** i for i in range(1, 11))
 UNFOLD_SHARE = 0.25
 """The part of the vertex budget (and of the time) the belief unfolding may use before the
 grids: a finite reachable belief set within it gives the optimum itself."""
-
-RULE_CAP = 64
-"""The adversary's decision rules tried at one vertex at most (all of them when there are no
-more; else the full-observation optimum's rule and its one-state deviations)."""
 
 MAX_VERTICES = 400_000
 """Grid vertices explored at most in one abstraction (the time budget usually ends it first)."""
@@ -164,170 +158,6 @@ class GridAbstraction:
                                            discount=self.discount, maximize=mx, options=options)
         return expected_reach_reward(self.model, self.rewards, self.target, maximize=mx,
                                      options=options)
-
-
-class _Dynamics:
-    """The game per action of its decision maker (continuing transitions, stopping gain,
-    rewards), and the other states' choices (the adversary's, or a single one)."""
-
-    def __init__(self, problem: Problem, adversary_rules: np.ndarray | None) -> None:
-        model = problem.model
-        self.model = model
-        self.S = S = model.num_states
-        layout = Layout.of(model, problem.player)
-        view = player_view(model, problem.player)
-        self.mask = layout.mask
-        self.actions = layout.used_actions
-        self.owned = (model.state_players == problem.player) if model.player_names else \
-            np.ones(S, dtype=bool)
-        obs_index = np.full(view.num_observations, -1, dtype=np.int64)
-        obs_index[layout.used_obs] = np.arange(layout.used_obs.size)
-        self.Z = Z = layout.used_obs.size
-        # the group of each state: its observation index for the decision maker's states, Z for
-        # the others (a vertex's support lies in one group)
-        self.group = np.where(self.owned, obs_index[view.state_obs], Z)
-        self.preferred = adversary_rules  # int64[S]: a choice per state (the first rule tried)
-        # the rules of each support seen (many vertices share one support)
-        self._rules: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        self._touches: dict[int, frozenset[int]] = {}
-        if problem.rewards is None:
-            # mass that cannot reach the target any more (within ``remain``) is worth 0
-            self.cont = problem.remain & ~problem.target & can_reach(model, problem.target,
-                                                                      problem.remain)
-        else:
-            self.cont = ~problem.target
-        self.target = problem.target.astype(np.float64)
-        act_index = np.full(len(model.action_names), -1, dtype=np.int64)
-        act_index[layout.used_actions] = np.arange(layout.used_actions.size)
-        self.choice_states = cs = model.choice_states  # computed once (a property)
-        c_act = np.where(self.owned[cs], act_index[model.choice_actions], -1)
-        keep = sp.diags(self.cont.astype(np.float64))
-        self.P: list[sp.csr_matrix] = []
-        self.stop: list[np.ndarray] = []
-        self.reward: list[np.ndarray] = []
-        self.choice_of: list[np.ndarray] = []  # per action: each state's choice (-1: none)
-        # per action, the mass a state's choice sends to states that do not continue (the
-        # target, or no way to it): exactly 0 where the float is (sums of nonnegative products)
-        self.lost: list[np.ndarray] = []
-        gone = (~self.cont).astype(np.float64)
-        # the exact model is the stored one with every row scaled to sum to 1 (rows are checked
-        # to within 1e-9): how far a stored probability lies from it, relatively
-        sums = np.asarray(model.transitions.sum(axis=1)).ravel()
-        k = np.diff(model.transitions.indptr).astype(np.float64)
-        dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * UNIT, initial=0.0))
-        self.input_rel = 2.0 * dev / max(1.0 - dev, 0.5)
-        self.integer_rows: dict[int, tuple[tuple[tuple[int, int], ...], int]] = {}
-        for a in range(layout.used_actions.size):
-            c = np.flatnonzero(c_act == a)
-            at = np.full(S, -1, dtype=np.int64)
-            at[cs[c]] = c
-            self.choice_of.append(at)
-            T = model.transitions[c].tocoo()
-            Pa = sp.csr_matrix((T.data, (cs[c][T.row], T.col)), shape=(S, S))
-            self.stop.append(np.asarray(Pa @ self.target).ravel())
-            self.lost.append(np.asarray(Pa @ gone).ravel())
-            self.P.append(sp.csr_matrix(Pa @ keep))
-            r = np.zeros(S)
-            if problem.rewards is not None:
-                r[cs[c]] = problem.rewards[c]
-            self.reward.append(r)
-        self.T_cont = sp.csr_matrix(model.transitions @ keep)
-        self.T_lost = np.asarray(model.transitions @ gone).ravel()
-        # per choice: the reward of taking it (the adversary's rules pay theirs), and what the
-        # target is worth when reached (1 for a probability, 0 for a reward: nothing more)
-        self.choice_reward = np.zeros(model.num_choices) if problem.rewards is None else \
-            np.asarray(problem.rewards, dtype=np.float64)
-        self.stop_value = 1.0 if problem.rewards is None else 0.0
-        self.discount = float(problem.discount)
-        # a stop mass sums a belief's products with per-state stop masses, themselves sums over
-        # a transition row: the longest such row bounds the inner sum's length
-        self.row_terms = int(np.diff(model.transitions.indptr).max(initial=0)) + 3
-        self.T_stop = np.asarray(model.transitions @ self.target).ravel()
-
-    def integer_row(self, choice: int) -> tuple[tuple[tuple[int, int], ...], int]:
-        """The exact model's row of ``choice`` (its stored probabilities scaled to sum to 1) as
-        (column, integer numerator) pairs over one integer denominator (cached)."""
-        found = self.integer_rows.get(choice)
-        if found is None:
-            T = self.model.transitions
-            lo, hi = T.indptr[choice], T.indptr[choice + 1]
-            ratios = [float(p).as_integer_ratio() for p in T.data[lo:hi]]
-            den = max((d for _, d in ratios), default=1)  # powers of two: the largest is a
-            nums = [n * (den // d) for n, d in ratios]    # common multiple
-            found = self.integer_rows[choice] = (
-                tuple(zip(T.indices[lo:hi].tolist(), nums)), sum(nums))
-        return found
-
-    def touches(self, choice: int) -> frozenset[int]:
-        """The groups (:attr:`group`) of ``choice``'s continuing successors (cached)."""
-        found = self._touches.get(choice)
-        if found is None:
-            T = self.T_cont
-            found = self._touches[choice] = frozenset(
-                self.group[T.indices[T.indptr[choice]:T.indptr[choice + 1]]].tolist())
-        return found
-
-    def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The adversary's decision rules tried at a vertex on ``states``: (int64[m], the global
-        ids of the support's choices; float64[k, m], each rule's probability of each of them,
-        summing to 1 over each state's choices). Deterministic rules — all of them when there
-        are at most :data:`RULE_CAP`, else the preferred rule and its one-state deviations —
-        and the uniform mixture over each state's choices. Any rule, randomised or not, bounds
-        the optimum (the adversary restricted can only do worse, and a randomised rule hides its
-        choice from the decision maker). Computed once per support."""
-        key = states.tobytes()
-        found = self._rules.get(key)
-        if found is None:
-            found = self._rules[key] = self._rules_of(states)
-        return found
-
-    def _rules_of(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        rg = self.model.row_groups
-        lo, hi = rg[states], rg[states + 1]
-        n = hi - lo
-        cols = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())])
-        offset = np.r_[0, np.cumsum(n)[:-1]]
-        det = _deterministic_picks(n, self._base(states, lo, hi)[None])[0]
-        k = det.shape[0]
-        varying = n > 1
-        probs = np.zeros((k + (1 if varying.any() else 0), cols.size))
-        probs[np.repeat(np.arange(k), states.size), (det + offset).ravel()] = 1.0
-        if varying.any():
-            probs[k] = np.repeat(1.0 / n, n)
-        return cols, probs
-
-    def _base(self, states: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """The local index of each state's preferred choice (its first where none is given),
-        elementwise for ``states`` of any shape."""
-        if self.preferred is None:
-            return np.zeros(states.shape, dtype=np.int64)
-        pref = self.preferred[states]
-        out: np.ndarray = np.where((pref >= lo) & (pref < hi), pref - lo, 0)
-        return out
-
-
-def _deterministic_picks(n: np.ndarray, base: np.ndarray) -> np.ndarray:
-    """The adversary's deterministic rules (:meth:`_Dynamics.rules`) at vertices whose support
-    states offer ``n`` (int64[m]) choices each: int64[g, k, m], rule r's local choice per state
-    at each of the g vertices. All combinations when there are at most :data:`RULE_CAP` (the
-    same at every vertex, in lexicographic order over the states with a choice); else the
-    preferred rule ``base`` (int64[g, m], local indices) and its one-state deviations, state by
-    state, each state's other choices in their order, the first RULE_CAP in all."""
-    g, m = base.shape
-    varying = np.flatnonzero(n > 1)
-    if float(np.prod(n[varying].astype(np.float64))) <= RULE_CAP:
-        combos = list(itertools.product(*[range(int(n[i])) for i in varying.tolist()]))
-        picks = np.asarray(combos, dtype=np.int64).reshape(len(combos), varying.size)
-        det = np.zeros((picks.shape[0], m), dtype=np.int64)
-        det[:, varying] = picks
-        return np.broadcast_to(det, (g,) + det.shape).copy()
-    # deviation j sets state who[j] to its alt[j]-th choice other than the preferred one
-    who = np.repeat(varying, n[varying] - 1)[:RULE_CAP - 1]
-    alt = np.concatenate([np.arange(int(n[i]) - 1) for i in varying.tolist()])[:RULE_CAP - 1]
-    det = np.repeat(base[:, None, :], 1 + who.size, axis=1)
-    at = base[:, who]
-    det[:, 1 + np.arange(who.size), who] = alt + (alt >= at)
-    return det
 
 
 class _Grid:
@@ -629,9 +459,9 @@ def _row_entries(cols: list[int], stored: list[float], states: list[int], rule: 
                                              ratios)]
 
 
-def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, dict[int, int]]:
+def _exact_rows(source: _Source, rows: np.ndarray, dyn: Dynamics) -> dict[int, dict[int, int]]:
     """Each of ``rows``' (distinct) exact continuing vector y*_s = Σ_k B*_rk T*_k(s) on all its
-    successor states (the exact model's rows :meth:`_Dynamics.integer_row`, B*'s entries
+    successor states (the exact model's rows :meth:`Dynamics.integer_row`, B*'s entries
     :func:`_row_entries`), as integer numerators (state -> numerator, zeros left out) over
     one common denominator per row, a positive factor the triangulation ignores (the parts of
     one row share it). The rows' columns, choices, states, stored weights and rule
@@ -710,7 +540,7 @@ def _exact_posterior(y: dict[int, int], states: list[int]) -> tuple[tuple[int, .
 
 
 def _shared_parts(source: _Source, live: np.ndarray, rows: np.ndarray, starts: np.ndarray,
-                  sizes: np.ndarray, col: np.ndarray, vertex: np.ndarray, dyn: _Dynamics
+                  sizes: np.ndarray, col: np.ndarray, vertex: np.ndarray, dyn: Dynamics
                   ) -> tuple[list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None],
                              np.ndarray]:
     """The unfolding's parts whose exact posterior is computed from the few choices that reach
@@ -762,7 +592,7 @@ def _shared_parts(source: _Source, live: np.ndarray, rows: np.ndarray, starts: n
 
 
 def _part_posterior(reach: tuple[tuple[int, int], ...], belief: tuple[dict[int, int], int],
-                    states: list[int], dyn: _Dynamics) -> tuple[tuple[int, ...], int] | None:
+                    states: list[int], dyn: Dynamics) -> tuple[tuple[int, ...], int] | None:
     """:func:`_exact_posterior` of a part of a deterministic rule's row from the choices that
     reach it (:func:`_shared_parts`: (choice, its state) pairs) and the vertex's exact belief:
     Σ_c nums(s_c) (L / |T*_c|) T*_c, L the least common multiple of the |T*_c|."""
@@ -782,7 +612,7 @@ def _part_posterior(reach: tuple[tuple[int, int], ...], belief: tuple[dict[int, 
 def _unfolded_vertices(grid: _Grid, col: np.ndarray, post: np.ndarray, starts: np.ndarray,
                        sizes: np.ndarray, rows: np.ndarray, ys: dict[int, dict[int, int]],
                        sigs: list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None],
-                       beliefs: list[tuple[dict[int, int], int] | None], dyn: _Dynamics,
+                       beliefs: list[tuple[dict[int, int], int] | None], dyn: Dynamics,
                        origins: list[int] | None = None) -> tuple[list[int], list[int]]:
     """The unfolding's vertex of every part (part j on states ``col[a:a + k]``, int64, with
     float posterior ``post[a:a + k]``, a = ``starts[j]``, k = ``sizes[j]``, of row
@@ -837,7 +667,7 @@ def _unfolded_vertices(grid: _Grid, col: np.ndarray, post: np.ndarray, starts: n
 
 def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
                      lam: np.ndarray, eta: np.ndarray, amb: np.ndarray, rel: np.ndarray,
-                     source: _Source, dyn: _Dynamics, N: int) -> None:
+                     source: _Source, dyn: Dynamics, N: int) -> None:
     """Ambiguous parts (near a face of the triangulation: the float simplex may not hold the
     exact posterior) triangulated in exact rational arithmetic instead, in place: the exact
     continuing vector y*_s = Σ_k B_k T*_k(s) in integers (:func:`_exact_rows`,
@@ -920,7 +750,7 @@ class _Choices:
         self.on_grid = True  # every successor part so far is a vertex itself
 
     def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, lost: np.ndarray,
-            reward: np.ndarray, D: sp.csr_matrix, terms: np.ndarray, dyn: _Dynamics, grid: _Grid,
+            reward: np.ndarray, D: sp.csr_matrix, terms: np.ndarray, dyn: Dynamics, grid: _Grid,
             block: np.ndarray | None = None,
             source: _Source | None = None) -> None:
         """Choices ``keys`` whose continuing successor distributions are the rows of ``D``:
@@ -1187,7 +1017,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     """
     if not applies(problem):
         return None
-    dyn = _Dynamics(problem, adversary_rules)
+    dyn = Dynamics(problem, adversary_rules)
     s0 = int(problem.model.initial_states[0])
     if not dyn.cont[s0] or (dyn.owned[s0] and dyn.group[s0] < 0):
         return None
@@ -1248,12 +1078,12 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     return _assemble(problem, dyn, grid, expanded, resolution, cutoff, choices, coarse)
 
 
-def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choices: _Choices,
+def _adversary_choices(vertices: np.ndarray, dyn: Dynamics, grid: _Grid, choices: _Choices,
                        first_local: int, mixtures: Mixtures | None = None) -> None:
-    """The choices of the adversary's ``vertices`` (one per decision rule :meth:`_Dynamics.rules`
+    """The choices of the adversary's ``vertices`` (one per decision rule :meth:`Dynamics.rules`
     tries there, then the randomised rules ``mixtures`` offers there), added to ``choices``
     together: one block per vertex, the vertices in the given order and each one's rules in the
-    order of :meth:`_Dynamics.rules`.
+    order of :meth:`Dynamics.rules`.
 
     Vertices whose support states offer the same numbers of choices share the structure of their
     rules, so the entries are laid out for each such group at once (:func:`_rule_entries`);
@@ -1440,9 +1270,9 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
         adversary=adversary, probability=probability, discount=discount, signed=signed)
 
 
-def _rule_entries(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
+def _rule_entries(dyn: Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
                   ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The rules of :meth:`_Dynamics.rules` at g vertices whose supports ``states`` (int64[g, m])
+    """The rules of :meth:`Dynamics.rules` at g vertices whose supports ``states`` (int64[g, m])
     offer ``n`` (int64[m]) choices per state, with belief masses ``mass`` (float64[g, m]), as
     entries: the number of rules k per vertex, then per entry (vertex by vertex, rule by rule,
     each rule's choices in their order) its vertex (0..g-1), its rule, its global choice and its
@@ -1451,14 +1281,14 @@ def _rule_entries(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.nd
     return k, vi, r, col, prob * p_s
 
 
-def _rule_layout(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
+def _rule_layout(dyn: Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
                  ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_rule_entries` with each entry's weight as its two factors: the rule's
     probability of the choice and the belief mass of the choice's state."""
     rg = dyn.model.row_groups
     g, m = states.shape
     lo = rg[states]
-    det = _deterministic_picks(n, dyn._base(states, lo, rg[states + 1]))  # [g, k, m]
+    det = deterministic_picks(n, dyn._base(states, lo, rg[states + 1]))  # [g, k, m]
     k_det = det.shape[1]
     varying = bool((n > 1).any())
     k = k_det + (1 if varying else 0)
@@ -1483,7 +1313,7 @@ def _rule_layout(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.nda
     return k, vi, r, col[keep], prob[keep], w[keep]
 
 
-def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarray,
+def _assemble(problem: Problem, dyn: Dynamics, grid: _Grid, expanded: np.ndarray,
               resolution: int, cutoff: np.ndarray, ch: _Choices,
               coarse: CoarseBounds | None) -> GridAbstraction:
     """The abstraction: expanded vertices with their choices, cut-off vertices with one choice
@@ -1613,7 +1443,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
 
 class Mixtures:
     """Randomised decision rules of the adversary per belief (mutable while refining): each a
-    probability per choice of the belief's support states, in the order of ``_Dynamics.rules``.
+    probability per choice of the belief's support states, in the order of ``Dynamics.rules``.
     Keyed by the belief itself (support and counts reduced by their common divisor with N), so
     the rules carry over to finer grids, which nest."""
 
@@ -1653,7 +1483,7 @@ def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.nd
     (:func:`_grid_rules`: nothing leaks to the decision maker through a decomposition, where
     both estimates are flat). In breadth-first order until ``deadline`` or ``limit``
     vertices. Returns how many new rules were added and at how many vertices LPs were solved."""
-    dyn = _Dynamics(problem, None)
+    dyn = Dynamics(problem, None)
     V = abstraction.vertices
     data = stage_lp.StageData.of(dyn.T_cont, dyn.T_stop, abstraction.beliefs,
                                  np.asarray(values, dtype=np.float64)[:V], cutoff,
@@ -1692,7 +1522,7 @@ GRID_TARGETS = 8
 """Combinations of target vertices tried for one adversary vertex's grid rules at most."""
 
 
-def _grid_rules(dyn: _Dynamics, cols: np.ndarray, owner: np.ndarray, p: np.ndarray,
+def _grid_rules(dyn: Dynamics, cols: np.ndarray, owner: np.ndarray, p: np.ndarray,
                 resolution: int) -> list[np.ndarray | None]:
     """Randomised rules at an adversary vertex (belief ``p`` over the states owning ``cols``)
     whose posterior is a grid vertex in every observation group of the successors

@@ -21,7 +21,7 @@ from posgmc.engines.options import SolverOptions
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
-from posgmc.synthesis import belief, belief_grid, grid_certificate
+from posgmc.synthesis import belief, belief_dynamics, belief_grid, grid_certificate
 from posgmc.synthesis.search import parametrisation, problem_of
 from tests.random_games import random_pomdp, random_signed_pomdp
 from tests.synthesis.helpers import BLIND, GUESS, SIGNED
@@ -390,7 +390,7 @@ def _check_enclosure(model, prop: str, resolution: int) -> None:  # type: ignore
                        np.rint(B.data[B.indptr[v]:B.indptr[v + 1]] * N).astype(int).tolist()))
               for v in range(V)]
     vertex_of = {tuple(sorted(c.items())): v for v, c in enumerate(counts)}
-    dyn = belief_grid._Dynamics(problem, None)
+    dyn = belief_dynamics.Dynamics(problem, None)
     if problem.rewards is None:
         cap = np.clip(np.where(np.isfinite(cutoff), cutoff, 1.0), 0.0, 1.0)
     else:
@@ -500,7 +500,7 @@ DODGE = ROOT / "tests" / "data" / "benchmarks" / "posmg" / "dodge-6-lines" / "sk
 @given(seed=st.integers(0, 2 ** 32 - 1), preferred=st.booleans())
 def test_the_batched_rules_are_each_vertexs_rules(seed: int, preferred: bool) -> None:
     """The adversary's rules laid out for a group of vertices at once (_rule_entries) are, vertex
-    by vertex, the rules _Dynamics.rules gives for that vertex alone (weighted by the belief),
+    by vertex, the rules Dynamics.rules gives for that vertex alone (weighted by the belief),
     in the same order: all deterministic rules where there are at most RULE_CAP (supports of
     up to three 4-choice states of PAYNT's dodge-6-lines), the preferred rule and its one-state
     deviations beyond (four states or more: 256 combinations), then the uniform mixture."""
@@ -515,7 +515,7 @@ def test_the_batched_rules_are_each_vertexs_rules(seed: int, preferred: bool) ->
     rules = None
     if preferred:  # a random choice of each state, sometimes outside the state (ignored then)
         rules = rng.integers(0, model.num_choices, model.num_states)
-    dyn = belief_grid._Dynamics(problem, rules)
+    dyn = belief_dynamics.Dynamics(problem, rules)
     theirs = np.flatnonzero(~dyn.owned)
     per_state = np.diff(rg)
     for m in (1, 2, 3, 4, 5):
@@ -561,7 +561,7 @@ def _reference_rules(states: np.ndarray, rg: np.ndarray, preferred: np.ndarray |
     for i in varying:
         combos *= n[i]
     det: list[list[int]] = []
-    if combos <= belief_grid.RULE_CAP:
+    if combos <= belief_dynamics.RULE_CAP:
         for pick in itertools.product(*[range(n[i]) for i in varying]):
             rule = [0] * len(n)
             for i, c in zip(varying, pick):
@@ -575,7 +575,7 @@ def _reference_rules(states: np.ndarray, rg: np.ndarray, preferred: np.ndarray |
         det.append(base)
         for i in varying:
             for c in range(n[i]):
-                if c != base[i] and len(det) < belief_grid.RULE_CAP:
+                if c != base[i] and len(det) < belief_dynamics.RULE_CAP:
                     det.append(base[:i] + [c] + base[i + 1:])
     out = np.zeros((len(det) + (1 if varying else 0), sum(n)))
     for r, rule in enumerate(det):
@@ -664,7 +664,7 @@ def test_the_exact_rows_are_the_rational_successor_vectors(seed: int,
     rule), and as a deterministic adversary rule's masses (rule 1 everywhere, mass = B)."""
     model = random_pomdp(seed)
     problem = _problem(model, 'Pmax=? [ F "goal" ]')
-    dyn = belief_grid._Dynamics(problem, None)
+    dyn = belief_dynamics.Dynamics(problem, None)
     rng = np.random.default_rng(seed)
     choice_of = dyn.choice_of[0]
     live = np.flatnonzero(choice_of >= 0)
