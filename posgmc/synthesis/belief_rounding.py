@@ -77,7 +77,7 @@ def entry_rounding(terms: np.ndarray, input_rel: float) -> np.ndarray:
     stop mass, or a reward) of the exact model lies from its float: the float sum's own
     rounding (:func:`rounding`, doubled for the adversary's rules: a product more, and the
     exact rule's distance to the stored one,
-    :func:`~posgmc.synthesis.belief_grid._rational_rule`), the stored rows' distance to the exact
+    :func:`~posgmc.synthesis.belief_exact._rational_rule`), the stored rows' distance to the exact
     ones (``input_rel``), and the vertex belief's (counts/N is exact for N a power of two, one
     rounding otherwise)."""
     return 2.0 * rounding(terms) + input_rel + 2.0 * UNIT
