@@ -16,29 +16,28 @@ least fixed point). Grid vertices not expanded (the exploration budget ended) ar
 they get the full-observation bound Σ_s v(s) U(s), which holds for every belief (an agent that
 sees the state does at least as well).
 
-The grid is Freudenthal's triangulation at resolution N, taken on each belief's support (states
-in their index order): in the coordinates x_i = N Σ_{j>=i} b_j the belief lies in the simplex
-whose vertices are ⌊x⌋ plus the unit vectors added in the order of decreasing fractional part;
-a vertex is an integer vector, so vertices are identified exactly (no float hashing). Any
-decomposition into beliefs would be sound (only convexity is used); this one keeps the number of
-distinct vertices small and nests for N, 2N, 4N, ...
+The grid is Freudenthal's triangulation at resolution N, taken on each belief's support
+(:mod:`posgmc.synthesis.freudenthal`): a vertex is an integer vector, so vertices are identified
+exactly (no float hashing), and the grids nest for N, 2N, 4N, ...
 
 The abstraction is an ordinary :class:`~posgmc.model.explicit.ExplicitModel` (an MDP: one state
 per vertex, then a target and a sink), so it is checked with the same sound engines as any model
 (interval iteration, end components handled) and the bound side of their result is the reported
 bound. Its transition probabilities are computed in float64 (posterior beliefs, the weights λ).
-A minimiser's choices are scaled below the exact belief successors (:func:`_dominate`), and stop
-masses, rewards and cut-off values are rounded to the optimistic side (outward for either sign;
-a minimiser whose rewards take both signs gets no grid, :func:`applies`). A maximiser's rows cannot
-dominate the exact ones one by one in a cycle of beliefs (docs/synthesis.md, "Floating point"):
-its abstraction carries an enclosure of the exact rows (certified weights, parts near a face
-triangulated in exact arithmetic, :func:`_resolve_exactly`), and the engine's upper values are
-proven for the exact belief MDP by :func:`~posgmc.synthesis.grid_certificate.certified_upper`.
+A minimiser's choices are scaled below the exact belief successors, and stop masses, rewards and
+cut-off values are rounded to the optimistic side (outward for either sign; a minimiser whose
+rewards take both signs gets no grid, :func:`applies`), by the bounds of
+:mod:`posgmc.synthesis.belief_rounding`. A maximiser's rows cannot dominate the exact ones one by
+one in a cycle of beliefs (docs/synthesis.md, "Floating point"): its abstraction carries an
+enclosure of the exact rows (certified weights, parts near a face triangulated in exact
+arithmetic, :mod:`posgmc.synthesis.belief_exact`), and the engine's upper values are proven for
+the exact belief MDP by :func:`~posgmc.synthesis.grid_certificate.certified_upper`. The game per
+action of the decision maker and the adversary's rules tried at a vertex are
+:mod:`posgmc.synthesis.belief_dynamics`'.
 """
 
 from __future__ import annotations
 
-import functools
 import itertools
 import math
 import time
@@ -57,12 +56,30 @@ from posgmc.engines.rewards import expected_reach_reward
 from posgmc.errors import UnsupportedError
 from posgmc.model.explicit import ExplicitModel, make_model
 from posgmc.model.types import ModelType
-from posgmc.strategies.binding import player_view
 from posgmc.synthesis import belief, stage_lp
-from posgmc.synthesis.belief import can_reach
+from posgmc.synthesis.belief_dynamics import RULE_CAP, Dynamics, deterministic_picks
+from posgmc.synthesis.belief_exact import (
+    Source,
+    exact_posterior,
+    exact_rows,
+    part_posterior,
+    resolve_exactly,
+    shared_parts,
+)
+from posgmc.synthesis.belief_rounding import (
+    UNIT,
+    chunks,
+    dominate,
+    entry_rounding,
+    outward,
+    reward_magnitude,
+    rounding,
+    up,
+    weight_errors,
+)
 from posgmc.synthesis.budget import interrupted
+from posgmc.synthesis.freudenthal import freudenthal, freudenthal_batch
 from posgmc.synthesis.grid_certificate import Enclosure, certified_upper
-from posgmc.synthesis.parametric import Layout
 from posgmc.synthesis.problem import Problem
 from posgmc.synthesis.target_rules import TARGET_CAP, Targets, target_rules
 
@@ -79,10 +96,6 @@ RESOLUTIONS = tuple(2 ** i for i in range(1, 11))
 UNFOLD_SHARE = 0.25
 """The part of the vertex budget (and of the time) the belief unfolding may use before the
 grids: a finite reachable belief set within it gives the optimum itself."""
-
-RULE_CAP = 64
-"""The adversary's decision rules tried at one vertex at most (all of them when there are no
-more; else the full-observation optimum's rule and its one-state deviations)."""
 
 MAX_VERTICES = 400_000
 """Grid vertices explored at most in one abstraction (the time budget usually ends it first)."""
@@ -104,71 +117,6 @@ the rounds stop earlier when the bound no longer moves."""
 
 _BATCH = 512
 """Vertices expanded between two looks at the clock."""
-
-_SNAP = 1e-12
-"""Cumulative coordinates within this (relative to N) of an integer are that integer: float
-noise in a posterior (~1e-15 relative) must not split a grid belief into a tiny simplex around
-it; kept small because the snap moves the decomposition off the posterior by as much."""
-
-
-def freudenthal(p: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
-    """The vertices and weights of ``p`` (float64[m], a distribution, all entries > 0) in
-    Freudenthal's triangulation of resolution N: (int64[k, m] counts, each row summing to N, so
-    that vertex i is counts[i] / N; float64[k] weights λ > 0 summing to 1) with
-    Σ_i λ_i counts[i] / N = p (up to rounding)."""
-    m = p.size
-    N = int(resolution)
-    if m == 1:
-        return np.full((1, 1), N, dtype=np.int64), np.ones(1)
-    x = N * np.cumsum(p[::-1])[::-1]
-    x[0] = N
-    near = np.rint(x)
-    x = np.where(np.abs(x - near) <= _SNAP * N, near, x)
-    v = np.floor(x)
-    d = x - v
-    order = 1 + np.argsort(-d[1:], kind="stable")
-    dd = d[order]
-    lam = np.empty(m)
-    lam[0] = 1.0 - dd[0]
-    lam[1:m - 1] = dd[:-1] - dd[1:]
-    lam[m - 1] = dd[-1]
-    Y = np.tile(v, (m, 1))
-    Y[:, order] += np.tri(m, m - 1, k=-1)
-    counts = np.empty((m, m), dtype=np.int64)
-    counts[:, :-1] = (Y[:, :-1] - Y[:, 1:]).astype(np.int64)
-    counts[:, -1] = Y[:, -1].astype(np.int64)
-    keep = lam > 0
-    return counts[keep], lam[keep]
-
-
-def freudenthal_batch(P: np.ndarray, resolution: int) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`freudenthal` of every row of ``P`` (float64[n, m], distributions with all entries
-    > 0) at once: (int64[n, m, m] counts, float64[n, m] weights; a vertex of weight 0 is not
-    part of the decomposition)."""
-    n, m = P.shape
-    N = int(resolution)
-    if m == 1:
-        return np.full((n, 1, 1), N, dtype=np.int64), np.ones((n, 1))
-    x = N * np.cumsum(P[:, ::-1], axis=1)[:, ::-1]
-    x[:, 0] = N
-    near = np.rint(x)
-    x = np.where(np.abs(x - near) <= _SNAP * N, near, x)
-    v = np.floor(x)
-    d = x - v
-    order = 1 + np.argsort(-d[:, 1:], axis=1, kind="stable")
-    dd = np.take_along_axis(d, order, axis=1)
-    lam = np.empty((n, m))
-    lam[:, 0] = 1.0 - dd[:, 0]
-    lam[:, 1:m - 1] = dd[:, :-1] - dd[:, 1:]
-    lam[:, m - 1] = dd[:, -1]
-    Y = np.repeat(v[:, None, :], m, axis=1)  # [n, vertex, coordinate]
-    steps = np.tri(m, m - 1, k=-1)  # vertex k adds the first k unit vectors of the order
-    rows = np.arange(n)[:, None, None]
-    Y[rows, np.arange(m)[None, :, None], order[:, None, :]] += steps[None]
-    counts = np.empty((n, m, m), dtype=np.int64)
-    counts[:, :, :-1] = (Y[:, :, :-1] - Y[:, :, 1:]).astype(np.int64)
-    counts[:, :, -1] = Y[:, :, -1].astype(np.int64)
-    return counts, lam
 
 
 @dataclass(frozen=True, eq=False)
@@ -219,170 +167,6 @@ class GridAbstraction:
                                            discount=self.discount, maximize=mx, options=options)
         return expected_reach_reward(self.model, self.rewards, self.target, maximize=mx,
                                      options=options)
-
-
-class _Dynamics:
-    """The game per action of its decision maker (continuing transitions, stopping gain,
-    rewards), and the other states' choices (the adversary's, or a single one)."""
-
-    def __init__(self, problem: Problem, adversary_rules: np.ndarray | None) -> None:
-        model = problem.model
-        self.model = model
-        self.S = S = model.num_states
-        layout = Layout.of(model, problem.player)
-        view = player_view(model, problem.player)
-        self.mask = layout.mask
-        self.actions = layout.used_actions
-        self.owned = (model.state_players == problem.player) if model.player_names else \
-            np.ones(S, dtype=bool)
-        obs_index = np.full(view.num_observations, -1, dtype=np.int64)
-        obs_index[layout.used_obs] = np.arange(layout.used_obs.size)
-        self.Z = Z = layout.used_obs.size
-        # the group of each state: its observation index for the decision maker's states, Z for
-        # the others (a vertex's support lies in one group)
-        self.group = np.where(self.owned, obs_index[view.state_obs], Z)
-        self.preferred = adversary_rules  # int64[S]: a choice per state (the first rule tried)
-        # the rules of each support seen (many vertices share one support)
-        self._rules: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        self._touches: dict[int, frozenset[int]] = {}
-        if problem.rewards is None:
-            # mass that cannot reach the target any more (within ``remain``) is worth 0
-            self.cont = problem.remain & ~problem.target & can_reach(model, problem.target,
-                                                                      problem.remain)
-        else:
-            self.cont = ~problem.target
-        self.target = problem.target.astype(np.float64)
-        act_index = np.full(len(model.action_names), -1, dtype=np.int64)
-        act_index[layout.used_actions] = np.arange(layout.used_actions.size)
-        self.choice_states = cs = model.choice_states  # computed once (a property)
-        c_act = np.where(self.owned[cs], act_index[model.choice_actions], -1)
-        keep = sp.diags(self.cont.astype(np.float64))
-        self.P: list[sp.csr_matrix] = []
-        self.stop: list[np.ndarray] = []
-        self.reward: list[np.ndarray] = []
-        self.choice_of: list[np.ndarray] = []  # per action: each state's choice (-1: none)
-        # per action, the mass a state's choice sends to states that do not continue (the
-        # target, or no way to it): exactly 0 where the float is (sums of nonnegative products)
-        self.lost: list[np.ndarray] = []
-        gone = (~self.cont).astype(np.float64)
-        # the exact model is the stored one with every row scaled to sum to 1 (rows are checked
-        # to within 1e-9): how far a stored probability lies from it, relatively
-        sums = np.asarray(model.transitions.sum(axis=1)).ravel()
-        k = np.diff(model.transitions.indptr).astype(np.float64)
-        dev = float(np.max(np.abs(sums - 1.0) + 4.0 * (k + 2.0) * _UNIT, initial=0.0))
-        self.input_rel = 2.0 * dev / max(1.0 - dev, 0.5)
-        self.integer_rows: dict[int, tuple[tuple[tuple[int, int], ...], int]] = {}
-        for a in range(layout.used_actions.size):
-            c = np.flatnonzero(c_act == a)
-            at = np.full(S, -1, dtype=np.int64)
-            at[cs[c]] = c
-            self.choice_of.append(at)
-            T = model.transitions[c].tocoo()
-            Pa = sp.csr_matrix((T.data, (cs[c][T.row], T.col)), shape=(S, S))
-            self.stop.append(np.asarray(Pa @ self.target).ravel())
-            self.lost.append(np.asarray(Pa @ gone).ravel())
-            self.P.append(sp.csr_matrix(Pa @ keep))
-            r = np.zeros(S)
-            if problem.rewards is not None:
-                r[cs[c]] = problem.rewards[c]
-            self.reward.append(r)
-        self.T_cont = sp.csr_matrix(model.transitions @ keep)
-        self.T_lost = np.asarray(model.transitions @ gone).ravel()
-        # per choice: the reward of taking it (the adversary's rules pay theirs), and what the
-        # target is worth when reached (1 for a probability, 0 for a reward: nothing more)
-        self.choice_reward = np.zeros(model.num_choices) if problem.rewards is None else \
-            np.asarray(problem.rewards, dtype=np.float64)
-        self.stop_value = 1.0 if problem.rewards is None else 0.0
-        self.discount = float(problem.discount)
-        # a stop mass sums a belief's products with per-state stop masses, themselves sums over
-        # a transition row: the longest such row bounds the inner sum's length
-        self.row_terms = int(np.diff(model.transitions.indptr).max(initial=0)) + 3
-        self.T_stop = np.asarray(model.transitions @ self.target).ravel()
-
-    def integer_row(self, choice: int) -> tuple[tuple[tuple[int, int], ...], int]:
-        """The exact model's row of ``choice`` (its stored probabilities scaled to sum to 1) as
-        (column, integer numerator) pairs over one integer denominator (cached)."""
-        found = self.integer_rows.get(choice)
-        if found is None:
-            T = self.model.transitions
-            lo, hi = T.indptr[choice], T.indptr[choice + 1]
-            ratios = [float(p).as_integer_ratio() for p in T.data[lo:hi]]
-            den = max((d for _, d in ratios), default=1)  # powers of two: the largest is a
-            nums = [n * (den // d) for n, d in ratios]    # common multiple
-            found = self.integer_rows[choice] = (
-                tuple(zip(T.indices[lo:hi].tolist(), nums)), sum(nums))
-        return found
-
-    def touches(self, choice: int) -> frozenset[int]:
-        """The groups (:attr:`group`) of ``choice``'s continuing successors (cached)."""
-        found = self._touches.get(choice)
-        if found is None:
-            T = self.T_cont
-            found = self._touches[choice] = frozenset(
-                self.group[T.indices[T.indptr[choice]:T.indptr[choice + 1]]].tolist())
-        return found
-
-    def rules(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The adversary's decision rules tried at a vertex on ``states``: (int64[m], the global
-        ids of the support's choices; float64[k, m], each rule's probability of each of them,
-        summing to 1 over each state's choices). Deterministic rules — all of them when there
-        are at most :data:`RULE_CAP`, else the preferred rule and its one-state deviations —
-        and the uniform mixture over each state's choices. Any rule, randomised or not, bounds
-        the optimum (the adversary restricted can only do worse, and a randomised rule hides its
-        choice from the decision maker). Computed once per support."""
-        key = states.tobytes()
-        found = self._rules.get(key)
-        if found is None:
-            found = self._rules[key] = self._rules_of(states)
-        return found
-
-    def _rules_of(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        rg = self.model.row_groups
-        lo, hi = rg[states], rg[states + 1]
-        n = hi - lo
-        cols = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())])
-        offset = np.r_[0, np.cumsum(n)[:-1]]
-        det = _deterministic_picks(n, self._base(states, lo, hi)[None])[0]
-        k = det.shape[0]
-        varying = n > 1
-        probs = np.zeros((k + (1 if varying.any() else 0), cols.size))
-        probs[np.repeat(np.arange(k), states.size), (det + offset).ravel()] = 1.0
-        if varying.any():
-            probs[k] = np.repeat(1.0 / n, n)
-        return cols, probs
-
-    def _base(self, states: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """The local index of each state's preferred choice (its first where none is given),
-        elementwise for ``states`` of any shape."""
-        if self.preferred is None:
-            return np.zeros(states.shape, dtype=np.int64)
-        pref = self.preferred[states]
-        out: np.ndarray = np.where((pref >= lo) & (pref < hi), pref - lo, 0)
-        return out
-
-
-def _deterministic_picks(n: np.ndarray, base: np.ndarray) -> np.ndarray:
-    """The adversary's deterministic rules (:meth:`_Dynamics.rules`) at vertices whose support
-    states offer ``n`` (int64[m]) choices each: int64[g, k, m], rule r's local choice per state
-    at each of the g vertices. All combinations when there are at most :data:`RULE_CAP` (the
-    same at every vertex, in lexicographic order over the states with a choice); else the
-    preferred rule ``base`` (int64[g, m], local indices) and its one-state deviations, state by
-    state, each state's other choices in their order, the first RULE_CAP in all."""
-    g, m = base.shape
-    varying = np.flatnonzero(n > 1)
-    if float(np.prod(n[varying].astype(np.float64))) <= RULE_CAP:
-        combos = list(itertools.product(*[range(int(n[i])) for i in varying.tolist()]))
-        picks = np.asarray(combos, dtype=np.int64).reshape(len(combos), varying.size)
-        det = np.zeros((picks.shape[0], m), dtype=np.int64)
-        det[:, varying] = picks
-        return np.broadcast_to(det, (g,) + det.shape).copy()
-    # deviation j sets state who[j] to its alt[j]-th choice other than the preferred one
-    who = np.repeat(varying, n[varying] - 1)[:RULE_CAP - 1]
-    alt = np.concatenate([np.arange(int(n[i]) - 1) for i in varying.tolist()])[:RULE_CAP - 1]
-    det = np.repeat(base[:, None, :], 1 + who.size, axis=1)
-    at = base[:, who]
-    det[:, 1 + np.arange(who.size), who] = alt + (alt >= at)
-    return det
 
 
 class _Grid:
@@ -581,7 +365,7 @@ def applies(problem: Problem) -> bool:
     against one omniscient adversary (any objective here: a probability, an expected reward until
     a target, a discounted cost), except a minimiser's rewards of both signs (its rows are
     scaled below the exact ones and the mass given up is priced at 0, which bounds V* from below
-    only where V* >= 0: :func:`_dominate`)."""
+    only where V* >= 0: :func:`~posgmc.synthesis.belief_rounding.dominate`)."""
     if problem.model.initial_states.size != 1:
         return False
     if not problem.maximize and _signed(problem):
@@ -591,398 +375,17 @@ def applies(problem: Problem) -> bool:
     return problem.adversary is not None and len(problem.model.player_names) == 2
 
 
-_BATCH_ELEMENTS = 2_000_000
-"""A vectorised triangulation lays out parts × m × m counts; kept below this many."""
-
-
-def _chunks(sizes: np.ndarray) -> list[tuple[int, np.ndarray]]:
-    """(support size m, indices of the parts of that size) in chunks of at most
-    :data:`_BATCH_ELEMENTS` counts."""
-    out: list[tuple[int, np.ndarray]] = []
-    for m in np.unique(sizes).tolist():
-        sel = np.flatnonzero(sizes == m)
-        step = max(1, _BATCH_ELEMENTS // (m * m))
-        out.extend((m, sel[i:i + step]) for i in range(0, sel.size, step))
-    return out
-
-
-_UNIT = 2.0 ** -53
-"""float64's unit roundoff u: an operation's result is the exact one times (1 + e), |e| <= u."""
-
-
-def _rounding(terms: np.ndarray | int) -> np.ndarray:
-    """A bound, relative to the computed value, on the rounding error of a float64 sum of at
-    most ``terms`` products of nonnegative rounded numbers: 2 (k + 2) u, twice the classic
-    γ_{k+2} = (k + 2) u / (1 - (k + 2) u) (Higham, "Accuracy and Stability of Numerical
-    Algorithms", §3.1; with nonnegative terms the error is relative to the sum itself)."""
-    return 2.0 * (np.asarray(terms, dtype=np.float64) + 2.0) * _UNIT
-
-
-def _up(v: np.ndarray) -> np.ndarray:
-    """``v`` rounded up to the next float, zeros kept (a zero is exact: a structural zero
-    must not become an edge)."""
-    return np.where(v > 0, np.nextafter(v, np.inf), v)
-
-
-def _outward(v: np.ndarray, err: np.ndarray, up: bool) -> np.ndarray:
-    """``v + err`` rounded up (``up``) or ``v - err`` rounded down, for values of either sign
-    (``err`` >= 0); exact where ``err`` is 0 (a structural zero stays one)."""
-    moved = v + err if up else v - err
-    out: np.ndarray = np.where(err > 0, np.nextafter(moved, np.inf if up else -np.inf), moved)
-    return out
-
-
-def _reward_magnitude(rew: np.ndarray, rewards: np.ndarray) -> np.ndarray:
-    """What the rounding of a belief's reward (a float sum of belief mass times reward) is
-    relative to: the computed sum's magnitude when the model's rewards have one sign (the
-    products then share it), else the largest |reward| (the products' magnitudes sum to at
-    most that, the masses summing to at most one, rounding aside)."""
-    mag = np.abs(rew)
-    if rewards.size and bool((rewards < 0).any()) and bool((rewards > 0).any()):
-        mag = np.maximum(mag, _up(np.asarray(float(np.max(np.abs(rewards))) * (1.0 + 4.0 * _UNIT))))
-    return np.asarray(mag, dtype=np.float64)
-
-
-def _entry_rounding(terms: np.ndarray, input_rel: float) -> np.ndarray:
-    """A bound, relative to the computed value, on how far a continuing successor entry (or a
-    stop mass, or a reward) of the exact model lies from its float: the float sum's own
-    rounding (:func:`_rounding`, doubled for the adversary's rules: a product more, and the
-    exact rule's distance to the stored one, :func:`_rational_rule`), the
-    stored rows' distance to the exact ones (``input_rel``), and the vertex belief's (counts/N
-    is exact for N a power of two, one rounding otherwise)."""
-    return 2.0 * _rounding(terms) + input_rel + 2.0 * _UNIT
-
-
-def _weight_errors(P: np.ndarray, lam: np.ndarray, rel: np.ndarray, resolution: int
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """How far the exact decomposition of each part may lie from the float one.
-
-    ``P``: float64[n, m], the parts' float posteriors (as triangulated by
-    :func:`freudenthal_batch`, weights ``lam``); ``rel``: float64[n], the relative bound on each
-    part's continuing entries (:func:`_entry_rounding`). The exact posterior's cumulative
-    coordinates x*_i = N Σ_{j>=i} y*_j / Σ_j y*_j lie within Δ_i = N (3 rel + 4 (m + 4) u) of
-    the float ones (a ratio of sums of nonnegative terms, each within ``rel``, and the float
-    division and cumulative sum), plus the snap's displacement; the barycentric weight of each
-    vertex of the float simplex is a difference of two sorted fractional parts (one rounding), so
-    the exact weights in that simplex are within ε = 2 max Δ + 2u of ``lam``.
-
-    Returns:
-        (float64[n, m] η, bool[n] ambiguous, float64[n] Δ'): where every weight exceeds ε the
-        exact posterior lies in the float simplex with the same vertices and each exact vertex
-        weight e* = w* λ* is at most (1 + η) times the float one (w* the exact part mass);
-        elsewhere the part is *ambiguous* (near a face: the exact simplex may differ). Δ' bounds
-        |x* - x̃| for the exact combination x̃ of the float weights (for the leak).
-    """
-    n, m = P.shape
-    u = _UNIT
-    if m == 1:
-        return np.full((n, 1), (rel[:, None] + 4.0 * u) * 1.02), np.zeros(n, dtype=bool), \
-            np.zeros(n)
-    N = float(resolution)
-    x = N * np.cumsum(P[:, ::-1], axis=1)[:, ::-1]
-    x[:, 0] = N
-    dist = np.abs(x - np.rint(x))
-    snap = np.where(dist <= _SNAP * N, dist, 0.0)
-    delta = N * (3.0 * rel[:, None] + 4.0 * (m + 4) * u) + snap
-    dmax = delta.max(axis=1) + (m + 2) * u * N
-    eps = 2.0 * dmax + 2.0 * u
-    ambiguous = (lam <= eps[:, None]).any(axis=1)
-    with np.errstate(divide="ignore"):
-        eta = (rel[:, None] + (m + 3) * u + eps[:, None] / np.where(lam > 0, lam, 0.0)) * 1.02 \
-            + 4.0 * u
-    return eta, ambiguous, dmax
-
-
-def _dominate(E: sp.csr_matrix, G: sp.csr_matrix, Y: sp.csr_matrix,
-              terms: np.ndarray) -> sp.csr_matrix:
-    """The vertex weights of a minimiser's choices, scaled so that they stay below the exact
-    belief successors despite floating point.
-
-    Row i of ``E`` (float64[n, V]) weighs grid vertices (``G``: float64[V, S], vertex j's belief
-    counts/N) so that x_i = E_i G approximates y_i, the exact continuing successor vector of the
-    choice (computed as ``Y``'s row with at most ``terms[i]`` products per entry). Rounding, the
-    snapping of near-integer coordinates and the weights' own rounding make x_i differ from y_i.
-    With V* the optimum as a function of an unnormalised belief — nonnegative, monotone,
-    positively homogeneous and, for a minimiser, superlinear (an infimum of linear functions:
-    one per strategy) — any κ_i <= 1 with κ_i x_i <= y_i entry by entry gives
-    V*(y) >= V*(κx) + V*(y - κx) >= κ V*(x) >= κ Σ_j E_ij V*(u_j). κ_i is the minimum over
-    x_i's support of a lower bound of y over an upper bound of x (the a-priori bounds of
-    :func:`_rounding`), rounded down; the mass given up goes to the sink (probability) or the
-    target (reward), both worth 0 to the minimiser.
-
-    Returns:
-        κ E.
-    """
-    n = E.shape[0]
-    if not n:
-        return E
-    X = sp.csr_matrix(E @ G)
-    X.sum_duplicates()
-    ax = _rounding(np.diff(E.indptr) + 1)  # the products E_ij G_js, G one rounding off counts/N
-    ay = _rounding(terms)
-    Xc = X.tocoo()
-    rows = Xc.row.astype(np.int64)
-    y_at = np.asarray(Y[rows, Xc.col]).ravel() if rows.size else np.zeros(0)
-    ratio = (y_at * (1.0 - ay[rows])) / (Xc.data * (1.0 + ax[rows])) * (1.0 - 4.0 * _UNIT)
-    kappa = np.ones(n)
-    np.minimum.at(kappa, rows, np.maximum(ratio, 0.0))
-    return sp.csr_matrix(sp.diags(kappa) @ E)
-
-
-@dataclass(frozen=True, eq=False)
-class _Source:
-    """What a maximiser's choices' successors are made of, for :func:`_resolve_exactly`: the
-    rows D = B T with ``B`` csr float64[rows, columns], ``choice_of`` the model choice of each
-    column. Without ``rule`` B's entries are exact as stored (vertex beliefs counts/N, N a
-    power of two). With it (an adversary's rows: ``rule`` and ``mass`` csr in B's layout, B
-    = rule · mass entrywise, rounded) the exact row is the rational rule of
-    :func:`_rational_rule` (each state's probabilities normalised to sum to 1 exactly) times
-    the states' exact masses: a rule the adversary may play, so offering it only restricts the
-    minimising adversary; its entries lie within a few units of roundoff of B's (covered by the
-    doubled rounding of :func:`_entry_rounding`). ``beliefs``: on the unfolding, each row's
-    vertex's exact belief (None where only its float is known); ``resolve``: bool per row, the
-    rows whose ambiguous grid parts :func:`_resolve_exactly` may triangulate again (None: all)."""
-
-    B: sp.csr_matrix
-    choice_of: np.ndarray
-    mass: sp.csr_matrix | None = None
-    rule: sp.csr_matrix | None = None
-    beliefs: list[tuple[dict[int, int], int] | None] | None = None
-    resolve: np.ndarray | None = None
-    exact_rules: dict[int, dict[int, Fraction]] | None = None
-    """Rows whose rule is given exactly (global choice -> probability): the unfolding's rules
-    that land on an explored belief (:mod:`posgmc.synthesis.target_rules`)."""
-
-
-_SIMPLE_DENOMINATOR = 1000
-"""Rule probabilities within a few units of roundoff of a fraction with at most this
-denominator are taken as that fraction (a grid rule's are such fractions: its posterior is then
-the grid vertex exactly, not a hair off it)."""
-
-
-def _rational_rule(probs: list[float], states: list[int]) -> list[Fraction]:
-    """A randomised rule's stored probabilities (each state's summing to 1 up to a few units of
-    roundoff: every rule here is normalised by its float sum) as an exact rule: each
-    probability the simple fraction it rounds (:data:`_SIMPLE_DENOMINATOR`) or else its float's
-    own value, then divided by its state's sum, so that each state's probabilities sum to 1
-    exactly and each lies within (n + 4) u of the float (n the state's choices)."""
-    near = [_rational_probability(x) for x in probs]
-    total: dict[int, Fraction] = {}
-    for s, q in zip(states, near):
-        total[s] = total.get(s, Fraction(0)) + q
-    return [q / total[s] for s, q in zip(states, near)]
-
-
-@functools.lru_cache(maxsize=65536)
-def _rule_ratios(probs: tuple[float, ...], states: tuple[int, ...]) -> tuple[tuple[int, int], ...]:
-    """:func:`_rational_rule` as (numerator, denominator) pairs, cached: the same rules recur at
-    every vertex on the same support."""
-    return tuple((q.numerator, q.denominator) for q in _rational_rule(list(probs), list(states)))
-
-
-@functools.lru_cache(maxsize=4096)
-def _rational_probability(x: float) -> Fraction:
-    """The simple fraction (:data:`_SIMPLE_DENOMINATOR`) within 4 u of ``x``, else ``x``'s own
-    value (cached: the same few probabilities recur in every rule)."""
-    q = Fraction(x)
-    simple = q.limit_denominator(_SIMPLE_DENOMINATOR)
-    return simple if abs(simple - q) <= q * 4 * Fraction(_UNIT) else q
-
-
-def _row_entries(cols: list[int], stored: list[float], states: list[int], rule: list[float],
-                 deterministic: bool, belief: tuple[dict[int, int], int] | None,
-                 has_rule: bool, given: dict[int, Fraction] | None = None,
-                 chosen: list[int] | None = None) -> list[tuple[int, int, int]]:
-    """One row of B*'s exact entries (:class:`_Source`): (column, its exact rational weight as
-    numerator and denominator), from the row's columns, stored weights (B's, or with a rule
-    the states' masses), the columns' states and the rule's probabilities (with ``has_rule``),
-    whether the rule is deterministic, and the row's vertex's exact belief (None: its float);
-    ``given``: the rule itself where it is given exactly (:attr:`_Source.exact_rules`, by the
-    columns' model choices ``chosen``), else it is the rational rule of the probabilities.
-    An exact belief's numerator and a rule's are multiplied, not reduced: the row's common
-    denominator absorbs any common factor (:func:`_exact_rows` scales the row as a whole)."""
-    if not has_rule:
-        if belief is not None:  # columns are the belief's states
-            nums, den = belief
-            return [(k, nums[k], den) for k in cols]
-        return [(k, *b.as_integer_ratio()) for k, b in zip(cols, stored)]
-    if deterministic and given is None:  # every probability 1: the rational rule is 1 too
-        if belief is not None:
-            nums, den = belief
-            return [(k, nums[s], den) for k, s in zip(cols, states)]
-        # each entry is its state's mass, exact as stored
-        return [(k, *p.as_integer_ratio()) for k, p in zip(cols, stored)]
-    ratios = _rule_ratios(tuple(rule), tuple(states)) if given is None or chosen is None else \
-        [(given[c].numerator, given[c].denominator) for c in chosen]
-    if belief is not None:
-        nums, den = belief
-        return [(k, nums[s] * qn, den * qd) for k, s, (qn, qd) in zip(cols, states, ratios)]
-    return [(k, pn * qn, pd * qd)
-            for k, (pn, pd), (qn, qd) in zip(cols, [p.as_integer_ratio() for p in stored],
-                                             ratios)]
-
-
-def _exact_rows(source: _Source, rows: np.ndarray, dyn: _Dynamics) -> dict[int, dict[int, int]]:
-    """Each of ``rows``' (distinct) exact continuing vector y*_s = Σ_k B*_rk T*_k(s) on all its
-    successor states (the exact model's rows :meth:`_Dynamics.integer_row`, B*'s entries
-    :func:`_row_entries`), as integer numerators (state -> numerator, zeros left out) over
-    one common denominator per row, a positive factor the triangulation ignores (the parts of
-    one row share it). The rows' columns, choices, states, stored weights and rule
-    probabilities are gathered in one vectorised step, then read row by row as list slices."""
-    B = source.B
-    lo, hi = B.indptr[rows].astype(np.int64), B.indptr[rows + 1].astype(np.int64)
-    n = hi - lo
-    ends = np.cumsum(n)
-    flat = np.repeat(lo - (ends - n), n) + np.arange(int(ends[-1]) if n.size else 0)
-    cols = B.indices[flat]
-    choice_arr = source.choice_of[cols]
-    choices = choice_arr.tolist()
-    has_rule = source.rule is not None and source.mass is not None
-    rule_l: list[float] = []
-    states_l: list[int] = []
-    if source.rule is None or source.mass is None:
-        stored = B.data[flat]
-        deterministic = np.ones(rows.size, dtype=bool)
-    else:
-        stored = source.mass.data[flat]
-        probs = source.rule.data[flat]
-        owner = np.repeat(np.arange(rows.size), n)
-        deterministic = np.bincount(owner[probs != 1.0], minlength=rows.size) == 0
-        rule_l = probs.tolist()
-    beliefs: list[tuple[dict[int, int], int] | None] = [None] * rows.size
-    if source.beliefs is not None:
-        beliefs = [source.beliefs[r] for r in rows.tolist()]
-    if has_rule:
-        states_l = dyn.choice_states[choice_arr].tolist()
-    weights = stored.tolist()
-    cols_l = cols.tolist()
-    out: dict[int, dict[int, int]] = {}
-    start = 0
-    made = dyn.integer_rows  # the exact rows already made
-    given = source.exact_rules or {}
-    for r, end, det, known in zip(rows.tolist(), ends.tolist(), deterministic.tolist(),
-                                  beliefs):
-        exactly = given.get(r)
-        entries = _row_entries(cols_l[start:end], weights[start:end], states_l[start:end],
-                               rule_l[start:end], det, known, has_rule, exactly,
-                               None if exactly is None else choices[start:end])
-        exact = [made.get(c) or dyn.integer_row(c) for c in choices[start:end]]
-        start = end
-        dens = [bd * total for (_, _, bd), (_, total) in zip(entries, exact)]
-        den = math.lcm(*dens) if dens else 1
-        y: dict[int, int] = {}
-        get = y.get
-        for (_, bn, _), (row, _), d in zip(entries, exact, dens):
-            f = bn * (den // d)
-            for s, c in row:
-                y[s] = get(s, 0) + f * c
-        out[r] = y
-    return out
-
-
-_EXACT_BITS = 128
-"""The unfolding keeps a posterior exact while its common denominator has at most this many
-bits (long paths multiply denominators); beyond, the float posterior with a leak."""
-
-
-def _exact_posterior(y: dict[int, int], states: list[int]) -> tuple[tuple[int, ...], int] | None:
-    """A row's exact posterior on ``states`` (one part: the continuing states of one
-    observation group; ``y`` the row's exact vector, :func:`_exact_rows`) as numerators and a
-    common denominator without a common divisor (:meth:`_Grid.exact_belief`), None when it is
-    zero or too long to keep (:data:`_EXACT_BITS`). Invariant under scaling ``y``."""
-    get = y.get
-    ys = [get(s, 0) for s in states]
-    total = sum(ys)
-    if total <= 0 or min(ys) <= 0:
-        return None
-    g = math.gcd(*ys)
-    den = total // g
-    if den.bit_length() > _EXACT_BITS:
-        return None
-    return tuple([y // g for y in ys]), den
-
-
-def _shared_parts(source: _Source, live: np.ndarray, rows: np.ndarray, starts: np.ndarray,
-                  sizes: np.ndarray, col: np.ndarray, vertex: np.ndarray, dyn: _Dynamics
-                  ) -> tuple[list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None],
-                             np.ndarray]:
-    """The unfolding's parts whose exact posterior is computed from the few choices that reach
-    them, once per distinct signature, instead of from their row's whole exact vector: an
-    adversary's deterministic rule at a vertex with an exact belief b = nums/den puts b(s_c) on
-    one choice c per state s_c, so the row's exact vector is, up to a positive factor
-    (:func:`_exact_rows`' common denominator, which :func:`_exact_posterior` ignores),
-    Σ_c nums(s_c) T*_c / |T*_c| (|T*_c| the exact row's denominator), and on a part's states
-    (all in group z) only the choices whose continuing successors meet z add anything. The
-    parts of ``live`` rows (those :func:`_exact_rows` would compute, ascending; ``vertex``:
-    each row's vertex) with a deterministic rule get the signature (vertex, z, the states'
-    bytes, those choices with their states, in the row's order), the others None (their
-    posterior comes from their row's exact vector); returns the signatures and the live rows
-    whose exact vector is still needed (a randomised rule, or one given exactly)."""
-    n = starts.size
-    sigs: list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None] = [None] * n
-    B, rule = source.B, source.rule
-    if rule is None or not live.size:
-        return sigs, live
-    lo, hi = B.indptr[live].astype(np.int64), B.indptr[live + 1].astype(np.int64)
-    k = hi - lo
-    ends = np.cumsum(k)
-    flat = np.repeat(lo - (ends - k), k) + np.arange(int(ends[-1]))
-    owner = np.repeat(np.arange(live.size), k)
-    deterministic = np.bincount(owner[rule.data[flat] != 1.0], minlength=live.size) == 0
-    if source.exact_rules:  # a rule given exactly is its own (:func:`_row_entries`)
-        deterministic &= ~np.isin(live, np.fromiter(source.exact_rules, dtype=np.int64))
-    choices = source.choice_of[B.indices[flat]]
-    choices_l = choices.tolist()
-    touch = dyn.touches
-    # each entry: (its choice, the choice's state) and the groups the choice reaches
-    pairs = list(zip(choices_l, dyn.choice_states[choices].tolist()))
-    reach = [touch(c) for c in choices_l]
-    row_cols: dict[int, tuple[list[tuple[int, int]], list[frozenset[int]]]] = {}
-    at = 0
-    for r, end, det in zip(live.tolist(), ends.tolist(), deterministic.tolist()):
-        if det:
-            row_cols[r] = (pairs[at:end], reach[at:end])
-        at = end
-    col_b = col.tobytes()
-    groups = dyn.group[col[starts]].tolist()
-    vertex_l = vertex.tolist()
-    for j, (a, m, r, z) in enumerate(zip(starts.tolist(), sizes.tolist(), rows.tolist(), groups)):
-        found = row_cols.get(r)
-        if found is not None:
-            sigs[j] = (vertex_l[r], z, col_b[8 * a:8 * (a + m)],
-                       tuple([p for p, t in zip(*found) if z in t]))
-    return sigs, live[~deterministic]
-
-
-def _part_posterior(reach: tuple[tuple[int, int], ...], belief: tuple[dict[int, int], int],
-                    states: list[int], dyn: _Dynamics) -> tuple[tuple[int, ...], int] | None:
-    """:func:`_exact_posterior` of a part of a deterministic rule's row from the choices that
-    reach it (:func:`_shared_parts`: (choice, its state) pairs) and the vertex's exact belief:
-    Σ_c nums(s_c) (L / |T*_c|) T*_c, L the least common multiple of the |T*_c|."""
-    nums = belief[0]
-    made = dyn.integer_rows
-    exact = [made.get(c) or dyn.integer_row(c) for c, _ in reach]
-    big = math.lcm(*[t for _, t in exact]) if exact else 1
-    y: dict[int, int] = {}
-    get = y.get
-    for (_, s), (row, t) in zip(reach, exact):
-        f = nums[s] * (big // t)
-        for q, x in row:
-            y[q] = get(q, 0) + f * x
-    return _exact_posterior(y, states)
-
-
 def _unfolded_vertices(grid: _Grid, col: np.ndarray, post: np.ndarray, starts: np.ndarray,
                        sizes: np.ndarray, rows: np.ndarray, ys: dict[int, dict[int, int]],
                        sigs: list[tuple[int, int, bytes, tuple[tuple[int, int], ...]] | None],
-                       beliefs: list[tuple[dict[int, int], int] | None], dyn: _Dynamics,
+                       beliefs: list[tuple[dict[int, int], int] | None], dyn: Dynamics,
                        origins: list[int] | None = None) -> tuple[list[int], list[int]]:
     """The unfolding's vertex of every part (part j on states ``col[a:a + k]``, int64, with
     float posterior ``post[a:a + k]``, a = ``starts[j]``, k = ``sizes[j]``, of row
     ``rows[j]``), the new ones added in the order of the parts, and the parts whose posterior
-    is exact. A part with a signature (:func:`_shared_parts`) takes the vertex of the first
-    part with the same one (its exact posterior computed once, :func:`_part_posterior`); one
-    whose row's exact vector is in ``ys`` its exact posterior's (:func:`_exact_posterior`);
+    is exact. A part with a signature (:func:`shared_parts`) takes the vertex of the first
+    part with the same one (its exact posterior computed once, :func:`part_posterior`); one
+    whose row's exact vector is in ``ys`` its exact posterior's (:func:`exact_posterior`);
     where none is kept, its float posterior's (:meth:`_Grid.belief`). Each part's key is looked
     up as byte slices of the arrays' bytes: arrays are sliced only for a new vertex.
     ``origins``: each row's vertex, where the grid tracks the explored beliefs as targets
@@ -1000,11 +403,11 @@ def _unfolded_vertices(grid: _Grid, col: np.ndarray, post: np.ndarray, starts: n
         else:
             if sig is None:
                 y = find(r)
-                got = None if y is None else _exact_posterior(y, col_l[a:a + k])
+                got = None if y is None else exact_posterior(y, col_l[a:a + k])
             else:
                 at_vertex = beliefs[r]
                 assert at_vertex is not None  # a signature's row has an exact belief
-                got = _part_posterior(sig[3], at_vertex, col_l[a:a + k], dyn)
+                got = part_posterior(sig[3], at_vertex, col_l[a:a + k], dyn)
             v = None
             if got is not None:
                 v = known((col_b[8 * a:8 * (a + k)], *got))
@@ -1026,65 +429,6 @@ def _unfolded_vertices(grid: _Grid, col: np.ndarray, post: np.ndarray, starts: n
             v = grid.belief(key, col, post, a, a + k)
         add_vertex(v)
     return vs, settled
-
-
-def _resolve_exactly(parts: np.ndarray, rows: np.ndarray, cols: np.ndarray, counts: np.ndarray,
-                     lam: np.ndarray, eta: np.ndarray, amb: np.ndarray, rel: np.ndarray,
-                     source: _Source, dyn: _Dynamics, N: int) -> None:
-    """Ambiguous parts (near a face of the triangulation: the float simplex may not hold the
-    exact posterior) triangulated in exact rational arithmetic instead, in place: the exact
-    continuing vector y*_s = Σ_k B_k T*_k(s) in integers (:func:`_exact_rows`,
-    B*'s entries exact: the vertex belief counts/N with N a power of two, times an adversary's
-    rule as the rational rule it stands for, :class:`_Source`), its Freudenthal simplex and
-    weights (the same construction as :func:`freudenthal`, ties broken alike), so the part's
-    vertices are the exact decomposition's and each weight is the float of the exact one."""
-    m = cols.shape[1]
-    if source.resolve is not None:
-        parts = parts[source.resolve[rows[parts]]]
-    # per row, its exact vector (rows may have several parts)
-    exact = _exact_rows(source, np.unique(rows[parts]).astype(np.int64), dyn)
-    done: list[int] = []  # the parts resolved, and per part: v, each coordinate's first
-    base: list[list[int]] = []  # vertex with its unit added, the exact weights' floats
-    step: list[list[int]] = []
-    weights: list[list[float]] = []
-    for i in parts.tolist():
-        y = exact[int(rows[i])]
-        ys = [y.get(s, 0) for s in cols[i].tolist()]
-        total = sum(ys)
-        if total <= 0:
-            continue
-        # x_j = N Y_j / Y_0 (Y_j the tail sums): floor and remainder in the numerators' ring
-        # (integers, or rationals when a row needed scaling), the weights their differences
-        tails = [total] * m
-        acc = 0
-        for j in range(m - 1, 0, -1):
-            acc += ys[j]
-            tails[j] = acc
-        v = [N] + [(N * tails[j]) // total for j in range(1, m)]
-        rem = [0] + [N * tails[j] - v[j] * total for j in range(1, m)]
-        order = sorted(range(1, m), key=lambda j: -rem[j])
-        dd = [rem[j] for j in order]
-        # each weight a quotient of integers, rounded once (int / int is correctly rounded)
-        nums = [total - dd[0]] + [dd[q - 1] - dd[q] for q in range(1, m - 1)] + [dd[-1]]
-        # vertex q adds the unit vectors of the first q coordinates in the order
-        first = [0] * m  # the vertex from which each coordinate has its unit added
-        for q, j in enumerate(order):
-            first[j] = q + 1
-        done.append(i)
-        base.append(v)
-        step.append(first)
-        weights.append([x / total for x in nums])
-    if not done:
-        return
-    # the simplices' vertices and the records, written for all resolved parts at once
-    at = np.asarray(done, dtype=np.int64)
-    F = np.asarray(step, dtype=np.int64)[:, None, :]
-    vertex = np.arange(m)[None, :, None]
-    Y = np.asarray(base, dtype=np.int64)[:, None, :] + ((F > 0) & (F <= vertex))  # [part, q, j]
-    counts[at] = np.concatenate([Y[:, :, :-1] - Y[:, :, 1:], Y[:, :, -1:]], axis=2)
-    lam[at] = np.asarray(weights, dtype=np.float64)
-    amb[at] = False
-    eta[at] = ((rel[at] + (m + 4) * _UNIT) * 1.02 + 4.0 * _UNIT)[:, None]
 
 
 class _Choices:
@@ -1113,19 +457,19 @@ class _Choices:
         self.on_grid = True  # every successor part so far is a vertex itself
 
     def add(self, keys: np.ndarray, action: np.ndarray, stop: np.ndarray, lost: np.ndarray,
-            reward: np.ndarray, D: sp.csr_matrix, terms: np.ndarray, dyn: _Dynamics, grid: _Grid,
+            reward: np.ndarray, D: sp.csr_matrix, terms: np.ndarray, dyn: Dynamics, grid: _Grid,
             block: np.ndarray | None = None,
-            source: _Source | None = None) -> None:
+            source: Source | None = None) -> None:
         """Choices ``keys`` whose continuing successor distributions are the rows of ``D``:
         each row split into its groups (one per observation of the decision maker's states, one
         for the others; a convex decomposition, so the bound stays sound), each part normalised
         and triangulated (on the belief unfolding, resolution 0, each part is a vertex itself).
         ``terms``: int64[len(keys)], the nonnegative products summed into each entry of a row of
-        ``D`` (and its stop mass and reward) at most, for the rounding bound (:func:`_dominate`);
+        ``D`` (and its stop mass and reward) at most, for the rounding bound (:func:`dominate`);
         ``D`` is kept as the successors the abstraction must dominate. ``block`` (int64 per
         row, ascending; default all 0): rows of different blocks are as if added by separate
         calls, one block after the other (the order new grid vertices are numbered in).
-        ``source`` (a maximiser's, for :func:`_resolve_exactly`): what ``D`` is made of."""
+        ``source`` (a maximiser's, for :func:`resolve_exactly`): what ``D`` is made of."""
         self.key.append(keys)
         self.action.append(action)
         self.stop.append(stop)
@@ -1147,7 +491,7 @@ class _Choices:
         row_block = np.zeros(D.shape[0], dtype=np.int64) if block is None else block
         mass = np.add.reduceat(data, starts)
         N = grid.N
-        rel = _entry_rounding(np.asarray(terms, dtype=np.int64), dyn.input_rel)
+        rel = entry_rounding(np.asarray(terms, dtype=np.int64), dyn.input_rel)
         if N == 0:  # the belief unfolding: each posterior is a vertex itself
             exact = self.cap is not None and source is not None and \
                 source.beliefs is not None and not dyn.owned.all()
@@ -1167,9 +511,9 @@ class _Choices:
                 beliefs = source.beliefs
                 known = [beliefs[r] is not None for r in live.tolist()]
                 live = live[known] if live.size else live
-                sigs, live = _shared_parts(source, live, rows, starts, sizes, col,
-                                           keys // self.span, dyn)
-                ys = _exact_rows(source, live, dyn)
+                sigs, live = shared_parts(source, live, rows, starts, sizes, col,
+                                          keys // self.span, dyn)
+                ys = exact_rows(source, live, dyn)
             vs, settled = _unfolded_vertices(
                 grid, col, data / np.repeat(mass, sizes), starts, sizes, rows, ys, sigs, beliefs,
                 dyn, None if grid.targets is None else (keys // self.span).tolist())
@@ -1183,14 +527,14 @@ class _Choices:
                 # |y*_s - w fl(y_s / w)| <= y_s (rel + 2u)
                 r = rel[rows]
                 self.e_eta.append(np.where(amb, np.inf,
-                                           (r + (sizes + 4) * _UNIT) * 1.02 + 4.0 * _UNIT))
+                                           (r + (sizes + 4) * UNIT) * 1.02 + 4.0 * UNIT))
                 loose = np.flatnonzero(amb)
                 if loose.size:
                     self.a_key.append(keys[rows[loose]].astype(np.int64))
-                    self.a_leak.append(_up(np.add.reduceat(
-                        data * self.cap[col] * (rel[pair // (dyn.Z + 1)] + 2.0 * _UNIT) * 1.02,
+                    self.a_leak.append(up(np.add.reduceat(
+                        data * self.cap[col] * (rel[pair // (dyn.Z + 1)] + 2.0 * UNIT) * 1.02,
                         starts)[loose]))
-                    self.a_slack.append(_up(mass * (r + (sizes + 2) * _UNIT) * 1.02)[loose])
+                    self.a_slack.append(up(mass * (r + (sizes + 2) * UNIT) * 1.02)[loose])
             return
         # the parts of one support size together: one vectorised triangulation each; the
         # references to grid vertices are then taken in the order of one call per block, per
@@ -1200,7 +544,7 @@ class _Choices:
         e_key: list[np.ndarray] = []
         e_prob: list[np.ndarray] = []
         e_eta: list[np.ndarray] = []
-        for m, sel in _chunks(sizes):
+        for m, sel in chunks(sizes):
             at = starts[sel][:, None] + np.arange(m)[None, :]
             w = mass[sel]
             P = data[at] / w[:, None]
@@ -1208,13 +552,13 @@ class _Choices:
             cols = col[at]
             keep = lam > 0
             if self.cap is not None:
-                eta, amb, dmax = _weight_errors(P, lam, rel[rows[sel]], N)
+                eta, amb, dmax = weight_errors(P, lam, rel[rows[sel]], N)
                 # only where the row loses nothing: a row that does is in no end component, and
                 # a leak there costs at most the expected number of steps times itself
                 todo = np.flatnonzero(amb & (lost[rows[sel]] == 0))
                 if todo.size and source is not None and N & (N - 1) == 0:
-                    _resolve_exactly(todo, rows[sel], cols, counts, lam, eta, amb,
-                                     rel[rows[sel]], source, dyn, N)
+                    resolve_exactly(todo, rows[sel], cols, counts, lam, eta, amb,
+                                    rel[rows[sel]], source, dyn, N)
                     keep = lam > 0
                 self._enclose(P, w, cols, rel[rows[sel]], keys[rows[sel]], N, keep, e_eta,
                               eta, amb, dmax)
@@ -1243,13 +587,13 @@ class _Choices:
                  rel: np.ndarray, keys: np.ndarray, N: int, keep: np.ndarray,
                  e_eta: list[np.ndarray], eta: np.ndarray, amb: np.ndarray,
                  dmax: np.ndarray) -> None:
-        """The exact weights' enclosure of triangulated parts (:func:`_weight_errors`): η per
+        """The exact weights' enclosure of triangulated parts (:func:`weight_errors`): η per
         kept vertex (inf in an ambiguous part), and per ambiguous part its leak
         Σ_s cap(s) |y*_s - x_s| and slack (how much its float weights may exceed its exact
         mass), x = Σ_k e_k u_k the float weights' combination:
         |y*_s - x_s| <= w ((rel + (m + 1) u) (P_s + 2Δ'/N) + 2Δ'/N), and
         Σ_k e_k - w* <= w (rel + (2m + 2) u)."""
-        u = _UNIT
+        u = UNIT
         m = P.shape[1]
         assert self.cap is not None
         i, k = np.nonzero(keep)
@@ -1264,8 +608,8 @@ class _Choices:
         with np.errstate(invalid="ignore"):
             leak = np.where(per > 0, per * c, 0.0).sum(axis=1)
         self.a_key.append(keys[a].astype(np.int64))
-        self.a_leak.append(_up(w[a] * leak * (1.0 + 2.0 * (m + 2) * u)))
-        self.a_slack.append(_up(w[a] * (rel[a] + (2 * m + 2) * u) * 1.02))
+        self.a_leak.append(up(w[a] * leak * (1.0 + 2.0 * (m + 2) * u)))
+        self.a_slack.append(up(w[a] * (rel[a] + (2 * m + 2) * u) * 1.02))
 
 
 @dataclass(frozen=True, eq=False)
@@ -1294,14 +638,14 @@ class CoarseBounds:
                cap: np.ndarray | None) -> np.ndarray:
         """float64[len(idx)]: for each belief (``p[j]`` on states ``idx[j]``) a proven bound on
         its optimum by convexity over the coarse grid's simplex around it: Σ λ_i W(u_i), made to
-        hold under floating point as in :func:`_dominate` (the weights scaled so that the
+        hold under floating point as in :func:`dominate` (the weights scaled so that the
         combination stays below the belief, and when maximising what it leaves uncovered added
         at ``cap`` per state; ``cap`` None: minimising). NaN where one of the simplex's vertices
         is not in the coarse abstraction."""
         out = np.full(len(idx), np.nan)
         sizes = np.asarray([i.size for i in idx], dtype=np.int64)
         N = self.resolution
-        for m, sel in _chunks(sizes):
+        for m, sel in chunks(sizes):
             P = np.stack([p[j] for j in sel.tolist()])
             cols = np.stack([idx[j] for j in sel.tolist()])
             counts, lam = freudenthal_batch(P, N)
@@ -1314,21 +658,21 @@ class CoarseBounds:
             vals = np.where(used, self.values[np.maximum(vid, 0)], 0.0)
             total = (lam * vals).sum(axis=1)
             x = np.einsum("nk,nks->ns", lam, counts / N)
-            grow = _rounding(used.sum(axis=1) + 1)[:, None]
+            grow = rounding(used.sum(axis=1) + 1)[:, None]
             with np.errstate(divide="ignore", invalid="ignore"):
-                ratio = np.where(x > 0, P * (1.0 - 2.0 * _UNIT) / (x * (1.0 + grow)), np.inf)
-            kappa = np.clip(ratio.min(axis=1) * (1.0 - 4.0 * _UNIT), 0.0, 1.0)
+                ratio = np.where(x > 0, P * (1.0 - 2.0 * UNIT) / (x * (1.0 + grow)), np.inf)
+            kappa = np.clip(ratio.min(axis=1) * (1.0 - 4.0 * UNIT), 0.0, 1.0)
             g = grow[:, 0]
             if cap is None:
-                bound = np.maximum(0.0, kappa * total * (1.0 - g - 4.0 * _UNIT))
+                bound = np.maximum(0.0, kappa * total * (1.0 - g - 4.0 * UNIT))
             else:
                 c = cap[cols]
-                left = np.maximum(P - kappa[:, None] * x, 0.0) * (1.0 + 2.0 * _UNIT) \
+                left = np.maximum(P - kappa[:, None] * x, 0.0) * (1.0 + 2.0 * UNIT) \
                     + grow * (x + P)
                 extra = np.where(left > 0, left * np.where(np.isfinite(c), c, 0.0), 0.0).sum(
                     axis=1)
                 extra[((left > 0) & ~np.isfinite(c)).any(axis=1)] = np.inf
-                bound = _up(kappa * total * (1.0 + g) + extra * (1.0 + _rounding(m)))
+                bound = up(kappa * total * (1.0 + g) + extra * (1.0 + rounding(m)))
             out[sel[known]] = bound[known]
         return out
 
@@ -1380,7 +724,7 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     """
     if not applies(problem):
         return None
-    dyn = _Dynamics(problem, adversary_rules)
+    dyn = Dynamics(problem, adversary_rules)
     s0 = int(problem.model.initial_states[0])
     if not dyn.cont[s0] or (dyn.owned[s0] and dyn.group[s0] < 0):
         return None
@@ -1427,8 +771,8 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
                         np.asarray(Ba @ dyn.stop[a]).ravel(), np.asarray(Ba @ dyn.lost[a]).ravel(),
                         np.asarray(Ba @ dyn.reward[a]).ravel(), Ba @ dyn.P[a],
                         np.diff(Ba.indptr) + dyn.row_terms, dyn, grid,
-                        source=_Source(Ba, dyn.choice_of[a], beliefs=None if resolution else
-                                       [grid.exact[v] for v in ids[sel].tolist()]))
+                        source=Source(Ba, dyn.choice_of[a], beliefs=None if resolution else
+                                      [grid.exact[v] for v in ids[sel].tolist()]))
         theirs = done + np.flatnonzero(~mine)
         if theirs.size and deadline is not None and time.perf_counter() > deadline:
             skipped.extend(theirs.tolist())  # the adversary's vertices are cut off
@@ -1441,12 +785,12 @@ def grid_abstraction(problem: Problem, resolution: int, *, cutoff: np.ndarray,
     return _assemble(problem, dyn, grid, expanded, resolution, cutoff, choices, coarse)
 
 
-def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choices: _Choices,
+def _adversary_choices(vertices: np.ndarray, dyn: Dynamics, grid: _Grid, choices: _Choices,
                        first_local: int, mixtures: Mixtures | None = None) -> None:
-    """The choices of the adversary's ``vertices`` (one per decision rule :meth:`_Dynamics.rules`
+    """The choices of the adversary's ``vertices`` (one per decision rule :meth:`Dynamics.rules`
     tries there, then the randomised rules ``mixtures`` offers there), added to ``choices``
     together: one block per vertex, the vertices in the given order and each one's rules in the
-    order of :meth:`_Dynamics.rules`.
+    order of :meth:`Dynamics.rules`.
 
     Vertices whose support states offer the same numbers of choices share the structure of their
     rules, so the entries are laid out for each such group at once (:func:`_rule_entries`);
@@ -1540,10 +884,10 @@ def _adversary_choices(vertices: np.ndarray, dyn: _Dynamics, grid: _Grid, choice
                 np.asarray(W_all @ dyn.T_stop).ravel(), np.asarray(W_all @ dyn.T_lost).ravel(),
                 np.asarray(W_all @ dyn.choice_reward).ravel(), W_all @ dyn.T_cont,
                 np.diff(W_all.indptr) + dyn.row_terms, dyn, grid, block=vertices[owner_row],
-                source=_Source(W_all, np.arange(dyn.model.num_choices), mass, rule,
-                               None if grid.N else
-                               [grid.exact[v] for v in vertices[owner_row].tolist()],
-                               resolve, exact_rules or None))
+                source=Source(W_all, np.arange(dyn.model.num_choices), mass, rule,
+                              None if grid.N else
+                              [grid.exact[v] for v in vertices[owner_row].tolist()],
+                              resolve, exact_rules or None))
 
 
 TARGET_RESOLUTION = 2
@@ -1590,7 +934,7 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
     relative to (a reward summed from products of both signs: the largest |reward|)."""
     n_exp, V = E.shape
     eta = np.concatenate(ch.e_eta) if ch.e_eta else np.zeros(0)
-    hi = np.where(np.isfinite(eta), _up(ep * (1.0 + eta)), ep)
+    hi = np.where(np.isfinite(eta), up(ep * (1.0 + eta)), ep)
     coef = sp.csr_matrix((hi, (ech, ev)), shape=(n_exp, V))
     coef.sum_duplicates()
     amb_row = np.zeros(n_exp, dtype=bool)
@@ -1601,26 +945,26 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
         amb_row[at] = True
         np.add.at(leak, at, np.concatenate(ch.a_leak))
         np.add.at(slack, at, np.concatenate(ch.a_slack))
-        leak, slack = _up(leak * (1.0 + 4.0 * _UNIT)), _up(slack * (1.0 + 4.0 * _UNIT))
+        leak, slack = up(leak * (1.0 + 4.0 * UNIT)), up(slack * (1.0 + 4.0 * UNIT))
     # a lower bound on the exact mass that does not continue (t* + sink*): the exact masses
     # sum to 1, each part's at most its enclosure (certified: coef; ambiguous: its float
     # weights plus slack), and t* <= t for a probability (whose t is counted apart)
     # the stop mass or reward (either sign) within 2 top_rel of its float (rounded already, and
     # the exact model's rows)
-    spread = 2.0 * top_rel + input_rel + 4.0 * _UNIT
+    spread = 2.0 * top_rel + input_rel + 4.0 * UNIT
     top_hi = top + top_mag * spread
     top_hi = np.where(top_hi != 0, np.nextafter(top_hi, np.inf), top_hi)
     k = np.diff(coef.indptr).astype(np.float64)
     covered = np.asarray(coef.sum(axis=1)).ravel() + slack
     if probability:
         covered = covered + np.maximum(top_hi, 0.0)
-    covered = covered * (1.0 + 2.0 * (k + 4.0) * _UNIT)
-    gone = np.where(lost > 0, np.maximum(0.0, (1.0 - covered) - 4.0 * _UNIT), 0.0)
+    covered = covered * (1.0 + 2.0 * (k + 4.0) * UNIT)
+    gone = np.where(lost > 0, np.maximum(0.0, (1.0 - covered) - 4.0 * UNIT), 0.0)
     # and a lower bound on the exact continuing mass (for a negative value per unit of it)
-    lost_hi = _up(lost * (1.0 + spread) * (1.0 + 4.0 * _UNIT))
+    lost_hi = up(lost * (1.0 + spread) * (1.0 + 4.0 * UNIT))
     kept_lo = np.where((lost > 0) | (slack > 0),
-                       np.maximum(0.0, (1.0 - (lost_hi + slack) * (1.0 + 4.0 * _UNIT))
-                                  - 4.0 * _UNIT), 1.0)
+                       np.maximum(0.0, (1.0 - (lost_hi + slack) * (1.0 + 4.0 * UNIT))
+                                  - 4.0 * UNIT), 1.0)
     n_cut = cut_ids.size
     state = np.r_[keys // ch.span, cut_ids].astype(np.int64)
     coef = sp.vstack([coef, sp.csr_matrix((n_cut, V))], format="csr")
@@ -1633,9 +977,9 @@ def _enclosure(ch: _Choices, order: np.ndarray, keys: np.ndarray, E: sp.csr_matr
         adversary=adversary, probability=probability, discount=discount, signed=signed)
 
 
-def _rule_entries(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
+def _rule_entries(dyn: Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
                   ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The rules of :meth:`_Dynamics.rules` at g vertices whose supports ``states`` (int64[g, m])
+    """The rules of :meth:`Dynamics.rules` at g vertices whose supports ``states`` (int64[g, m])
     offer ``n`` (int64[m]) choices per state, with belief masses ``mass`` (float64[g, m]), as
     entries: the number of rules k per vertex, then per entry (vertex by vertex, rule by rule,
     each rule's choices in their order) its vertex (0..g-1), its rule, its global choice and its
@@ -1644,14 +988,14 @@ def _rule_entries(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.nd
     return k, vi, r, col, prob * p_s
 
 
-def _rule_layout(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
+def _rule_layout(dyn: Dynamics, n: np.ndarray, states: np.ndarray, mass: np.ndarray
                  ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_rule_entries` with each entry's weight as its two factors: the rule's
     probability of the choice and the belief mass of the choice's state."""
     rg = dyn.model.row_groups
     g, m = states.shape
     lo = rg[states]
-    det = _deterministic_picks(n, dyn._base(states, lo, rg[states + 1]))  # [g, k, m]
+    det = deterministic_picks(n, dyn._base(states, lo, rg[states + 1]))  # [g, k, m]
     k_det = det.shape[1]
     varying = bool((n > 1).any())
     k = k_det + (1 if varying else 0)
@@ -1676,7 +1020,7 @@ def _rule_layout(dyn: _Dynamics, n: np.ndarray, states: np.ndarray, mass: np.nda
     return k, vi, r, col[keep], prob[keep], w[keep]
 
 
-def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarray,
+def _assemble(problem: Problem, dyn: Dynamics, grid: _Grid, expanded: np.ndarray,
               resolution: int, cutoff: np.ndarray, ch: _Choices,
               coarse: CoarseBounds | None) -> GridAbstraction:
     """The abstraction: expanded vertices with their choices, cut-off vertices with one choice
@@ -1708,12 +1052,12 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
         cap = np.clip(np.where(finite, cap, 1.0), 0.0, 1.0)
     if not problem.maximize and n_exp:
         Y = sp.vstack(ch.successors, format="csr")[order]
-        E = _dominate(E, beliefs, Y, terms)
+        E = dominate(E, beliefs, Y, terms)
     kept = np.asarray(E.sum(axis=1)).ravel()
-    grow = 1.0 + _rounding(terms)
+    grow = 1.0 + rounding(terms)
     if prob:
         # the stop mass (a sum of nonnegative products) rounded to the optimistic side
-        t = _up(stop * grow) if problem.maximize else np.maximum(0.0, stop * (2.0 - grow))
+        t = up(stop * grow) if problem.maximize else np.maximum(0.0, stop * (2.0 - grow))
         sink = np.maximum(0.0, 1.0 - t - kept)
     else:
         # a reward's stop mass is worth nothing more: what the vertices leave reaches the target
@@ -1726,8 +1070,8 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     rew_mag = np.zeros(n_exp)
     rew_exp = np.zeros(n_exp)
     if not prob:
-        rew_mag = _reward_magnitude(rew, np.asarray(problem.rewards, dtype=np.float64))
-        rew_exp = _outward(rew, (grow - 1.0) * rew_mag, problem.maximize)
+        rew_mag = reward_magnitude(rew, np.asarray(problem.rewards, dtype=np.float64))
+        rew_exp = outward(rew, (grow - 1.0) * rew_mag, problem.maximize)
     Ec = E.tocoo()
     T_exp = sp.csr_matrix(
         (np.r_[Ec.data, t, sink],
@@ -1742,8 +1086,8 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     # (products of either sign: the rounding is relative to the sum of their magnitudes)
     u = np.asarray(Bc @ np.where(finite, cutoff, 0.0)).ravel()
     u_mag = np.asarray(Bc @ np.where(finite, np.abs(cutoff), 0.0)).ravel()
-    slack = _rounding(np.diff(Bc.indptr))
-    u = _outward(u, _up(u_mag * slack * (1.0 + 4.0 * _UNIT)), problem.maximize)
+    slack = rounding(np.diff(Bc.indptr))
+    u = outward(u, up(u_mag * slack * (1.0 + 4.0 * UNIT)), problem.maximize)
     unbounded = np.asarray(Bc @ (~finite).astype(np.float64)).ravel() > 0
     n_cut = cut_ids.size
     if coarse is not None and n_cut:
@@ -1796,7 +1140,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
     if problem.maximize:
         enclosure = _enclosure(
             ch, order, keys, E, ech, ev, ep, lost, t if prob else rew_exp,
-            t if prob else np.maximum(np.abs(rew_exp), rew_mag), _rounding(terms), cut_ids,
+            t if prob else np.maximum(np.abs(rew_exp), rew_mag), rounding(terms), cut_ids,
             u if prob else r_cut, np.zeros(n_cut, dtype=bool) if prob else unbounded,
             theirs[:V], prob, problem.discount, dyn.input_rel, _signed(problem))
     return GridAbstraction(model, beliefs, expanded, action, rewards, target,
@@ -1806,7 +1150,7 @@ def _assemble(problem: Problem, dyn: _Dynamics, grid: _Grid, expanded: np.ndarra
 
 class Mixtures:
     """Randomised decision rules of the adversary per belief (mutable while refining): each a
-    probability per choice of the belief's support states, in the order of ``_Dynamics.rules``.
+    probability per choice of the belief's support states, in the order of ``Dynamics.rules``.
     Keyed by the belief itself (support and counts reduced by their common divisor with N), so
     the rules carry over to finer grids, which nest."""
 
@@ -1846,7 +1190,7 @@ def stage_mixtures(problem: Problem, abstraction: GridAbstraction, values: np.nd
     (:func:`_grid_rules`: nothing leaks to the decision maker through a decomposition, where
     both estimates are flat). In breadth-first order until ``deadline`` or ``limit``
     vertices. Returns how many new rules were added and at how many vertices LPs were solved."""
-    dyn = _Dynamics(problem, None)
+    dyn = Dynamics(problem, None)
     V = abstraction.vertices
     data = stage_lp.StageData.of(dyn.T_cont, dyn.T_stop, abstraction.beliefs,
                                  np.asarray(values, dtype=np.float64)[:V], cutoff,
@@ -1885,7 +1229,7 @@ GRID_TARGETS = 8
 """Combinations of target vertices tried for one adversary vertex's grid rules at most."""
 
 
-def _grid_rules(dyn: _Dynamics, cols: np.ndarray, owner: np.ndarray, p: np.ndarray,
+def _grid_rules(dyn: Dynamics, cols: np.ndarray, owner: np.ndarray, p: np.ndarray,
                 resolution: int) -> list[np.ndarray | None]:
     """Randomised rules at an adversary vertex (belief ``p`` over the states owning ``cols``)
     whose posterior is a grid vertex in every observation group of the successors
@@ -1935,7 +1279,7 @@ class GridBound:
 def _proven_side(abstraction: GridAbstraction, result: EngineResult,
                  deadline: float | None = None) -> np.ndarray | None:
     """The bound side per vertex, proven for the exact belief MDP: a minimiser's lower values
-    (its rows are scaled below the exact ones, :func:`_dominate`); a maximiser's upper values
+    (its rows are scaled below the exact ones, :func:`dominate`); a maximiser's upper values
     raised until the exact operator's enclosure is below them
     (:func:`~posgmc.synthesis.grid_certificate.certified_upper`), None when that fails. A
     probability's bound is clipped to 1."""

@@ -89,9 +89,9 @@ def fss_guaranteed(problem, memory: int, gamma: np.ndarray, delta: np.ndarray) -
 def runner_crossing_at_once(problem) -> float:  # type: ignore[no-untyped-def]
     """What the memoryless runner of the lanes games (tests/data/games/dodge_lanes*.posg) that
     crosses left or right with probability 1/2 is verified to ensure against every guard."""
-    from posgmc.synthesis import belief_grid
+    from posgmc.synthesis import belief_dynamics
 
-    dyn = belief_grid._Dynamics(problem, None)
+    dyn = belief_dynamics.Dynamics(problem, None)
     names = [problem.model.action_names[a] for a in dyn.actions.tolist()]
     gamma = np.zeros((1,) + dyn.mask.shape)
     for z in range(dyn.mask.shape[0]):

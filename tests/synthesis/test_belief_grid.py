@@ -1,7 +1,7 @@
-"""The belief-grid bound (posgmc.synthesis.belief_grid): Freudenthal's decomposition is a convex
-combination of grid beliefs; the abstraction's bound is on the optimistic side of every known
-POMDP optimum (hand-derived, Storm's completed belief unfolding) and of every strategy's proven
-value on random POMDPs, and equals the optimum where the reachable belief set is on the grid."""
+"""The belief-grid bound (posgmc.synthesis.belief_grid): the abstraction's bound is on the
+optimistic side of every known POMDP optimum (hand-derived, Storm's completed belief unfolding)
+and of every strategy's proven value on random POMDPs, and equals the optimum where the
+reachable belief set is on the grid."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ from posgmc.engines.options import SolverOptions
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
-from posgmc.synthesis import belief, belief_grid, grid_certificate
+from posgmc.synthesis import belief, belief_dynamics, belief_exact, belief_grid, grid_certificate
 from posgmc.synthesis.search import parametrisation, problem_of
 from tests.random_games import random_pomdp, random_signed_pomdp
 from tests.synthesis.helpers import BLIND, GUESS, SIGNED
@@ -39,41 +39,6 @@ def _problem(model, prop: str):  # type: ignore[no-untyped-def]
 def _built(path: Path | None = None, text: str | None = None, **constants: str):  # type: ignore[no-untyped-def]
     session = api.load(path, text=text, constants=constants or None)
     return api.build(session).model
-
-
-@settings(max_examples=200, deadline=None)
-@given(weights=st.lists(st.floats(0.001, 1.0), min_size=1, max_size=12),
-       resolution=st.sampled_from([1, 2, 3, 4, 7, 16, 64]))
-def test_freudenthal_is_a_convex_combination_of_grid_beliefs(weights: list[float],
-                                                             resolution: int) -> None:
-    p = np.asarray(weights) / np.sum(weights)
-    counts, lam = belief_grid.freudenthal(p, resolution)
-    assert counts.shape == (lam.size, p.size)
-    assert np.all(lam > 0) and abs(lam.sum() - 1.0) <= 1e-12
-    assert np.all(counts >= 0) and np.all(counts.sum(axis=1) == resolution)
-    assert np.abs(lam @ (counts / resolution) - p).max() <= 1e-9
-    assert lam.size <= p.size  # the vertices of one simplex of the triangulation
-
-
-@settings(max_examples=50, deadline=None)
-@given(rows=st.integers(1, 6), m=st.integers(1, 8), seed=st.integers(0, 1000),
-       resolution=st.sampled_from([1, 2, 5, 16]))
-def test_the_batch_triangulation_is_the_single_one(rows: int, m: int, seed: int,
-                                                   resolution: int) -> None:
-    P = np.random.default_rng(seed).random((rows, m)) + 0.01
-    P /= P.sum(axis=1, keepdims=True)
-    counts, lam = belief_grid.freudenthal_batch(P, resolution)
-    for i in range(rows):
-        one_counts, one_lam = belief_grid.freudenthal(P[i], resolution)
-        keep = lam[i] > 0
-        assert np.array_equal(counts[i][keep], one_counts)
-        assert np.array_equal(lam[i][keep], one_lam)
-
-
-def test_a_grid_belief_is_its_own_vertex() -> None:
-    counts, lam = belief_grid.freudenthal(np.array([0.25, 0.5, 0.25]), 4)
-    assert counts.tolist() == [[1, 2, 1]] and lam.tolist() == [1.0]
-
 
 
 @given(seed=st.integers(0, 10_000), n_parts=st.integers(1, 4), known=st.integers(0, 6))
@@ -425,7 +390,7 @@ def _check_enclosure(model, prop: str, resolution: int) -> None:  # type: ignore
                        np.rint(B.data[B.indptr[v]:B.indptr[v + 1]] * N).astype(int).tolist()))
               for v in range(V)]
     vertex_of = {tuple(sorted(c.items())): v for v, c in enumerate(counts)}
-    dyn = belief_grid._Dynamics(problem, None)
+    dyn = belief_dynamics.Dynamics(problem, None)
     if problem.rewards is None:
         cap = np.clip(np.where(np.isfinite(cutoff), cutoff, 1.0), 0.0, 1.0)
     else:
@@ -535,7 +500,7 @@ DODGE = ROOT / "tests" / "data" / "benchmarks" / "posmg" / "dodge-6-lines" / "sk
 @given(seed=st.integers(0, 2 ** 32 - 1), preferred=st.booleans())
 def test_the_batched_rules_are_each_vertexs_rules(seed: int, preferred: bool) -> None:
     """The adversary's rules laid out for a group of vertices at once (_rule_entries) are, vertex
-    by vertex, the rules _Dynamics.rules gives for that vertex alone (weighted by the belief),
+    by vertex, the rules Dynamics.rules gives for that vertex alone (weighted by the belief),
     in the same order: all deterministic rules where there are at most RULE_CAP (supports of
     up to three 4-choice states of PAYNT's dodge-6-lines), the preferred rule and its one-state
     deviations beyond (four states or more: 256 combinations), then the uniform mixture."""
@@ -550,7 +515,7 @@ def test_the_batched_rules_are_each_vertexs_rules(seed: int, preferred: bool) ->
     rules = None
     if preferred:  # a random choice of each state, sometimes outside the state (ignored then)
         rules = rng.integers(0, model.num_choices, model.num_states)
-    dyn = belief_grid._Dynamics(problem, rules)
+    dyn = belief_dynamics.Dynamics(problem, rules)
     theirs = np.flatnonzero(~dyn.owned)
     per_state = np.diff(rg)
     for m in (1, 2, 3, 4, 5):
@@ -596,7 +561,7 @@ def _reference_rules(states: np.ndarray, rg: np.ndarray, preferred: np.ndarray |
     for i in varying:
         combos *= n[i]
     det: list[list[int]] = []
-    if combos <= belief_grid.RULE_CAP:
+    if combos <= belief_dynamics.RULE_CAP:
         for pick in itertools.product(*[range(n[i]) for i in varying]):
             rule = [0] * len(n)
             for i, c in zip(varying, pick):
@@ -610,7 +575,7 @@ def _reference_rules(states: np.ndarray, rg: np.ndarray, preferred: np.ndarray |
         det.append(base)
         for i in varying:
             for c in range(n[i]):
-                if c != base[i] and len(det) < belief_grid.RULE_CAP:
+                if c != base[i] and len(det) < belief_dynamics.RULE_CAP:
                     det.append(base[:i] + [c] + base[i + 1:])
     out = np.zeros((len(det) + (1 if varying else 0), sum(n)))
     for r, rule in enumerate(det):
@@ -620,42 +585,6 @@ def _reference_rules(states: np.ndarray, rg: np.ndarray, preferred: np.ndarray |
         for i in range(len(n)):
             out[-1, offset[i]:offset[i] + n[i]] = 1.0 / n[i]
     return out
-
-
-@settings(max_examples=200, deadline=None)
-@given(weights=st.lists(st.lists(st.floats(0.0, 1.0), min_size=1, max_size=6),
-                        min_size=1, max_size=4),
-       simple=st.booleans())
-def test_a_randomised_rule_is_read_as_an_exact_rule(weights: list[list[float]],
-                                                    simple: bool) -> None:
-    """A randomised rule stored in floats (per state normalised by its float sum, as every rule
-    offered is) stands for an exact rule (_rational_rule): per state its probabilities sum to 1
-    exactly and each lies within (n + 4) u of its float, the bound the doubled rounding of
-    _entry_rounding covers; a rule of simple fractions (a grid rule's, denominators up to
-    1000) is read as those fractions themselves."""
-    probs: list[float] = []
-    states: list[int] = []
-    exact: list[Fraction] = []
-    for s, w in enumerate(weights):
-        if simple:
-            q = [Fraction(round(x * 40) + 1, 1) for x in w]
-            total = sum(q, Fraction(0))
-            exact.extend(x / total for x in q)  # denominators at most 6 * 41
-            row = np.asarray([float(x / total) for x in q])
-        else:
-            row = np.asarray(w) + 1e-3
-            row = row / row.sum()
-        probs.extend(row.tolist())
-        states.extend([s] * len(w))
-    rule = belief_grid._rational_rule(probs, states)
-    u = Fraction(2) ** -53
-    for s, w in enumerate(weights):
-        mine = [q for q, t in zip(rule, states) if t == s]
-        assert sum(mine, Fraction(0)) == 1
-        for q, x in zip(mine, [x for x, t in zip(probs, states) if t == s]):
-            assert abs(q - Fraction(x)) <= (len(w) + 4) * u * q
-    if simple:
-        assert rule == exact
 
 
 def test_the_unfolding_of_a_game_keeps_exact_posteriors() -> None:
@@ -687,51 +616,6 @@ def test_the_unfolding_of_a_game_keeps_exact_posteriors() -> None:
                                              want_strategy=False, stiff_certificate=True))
     proven = belief_grid._proven_side(abstraction, result)
     assert proven is not None and 0.12 <= proven[0] <= 0.12 + 1e-6
-
-
-@settings(max_examples=30, deadline=None)
-@given(seed=st.integers(0, 10_000), deterministic=st.booleans())
-def test_the_exact_rows_are_the_rational_successor_vectors(seed: int,
-                                                           deterministic: bool) -> None:
-    """_exact_rows (the exact re-triangulation's input, batched over rows) gives each row's
-    continuing vector Σ_k B_rk T*_k up to one positive factor, T* the stored rows scaled to
-    sum to 1, checked against Fractions on random POMDPs: with stored weights counts/N (no
-    rule), and as a deterministic adversary rule's masses (rule 1 everywhere, mass = B)."""
-    model = random_pomdp(seed)
-    problem = _problem(model, 'Pmax=? [ F "goal" ]')
-    dyn = belief_grid._Dynamics(problem, None)
-    rng = np.random.default_rng(seed)
-    choice_of = dyn.choice_of[0]
-    live = np.flatnonzero(choice_of >= 0)
-    if live.size == 0:
-        return
-    N, R = 8, 5
-    dense = np.zeros((R, model.num_states))
-    for r in range(R - 1):  # the last row empty
-        on = rng.choice(live, min(live.size, int(rng.integers(1, 4))), replace=False)
-        dense[r, on] = rng.integers(1, N + 1, on.size) / N
-    B = sp.csr_matrix(dense)
-    source = belief_grid._Source(B, choice_of) if not deterministic else belief_grid._Source(
-        B, choice_of, mass=B, rule=sp.csr_matrix((np.ones(B.nnz), B.indices, B.indptr),
-                                                 shape=B.shape))
-    rows = np.arange(R, dtype=np.int64)
-    got = belief_grid._exact_rows(source, rows, dyn)
-    assert sorted(got) == rows.tolist()
-    assert got[R - 1] == {}
-    T = model.transitions
-    for r in range(R - 1):
-        want: dict[int, Fraction] = {}
-        for k in np.flatnonzero(dense[r]).tolist():
-            c = int(choice_of[k])
-            data = T.data[T.indptr[c]:T.indptr[c + 1]].tolist()
-            total = sum((Fraction(p) for p in data), Fraction(0))
-            for t, p in zip(T.indices[T.indptr[c]:T.indptr[c + 1]].tolist(), data):
-                want[t] = want.get(t, Fraction(0)) + Fraction(dense[r, k]) * Fraction(p) / total
-        y = {s: n for s, n in got[r].items() if n}
-        assert set(y) == {s for s, q in want.items() if q}
-        scale = Fraction(sum(y.values())) / sum(want.values(), Fraction(0))
-        assert scale > 0
-        assert all(Fraction(n) == scale * want[s] for s, n in y.items())
 
 
 def _exact_choice_rewards(abstraction: belief_grid.GridAbstraction, problem  # type: ignore[no-untyped-def]
@@ -772,18 +656,6 @@ def test_a_negative_reward_is_rounded_up_for_a_maximiser(resolution: int) -> Non
     pairs = _exact_choice_rewards(abstraction, problem)
     assert any(exact < 0 for _, exact in pairs)
     assert all(Fraction(got) >= exact for got, exact in pairs)
-
-
-def test_outward_rounding_moves_either_sign_toward_the_bound_side() -> None:
-    """v + err rounded up, v - err rounded down, for negative and positive v alike; a zero
-    error leaves v exact."""
-    v = np.array([-0.3, 0.3, -0.3, 0.0])
-    err = np.array([1e-17, 1e-17, 0.0, 0.0])
-    up = belief_grid._outward(v, err, True)
-    down = belief_grid._outward(v, err, False)
-    for x, e, u, d in zip(v.tolist(), err.tolist(), up.tolist(), down.tolist(), strict=True):
-        assert Fraction(d) <= Fraction(x) - Fraction(e) <= Fraction(x) + Fraction(e) <= Fraction(u)
-    assert up[2] == down[2] == -0.3 and up[3] == down[3] == 0.0
 
 
 def test_a_minimisers_rewards_of_both_signs_get_no_grid() -> None:
@@ -883,7 +755,7 @@ def test_the_default_refinement_settles_once_a_complete_grid_stops_tightening() 
 def test_shared_exact_posteriors_are_the_ones_each_row_would_give(
         path: Path, prop: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """The unfolding computes an adversary's deterministic rule's exact posteriors once per
-    signature from the choices reaching the part (belief_grid._shared_parts); with that sharing
+    signature from the choices reaching the part (belief_exact.shared_parts); with that sharing
     switched off every part's posterior comes from its row's whole exact vector. Both must give
     the same abstraction: the same vertices in the same order, the same exact beliefs, the
     same enclosure (models/rover.posg: 60 states and 100 choices; dodge_lanes.posg: 18 and
@@ -894,14 +766,14 @@ def test_shared_exact_posteriors_are_the_ones_each_row_would_give(
     shared = belief_grid.grid_abstraction(problem, 0, cutoff=cutoff, adversary_rules=rules,
                                           max_vertices=1_500)
     called: list[int] = []
-    real = belief_grid._shared_parts
+    real = belief_exact.shared_parts
 
     def unshared(source, live, rows, starts, sizes, col, vertex, dyn):  # type: ignore[no-untyped-def]
         sigs, _ = real(source, live, rows, starts, sizes, col, vertex, dyn)
         called.append(sum(s is not None for s in sigs))
         return [None] * starts.size, live
 
-    monkeypatch.setattr(belief_grid, "_shared_parts", unshared)
+    monkeypatch.setattr(belief_grid, "shared_parts", unshared)
     alone = belief_grid.grid_abstraction(problem, 0, cutoff=cutoff, adversary_rules=rules,
                                          max_vertices=1_500)
     assert shared is not None and alone is not None

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from posgmc import api
 from posgmc.syntax import parser
-from posgmc.synthesis import belief_grid, stage_lp
+from posgmc.synthesis import belief_dynamics, belief_grid, stage_lp
 from posgmc.synthesis.search import problem_of
 from tests.random_games import random_posg
 from tests.synthesis.helpers import every_deterministic, fss_guaranteed, runner_crossing_at_once
@@ -96,7 +96,7 @@ def test_stage_rules_are_distributions_per_state() -> None:
     """Both LPs return, per state of the belief's support, a distribution over its choices
     that is not deterministic (a deterministic rule is offered anyway, so None is returned)."""
     problem = _hide()
-    dyn = belief_grid._Dynamics(problem, None)
+    dyn = belief_dynamics.Dynamics(problem, None)
     s0 = int(problem.model.initial_states[0])
     states, p = np.array([s0]), np.array([1.0])
     cols, _ = dyn.rules(states)
@@ -210,7 +210,7 @@ def test_a_grid_rule_lands_on_its_target() -> None:
     (1/2, 1/2), a resolution-2 grid belief, only by switching with probability 5/8; grid_rule
     finds that rule, in simple fractions so that floating point lands on the vertex itself."""
     problem = _lanes()
-    dyn = belief_grid._Dynamics(problem, None)
+    dyn = belief_dynamics.Dynamics(problem, None)
     s0 = int(problem.model.initial_states[0])  # the guard's first move, lane 0
     states = np.array([s0])
     cols, _ = dyn.rules(states)

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from posgmc import api
 from posgmc.syntax import parser
-from posgmc.synthesis import belief_grid, target_rules
+from posgmc.synthesis import belief_dynamics, belief_grid, target_rules
 from posgmc.synthesis.search import problem_of
 from tests.random_games import random_posg
 from tests.synthesis.helpers import every_deterministic, fss_guaranteed, runner_crossing_at_once
@@ -76,7 +76,7 @@ def test_an_exact_rule_lands_on_its_target() -> None:
     1/2 : 1/2 only by switching with probability 5/8 (4/5 of the switches move it: (5/8) (4/5)
     = 1/2); exact_target_rule finds that rule as exact fractions."""
     _, problem = _game(GAMES / "dodge_lanes.posg", '<<runner>> Pmax=? [ F "won" ]')
-    dyn = belief_grid._Dynamics(problem, None)
+    dyn = belief_dynamics.Dynamics(problem, None)
     s0 = int(problem.model.initial_states[0])
     cols, _ = dyn.rules(np.array([s0]))
     owner = np.zeros(cols.size, dtype=np.int64)
