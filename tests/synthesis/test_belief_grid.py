@@ -36,6 +36,14 @@ def _problem(model, prop: str):  # type: ignore[no-untyped-def]
                       coalition_of=coalition, scalar=api._scalar)
 
 
+def _small_abstraction(problem, resolution: int):  # type: ignore[no-untyped-def]
+    """The full-observation cut-off values and the grid abstraction of a random model's problem
+    at ``resolution``, at most 200 vertices (None where the grid does not apply)."""
+    cutoff = belief_grid.full_observation_bounds(problem)[0]
+    return cutoff, belief_grid.grid_abstraction(problem, resolution, cutoff=cutoff,
+                                                max_vertices=200)
+
+
 def _built(path: Path | None = None, text: str | None = None, **constants: str):  # type: ignore[no-untyped-def]
     session = api.load(path, text=text, constants=constants or None)
     return api.build(session).model
@@ -284,9 +292,7 @@ def test_every_choice_is_on_the_optimistic_side_of_its_exact_belief_successors(
     model = random_pomdp(seed)
     prop = 'Pmax=? [ F "goal" ]' if maximize else 'Pmin=? [ F "goal" ]'
     problem = _problem(model, prop)
-    cutoff = belief_grid.full_observation_bounds(problem)[0]
-    abstraction = belief_grid.grid_abstraction(problem, resolution, cutoff=cutoff,
-                                               max_vertices=200)
+    _, abstraction = _small_abstraction(problem, resolution)
     if abstraction is None:
         return
     V = abstraction.vertices
@@ -376,9 +382,7 @@ def test_a_signed_enclosure_holds_the_exact_belief_successors(seed: int,
 def _check_enclosure(model, prop: str, resolution: int) -> None:  # type: ignore[no-untyped-def]
     problem = _problem(model, prop)
     signed = problem.rewards is not None and bool((problem.rewards < 0).any())
-    cutoff = belief_grid.full_observation_bounds(problem)[0]
-    abstraction = belief_grid.grid_abstraction(problem, resolution, cutoff=cutoff,
-                                               max_vertices=200)
+    cutoff, abstraction = _small_abstraction(problem, resolution)
     if abstraction is None:
         return
     enc = abstraction.enclosure
