@@ -17,13 +17,15 @@ same ``seen`` set to every call.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
 from posgmc.checking.decimals import plain, shortest_in
 from posgmc.checking.results import PropertyResult
 
-__all__ = ["number_text", "result_lines", "role_of"]
+__all__ = ["number_text", "point_text", "result_lines", "role_of",
+           "value_text"]
 
 
 def number_text(value: float | bool | None, lower: float | None = None,
@@ -43,6 +45,33 @@ def _interval(lower: float | None, upper: float | None) -> str:
     if lower is None or upper is None:
         return ""
     return f"  [{plain(lower)}, {plain(upper)}]"
+
+
+def _open(lower: float | None, upper: float | None) -> bool:
+    """Whether ``[lower, upper]`` is a proper interval (finite, wider than a point)."""
+    return lower is not None and upper is not None and math.isfinite(lower) \
+        and math.isfinite(upper) and lower < upper
+
+
+def point_text(value: float | bool | None, lower: float | None, upper: float | None, *,
+               settled: bool) -> str:
+    """The one text that stands for a value: the shortest decimal inside its proven interval
+    (:func:`number_text`) when the check ``settled`` (converged to the precision asked, and
+    proved it), else the interval itself when it is wider than a point: the point inside an
+    unsettled interval is a midpoint nothing computed, and its shortest decimal can sit at an end
+    of a wide interval (``1`` for ``[0.487, 1]``), which reads as an answer."""
+    if not settled and not isinstance(value, bool) and _open(lower, upper):
+        return f"[{plain(lower)}, {plain(upper)}]"  # type: ignore[arg-type]
+    return number_text(value, lower, upper)
+
+
+def value_text(value: float | bool | None, lower: float | None, upper: float | None, *,
+               settled: bool) -> str:
+    """A value followed by its proven interval, as a result line shows it (an unsettled one as
+    the interval alone, :func:`point_text`; a Boolean without one)."""
+    if isinstance(value, bool) or (not settled and _open(lower, upper)):
+        return point_text(value, lower, upper, settled=settled)
+    return number_text(value, lower, upper) + _interval(lower, upper)
 
 
 def role_of(key: str, *, maximizing: bool, synthesised: bool = True) -> str:
@@ -86,10 +115,11 @@ def _headline(r: PropertyResult) -> str:
     """``property: value  [lower, upper]  (method, ...)`` with the marks of an unproven answer."""
     from posgmc.semantics.evaluate import format_value
 
-    value = format_value(r.exact) if r.exact is not None else number_text(r.value, r.lower, r.upper)
+    if r.exact is not None:
+        value = format_value(r.exact) + _interval(r.lower, r.upper)
+    else:
+        value = value_text(r.value, r.lower, r.upper, settled=r.converged and r.sound)
     line = f"{r.property}: {value}"
-    if not isinstance(r.value, bool):
-        line += _interval(r.lower, r.upper)
     if r.synthesis is not None:  # how it was proven is on the "how" line
         line += f"  (synthesis, {r.seconds:.3f} s)"
     else:
@@ -110,8 +140,8 @@ def _number_line(key: str, r: PropertyResult, *, verbose: bool) -> str | None:
         return None
     maximizing = True if r.maximizing is None else r.maximizing
     role = role_of(key, maximizing=maximizing, synthesised=r.synthesis is not None)
-    line = (f"  {role}: {number_text(number.value, number.lower, number.upper)}"
-            f"{_interval(number.lower, number.upper)}")
+    settled = number.sound and number.converged
+    line = f"  {role}: {value_text(number.value, number.lower, number.upper, settled=settled)}"
     if role != key:
         line += f"  ({key})"
     if not number.sound:

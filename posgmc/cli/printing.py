@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from posgmc.checking.result_text import number_text
+from posgmc.checking.result_text import point_text
 from posgmc.cli.constants import const_json, const_text
 
 if TYPE_CHECKING:
@@ -123,7 +123,8 @@ def print_report(
         click.echo("\t".join(swept + ["Result"]))
         for constants, report in rows:
             r = report.outcomes[i]
-            value = "Error" if isinstance(r, tuple) else number_text(r.value, r.lower, r.upper)
+            value = "Error" if isinstance(r, tuple) else \
+                point_text(r.value, r.lower, r.upper, settled=r.converged and r.sound)
             click.echo("\t".join([const_text(constants[n]) for n in swept] + [value]))
             if isinstance(r, tuple):
                 click.echo(r[1].render(), err=True)

@@ -7,7 +7,7 @@ from typing import Any, Literal
 
 import click
 
-from posgmc.checking.result_text import number_text
+from posgmc.checking.result_text import point_text
 from posgmc.cli.constants import const_assignments, const_text, single_constants
 from posgmc.cli.group import main
 from posgmc.cli.options import (
@@ -378,11 +378,13 @@ def _proven(r: Any) -> bool:
 
 
 def _bound_cell(b: Any) -> str:
-    """A number with its proven bounds (the number as the shortest decimal inside them); ``-``
-    where it was not computed."""
+    """A number with its proven bounds (the number as the shortest decimal inside them, the
+    bounds alone where its check did not settle); ``-`` where it was not computed."""
     if b is None:
         return "-"
-    return f"{number_text(b.value, b.lower, b.upper)} [{fmt(b.lower)}, {fmt(b.upper)}]"
+    settled = b.sound and b.converged
+    text = point_text(b.value, b.lower, b.upper, settled=settled)
+    return text if text.startswith("[") else f"{text} [{fmt(b.lower)}, {fmt(b.upper)}]"
 
 
 def _bound_headers(result: Any) -> tuple[str, str]:

@@ -5,8 +5,11 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from hypothesis import assume, given
+from hypothesis import strategies as st
 
-from posgmc.checking.result_text import result_lines, role_of
+from posgmc.checking.decimals import plain
+from posgmc.checking.result_text import number_text, point_text, result_lines, role_of
 from posgmc.checking.results import Bound, PropertyResult, ResultKind
 from posgmc.strategies.fss import FiniteStateStrategy
 
@@ -103,3 +106,39 @@ def test_an_unproven_number_says_so() -> None:
     r = _synthesised(upper_bound=Bound(5.6, 0.0, 20.0, sound=False))
     line = next(x for x in result_lines(r, verbose=True) if "(upper_bound)" in x)
     assert "NOT PROVEN" in line
+
+
+def test_an_unsettled_interval_is_printed_without_a_point_inside_it() -> None:
+    # the numbers of dodge-6-lines' defence when its check stopped at the iteration cap (the
+    # guarantee proven at 0.487385696 since): the shortest decimal inside [0.4873856, 1] is 1,
+    # which read as the answer
+    wide = Bound(0.7436928, 0.4873856, 1.0, sound=False, converged=False)
+    r = _synthesised(guaranteed=wide, value=wide.value, lower=wide.lower, upper=wide.upper,
+                     sound=False, converged=False)
+    head = result_lines(r, verbose=False)[0]
+    assert ': [0.4873856, 1]  (synthesis' in head
+    assert "NOT PROVEN" in head
+    line = next(x for x in result_lines(r, verbose=True) if x.startswith("  guaranteed"))
+    assert line.startswith("  guaranteed: [0.4873856, 1]  NOT PROVEN")
+
+
+def test_a_settled_interval_keeps_its_shortest_decimal() -> None:
+    line = next(x for x in result_lines(_synthesised(), verbose=True)
+                if x.startswith("  guaranteed"))
+    # 13.88 itself is not inside: the double nearest 13.88 is 13.88000000000000078...
+    assert line.startswith("  guaranteed: 13.881  [13.88, 13.882469]")
+
+
+@given(lower=st.floats(-1e6, 1e6), width=st.floats(1e-9, 1e6), where=st.floats(0, 1),
+       settled=st.booleans())
+def test_the_text_of_a_value_is_its_point_only_when_settled(
+        lower: float, width: float, where: float, settled: bool) -> None:
+    upper = lower + width
+    assume(lower < upper)
+    value = lower + where * (upper - lower)
+    text = point_text(value, lower, upper, settled=settled)
+    if settled:
+        # the shortest decimal inside the proven interval, as every settled number prints
+        assert text == number_text(value, lower, upper)
+    else:
+        assert text == f"[{plain(lower)}, {plain(upper)}]"

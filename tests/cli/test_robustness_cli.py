@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import stat
 from pathlib import Path
 
@@ -262,6 +263,9 @@ def test_hitting_the_iteration_cap_says_so_and_fails(monkeypatch: pytest.MonkeyP
     monkeypatch.setattr(engine_options.SolverOptions, "__init__", capped)
     r = run("check", ROVER, "--prop", REACH)
     assert "NOT CONVERGED: the bounds hold but are wider" in r.output, r.output
+    # the value is its interval alone: no point inside it stands for a number nothing computed
+    line = next(x for x in r.output.splitlines() if "NOT CONVERGED" in x)
+    assert re.search(r": \[[0-9.e-]+, [0-9.e-]+\]  \(interval", line), line
     assert r.exit_code == 1
 
 
