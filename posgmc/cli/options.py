@@ -227,8 +227,11 @@ def memory_sizes(text: str, given: str) -> tuple[int, ...]:
     except ValueError:
         raise click.BadParameter(f"{given!r}: give K, K1..K2 or auto, optionally after PLAYER=",
                                  param_hint="'--memory'") from None
-    if lo > hi or lo < 1:
+    if lo < 1:
         raise click.BadParameter(f"{given!r}: memory sizes start at 1", param_hint="'--memory'")
+    if lo > hi:
+        raise click.BadParameter(f"{given!r}: a range K1..K2 goes up (K1 <= K2), e.g. {hi}..{lo}",
+                                 param_hint="'--memory'")
     if hi > MAX_MEMORY:
         raise click.BadParameter(f"{given!r}: memory sizes go up to {MAX_MEMORY} (a strategy with "
                                  "k nodes has k^2 memory updates per observation and action)",

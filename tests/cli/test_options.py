@@ -44,7 +44,8 @@ def test_files(tmp_path: Path) -> tuple[str, str]:
     # a range of 10**20 sizes, listed before anything else
     ((*CHECK, "--memory", "rover=1..99999999999999999999"),
      "Invalid value for '--memory': 'rover=1..99999999999999999999': memory sizes go up to"),
-    ((*CHECK, "--memory", "3..1"), "Invalid value for '--memory': '3..1': memory sizes start at 1"),
+    ((*CHECK, "--memory", "3..1"), "Invalid value for '--memory': '3..1': a range K1..K2 goes up"),
+    ((*CHECK, "--memory", "0..2"), "Invalid value for '--memory': '0..2': memory sizes start at 1"),
     # nan: no deadline at all
     ((*CHECK, "--timeout", "nan"), "Invalid value for --timeout: nan is not a positive finite"),
     ((*CHECK, "--timeout", "inf"), "Invalid value for --timeout: inf is not a positive finite"),
