@@ -24,7 +24,7 @@ from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.observables import with_boolean_observables
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax.ast import ComparisonOp, Direction, Expr, ProbQuery, RewardQuery
-from posgmc.synthesis import lower_side, progress
+from posgmc.synthesis import fixed_memory, lower_side, progress
 from posgmc.synthesis.bracket import (
     DEFAULT_VERTICES,
     GAP_SHARE,
@@ -453,6 +453,7 @@ class SynthesisChecker:
         found = lower_side.close_from_below(
             run.problem, defence, g, bound=optimum.upper if maximize else optimum.lower,
             gap=gap, nodes=run.settings.budget.default("belief_nodes"), deadline=clock.end,
+            steps=run.settings.budget.units(fixed_memory.ITERATIONS),
             verify=lambda f: _proven(StrategyChecker(
                 self.model, {f.player: f}, coalition_of=self.coalition_of, scalar=self.scalar,
                 options=_until(self.options, clock.end)).check(run.bare, text="synthesis")

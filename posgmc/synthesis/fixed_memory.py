@@ -43,7 +43,7 @@ from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import bind, player_view
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import StrategyProduct, strategy_product
-from posgmc.synthesis.ascent import ascend
+from posgmc.synthesis.ascent import LOGIT, ascend
 from posgmc.synthesis.parametric import chain_reach
 from posgmc.synthesis.problem import Problem
 
@@ -122,13 +122,32 @@ class FrameParametrisation:
                                 [bind(problem.model, frame.strategy(problem.model,
                                                                     problem.player, uniform))])
         self.product = prod
-        self.coefficients, self.fixed = _coefficients(problem, frame, prod)
+        self.coefficients, self.fixed, self.entry_choices = _coefficients(problem, frame, prod)
         # the product state of each stored entry's row (the decision maker's states have one
         # row each; the adversary's entries carry no coefficient)
         pm = prod.model
         state_of_row = np.repeat(np.arange(pm.num_states), np.diff(pm.row_groups))
         self.entry_rows = state_of_row[row_of_entries(pm.transitions)]
         self._response: np.ndarray | None = None
+
+    def cautious_start(self, values: np.ndarray) -> np.ndarray:
+        """Logits from per-state values (float64[S], e.g. the full-observation optimum): each
+        entry scored by its choice's worst one-step backup over the states its rule is played
+        in, the best entry of each rule at 0 and the others lower in proportion, down to
+        -LOGIT for a loss of half the values' range."""
+        model, sign = self.problem.model, self.problem.sign
+        finite = np.where(np.isfinite(values), values, 0.0)
+        span = float(finite.max(initial=0.0) - finite.min(initial=0.0))
+        q = sign * np.asarray(model.transitions @ finite).ravel()  # per model choice
+        e, c = self.entry_choices
+        worst = np.full(self.frame.num_entries, np.inf)
+        np.minimum.at(worst, e, q[c])
+        worst = np.where(np.isfinite(worst), worst, 0.0)
+        best = np.maximum.reduceat(worst, self.starts[:-1])[self.of_entry]
+        if span <= 0:
+            return np.zeros(self.frame.num_entries)
+        out: np.ndarray = np.clip(2.0 * LOGIT * (worst - best) / span, -LOGIT, 0.0)
+        return out
 
     def probabilities(self, theta: np.ndarray) -> np.ndarray:
         return _softmax(theta, self.starts, self.of_entry)
@@ -188,9 +207,11 @@ class FrameParametrisation:
 
 
 def _coefficients(problem: Problem, frame: MemoryFrame, prod: StrategyProduct
-                  ) -> tuple[sp.csr_matrix, np.ndarray]:
+                  ) -> tuple[sp.csr_matrix, np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """A csr float64[nnz, E] and fixed float64[nnz]: the product's transition data of the FSS
-    γ is ``fixed + A @ γ`` (the decision maker's entries are 0 in ``fixed``)."""
+    γ is ``fixed + A @ γ`` (the decision maker's entries are 0 in ``fixed``); and the pairs
+    (entry e, model choice c) of the decision maker's product states: e is played in a product
+    state (s, n) by choosing c in s (int64[M] each)."""
     model, player = problem.model, problem.player
     view = player_view(model, player)
     owned = (model.state_players == player) if model.player_names \
@@ -233,7 +254,7 @@ def _coefficients(problem: Problem, frame: MemoryFrame, prod: StrategyProduct
     coefficients = sp.csr_matrix((T.data[t], (pos, e_t)), shape=(Tp.nnz, frame.num_entries))
     ours = np.repeat(owned[prod.state_of], np.diff(pm.row_groups))[row_of_entries(Tp)]
     fixed = np.where(ours, 0.0, Tp.data)
-    return coefficients, fixed
+    return coefficients, fixed, (e, c)
 
 
 @dataclass(frozen=True, eq=False)
@@ -248,8 +269,10 @@ class FrameAscent:
 
 def ascend_frame(problem: Problem, frame: MemoryFrame, *, start: np.ndarray | None = None,
                  iterations: int = ITERATIONS, deadline: float | None = None) -> FrameAscent:
-    """Adam over the logits of ``frame``'s action maps from ``start`` (float64[E]; None: 0, the
-    uniform γ) for ``iterations`` steps or until ``deadline``; the best iterate."""
+    """Adam over the logits of ``frame``'s action maps for ``iterations`` steps or until
+    ``deadline``; the best iterate. ``start``: per-state values (float64[S], e.g. the
+    full-observation optimum) for :meth:`FrameParametrisation.cautious_start`; None: the
+    uniform γ."""
     par = FrameParametrisation(problem, frame)
     sign = problem.sign
 
@@ -260,7 +283,7 @@ def ascend_frame(problem: Problem, frame: MemoryFrame, *, start: np.ndarray | No
         logits = gamma * (g - np.add.reduceat(gamma * g, par.starts[:-1])[par.of_entry])
         return sign * value, logits, _unused
 
-    theta0 = np.zeros(frame.num_entries) if start is None else start
+    theta0 = np.zeros(frame.num_entries) if start is None else par.cautious_start(start)
     (theta, _), best, n = ascend(step, theta0, np.zeros(0), iterations=iterations,
                                  learning_rate=LEARNING_RATE, deadline=deadline)
     gamma = par.probabilities(theta)

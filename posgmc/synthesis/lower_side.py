@@ -2,7 +2,12 @@
 defence and the bound side leave more than the gap, strategies with more memory over the defence,
 from beliefs explored with growing budgets: the policy graph backed up at them
 (:mod:`posgmc.synthesis.policy_graph`) and, on a POMDP, the belief controller
-(:mod:`posgmc.synthesis.belief`), each ranked like every other candidate.
+(:mod:`posgmc.synthesis.belief`), each ranked like every other candidate; then, while the gap is
+still open, a randomised controller whose memory is the belief support
+(:mod:`posgmc.synthesis.belief_support`), its action map climbed by gradient ascent against the
+adversary's best response (:mod:`posgmc.synthesis.fixed_memory`). The policy graphs and belief
+controllers are deterministic, and an omniscient adversary knows a deterministic defender's next
+move; the randomised controller keeps it guessing (probability objectives only).
 
 On a POMDP the beliefs are exact. On a one-sided game (a partially observing decision maker
 against an omniscient adversary) the decision maker's belief depends on the adversary's unseen
@@ -33,13 +38,13 @@ from posgmc.strategies.binding import bind
 from posgmc.strategies.fss import FiniteStateStrategy
 from posgmc.strategies.product import strategy_product
 from posgmc.strategies.verify import StrategyChecker
-from posgmc.synthesis import belief, belief_grid, policy_graph
+from posgmc.synthesis import belief, belief_grid, belief_support, fixed_memory, policy_graph
 from posgmc.synthesis.belief_stage import deterministic_rule, uniform_rule
 from posgmc.synthesis.options import Gap
 from posgmc.synthesis.problem import POLICY, Problem, expired
 
 __all__ = ["LowerSide", "applies", "close_from_below", "GROWTH", "FIRST_BUDGET", "SHARE",
-           "GRAPH_NODES", "GRAPH_MAX"]
+           "GRAPH_NODES", "GRAPH_MAX", "SUPPORT_SHARE"]
 
 GRAPH_NODES = 256
 """The first policy graph (:mod:`posgmc.synthesis.policy_graph`) adds this many memory nodes at
@@ -51,6 +56,11 @@ GRAPH_MAX = 1024
 BUILD_SHARE = 0.6
 """Under a cap: the part of the lower side's time for building candidates (the sound check of
 the best one has the rest)."""
+
+SUPPORT_SHARE = 0.5
+"""Under a cap, when the model has a belief-support frame: the part of the building time kept
+at its end for the randomised support controller (the policy graphs and belief controllers have
+the rest)."""
 
 SHARE = 0.15
 """Under a wall-clock cap with ``--gap``: the part of it at its end kept for the lower side (the
@@ -91,14 +101,17 @@ def applies(problem: Problem) -> bool:
 
 def close_from_below(problem: Problem, defence: FiniteStateStrategy, guaranteed: Bound, *,
                      bound: float, gap: Gap, nodes: int, deadline: float | None,
-                     verify: Callable[[FiniteStateStrategy], Bound]) -> LowerSide:
+                     verify: Callable[[FiniteStateStrategy], Bound],
+                     steps: int = fixed_memory.ITERATIONS) -> LowerSide:
     """Belief-based controllers over ``defence`` (which proves ``guaranteed``) until one is
     ranked within ``gap`` of ``bound`` (the bracket's bound side), the budgets are spent or
-    ``deadline`` passes; the best-ranked one is checked by ``verify`` (the sound product check
-    against every adversary) and returned when that proves more than ``guaranteed``.
+    ``deadline`` passes; then, while none is within the gap, the randomised support controller;
+    the best-ranked one is checked by ``verify`` (the sound product check against every
+    adversary) and returned when that proves more than ``guaranteed``.
 
     ``nodes``: the belief phase's node budget (the first controller explores
-    :data:`FIRST_BUDGET` times it, each next one :data:`GROWTH` times more)."""
+    :data:`FIRST_BUDGET` times it, each next one :data:`GROWTH` times more); ``steps``: the
+    support controller's gradient steps."""
     maximize = problem.maximize
     sign = problem.sign
     achieved = guaranteed.lower if maximize else guaranteed.upper
@@ -109,7 +122,47 @@ def close_from_below(problem: Problem, defence: FiniteStateStrategy, guaranteed:
     # best one's product check has the rest
     now = time.perf_counter()
     build_until = None if deadline is None else now + BUILD_SHARE * max(0.0, deadline - now)
-    upper, choice = belief_grid.full_observation_bounds(problem, build_until)
+    frame = None
+    if problem.rewards is None:
+        frame = belief_support.support_frame(problem.model, problem.player,
+                                             deadline=build_until)
+    graphs_until = build_until
+    if frame is not None and build_until is not None:
+        now = time.perf_counter()
+        graphs_until = now + (1.0 - SUPPORT_SHARE) * max(0.0, build_until - now)
+    upper, choice = belief_grid.full_observation_bounds(problem, graphs_until)
+    best = _belief_candidates(problem, defence, bound, gap, nodes, upper, choice, graphs_until,
+                              tried)
+    if frame is not None and not expired(build_until) and not (
+            best is not None and gap.met(*sorted((best[0], bound)))):
+        # from the full-observation optimum's cautious reading over each support
+        found = fixed_memory.ascend_frame(problem, frame, iterations=steps, start=upper,
+                                          deadline=build_until)
+        tried.append({"kind": "randomised support controller",
+                      "adversary_rule": "best response to each step",
+                      "steps": found.evaluations, "memory": frame.memory_size,
+                      "ranked": found.value if math.isfinite(found.value) else None})
+        if math.isfinite(found.value) and (best is None
+                                           or sign * found.value > sign * best[0]):
+            best = (found.value, found.strategy)
+    if best is None or sign * best[0] <= sign * achieved or expired(deadline):
+        return LowerSide(None, None, tuple(tried))
+    proven = verify(best[1])
+    value = proven.lower if maximize else proven.upper
+    if not proven.sound or sign * value <= sign * achieved:
+        return LowerSide(None, None, tuple(tried))
+    return LowerSide(best[1], proven, tuple(tried))
+
+
+def _belief_candidates(problem: Problem, defence: FiniteStateStrategy, bound: float, gap: Gap,
+                       nodes: int, upper: np.ndarray, choice: np.ndarray | None,
+                       build_until: float | None, tried: list[dict[str, object]]
+                       ) -> tuple[float, FiniteStateStrategy] | None:
+    """The best-ranked policy graph or belief controller over ``defence`` (each one built is
+    appended to ``tried``), from explorations under each assumed adversary rule with growing
+    budgets until one is within ``gap`` of ``bound`` or ``build_until`` passes. ``upper``,
+    ``choice``: the full-observation optimum's bound and choice per state."""
+    sign = problem.sign
     cut = belief.cutoff_values(problem.model, defence, problem.query,
                                coalition_of=problem.coalition_of, scalar=problem.scalar)
     best: tuple[float, FiniteStateStrategy] | None = None
@@ -134,13 +187,7 @@ def close_from_below(problem: Problem, defence: FiniteStateStrategy, guaranteed:
             explore, graph = grown
         if best is not None and gap.met(*sorted((best[0], bound))):
             break
-    if best is None or sign * best[0] <= sign * achieved or expired(deadline):
-        return LowerSide(None, None, tuple(tried))
-    proven = verify(best[1])
-    value = proven.lower if maximize else proven.upper
-    if not proven.sound or sign * value <= sign * achieved:
-        return LowerSide(None, None, tuple(tried))
-    return LowerSide(best[1], proven, tuple(tried))
+    return best
 
 
 def _candidates(problem: Problem, defence: FiniteStateStrategy, cut: np.ndarray,
