@@ -10,7 +10,7 @@ Usage:
 ``--export DIR`` also writes each runner to ``DIR/dodge-6-lines-runner-<rate>.fss.json``
 (``tests/data/strategies/`` keeps the one of rate 1e-3).
 
-The game (the DRN ``tests/data/benchmarks/posmg/dodge-6-lines/sketch.templ``, from PAYNT's
+The game (the DRN ``posmg/dodge-6-lines/sketch.templ`` of the benchmark models, from PAYNT's
 ``models/posmg``; its PRISM source ``model.prism`` beside it describes a later version with the
 same geometry): the runner (player 0) walks a 6x6 grid from (1,1) to (6,6), moves l1/r1/d1/u1
 deterministically (a move into a wall stays); the guard (player 1, who sees everything) moves on an
@@ -40,8 +40,8 @@ Each runner is checked twice: by posgmc's sound strategy check (``api.check`` wi
 every guard strategy allowed, interval iteration), and independently by Storm: this script builds
 the product of the DRN with the runner itself (its own DRN reader, not posgmc's) as an MDP in
 which only the guard chooses, and Storm's sound environment computes ``Pmin=? [F "goal"]`` on it
-(``stormpy.environments.sound()``, precision 1e-10) in the reference interpreter (``$POSGMC_REFERENCE_PYTHON``;
-without it that column is ``-``). Prints a markdown table, then the full-observation value
+(``stormpy.environments.sound()``, precision 1e-10) in the reference interpreter
+(``$POSGMC_REFERENCE_PYTHON``; without it that column is ``-``). Prints a markdown table, then the full-observation value
 (posgmc, ``--full-observation``) and the 1-minute load average.
 """
 
@@ -57,8 +57,10 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-MODEL = ROOT / "tests/data/benchmarks/posmg/dodge-6-lines/sketch.templ"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _locations import ROOT, reference_python, shared_benchmarks  # noqa: E402
+
+MODEL = shared_benchmarks() / "posmg" / "dodge-6-lines" / "sketch.templ"
 PROPERTY = '<<1>> Pmax=? [ F "goal" ]'  # PRISM-games numbering: <<0>> in Storm's and PAYNT's
 RATES = (1e-2, 1e-3, 1e-4, 1e-5)
 
@@ -212,11 +214,11 @@ print(json.dumps({"value": result.get_value(model.initial_states[0])}))
 
 def storm_min(product: Path) -> float | None:
     """Storm's sound Pmin on the product DRN (None without the reference interpreter)."""
-    python = os.environ.get("POSGMC_REFERENCE_PYTHON")
-    if not python:
+    python = reference_python()
+    if python is None:
         return None
-    done = subprocess.run([python, "-c", _STORM, str(product)], capture_output=True, text=True,
-                          check=True)
+    done = subprocess.run([str(python), "-c", _STORM, str(product)], capture_output=True,
+                          text=True, check=True)
     line = [x for x in done.stdout.splitlines() if x.startswith("{")][-1]
     return float(json.loads(line)["value"])
 
