@@ -41,8 +41,8 @@ every guard strategy allowed, interval iteration), and independently by Storm: t
 the product of the DRN with the runner itself (its own DRN reader, not posgmc's) as an MDP in
 which only the guard chooses, and Storm's sound environment computes ``Pmin=? [F "goal"]`` on it
 (``stormpy.environments.sound()``, precision 1e-10) in the reference interpreter
-(``$POSGMC_REFERENCE_PYTHON``; without it that column is ``-``). Prints a markdown table, then the full-observation value
-(posgmc, ``--full-observation``) and the 1-minute load average.
+(``$POSGMC_REFERENCE_PYTHON``; without it that column is ``-``). Prints a markdown table, then
+the full-observation value (posgmc, ``--full-observation``) and the 1-minute load average.
 """
 
 from __future__ import annotations
