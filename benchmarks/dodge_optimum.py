@@ -36,8 +36,9 @@ each blind exit is caught with probability at most 0.8, while the guard that cov
 about 1/(12 rate) times as often: the runner's guarantee tends to 1 as the rate goes to 0 (no
 single strategy reaches 1: with rate 0 the guard just waits at the corner).
 
-Each runner is checked twice: by posgmc's sound strategy check (``api.check`` with the strategy,
-every guard strategy allowed, interval iteration), and independently by Storm: this script builds
+Each runner is checked twice, CPU seconds of each check beside it: by posgmc's sound strategy
+check (``api.check`` with the strategy, every guard strategy allowed, interval iteration), and
+independently by Storm: this script builds
 the product of the DRN with the runner itself (its own DRN reader, not posgmc's) as an MDP in
 which only the guard chooses, and Storm's sound environment computes ``Pmin=? [F "goal"]`` on it
 (``stormpy.environments.sound()``, precision 1e-10) in the reference interpreter
@@ -62,7 +63,7 @@ from _locations import ROOT, reference_python, shared_benchmarks  # noqa: E402
 
 MODEL = shared_benchmarks() / "posmg" / "dodge-6-lines" / "sketch.templ"
 PROPERTY = '<<1>> Pmax=? [ F "goal" ]'  # PRISM-games numbering: <<0>> in Storm's and PAYNT's
-RATES = (1e-2, 1e-3, 1e-4, 1e-5)
+RATES = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7)
 
 MOVES = {"l1": (-1, 0), "r1": (1, 0), "d1": (0, -1), "u1": (0, 1)}
 SIZE = 6
@@ -202,25 +203,28 @@ def product_drn(fss: dict[str, object], out: Path) -> int:
 
 
 _STORM = """
-import json, sys, stormpy, stormpy.environments
+import json, sys, time, stormpy, stormpy.environments
 model = stormpy.build_model_from_drn(sys.argv[1])
 prop = stormpy.parse_properties('Pmin=? [ F "goal" ]')[0]
 env = stormpy.environments.sound()
 env.solver().min_max().precision = stormpy.Rational(1e-10)
+started = time.process_time()
 result = stormpy.model_checking(model, prop, environment=env)
-print(json.dumps({"value": result.get_value(model.initial_states[0])}))
+seconds = time.process_time() - started
+print(json.dumps({"value": result.get_value(model.initial_states[0]), "seconds": seconds}))
 """
 
 
-def storm_min(product: Path) -> float | None:
-    """Storm's sound Pmin on the product DRN (None without the reference interpreter)."""
+def storm_min(product: Path) -> tuple[float, float] | None:
+    """Storm's sound Pmin on the product DRN and the CPU seconds of its check (None without the
+    reference interpreter)."""
     python = reference_python()
     if python is None:
         return None
     done = subprocess.run([str(python), "-c", _STORM, str(product)], capture_output=True,
                           text=True, check=True)
-    line = [x for x in done.stdout.splitlines() if x.startswith("{")][-1]
-    return float(json.loads(line)["value"])
+    line = json.loads([x for x in done.stdout.splitlines() if x.startswith("{")][-1])
+    return float(line["value"]), float(line["seconds"])
 
 
 def main() -> None:
@@ -234,8 +238,8 @@ def main() -> None:
 
     session = api.load(MODEL)
     print("| blind-exit rate | memory nodes | guaranteed (posgmc, proven) | CPU s | "
-          "Storm, sound (product MDP) | product states |")
-    print("|---|---|---|---|---|---|")
+          "Storm, sound (product MDP) | Storm CPU s | product states |")
+    print("|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for rate in args.rates:
             fss = probing_runner(rate)
@@ -249,9 +253,10 @@ def main() -> None:
             product = Path(tmp) / f"product-{rate:g}.drn"
             states = product_drn(fss, product)
             storm = storm_min(product)
+            value, seconds = ("-", "-") if storm is None else (f"{storm[0]:.10g}",
+                                                               f"{storm[1]:.2f}")
             print(f"| {rate:g} | {fss['memory_size']} | {g.value:.10g} [{g.lower:.10g}, "
-                  f"{g.upper:.10g}] | {cpu:.2f} | {'-' if storm is None else f'{storm:.10g}'} "
-                  f"| {states} |")
+                  f"{g.upper:.10g}] | {cpu:.2f} | {value} | {seconds} | {states} |")
     full = api.check(session, properties=[PROPERTY], full_observation=True).results[0]
     print(f"\nfull observation: {full.value} [{full.lower}, {full.upper}]; "
           f"load average {os.getloadavg()[0]:.2f}")
