@@ -24,14 +24,14 @@ has a unique fixpoint and ``B'^k(y) -> lfp B'`` from every start, so a post-fixp
 
 The perturbations make the inequalities hold with room: ``t`` satisfies ``t >= 1 + A_r t`` on the
 rows it maximises over (checked on the vector itself, rounding included, and repaired where the
-count from policy iteration falls short: :func:`_max_steps`), so ``A_r (x + d t) + b_r <= x + d t`` wherever ``A_r x + b_r <= x + d``;
-``d_u`` (``d_l``) is the largest violation of ``x`` itself, enlarged a little. ``t_u`` is the
-same count with the minimiser fixed to ``sigma`` and the maximiser maximising it. The
-inequalities are then *evaluated* on the vectors, and whatever they miss by (rounding), ``tau``,
-is added once more along the count: since ``t >= 1 + A_r t`` on every row the count maximises
-over, ``u + tau t_u`` is a pre-fixpoint when ``B(u) <= u + tau`` (and likewise below). No
-tolerance is accepted without this amplification: a slack taken alone would be unsound under a
-slow contraction (the reason interval iteration's check allows only a few ulps). The caller
+count from policy iteration falls short: :func:`_max_steps`), so ``A_r (x + d t) + b_r <= x + d t``
+wherever ``A_r x + b_r <= x + d``; ``d_u`` (``d_l``) is the largest violation of ``x`` itself,
+enlarged a little. ``t_u`` is the same count with the minimiser fixed to ``sigma`` and the maximiser
+maximising it. The inequalities are then *evaluated* on the vectors, and whatever they miss by
+(rounding), ``tau``, is added once more along the count: since ``t >= 1 + A_r t`` on every row the
+count maximises over, ``u + tau t_u`` is a pre-fixpoint when ``B(u) <= u + tau`` (and likewise
+below). No tolerance is accepted without this amplification: a slack taken alone would be unsound
+under a slow contraction (the reason interval iteration's check allows only a few ulps). The caller
 widens the bounds as it widens iterated ones: proven up to floating-point error, like every
 float-based checker's.
 
