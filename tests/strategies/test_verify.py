@@ -151,6 +151,44 @@ def test_defence_with_attacker_end_components_is_proven(method: Method) -> None:
     assert g.upper - g.lower <= 2e-6
 
 
+# -- PAYNT's dodge-6-lines under a runner that leaves its loop with probability 1e-6 ----------
+
+DODGE = BENCHMARKS / "posmg" / "dodge-6-lines" / "sketch.templ"
+DODGE_RUNNER = ROOT / "tests" / "data" / "strategies" / "dodge-6-lines-runner-0.001.fss.json"
+STIFF_RUNNER_GUARANTEED = 0.9999886166939276
+"""Storm 2.0's sound engine (precision 1e-10) on the product that benchmarks/dodge_optimum.py
+builds outside posgmc for the runner at blind-exit rate 1e-6 (``--rates 1e-6``)."""
+
+
+def _runner_at(rate: float) -> dict[str, object]:
+    """The vendored runner (blind exits with probability 1e-3) with its blind exits at ``rate``
+    and its other moves at that cell scaled to match (benchmarks/dodge_optimum.py)."""
+    fss = json.loads(DODGE_RUNNER.read_text())
+    for rule in fss["rules"]:
+        action = rule["action"]
+        if 0.001 in action.values():
+            rest = [a for a, p in action.items() if p != 0.001]
+            rule["action"] = {a: rate if p == 0.001 else (1.0 - rate) / len(rest)
+                              for a, p in action.items()}
+    return fss
+
+
+def test_a_stiff_randomised_runner_is_proven(tmp_path: Path) -> None:
+    """Against the runner's loop, left with probability 1e-6, the guard's longest stay counts 8
+    million steps; policy iteration's count was beaten by 1.5 million on one row, the certificate
+    built on it was 0.05 wide, and interval iteration stopped at its cap with [0.12, 1]. With the
+    count checked and repaired (posgmc/engines/certify.py) the check is proven and holds Storm's
+    value."""
+    path = tmp_path / "runner.json"
+    path.write_text(json.dumps(_runner_at(1e-6)))
+    r = api.check(api.load(DODGE), properties=['<<1>> Pmax=? [ F "goal" ]'],
+                  strategies={"0": path}).results[0]
+    g = r.guaranteed
+    assert g is not None and g.sound and g.converged
+    assert g.lower <= STIFF_RUNNER_GUARANTEED <= g.upper
+    assert g.upper - g.lower <= 1e-6
+
+
 # -- a tiny guessing game: hand derivation and brute force in exact rationals ------------------
 
 GUESS = """

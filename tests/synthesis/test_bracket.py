@@ -22,6 +22,7 @@ from posgmc.cli import main
 from posgmc.errors import InputError
 from posgmc.strategies.verify import StrategyChecker
 from posgmc.syntax import parser
+from posgmc.synthesis import belief_grid
 from posgmc.synthesis.bracket import optimum_of
 from posgmc.synthesis.options import Gap, SynthesisOptions
 from posgmc.synthesis.search import parametrisation, problem_of
@@ -183,3 +184,33 @@ def test_no_bracket_when_not_asked() -> None:
     r = api.check(api.load(TRAP), properties=['Pmax=? [ F "goal" ]'],
                   synthesis=SynthesisOptions(effort=0.2, bracket=False)).results[0]
     assert r.optimum is None and "optimum" not in r.to_json()
+
+
+# -- PAYNT's dodge-6-lines: the optimum is the full-observation value 1 ------------------------
+
+DODGE = ROOT / "tests" / "data" / "benchmarks" / "posmg" / "dodge-6-lines" / "sketch.templ"
+DODGE_RUNNER = ROOT / "tests" / "data" / "strategies" / "dodge-6-lines-runner-0.001.fss.json"
+DODGE_RUNNER_GUARANTEED = 0.9888045369492144
+"""tests/data/README.md (strategies/): Storm's sound value iteration (precision 1e-10) on the
+product built outside posgmc (benchmarks/dodge_optimum.py)."""
+
+
+def test_dodge_bound_is_above_a_randomised_runner_the_synthesis_does_not_find() -> None:
+    """The runner that probes at random and exits blindly with probability 1e-3 ensures 0.9888
+    against every guard (posgmc's synthesis and PAYNT find 0.488): a bound side below that on
+    dodge-6-lines would be unsound, however narrow it made the bracket."""
+    session = api.load(DODGE)
+    model = api.build(session).model
+    assert (model.num_states, model.num_choices) == (639, 2487)
+    prop = '<<1>> Pmax=? [ F "goal" ]'
+    r = api.check(session, properties=[prop], strategies={"0": DODGE_RUNNER}).results[0]
+    g = r.guaranteed
+    assert g is not None and g.sound and g.converged
+    assert g.lower <= DODGE_RUNNER_GUARANTEED + 1e-9 and DODGE_RUNNER_GUARANTEED - 1e-9 <= g.upper
+    problem = problem_of(model, parser.parse_property(prop).expr, player=0, adversary=1,
+                         coalition_of=api._resolver(model, False).coalition_of,
+                         scalar=api._scalar)
+    found = belief_grid.grid_bound(problem, deadline=None, vertices=2000, mix=False)
+    assert found is not None and found.value >= g.lower
+    full = api.check(session, properties=[prop], full_observation=True).results[0]
+    assert full.lower == full.upper == 1.0  # so the optimum (a supremum over runners) is 1
