@@ -44,7 +44,7 @@ from posgmc.synthesis.options import Gap
 from posgmc.synthesis.problem import POLICY, Problem, expired
 
 __all__ = ["LowerSide", "applies", "close_from_below", "GROWTH", "FIRST_BUDGET", "SHARE",
-           "GRAPH_NODES", "GRAPH_MAX", "SUPPORT_SHARE"]
+           "GRAPH_NODES", "GRAPH_MAX", "SUPPORT_SHARE", "STALE"]
 
 GRAPH_NODES = 256
 """The first policy graph (:mod:`posgmc.synthesis.policy_graph`) adds this many memory nodes at
@@ -59,8 +59,13 @@ the best one has the rest)."""
 
 SUPPORT_SHARE = 0.5
 """Under a cap, when the model has a belief-support frame: the part of the building time kept
-at its end for the randomised support controller (the policy graphs and belief controllers have
-the rest)."""
+at its end for the randomised support controller, unless the policy graphs and belief controllers
+built before it already improve on the defence (by more than :data:`STALE` of the gap: then they
+keep going, and it has what they leave)."""
+
+STALE = 0.01
+"""Policy graphs and belief controllers that close less of the gap between the defence and the
+bound side than this part of it are not improving on it (:data:`SUPPORT_SHARE`)."""
 
 SHARE = 0.15
 """Under a wall-clock cap with ``--gap``: the part of it at its end kept for the lower side (the
@@ -130,9 +135,9 @@ def close_from_below(problem: Problem, defence: FiniteStateStrategy, guaranteed:
     if frame is not None and build_until is not None:
         now = time.perf_counter()
         graphs_until = now + (1.0 - SUPPORT_SHARE) * max(0.0, build_until - now)
-    upper, choice = belief_grid.full_observation_bounds(problem, graphs_until)
-    best = _belief_candidates(problem, defence, bound, gap, nodes, upper, choice, graphs_until,
-                              tried)
+    upper, choice = belief_grid.full_observation_bounds(problem, build_until)
+    best = _belief_candidates(problem, defence, bound, gap, nodes, upper, choice,
+                              (graphs_until, achieved), build_until, tried)
     if frame is not None and not expired(build_until) and not (
             best is not None and gap.met(*sorted((best[0], bound)))):
         # from the full-observation optimum's cautious reading over each support
@@ -156,21 +161,31 @@ def close_from_below(problem: Problem, defence: FiniteStateStrategy, guaranteed:
 
 def _belief_candidates(problem: Problem, defence: FiniteStateStrategy, bound: float, gap: Gap,
                        nodes: int, upper: np.ndarray, choice: np.ndarray | None,
-                       build_until: float | None, tried: list[dict[str, object]]
+                       stale: tuple[float | None, float], build_until: float | None,
+                       tried: list[dict[str, object]]
                        ) -> tuple[float, FiniteStateStrategy] | None:
     """The best-ranked policy graph or belief controller over ``defence`` (each one built is
     appended to ``tried``), from explorations under each assumed adversary rule with growing
-    budgets until one is within ``gap`` of ``bound`` or ``build_until`` passes. ``upper``,
+    budgets until one is within ``gap`` of ``bound`` or ``build_until`` passes; or, once the
+    time ``stale[0]`` has passed, as soon as none closes more than :data:`STALE` of the gap
+    between ``stale[1]`` (what the defence achieves) and ``bound`` (the time then goes to the
+    randomised support controller). ``upper``,
     ``choice``: the full-observation optimum's bound and choice per state."""
     sign = problem.sign
+    soft, achieved = stale
+
+    def improving() -> bool:
+        return best is not None and sign * (best[0] - achieved) > STALE * abs(bound - achieved)
     cut = belief.cutoff_values(problem.model, defence, problem.query,
                                coalition_of=problem.coalition_of, scalar=problem.scalar)
     best: tuple[float, FiniteStateStrategy] | None = None
     for name, rule in _rules(problem, defence, choice):
         explore, graph = FIRST_BUDGET * nodes, GRAPH_NODES
-        while not expired(build_until):
+        while not expired(build_until) and (improving() or not expired(soft)):
+            # an exploration that has not improved on the defence yet stops at the soft limit
             made, explored = _candidates(problem, defence, cut, upper, rule, explore, graph,
-                                         build_until)
+                                         build_until if improving() or soft is None
+                                         else min(soft, build_until or soft))
             for kind, fss in made:
                 ranked = _rank(problem, fss)
                 tried.append({"kind": kind, "adversary_rule": name, "explore": explore,
@@ -185,7 +200,8 @@ def _belief_candidates(problem: Problem, defence: FiniteStateStrategy, bound: fl
                     or grown == (explore, graph):
                 break  # within the gap, or nothing left to grow
             explore, graph = grown
-        if best is not None and gap.met(*sorted((best[0], bound))):
+        if best is not None and gap.met(*sorted((best[0], bound))) \
+                or (expired(soft) and not improving()):
             break
     return best
 
