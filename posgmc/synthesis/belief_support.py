@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from posgmc.engines.graph import concat_ranges
 from posgmc.model.explicit import ExplicitModel
 from posgmc.strategies.binding import player_view
 from posgmc.synthesis.fixed_memory import MemoryFrame
@@ -91,8 +92,7 @@ def support_frame(model: ExplicitModel, player: int, *, max_nodes: int = MAX_NOD
         states = supports[n]
         if states.size:
             # every choice of the support's states, keyed by (observation, label)
-            counts = np.diff(rg)[states]
-            c = np.repeat(rg[states], counts) + _ranges(counts)
+            c = concat_ranges(rg[states], rg[states + 1])
             z_c = state_obs[cs[c]]
             key = z_c * A + ca[c]
             pair_keys, pair_of_c = np.unique(key, return_inverse=True)
@@ -143,9 +143,3 @@ def support_frame(model: ExplicitModel, player: int, *, max_nodes: int = MAX_NOD
     return MemoryFrame(len(supports), 0, cat(rule_node), cat(rule_obs), cat(entry_rule),
                        cat(entry_action), cat(entry_next))
 
-
-def _ranges(counts: np.ndarray) -> np.ndarray:
-    """0..c-1 for each count c, concatenated."""
-    starts = np.repeat(np.cumsum(counts) - counts, counts)
-    out: np.ndarray = np.arange(int(counts.sum())) - starts
-    return out
